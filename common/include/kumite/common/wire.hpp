@@ -1,0 +1,61 @@
+#pragma once
+// State that crosses thread boundaries now and a wire later (render cluster, record/replay):
+// tracked body poses and supervisor orders. Plain, trivially copyable structs with explicit
+// timestamps and units, so they serialise without touching the code that makes them.
+//
+// Room frame: metres, right-handed, +Y up, floor at y = 0, the visitor faces the front wall,
+// which lies toward -Z.
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "kumite/common/time.hpp"
+
+namespace kumite {
+
+enum class TrackingStatus : std::uint8_t {
+  lost = 0,      ///< no pose, or the last one is older than the coasting limit
+  tracked = 1,   ///< measured in this frame set
+  coasting = 2,  ///< not measured now; last pose held/predicted (<= coasting limit)
+};
+std::string_view to_string(TrackingStatus s);
+
+/// One rigid body's pose at one instant.
+struct BodyPose {
+  Timestamp timestamp = 0;  ///< s, camera time of the frame set it was measured from
+  std::uint64_t frame = 0;  ///< frame-set number
+  std::int32_t body = 0;    ///< index of the body in tracking.toml ([[bodies]] order; 0 = head)
+  TrackingStatus status = TrackingStatus::lost;
+  std::array<double, 3> position{0, 0, 0};          ///< m, room frame (head: marker centroid)
+  std::array<double, 4> orientation{1, 0, 0, 0};    ///< w,x,y,z: rotates body frame -> room
+  std::int32_t markers = 0;  ///< markers of this body seen in the frame set
+  std::int32_t cameras = 0;  ///< cameras that contributed
+};
+
+/// A supervisor's order (keyboard, script or network).
+enum class OrderKind : std::uint8_t {
+  punch_left,
+  punch_right,
+  kick_left,
+  kick_right,
+  select_character,  ///< Order::character says which (0-based)
+  pause,
+  resume,
+  recentre,
+};
+
+struct Order {
+  Timestamp time = 0;  ///< s, when it was given (same clock as the frame loop)
+  OrderKind kind = OrderKind::punch_right;
+  std::int32_t character = -1;  ///< 0-based character index for select_character
+};
+
+/// "punch_left", ..., "character 2" (1-based in text, as the supervisor sees it), "pause".
+std::string to_string(const Order& order);
+std::string_view to_string(OrderKind kind);
+/// Parses the text form above; std::nullopt when it is not an order.
+std::optional<Order> parse_order(std::string_view text, Timestamp time = 0);
+
+}  // namespace kumite

@@ -1,0 +1,53 @@
+#include "kumite/content/skeleton.hpp"
+
+#include <cassert>
+
+namespace kumite::content {
+
+namespace {
+constexpr std::array<std::string_view, kCanonicalJointCount> kNames = {
+    "pelvis",     "spine",      "chest",   "neck",    "head",
+    "l_clavicle", "l_shoulder", "l_elbow", "l_wrist",
+    "r_clavicle", "r_shoulder", "r_elbow", "r_wrist",
+    "l_hip",      "l_knee",     "l_ankle", "l_toe",
+    "r_hip",      "r_knee",     "r_ankle", "r_toe"};
+}  // namespace
+
+std::string_view to_string(CanonicalJoint j) {
+  const auto i = static_cast<std::size_t>(j);
+  return i < kNames.size() ? kNames[i] : "?";
+}
+
+std::optional<CanonicalJoint> canonical_joint_from_string(std::string_view name) {
+  for (std::size_t i = 0; i < kNames.size(); ++i) {
+    if (kNames[i] == name) return static_cast<CanonicalJoint>(i);
+  }
+  return std::nullopt;
+}
+
+int Skeleton::find(std::string_view name) const {
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (names[i] == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+void forward_kinematics(const Skeleton& skeleton, const Eigen::Vector3d& root_position,
+                        std::span<const Eigen::Quaterniond> local_rotations,
+                        std::span<Eigen::Vector3d> global_positions,
+                        std::span<Eigen::Quaterniond> global_rotations) {
+  const std::size_t n = skeleton.names.size();
+  assert(local_rotations.size() >= n && global_positions.size() >= n && global_rotations.size() >= n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const int p = skeleton.parents[i];
+    if (p < 0) {
+      global_positions[i] = root_position;
+      global_rotations[i] = local_rotations[i];
+    } else {
+      global_positions[i] = global_positions[p] + global_rotations[p] * skeleton.offsets[i];
+      global_rotations[i] = global_rotations[p] * local_rotations[i];
+    }
+  }
+}
+
+}  // namespace kumite::content

@@ -1,0 +1,45 @@
+#!/usr/bin/env bash
+# Kumite set-up on a fresh Debian 12 machine: install every Debian package the project
+# needs, configure and build. Re-running is safe (apt-get and CMake are idempotent).
+#
+#   scripts/setup.sh            # packages + Release build in build/
+#   SKIP_APT=1 scripts/setup.sh # build only (packages already there)
+#   BUILD_DIR=build-x BUILD_TYPE=Debug scripts/setup.sh
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+BUILD_DIR=${BUILD_DIR:-build}
+BUILD_TYPE=${BUILD_TYPE:-RelWithDebInfo}
+
+PACKAGES=(
+  # toolchain
+  build-essential cmake ninja-build pkg-config ccache clang libclang-rt-14-dev libfuzzer-14-dev
+  # maths, vision, optimisation
+  libeigen3-dev libglm-dev libopencv-dev libopencv-contrib-dev libapriltag-dev libceres-dev
+  # config, CLI, logging, JSON
+  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
+  # graphics: windows, headless EGL (Mesa llvmpipe), operator console
+  libglfw3-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev
+  xvfb xauth
+  # messaging (render cluster / OSC, later)
+  libzmq3-dev cppzmq-dev liblo-dev
+  # tests and benchmarks
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+
+if [[ "${SKIP_APT:-0}" != 1 ]]; then
+  SUDO=""
+  if [[ $(id -u) != 0 ]]; then SUDO=sudo; fi
+  export DEBIAN_FRONTEND=noninteractive
+  $SUDO apt-get update -q
+  $SUDO apt-get install -y -q --no-install-recommends "${PACKAGES[@]}"
+fi
+
+cmake -S . -B "$BUILD_DIR" -G Ninja -DCMAKE_BUILD_TYPE="$BUILD_TYPE" "$@"
+cmake --build "$BUILD_DIR" -j"$(nproc)"
+
+# Demo data the installation runs on (the fighter's database, a synthetic tracking
+# recording), generated from files in the repo.
+if [[ "${SKIP_DEMO_DATA:-0}" != 1 && -x scripts/make-demo-data.sh ]]; then
+  scripts/make-demo-data.sh "$BUILD_DIR"
+fi

@@ -1,0 +1,139 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <thread>
+
+#include "kumite/common/atomic_file.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/common/latest.hpp"
+#include "kumite/common/wire.hpp"
+
+namespace fs = std::filesystem;
+using namespace kumite;
+
+namespace {
+fs::path fresh_dir(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("kumite-test-" + name + "-" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+}  // namespace
+
+TEST(Error, FormatsFileLineKey) {
+  EXPECT_EQ(format_location("a.toml", 12, "walls.front", "bad"), "a.toml:12: walls.front: bad");
+  EXPECT_EQ(format_location("a.toml", 0, "", "missing"), "a.toml: missing");
+  Error e = file_error("config", "missing_key", "x.toml", 3, "k", "is required");
+  EXPECT_EQ(e.component(), "config");
+  EXPECT_EQ(e.code(), "missing_key");
+  EXPECT_STREQ(e.what(), "x.toml:3: k: is required");
+}
+
+TEST(AtomicFile, WritesAndReplaces) {
+  fs::path d = fresh_dir("atomic");
+  write_file_atomically(d / "a.txt", std::string_view("one"));
+  EXPECT_EQ(slurp(d / "a.txt"), "one");
+  write_file_atomically(d / "a.txt", std::string_view("two"));
+  EXPECT_EQ(slurp(d / "a.txt"), "two");
+  // Only the file itself is left: no temporaries.
+  EXPECT_EQ(std::distance(fs::directory_iterator(d), fs::directory_iterator()), 1);
+}
+
+TEST(AtomicFile, FailedWriterLeavesOldContent) {
+  fs::path d = fresh_dir("atomic-fail");
+  write_file_atomically(d / "a.txt", std::string_view("good"));
+  EXPECT_THROW(write_file_atomically(d / "a.txt",
+                                     [](std::ostream& out) {
+                                       out << "half";
+                                       throw std::runtime_error("boom");
+                                     }),
+               std::runtime_error);
+  EXPECT_EQ(slurp(d / "a.txt"), "good");
+  EXPECT_EQ(std::distance(fs::directory_iterator(d), fs::directory_iterator()), 1);
+}
+
+TEST(AtomicFile, UnwritableDirectoryNamesThePath) {
+  try {
+    write_file_atomically("/nonexistent-dir/x.txt", std::string_view("x"));
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent-dir/x.txt"), std::string::npos);
+  }
+}
+
+TEST(AtomicFile, KeepsPreviousVersion) {
+  fs::path d = fresh_dir("backup");
+  EXPECT_TRUE(keep_previous_version(d / "cal.yaml").empty());
+  write_file_atomically(d / "cal.yaml", std::string_view("v1"));
+  fs::path b1 = keep_previous_version(d / "cal.yaml");
+  fs::path b2 = keep_previous_version(d / "cal.yaml");
+  EXPECT_NE(b1, b2);
+  EXPECT_EQ(slurp(b1), "v1");
+  EXPECT_EQ(slurp(b2), "v1");
+}
+
+TEST(Orders, RoundTripText) {
+  for (const char* s : {"punch_left", "punch_right", "kick_left", "kick_right", "pause", "resume",
+                        "recentre", "character 3"}) {
+    auto o = parse_order(s, 1.5);
+    ASSERT_TRUE(o) << s;
+    EXPECT_EQ(to_string(*o), s);
+    EXPECT_DOUBLE_EQ(o->time, 1.5);
+  }
+  EXPECT_EQ(parse_order("character_2")->character, 1);
+  EXPECT_FALSE(parse_order("punch"));
+  EXPECT_FALSE(parse_order("character 0"));
+  EXPECT_FALSE(parse_order("character x"));
+}
+
+TEST(LatestValue, EmptyThenNewest) {
+  LatestValue<BodyPose> slot;
+  EXPECT_FALSE(slot.read());
+  BodyPose p;
+  p.frame = 7;
+  p.position = {1, 2, 3};
+  slot.publish(p);
+  auto r = slot.read();
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->frame, 7u);
+  EXPECT_EQ(r->position[2], 3);
+  EXPECT_EQ(slot.version(), 1u);
+}
+
+TEST(LatestValue, ReaderNeverSeesATornValue) {
+  // Writer publishes poses whose fields all equal the frame number; a torn read would mix two.
+  LatestValue<BodyPose> slot;
+  std::atomic<bool> done{false};
+  std::thread writer([&] {
+    for (std::uint64_t i = 1; i <= 200000; ++i) {
+      BodyPose p;
+      p.frame = i;
+      p.timestamp = double(i);
+      p.position = {double(i), double(i), double(i)};
+      slot.publish(p);
+    }
+    done = true;
+  });
+  std::uint64_t reads = 0, last = 0;
+  while (!done) {
+    if (auto r = slot.read()) {
+      ASSERT_EQ(r->timestamp, double(r->frame));
+      ASSERT_EQ(r->position[0], double(r->frame));
+      ASSERT_EQ(r->position[2], double(r->frame));
+      ASSERT_GE(r->frame, last);  // never goes back in time
+      last = r->frame;
+      ++reads;
+    }
+  }
+  writer.join();
+  EXPECT_GT(reads, 0u);
+  EXPECT_EQ(slot.read()->frame, 200000u);
+}

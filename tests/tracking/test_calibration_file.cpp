@@ -1,0 +1,117 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include <opencv2/calib3d.hpp>
+
+#include "kumite/common/error.hpp"
+#include "kumite/tracking/calibration_file.hpp"
+
+namespace fs = std::filesystem;
+using namespace kumite::tracking;
+
+namespace {
+fs::path temp_file(const std::string& name) {
+  fs::path d = fs::temp_directory_path() / ("kumite-calfile-" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d / name;
+}
+
+RigCalibration two_cameras() {
+  RigCalibration rig;
+  for (int i = 0; i < 2; ++i) {
+    CameraCalibration c;
+    c.name = "cam" + std::to_string(i);
+    c.image_width = 1280;
+    c.image_height = 1024;
+    c.camera_matrix = cv::Matx33d(900 + i, 0, 640.5, 0, 901, 512.25, 0, 0, 1);
+    c.distortion = {-0.1, 0.05, 0.001, -0.002, 0.0003};
+    cv::Mat R;
+    cv::Rodrigues(cv::Vec3d(0.1 * (i + 1), -0.7, 0.05), R);
+    c.rotation = cv::Matx33d(R);
+    c.translation = {0.1, -1.2, 2.5 + i};
+    if (i == 0) {
+      c.rms_px = 0.31;
+      c.per_view_errors_px = {0.2, 0.3, 0.4};
+    }
+    rig.cameras.push_back(c);
+  }
+  return rig;
+}
+
+void write_text(const fs::path& p, const std::string& s) { std::ofstream(p) << s; }
+
+std::string error_of(const fs::path& p) {
+  try {
+    read_calibration(p);
+  } catch (const kumite::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(CalibrationFile, RoundTrip) {
+  const fs::path p = temp_file("rig.yaml");
+  const RigCalibration rig = two_cameras();
+  write_calibration(p, rig);
+  const RigCalibration back = read_calibration(p);
+  ASSERT_EQ(back.cameras.size(), 2u);
+  for (size_t i = 0; i < 2; ++i) {
+    const auto& a = rig.cameras[i];
+    const auto& b = back.cameras[i];
+    EXPECT_EQ(a.name, b.name);
+    EXPECT_EQ(a.image_width, b.image_width);
+    EXPECT_LT(cv::norm(a.camera_matrix - b.camera_matrix), 1e-12);
+    EXPECT_LT(cv::norm(a.rotation - b.rotation), 1e-12);
+    EXPECT_LT(cv::norm(a.translation - b.translation), 1e-12);
+    EXPECT_LT(cv::norm(a.distortion - b.distortion), 1e-12);
+  }
+  EXPECT_DOUBLE_EQ(*back.cameras[0].rms_px, 0.31);
+  EXPECT_EQ(back.cameras[0].per_view_errors_px.size(), 3u);
+  EXPECT_FALSE(back.cameras[1].rms_px);
+  EXPECT_NE(back.find("cam1"), nullptr);
+  EXPECT_EQ(back.find("cam9"), nullptr);
+}
+
+TEST(CalibrationFile, PositionIsMinusRtT) {
+  CameraCalibration c;
+  cv::Mat R;
+  cv::Rodrigues(cv::Vec3d(0.3, 0.2, -0.1), R);
+  c.rotation = cv::Matx33d(R);
+  const cv::Vec3d centre(1.5, 2.5, -1.5);
+  c.translation = -(c.rotation * centre);
+  EXPECT_LT(cv::norm(c.position() - centre), 1e-12);
+}
+
+TEST(CalibrationFile, MissingFileIsNamed) {
+  EXPECT_NE(error_of("/nonexistent/cal.yaml").find("/nonexistent/cal.yaml: no such file"),
+            std::string::npos);
+}
+
+TEST(CalibrationFile, BadFieldsAreNamed) {
+  const fs::path p = temp_file("bad.yaml");
+  write_text(p, "%YAML:1.0\n---\ncameras:\n  - { name: camA, image_width: 640, image_height: 480 }\n");
+  EXPECT_NE(error_of(p).find("cameras[0] (camA).camera_matrix: missing"), std::string::npos)
+      << error_of(p);
+
+  write_text(p, "%YAML:1.0\n---\nfoo: 1\n");
+  EXPECT_NE(error_of(p).find("cameras: missing"), std::string::npos) << error_of(p);
+
+  write_text(p, "this is : : not yaml [\n");
+  EXPECT_NE(error_of(p).find(p.string()), std::string::npos);
+
+  // Not a rotation.
+  RigCalibration rig = two_cameras();
+  rig.cameras[1].rotation(0, 0) = 2.0;
+  write_calibration(p, rig);
+  EXPECT_NE(error_of(p).find("cameras[1] (cam1).rotation: not a rotation"), std::string::npos)
+      << error_of(p);
+
+  // Duplicate names.
+  rig = two_cameras();
+  rig.cameras[1].name = "cam0";
+  write_calibration(p, rig);
+  EXPECT_NE(error_of(p).find("duplicate camera name"), std::string::npos) << error_of(p);
+}

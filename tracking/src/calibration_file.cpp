@@ -1,0 +1,159 @@
+#include "kumite/tracking/calibration_file.hpp"
+
+#include <cmath>
+#include <set>
+
+#include <fmt/format.h>
+#include <opencv2/core/persistence.hpp>
+
+#include "kumite/common/atomic_file.hpp"
+#include "kumite/common/error.hpp"
+
+namespace kumite::tracking {
+namespace fs = std::filesystem;
+
+const CameraCalibration* RigCalibration::find(const std::string& name) const {
+  for (const auto& c : cameras) {
+    if (c.name == name) return &c;
+  }
+  return nullptr;
+}
+
+namespace {
+
+[[noreturn]] void fail(const fs::path& path, const std::string& where, const std::string& what) {
+  throw file_error("calibration", "invalid", path.string(), 0, where, what);
+}
+
+cv::Mat read_matrix(const cv::FileNode& cam, const char* key, int rows, int cols,
+                    const fs::path& path, const std::string& where) {
+  const cv::FileNode node = cam[key];
+  if (node.empty()) fail(path, where + "." + key, "missing");
+  cv::Mat m;
+  try {
+    node >> m;
+  } catch (const cv::Exception&) {
+    fail(path, where + "." + key, "not a matrix");
+  }
+  if (m.empty()) fail(path, where + "." + key, "not a matrix");
+  // Accept a 5x1 distortion as well as 1x5 (both appear in the wild).
+  if (m.rows * m.cols == rows * cols && (m.rows == cols && m.cols == rows)) m = m.reshape(1, rows);
+  if (m.rows != rows || m.cols != cols) {
+    fail(path, where + "." + key,
+         fmt::format("expected {}x{}, found {}x{}", rows, cols, m.rows, m.cols));
+  }
+  m.convertTo(m, CV_64F);
+  for (int i = 0; i < m.rows * m.cols; ++i) {
+    if (!std::isfinite(m.at<double>(i))) fail(path, where + "." + key, "non-finite value");
+  }
+  return m;
+}
+
+int read_positive_int(const cv::FileNode& cam, const char* key, const fs::path& path,
+                      const std::string& where) {
+  const cv::FileNode node = cam[key];
+  if (node.empty()) fail(path, where + "." + key, "missing");
+  if (!node.isInt()) fail(path, where + "." + key, "must be an integer");
+  const int v = static_cast<int>(node);
+  if (v <= 0) fail(path, where + "." + key, "must be positive");
+  return v;
+}
+
+}  // namespace
+
+RigCalibration read_calibration(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) {
+    throw file_error("calibration", "missing", path.string(), 0, "", "no such file");
+  }
+  cv::FileStorage fsr;
+  try {
+    if (!fsr.open(path.string(), cv::FileStorage::READ)) {
+      throw file_error("calibration", "parse", path.string(), 0, "", "cannot open or parse");
+    }
+  } catch (const cv::Exception& e) {
+    std::string msg = e.err.empty() ? e.what() : e.err;
+    throw file_error("calibration", "parse", path.string(), 0, "", "not valid YAML: " + msg);
+  }
+  const cv::FileNode cams = fsr["cameras"];
+  if (cams.empty() || !cams.isSeq()) fail(path, "cameras", "missing or not a sequence");
+  if (cams.size() == 0) fail(path, "cameras", "empty: no camera in the file");
+
+  RigCalibration rig;
+  std::set<std::string> names;
+  int index = 0;
+  for (const cv::FileNode& cam : cams) {
+    std::string where = fmt::format("cameras[{}]", index++);
+    if (!cam.isMap()) fail(path, where, "not a mapping");
+    CameraCalibration c;
+    if (cam["name"].empty() || !cam["name"].isString()) fail(path, where + ".name", "missing");
+    c.name = static_cast<std::string>(cam["name"]);
+    if (c.name.empty()) fail(path, where + ".name", "empty");
+    where = fmt::format("cameras[{}] ({})", index - 1, c.name);
+    if (!names.insert(c.name).second) fail(path, where + ".name", "duplicate camera name");
+    c.image_width = read_positive_int(cam, "image_width", path, where);
+    c.image_height = read_positive_int(cam, "image_height", path, where);
+    cv::Mat K = read_matrix(cam, "camera_matrix", 3, 3, path, where);
+    cv::Mat D = read_matrix(cam, "distortion_coefficients", 1, 5, path, where);
+    cv::Mat R = read_matrix(cam, "rotation", 3, 3, path, where);
+    cv::Mat t = read_matrix(cam, "translation", 3, 1, path, where);
+    c.camera_matrix = cv::Matx33d(K);
+    for (int i = 0; i < 5; ++i) c.distortion[i] = D.at<double>(i);
+    c.rotation = cv::Matx33d(R);
+    c.translation = cv::Vec3d(t.at<double>(0), t.at<double>(1), t.at<double>(2));
+    if (c.camera_matrix(0, 0) <= 0 || c.camera_matrix(1, 1) <= 0 || c.camera_matrix(2, 2) != 1.0) {
+      fail(path, where + ".camera_matrix", "focal lengths must be positive and K[2][2] = 1");
+    }
+    const cv::Matx33d RtR = c.rotation.t() * c.rotation;
+    const double orth = cv::norm(RtR - cv::Matx33d::eye(), cv::NORM_INF);
+    if (orth > 1e-6 || cv::determinant(c.rotation) < 0) {
+      fail(path, where + ".rotation",
+           fmt::format("not a rotation (|R^T R - I| = {:.2g}, det = {:.4f})", orth,
+                       cv::determinant(c.rotation)));
+    }
+    if (!cam["rms_px"].empty()) c.rms_px = static_cast<double>(cam["rms_px"]);
+    if (!cam["per_view_errors_px"].empty()) {
+      cv::Mat e;
+      cam["per_view_errors_px"] >> e;
+      e.convertTo(e, CV_64F);
+      c.per_view_errors_px.assign(e.begin<double>(), e.end<double>());
+    }
+    rig.cameras.push_back(std::move(c));
+  }
+  return rig;
+}
+
+void write_calibration(const fs::path& path, const RigCalibration& rig) {
+  const fs::path tmp = temporary_path_beside(path.extension() == ".yml" || path.extension() == ".yaml"
+                                                 ? path
+                                                 : fs::path(path.string() + ".yaml"));
+  {
+    cv::FileStorage out(tmp.string(), cv::FileStorage::WRITE | cv::FileStorage::FORMAT_YAML);
+    if (!out.isOpened()) {
+      throw Error("io", "open", fmt::format("{}: cannot write", path.string()));
+    }
+    out.writeComment(
+        "Kumite rig calibration. x_cam = R * x_room + t; metres; room frame +Y up, "
+        "floor y = 0, front wall toward -Z.");
+    out << "cameras" << "[";
+    for (const auto& c : rig.cameras) {
+      out << "{";
+      out << "name" << c.name;
+      out << "image_width" << c.image_width << "image_height" << c.image_height;
+      out << "camera_matrix" << cv::Mat(c.camera_matrix);
+      out << "distortion_coefficients" << cv::Mat(c.distortion).reshape(1, 1);
+      out << "rotation" << cv::Mat(c.rotation);
+      out << "translation" << cv::Mat(c.translation);
+      if (c.rms_px) out << "rms_px" << *c.rms_px;
+      if (!c.per_view_errors_px.empty()) {
+        out << "per_view_errors_px" << cv::Mat(c.per_view_errors_px).reshape(1, 1);
+      }
+      out << "}";
+    }
+    out << "]";
+    out.release();
+  }
+  commit_temporary(tmp, path);
+}
+
+}  // namespace kumite::tracking
