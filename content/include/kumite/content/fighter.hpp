@@ -1,0 +1,79 @@
+#pragma once
+// The fighter as the app sees it: one object fed with the tracked head and the supervisor's
+// orders, giving a pose to draw each frame. Behaviour, retrieval (on its own worker thread)
+// and adaptation live behind this facade. Engine-agnostic: no GL, no cameras.
+//
+// CONTRACT (agreed between content/ and app/; the content module implements it). Room frame:
+// metres, +Y up, floor y = 0, front wall toward -Z. Times: kumite::Timestamp seconds.
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "kumite/common/time.hpp"
+#include "kumite/common/wire.hpp"
+
+namespace kumite::content {
+
+struct FighterConfig {
+  std::filesystem::path database;                  ///< fighter.kdb (kumite-motion build)
+  std::vector<std::filesystem::path> characters;   ///< character BVH files, in key order 1..N
+  std::vector<std::string> character_names;        ///< shown to the supervisor (same order)
+  int initial_character = 0;
+  Eigen::Vector3d home{0.0, 0.0, -2.5};  ///< m, room frame: where the fighter rests (floor)
+  double strike_distance_m = 0.9;        ///< preferred horizontal distance root -> head
+  double min_x_m = -1.4, max_x_m = 1.4;  ///< m, lateral limits of where it may walk
+  double min_z_m = -4.0, max_z_m = -1.7; ///< m, depth limits (stays behind the front wall)
+  double hit_radius_m = 0.10;            ///< hit when the hit point ends this close to target
+  double blend_time_s = 0.2;             ///< s, cross-fade into a new motion
+};
+
+enum class FighterState { resting, following, striking, recovering };
+std::string_view to_string(FighterState s);
+
+struct FighterEvent {
+  enum class Kind { order_accepted, order_ignored, hit, miss, character_changed, warning };
+  Timestamp time = 0;
+  Kind kind = Kind::warning;
+  Order order{};              ///< the order concerned (accepted / ignored)
+  double distance_m = 0;      ///< hit / miss: hit point to frozen target at contact
+  std::string text;           ///< one line for the console ("ignored: mid-strike", ...)
+};
+std::string_view to_string(FighterEvent::Kind k);
+
+/// One frame of the fighter, ready to draw. Spans stay valid until the next update().
+struct FighterFrame {
+  Timestamp time = 0;
+  FighterState state = FighterState::resting;
+  int character = 0;                         ///< 0-based
+  std::span<const Eigen::Vector3d> joints;   ///< m, room frame, one per skeleton joint
+  std::span<const int> parents;              ///< parent index per joint (-1 root)
+  std::span<const float> joint_radii_m;      ///< suggested capsule radius per bone (to parent)
+  std::optional<Eigen::Vector3d> target;     ///< m, room frame: frozen strike target
+  Eigen::Vector3d root{0, 0, 0};             ///< m, room frame, on the floor under the pelvis
+  double heading_rad = 0;                    ///< rotation about +Y; 0 = facing +Z (the visitor)
+};
+
+class Fighter {
+ public:
+  /// Loads the database and characters. Throws kumite::Error naming the file at fault.
+  static std::unique_ptr<Fighter> create(const FighterConfig& config);
+  virtual ~Fighter() = default;
+
+  /// Queue an order (any thread that owns the fighter; not thread-safe by itself).
+  virtual void order(const Order& order) = 0;
+  /// Advance to `now` (dt = seconds since the last update) toward the visitor's head
+  /// (room frame). Never blocks: retrieval results are picked up when ready.
+  virtual void update(Timestamp now, double dt, const Eigen::Vector3d& head) = 0;
+  virtual FighterFrame frame() const = 0;
+  /// Events since the last call (orders accepted/ignored, hit/miss, warnings).
+  virtual std::vector<FighterEvent> take_events() = 0;
+  virtual int character_count() const = 0;
+  virtual std::string character_name(int index) const = 0;
+};
+
+}  // namespace kumite::content
