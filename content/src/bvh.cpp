@@ -11,6 +11,7 @@
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/content/canonical.hpp"
 
 namespace kumite::content {
 
@@ -425,6 +426,13 @@ Clip parse_bvh(std::string_view text, std::string_view source, const BvhReadOpti
     if (varies) clip.local_translations = std::move(translations);
   }
   s.canonical.fill(-1);
+  if (options.map_canonical) {
+    try {
+      s.dialect = content::map_canonical(s, source);
+    } catch (const Error&) {
+      s.canonical.fill(-1);  // not a humanoid we recognise: still a valid clip
+    }
+  }
   clip.skeleton = std::move(s);
   return clip;
 }

@@ -23,6 +23,9 @@ struct BvhReadOptions {
   /// Metres per file unit; nullopt = detect: the rest pose's largest extent below 5 units
   /// means metres, below 500 centimetres, else millimetres.
   std::optional<double> unit_m;
+  /// Fill Skeleton::canonical with map_canonical() and default_dialects() (best effort:
+  /// when the core joints cannot be found, canonical stays -1 and dialect "").
+  bool map_canonical = true;
 };
 
 /// Parses BVH text. `source` names the input in error messages (a path or "<memory>").

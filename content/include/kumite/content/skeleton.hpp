@@ -45,6 +45,9 @@ struct Skeleton {
   std::vector<std::string> channels;
   /// Skeleton joint index of each canonical joint, or -1 when the dialect lacks it.
   std::array<int, kCanonicalJointCount> canonical{};
+  /// Name of the dialect map that filled `canonical` ("cmu", "assimp_boxer", a TOML map's
+  /// name, "structural"), or "" when not mapped. See canonical.hpp.
+  std::string dialect;
 
   int joint_count() const { return static_cast<int>(names.size()); }
   int find(std::string_view name) const;  ///< index or -1
