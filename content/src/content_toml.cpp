@@ -8,6 +8,7 @@
 #include <toml++/toml.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/content/annotation.hpp"
 #include "kumite/content/canonical.hpp"
 
 namespace kumite::content {
@@ -157,6 +158,111 @@ Dialect parse_dialect_toml(std::string_view text, std::string_view source) {
 
 Dialect read_dialect_toml(const std::filesystem::path& path) {
   return parse_dialect_toml(read_text(path, "dialect"), path.string());
+}
+
+// ---- motions.toml ---------------------------------------------------------------------------
+
+namespace {
+
+MotionAnnotation parse_motion(const toml::table& t, std::string_view source, const std::string& prefix,
+                              std::set<std::string>& names) {
+  const Table m(t, source, prefix, "annotation");
+  m.only({"name", "semantics", "frames", "hit_segment", "hit_frame", "note", "peak_speed_mps", "extension"});
+  MotionAnnotation a;
+  a.line = m.line();
+  a.name = m.string("name");
+  if (a.name.empty()) m.fail("value", "name", "must not be empty");
+  if (!names.insert(a.name).second) m.fail("duplicate", "name", fmt::format("motion name '{}' is used twice", a.name));
+  const std::string sem = m.string("semantics");
+  const auto semantics = semantics_from_string(sem);
+  if (!semantics) m.fail("value", "semantics", fmt::format("unknown semantics '{}' (punch, kick, block, walk, rest, other)", sem));
+  a.semantics = *semantics;
+  const toml::array* frames = m.opt_array("frames");
+  if (!frames) m.fail("missing_key", "frames", t.source(), "is required: [first, last]");
+  if (frames->size() != 2 || !(*frames)[0].is_integer() || !(*frames)[1].is_integer()) {
+    m.fail("type", "frames", "must be [first, last] (two integers)");
+  }
+  const int64_t first = *(*frames)[0].value<int64_t>(), last = *(*frames)[1].value<int64_t>();
+  if (first < 0 || last < first || last > 100'000'000) {
+    m.fail("range", "frames", fmt::format("[{}, {}] must satisfy 0 <= first <= last", first, last));
+  }
+  a.first_frame = static_cast<int>(first);
+  a.last_frame = static_cast<int>(last);
+  if (auto seg = m.opt_string("hit_segment")) {
+    const auto h = hit_segment_from_string(*seg);
+    if (!h) m.fail("value", "hit_segment", fmt::format("unknown segment '{}' (left_hand, right_hand, left_foot, right_foot)", *seg));
+    a.hit_segment = *h;
+  }
+  if (auto hf = m.opt_integer("hit_frame")) {
+    if (*hf < a.first_frame || *hf > a.last_frame) {
+      m.fail("range", "hit_frame", fmt::format("{} is outside frames [{}, {}]", *hf, a.first_frame, a.last_frame));
+    }
+    a.hit_frame = static_cast<int>(*hf);
+  }
+  if (is_strike(a.semantics)) {
+    if (!a.hit_segment) m.fail("missing_key", "hit_segment", t.source(), fmt::format("is required for a {}", sem));
+    if (!a.hit_frame) m.fail("missing_key", "hit_frame", t.source(), fmt::format("is required for a {}", sem));
+    if (a.semantics == Semantics::punch && !is_hand(*a.hit_segment)) m.fail("value", "hit_segment", "a punch hits with a hand");
+    if (a.semantics == Semantics::kick && is_hand(*a.hit_segment)) m.fail("value", "hit_segment", "a kick hits with a foot");
+  } else {
+    if (a.hit_segment) m.fail("value", "hit_segment", fmt::format("only strikes (punch, kick) have one, not {}", sem));
+    if (a.hit_frame) m.fail("value", "hit_frame", fmt::format("only strikes (punch, kick) have one, not {}", sem));
+  }
+  a.note = m.opt_string("note").value_or("");
+  a.peak_speed_mps = m.opt_number("peak_speed_mps").value_or(0);
+  a.extension = m.opt_number("extension").value_or(0);
+  if (a.peak_speed_mps < 0) m.fail("range", "peak_speed_mps", "must be >= 0");
+  if (a.extension < 0) m.fail("range", "extension", "must be >= 0");
+  return a;
+}
+
+}  // namespace
+
+AnnotationSet parse_annotations(std::string_view text, std::string_view source) {
+  const toml::table doc = parse_toml(text, source, "annotation");
+  const Table top(doc, source, "", "annotation");
+  top.only({"version", "clip"});
+  AnnotationSet set;
+  set.source = std::string(source);
+  set.version = static_cast<int>(top.integer("version"));
+  if (set.version != kAnnotationVersion) {
+    top.fail("version", "version", fmt::format("version {} is not supported (expected {})", set.version, kAnnotationVersion));
+  }
+  const toml::array* clips = top.opt_array("clip");
+  if (!clips) return set;
+  std::set<std::string> clip_names, motion_names;
+  for (std::size_t i = 0; i < clips->size(); ++i) {
+    const std::string prefix = fmt::format("clip[{}]", i);
+    const toml::node& node = (*clips)[i];
+    if (!node.is_table()) throw file_error("annotation", "type", source, static_cast<int>(node.source().begin.line), prefix, "must be a table ([[clip]])");
+    const Table c(*node.as_table(), source, prefix, "annotation");
+    c.only({"file", "name", "mirror", "motion"});
+    ClipAnnotation clip;
+    clip.line = c.line();
+    clip.file = c.string("file");
+    if (clip.file.empty()) c.fail("value", "file", "must not be empty");
+    clip.name = c.opt_string("name").value_or(std::filesystem::path(clip.file).stem().string());
+    if (clip.name.empty()) c.fail("value", "name", "must not be empty");
+    if (!clip_names.insert(clip.name).second) c.fail("duplicate", "name", fmt::format("clip name '{}' is used twice", clip.name));
+    if (const toml::node* mirror = node.as_table()->get("mirror")) {
+      if (!mirror->is_boolean()) c.fail("type", "mirror", "must be true or false");
+      clip.mirror = mirror->as_boolean()->get();
+    }
+    if (const toml::array* motions = c.opt_array("motion")) {
+      for (std::size_t j = 0; j < motions->size(); ++j) {
+        const std::string mp = fmt::format("{}.motion[{}]", prefix, j);
+        const toml::node& mn = (*motions)[j];
+        if (!mn.is_table()) throw file_error("annotation", "type", source, static_cast<int>(mn.source().begin.line), mp, "must be a table ([[clip.motion]])");
+        clip.motions.push_back(parse_motion(*mn.as_table(), source, mp, motion_names));
+      }
+    }
+    set.clips.push_back(std::move(clip));
+  }
+  return set;
+}
+
+AnnotationSet read_annotations(const std::filesystem::path& path) {
+  return parse_annotations(read_text(path, "annotation"), path.string());
 }
 
 }  // namespace kumite::content
