@@ -10,6 +10,7 @@
 #include "kumite/common/error.hpp"
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/canonical.hpp"
+#include "kumite/content/character.hpp"
 
 namespace kumite::content {
 
@@ -263,6 +264,81 @@ AnnotationSet parse_annotations(std::string_view text, std::string_view source) 
 
 AnnotationSet read_annotations(const std::filesystem::path& path) {
   return parse_annotations(read_text(path, "annotation"), path.string());
+}
+
+// ---- characters.toml -------------------------------------------------------------------------
+
+namespace {
+
+CharacterSpec parse_generate(const toml::table& t, std::string_view source, const std::string& prefix) {
+  const Table g(t, source, prefix, "character");
+  g.only({"stature_m", "dialect", "torso", "neck_head", "shoulder_width", "upper_arm", "forearm", "hand",
+          "pelvis_width", "thigh", "shin", "foot"});
+  CharacterSpec spec;
+  spec.stature_m = g.number("stature_m");
+  if (spec.stature_m < 0.3 || spec.stature_m > 3.0) g.fail("range", "stature_m", "must be 0.3..3 m");
+  spec.dialect = g.opt_string("dialect").value_or("cmu");
+  if (spec.dialect != "cmu" && spec.dialect != "motionbuilder") {
+    g.fail("value", "dialect", fmt::format("unknown dialect '{}' (cmu, motionbuilder)", spec.dialect));
+  }
+  auto factor = [&](std::string_view key, double& out) {
+    if (auto v = g.opt_number(key)) {
+      if (*v < 0.3 || *v > 3.0) g.fail("range", key, fmt::format("scale {} must be 0.3..3", *v));
+      out = *v;
+    }
+  };
+  SegmentScales& sc = spec.scales;
+  factor("torso", sc.torso);
+  factor("neck_head", sc.neck_head);
+  factor("shoulder_width", sc.shoulder_width);
+  factor("upper_arm", sc.upper_arm);
+  factor("forearm", sc.forearm);
+  factor("hand", sc.hand);
+  factor("pelvis_width", sc.pelvis_width);
+  factor("thigh", sc.thigh);
+  factor("shin", sc.shin);
+  factor("foot", sc.foot);
+  return spec;
+}
+
+}  // namespace
+
+CharacterCatalog parse_characters(std::string_view text, std::string_view source) {
+  const toml::table doc = parse_toml(text, source, "character");
+  const Table top(doc, source, "", "character");
+  top.only({"version", "character"});
+  const int64_t version = top.integer("version");
+  if (version != kCharacterCatalogVersion) {
+    top.fail("version", "version", fmt::format("version {} is not supported (expected {})", version, kCharacterCatalogVersion));
+  }
+  CharacterCatalog cat;
+  cat.source = std::string(source);
+  const toml::array* chars = top.opt_array("character");
+  if (!chars || chars->empty()) top.fail("missing_key", "character", doc.source(), "at least one [[character]] is required");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < chars->size(); ++i) {
+    const std::string prefix = fmt::format("character[{}]", i);
+    const toml::node& node = (*chars)[i];
+    if (!node.is_table()) throw file_error("character", "type", source, static_cast<int>(node.source().begin.line), prefix, "must be a table ([[character]])");
+    const Table c(*node.as_table(), source, prefix, "character");
+    c.only({"name", "display_name", "file", "notes", "generate"});
+    CharacterEntry e;
+    e.line = c.line();
+    e.name = c.string("name");
+    if (e.name.empty()) c.fail("value", "name", "must not be empty");
+    if (!names.insert(e.name).second) c.fail("duplicate", "name", fmt::format("character '{}' is listed twice", e.name));
+    e.display_name = c.opt_string("display_name").value_or(e.name);
+    e.file = c.string("file");
+    if (e.file.empty()) c.fail("value", "file", "must not be empty");
+    e.notes = c.opt_string("notes").value_or("");
+    if (const toml::table* g = c.opt_table("generate")) e.generate = parse_generate(*g, source, prefix + ".generate");
+    cat.characters.push_back(std::move(e));
+  }
+  return cat;
+}
+
+CharacterCatalog read_characters(const std::filesystem::path& path) {
+  return parse_characters(read_text(path, "character"), path.string());
 }
 
 }  // namespace kumite::content

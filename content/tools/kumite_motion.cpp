@@ -1,9 +1,12 @@
 // kumite-motion: the offline motion-content tool. One function per sub-command:
 //   annotate <clips...> --out motions.toml   propose annotations for people to review
-//   make-characters --out-dir DIR            generate the shipped character skeletons
+//   make-characters [--catalog characters.toml] [--base 135_08.bvh] [--check]
+//                                            generate the shipped character skeletons
 // Errors: one line on stderr, exit 1.
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -15,6 +18,8 @@
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
+#include "kumite/content/character.hpp"
+#include "kumite/content/proportions.hpp"
 
 namespace fs = std::filesystem;
 using namespace kumite::content;
@@ -65,6 +70,52 @@ int run_annotate(const AnnotateArgs& a) {
   return 0;
 }
 
+// ---- make-characters -----------------------------------------------------------------------
+
+struct MakeCharactersArgs {
+  std::string catalog = (default_content_dir() / "characters" / "characters.toml").string();
+  std::string base = (default_content_dir() / "motions" / "135_08.bvh").string();
+  bool check = false;
+};
+
+void add_make_characters(CLI::App& app, MakeCharactersArgs& a) {
+  auto* cmd = app.add_subcommand("make-characters",
+                                 "Generate each character BVH of characters.toml from its [character.generate] "
+                                 "spec (per-segment scales of the base skeleton, then its stature)");
+  cmd->add_option("--catalog", a.catalog, "characters.toml")->capture_default_str()->check(CLI::ExistingFile);
+  cmd->add_option("--base", a.base, "base skeleton BVH")->capture_default_str()->check(CLI::ExistingFile);
+  cmd->add_flag("--check", a.check, "write nothing; exit 1 when a file differs from what would be generated");
+}
+
+int run_make_characters(const MakeCharactersArgs& a) {
+  const CharacterCatalog catalog = read_characters(a.catalog);
+  const Clip base = read_bvh(a.base);
+  int differing = 0;
+  fmt::print("{:<10} {:>9} {:>10} {:>7} {:>7} {:>7} {:>9} {:>13}  {}\n", "name", "stature_m", "standing_m", "arm/h",
+             "leg/h", "torso/h", "shoulder", "dialect", "file");
+  for (const auto& e : catalog.characters) {
+    if (!e.generate) continue;
+    const Clip c = make_character(base.skeleton, *e.generate, e.name);
+    const Proportions p = measure_proportions(c.skeleton);
+    const fs::path path = catalog.resolve(e);
+    const std::string text = format_bvh(c);
+    fmt::print("{:<10} {:>9.3f} {:>10.3f} {:>7.3f} {:>7.3f} {:>7.3f} {:>8.3f}m {:>13}  {}\n", e.name, p.stature_m,
+               p.standing_height_m, p.arm_ratio(),
+               p.leg_ratio(), p.torso_ratio(), p.shoulder_width_m, c.skeleton.dialect, path.string());
+    if (a.check) {
+      std::ifstream in(path, std::ios::binary);
+      const std::string old((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      if (old != text) {
+        fmt::print(stderr, "kumite-motion: {}: differs from the generated skeleton\n", path.string());
+        ++differing;
+      }
+    } else {
+      write_bvh(path, c);
+    }
+  }
+  return differing == 0 ? 0 : 1;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -72,9 +123,12 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   AnnotateArgs annotate_args;
   add_annotate(app, annotate_args);
+  MakeCharactersArgs make_characters_args;
+  add_make_characters(app, make_characters_args);
   CLI11_PARSE(app, argc, argv);
   try {
     if (app.got_subcommand("annotate")) return run_annotate(annotate_args);
+    if (app.got_subcommand("make-characters")) return run_make_characters(make_characters_args);
   } catch (const kumite::Error& e) {
     std::fprintf(stderr, "kumite-motion: %s\n", e.what());
     return 1;
