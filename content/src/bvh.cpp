@@ -304,16 +304,25 @@ Clip parse_bvh(std::string_view text, std::string_view source, const BvhReadOpti
   RawSkeleton raw = read_hierarchy(lx);
 
   lx.expect("MOTION", "MOTION");
-  lx.expect("Frames:", "Frames");
-  const auto frames_tok = lx.expect_any("the frame count");
+  // "Frames: N" (also tolerated: "Frames:N").
+  std::string_view frames_tok = lx.expect_any("'Frames:'");
+  if (lower(frames_tok).rfind("frames:", 0) != 0) {
+    lx.fail("parse", "Frames", fmt::format("expected 'Frames:', found '{}'", Lexer::printable(frames_tok)));
+  }
+  frames_tok.remove_prefix(7);
+  if (frames_tok.empty()) frames_tok = lx.expect_any("the frame count");
   const double frames_d = lx.parse_number(frames_tok, "Frames");
   if (frames_d < 0 || frames_d != std::floor(frames_d)) {
     lx.fail("parse", "Frames", fmt::format("frame count must be a whole number >= 0, found '{}'", Lexer::printable(frames_tok)));
   }
   const auto frames = static_cast<long long>(frames_d);
   lx.expect("Frame", "Frame Time");
-  lx.expect("Time:", "Frame Time");
-  const double frame_time = lx.number("Frame Time");
+  std::string_view time_tok = lx.expect_any("'Time:'");
+  if (lower(time_tok).rfind("time:", 0) != 0) {
+    lx.fail("parse", "Frame Time", fmt::format("expected 'Time:', found '{}'", Lexer::printable(time_tok)));
+  }
+  time_tok.remove_prefix(5);
+  const double frame_time = time_tok.empty() ? lx.number("Frame Time") : lx.parse_number(time_tok, "Frame Time");
   if (!(frame_time > 0)) lx.fail("frame_time", "Frame Time", fmt::format("frame time must be > 0 s, found {}", frame_time));
   if (frame_time > 10) lx.fail("frame_time", "Frame Time", fmt::format("frame time {} s is implausible (> 10 s)", frame_time));
   lx.skip_rest_of_line();
@@ -427,8 +436,9 @@ Clip parse_bvh(std::string_view text, std::string_view source, const BvhReadOpti
   }
   s.canonical.fill(-1);
   if (options.map_canonical) {
+    const auto& dialects = default_dialects();  // a broken dialect file is reported, not hidden
     try {
-      s.dialect = content::map_canonical(s, source);
+      s.dialect = content::map_canonical(s, dialects, source);
     } catch (const Error&) {
       s.canonical.fill(-1);  // not a humanoid we recognise: still a valid clip
     }
