@@ -47,14 +47,14 @@ class Lexer {
     return text_.substr(start, pos_ - start);
   }
 
-  std::string_view expect_any(std::string_view what) {
+  std::string_view expect_any(std::string_view what, std::string_view key = "") {
     const auto t = next();
-    if (t.empty()) fail("truncated", what, fmt::format("unexpected end of file, expected {}", what));
+    if (t.empty()) fail("truncated", key, fmt::format("unexpected end of file, expected {}", what));
     return t;
   }
 
   void expect(std::string_view word, std::string_view key) {
-    const auto t = expect_any(word);
+    const auto t = expect_any(fmt::format("'{}'", word), key);
     if (lower(t) != lower(word)) fail("parse", key, fmt::format("expected '{}', found '{}'", word, printable(t)));
   }
 

@@ -168,7 +168,7 @@ TEST(Bvh, BadInputGivesOneLineErrorWithFileAndLine) {
     return s.replace(at, from.size(), to);
   };
   const std::vector<Case> cases = {
-      {"", "bad.bvh:1: HIERARCHY: unexpected end of file"},
+      {"", "bad.bvh:1: HIERARCHY: unexpected end of file, expected 'HIERARCHY'"},
       {"HIERARCHY\nROOT", "bad.bvh:2: "},
       {good.substr(0, good.size() / 2), "unexpected end of file"},
       {replace(good, "CHANNELS 3", "CHANNELS 4"), "bad.bvh:10: CHANNELS: CHANNELS 4 but 'JOINT'"},
