@@ -106,6 +106,13 @@ TEST(Bvh, MetresDetectedAndExplicitUnit) {
   EXPECT_NEAR(frame_positions(m, 1)[2].y(), 1.0 + 0.5 + 0.7, 1e-12);
   const Clip forced = parse_bvh(text, "m.bvh", {.unit_m = 0.01});
   EXPECT_NEAR(frame_positions(forced, 1)[2].y(), 0.022, 1e-12);
+  // Humanoids: the unit giving a plausible body (CMU ASF units as in the cgspeed release).
+  EXPECT_EQ(guess_bvh_unit_m(160, true), 0.01);
+  EXPECT_EQ(guess_bvh_unit_m(95, true), 0.01);
+  EXPECT_EQ(guess_bvh_unit_m(1.62, true), 1.0);
+  EXPECT_EQ(guess_bvh_unit_m(1750, true), 0.001);
+  EXPECT_EQ(guess_bvh_unit_m(66, true), 0.0254);
+  EXPECT_DOUBLE_EQ(guess_bvh_unit_m(28, true), 0.0254 / 0.45);
   EXPECT_EQ(guess_bvh_unit_m(1.7), 1.0);
   EXPECT_EQ(guess_bvh_unit_m(170), 0.01);
   EXPECT_EQ(guess_bvh_unit_m(1700), 0.001);
@@ -244,6 +251,19 @@ TEST(BvhMocap, Cmu13504KnownValues) {
   double lowest = 1e9;
   for (const auto& q : p) lowest = std::min(lowest, q.y());
   EXPECT_NEAR(lowest, 0.0, 0.05);
+}
+
+TEST(BvhMocap, UnitsDetectedOnRealSkeletons) {
+  KUMITE_REQUIRE_MOCAP();
+  // The CMU 135 clip written in metres, inches and CMU ASF units reads back as the same body.
+  const Clip& c = mocap_clip("cmu/135_08");
+  for (double unit : {1.0, 0.001, 0.0254, 0.0254 / 0.45}) {
+    Clip u = c;
+    u.unit_m = unit;
+    const Clip back = parse_bvh(format_bvh(u), "u.bvh");
+    EXPECT_DOUBLE_EQ(back.unit_m, unit);
+    EXPECT_NEAR(back.root_positions[0].y(), c.root_positions[0].y(), 1e-5) << unit;
+  }
 }
 
 TEST(BvhMocap, BoxerDialect) {
