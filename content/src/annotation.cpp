@@ -316,7 +316,9 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
     for (int f = 0; f < frames; ++f) height[static_cast<std::size_t>(f)] = ankle.p[static_cast<std::size_t>(f)].y() - floor_y;
     for (int f : peaks(height, cfg.kick_min_height * body.stature_m, W)) {
       const double vmax = max_in(ankle.speed, f - A, f);
-      if (vmax < cfg.kick_min_speed) continue;
+      const double extension =
+          (ankle.p[static_cast<std::size_t>(f)] - hip.p[static_cast<std::size_t>(f)]).norm() / body.leg_m;
+      if (vmax < cfg.kick_min_speed || extension < cfg.kick_min_extension) continue;
       const auto span = bounds(ankle.speed, f, A, H, cfg.bound_speed_fraction);
       const int first = span.first, last = span.second;
       Found k;
@@ -327,7 +329,7 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
       k.m.first_frame = first;
       k.m.last_frame = last;
       k.m.peak_speed_mps = vmax;
-      k.m.extension = (ankle.p[static_cast<std::size_t>(f)] - hip.p[static_cast<std::size_t>(f)]).norm() / body.leg_m;
+      k.m.extension = extension;
       k.m.note = fmt::format("proposed: ankle {:.0f} cm above the floor at the hit", 100 * height[static_cast<std::size_t>(f)]);
       strikes.push_back(k);
     }
