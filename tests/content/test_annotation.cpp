@@ -223,6 +223,10 @@ TEST(AnnotationMocap, RestAndWalk) {
   EXPECT_GE(walk.motions[0].last_frame - walk.motions[0].first_frame, 400);
   EXPECT_TRUE(strikes_of(walk, Semantics::kick).empty());
   EXPECT_TRUE(strikes_of(walk, Semantics::punch).empty());
+  // Running strides lift the ankle fast but with a bent knee: not kicks.
+  const ClipAnnotation run = propose_annotations(mocap_clip("cmu/09_06"), "x");
+  EXPECT_TRUE(strikes_of(run, Semantics::kick).empty());
+  EXPECT_TRUE(strikes_of(run, Semantics::punch).empty());
 }
 
 TEST(AnnotationMocap, AnnotateToolWritesAValidFile) {
