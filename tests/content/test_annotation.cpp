@@ -300,7 +300,8 @@ TEST(AnnotationMocap, ThirtyFpsMetresOtherNames) {
     EXPECT_NEAR(*found[i]->hit_frame * 4, listed[i].second, 8);  // within 2 frames at 30 fps
   }
   const Clip punches = variant(mocap_clip("cmu/135_09"), 4, {});
-  const auto p = strikes_of(propose_annotations(punches, "x"), Semantics::punch);
+  const ClipAnnotation pa = propose_annotations(punches, "x");
+  const auto p = strikes_of(pa, Semantics::punch);
   ASSERT_EQ(p.size(), 4u);
   const int peaks[] = {304, 530, 760, 1000};
   for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(*p[i]->hit_frame * 4, peaks[i], 12) << i;
