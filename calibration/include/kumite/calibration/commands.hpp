@@ -1,0 +1,95 @@
+#pragma once
+// The kumite-calibrate sub-commands as functions (the tool only parses arguments), so tests
+// run them exactly as a technician does. Each throws kumite::Error with a one-line message;
+// outputs are written atomically and an existing calibration is kept as a .bak first.
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "kumite/calibration/board.hpp"
+#include "kumite/calibration/detect.hpp"
+
+namespace kumite::calibration {
+
+namespace fs = std::filesystem;
+
+/// Board detections of a list of images of one camera (progress on the console). Throws when
+/// an image is unreadable or its size differs from the first one (naming both).
+struct CameraViews {
+  std::vector<fs::path> images;
+  std::vector<BoardDetection> detections;
+  cv::Size image_size;
+};
+CameraViews detect_views(const Board& board, const std::vector<fs::path>& images,
+                         const std::string& camera, const DetectorOptions& detector = {});
+
+/// A recording-style folder: DIR/<camera>/<frame>.png. Cameras sorted by name, frames by the
+/// union of the file names (a camera may lack some frames).
+struct RigImages {
+  std::vector<std::string> cameras;
+  std::vector<std::string> frames;                 ///< file stems
+  std::vector<std::vector<fs::path>> paths;        ///< [camera][frame], empty when missing
+};
+RigImages scan_rig_images(const fs::path& dir);
+
+struct BoardCommand {
+  Board board;
+  fs::path out_prefix = "board";  ///< writes <prefix>.png, <prefix>.svg, <prefix>.toml
+  double dpi = 300;
+  std::optional<double> margin_m;  ///< default: board.default_margin_m()
+};
+void run_board(const BoardCommand& cmd);
+
+struct IntrinsicsCommand {
+  fs::path board_file;
+  std::vector<fs::path> images;
+  fs::path out;                    ///< calibration file (other cameras in it are kept)
+  std::string name = "cam0";
+  bool fix_aspect_ratio = false;
+  double outlier_factor = 3.0;
+};
+void run_intrinsics(const IntrinsicsCommand& cmd);
+
+struct ExtrinsicsCommand {
+  fs::path board_file;
+  fs::path images_dir;
+  fs::path out;
+  std::optional<fs::path> intrinsics;  ///< calibration file with every camera's intrinsics
+  bool refine_intrinsics = false;
+  double huber_px = 1.0;
+};
+void run_extrinsics(const ExtrinsicsCommand& cmd);
+
+struct AlignCommand {
+  fs::path calibration;            ///< read, aligned, written back (previous version kept)
+  std::optional<fs::path> out;     ///< default: overwrite `calibration`
+  fs::path board_file;
+  fs::path images_dir;             ///< DIR/<camera>/<image>: one image per camera of the board on the floor
+  cv::Vec3d board_origin_room{0, 0, 0};  ///< m, room position of the board's origin
+  double board_yaw_deg = 0;        ///< rotation of the board about room +Y (0: board +X = room +X)
+  std::optional<fs::path> points_file;   ///< alternative: three marked floor points (TOML)
+};
+void run_align(const AlignCommand& cmd);
+
+struct ReportCommand {
+  fs::path calibration;
+  fs::path board_file;
+  fs::path images_dir;             ///< DIR/<camera>/... (or a single camera's folder with --camera)
+  fs::path out_dir = "report";
+  double area_width_m = 3.0;       ///< tracked area (x), centred on the room origin
+  double area_depth_m = 3.0;       ///< tracked area (z)
+};
+void run_report(const ReportCommand& cmd);
+
+struct WandCommand {
+  fs::path calibration;
+  fs::path recording_dir;          ///< DIR/<camera>/<frame>.png
+  double wand_length_m = 0.5;
+  std::optional<fs::path> out_json;
+};
+void run_wand(const WandCommand& cmd);
+
+}  // namespace kumite::calibration
