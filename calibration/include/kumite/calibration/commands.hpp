@@ -34,6 +34,8 @@ struct RigImages {
   std::vector<std::vector<fs::path>> paths;        ///< [camera][frame], empty when missing
 };
 RigImages scan_rig_images(const fs::path& dir);
+/// Detections of every camera's images, on the rig's common frame list.
+std::vector<CameraViews> detect_rig(const Board& board, const RigImages& rig, const DetectorOptions& detector = {});
 
 struct BoardCommand {
   Board board;
