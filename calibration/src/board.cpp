@@ -1,4 +1,5 @@
-// Board geometry and board.toml (the one toml++ translation unit of this library).
+// Board geometry, board.toml and the floor-points file (the one toml++ translation unit of
+// this library).
 #include "kumite/calibration/board.hpp"
 
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <fmt/format.h>
 #include <toml++/toml.h>
 
+#include "kumite/calibration/commands.hpp"
 #include "kumite/common/error.hpp"
 
 namespace kumite::calibration {
@@ -206,6 +208,51 @@ std::string board_to_toml(const Board& b) {
       "gap_m = {:.6g}           # white space between neighbouring tags, metres\n"
       "first_id = {}            # id of the top-left tag; id = first_id + row*cols + col\n",
       b.family, b.rows, b.cols, b.tag_size_m, b.gap_m, b.first_id);
+}
+
+std::vector<FloorPoint> read_floor_points(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail(path.string(), 0, "", "cannot open the floor points file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const std::string src = path.string();
+  toml::table tbl;
+  try {
+    tbl = toml::parse(ss.str(), src);
+  } catch (const toml::parse_error& e) {
+    fail(src, static_cast<int>(e.source().begin.line), "", std::string(e.description()));
+  }
+  const toml::array* arr = tbl["points"].as_array();
+  if (!arr) fail(src, 0, "points", "missing: expected [[points]] tables with room = [x, y, z] and pixels = { cam = [u, v] }");
+  std::vector<FloorPoint> out;
+  for (std::size_t i = 0; i < arr->size(); ++i) {
+    const toml::table* t = (*arr)[i].as_table();
+    const std::string key = fmt::format("points[{}]", i);
+    if (!t) fail(src, line_of((*arr)[i]), key, "must be a table");
+    FloorPoint p;
+    p.line = line_of(*t);
+    const toml::array* room = (*t)["room"].as_array();
+    if (!room || room->size() != 3) fail(src, p.line, key + ".room", "must be [x, y, z] in metres");
+    for (std::size_t k = 0; k < 3; ++k) {
+      const auto v = (*room)[k].value<double>();
+      if (!v) fail(src, line_of((*room)[k]), key + ".room", "must be numbers (metres)");
+      p.room[static_cast<int>(k)] = *v;
+    }
+    const toml::table* px = (*t)["pixels"].as_table();
+    if (!px) fail(src, p.line, key + ".pixels", "missing: { cam0 = [u, v], cam1 = [u, v] }");
+    for (const auto& [cam, node] : *px) {
+      const toml::array* uv = node.as_array();
+      const std::string k2 = key + ".pixels." + std::string(cam.str());
+      if (!uv || uv->size() != 2) fail(src, line_of(node), k2, "must be [u, v] in pixels");
+      const auto u = (*uv)[0].value<double>(), v = (*uv)[1].value<double>();
+      if (!u || !v) fail(src, line_of(node), k2, "must be numbers (pixels)");
+      p.pixels.emplace_back(std::string(cam.str()), cv::Point2d(*u, *v));
+    }
+    if (p.pixels.size() < 2) fail(src, p.line, key + ".pixels", "a point needs pixels in at least two cameras");
+    out.push_back(std::move(p));
+  }
+  if (out.size() < 3) fail(src, 0, "points", fmt::format("{} points given: mark at least three floor points", out.size()));
+  return out;
 }
 
 }  // namespace kumite::calibration

@@ -65,6 +65,17 @@ struct ExtrinsicsCommand {
 };
 void run_extrinsics(const ExtrinsicsCommand& cmd);
 
+/// Three (or more) marked floor points for `align --points`: TOML
+///   [[points]]
+///   room = [x, y, z]                # m, room frame (y = 0 on the floor)
+///   pixels = { cam0 = [u, v], cam1 = [u, v] }   # px, where each camera sees the mark
+struct FloorPoint {
+  cv::Vec3d room{0, 0, 0};
+  std::vector<std::pair<std::string, cv::Point2d>> pixels;
+  int line = 0;  ///< in the file, for messages
+};
+std::vector<FloorPoint> read_floor_points(const fs::path& path);
+
 struct AlignCommand {
   fs::path calibration;            ///< read, aligned, written back (previous version kept)
   std::optional<fs::path> out;     ///< default: overwrite `calibration`
