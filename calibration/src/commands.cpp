@@ -25,13 +25,13 @@ bool is_image(const fs::path& p) {
   return e == ".png" || e == ".jpg" || e == ".jpeg" || e == ".bmp" || e == ".tif" || e == ".tiff" || e == ".pgm";
 }
 
+}  // namespace
+
 void write_png_atomically(const fs::path& path, const cv::Mat& img) {
   std::vector<unsigned char> buf;
   if (!cv::imencode(".png", img, buf)) throw Error("calibration", "io", fmt::format("{}: cannot encode PNG", path.string()));
   write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
 }
-
-}  // namespace
 
 CameraViews detect_views(const Board& board, const std::vector<fs::path>& images, const std::string& camera,
                          const DetectorOptions& detector_options) {

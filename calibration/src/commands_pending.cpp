@@ -2,6 +2,5 @@
 #include "kumite/calibration/commands.hpp"
 #include "kumite/common/error.hpp"
 namespace kumite::calibration {
-void run_report(const ReportCommand&) { throw Error("calibration", "todo", "report: not implemented yet"); }
 void run_wand(const WandCommand&) { throw Error("calibration", "todo", "wand: not implemented yet"); }
 }

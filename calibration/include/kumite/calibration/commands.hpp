@@ -26,6 +26,9 @@ struct CameraViews {
 CameraViews detect_views(const Board& board, const std::vector<fs::path>& images,
                          const std::string& camera, const DetectorOptions& detector = {});
 
+/// Writes a PNG atomically (temporary file, then rename).
+void write_png_atomically(const fs::path& path, const cv::Mat& image);
+
 /// A recording-style folder: DIR/<camera>/<frame>.png. Cameras sorted by name, frames by the
 /// union of the file names (a camera may lack some frames).
 struct RigImages {
