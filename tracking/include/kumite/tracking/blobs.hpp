@@ -36,7 +36,7 @@ struct BlobParams {
   int seed_row_step = 2;       ///< px: rows scanned for seeds; <= the smallest blob's height
   int min_area = 3;            ///< px^2: smaller blobs are noise
   int max_area = 2500;         ///< px^2: larger ones are lamps, windows, reflections
-  double min_roundness = 0.4;  ///< 0..1: rejects streaks and merged pairs of markers
+  double min_roundness = 0.6;  ///< 0..1: rejects streaks and merged pairs of markers
   int max_blobs = 128;         ///< per image; more are dropped (counted in BlobStats)
 };
 
