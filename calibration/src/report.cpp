@@ -13,6 +13,7 @@
 #include "kumite/calibration/commands.hpp"
 #include "kumite/calibration/intrinsics.hpp"
 #include "kumite/calibration/rig.hpp"
+#include "kumite/calibration/wand.hpp"
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/tracking/calibration_file.hpp"
@@ -275,6 +276,35 @@ void run_report(const ReportCommand& cmd) {
   const fs::path json_path = cmd.out_dir / "report.json";
   write_file_atomically(json_path, report.dump(2) + "\n");
   spdlog::info("wrote {} and the PNGs beside it", json_path.string());
+}
+
+namespace {
+json stats_json(const WandStats& s) {
+  return {{"samples", s.samples}, {"mean_m", s.mean_m}, {"std_m", s.std_m}, {"min_m", s.min_m},
+          {"max_m", s.max_m}, {"rms_error_m", s.rms_error_m}};
+}
+}  // namespace
+
+std::string wand_json(const WandCommand& cmd, const WandResult& r) {
+  json j;
+  j["calibration"] = cmd.calibration.string();
+  j["recording"] = cmd.recording_dir.string();
+  j["true_length_m"] = cmd.wand_length_m;
+  j["frames"] = r.frames;
+  j["length"] = stats_json(r.stats);
+  json regions = json::array();
+  for (const auto& g : r.regions) {
+    regions.push_back({{"centre_m", {g.centre[0], g.centre[1], g.centre[2]}}, {"length", stats_json(g.stats)}});
+  }
+  j["regions_1m"] = regions;
+  json cams = json::array();
+  for (std::size_t c = 0; c < r.camera_blobs.size(); ++c) {
+    cams.push_back({{"index", c}, {"wand_blobs", r.camera_blobs[c]},
+                    {"rms_px", std::isfinite(r.camera_rms_px[c]) ? json(r.camera_rms_px[c]) : json(nullptr)}});
+  }
+  j["cameras"] = cams;
+  if (r.refined) j["length_after_refinement"] = stats_json(r.refined_stats);
+  return j.dump(2) + "\n";
 }
 
 }  // namespace kumite::calibration

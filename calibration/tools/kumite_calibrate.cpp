@@ -74,9 +74,11 @@ void add_report(CLI::App& app, kc::ReportCommand& c) {
 void add_wand(CLI::App& app, kc::WandCommand& c) {
   auto* s = app.add_subcommand("wand", "check a calibration with a two-marker wand waved through the volume");
   s->add_option("--calibration", c.calibration, "calibration file")->required();
-  s->add_option("--recording", c.recording_dir, "DIR/<camera>/<frame>.png")->required();
+  s->add_option("--recording", c.recording_dir, "recording folder: frames.csv, <camera>/<frame>.png")->required();
   s->add_option("--length", c.wand_length_m, "distance between the wand's markers, m")->required();
+  s->add_option("--threshold", c.blob_threshold, "blob threshold, grey level")->capture_default_str();
   s->add_option("--json", c.out_json, "write the figures as JSON here");
+  s->add_option("--refine", c.refine_out, "refine the camera poses with the wand and write the calibration here");
 }
 
 }  // namespace

@@ -102,10 +102,16 @@ void run_report(const ReportCommand& cmd);
 
 struct WandCommand {
   fs::path calibration;
-  fs::path recording_dir;          ///< DIR/<camera>/<frame>.png
+  fs::path recording_dir;          ///< a recording: frames.csv, <camera>/<frame>.png
   double wand_length_m = 0.5;
+  int blob_threshold = 60;         ///< grey level (the tracker's blob detector)
   std::optional<fs::path> out_json;
+  std::optional<fs::path> refine_out;  ///< refine camera poses with the wand and write here
 };
 void run_wand(const WandCommand& cmd);
+
+struct WandResult;
+/// The wand figures as JSON text (report.cpp holds the JSON library).
+std::string wand_json(const WandCommand& cmd, const WandResult& result);
 
 }  // namespace kumite::calibration
