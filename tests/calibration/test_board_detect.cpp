@@ -164,6 +164,7 @@ TEST(Detect, AprilTagKnownAnswerWithinATenthOfAPixel) {
   Board any;  // detect_tags ignores the board
   DetectorOptions opt;
   opt.quad_decimate = 1;
+  opt.quad_sigma = 0;
   opt.refine_edges = false;
   opt.max_hamming = 2;
   BoardDetector det(any, opt);
