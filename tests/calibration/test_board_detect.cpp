@@ -218,3 +218,14 @@ TEST(Detect, AprilTagKnownAnswerWithinATenthOfAPixel) {
   // 45 of the 47 listed tags agree within 0.1 px per coordinate, the other two within 0.14 px.
   EXPECT_GE(within, listed - 2) << within << " of " << listed << " tags within 0.1 px";
 }
+
+TEST(Board, ShippedBoardFilesParse) {
+  const fs::path dir = fs::path(KUMITE_SOURCE_DIR) / "config/boards";
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.path().extension() != ".toml") continue;
+    EXPECT_NO_THROW(read_board(e.path())) << e.path();
+    ++n;
+  }
+  EXPECT_GE(n, 3);
+}
