@@ -64,44 +64,27 @@ void BM_DetectTagBoard_1280x720_decimate2(benchmark::State& state) {
 // Argument: quad_sigma x 10 (0 = apriltag's default; 8 = 0.8 px, the tool's default).
 BENCHMARK(BM_DetectTagBoard_1280x720_decimate2)->Arg(0)->Arg(8)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
-/// Detections of a board carried through the volume, as the four cameras would see it.
-std::vector<std::vector<BoardDetection>> synthetic_rig_views(const std::vector<syn::Camera>& cams, int views) {
-  const Board b = bench_board();
-  const auto obj = b.corner_points();
+/// Poses of a board carried through the volume, printed side up-ish, random tilts.
+std::vector<syn::Pose> carried_board(const Board& b, int views) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> ux(-0.9, 0.9), uy(0.6, 1.6), uyaw(0, 360), utilt(-35, 35), uaxis(0, 180);
-  std::normal_distribution<double> noise(0, 0.2);
   const cv::Rect2d e = b.pattern_extent();
-  std::vector<std::vector<BoardDetection>> out(cams.size());
+  std::vector<syn::Pose> poses;
   for (int f = 0; f < views; ++f) {
     const RigidPose up = floor_board_pose({0, 0, 0}, uyaw(rng));
     const double a = uaxis(rng) * CV_PI / 180;
-    const cv::Matx33d R = syn::rotation({std::cos(a), 0, std::sin(a)}, utilt(rng)) * up.R;
-    const cv::Vec3d t = cv::Vec3d(ux(rng), uy(rng), ux(rng)) - R * cv::Vec3d(e.width / 2, e.height / 2, 0);
-    const cv::Vec3d normal = R * cv::Vec3d(0, 0, -1);  // the printed side faces -Z_board
-    for (std::size_t c = 0; c < cams.size(); ++c) {
-      BoardDetection d;
-      const cv::Vec3d to_cam = cv::normalize(cams[c].position() - (R * cv::Vec3d(e.width / 2, e.height / 2, 0) + t));
-      if (normal.dot(to_cam) > 0.35) {  // seen at less than ~70 degrees from the normal
-        for (int i = 0; i < b.corner_count(); ++i) {
-          const cv::Vec3d w = R * cv::Vec3d(obj[static_cast<std::size_t>(i)].x, obj[static_cast<std::size_t>(i)].y, 0) + t;
-          const cv::Point2d p = syn::project(cams[c], w);
-          if (p.x < 0 || p.y < 0 || p.x > 1279 || p.y > 719) continue;
-          d.corner_ids.push_back(i);
-          d.image_points.emplace_back(static_cast<float>(p.x + noise(rng)), static_cast<float>(p.y + noise(rng)));
-          d.object_points.push_back(obj[static_cast<std::size_t>(i)]);
-        }
-      }
-      if (d.size() < 8) d = {};
-      out[c].push_back(std::move(d));
-    }
+    syn::Pose p;
+    p.R = syn::rotation({std::cos(a), 0, std::sin(a)}, utilt(rng)) * up.R;
+    p.t = cv::Vec3d(ux(rng), uy(rng), ux(rng)) - p.R * cv::Vec3d(e.width / 2, e.height / 2, 0);
+    poses.push_back(p);
   }
-  return out;
+  return poses;
 }
 
 void BM_ExtrinsicSolve_4cams_200views(benchmark::State& state) {
   const auto cams = corner_cameras();
-  const auto views = synthetic_rig_views(cams, 200);
+  const Board b = bench_board();
+  const auto views = syn::project_views(b, cams, carried_board(b, 200), 0.2, 5);
   std::vector<kumite::tracking::CameraCalibration> cal;
   for (std::size_t c = 0; c < cams.size(); ++c) {
     kumite::tracking::CameraCalibration k;

@@ -155,4 +155,36 @@ cv::Mat render_view(const BoardPattern& pattern, const Board& board, const Camer
   return out;
 }
 
+std::vector<std::vector<BoardDetection>> project_views(const Board& board, const std::vector<Camera>& cameras,
+                                                       const std::vector<Pose>& poses, double noise_px,
+                                                       std::uint64_t seed) {
+  const auto obj = board.corner_points();
+  const cv::Rect2d e = board.pattern_extent();
+  cv::RNG rng(seed);
+  std::vector<std::vector<BoardDetection>> out(cameras.size());
+  for (const auto& pose : poses) {
+    const cv::Vec3d normal = pose.R * cv::Vec3d(0, 0, -1);  // the printed side faces -Z_board
+    const cv::Vec3d centre = pose.R * cv::Vec3d(e.x + e.width / 2, e.y + e.height / 2, 0) + pose.t;
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      BoardDetection d;
+      if (normal.dot(cv::normalize(cameras[c].position() - centre)) > 0.35) {
+        for (int i = 0; i < board.corner_count(); ++i) {
+          const auto& o = obj[static_cast<std::size_t>(i)];
+          const cv::Vec3d w = pose.R * cv::Vec3d(o.x, o.y, 0) + pose.t;
+          if ((cameras[c].R * w + cameras[c].t)[2] <= 0.05) continue;
+          const cv::Point2d p = project(cameras[c], w);
+          if (p.x < 0 || p.y < 0 || p.x > cameras[c].size.width - 1 || p.y > cameras[c].size.height - 1) continue;
+          d.corner_ids.push_back(i);
+          d.image_points.emplace_back(static_cast<float>(p.x + rng.gaussian(noise_px)),
+                                      static_cast<float>(p.y + rng.gaussian(noise_px)));
+          d.object_points.push_back(o);
+        }
+      }
+      if (d.size() < 8) d = {};
+      out[c].push_back(std::move(d));
+    }
+  }
+  return out;
+}
+
 }  // namespace kumite::calibration::synthetic

@@ -4,10 +4,12 @@
 // blur and noise. The ground truth is the camera and board pose given here; the estimators
 // never see them. Used by the tests and the benchmark only.
 #include <cstdint>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "kumite/calibration/board.hpp"
+#include "kumite/calibration/detect.hpp"
 
 namespace kumite::calibration::synthetic {
 
@@ -42,6 +44,13 @@ struct RenderOptions {
 /// Renders the board (its printed sheet: pattern + default margin) as seen by `cam`.
 cv::Mat render_view(const BoardPattern& pattern, const Board& board, const Camera& cam, const Pose& board_pose,
                     const RenderOptions& options = {});
+
+/// Board detections without images: the corners of `board` at each pose projected through
+/// each camera, with Gaussian noise (px), kept when the printed side faces the camera within
+/// ~70 degrees and at least 8 corners fall in the image. [camera][pose].
+std::vector<std::vector<BoardDetection>> project_views(const Board& board, const std::vector<Camera>& cameras,
+                                                       const std::vector<Pose>& poses, double noise_px,
+                                                       std::uint64_t seed = 1);
 
 /// Where a board point lands in the image (forward model; for checks).
 cv::Point2d project(const Camera& cam, const cv::Vec3d& world);
