@@ -14,6 +14,7 @@ extern "C" {
 }
 
 #include "kumite/calibration/board.hpp"
+#include "kumite/calibration/commands.hpp"
 #include "kumite/calibration/detect.hpp"
 #include "kumite/common/error.hpp"
 
@@ -228,4 +229,24 @@ TEST(Board, ShippedBoardFilesParse) {
     ++n;
   }
   EXPECT_GE(n, 3);
+}
+
+TEST(Board, BoardCommandWritesPngSvgAndToml) {
+  const fs::path dir = fs::temp_directory_path() / ("kumite_board_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  BoardCommand cmd;
+  cmd.board = tag_board();
+  cmd.dpi = 150;
+  cmd.out_prefix = dir / "b";
+  run_board(cmd);
+  const cv::Mat png = cv::imread((dir / "b.png").string(), cv::IMREAD_GRAYSCALE);
+  const double margin = tag_board().default_margin_m();
+  EXPECT_EQ(png.cols, static_cast<int>(std::lround((0.19 + 2 * margin) / 0.0254 * 150)));
+  const Board back = read_board(dir / "b.toml");
+  EXPECT_EQ(back.first_id, 5);
+  EXPECT_TRUE(fs::exists(dir / "b.svg"));
+  // The printed PNG is detected as the board it describes.
+  BoardDetector det(back);
+  EXPECT_EQ(det.detect(png).size(), 48u);
+  fs::remove_all(dir);
 }

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "kumite/calibration/commands.hpp"
 #include "kumite/calibration/intrinsics.hpp"
@@ -74,6 +75,25 @@ TEST(Extrinsics, StereoSamplesAgreeWithStereoCalibrate) {
   EXPECT_NEAR(baseline, cv_baseline, 0.01 * cv_baseline);
   EXPECT_LT(angle * 180 / CV_PI, 0.2);
   EXPECT_NEAR(baseline, 0.083, 0.01);  // ~3.3 squares of 25 mm: OpenCV's sample pair
+
+  // The report on the same data: JSON and the PNGs a technician opens.
+  ReportCommand rep;
+  rep.calibration = cmd.out;
+  rep.board_file = cmd.board_file;
+  rep.images_dir = dir;
+  rep.out_dir = dir / "report";
+  run_report(rep);
+  for (const char* f : {"report.json", "rig_top_view.png", "left_coverage.png", "left_view_errors.png",
+                        "right_coverage.png", "right_view_errors.png"}) {
+    EXPECT_TRUE(fs::exists(rep.out_dir / f)) << f;
+  }
+  const cv::Mat top = cv::imread((rep.out_dir / "rig_top_view.png").string());
+  EXPECT_EQ(top.cols, 800);
+  std::ifstream json(rep.out_dir / "report.json");
+  const std::string text((std::istreambuf_iterator<char>(json)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("\"verdict\""), std::string::npos);
+  EXPECT_NE(text.find("\"coverage_fraction\""), std::string::npos);
+  EXPECT_NE(text.find("\"image\": \"02.jpg\""), std::string::npos);
   fs::remove_all(dir);
 }
 
