@@ -40,7 +40,7 @@ void run_extrinsics(const ExtrinsicsCommand& cmd) {
   const Board board = read_board(cmd.board_file);
   const RigImages images = scan_rig_images(cmd.images_dir);
   DetectorOptions det;
-  det.quad_decimate = 1;
+  det.quad_decimate = cmd.decimate;
   const std::vector<CameraViews> views = detect_rig(board, images, det);
 
   std::vector<tracking::CameraCalibration> cams;

@@ -16,6 +16,12 @@ namespace kc = kumite::calibration;
 
 namespace {
 
+void add_decimate(CLI::App* s, float& decimate) {
+  s->add_option("--decimate", decimate, "tag detection on an image decimated by this (1 = most accurate; 2 = ~4x faster)")
+      ->capture_default_str()
+      ->check(CLI::Range(1.0, 4.0));
+}
+
 void add_board(CLI::App& app, kc::BoardCommand& c, std::string& type) {
   auto* s = app.add_subcommand("board", "write a printable board: <out>.png (at --dpi), <out>.svg (exact size), <out>.toml");
   s->add_option("--type", type, "apriltag_grid or chessboard")->capture_default_str()->check(CLI::IsMember({"apriltag_grid", "chessboard"}));
@@ -38,6 +44,7 @@ void add_intrinsics(CLI::App& app, kc::IntrinsicsCommand& c) {
   s->add_option("--name", c.name, "camera name (its folder name in recordings)")->capture_default_str();
   s->add_flag("--fix-aspect", c.fix_aspect_ratio, "force fx = fy");
   s->add_option("--outlier-factor", c.outlier_factor, "reject views above this x the median view error")->capture_default_str();
+  add_decimate(s, c.decimate);
 }
 
 void add_extrinsics(CLI::App& app, kc::ExtrinsicsCommand& c) {
@@ -48,6 +55,7 @@ void add_extrinsics(CLI::App& app, kc::ExtrinsicsCommand& c) {
   s->add_option("--intrinsics", c.intrinsics, "calibration file with each camera's intrinsics (default: calibrate them from these images)");
   s->add_flag("--refine-intrinsics", c.refine_intrinsics, "let the bundle adjustment refine intrinsics too");
   s->add_option("--huber", c.huber_px, "robust loss scale, px")->capture_default_str();
+  add_decimate(s, c.decimate);
 }
 
 void add_align(CLI::App& app, kc::AlignCommand& c, std::vector<double>& origin) {
@@ -58,7 +66,8 @@ void add_align(CLI::App& app, kc::AlignCommand& c, std::vector<double>& origin) 
   s->add_option("--images", c.images_dir, "DIR/<camera>/<image>: the floor board seen by the cameras");
   s->add_option("--origin", origin, "room position x y z (m) of the board origin (its top-left tag corner)")->expected(3);
   s->add_option("--yaw", c.board_yaw_deg, "board rotation about room +Y, degrees (0: board +X = room +X, top edge toward the front wall)")->capture_default_str();
-  s->add_option("--points", c.points_file, "alternative: TOML with three floor points (room x z and pixels per camera)");
+  s->add_option("--points", c.points_file, "alternative: TOML with three floor points (room x y z and pixels per camera)");
+  add_decimate(s, c.decimate);
 }
 
 void add_report(CLI::App& app, kc::ReportCommand& c) {
@@ -69,6 +78,7 @@ void add_report(CLI::App& app, kc::ReportCommand& c) {
   s->add_option("--out", c.out_dir, "report folder")->capture_default_str();
   s->add_option("--area-width", c.area_width_m, "tracked area along x, m")->capture_default_str();
   s->add_option("--area-depth", c.area_depth_m, "tracked area along z, m")->capture_default_str();
+  add_decimate(s, c.decimate);
 }
 
 void add_wand(CLI::App& app, kc::WandCommand& c) {
