@@ -91,7 +91,10 @@ cv::Mat error_chart(const std::string& title, const std::vector<std::string>& la
     } else {
       text(img, "x", {x + 4, base - 4}, 0.45, {60, 60, 230});
     }
-    cv::putText(img, labels[i].substr(0, 4), {x, base + 14}, cv::FONT_HERSHEY_PLAIN, 0.8, {220, 220, 220});
+    // The end of the name tells views apart ("000012" -> "0012", "left02" -> "ft02").
+    const std::string& l = labels[i];
+    cv::putText(img, l.substr(l.size() > 4 ? l.size() - 4 : 0), {x, base + 14}, cv::FONT_HERSHEY_PLAIN, 0.8,
+                {220, 220, 220});
   }
   cv::line(img, {25, y_of(med)}, {w - 5, y_of(med)}, {0, 220, 255}, 1, cv::LINE_AA);
   cv::line(img, {25, y_of(3 * med)}, {w - 5, y_of(3 * med)}, {60, 60, 230}, 1, cv::LINE_AA);
