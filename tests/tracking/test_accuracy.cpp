@@ -6,7 +6,7 @@
 
 using namespace kumite;
 using namespace kumite::tracking;
-using namespace kumite::tracking::testing;
+using namespace kumite::tracking::ktest;
 
 namespace {
 
