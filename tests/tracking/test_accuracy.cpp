@@ -140,3 +140,24 @@ TEST(Accuracy, LostAfterCoastingLimitThenReacquired) {
   EXPECT_EQ(st[24], TrackingStatus::lost);
   EXPECT_EQ(st[25], TrackingStatus::tracked);
 }
+
+TEST(Accuracy, SecondBodyIsIndependentAndNeverStealsTheHeadsMarkers) {
+  const auto rig = corner_rig();
+  auto config = shipped_config();
+  // A hand prop that is not in the room, and whose distances partly resemble the head's.
+  BodyConfig prop;
+  prop.name = "prop";
+  prop.markers = {{0, 0, 0}, {config.bodies[0].markers[0] - config.bodies[0].markers[1]}, {0.0, 0.0, 0.09}};
+  config.bodies.push_back(prop);
+  SyntheticRenderer renderer(rig, config.bodies[0], noisy());
+  Pipeline pipeline(rig, config);
+  for (int i = 0; i < 30; ++i) {
+    const auto truth = scripted_visitor(i / 60.0);
+    const auto& r = pipeline.process(renderer.render(i, truth));
+    ASSERT_EQ(r.raw.size(), 2U);
+    EXPECT_EQ(r.raw[0].status, TrackingStatus::tracked);
+    EXPECT_EQ(r.raw[0].markers, 5);
+    EXPECT_EQ(r.raw[1].status, TrackingStatus::lost);
+    EXPECT_EQ(r.raw[1].body, 1);
+  }
+}
