@@ -25,11 +25,23 @@ namespace {
   throw file_error("calibration", "invalid", path.string(), 0, where, what);
 }
 
+/// OpenCV allocates rows x cols before reading the data: refuse absurd sizes first (a
+/// corrupted "rows: 300000000" would otherwise ask for gigabytes).
+void check_matrix_size(const cv::FileNode& node, const fs::path& path, const std::string& where) {
+  if (!node.isMap()) return;
+  const cv::FileNode r = node["rows"], c = node["cols"];
+  if (!r.isInt() || !c.isInt()) fail(path, where, "not a matrix (rows and cols must be integers)");
+  const long long n = static_cast<long long>(static_cast<int>(r)) * static_cast<int>(c);
+  if (static_cast<int>(r) < 0 || static_cast<int>(c) < 0 || n > (1 << 20)) fail(path, where, "matrix too large");
+  if (static_cast<long long>(node["data"].size()) < n) fail(path, where, "matrix data shorter than rows x cols");
+}
+
 cv::Mat read_matrix(const cv::FileNode& cam, const char* key, int rows, int cols,
                     const fs::path& path, const std::string& where) {
   const cv::FileNode node = cam[key];
   if (node.empty()) fail(path, where + "." + key, "missing");
   cv::Mat m;
+  check_matrix_size(node, path, where + "." + key);
   try {
     node >> m;
   } catch (const cv::Exception&) {
@@ -59,9 +71,27 @@ int read_positive_int(const cv::FileNode& cam, const char* key, const fs::path& 
   return v;
 }
 
+RigCalibration read_calibration_unchecked(const fs::path& path);
+
 }  // namespace
 
 RigCalibration read_calibration(const fs::path& path) {
+  // OpenCV's parser can throw more than cv::Exception on malformed files (std::length_error
+  // was found by fuzzing): every failure becomes one kumite::Error naming the file.
+  try {
+    return read_calibration_unchecked(path);
+  } catch (const Error&) {
+    throw;
+  } catch (const cv::Exception& e) {
+    throw file_error("calibration", "parse", path.string(), 0, "", "not valid: " + (e.err.empty() ? std::string(e.what()) : e.err));
+  } catch (const std::exception& e) {
+    throw file_error("calibration", "parse", path.string(), 0, "", std::string("not valid: ") + e.what());
+  }
+}
+
+namespace {
+
+RigCalibration read_calibration_unchecked(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) {
     throw file_error("calibration", "missing", path.string(), 0, "", "no such file");
@@ -114,7 +144,12 @@ RigCalibration read_calibration(const fs::path& path) {
     if (!cam["rms_px"].empty()) c.rms_px = static_cast<double>(cam["rms_px"]);
     if (!cam["per_view_errors_px"].empty()) {
       cv::Mat e;
-      cam["per_view_errors_px"] >> e;
+      check_matrix_size(cam["per_view_errors_px"], path, where + ".per_view_errors_px");
+      try {
+        cam["per_view_errors_px"] >> e;
+      } catch (const cv::Exception&) {
+        fail(path, where + ".per_view_errors_px", "not a matrix");
+      }
       e.convertTo(e, CV_64F);
       c.per_view_errors_px.assign(e.begin<double>(), e.end<double>());
     }
@@ -122,6 +157,8 @@ RigCalibration read_calibration(const fs::path& path) {
   }
   return rig;
 }
+
+}  // namespace
 
 void write_calibration(const fs::path& path, const RigCalibration& rig) {
   const fs::path tmp = temporary_path_beside(path.extension() == ".yml" || path.extension() == ".yaml"
