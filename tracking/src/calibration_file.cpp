@@ -1,7 +1,9 @@
 #include "kumite/tracking/calibration_file.hpp"
 
 #include <cmath>
+#include <fstream>
 #include <set>
+#include <vector>
 
 #include <fmt/format.h>
 #include <opencv2/core/persistence.hpp>
@@ -73,6 +75,58 @@ int read_positive_int(const cv::FileNode& cam, const char* key, const fs::path& 
 
 RigCalibration read_calibration_unchecked(const fs::path& path);
 
+/// OpenCV 4.6's YAML parser loops forever on some malformed files (found by fuzzing: control
+/// bytes inside numbers; a block line dedenting to a level that was never opened). A
+/// calibration file is plain text with consistent block indentation: check that first.
+void check_yaml_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::vector<std::size_t> indents;  // open block indentation levels
+  int flow = 0;                      // depth inside [ ] / { }
+  int n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    for (const unsigned char ch : line) {
+      if ((ch < 0x20 && ch != '\t' && ch != '\r') || ch == 0x7f) {
+        throw file_error("calibration", "parse", path.string(), n, "",
+                         fmt::format("not a text file (control byte 0x{:02x})", ch));
+      }
+    }
+    const std::size_t indent = line.find_first_not_of(' ');
+    if (indent == std::string::npos || line[indent] == '#' || line[indent] == '%' || line.rfind("---", 0) == 0) continue;
+    if (flow == 0) {
+      if (indents.empty()) {
+        indents.push_back(indent);  // the document's first level
+      } else if (indent < indents.front()) {
+        throw file_error("calibration", "parse", path.string(), n, "", "indentation above the document's first level");
+      } else {
+        bool dedented = false;
+        while (indents.back() > indent) indents.pop_back(), dedented = true;
+        if (indents.back() < indent) {
+          if (dedented) throw file_error("calibration", "parse", path.string(), n, "", "inconsistent indentation");
+          indents.push_back(indent);
+        }
+      }
+    }
+    bool quoted = false;
+    char quote = 0;
+    for (std::size_t i = indent; i < line.size(); ++i) {
+      const char c = line[i];
+      if (quoted) {
+        if (c == quote) quoted = false;
+      } else if (c == '"' || c == '\'') {
+        quoted = true, quote = c;
+      } else if (c == '#' && i > 0 && line[i - 1] == ' ') {
+        break;
+      } else if (c == '[' || c == '{') {
+        ++flow;
+      } else if (c == ']' || c == '}') {
+        flow = std::max(0, flow - 1);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 RigCalibration read_calibration(const fs::path& path) {
@@ -96,6 +150,7 @@ RigCalibration read_calibration_unchecked(const fs::path& path) {
   if (!fs::exists(path, ec)) {
     throw file_error("calibration", "missing", path.string(), 0, "", "no such file");
   }
+  check_yaml_text(path);
   cv::FileStorage fsr;
   try {
     if (!fsr.open(path.string(), cv::FileStorage::READ)) {
