@@ -83,6 +83,7 @@ void check_yaml_text(const fs::path& path) {
   std::string line;
   std::vector<std::size_t> indents;  // open block indentation levels
   int flow = 0;                      // depth inside [ ] / { }
+  std::size_t flow_indent = 0;       // indentation of the line that opened it
   int n = 0;
   while (std::getline(in, line)) {
     ++n;
@@ -92,9 +93,32 @@ void check_yaml_text(const fs::path& path) {
                          fmt::format("not a text file (control byte 0x{:02x})", ch));
       }
     }
+    // Valid UTF-8 only (OpenCV's parser mishandles stray high bytes).
+    for (std::size_t i = 0; i < line.size();) {
+      const auto b = static_cast<unsigned char>(line[i]);
+      const int len = b < 0x80 ? 1 : (b >> 5) == 0x6 && b >= 0xc2 ? 2 : (b >> 4) == 0xe ? 3 : (b >> 3) == 0x1e && b <= 0xf4 ? 4 : 0;
+      bool ok = len > 0 && i + static_cast<std::size_t>(len) <= line.size();
+      for (int k = 1; ok && k < len; ++k) ok = (static_cast<unsigned char>(line[i + k]) & 0xc0) == 0x80;
+      if (!ok) throw file_error("calibration", "parse", path.string(), n, "", "not UTF-8 text");
+      i += static_cast<std::size_t>(len);
+    }
     const std::size_t indent = line.find_first_not_of(' ');
-    if (indent == std::string::npos || line[indent] == '#' || line[indent] == '%' || line.rfind("---", 0) == 0) continue;
+    if (indent != std::string::npos && indent > 0 && line[indent] == '%') {
+      throw file_error("calibration", "parse", path.string(), n, "", "a directive (%...) must start the line");
+    }
+    if (line.find('%') != std::string::npos && n > 1) {
+      throw file_error("calibration", "parse", path.string(), n, "", "'%' only in the first line's directive");
+    }
+    if (line.rfind("---", 0) == 0 || line.rfind("...", 0) == 0) {
+      if (!indents.empty()) throw file_error("calibration", "parse", path.string(), n, "", "one YAML document per file");
+      continue;
+    }
+    if (indent == std::string::npos || line[indent] == '#' || line[indent] == '%') continue;
+    if (flow > 0 && indent <= flow_indent) {
+      throw file_error("calibration", "parse", path.string(), n, "", "unclosed [ or { above");
+    }
     if (flow == 0) {
+      flow_indent = indent;
       if (indents.empty()) {
         indents.push_back(indent);  // the document's first level
       } else if (indent < indents.front()) {
