@@ -147,7 +147,8 @@ TEST(Accuracy, SecondBodyIsIndependentAndNeverStealsTheHeadsMarkers) {
   // A hand prop that is not in the room, and whose distances partly resemble the head's.
   BodyConfig prop;
   prop.name = "prop";
-  prop.markers = {{0, 0, 0}, {config.bodies[0].markers[0] - config.bodies[0].markers[1]}, {0.0, 0.0, 0.09}};
+  prop.markers = {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(config.bodies[0].markers[0] - config.bodies[0].markers[1]),
+                  Eigen::Vector3d(0.0, 0.0, 0.09)};
   config.bodies.push_back(prop);
   SyntheticRenderer renderer(rig, config.bodies[0], noisy());
   Pipeline pipeline(rig, config);
