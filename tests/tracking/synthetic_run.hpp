@@ -9,7 +9,7 @@
 #include "kumite/tracking/pipeline.hpp"
 #include "kumite/tracking/synth.hpp"
 
-namespace kumite::tracking::testing {
+namespace kumite::tracking::ktest {
 
 inline TrackingConfig shipped_config() {
   return read_tracking_config(std::filesystem::path(KUMITE_SOURCE_DIR) / "config/tracking.toml");
@@ -71,4 +71,4 @@ inline RunStats run_synthetic(const RigCalibration& rig, const TrackingConfig& c
   return s;
 }
 
-}  // namespace kumite::tracking::testing
+}  // namespace kumite::tracking::ktest

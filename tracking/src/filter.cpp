@@ -26,7 +26,8 @@ double OneEuroFilter::filter(double value, double timestamp) {
   if (has_time_ && timestamp > last_time_) frequency_ = 1.0 / (timestamp - last_time_);
   last_time_ = timestamp;
   has_time_ = true;
-  const double dvalue = x_.has_last_raw() ? (value - x_.last_raw()) * frequency_ : 0.0;
+  // As the reference since 08/2023: the speed is measured from the last FILTERED value.
+  const double dvalue = x_.has_last_raw() ? (value - x_.last()) * frequency_ : 0.0;
   const double edvalue = d_.filter(dvalue, alpha(frequency_, d_cutoff_));
   const double cutoff = min_cutoff_ + beta_ * std::abs(edvalue);
   return x_.filter(value, alpha(frequency_, cutoff));
@@ -51,6 +52,7 @@ PoseFilter::PoseFilter(const FilterConfig& config, double frequency_hz)
 void PoseFilter::reset() {
   for (auto& a : axis_) a.reset();
   for (auto& r : rot_d_) r = {};
+  for (auto& v : vel_) v = {};
   last_t_ = -1;
   state_ = {};
 }
@@ -65,25 +67,28 @@ const FilteredState& PoseFilter::update(Timestamp t, const Eigen::Vector3d& posi
     state_ = {t, position, state_.velocity, q, Eigen::Vector3d::Zero(), true};
     return state_;
   }
+  const bool had = state_.valid;
+  const Eigen::Vector3d before = state_.position;
+  if (had && last_t_ >= 0 && t > last_t_) frequency_ = 1.0 / (t - last_t_);
+  const auto alpha = [&](double cutoff) {
+    const double tau = 1.0 / (2.0 * M_PI * cutoff);
+    return 1.0 / (1.0 + tau * frequency_);
+  };
   for (int k = 0; k < 3; ++k) {
     state_.position[k] = axis_[k].filter(position[k], t);
-    state_.velocity[k] = axis_[k].derivative();
+    const double v = had ? (state_.position[k] - before[k]) * frequency_ : 0.0;
+    state_.velocity[k] = vel_[k].filter(v, alpha(kVelocityCutoffHz));
   }
-  if (!state_.valid) {
+  if (!had) {
     state_.orientation = q;
     state_.angular_velocity.setZero();
   } else {
-    if (last_t_ >= 0 && t > last_t_) frequency_ = 1.0 / (t - last_t_);
     Eigen::Quaterniond dq = q * last_raw_.conjugate();  // room-frame rotation since last sample
     if (dq.w() < 0) dq.coeffs() = -dq.coeffs();
     const double s = dq.vec().norm();
     const double angle = 2.0 * std::atan2(s, dq.w());
     const Eigen::Vector3d omega = s > 1e-12 ? Eigen::Vector3d(dq.vec() / s * angle * frequency_)
                                             : Eigen::Vector3d::Zero();
-    const auto alpha = [&](double cutoff) {
-      const double tau = 1.0 / (2.0 * M_PI * cutoff);
-      return 1.0 / (1.0 + tau * frequency_);
-    };
     const double ad = alpha(config_.rot_d_cutoff_hz);
     for (int k = 0; k < 3; ++k) state_.angular_velocity[k] = rot_d_[k].filter(omega[k], ad);
     const double cutoff = config_.rot_min_cutoff_hz + config_.rot_beta * state_.angular_velocity.norm();

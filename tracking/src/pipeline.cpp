@@ -97,7 +97,8 @@ struct Pipeline::Impl {
       predicted = tr.last;
       if (tr.has_velocity && age > 0) predicted->translation += tr.velocity * age;
     }
-    const auto fit = model.fit(result.markers, predicted, taken);
+    auto fit = model.fit(result.markers, predicted, taken);
+    if (fit && fit->full) model.refine(result.markers, cameras, observations, *fit);
     BodyPose raw, filtered;
     if (fit) {
       for (int i : fit->marker_of) {

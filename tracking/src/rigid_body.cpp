@@ -201,6 +201,54 @@ std::optional<BodyFit> RigidBodyModel::identify(std::span<const Marker> markers,
   return best;
 }
 
+void RigidBodyModel::refine(std::span<const Marker> markers, std::span<const CameraModel> cameras,
+                            std::span<const std::vector<Observation>> obs, BodyFit& fit) const {
+  if (!fit.full) return;
+  for (int iter = 0; iter < 4; ++iter) {
+    Eigen::Matrix<double, 6, 6> JtJ = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> Jtr = Eigen::Matrix<double, 6, 1>::Zero();
+    int rows = 0;
+    const Eigen::Matrix3d R = fit.pose.rotation.toRotationMatrix();
+    for (std::size_t m = 0; m < fit.marker_of.size(); ++m) {
+      if (fit.marker_of[m] < 0) continue;
+      const Marker& mk = markers[fit.marker_of[m]];
+      const Eigen::Vector3d arm = R * config_.markers[m];  // room-frame lever arm
+      const Eigen::Vector3d X = arm + fit.pose.translation;
+      for (std::size_t c = 0; c < cameras.size() && c < obs.size(); ++c) {
+        if (mk.blob[c] < 0) continue;
+        const CameraModel& cam = cameras[c];
+        const Eigen::Vector3d p = cam.to_camera(X);
+        if (p.z() < 1e-6) continue;
+        const double iz = 1.0 / p.z(), f = cam.focal_px();
+        const Eigen::Vector2d r = f * (Eigen::Vector2d(p.x() * iz, p.y() * iz) - obs[c][mk.blob[c]].normalised);
+        Eigen::Matrix<double, 2, 3> Jp;
+        Jp << iz, 0, -p.x() * iz * iz, 0, iz, -p.y() * iz * iz;
+        Eigen::Matrix3d Rc;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) Rc(i, j) = cam.calibration().rotation(i, j);
+        const Eigen::Matrix<double, 2, 3> JX = f * Jp * Rc;  // d pixel / d X (room)
+        // X = exp([w]x) arm + t: dX/dw = -[arm]x, dX/dt = I.
+        Eigen::Matrix3d skew;
+        skew << 0, -arm.z(), arm.y(), arm.z(), 0, -arm.x(), -arm.y(), arm.x(), 0;
+        Eigen::Matrix<double, 2, 6> J;
+        J.leftCols<3>() = -JX * skew;
+        J.rightCols<3>() = JX;
+        JtJ += J.transpose() * J;
+        Jtr += J.transpose() * r;
+        rows += 2;
+      }
+    }
+    if (rows < 8) return;
+    const Eigen::Matrix<double, 6, 1> step = JtJ.ldlt().solve(-Jtr);
+    if (!step.allFinite()) return;
+    const Eigen::Vector3d w = step.head<3>();
+    if (w.norm() > 0.2 || step.tail<3>().norm() > 0.05) return;  // not a small correction: keep the fit
+    if (w.norm() > 1e-15) fit.pose.rotation = (Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized())) * fit.pose.rotation).normalized();
+    fit.pose.translation += step.tail<3>();
+    if (step.norm() < 1e-9) break;
+  }
+}
+
 std::optional<BodyFit> RigidBodyModel::fit(std::span<const Marker> markers,
                                            const std::optional<RigidPose>& predicted,
                                            std::span<const std::uint8_t> taken) const {

@@ -136,7 +136,7 @@ std::vector<Eigen::Vector3d> SyntheticRenderer::marker_positions(const Trajector
 }
 
 void SyntheticRenderer::draw_spot(cv::Mat& img, double x, double y, double sigma, double peak) {
-  std::normal_distribution<double> noise(0, options_.image_noise);
+  std::normal_distribution<double> noise(0, std::max(options_.image_noise, 1e-9));
   const int r = static_cast<int>(std::ceil(3.5 * sigma)) + 1;
   const int cx = static_cast<int>(std::lround(x)), cy = static_cast<int>(std::lround(y));
   const double k = 1.0 / (2 * sigma * sigma);
@@ -145,7 +145,7 @@ void SyntheticRenderer::draw_spot(cv::Mat& img, double x, double y, double sigma
     for (int col = std::max(0, cx - r); col <= std::min(img.cols - 1, cx + r); ++col) {
       const double d2 = (col - x) * (col - x) + (row - y) * (row - y);
       // Fresh sensor noise where it matters (the spots); the background keeps its own.
-      const double v = p[col] + peak * std::exp(-d2 * k) + noise(rng_);
+      const double v = p[col] + peak * std::exp(-d2 * k) + (options_.image_noise > 0 ? noise(rng_) : 0.0);
       p[col] = cv::saturate_cast<std::uint8_t>(v);
     }
   }
@@ -159,7 +159,7 @@ FrameSet SyntheticRenderer::render(std::uint64_t frame, const TrajectoryPoint& p
   set.camera_times.assign(rig_.cameras.size(), pose.t);
   const auto markers = marker_positions(pose);
   std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> jitter(0, options_.centroid_noise_px);
+  std::normal_distribution<double> jitter(0, std::max(options_.centroid_noise_px / std::sqrt(2.0), 1e-12));
   for (std::size_t c = 0; c < rig_.cameras.size(); ++c) {
     const bool dead = static_cast<int>(c) == options_.dead_camera && pose.t >= options_.dead_after_s;
     const bool dropped = options_.drop_probability > 0 && u(rng_) < options_.drop_probability;

@@ -1,7 +1,8 @@
 #pragma once
 // The One Euro filter (Casiez, Roussel, Vogel, "1 EUR Filter", CHI 2012), exactly as the
 // authors' reference C++ implementation (casiez/OneEuroFilter): the sampling frequency follows
-// the timestamps, the first sample passes through, the speed is (x - last raw x) * frequency.
+// the timestamps, the first sample passes through, the speed is (x - last filtered x) * frequency
+// (the reference's 08/2023 fix; its groundTruth.csv is reproduced to 1e-5 in the tests).
 // PoseFilter applies it to a position (per axis) and an orientation (on the rotation angle,
 // smoothing by slerp), and keeps the filtered velocities for prediction to a display time.
 #include <Eigen/Core>
@@ -31,7 +32,8 @@ class OneEuroFilter {
   /// Filters one sample taken at `timestamp` (s). As in the reference, the frequency becomes
   /// 1 / (timestamp - previous timestamp) only when the timestamp increases.
   double filter(double value, double timestamp);
-  /// The filtered derivative (units of value per second) from the last call.
+  /// The filter's smoothed speed term (value units per second): as in the reference, the
+  /// change from the last FILTERED value, so it is not the signal's velocity.
   double derivative() const { return d_.last(); }
   void reset();
 
@@ -47,7 +49,7 @@ class OneEuroFilter {
 struct FilteredState {
   Timestamp timestamp = 0;                   ///< s: time of the last measurement
   Eigen::Vector3d position{0, 0, 0};         ///< m
-  Eigen::Vector3d velocity{0, 0, 0};         ///< m/s (the filter's speed estimate)
+  Eigen::Vector3d velocity{0, 0, 0};         ///< m/s: the filtered position's, low-passed at 5 Hz
   Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
   Eigen::Vector3d angular_velocity{0, 0, 0}; ///< rad/s, room frame
   bool valid = false;
@@ -67,6 +69,8 @@ class PoseFilter {
   double frequency_;
   OneEuroFilter axis_[3];
   LowPassFilter rot_d_[3];  // angular velocity, room frame (rad/s)
+  LowPassFilter vel_[3];    // velocity of the filtered position (m/s), for prediction
+  static constexpr double kVelocityCutoffHz = 5.0;
   Eigen::Quaterniond last_raw_ = Eigen::Quaterniond::Identity();
   Timestamp last_t_ = -1;
   FilteredState state_;

@@ -48,6 +48,12 @@ class RigidBodyModel {
                              const std::optional<RigidPose>& predicted,
                              std::span<const std::uint8_t> taken) const;
 
+  /// Refines a 6-DoF fit on the image evidence: Gauss-Newton on the reprojection error (px)
+  /// of every ray of every matched marker, the maximum-likelihood pose under pixel noise
+  /// (better than fitting the triangulated points, which weights every marker the same).
+  void refine(std::span<const Marker> markers, std::span<const CameraModel> cameras,
+              std::span<const std::vector<Observation>> observations, BodyFit& fit) const;
+
   /// Identification from scratch by inter-marker distances (no prediction).
   std::optional<BodyFit> identify(std::span<const Marker> markers,
                                   std::span<const std::uint8_t> taken) const;

@@ -38,7 +38,7 @@ TrajectoryPoint sample(const std::vector<TrajectoryPoint>& trajectory, Timestamp
 
 struct SynthOptions {
   double fps = 60;                    ///< Hz: frame-set rate
-  double centroid_noise_px = 0.3;     ///< px: sigma of each spot's centre jitter (the "0.3 px")
+  double centroid_noise_px = 0.3;     ///< px: RMS 2-D displacement of each spot centre (sigma/axis = this/sqrt 2)
   double image_noise = 2.0;           ///< grey levels: sigma of the sensor noise
   double background = 12;             ///< grey level
   double peak = 220;                  ///< grey levels above the background at a spot's centre
@@ -81,8 +81,8 @@ void write_synthetic_recording(const std::filesystem::path& dir, const RigCalibr
                                const SynthOptions& options, const std::string& description);
 
 /// The shipped default rig: 4 cameras, 1280x1024, high (2.6 m) in the corners of a 3 m x 3 m
-/// tracked area, looking at its centre at 1.2 m; mild barrel distortion.
+/// tracked area, looking at its centre at 1.2 m; 66 x 54 degree lenses (f = 1000 px), mild barrel distortion.
 RigCalibration corner_rig(double side_m = 3.0, double height_m = 2.6, int width = 1280, int height = 1024,
-                          double focal_px = 820);
+                          double focal_px = 1000);
 
 }  // namespace kumite::tracking

@@ -105,6 +105,9 @@ class Tracker {
   /// Index of the body called `name` ([[bodies]] order), or -1.
   int find_body(std::string_view name) const;
   std::size_t camera_count() const { return rig_.cameras.size(); }
+  /// The calibration (camera names, in camera_status() order) and the config it runs with.
+  const RigCalibration& rig() const { return rig_; }
+  const TrackingConfig& config() const { return config_; }
 
   /// The newest filtered pose of `body` (nullopt before the first frame set). Never blocks.
   std::optional<BodyPose> latest(int body) const;
