@@ -68,7 +68,7 @@ std::vector<CanonicalPose> clip_poses(const Clip& clip, int first, int last) {
   std::vector<CanonicalPose> out;
   out.reserve(static_cast<std::size_t>(last - first + 1));
   for (int f = first; f <= last; ++f) {
-    forward_kinematics(clip.skeleton, clip.root_positions[static_cast<std::size_t>(f)], clip.rotations(f), gp, gr);
+    forward_kinematics(clip, f, gp, gr);
     out.emplace_back();
     canonical_positions(clip.skeleton, gp, out.back());
   }

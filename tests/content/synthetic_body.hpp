@@ -85,7 +85,7 @@ inline Eigen::Quaterniond aa(double angle, const Eigen::Vector3d& axis) {
 /// Guard stance at phase 0, right lunge punch forward at phase `hit` (0..1), back at 1.
 /// `frames` frames at 120 fps. Rotations are hand-written; the body stands on y = 0.
 inline Clip make_punch_clip(const Skeleton& s, int frames = 96, double hit = 0.5, double wobble = 0.0,
-                            std::string name = "synthetic_punch") {
+                            std::string name = "synthetic_punch", double reach_scale = 1.0) {
   Clip c;
   c.name = std::move(name);
   c.skeleton = s;
@@ -105,7 +105,8 @@ inline Clip make_punch_clip(const Skeleton& s, int frames = 96, double hit = 0.5
   for (int f = 0; f < frames; ++f) {
     const double ph = static_cast<double>(f) / (frames - 1);
     // e: extension 0 (guard) -> 1 (hit) -> 0.
-    const double e = ph < hit ? std::sin(0.5 * pi * ph / hit) : std::cos(0.5 * pi * (ph - hit) / (1 - hit));
+    double e = ph < hit ? std::sin(0.5 * pi * ph / hit) : std::cos(0.5 * pi * (ph - hit) / (1 - hit));
+    e *= reach_scale;
     const double w = wobble * std::sin(2 * pi * ph * 3);
     c.root_positions.emplace_back(0.02 * w, stand - 0.03 - 0.02 * e, 0.10 * e);
     std::vector<Eigen::Quaterniond> r(static_cast<std::size_t>(n), Eigen::Quaterniond::Identity());
