@@ -95,11 +95,15 @@ double lowest_foot(const std::vector<CanonicalPose>& poses) {
   return lo;
 }
 
-void add_segment(Database& db, const SegmentSource& src, const std::vector<CanonicalPose>& poses,
+void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPose> poses,
                  const Morphology& m, bool mirrored, const BuildOptions& o) {
   const Clip& clip = *src.clip;
   const double scale = db.actor.leg_length_m / m.leg_length_m;
-  const double floor_y = lowest_foot(poses);
+  // Put the floor at y = 0: features, hit paths and targets all measure height from it.
+  const double floor_y_raw = lowest_foot(poses);
+  for (auto& p : poses)
+    for (auto& j : p) j.y() -= floor_y_raw;
+  const double floor_y = 0;
   Segment seg;
   seg.name = mirrored ? src.name + ":mirror" : src.name;
   seg.source_clip = clip.name;

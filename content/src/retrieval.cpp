@@ -16,6 +16,21 @@ namespace {
 constexpr int kMaxClustersPerGroup = 512;  // bounds the stack arrays of retrieve()
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
+// Partial distance search: stops (returning a value > limit) once the running sum
+// exceeds limit^2, which leaves every decision of the full computation unchanged.
+double feature_distance_bounded(const float* a, const float* b, double limit) {
+  const double limit2 = limit * limit;
+  double s = 0;
+  for (int k = 0; k < kFeatureDim; k += 9) {
+    for (int j = k; j < k + 9; ++j) {
+      const double d = static_cast<double>(a[j]) - static_cast<double>(b[j]);
+      s += d * d;
+    }
+    if (s > limit2) return std::sqrt(s);
+  }
+  return std::sqrt(s);
+}
+
 double feature_distance(const float* a, const float* b) {
   double s = 0;
   for (int k = 0; k < kFeatureDim; ++k) {
@@ -274,8 +289,19 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
     for (int r = cl.first; r < cl.first + cl.count; ++r) {
       if (!box_contains(row_box(ix, r), q.target_m, tu.box_margin_m)) continue;
       ++st.rows_visited;
-      const double pd = feature_distance(q.features.data(), row_features(ix, r));
-      if (best.row >= 0 && tu.pose_weight * pd > best.cost) continue;  // cannot win or tie
+      // Lower bound from the row's own box before any feature work.
+      const double tlb = tu.trajectory_weight_per_m * box_distance(row_box(ix, r), q.target_m, 0);
+      if (best.row >= 0 && tlb - slack(tlb) > best.cost) continue;
+      double pd;
+      if (best.row >= 0 && tu.pose_weight > 0) {
+        const double limit = (best.cost - tlb) / tu.pose_weight + slack(best.cost);
+        pd = feature_distance_bounded(q.features.data(), row_features(ix, r), std::max(0.0, limit));
+        if (pd > limit) continue;  // cannot win or tie
+        pd = feature_distance(q.features.data(), row_features(ix, r));  // the exact value both searches use
+      } else {
+        pd = feature_distance(q.features.data(), row_features(ix, r));
+      }
+      ++st.rows_costed;
       RetrievalChoice c;
       row_cost(ix, r, q, tu, pd, c);
       if (better(c, best)) best = c;
@@ -306,6 +332,7 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
     for (int r = cl.first; r < cl.first + cl.count; ++r) {
       if (box_distance(row_box(ix, r), q.target_m, tu.box_margin_m) != min_box) continue;
       ++st.rows_visited;
+      ++st.rows_costed;
       RetrievalChoice c;
       row_cost(ix, r, q, tu, feature_distance(q.features.data(), row_features(ix, r)), c);
       if (better(c, best)) best = c;
@@ -313,6 +340,30 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
   }
   best.target_in_box = false;
   return best;
+}
+
+RetrievalIndex replicated_index(const RetrievalIndex& base, int copies, double feature_noise,
+                                double window_noise_m, std::uint32_t seed, int clusters_per_group) {
+  RetrievalIndex out;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n01(0, 1);
+  std::array<float, kFeatureDim> f{};
+  std::vector<Eigen::Vector3f> pts;
+  for (int c = 0; c < copies; ++c) {
+    for (int r = 0; r < base.size; ++r) {
+      const float* bf = row_features(base, r);
+      for (int a = 0; a < kFeatureDim; ++a) f[static_cast<std::size_t>(a)] = bf[a] + static_cast<float>(feature_noise * n01(rng));
+      const Eigen::Vector3f shift = Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).cast<float>() * static_cast<float>(window_noise_m);
+      pts.clear();
+      const float* w = base.window.data() + static_cast<std::size_t>(r) * kWindowMax * 3;
+      for (int k = 0; k < base.window_count[static_cast<std::size_t>(r)]; ++k)
+        pts.emplace_back(Eigen::Vector3f(w[3 * k], w[3 * k + 1], w[3 * k + 2]) + shift);
+      const auto ur = static_cast<std::size_t>(r);
+      out.add(base.group[ur], f, pts, base.segment[ur], base.start_frame[ur], base.window_first[ur], base.window_stride[ur]);
+    }
+  }
+  out.build_clusters(clusters_per_group, seed);
+  return out;
 }
 
 void pose_features(const CanonicalPose& now, const CanonicalPose& before, double dt_s,

@@ -86,13 +86,20 @@ struct RetrievalChoice {
 
 struct RetrievalStats {
   int clusters_visited = 0;
-  int rows_visited = 0;
+  int rows_visited = 0;  ///< rows whose box admitted the target
+  int rows_costed = 0;   ///< rows whose full cost was computed
 };
 
 RetrievalChoice retrieve(const RetrievalIndex& index, const RetrievalQuery& query,
                          const RetrievalTunables& tunables, RetrievalStats* stats = nullptr);
 RetrievalChoice retrieve_brute_force(const RetrievalIndex& index, const RetrievalQuery& query,
                                      const RetrievalTunables& tunables);
+
+/// A larger index for benchmarks and tests: `copies` replicas of `base`'s rows, each with
+/// gaussian noise on the features (`feature_noise`, feature units) and on the hit window
+/// (`window_noise_m`, m, one random offset per replica row), then re-clustered.
+RetrievalIndex replicated_index(const RetrievalIndex& base, int copies, double feature_noise,
+                                double window_noise_m, std::uint32_t seed, int clusters_per_group = 0);
 
 /// Features of a pose (canonical positions now and `dt_s` earlier, m) in `ground` (the
 /// pose's own ground frame). `velocity_weight_s` turns velocities into displacements.
