@@ -544,7 +544,7 @@ std::string format_bvh(const Clip& clip) {
     indent(it.depth);
     out += "{\n";
     indent(it.depth + 1);
-    out += fmt::format("OFFSET {:.6f} {:.6f} {:.6f}\n", o.x(), o.y(), o.z());
+    out += fmt::format("OFFSET {:.6f} {:.6f} {:.6f}\n", o.x() + 0.0, o.y() + 0.0, o.z() + 0.0);
     if (!s.end_site[j]) {
       indent(it.depth + 1);
       out += fmt::format("CHANNELS {}", chans[j].size());
@@ -592,7 +592,7 @@ std::string format_bvh(const Clip& clip) {
         }
         if (!first_value) out += ' ';
         first_value = false;
-        fmt::format_to(std::back_inserter(out), "{:.6f}", v);
+        fmt::format_to(std::back_inserter(out), "{:.6f}", v + 0.0);  // + 0.0: no "-0"
       }
     }
     out += '\n';

@@ -55,6 +55,21 @@ Proportions measure_proportions(const Skeleton& s) {
   p.shoulder_width_m = (at(CJ::l_shoulder) - at(CJ::r_shoulder)).norm();
   p.hip_width_m = (at(CJ::l_hip) - at(CJ::r_hip)).norm();
   p.pelvis_height_m = at(CJ::pelvis).y() - lo;
+  // Standing straight: head top = the highest joint in the head's subtree (or the head).
+  const int head = s.index(CJ::head) >= 0 ? s.index(CJ::head) : s.index(top);
+  int head_top = head;
+  for (int j = head + 1; head >= 0 && j < s.joint_count(); ++j) {
+    for (int a = j; a >= 0; a = s.parents[static_cast<std::size_t>(a)]) {
+      if (a == head) {
+        if (rest[static_cast<std::size_t>(j)].y() > rest[static_cast<std::size_t>(head_top)].y()) head_top = j;
+        break;
+      }
+    }
+  }
+  const double upper = head >= 0 ? chain_length(s, s.index(CJ::pelvis), head_top) : 0;
+  const double hip_drop = 0.5 * ((at(CJ::pelvis) - at(CJ::l_hip)).y() + (at(CJ::pelvis) - at(CJ::r_hip)).y());
+  const double ankle_height = 0.5 * (at(CJ::l_ankle).y() + at(CJ::r_ankle).y()) - lo;
+  p.standing_height_m = upper + hip_drop + p.leg_m + ankle_height;
   return p;
 }
 

@@ -8,6 +8,10 @@ namespace kumite::content {
 
 struct Proportions {
   double stature_m = 0;         ///< m, rest pose: highest minus lowest joint along +Y (incl. end sites)
+  /// m, height if standing straight: spine chain pelvis -> head top + pelvis-to-hip drop +
+  /// thigh + shin + ankle height (CMU rest poses splay the legs, so this exceeds stature_m
+  /// by about 5 %).
+  double standing_height_m = 0;
   double upper_arm_m = 0;       ///< m, shoulder -> elbow, mean of left and right
   double forearm_m = 0;         ///< m, elbow -> wrist, mean of left and right
   double arm_m = 0;             ///< m, shoulder -> wrist along the bones (upper arm + forearm)
