@@ -363,7 +363,8 @@ void Behaviour::update_feet(double dt) {
       // Step when the foot lags behind, or at once when the leg can no longer reach it
       // (a planted foot must never slide; lifting it is the honest alternative).
       const bool lagging = !other.stepping && (target - f.lock).norm() > tun_.step_threshold_m;
-      if (may_step && (lagging || !report_.foot_reached[static_cast<std::size_t>(s)])) {
+      const double stretch = (f.lock - rig_positions_[static_cast<std::size_t>(hip)]).norm() / rig.morphology.limb_leg_length(s);
+      if (may_step && (lagging || stretch > tun_.max_leg_stretch || !report_.foot_reached[static_cast<std::size_t>(s)])) {
         f.stepping = true;
         f.step_t = 0;
         f.step_from = f.lock;

@@ -9,6 +9,7 @@
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/content/annotation.hpp"
 
 namespace kumite::content {
 
@@ -298,6 +299,33 @@ Skeleton get_skeleton(Reader& r) {
 
 }  // namespace
 
+std::vector<SegmentSource> segment_sources(const AnnotationSet& set, const std::vector<Clip>& clips) {
+  std::vector<SegmentSource> out;
+  for (std::size_t c = 0; c < set.clips.size() && c < clips.size(); ++c) {
+    for (const MotionAnnotation& m : set.clips[c].motions) {
+      SegmentSource s;
+      s.clip = &clips[c];
+      s.name = m.name;
+      s.first_frame = m.first_frame;
+      s.last_frame = m.last_frame;
+      s.mirror = set.clips[c].mirror;
+      switch (m.semantics) {
+        case Semantics::punch:
+        case Semantics::kick:
+          s.kind = SegmentKind::strike;
+          if (m.hit_segment) s.effector = Effector{is_left(*m.hit_segment) ? kLeft : kRight, !is_hand(*m.hit_segment)};
+          s.hit_frame = m.hit_frame.value_or(-1);
+          break;
+        case Semantics::rest: s.kind = SegmentKind::rest; break;
+        case Semantics::walk: s.kind = SegmentKind::walk; break;
+        default: continue;
+      }
+      out.push_back(std::move(s));
+    }
+  }
+  return out;
+}
+
 Database build_database(std::span<const SegmentSource> sources, const BuildOptions& o) {
   Database db;
   db.velocity_weight_s = o.velocity_weight_s;
@@ -312,7 +340,7 @@ Database build_database(std::span<const SegmentSource> sources, const BuildOptio
     const Morphology m = skeleton_morphology(src.clip->skeleton, src.clip->name);
     const auto poses = clip_poses(*src.clip, src.first_frame, src.last_frame);
     add_segment(db, src, poses, m, false, o);
-    if (o.mirror) {
+    if (o.mirror && src.mirror) {
       std::vector<CanonicalPose> mirrored(poses.size());
       const GroundFrame g = ground_frame_of(poses.front());
       for (std::size_t f = 0; f < poses.size(); ++f) mirror_pose(poses[f], g, mirrored[f]);

@@ -78,3 +78,34 @@ inline const CmuSet& cmu_database() {
 }
 
 }  // namespace kumite::content::testing
+
+#include "kumite/content/annotation.hpp"
+#include "kumite/content/behaviour.hpp"
+#include "kumite/content/canonical.hpp"
+
+namespace kumite::content::testing {
+
+/// The SHIPPED content: content/motions/motions.toml built into a database (no ../shared
+/// needed), and the shipped characters.
+struct ShippedSet {
+  AnnotationSet annotations;
+  std::vector<Clip> clips;
+  std::shared_ptr<const Database> db;
+};
+inline const ShippedSet& shipped_database() {
+  static const ShippedSet set = [] {
+    ShippedSet s;
+    s.annotations = read_annotations(default_content_dir() / "motions" / "motions.toml");
+    s.clips = load_annotated_clips(s.annotations);
+    s.db = std::make_shared<const Database>(build_database(segment_sources(s.annotations, s.clips), {}));
+    return s;
+  }();
+  return set;
+}
+inline std::vector<Rig> shipped_characters() {
+  std::vector<Rig> rigs;
+  for (const char* n : {"aiko", "bruno", "kenji", "mei", "viktor"}) rigs.push_back(load_character_rig(n));
+  return rigs;
+}
+
+}  // namespace kumite::content::testing

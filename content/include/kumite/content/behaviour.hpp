@@ -66,6 +66,8 @@ struct BehaviourTunables {
   double walk_speed_mps = 0.7;        ///< m/s of the root while following
   double turn_speed_rad_s = 2.5;      ///< rad/s while turning to face the visitor
   double step_threshold_m = 0.12;     ///< m: a planted foot steps when its free place is this far
+  double max_leg_stretch = 0.97;      ///< hip->held ankle / leg length beyond which the foot steps
+                                      ///< (before the leg runs out of reach and the foot slides)
   double step_time_s = 0.30;          ///< s per procedural step
   double step_height_m = 0.06;        ///< m: foot lift at mid-step
   double unlock_time_s = 0.10;        ///< s: a released foot blends back to the motion

@@ -37,7 +37,14 @@ struct SegmentSource {
   SegmentKind kind = SegmentKind::other;
   std::optional<Effector> effector;  ///< strikes: the limb whose end hits
   int hit_frame = -1;            ///< strikes: clip frame of the hit
+  bool mirror = true;            ///< also add the left/right mirrored copy (BuildOptions::mirror too)
 };
+
+struct AnnotationSet;
+/// Segments of an annotation set (motions.toml) over its loaded clips (same order as
+/// set.clips): punches/kicks become strikes, rest and walk keep their kind, blocks and
+/// "other" are left out (the fighter does not use them yet).
+std::vector<SegmentSource> segment_sources(const AnnotationSet& set, const std::vector<Clip>& clips);
 
 struct BuildOptions {
   bool mirror = true;                 ///< add left/right mirrored copies
