@@ -69,8 +69,9 @@ struct TrunkDeltas {
   Quaterniond chest = Quaterniond::Identity();
   Quaterniond clavicle = Quaterniond::Identity();
   int clavicle_side = -1;
-  bool fixed_goal = false;  // pass 2 keeps the effector goal of pass 1 (it must not move with the trunk)
+  bool fixed_goal = false;  // later passes keep the effector goal of pass 1 (it must not move with the trunk)
   Vector3d goal{0, 0, 0};
+  double root_drop_m = 0;   // m: pelvis lowered so held feet stay within the legs' reach
 };
 
 struct PassOut {
@@ -91,7 +92,7 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
   std::array<Vector3d, 2> wrist_goal{Vector3d::Zero(), Vector3d::Zero()};
   std::array<Vector3d, 2> ankle_goal{Vector3d::Zero(), Vector3d::Zero()};
 
-  const Vector3d pelvis_pos(f.root_xz_m.x(), f.root_height_n * m.leg_length_m, f.root_xz_m.y());
+  const Vector3d pelvis_pos(f.root_xz_m.x(), f.root_height_n * m.leg_length_m - td.root_drop_m, f.root_xz_m.y());
   for (int i = 0; i < n; ++i) {
     const int p = sk.parents[static_cast<std::size_t>(i)];
     const auto ui = static_cast<std::size_t>(i);
@@ -140,7 +141,7 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
           goal = (1 - w) * goal + w * job.feet->ankle_m[s];
         }
         if (job.reach && job.reach->effector.leg && job.reach->effector.side == s) {
-          goal += job.reach->offset_m;
+          goal = td.fixed_goal ? td.goal : Vector3d(goal + job.reach->offset_m);
           out.effector_goal = goal;
         }
         const Vector3d axis = (goal - pos).normalized();
@@ -231,6 +232,27 @@ bool AdaptJob::Run() const {
   TrunkDeltas td;
   PassOut out;
   decode_pass(*this, td, out);
+  if (feet) {
+    // Held feet the legs cannot reach: lower the pelvis just enough (a knee bend) rather
+    // than let the feet slide. Continuous in the inputs, so it never pops.
+    double drop = 0;
+    for (int s = 0; s < 2; ++s) {
+      if (feet->weight[static_cast<std::size_t>(s)] < 1.0 || (reach && reach->effector.leg && reach->effector.side == s)) continue;
+      const Vector3d hip = joint_pos(*this, s == kLeft ? CJ::l_hip : CJ::r_hip);
+      const Vector3d d = feet->ankle_m[static_cast<std::size_t>(s)] - hip;
+      const double l = rig->morphology.limb_leg_length(s) * (1 - 1e-6);
+      const double h2 = d.x() * d.x() + d.z() * d.z();
+      if (d.squaredNorm() <= l * l || h2 >= l * l) continue;
+      drop = std::max(drop, -d.y() - std::sqrt(l * l - h2));
+    }
+    if (drop > 0) {
+      td.root_drop_m = drop;
+      td.fixed_goal = reach != nullptr;
+      td.goal = out.effector_goal;
+      out = PassOut{};
+      decode_pass(*this, td, out);
+    }
+  }
   const bool arm_reach = reach && !reach->effector.leg;
   bool trunk_used = false;
   if (arm_reach && !out.arm_reached[reach->effector.side]) {
@@ -257,8 +279,10 @@ bool AdaptJob::Run() const {
     if (slot[2] >= 0) { td.clavicle = deltas[slot[2]]; td.clavicle_side = s; }
     // The spine delta rotates about the spine joint, the chest delta about the chest: that
     // is what the decode pass does when it applies them to the aimed directions/frames.
-    td.fixed_goal = true;
-    td.goal = out.effector_goal;
+    if (!td.fixed_goal) {
+      td.fixed_goal = true;
+      td.goal = out.effector_goal;
+    }
     out = PassOut{};
     decode_pass(*this, td, out);
     trunk_used = true;

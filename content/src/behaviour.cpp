@@ -463,6 +463,13 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     reach = &goal;
   }
   update_feet(step);
+  if (reach && strike_.effector.leg) {
+    // The kicking foot leaves its lock on the same ramp as d(t): fully free at contact, so
+    // the goal there is exactly decoded + d (what compute_reach_error assumed).
+    const double ramp = goal.offset_m.norm() > 0 ? goal.offset_m.norm() / std::max(1e-12, strike_.error_m.norm()) : 0.0;
+    locks_.weight[static_cast<std::size_t>(strike_.effector.side)] *= std::clamp(1 - ramp, 0.0, 1.0);
+    if (contact_now) locks_.weight[static_cast<std::size_t>(strike_.effector.side)] = 0;
+  }
 
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   const auto n = static_cast<std::size_t>(rig.joint_count());

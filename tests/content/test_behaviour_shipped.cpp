@@ -39,6 +39,11 @@ Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) 
       o.max_slide_m = std::max(o.max_slide_m, d);
     }
   }
+  if (getenv("DBG")) {
+    const auto& st = b.strike();
+    std::printf("kind %d eff side %d leg %d seg %d start %d contact %d dist %.3f err (%.3f %.3f %.3f) reached %d\n", (int)kind, st.effector.side, (int)st.effector.leg,
+                st.plan.segment, st.plan.start_frame, st.plan.contact_frame, st.contact_distance_m, st.error_m.x(), st.error_m.y(), st.error_m.z(), (int)st.contact_reached);
+  }
   o.contact = b.strike().contact_done;
   o.reached = b.strike().contact_reached;
   o.hit = b.strike().hit;
