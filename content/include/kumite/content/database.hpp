@@ -61,7 +61,7 @@ struct BuildOptions {
 
 /// A segment as stored: frames are MKM (root_xz_m in the database actor's metres, in the
 /// clip's own floor frame).
-struct Segment {
+struct MotionSegment {
   std::string name;
   std::string source_clip;
   SegmentKind kind = SegmentKind::other;
@@ -82,7 +82,7 @@ struct Database {
   Skeleton actor_skeleton;     ///< for retargeting queries onto the actor (T-pose rest)
   Morphology actor;            ///< measured on actor_skeleton
   double velocity_weight_s = 0.10;  ///< s, as built (queries must use the same)
-  std::vector<Segment> segments;
+  std::vector<MotionSegment> segments;
   RetrievalIndex index;
 };
 
