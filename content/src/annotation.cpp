@@ -317,7 +317,8 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
     for (int f : peaks(height, cfg.kick_min_height * body.stature_m, W)) {
       const double vmax = max_in(ankle.speed, f - A, f);
       if (vmax < cfg.kick_min_speed) continue;
-      const auto [first, last] = bounds(ankle.speed, f, A, H, cfg.bound_speed_fraction);
+      const auto span = bounds(ankle.speed, f, A, H, cfg.bound_speed_fraction);
+      const int first = span.first, last = span.second;
       Found k;
       k.kind = is_left(seg) ? "kick_left" : "kick_right";
       k.m.semantics = Semantics::kick;
@@ -363,7 +364,8 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
       if (vmax < cfg.punch_min_speed || rmax < cfg.punch_min_radial_speed || drop_deg > cfg.punch_max_drop_deg) {
         continue;
       }
-      const auto [first, last] = bounds(wrist.speed, f, A, H, cfg.bound_speed_fraction);
+      const auto span = bounds(wrist.speed, f, A, H, cfg.bound_speed_fraction);
+      const int first = span.first, last = span.second;
       if (inside_kick(f, f)) continue;  // arms swing for balance during kicks
       Found p;
       p.kind = is_left(seg) ? "punch_left" : "punch_right";
@@ -380,7 +382,8 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
     }
     // Blocks: fast hands that are no punch (and not balance swings during kicks).
     for (int f : peaks(wrist.speed, cfg.block_min_speed, W)) {
-      const auto [first, last] = bounds(wrist.speed, f, A / 2, H / 2, cfg.bound_speed_fraction);
+      const auto span = bounds(wrist.speed, f, A / 2, H / 2, cfg.bound_speed_fraction);
+      const int first = span.first, last = span.second;
       const bool near_punch = std::any_of(punch_frames.begin(), punch_frames.end(),
                                           [&](int p) { return p >= first - A && p <= last + A; });
       if (near_punch || inside_kick(first, last)) continue;
