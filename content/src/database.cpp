@@ -148,9 +148,8 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
     const double ft = clip.frame_time_s;
     const int stride = std::max(1, static_cast<int>(std::lround(o.start_stride_s / ft)));
     const int last_start = std::min(static_cast<int>(o.start_window_s / ft), seg.hit_frame - static_cast<int>(std::lround(o.min_lead_s / ft)));
-    const int half = static_cast<int>(std::lround(o.window_half_s / ft));
-    const int wfirst = std::max(0, seg.hit_frame - half);
-    const int wlast = std::min(n - 1, seg.hit_frame + half);
+    const int wfirst = std::max(0, seg.hit_frame - static_cast<int>(std::lround(o.window_before_s / ft)));
+    const int wlast = std::min(n - 1, seg.hit_frame + static_cast<int>(std::lround(o.window_after_s / ft)));
     const int wstride = std::max(1, (wlast - wfirst + kWindowMax - 1) / (kWindowMax - 1));
     std::array<float, kFeatureDim> feat{};
     std::vector<Eigen::Vector3f> pts;
