@@ -348,24 +348,17 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
   // may hold such rows are visited best-bound-first, so a good best cost is found early and
   // the rest are cut off by their bounds. (thread_local: no allocation once warmed up.)
   thread_local std::vector<std::pair<double, int>> blocks;
-  blocks.clear();
+  std::array<std::pair<double, int>, kMaxClustersPerGroup> order;
+  int no = 0;
   for (int c = c0; c < c1; ++c) {
     const auto& cl = ix.clusters[static_cast<std::size_t>(c)];
     if (!box_contains(cl.box.data(), q.target_m, tu.box_margin_m)) continue;
-    ++st.clusters_visited;
-    for (int bi = cl.block_first; bi < cl.block_first + cl.block_count; ++bi) {
-      const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
-      if (!box_contains(blk.box.data(), q.target_m, tu.box_margin_m)) continue;
-      const double blb = tu.pose_weight * aabb_feature_distance(q.features.data(), blk.fmin, blk.fmax) +
-                         tu.trajectory_weight_per_m * box_distance(blk.box.data(), q.target_m, 0);
-      blocks.emplace_back(blb - slack(blb), bi);
-    }
+    const double pose_lb = std::max(0.0, feature_distance(q.features.data(), cl.centroid.data()) - cl.radius);
+    const double lb = tu.pose_weight * pose_lb + tu.trajectory_weight_per_m * box_distance(cl.box.data(), q.target_m, 0);
+    order[static_cast<std::size_t>(no++)] = {lb - slack(lb), c};
   }
-  std::sort(blocks.begin(), blocks.end());
-  st.blocks_considered = static_cast<int>(blocks.size());
-  for (const auto& [blb, bi] : blocks) {
-    if (best.row >= 0 && blb > best.cost) break;
-    ++st.blocks_visited;
+  std::sort(order.begin(), order.begin() + no);
+  auto visit_block = [&](int bi) {
     const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
     for (int r = blk.first; r < blk.first + blk.count; ++r) {
       if (!box_contains(row_box(ix, r), q.target_m, tu.box_margin_m)) continue;
@@ -387,15 +380,45 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
       row_cost(ix, r, q, tu, pd, c);
       if (better(c, best)) best = c;
     }
+  };
+  auto block_bound = [&](const RetrievalIndex::Block& blk) {
+    const double blb = tu.pose_weight * aabb_feature_distance(q.features.data(), blk.fmin, blk.fmax) +
+                       tu.trajectory_weight_per_m * box_distance(blk.box.data(), q.target_m, 0);
+    return blb - slack(blb);
+  };
+  // The nearest cluster first, block by block, for an early best cost; then the blocks of
+  // the other clusters that can still win, best bound first.
+  blocks.clear();
+  for (int i = 0; i < no; ++i) {
+    if (best.row >= 0 && order[static_cast<std::size_t>(i)].first > best.cost) break;
+    const auto& cl = ix.clusters[static_cast<std::size_t>(order[static_cast<std::size_t>(i)].second)];
+    ++st.clusters_visited;
+    for (int bi = cl.block_first; bi < cl.block_first + cl.block_count; ++bi) {
+      const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
+      if (!box_contains(blk.box.data(), q.target_m, tu.box_margin_m)) continue;
+      if (i == 0) {
+        visit_block(bi);
+        continue;
+      }
+      const double blb = block_bound(blk);
+      if (best.row >= 0 && blb > best.cost) continue;
+      blocks.emplace_back(blb, bi);
+    }
   }
-  std::array<std::pair<double, int>, kMaxClustersPerGroup> order;
-  int no = 0;
+  std::sort(blocks.begin(), blocks.end());
+  st.blocks_considered = static_cast<int>(blocks.size());
+  for (const auto& [blb, bi] : blocks) {
+    if (best.row >= 0 && blb > best.cost) break;
+    ++st.blocks_visited;
+    visit_block(bi);
+  }
   if (best.row >= 0) {
     best.target_in_box = true;
     return best;
   }
 
   // Pass B (no box contains the target): the nearest box(es), then the lowest cost among them.
+  no = 0;
   for (int c = c0; c < c1; ++c) {
     const auto& cl = ix.clusters[static_cast<std::size_t>(c)];
     const double lb = box_distance(cl.box.data(), q.target_m, tu.box_margin_m);
