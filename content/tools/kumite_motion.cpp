@@ -365,21 +365,26 @@ int run_bench(const BenchArgs& a) {
   long costed = 0, visited = 0, blocks_considered = 0, blocks_visited = 0;
   int in_box = 0;
   std::vector<double> in_box_us, fallback_us;
+  // Each search in its own loop (neither evicts the other's data between queries).
+  std::vector<RetrievalChoice> fast_choices;
   for (const auto& q : queries) {
     RetrievalStats st;
     t0 = now_s();
     const RetrievalChoice fast = retrieve(big, q, planner.tunables(), &st);
     fast_us.push_back((now_s() - t0) * 1e6);
+    fast_choices.push_back(fast);
     (fast.target_in_box ? in_box_us : fallback_us).push_back(fast_us.back());
     in_box += fast.target_in_box;
     costed += st.rows_costed;
     visited += st.rows_visited;
     blocks_considered += st.blocks_considered;
     blocks_visited += st.blocks_visited;
+  }
+  for (std::size_t i = 0; i < queries.size(); ++i) {
     t0 = now_s();
-    const RetrievalChoice brute = retrieve_brute_force(big, q, planner.tunables());
+    const RetrievalChoice brute = retrieve_brute_force(big, queries[i], planner.tunables());
     slow_us.push_back((now_s() - t0) * 1e6);
-    mismatches += fast.row != brute.row || fast.cost != brute.cost;
+    mismatches += fast_choices[i].row != brute.row || fast_choices[i].cost != brute.cost;
   }
   j["scaled"] = {{"clips", copies * strike_segments}, {"rows", big.size}, {"clusters", big.clusters.size()},
                  {"index_build_s", build_s}, {"search_us", stats_json(fast_us)}, {"brute_force_us", stats_json(slow_us)},
