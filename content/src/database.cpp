@@ -454,15 +454,15 @@ Database parse_database(std::string_view bytes, std::string_view name) {
       ix.window_count.size() != n || ix.box.size() != n * 6 || ix.segment.size() != n || ix.start_frame.size() != n ||
       ix.window_first.size() != n || ix.window_stride.size() != n || ix.group.size() != n)
     body.fail("corrupt", "retrieval index arrays disagree in size");
-  for (std::size_t r = 0; r < n; ++r) {
-    const int s = ix.segment[r];
-    if (s < 0 || s >= static_cast<int>(db.segments.size())) body.fail("corrupt", fmt::format("row {}: segment {} out of range", r, s));
+  for (std::size_t row = 0; row < n; ++row) {
+    const int s = ix.segment[row];
+    if (s < 0 || s >= static_cast<int>(db.segments.size())) body.fail("corrupt", fmt::format("row {}: segment {} out of range", row, s));
     const MotionSegment& seg = db.segments[static_cast<std::size_t>(s)];
-    const int last_window = ix.window_first[r] + ix.window_stride[r] * (ix.window_count[r] - 1);
-    if (ix.window_count[r] < 1 || ix.window_count[r] > kWindowMax || ix.group[r] != seg.effector_group ||
-        ix.start_frame[r] < 0 || ix.start_frame[r] >= seg.frame_count() || ix.window_first[r] < 0 ||
-        ix.window_stride[r] < 1 || last_window >= seg.frame_count())
-      body.fail("corrupt", fmt::format("row {}: inconsistent with segment '{}'", r, seg.name));
+    const int last_window = ix.window_first[row] + ix.window_stride[row] * (ix.window_count[row] - 1);
+    if (ix.window_count[row] < 1 || ix.window_count[row] > kWindowMax || ix.group[row] != seg.effector_group ||
+        ix.start_frame[row] < 0 || ix.start_frame[row] >= seg.frame_count() || ix.window_first[row] < 0 ||
+        ix.window_stride[row] < 1 || last_window >= seg.frame_count())
+      body.fail("corrupt", fmt::format("row {}: inconsistent with segment '{}'", row, seg.name));
   }
   const auto nc = body.count("clusters", 8);
   for (std::uint64_t c = 0; c < nc; ++c) {
