@@ -426,31 +426,29 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
   }
   std::sort(order.begin(), order.begin() + no);
   double min_box = kInf;
-  for (int i = 0; i < no && order[static_cast<std::size_t>(i)].first <= min_box; ++i) {
-    const auto& cl = ix.clusters[static_cast<std::size_t>(order[static_cast<std::size_t>(i)].second)];
-    for (int bi = cl.block_first; bi < cl.block_first + cl.block_count; ++bi) {
-      const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
-      const double blb = box_distance(blk.box.data(), q.target_m, tu.box_margin_m);
-      if (blb - slack(blb) > min_box) continue;
-      for (int r = blk.first; r < blk.first + blk.count; ++r)
-        min_box = std::min(min_box, box_distance(row_box(ix, r), q.target_m, tu.box_margin_m));
-    }
-  }
+  blocks.clear();  // blocks that may hold the nearest box, revisited below
   for (int i = 0; i < no && order[static_cast<std::size_t>(i)].first <= min_box; ++i) {
     const auto& cl = ix.clusters[static_cast<std::size_t>(order[static_cast<std::size_t>(i)].second)];
     ++st.clusters_visited;
     for (int bi = cl.block_first; bi < cl.block_first + cl.block_count; ++bi) {
       const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
-      const double blb = box_distance(blk.box.data(), q.target_m, tu.box_margin_m);
+      const double blb = box_distance(blk.box.data(), q.target_m, tu.box_margin_m) ;
       if (blb - slack(blb) > min_box) continue;
-      for (int r = blk.first; r < blk.first + blk.count; ++r) {
-        if (box_distance(row_box(ix, r), q.target_m, tu.box_margin_m) != min_box) continue;
-        ++st.rows_visited;
-        ++st.rows_costed;
-        RetrievalChoice c;
-        row_cost(ix, r, q, tu, feature_distance(q.features.data(), row_features(ix, r)), c);
-        if (better(c, best)) best = c;
-      }
+      blocks.emplace_back(blb - slack(blb), bi);
+      for (int r = blk.first; r < blk.first + blk.count; ++r)
+        min_box = std::min(min_box, box_distance(row_box(ix, r), q.target_m, tu.box_margin_m));
+    }
+  }
+  for (const auto& [blb, bi] : blocks) {
+    if (blb > min_box) continue;
+    const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
+    for (int r = blk.first; r < blk.first + blk.count; ++r) {
+      if (box_distance(row_box(ix, r), q.target_m, tu.box_margin_m) != min_box) continue;
+      ++st.rows_visited;
+      ++st.rows_costed;
+      RetrievalChoice c;
+      row_cost(ix, r, q, tu, feature_distance(q.features.data(), row_features(ix, r)), c);
+      if (better(c, best)) best = c;
     }
   }
   best.target_in_box = false;
