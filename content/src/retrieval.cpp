@@ -104,6 +104,71 @@ const float* row_box(const RetrievalIndex& ix, int row) {
 // Slack so that float rounding in a lower bound never prunes a cluster holding the optimum.
 double slack(double v) { return 1e-6 * (1.0 + std::abs(v)); }
 
+void grow_box(std::array<float, 6>& box, const float* b) {
+  for (std::size_t a = 0; a < 3; ++a) {
+    box[a] = std::min(box[a], b[a]);
+    box[3 + a] = std::max(box[3 + a], b[3 + a]);
+  }
+}
+constexpr std::array<float, 6> kEmptyBox{FLT_MAX, FLT_MAX, FLT_MAX, -FLT_MAX, -FLT_MAX, -FLT_MAX};
+
+// The spatial index (see RetrievalIndex::SpatialBlock): per group, Morton order of the box
+// centres over the group's extent, then small and large blocks with their unions of boxes.
+void build_spatial_index(RetrievalIndex& ix) {
+  ix.spatial_rows.clear();
+  ix.spatial_box.clear();
+  ix.spatial_small.clear();
+  ix.spatial_large.clear();
+  constexpr int B = RetrievalIndex::kBlockRows;
+  std::vector<std::pair<std::uint32_t, std::int32_t>> keyed;
+  for (int g = 0; g < kGroupCount; ++g) {
+    ix.group_spatial_large[static_cast<std::size_t>(g)] = static_cast<std::int32_t>(ix.spatial_large.size());
+    std::array<float, 6> extent = kEmptyBox;  // of the box centres
+    keyed.clear();
+    for (int r = 0; r < ix.size; ++r) {
+      if (ix.group[static_cast<std::size_t>(r)] != g) continue;
+      const float* b = ix.box.data() + static_cast<std::size_t>(r) * 6;
+      const float c[6] = {0.5f * (b[0] + b[3]), 0.5f * (b[1] + b[4]), 0.5f * (b[2] + b[5]),
+                          0.5f * (b[0] + b[3]), 0.5f * (b[1] + b[4]), 0.5f * (b[2] + b[5])};
+      grow_box(extent, c);
+      keyed.emplace_back(0u, r);
+    }
+    for (auto& [code, r] : keyed) {
+      const float* b = ix.box.data() + static_cast<std::size_t>(r) * 6;
+      code = 0;
+      for (std::size_t a = 0; a < 3; ++a) {
+        const float lo = extent[a], hi = extent[3 + a];
+        const float mid = 0.5f * (b[a] + b[3 + a]);
+        const auto qv = static_cast<std::uint32_t>(std::clamp((mid - lo) / std::max(1e-6f, hi - lo), 0.0f, 1.0f) * 1023.0f);
+        for (std::uint32_t bit = 0; bit < 10; ++bit) code |= ((qv >> bit) & 1u) << (3 * bit + a);
+      }
+    }
+    std::sort(keyed.begin(), keyed.end());
+    const auto row0 = static_cast<std::int32_t>(ix.spatial_rows.size());
+    for (const auto& [code, r] : keyed) {
+      ix.spatial_rows.push_back(r);
+      const float* b = ix.box.data() + static_cast<std::size_t>(r) * 6;
+      ix.spatial_box.insert(ix.spatial_box.end(), b, b + 6);
+    }
+    const auto small0 = static_cast<std::int32_t>(ix.spatial_small.size());
+    const auto n = static_cast<std::int32_t>(keyed.size());
+    for (std::int32_t i = 0; i < n; i += B) {
+      RetrievalIndex::SpatialBlock sb{kEmptyBox, row0 + i, std::min(B, n - i)};
+      for (std::int32_t k = sb.first; k < sb.first + sb.count; ++k)
+        grow_box(sb.box, ix.spatial_box.data() + static_cast<std::size_t>(k) * 6);
+      ix.spatial_small.push_back(sb);
+    }
+    const auto ns = static_cast<std::int32_t>(ix.spatial_small.size()) - small0;
+    for (std::int32_t i = 0; i < ns; i += B) {
+      RetrievalIndex::SpatialBlock lb{kEmptyBox, small0 + i, std::min(B, ns - i)};
+      for (std::int32_t k = lb.first; k < lb.first + lb.count; ++k)
+        grow_box(lb.box, ix.spatial_small[static_cast<std::size_t>(k)].box.data());
+      ix.spatial_large.push_back(lb);
+    }
+  }
+  ix.group_spatial_large[kGroupCount] = static_cast<std::int32_t>(ix.spatial_large.size());
+}
+
 }  // namespace
 
 void RetrievalIndex::add(int g, std::span<const float> f, std::span<const Eigen::Vector3f> pts, int seg,
@@ -308,6 +373,7 @@ void RetrievalIndex::build_blocks() {
     }
     cl.block_count = static_cast<std::int32_t>(blocks.size()) - cl.block_first;
   }
+  build_spatial_index(*this);
 }
 
 RetrievalChoice retrieve_brute_force(const RetrievalIndex& ix, const RetrievalQuery& q,
@@ -333,6 +399,69 @@ RetrievalChoice retrieve_brute_force(const RetrievalIndex& ix, const RetrievalQu
   return best;
 }
 
+namespace {
+
+// Up to this many eligible rows (boxes holding the target) are costed directly; more go
+// through the pose clusters, whose bounds skip most of them. (rows; ~25 ns each)
+constexpr std::size_t kDirectRows = 1024;
+
+// Rows of group g whose inflated box holds the target, found through the spatial blocks.
+void eligible_rows(const RetrievalIndex& ix, int g, const Eigen::Vector3f& t, double margin,
+                   std::vector<std::int32_t>& out, RetrievalStats& st) {
+  const auto l0 = ix.group_spatial_large[static_cast<std::size_t>(g)];
+  const auto l1 = ix.group_spatial_large[static_cast<std::size_t>(g) + 1];
+  for (auto li = l0; li < l1; ++li) {
+    const auto& lb = ix.spatial_large[static_cast<std::size_t>(li)];
+    if (!box_contains(lb.box.data(), t, margin)) continue;
+    for (auto si = lb.first; si < lb.first + lb.count; ++si) {
+      const auto& sb = ix.spatial_small[static_cast<std::size_t>(si)];
+      if (!box_contains(sb.box.data(), t, margin)) continue;
+      ++st.blocks_considered;
+      for (auto k = sb.first; k < sb.first + sb.count; ++k)
+        if (box_contains(ix.spatial_box.data() + static_cast<std::size_t>(k) * 6, t, margin))
+          out.push_back(ix.spatial_rows[static_cast<std::size_t>(k)]);
+    }
+  }
+}
+
+// Rows of group g whose inflated box is nearest the target (none holds it): large blocks
+// best-first, then their small blocks, stopping once a bound exceeds the nearest so far.
+void nearest_box_rows(const RetrievalIndex& ix, int g, const Eigen::Vector3f& t, double margin,
+                      std::vector<std::pair<double, int>>& order, std::vector<std::int32_t>& out,
+                      RetrievalStats& st) {
+  const auto l0 = ix.group_spatial_large[static_cast<std::size_t>(g)];
+  const auto l1 = ix.group_spatial_large[static_cast<std::size_t>(g) + 1];
+  order.clear();
+  for (auto li = l0; li < l1; ++li) {
+    const double lb = box_distance(ix.spatial_large[static_cast<std::size_t>(li)].box.data(), t, margin);
+    order.emplace_back(lb - slack(lb), li);
+  }
+  std::sort(order.begin(), order.end());
+  double min_box = kInf;
+  for (const auto& [lb, li] : order) {
+    if (lb > min_box) break;
+    const auto& large = ix.spatial_large[static_cast<std::size_t>(li)];
+    for (auto si = large.first; si < large.first + large.count; ++si) {
+      const auto& sb = ix.spatial_small[static_cast<std::size_t>(si)];
+      const double sd = box_distance(sb.box.data(), t, margin);
+      if (sd - slack(sd) > min_box) continue;
+      ++st.blocks_visited;
+      for (auto k = sb.first; k < sb.first + sb.count; ++k) {
+        // The same function on the same floats as the brute force: an exact comparison.
+        const double d = box_distance(ix.spatial_box.data() + static_cast<std::size_t>(k) * 6, t, margin);
+        if (d > min_box) continue;
+        if (d < min_box) {
+          min_box = d;
+          out.clear();
+        }
+        out.push_back(ix.spatial_rows[static_cast<std::size_t>(k)]);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, const RetrievalTunables& tu,
                          RetrievalStats* stats) {
   RetrievalStats local_stats;
@@ -343,11 +472,57 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
   const int nc = c1 - c0;
   RetrievalChoice best;
   if (nc <= 0) return best;
-
-  // Pass A: candidates whose inflated box contains the target. Blocks of the clusters that
-  // may hold such rows are visited best-bound-first, so a good best cost is found early and
-  // the rest are cut off by their bounds. (thread_local: no allocation once warmed up.)
+  // (thread_local: no allocation once warmed up.)
+  thread_local std::vector<std::int32_t> rows;
   thread_local std::vector<std::pair<double, int>> blocks;
+
+  // One candidate: cheap bounds first, then the partial pose distance against the best.
+  auto consider_row = [&](int r) {
+    ++st.rows_visited;
+    const double tlb = tu.trajectory_weight_per_m * box_distance(row_box(ix, r), q.target_m, 0);
+    if (best.row >= 0 && tlb - slack(tlb) > best.cost) return;
+    double pd;
+    if (best.row >= 0 && tu.pose_weight > 0) {
+      const double limit = (best.cost - tlb) / tu.pose_weight + slack(best.cost);
+      pd = feature_distance_bounded(q.features.data(), row_features(ix, r), std::max(0.0, limit));
+      if (pd > limit) return;  // cannot win or tie
+      // pd completed every dimension in the same order as feature_distance(): same value.
+    } else {
+      pd = feature_distance(q.features.data(), row_features(ix, r));
+    }
+    ++st.rows_costed;
+    RetrievalChoice c;
+    row_cost(ix, r, q, tu, pd, c);
+    if (better(c, best)) best = c;
+  };
+
+  // Which rows' inflated boxes hold the target (the spatial blocks find them)?
+  rows.clear();
+  eligible_rows(ix, q.group, q.target_m, tu.box_margin_m, rows, st);
+  if (rows.empty()) {
+    // Fallback: the nearest box(es), then the lowest cost among them.
+    nearest_box_rows(ix, q.group, q.target_m, tu.box_margin_m, blocks, rows, st);
+    for (int r : rows) {
+      ++st.rows_visited;
+      ++st.rows_costed;
+      RetrievalChoice c;
+      row_cost(ix, r, q, tu, feature_distance(q.features.data(), row_features(ix, r)), c);
+      if (better(c, best)) best = c;
+    }
+    best.target_in_box = false;
+    return best;
+  }
+  if (rows.size() <= kDirectRows) {
+    // Few: cost them directly, in row order (cluster by cluster, so similar poses come
+    // together and the partial distances cut off early once a good one is found).
+    std::sort(rows.begin(), rows.end());
+    for (int r : rows) consider_row(r);
+    best.target_in_box = true;
+    return best;
+  }
+
+  // Many: the blocks of the pose clusters that may hold eligible rows, best bound first, so
+  // a good best cost is found early and the rest are cut off by their bounds.
   std::array<std::pair<double, int>, kMaxClustersPerGroup> order;
   int no = 0;
   for (int c = c0; c < c1; ++c) {
@@ -360,26 +535,8 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
   std::sort(order.begin(), order.begin() + no);
   auto visit_block = [&](int bi) {
     const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
-    for (int r = blk.first; r < blk.first + blk.count; ++r) {
-      if (!box_contains(row_box(ix, r), q.target_m, tu.box_margin_m)) continue;
-      ++st.rows_visited;
-      // Lower bound from the row's own box before any feature work.
-      const double tlb = tu.trajectory_weight_per_m * box_distance(row_box(ix, r), q.target_m, 0);
-      if (best.row >= 0 && tlb - slack(tlb) > best.cost) continue;
-      double pd;
-      if (best.row >= 0 && tu.pose_weight > 0) {
-        const double limit = (best.cost - tlb) / tu.pose_weight + slack(best.cost);
-        pd = feature_distance_bounded(q.features.data(), row_features(ix, r), std::max(0.0, limit));
-        if (pd > limit) continue;  // cannot win or tie
-        // pd completed every dimension in the same order as feature_distance(): same value.
-      } else {
-        pd = feature_distance(q.features.data(), row_features(ix, r));
-      }
-      ++st.rows_costed;
-      RetrievalChoice c;
-      row_cost(ix, r, q, tu, pd, c);
-      if (better(c, best)) best = c;
-    }
+    for (int r = blk.first; r < blk.first + blk.count; ++r)
+      if (box_contains(row_box(ix, r), q.target_m, tu.box_margin_m)) consider_row(r);
   };
   auto block_bound = [&](const RetrievalIndex::Block& blk) {
     const double blb = tu.pose_weight * aabb_feature_distance(q.features.data(), blk.fmin, blk.fmax) +
@@ -406,52 +563,12 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
     }
   }
   std::sort(blocks.begin(), blocks.end());
-  st.blocks_considered = static_cast<int>(blocks.size());
   for (const auto& [blb, bi] : blocks) {
     if (best.row >= 0 && blb > best.cost) break;
     ++st.blocks_visited;
     visit_block(bi);
   }
-  if (best.row >= 0) {
-    best.target_in_box = true;
-    return best;
-  }
-
-  // Pass B (no box contains the target): the nearest box(es), then the lowest cost among them.
-  no = 0;
-  for (int c = c0; c < c1; ++c) {
-    const auto& cl = ix.clusters[static_cast<std::size_t>(c)];
-    const double lb = box_distance(cl.box.data(), q.target_m, tu.box_margin_m);
-    order[static_cast<std::size_t>(no++)] = {lb - slack(lb), c};
-  }
-  std::sort(order.begin(), order.begin() + no);
-  double min_box = kInf;
-  blocks.clear();  // blocks that may hold the nearest box, revisited below
-  for (int i = 0; i < no && order[static_cast<std::size_t>(i)].first <= min_box; ++i) {
-    const auto& cl = ix.clusters[static_cast<std::size_t>(order[static_cast<std::size_t>(i)].second)];
-    ++st.clusters_visited;
-    for (int bi = cl.block_first; bi < cl.block_first + cl.block_count; ++bi) {
-      const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
-      const double blb = box_distance(blk.box.data(), q.target_m, tu.box_margin_m) ;
-      if (blb - slack(blb) > min_box) continue;
-      blocks.emplace_back(blb - slack(blb), bi);
-      for (int r = blk.first; r < blk.first + blk.count; ++r)
-        min_box = std::min(min_box, box_distance(row_box(ix, r), q.target_m, tu.box_margin_m));
-    }
-  }
-  for (const auto& [blb, bi] : blocks) {
-    if (blb > min_box) continue;
-    const auto& blk = ix.blocks[static_cast<std::size_t>(bi)];
-    for (int r = blk.first; r < blk.first + blk.count; ++r) {
-      if (box_distance(row_box(ix, r), q.target_m, tu.box_margin_m) != min_box) continue;
-      ++st.rows_visited;
-      ++st.rows_costed;
-      RetrievalChoice c;
-      row_cost(ix, r, q, tu, feature_distance(q.features.data(), row_features(ix, r)), c);
-      if (better(c, best)) best = c;
-    }
-  }
-  best.target_in_box = false;
+  best.target_in_box = true;  // rows is not empty: some row was eligible
   return best;
 }
 

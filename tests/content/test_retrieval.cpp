@@ -70,6 +70,30 @@ TEST(Retrieval, EqualsBruteForceOnAReplicatedPerturbedDatabaseAndPrunes) {
   EXPECT_LT(visited / 150, ix.size / 10);  // the index prunes most rows
 }
 
+TEST(Retrieval, EqualsBruteForceWhetherFewManyOrNoBoxesHoldTheTarget) {
+  // A wide margin makes every box of the group hold the target (the pose-cluster path),
+  // no margin with far targets leaves none (the nearest-box path), the default few.
+  const auto& base = kumite::content::testing::synthetic_database().db->index;
+  const RetrievalIndex ix = replicated_index(base, 60, 0.05, 0.03, 17);
+  std::mt19937 rng(9);
+  int in_box = 0, outside = 0, through_clusters = 0;
+  for (RetrievalTunables tu : {RetrievalTunables{1.0, 5.0, 10.0}, RetrievalTunables{1.0, 5.0, 0.0}, RetrievalTunables{}}) {
+    for (double spread : {0.05, 0.5}) {
+      for (int i = 0; i < 60; ++i) {
+        const RetrievalQuery q = random_query(ix, rng, spread, 0.1);
+        RetrievalStats st;
+        const RetrievalChoice fast = retrieve(ix, q, tu, &st);
+        expect_same(fast, retrieve_brute_force(ix, q, tu));
+        (fast.target_in_box ? in_box : outside) += 1;
+        through_clusters += st.clusters_visited > 0;
+      }
+    }
+  }
+  EXPECT_GT(in_box, 120);
+  EXPECT_GT(outside, 30);
+  EXPECT_GT(through_clusters, 60);  // the pose-cluster path (many eligible rows) was taken
+}
+
 TEST(Retrieval, TheStartPoseOfAClipRetrievesThatClipsStart) {
   const auto& set = kumite::content::testing::synthetic_database();
   const Database& db = *set.db;

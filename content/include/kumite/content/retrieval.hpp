@@ -9,9 +9,12 @@
 // over the ELIGIBLE candidates of the ordered effector: those whose hit-window bounding box
 // (inflated by box_margin_m) contains the target, or, when none does, those whose box is
 // nearest. retrieve() returns exactly what retrieve_brute_force() returns (same cost, ties to
-// the lower candidate index); it visits k-means pose clusters nearest-first and skips a
-// cluster when a lower bound of its cost (triangle inequality on the cluster radius + the
-// distance to the union of its boxes) cannot beat the best so far.
+// the lower candidate index). A spatial index over the rows' boxes (two levels of block
+// boxes) finds the eligible rows, or the nearest box(es) best-first; few eligible rows are
+// costed directly with partial pose distances; many go through the k-means pose clusters
+// nearest-first, skipping a cluster or block when a lower bound of its cost (triangle
+// inequality on the cluster radius, the block's feature ranges, + the distance to the union
+// of its boxes) cannot beat the best so far.
 //
 // Layout (as in orangeduck's Motion-Matching): flat float arrays, one row per candidate,
 // candidates sorted by (group, cluster) so a cluster is a contiguous block.
@@ -59,6 +62,21 @@ struct RetrievalIndex {
     std::array<float, kFeatureDim> fmin{}, fmax{};
   };
   static constexpr int kBlockRows = 16;
+  /// A second, purely spatial index over the same rows (derived, not stored): per group,
+  /// the rows sorted along a Morton curve of their box centres (over the whole group, not
+  /// per cluster), cut into small blocks of kBlockRows rows and large blocks of
+  /// kBlockRows small blocks, each with the union of its boxes. It answers "which rows'
+  /// boxes may hold the target" and "which box is nearest" without touching the pose
+  /// clusters, whose unions of boxes are broad.
+  struct SpatialBlock {
+    std::array<float, 6> box{};    ///< m, union of the boxes below it
+    std::int32_t first = 0, count = 0;  ///< small block: spatial_rows; large: spatial_small
+  };
+  std::vector<std::int32_t> spatial_rows;    ///< row ids, group by group, Morton order
+  std::vector<float> spatial_box;            ///< m, [i * 6]: box of spatial_rows[i] (a copy)
+  std::vector<SpatialBlock> spatial_small;   ///< kBlockRows rows each
+  std::vector<SpatialBlock> spatial_large;   ///< kBlockRows small blocks each
+  std::array<std::int32_t, kGroupCount + 1> group_spatial_large{};  ///< large blocks of g
   std::int32_t size = 0;                     ///< candidates
   std::vector<float> features;               ///< [row * kFeatureDim]
   std::vector<float> window;                 ///< m, [row * kWindowMax * 3], start ground frame
