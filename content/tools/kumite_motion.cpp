@@ -397,7 +397,10 @@ int run_bench(const BenchArgs& a) {
                  {"blocks_visited_mean", static_cast<double>(blocks_visited) / static_cast<double>(queries.size())},
                  {"queries_target_in_box", in_box}, {"search_in_box_us", stats_json(in_box_us)},
                  {"search_fallback_us", stats_json(fallback_us)}, {"feature_noise", a.feature_noise}, {"window_noise_m", a.window_noise_m},
-                 {"mismatches_vs_brute_force", mismatches}};
+                 {"mismatches_vs_brute_force", mismatches},
+                 {"brute_force_method", "retrieve_brute_force: a loop over the effector's rows for the box filter (stops "
+                                        "at the first box holding the target, else finds the nearest box distance), "
+                                        "then a loop computing the full cost of each eligible row; same cost, no index"}};
 
   // 3. Adaptation per frame (blend + retarget + reach + feet), strikes on every character.
   std::vector<double> adapt_us;
