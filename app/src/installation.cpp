@@ -177,7 +177,7 @@ void Installation::apply_orders(Timestamp now) {
     if (o.kind == OrderKind::resume) console_.paused = false;
     if (!fighter_) {
       e.type = "order_ignored";
-      e.text = "no fighter (" + fighter_problem_ + ")";
+      e.text = fighter_problem_;
       note(e);
       continue;
     }
