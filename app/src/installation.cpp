@@ -63,6 +63,31 @@ FrameEvent to_frame_event(const content::FighterEvent& e, Timestamp start) {
   return f;
 }
 
+/// Says which file is missing before the content module gets to it (the operator's view).
+void check_fighter_files(const InstallationConfig& c) {
+  if (c.fighter.database.empty())
+    throw file_error("config", "missing_key", c.file.string(), c.line_of("fighter"),
+                     "fighter.database", "no fighter database configured");
+  const auto db = c.resolve(c.fighter.database);
+  if (!std::filesystem::exists(db))
+    throw file_error("config", "missing_file", c.file.string(), c.line_of("fighter.database"),
+                     "fighter.database",
+                     fmt::format("{} does not exist (made at set-up: scripts/make-demo-data.sh)",
+                                 db.string()));
+  if (c.characters.empty())
+    throw file_error("config", "missing_key", c.file.string(), 0, "characters",
+                     "no [[characters]] configured");
+  for (std::size_t i = 0; i < c.characters.size(); ++i) {
+    const auto bvh = c.resolve(c.characters[i].bvh);
+    if (!std::filesystem::exists(bvh))
+      throw file_error("config", "missing_file", c.file.string(),
+                       c.line_of(fmt::format("characters[{}].bvh", i)),
+                       fmt::format("characters[{}].bvh", i),
+                       fmt::format("character {} \"{}\": {} does not exist", i + 1,
+                                   c.characters[i].name, bvh.string()));
+  }
+}
+
 }  // namespace
 
 std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why) {
@@ -82,6 +107,7 @@ Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingIn
   if (script) script_ = OrderScript(load_orders_script(*script), 0);
   // A missing database or character is not: the walls still draw, the console says why.
   try {
+    check_fighter_files(config_);
     fighter_ = content::Fighter::create(fighter_config(config_));
   } catch (const std::exception& e) {
     fighter_problem_ = std::string("no fighter: ") + e.what();

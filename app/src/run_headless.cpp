@@ -1,4 +1,5 @@
 // Headless runs: EGL surfaceless context, one framebuffer per wall, PNG per wall and eye.
+#include <algorithm>
 #include <chrono>
 #include <thread>
 
@@ -36,9 +37,14 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   inst.start(t0);
   double render_s = 0, png_s = 0;
   for (int i = 0; i < opt.frames && !inst.quit_requested(); ++i) {
-    const Timestamp t = t0 + i * step;
-    if (opt.real_time)
+    // Real time: wait for the frame's slot; when rendering is slower than the display rate,
+    // the frame is late and takes the present time (the fighter and tracker move on in real
+    // time). Simulated: exact steps of 1/rate, as fast as rendering goes.
+    Timestamp t = t0 + i * step;
+    if (opt.real_time) {
       while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
+      t = std::max(t, now());
+    }
     const FrameData& f = inst.step(t);
     const bool save = opt.save_every > 0 && i % opt.save_every == 0;
     for (std::size_t w = 0; w < targets.size(); ++w) {
