@@ -1,0 +1,142 @@
+// Accuracy and robustness on SYNTHETIC frames (rendered in memory from a known trajectory):
+// the figures of issue 4, each on a short run.
+#include <gtest/gtest.h>
+
+#include "synthetic_run.hpp"
+
+using namespace kumite;
+using namespace kumite::tracking;
+using namespace kumite::tracking::ktest;
+
+namespace {
+
+SynthOptions noisy() {
+  SynthOptions o;
+  o.centroid_noise_px = 0.3;
+  o.image_noise = 2.0;
+  return o;
+}
+
+}  // namespace
+
+TEST(Accuracy, MovingVisitorWithPointThreePixelNoise) {
+  const auto rig = corner_rig();
+  const auto config = shipped_config();
+  // 1.5 s of the scripted visitor starting in a dodge (fast sideways motion).
+  const auto s = run_synthetic(rig, config, noisy(), [](double t) { return scripted_visitor(t + 4.4); }, 90);
+  EXPECT_EQ(s.tracked, 90);
+  EXPECT_LE(s.raw_pos_rms_m, 0.001) << "position RMS (m)";
+  EXPECT_LE(s.raw_rot_rms_deg, 0.3) << "orientation RMS (deg)";
+  RecordProperty("pos_rms_mm", std::to_string(s.raw_pos_rms_m * 1e3));
+  RecordProperty("rot_rms_deg", std::to_string(s.raw_rot_rms_deg));
+  std::printf("moving: position RMS %.3f mm, orientation RMS %.3f deg\n", s.raw_pos_rms_m * 1e3, s.raw_rot_rms_deg);
+}
+
+TEST(Accuracy, StaticJitterAfterFilteringUnderPointThreeMillimetre) {
+  const auto rig = corner_rig();
+  const auto config = shipped_config();
+  const int n = 150, warm = 30;
+  const auto s = run_synthetic(rig, config, noisy(), static_visitor, n);
+  ASSERT_EQ(s.tracked, n);
+  Eigen::Vector3d mean_f = Eigen::Vector3d::Zero(), mean_r = Eigen::Vector3d::Zero();
+  for (int i = warm; i < n; ++i) {
+    mean_f += Eigen::Vector3d(s.filtered[i].position.data());
+    mean_r += Eigen::Vector3d(s.raw[i].position.data());
+  }
+  mean_f /= n - warm;
+  mean_r /= n - warm;
+  double jf = 0, jr = 0;
+  for (int i = warm; i < n; ++i) {
+    jf += (Eigen::Vector3d(s.filtered[i].position.data()) - mean_f).squaredNorm();
+    jr += (Eigen::Vector3d(s.raw[i].position.data()) - mean_r).squaredNorm();
+  }
+  jf = std::sqrt(jf / (n - warm));
+  jr = std::sqrt(jr / (n - warm));
+  std::printf("static jitter: raw %.3f mm, filtered %.3f mm (RMS distance from the mean)\n", jr * 1e3, jf * 1e3);
+  EXPECT_LE(jf, 0.0003);
+  EXPECT_LT(jf, jr);  // the filter does smooth
+}
+
+TEST(Accuracy, OneOrTwoHiddenMarkersStayWithinTwoMillimetres) {
+  const auto rig = corner_rig();
+  const auto config = shipped_config();
+  for (const std::vector<int>& hidden : {std::vector<int>{3}, std::vector<int>{0, 2}}) {
+    SynthOptions o = noisy();
+    o.hidden_markers = hidden;
+    const auto s = run_synthetic(rig, config, o, [](double t) { return scripted_visitor(t + 1.0); }, 60);
+    EXPECT_EQ(s.tracked, 60) << hidden.size() << " hidden";
+    EXPECT_LE(s.raw_pos_rms_m, 0.002) << hidden.size() << " hidden";
+    std::printf("%zu hidden: position RMS %.3f mm, orientation RMS %.3f deg\n", hidden.size(),
+                s.raw_pos_rms_m * 1e3, s.raw_rot_rms_deg);
+  }
+}
+
+TEST(Accuracy, OneCameraDiesAndTrackingContinuesAtOnce) {
+  const auto rig = corner_rig();
+  const auto config = shipped_config();
+  SynthOptions o = noisy();
+  o.dead_camera = 2;
+  o.dead_after_s = 0.25;  // from frame 15 on
+  const auto s = run_synthetic(rig, config, o, [](double t) { return scripted_visitor(t + 2.0); }, 60);
+  for (int i = 0; i < s.frames; ++i) {
+    EXPECT_EQ(s.raw[i].status, TrackingStatus::tracked) << "frame " << i;
+    if (i >= 15) {
+      EXPECT_LE(s.raw[i].cameras, 3);
+    }
+  }
+  EXPECT_LE(s.raw_pos_rms_m, 0.002);
+}
+
+TEST(Accuracy, TwentySpuriousBlobsPerCameraCauseNoIdentitySwap) {
+  const auto rig = corner_rig();
+  const auto config = shipped_config();
+  SynthOptions o = noisy();
+  o.spurious_blobs = 20;
+  o.seed = 11;
+  const auto s = run_synthetic(rig, config, o, [](double t) { return scripted_visitor(t + 5.0); }, 60);
+  EXPECT_EQ(s.tracked, 60);
+  // A swap of two marker identities turns the orientation by tens of degrees.
+  EXPECT_LT(s.max_rot_err_deg, 2.0);
+  EXPECT_LT(s.max_pos_err_m, 0.005);
+  std::printf("20 spurious blobs: worst orientation error %.3f deg, worst position error %.3f mm\n",
+              s.max_rot_err_deg, s.max_pos_err_m * 1e3);
+}
+
+TEST(Accuracy, StaticLampsAreMaskedAndDoNotDisturb) {
+  const auto rig = corner_rig();
+  auto config = shipped_config();
+  config.mask.learn_s = 0.5;
+  SynthOptions o = noisy();
+  o.static_lamps = 3;
+  SyntheticRenderer renderer(rig, config.bodies[0], o);
+  Pipeline pipeline(rig, config);
+  int masked_last = 0;
+  for (int i = 0; i < 60; ++i) {
+    const auto& r = pipeline.process(renderer.render(i, static_visitor(i / 60.0)));
+    EXPECT_EQ(r.raw[0].status, TrackingStatus::tracked);
+    masked_last = 0;
+    for (int m : r.masked) masked_last += m;
+  }
+  EXPECT_EQ(masked_last, 3 * 4) << "every lamp masked in every camera after learn_s";
+}
+
+TEST(Accuracy, LostAfterCoastingLimitThenReacquired) {
+  const auto rig = corner_rig();
+  const auto config = shipped_config();
+  SyntheticRenderer visible(rig, config.bodies[0], noisy());
+  SynthOptions gone = noisy();
+  gone.hidden_markers = {0, 1, 2, 3, 4};
+  SyntheticRenderer hidden(rig, config.bodies[0], gone);
+  Pipeline pipeline(rig, config);
+  std::vector<TrackingStatus> st;
+  for (int i = 0; i < 40; ++i) {
+    auto& r = (i >= 10 && i < 25 ? hidden : visible);
+    st.push_back(pipeline.process(r.render(i, static_visitor(i / 60.0))).filtered[0].status);
+  }
+  EXPECT_EQ(st[9], TrackingStatus::tracked);
+  EXPECT_EQ(st[10], TrackingStatus::coasting);
+  EXPECT_EQ(st[14], TrackingStatus::coasting);  // 83 ms after the last measurement
+  EXPECT_EQ(st[17], TrackingStatus::lost);      // 133 ms: past coasting_s = 100 ms
+  EXPECT_EQ(st[24], TrackingStatus::lost);
+  EXPECT_EQ(st[25], TrackingStatus::tracked);
+}

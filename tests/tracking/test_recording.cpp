@@ -1,0 +1,233 @@
+// The recording format, the tracking config and the Tracker thread, on small SYNTHETIC
+// recordings written to a temporary folder.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "kumite/common/error.hpp"
+#include "kumite/tracking/recording.hpp"
+#include "kumite/tracking/synth.hpp"
+#include "kumite/tracking/tracker.hpp"
+#include "synthetic_run.hpp"
+
+namespace fs = std::filesystem;
+using namespace kumite;
+using namespace kumite::tracking;
+
+namespace {
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / fmt::format("kumite-trk-{}-{}", ::getpid(), name);
+  fs::remove_all(d);
+  return d;
+}
+
+void write_text(const fs::path& p, const std::string& s) {
+  std::ofstream out(p, std::ios::binary);
+  out << s;
+}
+
+/// A short synthetic recording (a few frames, cheap to write).
+fs::path small_recording(const std::string& name, int frames, SynthOptions o = {}) {
+  const fs::path dir = temp_dir(name);
+  const auto rig = corner_rig();
+  const auto config = ktest::shipped_config();
+  std::vector<TrajectoryPoint> tr;
+  for (int i = 0; i < frames; ++i) tr.push_back(static_visitor(i / 60.0));
+  o.image_noise = 0;  // flat background: small PNGs, fast tests
+  write_synthetic_recording(dir, rig, config.bodies[0], tr, o, "unit test");
+  return dir;
+}
+
+}  // namespace
+
+TEST(FramesCsv, SkipsBadRowsAndBackwardTimestampsWithLineNumbers) {
+  const auto idx = parse_frames_csv("frame,timestamp_s\n0,0.0\n1,0.0167\n2,0.01\nx,0.05\n3\n4,0.0667\n4,0.08\n", "f.csv");
+  ASSERT_EQ(idx.rows.size(), 3U);
+  EXPECT_EQ(idx.rows[2].frame, 4U);
+  ASSERT_EQ(idx.skipped.size(), 4U);
+  EXPECT_NE(idx.skipped[0].find("f.csv:4: timestamp_s: goes backwards"), std::string::npos) << idx.skipped[0];
+  EXPECT_NE(idx.skipped[1].find("f.csv:5: frame"), std::string::npos) << idx.skipped[1];
+  EXPECT_NE(idx.skipped[2].find("f.csv:6"), std::string::npos) << idx.skipped[2];
+  EXPECT_NE(idx.skipped[3].find("f.csv:8: frame"), std::string::npos) << idx.skipped[3];
+}
+
+TEST(FramesCsv, WrongHeaderIsAnError) {
+  try {
+    parse_frames_csv("frame;timestamp\n0;0\n", "rec/frames.csv");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "rec/frames.csv:1: expected the header \"frame,timestamp_s\"");
+  }
+  EXPECT_THROW(parse_frames_csv("", "x"), Error);
+}
+
+TEST(TruthCsv, ParsesAndNormalises) {
+  const auto t = parse_truth_csv("frame,timestamp_s,x,y,z,qw,qx,qy,qz\r\n0,0,1,2,3,1.2,0,0,0\r\n1,0.1,1,2,3,0,0,0,0\r\n");
+  ASSERT_EQ(t.rows.size(), 1U);
+  EXPECT_DOUBLE_EQ(t.rows[0].qw, 1.0);
+  EXPECT_EQ(t.skipped.size(), 1U);
+  ASSERT_NE(t.find(0), nullptr);
+  EXPECT_EQ(t.find(1), nullptr);
+}
+
+TEST(Recording, MissingFolderFilesCorruptAndWrongSizeImages) {
+  const fs::path dir = small_recording("bad", 4);
+  const auto rig = corner_rig();
+  // Missing PNG: cam1 gives no image for frame 1. Corrupt PNG: cam2 frame 2. Wrong size: cam3 frame 3.
+  fs::remove(dir / "cam1" / "000001.png");
+  write_text(dir / "cam2" / "000002.png", "not a png");
+  cv::imwrite((dir / "cam3" / "000003.png").string(), cv::Mat(480, 640, CV_8UC1, cv::Scalar(0)));
+  fs::create_directories(dir / "cam9");
+  Recording rec(dir, rig);
+  ASSERT_EQ(rec.size(), 4U);
+  EXPECT_TRUE(rec.synthetic());
+  ASSERT_EQ(rec.warnings().size(), 1U);
+  EXPECT_NE(rec.warnings()[0].find("\"cam9\" is not a camera in the calibration"), std::string::npos);
+  std::vector<std::string> skipped;
+  EXPECT_FALSE(rec.load(0, &skipped).images[1].empty());
+  EXPECT_TRUE(rec.load(1, &skipped).images[1].empty());
+  EXPECT_TRUE(skipped.empty());  // a missing PNG is no error: the camera gave no image
+  EXPECT_TRUE(rec.load(2, &skipped).images[2].empty());
+  EXPECT_TRUE(rec.load(3, &skipped).images[3].empty());
+  ASSERT_EQ(skipped.size(), 2U);
+  EXPECT_NE(skipped[0].find("000002.png: cannot decode"), std::string::npos) << skipped[0];
+  EXPECT_NE(skipped[1].find("640x480 image, the calibration says 1280x1024"), std::string::npos) << skipped[1];
+
+  // What can run keeps running: the pipeline tracks every frame set on the other cameras.
+  Pipeline pipeline(rig, ktest::shipped_config());
+  for (std::size_t i = 0; i < rec.size(); ++i) {
+    EXPECT_EQ(pipeline.process(rec.load(i)).raw[0].status, TrackingStatus::tracked) << i;
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Recording, UnusableRecordingsAreOneLineErrors) {
+  const auto rig = corner_rig();
+  const fs::path dir = temp_dir("empty");
+  EXPECT_THROW(Recording(dir, rig), Error);  // no folder
+  fs::create_directories(dir);
+  try {
+    Recording r(dir, rig);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("frames.csv: missing"), std::string::npos) << e.what();
+  }
+  write_text(dir / "frames.csv", "frame,timestamp_s\n0,0\n");
+  fs::create_directories(dir / "camX");
+  try {
+    Recording r(dir, rig);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no folder matches a calibrated camera"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+TEST(Config, OnlyBodiesAreRequired) {
+  const auto c = parse_tracking_config("[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n");
+  ASSERT_EQ(c.bodies.size(), 1U);
+  EXPECT_EQ(c.blobs.threshold, BlobParams{}.threshold);
+  EXPECT_DOUBLE_EQ(c.coasting_s, 0.1);
+  EXPECT_EQ(c.find_body("head"), 0);
+}
+
+TEST(Config, ShippedConfigParses) {
+  const auto c = ktest::shipped_config();
+  ASSERT_EQ(c.bodies.size(), 1U);
+  EXPECT_EQ(c.bodies[0].markers.size(), 5U);
+  const TrackingConfig defaults = parse_tracking_config("[[bodies]]\nname=\"b\"\nmarkers=[[0,0,0],[0.1,0,0],[0,0.07,0]]\n");
+  EXPECT_DOUBLE_EQ(c.filter.beta, defaults.filter.beta) << "the shipped file shows the defaults";
+  EXPECT_DOUBLE_EQ(c.match.outlier_px, defaults.match.outlier_px);
+}
+
+TEST(Config, ErrorsNameFileLineAndKey) {
+  const auto expect_error = [](const std::string& text, const std::string& part) {
+    try {
+      parse_tracking_config(text, "t.toml");
+      ADD_FAILURE() << "no error for: " << text;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  const std::string body = "[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n";
+  expect_error("", "t.toml: bodies: missing");
+  expect_error("[[bodies]]\nname = \"h\"\nmarkers = [[0,0,0],[0.1,0,0]]\n", "at least 3 markers");
+  expect_error(body + "[blobs]\nthreshold = \"high\"\n", "t.toml:5: blobs.threshold: must be an integer");
+  expect_error(body + "[filter]\nbeta = -1\n", "filter.beta: must be in");
+  expect_error("coasting = 1\n" + body, "t.toml:1: coasting: unknown key");
+  expect_error(body + "[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n", "duplicate body name");
+  expect_error("x = [", "t.toml:1");
+  expect_error(body + "[[cameras]]\nname = \"cam0\"\ndevice = \"/dev/video0\"\npixel_format = \"RGB\"\n", "pixel_format");
+}
+
+TEST(Tracker, RunsARecordingInTheBackgroundAndPublishes) {
+  SynthOptions o;
+  o.dead_camera = 3;
+  o.dead_after_s = 0.1;
+  const fs::path dir = small_recording("tracker", 20, o);
+  const auto rig = corner_rig();
+  const auto config = ktest::shipped_config();
+  Tracker tracker(rig, config);
+  EXPECT_EQ(tracker.find_body("head"), 0);
+  EXPECT_FALSE(tracker.latest(0).has_value());
+  std::atomic<int> frames{0};
+  tracker.on_frame([&](const FrameResult&) { frames++; });
+  tracker.start(open_recording_source(dir, rig, config));
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(8);
+  while (tracker.running() && std::chrono::steady_clock::now() < deadline) {
+    (void)tracker.latest(0);  // the reader never blocks, whatever the writer does
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  tracker.stop();
+  EXPECT_EQ(frames.load(), 20);
+  EXPECT_EQ(tracker.frames_processed(), 20U);
+  const auto pose = tracker.latest(0);
+  ASSERT_TRUE(pose.has_value());
+  EXPECT_EQ(pose->status, TrackingStatus::tracked);
+  EXPECT_EQ(pose->frame, 19U);
+  const auto truth = static_visitor(0);
+  EXPECT_NEAR(pose->position[1], truth.position.y(), 0.002);
+  // Prediction: a still head stays put; far beyond the coasting limit it is lost.
+  const BodyPose ahead = tracker.predict(0, pose->timestamp + 0.03);
+  EXPECT_EQ(ahead.status, TrackingStatus::tracked);
+  EXPECT_NEAR(ahead.position[0], pose->position[0], 0.002);
+  EXPECT_EQ(tracker.predict(0, pose->timestamp + 1.0).status, TrackingStatus::lost);
+  // Camera status on the recording's clock: cam3 stopped at 0.1 s.
+  const auto cams = tracker.camera_status(pose->timestamp + 0.3);
+  ASSERT_EQ(cams.size(), 4U);
+  EXPECT_EQ(cams[0].state, CameraState::ok);
+  EXPECT_GE(cams[0].blobs, 5);
+  EXPECT_EQ(cams[3].state, CameraState::no_frames);
+  EXPECT_NEAR(cams[3].since_last_s, pose->timestamp + 0.3 - 5 / 60.0, 1e-6);
+  fs::remove_all(dir);
+}
+
+TEST(Tracker, LiveSourceErrorsAreClear) {
+  const auto rig = corner_rig();
+  auto config = ktest::shipped_config();
+  EXPECT_THROW(open_live_source(rig, config), Error);  // no [[cameras]]
+  LiveCameraConfig cam;
+  cam.name = "cam7";
+  cam.device = "/dev/video97";
+  config.cameras = {cam};
+  try {
+    open_live_source(rig, config);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("\"cam7\" is not a camera in the calibration"), std::string::npos) << e.what();
+  }
+  config.cameras[0].name = "cam0";
+  try {
+    open_live_source(rig, config);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_STREQ(e.what(), "cannot open /dev/video97: No such file or directory");
+  }
+}

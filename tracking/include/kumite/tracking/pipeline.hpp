@@ -1,0 +1,58 @@
+#pragma once
+// The per-frame-set pipeline, synchronous (the Tracker runs it on its own thread; tests, the
+// tool and the benchmark call it directly):
+//   images -> blobs (+ static mask) -> rays -> markers -> rigid bodies -> One Euro filter.
+// The unsmoothed pose (used to match markers in the next frame set) and the filtered pose
+// (published, and extrapolated for the display) are kept apart.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "kumite/common/wire.hpp"
+#include "kumite/tracking/blobs.hpp"
+#include "kumite/tracking/calibration_file.hpp"
+#include "kumite/tracking/config.hpp"
+#include "kumite/tracking/filter.hpp"
+#include "kumite/tracking/geometry.hpp"
+#include "kumite/tracking/recording.hpp"
+#include "kumite/tracking/rigid_body.hpp"
+
+namespace kumite::tracking {
+
+/// Everything one frame set produced.
+struct FrameResult {
+  std::uint64_t frame = 0;
+  Timestamp timestamp = 0;                 ///< s
+  std::vector<BodyPose> raw;               ///< per body: unsmoothed measurement
+  std::vector<BodyPose> filtered;          ///< per body: One Euro filtered (what is published)
+  std::vector<FilteredState> states;       ///< per body: filter state, for predict()
+  std::vector<Marker> markers;             ///< triangulated markers
+  std::vector<std::vector<Blob>> blobs;    ///< per camera, after the static mask
+  std::vector<int> masked;                 ///< per camera: blobs removed by the static mask
+  int cameras_with_images = 0;
+  double latency_ms = 0;                   ///< processing time of this frame set
+};
+
+class Pipeline {
+ public:
+  /// Throws kumite::Error when the config has no body or too many cameras.
+  Pipeline(const RigCalibration& rig, const TrackingConfig& config);
+  ~Pipeline();
+  Pipeline(const Pipeline&) = delete;
+  Pipeline& operator=(const Pipeline&) = delete;
+
+  /// Processes one frame set (images in calibration order; images of the wrong size must
+  /// have been removed by the caller: they throw). The result is valid until the next call.
+  const FrameResult& process(const FrameSet& frames);
+
+  const RigCalibration& rig() const;
+  const TrackingConfig& config() const;
+  std::size_t body_count() const;
+  void reset();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kumite::tracking

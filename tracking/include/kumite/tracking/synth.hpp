@@ -1,0 +1,88 @@
+#pragma once
+// SYNTHETIC camera frames for tests, benchmarks and demos (always labelled as such): a body's
+// markers drawn as blurred spots with image noise into every calibrated camera, from a
+// trajectory (the built-in scripted visitor, a static pose, or a CSV), with options for hidden
+// markers, spurious blobs, static lamps, a camera that stops and dropped frames. The ground
+// truth is the trajectory itself, an independent path from the tracker's output.
+#include <cstdint>
+#include <filesystem>
+#include <random>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "kumite/tracking/calibration_file.hpp"
+#include "kumite/tracking/config.hpp"
+#include "kumite/tracking/recording.hpp"
+
+namespace kumite::tracking {
+
+/// A body pose along a trajectory: position = centroid of the body's model markers (m),
+/// orientation rotates body frame -> room.
+struct TrajectoryPoint {
+  Timestamp t = 0;  ///< s
+  Eigen::Vector3d position{0, 1.65, 0};
+  Eigen::Quaterniond orientation = Eigen::Quaterniond::Identity();
+};
+
+/// The scripted visitor at time t (s): walks about the tracked area, dodges sideways (~1 m/s)
+/// every 7 s, crouches (0.45 m) every 11 s, and turns/nods the head. Stays within |x|, |z| < 1 m.
+TrajectoryPoint scripted_visitor(Timestamp t);
+/// A visitor standing still at (0, 1.65, 0), looking at the front wall, slightly turned.
+TrajectoryPoint static_visitor(Timestamp t);
+/// Reads "timestamp_s,x,y,z,qw,qx,qy,qz" rows (header required); throws kumite::Error naming
+/// the file and line. The trajectory is sampled by linear interpolation/slerp.
+std::vector<TrajectoryPoint> read_trajectory_csv(const std::filesystem::path& path);
+TrajectoryPoint sample(const std::vector<TrajectoryPoint>& trajectory, Timestamp t);
+
+struct SynthOptions {
+  double fps = 60;                    ///< Hz: frame-set rate
+  double centroid_noise_px = 0.3;     ///< px: RMS 2-D displacement of each spot centre (sigma/axis = this/sqrt 2)
+  double image_noise = 2.0;           ///< grey levels: sigma of the sensor noise
+  double background = 12;             ///< grey level
+  double peak = 220;                  ///< grey levels above the background at a spot's centre
+  double marker_diameter_m = 0.014;   ///< m
+  double blur_px = 0.6;               ///< px: optics blur sigma added to the spot size
+  std::vector<int> hidden_markers;    ///< model markers never drawn (body 0)
+  int spurious_blobs = 0;             ///< random spots per camera per frame (moving each frame)
+  int static_lamps = 0;               ///< fixed bright spots per camera (lamps, reflections)
+  int dead_camera = -1;               ///< camera index that stops delivering ...
+  double dead_after_s = 0;            ///< ... from this time on (s)
+  double drop_probability = 0;        ///< per camera and frame set: no image
+  std::uint32_t seed = 1;
+};
+
+class SyntheticRenderer {
+ public:
+  SyntheticRenderer(const RigCalibration& rig, const BodyConfig& body, SynthOptions options);
+  /// Renders one frame set (images empty for a dead camera / dropped frame).
+  FrameSet render(std::uint64_t frame, const TrajectoryPoint& pose);
+  /// The room positions of the body's markers at `pose`.
+  std::vector<Eigen::Vector3d> marker_positions(const TrajectoryPoint& pose) const;
+  const SynthOptions& options() const { return options_; }
+
+ private:
+  void draw_spot(cv::Mat& img, double x, double y, double sigma, double peak);
+
+  RigCalibration rig_;
+  BodyConfig body_;
+  Eigen::Vector3d centroid_;
+  SynthOptions options_;
+  std::mt19937 rng_;
+  std::vector<std::vector<cv::Mat>> backgrounds_;   // per camera, a few noise images
+  std::vector<std::vector<cv::Point2d>> lamps_;     // per camera
+};
+
+/// Writes a SYNTHETIC recording to `dir` (created; must be empty or absent): frames.csv,
+/// <camera>/NNNNNN.png, truth.csv and a README.txt saying it is synthetic and how it was made.
+void write_synthetic_recording(const std::filesystem::path& dir, const RigCalibration& rig,
+                               const BodyConfig& body, const std::vector<TrajectoryPoint>& trajectory,
+                               const SynthOptions& options, const std::string& description);
+
+/// The shipped default rig: 4 cameras, 1280x1024, high (2.6 m) in the corners of a 3 m x 3 m
+/// tracked area, looking at its centre at 1.2 m; 66 x 54 degree lenses (f = 1000 px), mild barrel distortion.
+RigCalibration corner_rig(double side_m = 3.0, double height_m = 2.6, int width = 1280, int height = 1024,
+                          double focal_px = 1000);
+
+}  // namespace kumite::tracking

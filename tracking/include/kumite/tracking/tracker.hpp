@@ -1,0 +1,149 @@
+#pragma once
+// The tracker as the app uses it: a background thread pulling frame sets from a source
+// (recording or live V4L2 cameras), running the Pipeline, and publishing per body
+//   - the filtered pose into a kumite::LatestValue<BodyPose> (never blocks the reader),
+//   - the filter state, so predict(body, t) gives the pose at a display time,
+// and per camera a status (ok / no frames + time since the last / reconnecting).
+//
+//   kumite::tracking::Tracker tracker(rig, config);
+//   tracker.start(kumite::tracking::open_recording_source(dir, rig, config, {.realtime = true}));
+//   ... each display frame (render thread):
+//   kumite::BodyPose head = tracker.predict(0, kumite::now() + display_latency_s);
+//   if (head.status != kumite::TrackingStatus::lost) use(head);
+//   for (const auto& cam : tracker.camera_status()) console(cam);
+//   tracker.stop();
+//
+// Clock: poses carry the source's timestamps. Live sources use kumite::now() (the driver
+// timestamps are CLOCK_MONOTONIC, the same clock); a real-time recording is rebased onto
+// kumite::now() when it starts, so predict(kumite::now()) is right in both; a recording
+// played as fast as possible keeps its own clock.
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "kumite/common/latest.hpp"
+#include "kumite/common/wire.hpp"
+#include "kumite/tracking/calibration_file.hpp"
+#include "kumite/tracking/config.hpp"
+#include "kumite/tracking/recording.hpp"
+
+namespace kumite::tracking {
+
+enum class CameraState : std::uint8_t {
+  ok = 0,            ///< frames arriving
+  no_frames = 1,     ///< nothing for longer than camera_timeout_s (see since_last_s)
+  reconnecting = 2,  ///< the device failed; the capture thread is trying to reopen it
+};
+std::string_view to_string(CameraState s);
+
+/// One camera's status, trivially copyable.
+struct CameraStatus {
+  CameraState state = CameraState::no_frames;
+  Timestamp last_frame = -1;  ///< s, time of its last image (-1 = never)
+  double since_last_s = -1;   ///< s since that image, at the time asked (-1 = never)
+  std::int32_t blobs = 0;     ///< blobs in its last image (after the static mask)
+  std::int32_t masked = 0;    ///< blobs the static mask removed in its last image
+};
+
+/// Where frame sets come from. next() is called from the tracker thread only.
+class FrameSource {
+ public:
+  virtual ~FrameSource() = default;
+  /// Waits for the next frame set (at most ~timeout_s); false when there is none yet
+  /// (end_of_stream() tells whether one will ever come).
+  virtual bool next(FrameSet& out, double timeout_s) = 0;
+  virtual bool end_of_stream() const = 0;
+  /// Per camera (calibration order): true while the device is being reopened.
+  virtual bool reconnecting(std::size_t /*camera*/) const { return false; }
+  /// Interrupts a waiting next() and stops capture threads.
+  virtual void close() {}
+  /// Lines about what was skipped (bad files, rows, frames); drained by the tracker.
+  virtual std::vector<std::string> take_messages() { return {}; }
+};
+
+struct RecordingOptions {
+  bool realtime = false;  ///< pace frame sets by their timestamps and rebase them onto now()
+  bool loop = false;      ///< start again at the end
+};
+
+/// A source reading a recording (see recording.hpp). Throws kumite::Error as Recording does.
+std::unique_ptr<FrameSource> open_recording_source(const std::filesystem::path& dir,
+                                                   const RigCalibration& rig,
+                                                   const TrackingConfig& config,
+                                                   RecordingOptions options = {});
+
+/// A source capturing from the V4L2 cameras in config.cameras (one thread per camera, frame
+/// sets assembled from driver timestamps within config.frame_tolerance_s). Throws
+/// kumite::Error for unknown camera names; cameras that cannot be opened are reported and
+/// retried ("reconnecting") while the others run. Throws when none can be opened.
+std::unique_ptr<FrameSource> open_live_source(const RigCalibration& rig, const TrackingConfig& config);
+
+class Pipeline;
+struct FrameResult;
+
+class Tracker {
+ public:
+  /// Throws kumite::Error for an invalid config (no bodies, ...).
+  Tracker(RigCalibration rig, TrackingConfig config);
+  ~Tracker();  ///< stops the thread
+  Tracker(const Tracker&) = delete;
+  Tracker& operator=(const Tracker&) = delete;
+
+  /// Starts the tracker thread on `source` (stops a previous one first).
+  void start(std::unique_ptr<FrameSource> source);
+  /// Stops and joins the thread; the last poses stay readable.
+  void stop();
+  /// True while the thread runs (false once a recording has ended).
+  bool running() const { return running_.load(std::memory_order_acquire); }
+
+  std::size_t body_count() const;
+  /// Index of the body called `name` ([[bodies]] order), or -1.
+  int find_body(std::string_view name) const;
+  std::size_t camera_count() const { return rig_.cameras.size(); }
+
+  /// The newest filtered pose of `body` (nullopt before the first frame set). Never blocks.
+  std::optional<BodyPose> latest(int body) const;
+  /// The slot itself, for readers that poll version().
+  const LatestValue<BodyPose>& slot(int body) const;
+  /// The pose of `body` predicted to time `t` (s, the poses' clock): the filtered pose
+  /// extrapolated with the filter's velocities, at most filter.max_prediction_s ahead; its
+  /// status becomes coasting/lost by age (coasting_s). Never blocks.
+  BodyPose predict(int body, Timestamp t) const;
+  /// Per camera (calibration order), as of time `now_s` (default: the tracker's clock now).
+  std::vector<CameraStatus> camera_status(std::optional<Timestamp> now_s = std::nullopt) const;
+  /// Frame sets processed so far.
+  std::uint64_t frames_processed() const { return processed_.load(std::memory_order_acquire); }
+  /// Optional per-frame hook, called on the tracker thread after publishing (the tool writes
+  /// poses.csv rows with it). Set before start().
+  void on_frame(std::function<void(const FrameResult&)> hook) { hook_ = std::move(hook); }
+
+ private:
+  struct Snapshot;  // filter state, trivially copyable
+  void run();
+  Timestamp clock_now() const;
+
+  RigCalibration rig_;
+  TrackingConfig config_;
+  std::unique_ptr<Pipeline> pipeline_;
+  std::unique_ptr<FrameSource> source_;
+  std::vector<std::unique_ptr<LatestValue<BodyPose>>> poses_;
+  struct SnapshotSlot;
+  std::vector<std::unique_ptr<SnapshotSlot>> snapshots_;
+  struct CameraSlot;
+  std::vector<std::unique_ptr<CameraSlot>> cameras_;
+  std::atomic<double> clock_offset_{0};  // tracker clock = now() + offset (recordings)
+  std::atomic<bool> clock_is_source_{false};
+  std::atomic<double> last_source_time_{0};
+  std::function<void(const FrameResult&)> hook_;
+  std::thread thread_;
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> running_{false};
+  std::atomic<std::uint64_t> processed_{0};
+};
+
+}  // namespace kumite::tracking

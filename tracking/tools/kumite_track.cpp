@@ -1,0 +1,344 @@
+// kumite-track: optical head tracking from a recording or live V4L2 cameras, and the
+// SYNTHETIC recording generator.
+//
+//   kumite-track --calibration cal.yaml --config tracking.toml --recording DIR --out poses.csv
+//   kumite-track --calibration cal.yaml --config tracking.toml --live --out poses.csv
+//   kumite-track synth --calibration cal.yaml --config tracking.toml --out DIR [options]
+//   kumite-track rig --out calibration.yaml      (the shipped default 4-camera rig)
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <spdlog/sinks/sink.h>
+#include <spdlog/spdlog.h>
+
+#include "kumite/common/atomic_file.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/common/log.hpp"
+#include "kumite/tracking/calibration_file.hpp"
+#include "kumite/tracking/config.hpp"
+#include "kumite/tracking/pipeline.hpp"
+#include "kumite/tracking/recording.hpp"
+#include "kumite/tracking/synth.hpp"
+#include "kumite/tracking/tracker.hpp"
+
+namespace fs = std::filesystem;
+using namespace kumite;
+using namespace kumite::tracking;
+
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+void on_signal(int) { g_interrupted.store(true); }
+
+struct RunOptions {
+  std::string calibration, config, recording, out;
+  bool live = false;
+  bool realtime = false;
+  bool unfiltered = false;
+  double duration_s = 0;
+  int verbosity = 1;
+};
+
+struct SynthCli {
+  std::string calibration, config, out, trajectory = "scripted";
+  double duration_s = 10;
+  SynthOptions options;
+  std::string hidden;
+};
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  const double pos = p * (static_cast<double>(v.size()) - 1);
+  const auto i = static_cast<std::size_t>(pos);
+  const double f = pos - static_cast<double>(i);
+  return i + 1 < v.size() ? v[i] * (1 - f) + v[i + 1] * f : v[i];
+}
+
+/// Collects poses.csv rows and the summary figures from the tracker thread.
+class Collector {
+ public:
+  Collector(std::optional<TruthTable> truth, bool unfiltered) : truth_(std::move(truth)), unfiltered_(unfiltered) {
+    rows_ = "frame,timestamp_s,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms\n";
+  }
+
+  void add(const FrameResult& r) {
+    std::lock_guard lock(mutex_);
+    const BodyPose& p = unfiltered_ ? r.raw.at(0) : r.filtered.at(0);
+    rows_ += fmt::format("{},{:.6f},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{:.3f}\n", r.frame,
+                         r.timestamp, to_string(p.status), p.position[0], p.position[1], p.position[2],
+                         p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3], p.markers,
+                         p.cameras, r.latency_ms);
+    latency_.push_back(r.latency_ms);
+    ++frames_;
+    status_[static_cast<int>(p.status)]++;
+    const BodyPose& f = r.filtered.at(0);
+    if (f.status == TrackingStatus::tracked) {
+      filtered_.emplace_back(f.position[0], f.position[1], f.position[2]);
+    } else {
+      flush_jitter();
+    }
+    if (!truth_) return;
+    const TruthRow* t = truth_->find(r.frame);
+    if (!t) return;
+    const Eigen::Vector3d tp(t->x, t->y, t->z);
+    const Eigen::Quaterniond tq(t->qw, t->qx, t->qy, t->qz);
+    for (int k = 0; k < 2; ++k) {
+      const BodyPose& b = k == 0 ? r.raw.at(0) : r.filtered.at(0);
+      if (b.status != TrackingStatus::tracked) continue;
+      const Eigen::Vector3d bp(b.position[0], b.position[1], b.position[2]);
+      const Eigen::Quaterniond bq(b.orientation[0], b.orientation[1], b.orientation[2], b.orientation[3]);
+      err_[k].pos2 += (bp - tp).squaredNorm();
+      const double a = bq.angularDistance(tq) * 180.0 / M_PI;
+      err_[k].rot2 += a * a;
+      ++err_[k].n;
+    }
+  }
+
+  void write(const fs::path& out) const { write_file_atomically(out, rows_); }
+
+  void summary(std::size_t skipped) {
+    std::lock_guard lock(mutex_);
+    flush_jitter();
+    std::printf("frame sets: %d (tracked %d, coasting %d, lost %d); warnings: %zu\n", frames_, status_[1],
+                status_[2], status_[0], skipped);
+    if (truth_) {
+      const char* names[2] = {"measured (unsmoothed)", "published (filtered)"};
+      for (int k = 0; k < 2; ++k) {
+        if (err_[k].n == 0) continue;
+        std::printf("vs truth.csv, %s, %d frame sets: RMS position error %.3f mm, RMS orientation error %.3f deg\n",
+                    names[k], err_[k].n, 1e3 * std::sqrt(err_[k].pos2 / err_[k].n), std::sqrt(err_[k].rot2 / err_[k].n));
+      }
+    } else {
+      std::printf("no truth.csv: no accuracy figures\n");
+    }
+    if (jitter_n_ > 0) {
+      std::printf("jitter (filtered position, RMS second difference / sqrt 6): %.3f mm\n",
+                  1e3 * std::sqrt(jitter2_ / jitter_n_ / 6.0));
+    }
+    std::printf("latency per frame set (ms): p50 %.3f, p90 %.3f, p99 %.3f, max %.3f\n", percentile(latency_, 0.5),
+                percentile(latency_, 0.9), percentile(latency_, 0.99), percentile(latency_, 1.0));
+  }
+
+ private:
+  void flush_jitter() {
+    for (std::size_t i = 2; i < filtered_.size(); ++i) {
+      jitter2_ += (filtered_[i] - 2 * filtered_[i - 1] + filtered_[i - 2]).squaredNorm();
+      ++jitter_n_;
+    }
+    filtered_.clear();
+  }
+  struct Err {
+    double pos2 = 0, rot2 = 0;
+    int n = 0;
+  };
+  std::mutex mutex_;
+  std::optional<TruthTable> truth_;
+  bool unfiltered_;
+  std::string rows_;
+  std::vector<double> latency_;
+  std::vector<Eigen::Vector3d> filtered_;
+  double jitter2_ = 0;
+  int jitter_n_ = 0;
+  int frames_ = 0;
+  int status_[3] = {0, 0, 0};
+  Err err_[2];
+};
+
+std::optional<TruthTable> read_truth(const fs::path& dir) {
+  const fs::path p = dir / "truth.csv";
+  if (!fs::exists(p)) return std::nullopt;
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_truth_csv(ss.str(), p.string());
+}
+
+int run_tracker(const RunOptions& o) {
+  init_logging(o.verbosity);
+  if (o.live == !o.recording.empty()) throw Error("cli", "args", "give exactly one of --recording DIR or --live");
+  const RigCalibration rig = read_calibration(o.calibration);
+  const TrackingConfig config = read_tracking_config(o.config);
+  std::unique_ptr<FrameSource> source;
+  std::optional<TruthTable> truth;
+  if (o.live) {
+    source = open_live_source(rig, config);
+  } else {
+    source = open_recording_source(o.recording, rig, config, {.realtime = o.realtime});
+    truth = read_truth(o.recording);
+    if (truth) {
+      for (const auto& s : truth->skipped) spdlog::warn("{}", s);
+    }
+    if (fs::exists(fs::path(o.recording) / "README.txt")) {
+      std::ifstream in(fs::path(o.recording) / "README.txt");
+      std::string first;
+      std::getline(in, first);
+      if (first.find("SYNTHETIC") != std::string::npos) spdlog::info("{}", first);
+    }
+  }
+  Collector collector(std::move(truth), o.unfiltered);
+  Tracker tracker(rig, config);
+  std::atomic<std::size_t> skipped{0};
+  tracker.on_frame([&](const FrameResult& r) { collector.add(r); });
+  // Count what the sources skipped: they log one warning line each.
+  auto sink_count = std::make_shared<std::atomic<std::size_t>>(0);
+  struct CountingSink : spdlog::sinks::sink {
+    std::shared_ptr<std::atomic<std::size_t>> n;
+    explicit CountingSink(std::shared_ptr<std::atomic<std::size_t>> c) : n(std::move(c)) {}
+    void log(const spdlog::details::log_msg& m) override {
+      if (m.level == spdlog::level::warn) n->fetch_add(1);
+    }
+    void flush() override {}
+    void set_pattern(const std::string&) override {}
+    void set_formatter(std::unique_ptr<spdlog::formatter>) override {}
+  };
+  spdlog::default_logger()->sinks().push_back(std::make_shared<CountingSink>(sink_count));
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+  const Timestamp start = kumite::now();
+  tracker.start(std::move(source));
+  Timestamp last_status = start;
+  while (tracker.running() && !g_interrupted.load()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    if (o.duration_s > 0 && kumite::now() - start > o.duration_s) break;
+    if (o.live && kumite::now() - last_status > 2.0) {
+      last_status = kumite::now();
+      const auto cams = tracker.camera_status();
+      for (std::size_t c = 0; c < cams.size(); ++c) {
+        if (cams[c].state != CameraState::ok) {
+          spdlog::warn("camera {}: {} ({:.1f} s since the last frame)", rig.cameras[c].name, to_string(cams[c].state),
+                       cams[c].since_last_s);
+        }
+      }
+    }
+  }
+  tracker.stop();
+  skipped = sink_count->load();
+  collector.write(o.out);
+  collector.summary(skipped.load());
+  std::printf("wrote %s\n", o.out.c_str());
+  return 0;
+}
+
+std::vector<int> parse_index_list(const std::string& text) {
+  std::vector<int> out;
+  std::stringstream ss(text);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item.empty()) continue;
+    try {
+      out.push_back(std::stoi(item));
+    } catch (const std::exception&) {
+      throw Error("cli", "args", fmt::format("--hide: \"{}\" is not a marker index", item));
+    }
+  }
+  return out;
+}
+
+int run_synth(SynthCli s) {
+  init_logging(1);
+  const RigCalibration rig = read_calibration(s.calibration);
+  const TrackingConfig config = read_tracking_config(s.config);
+  const BodyConfig& body = config.bodies.at(0);
+  s.options.hidden_markers = parse_index_list(s.hidden);
+  for (int h : s.options.hidden_markers) {
+    if (h < 0 || h >= static_cast<int>(body.markers.size())) {
+      throw Error("cli", "args", fmt::format("--hide: marker {} does not exist (body \"{}\" has {})", h, body.name, body.markers.size()));
+    }
+  }
+  if (s.options.dead_camera >= static_cast<int>(rig.cameras.size())) {
+    throw Error("cli", "args", fmt::format("--dead-camera: the calibration has {} cameras", rig.cameras.size()));
+  }
+  std::vector<TrajectoryPoint> trajectory;
+  std::string description;
+  const int frames = std::max(1, static_cast<int>(std::lround(s.duration_s * s.options.fps)));
+  if (s.trajectory == "scripted" || s.trajectory == "static") {
+    for (int i = 0; i < frames; ++i) {
+      const double t = i / s.options.fps;
+      trajectory.push_back(s.trajectory == "scripted" ? scripted_visitor(t) : static_visitor(t));
+    }
+    description = fmt::format("trajectory: built-in {} visitor, {} s", s.trajectory, s.duration_s);
+  } else {
+    const auto csv = read_trajectory_csv(s.trajectory);
+    for (int i = 0; i < frames; ++i) {
+      const double t = csv.front().t + i / s.options.fps;
+      if (t > csv.back().t) break;
+      trajectory.push_back(sample(csv, t));
+    }
+    description = fmt::format("trajectory: {} (resampled at {} Hz)", s.trajectory, s.options.fps);
+  }
+  write_synthetic_recording(s.out, rig, body, trajectory, s.options, description);
+  std::printf("wrote SYNTHETIC recording %s: %zu frame sets x %zu cameras (%s)\n", s.out.c_str(), trajectory.size(),
+              rig.cameras.size(), description.c_str());
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"kumite-track: optical head tracking (recorded or live cameras) and synthetic recordings"};
+  app.require_subcommand(0, 1);
+  RunOptions run;
+  app.add_option("--calibration", run.calibration, "rig calibration (OpenCV YAML)")->check(CLI::ExistingFile);
+  app.add_option("--config", run.config, "tracking.toml")->check(CLI::ExistingFile);
+  app.add_option("--recording", run.recording, "recording folder (frames.csv, camN/NNNNNN.png)");
+  app.add_flag("--live", run.live, "capture from the V4L2 cameras in the config's [[cameras]]");
+  app.add_option("--out", run.out, "poses.csv to write");
+  app.add_flag("--realtime", run.realtime, "play a recording at its own pace (default: as fast as possible)");
+  app.add_flag("--unfiltered", run.unfiltered, "write the unsmoothed measurement instead of the filtered pose");
+  app.add_option("--duration", run.duration_s, "stop after this many seconds (0 = until the end / Ctrl-C)");
+  app.add_option("-v,--verbosity", run.verbosity, "0 = warnings, 1 = info, 2 = debug")->check(CLI::Range(0, 2));
+
+  SynthCli synth;
+  auto* sc = app.add_subcommand("synth", "write a SYNTHETIC recording (frames, truth.csv) from a trajectory");
+  sc->add_option("--calibration", synth.calibration, "rig calibration (OpenCV YAML)")->required()->check(CLI::ExistingFile);
+  sc->add_option("--config", synth.config, "tracking.toml (its first body is drawn)")->required()->check(CLI::ExistingFile);
+  sc->add_option("--out", synth.out, "recording folder to create (must not exist or be empty)")->required();
+  sc->add_option("--trajectory", synth.trajectory, "scripted, static, or a CSV timestamp_s,x,y,z,qw,qx,qy,qz")->capture_default_str();
+  sc->add_option("--duration", synth.duration_s, "seconds")->capture_default_str()->check(CLI::Range(0.001, 3600.0));
+  sc->add_option("--fps", synth.options.fps, "frame sets per second")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
+  sc->add_option("--noise-px", synth.options.centroid_noise_px, "RMS 2-D jitter of each spot centre (px)")->capture_default_str();
+  sc->add_option("--image-noise", synth.options.image_noise, "sensor noise sigma (grey levels)")->capture_default_str();
+  sc->add_option("--hide", synth.hidden, "model markers never drawn, e.g. 0,3");
+  sc->add_option("--spurious", synth.options.spurious_blobs, "random spots per camera per frame")->capture_default_str();
+  sc->add_option("--lamps", synth.options.static_lamps, "static bright spots per camera")->capture_default_str();
+  sc->add_option("--dead-camera", synth.options.dead_camera, "camera index that stops delivering")->capture_default_str();
+  sc->add_option("--dead-after", synth.options.dead_after_s, "... from this time on (s)")->capture_default_str();
+  sc->add_option("--drop", synth.options.drop_probability, "probability that a camera's frame is missing")
+      ->capture_default_str()->check(CLI::Range(0.0, 1.0));
+  sc->add_option("--seed", synth.options.seed, "random seed")->capture_default_str();
+
+  std::string rig_out;
+  auto* rc = app.add_subcommand("rig", "write the default rig calibration (4 cameras in the corners of 3 m x 3 m)");
+  rc->add_option("--out", rig_out, "calibration YAML to write")->required();
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    if (sc->parsed()) return run_synth(synth);
+    if (rc->parsed()) {
+      write_calibration(rig_out, corner_rig());
+      std::printf("wrote %s\n", rig_out.c_str());
+      return 0;
+    }
+    if (run.calibration.empty() || run.config.empty() || run.out.empty()) {
+      throw Error("cli", "args", "needs --calibration, --config, --out and --recording DIR or --live (see --help)");
+    }
+    return run_tracker(run);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "kumite-track: %s\n", e.what());
+    return 1;
+  }
+}
