@@ -156,8 +156,8 @@ void Console::frame(Installation& inst, const FrameData& f) {
   if (c.pose_age_ms >= 0) ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
   else ImGui::Text("latency: no pose");
   for (const auto& cam : c.cameras)
-    ImGui::TextColored(cam.status == "ok" ? kGreen : kRed, "camera %-8s %-10s %3d blobs %5.1f Hz",
-                       cam.name.c_str(), cam.status.c_str(), cam.blobs, cam.fps);
+    ImGui::TextColored(cam.status == "ok" ? kGreen : kRed, "camera %-8s %-12s %3d blobs  last frame %.0f ms ago",
+                       cam.name.c_str(), cam.status.c_str(), cam.blobs, cam.since_last_ms);
   ImGui::Separator();
   ImGui::TextColored(kAmber, "Fighter");
   ImGui::Text("state %s   character %d %s%s", c.fighter_state.c_str(), c.character + 1,

@@ -57,7 +57,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
   j["pose_age_ms"] = f.pose_age_ms >= 0 ? json(f.pose_age_ms) : json(nullptr);
   json cams = json::array();
   for (const auto& cam : c.cameras)
-    cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"fps", cam.fps}});
+    cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"since_last_ms", cam.since_last_ms}});
   j["console"] = {{"tracking", c.tracking},
                   {"markers_seen", c.markers_seen},
                   {"cameras", cams},

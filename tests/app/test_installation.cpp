@@ -67,14 +67,14 @@ TrackingSnapshot tracked(double t, double x, double y, double z) {
   s.head = p;
   s.measured_at = t;
   s.status = "tracked";
-  s.cameras = {{"cam0", "ok", 4, 120}, {"cam1", "ok", 4, 120}};
+  s.cameras = {{"cam0", "ok", 4, 8.0}, {"cam1", "ok", 4, 8.0}};
   return s;
 }
 
 TrackingSnapshot lost() {
   TrackingSnapshot s;
   s.status = "lost";
-  s.cameras = {{"cam0", "ok", 0, 120}, {"cam1", "no frames", 0, 0}};
+  s.cameras = {{"cam0", "ok", 0, 8.0}, {"cam1", "no frames", 0, 900.0}};
   return s;
 }
 

@@ -22,9 +22,9 @@ namespace kumite::app {
 /// One camera as the console shows it.
 struct CameraView {
   std::string name;
-  std::string status;   ///< "ok", "no frames", "lost"
+  std::string status;   ///< "ok", "no frames", "reconnecting"
   int blobs = 0;        ///< blobs in its newest frame
-  double fps = 0;       ///< Hz, measured
+  double since_last_ms = -1;  ///< ms since its newest frame (-1: never)
 };
 
 /// What the tracking side has at one display time.
