@@ -50,4 +50,38 @@ void forward_kinematics(const Skeleton& skeleton, const Eigen::Vector3d& root_po
   }
 }
 
+void forward_kinematics(const Clip& clip, int frame, std::span<Eigen::Vector3d> global_positions,
+                        std::span<Eigen::Quaterniond> global_rotations) {
+  const Skeleton& s = clip.skeleton;
+  const auto n = static_cast<std::size_t>(s.joint_count());
+  assert(frame >= 0 && frame < clip.frame_count);
+  const auto local = clip.rotations(frame);
+  if (clip.local_translations.empty()) {
+    forward_kinematics(s, clip.root_positions[static_cast<std::size_t>(frame)], local,
+                       global_positions, global_rotations);
+    return;
+  }
+  const Eigen::Vector3d* t = clip.local_translations.data() + static_cast<std::size_t>(frame) * n;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int p = s.parents[i];
+    if (p < 0) {
+      global_positions[i] = clip.root_positions[static_cast<std::size_t>(frame)];
+      global_rotations[i] = local[i];
+    } else {
+      global_positions[i] = global_positions[p] + global_rotations[p] * t[i];
+      global_rotations[i] = global_rotations[p] * local[i];
+    }
+  }
+}
+
+std::vector<Eigen::Vector3d> all_joint_positions(const Clip& clip) {
+  const auto n = static_cast<std::size_t>(clip.skeleton.joint_count());
+  std::vector<Eigen::Vector3d> out(n * static_cast<std::size_t>(clip.frame_count));
+  std::vector<Eigen::Quaterniond> rot(n);
+  for (int f = 0; f < clip.frame_count; ++f) {
+    forward_kinematics(clip, f, std::span(out.data() + static_cast<std::size_t>(f) * n, n), rot);
+  }
+  return out;
+}
+
 }  // namespace kumite::content

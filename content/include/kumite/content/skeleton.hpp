@@ -38,8 +38,16 @@ struct Skeleton {
   std::vector<int> parents;
   std::vector<Eigen::Vector3d> offsets;  ///< m, joint origin in its parent's frame at rest
   std::vector<bool> end_site;            ///< BVH "End Site" leaves (no rotation of their own)
+  /// BVH channels per joint in file order, one letter each: 'X','Y','Z' = position (file
+  /// units on disk, metres in memory), 'x','y','z' = rotation about that axis (degrees on
+  /// disk). E.g. CMU root "XYZzyx", CMU joint "zyx", boxer "zxy", end site "". Kept so a
+  /// written file has the source's channel order; empty vector = writer defaults.
+  std::vector<std::string> channels;
   /// Skeleton joint index of each canonical joint, or -1 when the dialect lacks it.
   std::array<int, kCanonicalJointCount> canonical{};
+  /// Name of the dialect map that filled `canonical` ("cmu", "assimp_boxer", a TOML map's
+  /// name, "structural"), or "" when not mapped. See canonical.hpp.
+  std::string dialect;
 
   int joint_count() const { return static_cast<int>(names.size()); }
   int find(std::string_view name) const;  ///< index or -1
@@ -56,6 +64,14 @@ struct Clip {
   int frame_count = 0;
   std::vector<Eigen::Vector3d> root_positions;     ///< m, [frame]
   std::vector<Eigen::Quaterniond> local_rotations; ///< [frame * joint_count + joint]
+  /// m, [frame * joint_count + joint]: per-frame local translation of every joint. EMPTY
+  /// unless a non-root joint has position channels whose values change over the clip (they
+  /// replace the offset). When empty, skeleton.offsets are the translations (constant
+  /// position channels are folded into the offsets by the reader).
+  std::vector<Eigen::Vector3d> local_translations;
+
+  double frame_rate_hz() const { return 1.0 / frame_time_s; }
+  double duration_s() const { return frame_count * frame_time_s; }
 
   std::span<const Eigen::Quaterniond> rotations(int frame) const {
     const auto n = static_cast<std::size_t>(skeleton.joint_count());
@@ -69,5 +85,13 @@ void forward_kinematics(const Skeleton& skeleton, const Eigen::Vector3d& root_po
                         std::span<const Eigen::Quaterniond> local_rotations,
                         std::span<Eigen::Vector3d> global_positions,
                         std::span<Eigen::Quaterniond> global_rotations);
+
+/// Forward kinematics of frame `frame` of `clip`, honouring clip.local_translations when
+/// present. Output spans must hold clip.skeleton.joint_count() entries.
+void forward_kinematics(const Clip& clip, int frame, std::span<Eigen::Vector3d> global_positions,
+                        std::span<Eigen::Quaterniond> global_rotations);
+
+/// Global joint positions (m) of every frame: [frame * joint_count + joint]. Offline use.
+std::vector<Eigen::Vector3d> all_joint_positions(const Clip& clip);
 
 }  // namespace kumite::content

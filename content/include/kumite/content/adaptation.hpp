@@ -1,0 +1,106 @@
+#pragma once
+// Real-time adaptation: decodes an MKM pose (mkm.hpp) onto a character's skeleton, every
+// frame. Trunk joints take their geometric frames and directions; each limb is rebuilt with
+// analytic two-bone IK from the character's own shoulder/hip, keeping the swivel angle; the
+// hit point can be pulled by an offset d(t) toward a target (reach); planted feet can be held
+// at fixed ankle positions. When the arm alone cannot reach, CCD over spine/chest/clavicle
+// brings the shoulder closer first.
+//
+// Style (ozz-animation): a Rig is immutable runtime data built once per character; AdaptJob
+// is a small struct over caller-owned spans with Validate()/Run(); Run() never allocates.
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "kumite/content/mkm.hpp"
+#include "kumite/content/skeleton.hpp"
+
+namespace kumite::content {
+
+/// A character (or the actor) prepared for adaptation.
+struct Rig {
+  enum class Role : std::uint8_t {
+    none, pelvis, spine, chest, neck, clavicle, shoulder, elbow, hip, knee, ankle
+  };
+  std::string name;
+  Skeleton skeleton;
+  std::vector<Eigen::Quaterniond> rest_local;  ///< rest local rotation per joint
+  CanonicalPose rest_pose;                     ///< m, canonical positions at rest
+  Morphology morphology;
+  std::vector<Role> role;            ///< what the solver does at each joint
+  std::vector<std::int8_t> side;     ///< kLeft / kRight for limb roles, -1 otherwise
+  std::vector<Eigen::Vector3d> aim_local;  ///< unit, toward the role's child joint, joint frame at rest
+  Eigen::Quaterniond pelvis_frame_local = Eigen::Quaterniond::Identity();  ///< geometric frame in pelvis joint frame
+  Eigen::Quaterniond chest_frame_local = Eigen::Quaterniond::Identity();   ///< geometric frame in chest joint frame
+  Eigen::Vector3d root_to_pelvis_local{0, 0, 0};  ///< m, pelvis from the root joint, root frame at rest
+  std::vector<float> joint_radii_m;  ///< suggested capsule radius of the bone ending at each joint
+
+  int joint_count() const { return skeleton.joint_count(); }
+};
+
+/// Builds a rig from a skeleton and its rest local rotations (empty = identity, i.e. the
+/// BVH offsets' pose). Throws kumite::Error naming `name` when canonical joints are missing.
+Rig make_rig(const Skeleton& skeleton, std::span<const Eigen::Quaterniond> rest_local, std::string name);
+
+/// Which limb carries the hit point (the end joint of the limb: wrist or ankle).
+struct Effector {
+  int side = kRight;
+  bool leg = false;
+  CanonicalJoint joint() const;
+};
+
+/// d(t): the offset (m, room frame) added to the effector's decoded position this frame.
+struct ReachGoal {
+  Effector effector;
+  Eigen::Vector3d offset_m{0, 0, 0};
+};
+
+/// Planted feet: per side a weight in [0, 1] pulling the decoded ankle onto `ankle_m`.
+struct FootLocks {
+  std::array<double, 2> weight{0, 0};
+  std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< m, room
+};
+
+/// What one Run() did (optional output).
+struct AdaptReport {
+  Eigen::Vector3d effector_goal{0, 0, 0};     ///< m, where the effector was asked to be
+  Eigen::Vector3d effector_reached{0, 0, 0};  ///< m, where it is after FK
+  double reach_error_m = 0;                   ///< |goal - reached|
+  bool reached = true;                        ///< goal within the limb's reach (after CCD)
+  bool trunk_used = false;                    ///< the CCD fallback bent the trunk
+  std::array<bool, 2> foot_reached{true, true};  ///< locked ankle within the leg's reach
+};
+
+/// Tunables of the trunk fallback (rad). Larger limits reach further but look contorted.
+struct TrunkLimits {
+  double spine_rad = 0.45;     ///< ~26 deg: a lean from the lower back
+  double chest_rad = 0.35;     ///< ~20 deg
+  double clavicle_rad = 0.35;  ///< ~20 deg: shoulder thrust
+  int iterations = 12;         ///< CCD sweeps; converges in 2-4 for reachable targets
+};
+
+struct AdaptJob {
+  const Rig* rig = nullptr;
+  const MkmFrame* pose = nullptr;       ///< placed in the room frame (place_mkm)
+  const ReachGoal* reach = nullptr;     ///< optional
+  const FootLocks* feet = nullptr;      ///< optional
+  TrunkLimits trunk{};
+  std::span<Eigen::Quaterniond> local_rotations;   ///< out, joint_count
+  std::span<Eigen::Vector3d> global_positions;     ///< out, m, room frame, joint_count
+  std::span<Eigen::Quaterniond> global_rotations;  ///< out, joint_count
+  Eigen::Vector3d* root_position = nullptr;        ///< out, m, root joint position
+  AdaptReport* report = nullptr;                   ///< optional out
+
+  bool Validate() const;
+  bool Run() const;  ///< false when Validate() fails
+};
+
+/// Convenience for offline code and queries (allocates): decode `pose` on `rig` and return
+/// the canonical positions (m).
+void decode_canonical(const Rig& rig, const MkmFrame& pose, CanonicalPose& out);
+
+}  // namespace kumite::content

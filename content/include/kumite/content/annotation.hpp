@@ -1,0 +1,134 @@
+#pragma once
+// Motion annotations (motions.toml): which frames of which clip are a punch, a kick, a rest
+// pose ..., which limb hits and at which frame. Plus the automatic proposer behind
+// `kumite-motion annotate`, which finds strikes from the hit point's speed and extension
+// (what the original system's annotation toolkit did by hand) for a person to review.
+//
+// File format (TOML; frames are 0-based BVH motion frames, inclusive):
+//
+//   version = 1
+//   [[clip]]
+//   file = "135_04.bvh"          # relative to the motions.toml folder
+//   name = "135_04"              # optional (default: file stem); unique
+//   mirror = true                # optional (default true): database adds the mirrored clip
+//   [[clip.motion]]
+//   name = "135_04_kick_right_1" # unique in the file
+//   semantics = "kick"           # punch | kick | block | walk | rest | other
+//   frames = [330, 410]          # first, last (inclusive)
+//   hit_segment = "right_foot"   # strikes (punch, kick) only: left_hand | right_hand | left_foot | right_foot
+//   hit_frame = 374              # strikes only: contact frame, inside `frames`
+//   note = "..."                 # optional, free text
+//   peak_speed_mps = 9.9         # optional, informational: hit point's peak speed (m/s)
+//   extension = 0.97             # optional, informational: limb extension at hit_frame (1 = straight)
+//
+// Errors name file, line and key: "motions.toml:14: clip[0].motion[2].hit_frame: 1500 is
+// outside the clip (frames 0..1315)".
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "kumite/content/skeleton.hpp"
+
+namespace kumite::content {
+
+enum class Semantics : std::uint8_t { punch, kick, block, walk, rest, other };
+enum class HitSegment : std::uint8_t { left_hand, right_hand, left_foot, right_foot };
+
+std::string_view to_string(Semantics s);
+std::string_view to_string(HitSegment s);
+std::optional<Semantics> semantics_from_string(std::string_view s);
+std::optional<HitSegment> hit_segment_from_string(std::string_view s);
+/// Strikes carry a hit segment and a hit frame.
+inline bool is_strike(Semantics s) { return s == Semantics::punch || s == Semantics::kick; }
+/// The canonical joint whose position is the hit point: wrists for hands, ankles for feet
+/// (the joints PROVENANCE.md measures; the fist / toe tip are a bone further).
+CanonicalJoint hit_joint(HitSegment s);
+/// The limb root the extension is measured from: shoulders for hands, hips for feet.
+CanonicalJoint limb_root(HitSegment s);
+bool is_left(HitSegment s);
+bool is_hand(HitSegment s);
+
+struct MotionAnnotation {
+  std::string name;                       ///< unique id, e.g. "135_04_kick_right_1"
+  Semantics semantics = Semantics::other;
+  int first_frame = 0;                    ///< first frame (inclusive, 0-based)
+  int last_frame = 0;                     ///< last frame (inclusive)
+  std::optional<HitSegment> hit_segment;  ///< strikes only
+  std::optional<int> hit_frame;           ///< strikes only: contact frame in [first, last]
+  std::string note;                       ///< free text for people
+  double peak_speed_mps = 0;              ///< m/s, informational: hit point's peak speed (0 = unknown)
+  double extension = 0;                   ///< 1, informational: limb length fraction at the hit (0 = unknown)
+  int line = 0;                           ///< line in the TOML file (0 = not from a file)
+};
+
+struct ClipAnnotation {
+  std::string file;   ///< BVH path as written (relative to the motions.toml folder)
+  std::string name;   ///< clip name (default: file stem)
+  bool mirror = true; ///< the database also adds the mirrored clip
+  std::vector<MotionAnnotation> motions;
+  int line = 0;       ///< line of the [[clip]] header (0 = not from a file)
+};
+
+struct AnnotationSet {
+  int version = 1;
+  std::vector<ClipAnnotation> clips;
+  std::filesystem::path source;  ///< the motions.toml it came from (resolves clip paths)
+
+  /// Path of a clip's BVH: relative paths are taken from the motions.toml's folder.
+  std::filesystem::path resolve(const ClipAnnotation& clip) const;
+};
+
+inline constexpr int kAnnotationVersion = 1;
+
+/// Parses and validates the schema (types, unknown keys, names, frame order, strike fields).
+AnnotationSet parse_annotations(std::string_view text, std::string_view source);
+AnnotationSet read_annotations(const std::filesystem::path& path);
+/// TOML text (comments explain the fields); parse_annotations(format_annotations(s)) == s.
+std::string format_annotations(const AnnotationSet& set);
+/// Writes atomically.
+void write_annotations(const std::filesystem::path& path, const AnnotationSet& set);
+
+/// Checks a clip's annotations against the clip itself (frames inside it, the hit segment's
+/// joints mapped). Throws kumite::Error "file:line: clip[i].motion[j].key: message".
+void validate_annotations(const AnnotationSet& set, std::size_t clip_index, const Clip& clip);
+
+/// Reads every clip of the set (mapping canonical joints) and validates it.
+std::vector<Clip> load_annotated_clips(const AnnotationSet& set);
+
+// ---- The proposer --------------------------------------------------------------------------
+
+/// Tunables of the strike finder. Thresholds are relative to the actor's measured size so
+/// they hold for any body; the defaults were checked on CMU subject 135 and the assimp boxer.
+struct ProposerSettings {
+  double smoothing_s = 0.025;          ///< s, moving-average window applied to positions before speeds
+  double peak_window_s = 0.30;         ///< s, a peak must be the extreme within +- this
+  // Punches (per hand): the arm nearly straight, straightened fast, not pointing at the floor.
+  double punch_min_extension = 0.88;   ///< 1, |wrist - shoulder| / arm length at the peak
+  double punch_min_speed = 3.5;        ///< m/s, wrist speed somewhere in the approach
+  double punch_min_radial_speed = 1.2; ///< m/s, how fast the arm straightened in the approach
+  double punch_max_drop_deg = 30;      ///< deg, shoulder -> wrist may point at most this far below horizontal
+  double approach_s = 0.35;            ///< s, window before the peak that must hold the speeds
+  // Kicks (per foot): the ankle high and the leg extended.
+  double kick_min_height = 0.30;       ///< 1, ankle above the floor / stature at the peak
+  double kick_min_speed = 4.0;         ///< m/s, ankle speed in the approach
+  // Segment bounds: where the hit point's speed falls below this fraction of its peak.
+  double bound_speed_fraction = 0.15;  ///< 1
+  double max_half_window_s = 0.8;      ///< s, bounds at most this far from the hit frame
+  // Rest: every end effector and the pelvis slower than this for at least rest_min_s.
+  double rest_max_speed = 0.25;        ///< m/s
+  double rest_min_s = 0.4;             ///< s
+  // Walk: pelvis moving horizontally faster than this for at least walk_min_s.
+  double walk_min_speed = 0.6;         ///< m/s
+  double walk_min_s = 1.0;             ///< s
+  // Blocks: fast hands (>= this) that are not punches and not inside kicks.
+  double block_min_speed = 4.0;        ///< m/s
+};
+
+/// Proposes the annotations of one clip (canonical joints must be mapped). `file` is stored
+/// as the clip's file. Motions are sorted by first frame; names are "<clip>_<kind>_<n>".
+ClipAnnotation propose_annotations(const Clip& clip, std::string file, const ProposerSettings& settings = {});
+
+}  // namespace kumite::content

@@ -1,0 +1,215 @@
+#pragma once
+// The fighter's behaviour, engine-agnostic and single-threaded (testable without a window):
+// rest, follow the visitor, strike on order, report hit/miss, switch characters at any time.
+// Retrieval goes through a StrikePlanner that the caller may run on another thread: the
+// behaviour sends a StrikeRequest and polls for the StrikePlan, animating meanwhile.
+//
+// Per update: sample the current motion (and the previous one while cross-fading) in MKM
+// form, place it in the room, blend, add the reach offset d(t), hold planted feet, and
+// decode onto the current character (AdaptJob).
+#include <array>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kumite/common/time.hpp"
+#include "kumite/common/wire.hpp"
+#include "kumite/content/adaptation.hpp"
+#include "kumite/content/database.hpp"
+#include "kumite/content/fighter.hpp"
+#include "kumite/content/retrieval.hpp"
+
+namespace kumite::content {
+
+/// A strike to plan (made on the behaviour's thread, read by the planner's).
+struct StrikeRequest {
+  std::uint64_t id = 0;
+  int group = 1;                        ///< effector group (retrieval.hpp)
+  MkmFrame now, before;                 ///< current pose and the one `dt_s` earlier (room frame)
+  double dt_s = 1.0 / 60;               ///< s between `before` and `now`
+  Eigen::Vector3d target_local_m{0, 0, 0};  ///< m, character ground frame of `now`
+  double character_leg_length_m = 1;    ///< m, to scale the target to the actor
+};
+
+struct StrikePlan {
+  std::uint64_t id = 0;
+  RetrievalChoice choice;
+  int segment = -1;        ///< -1: nothing fits this effector
+  int start_frame = 0;     ///< segment frame where the strike starts
+  int contact_frame = 0;   ///< segment frame where the hit point should meet the target
+  double retrieval_us = 0; ///< µs, query features + search
+};
+
+/// Turns requests into plans: retargets the pose onto the actor, scales the target and runs
+/// retrieve(). Immutable after construction; plan() is safe to call from any one thread.
+class StrikePlanner {
+ public:
+  StrikePlanner(std::shared_ptr<const Database> db, RetrievalTunables tunables = {});
+  StrikePlan plan(const StrikeRequest& request) const;
+  RetrievalQuery make_query(const StrikeRequest& request) const;
+  const Database& database() const { return *db_; }
+  const RetrievalTunables& tunables() const { return tunables_; }
+
+ private:
+  std::shared_ptr<const Database> db_;
+  Rig actor_;
+  RetrievalTunables tunables_;
+};
+
+struct BehaviourTunables {
+  double follow_tolerance_m = 0.25;   ///< m: start following when farther than this off the spot
+  double arrive_tolerance_m = 0.05;   ///< m: stop following this close to the spot
+  double walk_speed_mps = 0.7;        ///< m/s of the root while following
+  double turn_speed_rad_s = 2.5;      ///< rad/s while turning to face the visitor
+  double step_threshold_m = 0.12;     ///< m: a planted foot steps when its free place is this far
+  double max_leg_stretch = 0.97;      ///< hip->held ankle / leg length beyond which the foot steps
+                                      ///< (before the leg runs out of reach and the foot slides)
+  double step_time_s = 0.30;          ///< s per procedural step
+  double step_height_m = 0.06;        ///< m: foot lift at mid-step
+  double unlock_time_s = 0.10;        ///< s: a released foot blends back to the motion
+  double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
+};
+
+/// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
+class Behaviour {
+ public:
+  using Submit = std::function<void(const StrikeRequest&)>;
+  using Poll = std::function<std::optional<StrikePlan>()>;
+
+  Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config,
+            BehaviourTunables tunables = {});
+
+  /// Where plans come from. Default: synchronous planning inside update() via `planner`.
+  void set_planner(Submit submit, Poll poll);
+  void use_synchronous_planner(std::shared_ptr<const StrikePlanner> planner);
+
+  /// Queue an order (processed at the next update).
+  void order(const Order& order);
+  /// Strike toward an explicit room-frame target (tools, tests); same rules as order().
+  void order_strike(const Order& order, const Eigen::Vector3d& target_room_m);
+  void update(Timestamp now, double dt, const Eigen::Vector3d& head);
+
+  FighterFrame frame() const;
+  std::vector<FighterEvent> take_events();
+  int character_count() const { return static_cast<int>(characters_.size()); }
+  const Rig& character(int i) const { return characters_[static_cast<std::size_t>(i)]; }
+  int current_character() const { return character_; }
+  FighterState state() const { return state_; }
+
+  /// The pose of the last update on the current character (for tools/tests).
+  std::span<const Eigen::Quaterniond> local_rotations() const { return local_; }
+  Eigen::Vector3d root_position() const { return root_joint_; }
+  std::span<const Eigen::Vector3d> joint_positions() const { return positions_; }
+  /// Raw positions without the character-switch easing (what the current rig really does).
+  std::span<const Eigen::Vector3d> rig_positions() const { return rig_positions_; }
+  const AdaptReport& last_report() const { return report_; }
+  /// Feet held this update (weight > 0.99) [side].
+  std::array<bool, 2> feet_locked() const;
+
+  /// The strike in progress or the last one (for reports).
+  struct StrikeInfo {
+    bool active = false;
+    Order order{};
+    Eigen::Vector3d target_room_m{0, 0, 0};
+    StrikePlan plan;
+    Effector effector;
+    double start_time_s = 0;       ///< segment time at the start (s)
+    double contact_time_s = 0;     ///< segment time of contact (s)
+    double end_time_s = 0;         ///< segment time of the last frame (s)
+    Eigen::Vector3d error_m{0, 0, 0};  ///< full reach offset at contact
+    bool contact_done = false;
+    double contact_distance_m = -1;
+    bool contact_reached = true;   ///< the limb (after the trunk fallback) could reach
+    bool hit = false;
+    int contact_update = -1;       ///< update counter at contact
+  };
+  const StrikeInfo& strike() const { return strike_; }
+  int update_count() const { return updates_; }
+  /// Room placement of the character's ground frame now (pelvis on the floor, facing).
+  GroundFrame ground() const;
+
+ private:
+  struct Source {
+    int segment = -1;
+    double time_s = 0;
+    GroundFrame placement;
+    Eigen::Vector2d anchor_xz_m{0, 0};
+    bool loop = false;
+  };
+  void handle_orders(Timestamp now, const Eigen::Vector3d& head);
+  void start_strike(const StrikePlan& plan, Timestamp now);
+  void select_character(int index, Timestamp now);
+  void sample(const Source& s, MkmFrame& out) const;
+  double stride_scale() const;
+  void start_rest(Timestamp now);
+  void update_follow(double dt, const Eigen::Vector3d& head);
+  void update_feet(double dt);
+  void compute_reach_error();
+  void emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance = 0);
+
+  std::shared_ptr<const Database> db_;
+  std::vector<Rig> characters_;
+  FighterConfig config_;
+  BehaviourTunables tun_;
+  Submit submit_;
+  Poll poll_;
+  std::shared_ptr<const StrikePlanner> sync_planner_;
+  std::deque<StrikePlan> sync_results_;
+
+  int character_ = 0;
+  FighterState state_ = FighterState::resting;
+  bool paused_ = false;
+  int rest_segment_ = 0;
+  Source current_, previous_;
+  double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
+  double facing_rad_ = 0;
+  Eigen::Vector2d spot_xz_m_{0, 0};  ///< m, where the rest motion is anchored (room)
+  bool following_ = false;
+  Eigen::Vector2d spot_velocity_{0, 0};  ///< m/s of the rest spot while following
+  std::optional<Eigen::Vector2d> recentre_goal_;
+
+  std::deque<std::pair<Order, std::optional<Eigen::Vector3d>>> orders_;
+  std::uint64_t next_request_ = 1;
+  std::optional<std::pair<std::uint64_t, std::pair<Order, Eigen::Vector3d>>> pending_;
+  StrikeInfo strike_;
+
+  MkmFrame pose_, pose_before_;  ///< blended, placed pose this and the previous update
+  bool have_pose_ = false;
+  double last_dt_ = 1.0 / 60;
+
+  // Feet.
+  struct Foot {
+    bool locked = false;
+    double weight = 0;
+    Eigen::Vector3d lock{0, 0, 0};
+    bool stepping = false;
+    double step_t = 0;
+    Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
+  };
+  std::array<Foot, 2> feet_{};
+  FootLocks locks_;
+
+  // Switch easing: per joint of the current rig, an offset fading to zero.
+  std::vector<Eigen::Vector3d> switch_offset_;
+  double switch_elapsed_s_ = 1e9;
+
+  std::vector<Eigen::Quaterniond> local_, global_;
+  std::vector<Eigen::Vector3d> rig_positions_, positions_;
+  Eigen::Vector3d root_joint_{0, 0, 0};
+  AdaptReport report_;
+  std::vector<FighterEvent> events_;
+  Timestamp time_ = 0;
+  int updates_ = 0;
+};
+
+/// Loads the characters of a FighterConfig (BVH, first frame = rest pose) into rigs.
+std::vector<Rig> load_character_rigs(const FighterConfig& config);
+/// Loads one character: a file path, or a name looked up as
+/// <content>/characters/<name>.bvh.
+Rig load_character_rig(const std::string& name_or_path);
+
+}  // namespace kumite::content

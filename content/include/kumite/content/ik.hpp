@@ -1,0 +1,46 @@
+#pragma once
+// Inverse kinematics used by adaptation: analytic two-bone IK with a pole (swivel) direction,
+// and a CCD fallback over a short chain of trunk joints for when the limb alone cannot reach.
+// Everything is allocation-free and works on caller-provided values (m, rad).
+#include <array>
+#include <span>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace kumite::content {
+
+struct TwoBoneResult {
+  Eigen::Vector3d middle;  ///< m, elbow / knee
+  Eigen::Vector3d end;     ///< m, wrist / ankle actually reached (== target when reachable)
+  bool reached = true;     ///< false when the target lies beyond l1 + l2 (or inside |l1 - l2|)
+};
+
+/// Places the middle joint of root(l1)-middle(l2)-end so that end == target when
+/// |target - root| lies in [|l1 - l2|, l1 + l2]; otherwise end is the nearest reachable
+/// point on the root->target line. `pole_unit` (perpendicular to root->target) says where
+/// the middle joint bends.
+TwoBoneResult solve_two_bone(const Eigen::Vector3d& root, const Eigen::Vector3d& target, double l1,
+                             double l2, const Eigen::Vector3d& pole_unit);
+
+/// The smallest rotation taking direction `from` onto `to` (neither need be unit).
+Eigen::Quaterniond swing_between(const Eigen::Vector3d& from, const Eigen::Vector3d& to);
+
+/// Limits a rotation to at most `max_angle_rad` about its own axis.
+Eigen::Quaterniond clamp_angle(const Eigen::Quaterniond& q, double max_angle_rad);
+
+/// CCD over a chain of up to 4 pivots that carry a limb root (e.g. spine, chest, clavicle ->
+/// shoulder). Moves the limb root toward the ball of radius `reach_m` around `target`,
+/// rotating each pivot (last first) by at most its limit in total. Outputs one world-frame
+/// delta rotation per pivot (to apply about that pivot, parents first). Returns true when the
+/// limb root ends within reach.
+struct CcdChain {
+  std::array<Eigen::Vector3d, 4> pivots;  ///< m, world positions, parents first
+  std::array<double, 4> limit_rad{};      ///< total rotation allowed per pivot
+  int count = 0;
+  Eigen::Vector3d limb_root;              ///< m, e.g. shoulder
+};
+bool solve_ccd_reach(const CcdChain& chain, const Eigen::Vector3d& target, double reach_m,
+                     int iterations, std::array<Eigen::Quaterniond, 4>& deltas);
+
+}  // namespace kumite::content

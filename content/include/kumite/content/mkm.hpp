@@ -1,0 +1,135 @@
+#pragma once
+// A morphology-independent pose representation, after Kulpa & Multon's MKM ("Morphology-
+// independent representation of motions for interactive human-like animation", 2005):
+// limbs are stored as the vector root->end of the limb divided by the limb's length plus the
+// swivel angle of the middle joint about that vector; the trunk as geometric frames and unit
+// directions; the pelvis height as a fraction of the leg length. A pose encoded from one
+// skeleton (the actor) decodes onto any other (a character) whose canonical joints are known:
+// the decoder (adaptation.hpp) rebuilds each limb with analytic two-bone IK.
+//
+// Frames: every direction and quaternion of an MkmFrame is expressed in the frame's ground
+// frame (Y up). Geometric frames: x toward the body's LEFT, y up, z forward (right-handed;
+// a body at rest facing +Z has the identity frame).
+#include <array>
+#include <span>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "kumite/content/skeleton.hpp"
+
+namespace kumite::content {
+
+enum Side : int { kLeft = 0, kRight = 1 };
+
+/// Global positions of the canonical joints of one pose (m); joints a skeleton lacks are NaN.
+using CanonicalPose = std::array<Eigen::Vector3d, kCanonicalJointCount>;
+
+inline const Eigen::Vector3d& at(const CanonicalPose& p, CanonicalJoint j) {
+  return p[static_cast<std::size_t>(j)];
+}
+inline Eigen::Vector3d& at(CanonicalPose& p, CanonicalJoint j) {
+  return p[static_cast<std::size_t>(j)];
+}
+
+/// A rigid motion on the floor: world = R_y(yaw) * local + (x, 0, z).
+struct GroundFrame {
+  Eigen::Vector2d origin_xz{0, 0};  ///< m, (x, z) of the origin on the floor
+  double yaw_rad = 0;               ///< rotation about +Y; 0 = facing +Z
+
+  Eigen::Quaterniond rotation() const {
+    return Eigen::Quaterniond(Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitY()));
+  }
+  Eigen::Vector3d to_world(const Eigen::Vector3d& local) const;
+  Eigen::Vector3d to_local(const Eigen::Vector3d& world) const;
+  /// this ∘ other (apply `other` first).
+  GroundFrame compose(const GroundFrame& other) const;
+  GroundFrame inverse() const;
+};
+
+/// Yaw (rad) of a forward vector projected on the floor: atan2(x, z), 0 for +Z.
+double yaw_of(const Eigen::Vector3d& forward);
+
+/// One pose in MKM form. Lengths are normalised (dimensionless) except root_xz_m.
+struct MkmFrame {
+  Eigen::Vector2d root_xz_m{0, 0};  ///< m, pelvis on the floor (x, z): the only metric field,
+                                    ///< because locomotion must keep its metres when blended
+  double root_height_n = 1;         ///< pelvis height above the floor / leg length
+  Eigen::Quaterniond pelvis = Eigen::Quaterniond::Identity();  ///< geometric frame (hips, up)
+  Eigen::Quaterniond chest = Eigen::Quaterniond::Identity();   ///< geometric frame (shoulders, neck)
+  Eigen::Vector3d spine_dir{0, 1, 0};  ///< unit, spine -> chest
+  Eigen::Vector3d head_dir{0, 1, 0};   ///< unit, neck -> head
+  std::array<Eigen::Vector3d, 2> clavicle_dir{};  ///< unit, clavicle -> shoulder [side]
+  std::array<Eigen::Vector3d, 2> arm_n{};   ///< (wrist - shoulder) / arm length [side]
+  std::array<double, 2> arm_swivel_rad{};   ///< elbow about the shoulder->wrist axis [side]
+  std::array<Eigen::Vector3d, 2> leg_n{};   ///< (ankle - hip) / leg length [side]
+  std::array<double, 2> leg_swivel_rad{};   ///< knee about the hip->ankle axis [side]
+  std::array<Eigen::Vector3d, 2> foot_dir{};  ///< unit, ankle -> toe [side]
+  std::array<double, 2> planted{};  ///< 1 = foot planted on the floor, 0 = free [side]
+};
+
+/// Lengths of a body, measured on its rest pose (m). Limb lengths are bone lengths, so they
+/// do not depend on the rest pose's angles.
+struct Morphology {
+  std::array<double, 2> upper_arm_m{}, forearm_m{}, thigh_m{}, shin_m{};  ///< [side]
+  double leg_length_m = 1;  ///< pelvis height when standing straight: the size used for
+                            ///< root normalisation and for scaling targets actor <-> character
+  double height_m = 1.7;    ///< rest head height above the lowest foot joint (reporting)
+  double arm_length(int side) const { return upper_arm_m[side] + forearm_m[side]; }
+  double limb_leg_length(int side) const { return thigh_m[side] + shin_m[side]; }
+};
+
+/// Canonical global positions of a skeleton pose (NaN where the skeleton lacks a joint).
+void canonical_positions(const Skeleton& skeleton, std::span<const Eigen::Vector3d> global_positions,
+                         CanonicalPose& out);
+
+/// Morphology from a rest pose's canonical positions. Throws kumite::Error("content",
+/// "skeleton", ...) naming `what` and the missing canonical joint when the pose lacks one
+/// that the fighter needs (pelvis, chest, neck, head, shoulders, elbows, wrists, hips, knees,
+/// ankles).
+Morphology measure_morphology(const CanonicalPose& rest, std::string_view what);
+/// The canonical joints every fighter skeleton must have.
+void require_canonical_joints(const Skeleton& skeleton, std::string_view what);
+
+/// Geometric frames (x left, y up, z forward) of the pelvis and chest of a pose.
+Eigen::Quaterniond pelvis_frame(const CanonicalPose& p);
+Eigen::Quaterniond chest_frame(const CanonicalPose& p);
+/// The pose's ground frame: pelvis projected on the floor, heading of the pelvis frame.
+GroundFrame ground_frame_of(const CanonicalPose& p);
+GroundFrame ground_frame_of(const MkmFrame& f);
+
+/// Swivel reference (unit, in the pelvis/chest geometric frame) for a side's arm or leg:
+/// directions the limb axis practically never takes (up-outward-back for arms, up-back for
+/// legs), so the reference stays defined across strikes, guards and kicks.
+Eigen::Vector3d arm_swivel_reference(int side);
+Eigen::Vector3d leg_swivel_reference(int side);
+
+/// Swivel of `middle` about the axis root->end, measured from `reference` (world, any length
+/// not parallel to the axis). Returns `fallback` when the limb is straight (undefined).
+double swivel_angle(const Eigen::Vector3d& root, const Eigen::Vector3d& middle,
+                    const Eigen::Vector3d& end, const Eigen::Vector3d& reference, double fallback);
+/// Unit pole direction (perpendicular to `axis`) for a swivel angle: the inverse of the above.
+Eigen::Vector3d swivel_pole(const Eigen::Vector3d& axis_unit, const Eigen::Vector3d& reference,
+                            double swivel_rad);
+
+/// Encodes canonical positions (m) into MKM. `floor_y_m` is the clip's floor height; the
+/// swivel fallbacks (rad) are used when a limb is straight: pass the previous frame's angles
+/// so a straight arm keeps its last swivel (previous may be null).
+void encode_mkm(const CanonicalPose& pose, const Morphology& morphology, double floor_y_m,
+                const MkmFrame* previous, MkmFrame& out);
+
+/// Mirrors a canonical pose left <-> right through the plane x = 0 of its ground frame `g`.
+void mirror_pose(const CanonicalPose& in, const GroundFrame& g, CanonicalPose& out);
+
+/// out = a blended toward b by w in [0, 1] (0 = a). Quaternions slerp, unit directions
+/// nlerp, limb vectors lerp (their length is the extension), swivels along the shortest arc.
+void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out);
+
+/// Expresses a frame given in ground frame `from`'s local coordinates in world coordinates,
+/// i.e. applies `placement` (rotation about Y and translation on the floor). Root horizontal
+/// displacement is scaled by `stride_scale` about placement's origin (actor -> character
+/// legs) after removing `anchor_xz_m` (the clip's root at the alignment frame).
+void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Vector2d& anchor_xz_m,
+               double stride_scale, MkmFrame& out);
+
+}  // namespace kumite::content

@@ -1,0 +1,110 @@
+#pragma once
+// Strike retrieval (after Multon et al.'s kung-fu fighter): given the character's current
+// pose retargeted onto the actor and the target scaled to the actor's size, choose the
+// strike candidate (segment, start frame) minimising
+//
+//     cost = pose_weight * |features(query) - features(candidate)|
+//          + trajectory_weight_per_m * min_k |target - hit_window_k|
+//
+// over the ELIGIBLE candidates of the ordered effector: those whose hit-window bounding box
+// (inflated by box_margin_m) contains the target, or, when none does, those whose box is
+// nearest. retrieve() returns exactly what retrieve_brute_force() returns (same cost, ties to
+// the lower candidate index); it visits k-means pose clusters nearest-first and skips a
+// cluster when a lower bound of its cost (triangle inequality on the cluster radius + the
+// distance to the union of its boxes) cannot beat the best so far.
+//
+// Layout (as in orangeduck's Motion-Matching): flat float arrays, one row per candidate,
+// candidates sorted by (group, cluster) so a cluster is a contiguous block.
+#include <array>
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "kumite/content/mkm.hpp"
+
+namespace kumite::content {
+
+/// Pose feature: 10 joint positions + 5 joint velocities (x, y, z each), normalised by leg
+/// length, in the pose's ground frame (so horizontal position and heading do not count).
+inline constexpr int kFeatureDim = 45;
+/// Hit-window samples per candidate (at most).
+inline constexpr int kWindowMax = 16;
+/// Effector groups: side + 2 * leg (0 left hand, 1 right hand, 2 left foot, 3 right foot).
+inline constexpr int kGroupCount = 4;
+
+struct RetrievalTunables {
+  double pose_weight = 1.0;               ///< per unit of feature distance (dimensionless)
+  double trajectory_weight_per_m = 5.0;   ///< 1/m: 20 cm of hit-point miss = 1 unit of pose
+  double box_margin_m = 0.15;             ///< m: how far adaptation may comfortably move the
+                                          ///< hit point outside the clip's own hit window
+};
+
+struct RetrievalIndex {
+  struct Cluster {
+    std::int32_t first = 0, count = 0;           ///< candidate rows [first, first + count)
+    std::array<float, kFeatureDim> centroid{};
+    float radius = 0;                            ///< max feature distance member -> centroid
+    std::array<float, 6> box{};                  ///< m, union of the members' raw boxes
+  };
+  std::int32_t size = 0;                     ///< candidates
+  std::vector<float> features;               ///< [row * kFeatureDim]
+  std::vector<float> window;                 ///< m, [row * kWindowMax * 3], start ground frame
+  std::vector<std::uint8_t> window_count;    ///< samples used per row
+  std::vector<float> box;                    ///< m, [row * 6]: min xyz, max xyz of the window
+  std::vector<std::int32_t> segment;         ///< Database::segments index per row
+  std::vector<std::int32_t> start_frame;     ///< segment frame where the strike starts
+  std::vector<std::int32_t> window_first;    ///< segment frame of window sample 0
+  std::vector<std::int32_t> window_stride;   ///< frames between window samples
+  std::vector<std::uint8_t> group;           ///< effector group per row
+  std::vector<Cluster> clusters;             ///< sorted by group
+  std::array<std::int32_t, kGroupCount + 1> group_clusters{};  ///< clusters of g: [g], [g+1)
+
+  /// Appends a candidate row (before build_clusters).
+  void add(int group, std::span<const float> features, std::span<const Eigen::Vector3f> window_points,
+           int segment, int start_frame, int window_first, int window_stride);
+  /// k-means (k-means++ seeding, fixed seed) per group, then reorders rows by cluster.
+  /// clusters_per_group <= 0 picks ~sqrt(rows in the group).
+  void build_clusters(int clusters_per_group, std::uint32_t seed = 1);
+};
+
+struct RetrievalQuery {
+  int group = 1;
+  std::array<float, kFeatureDim> features{};
+  Eigen::Vector3f target_m{0, 0, 0};  ///< m, actor size, in the query pose's ground frame
+};
+
+struct RetrievalChoice {
+  int row = -1;                  ///< -1: no candidate for this effector
+  double cost = 0;
+  double pose_distance = 0;
+  double trajectory_distance_m = 0;  ///< m (actor size): target to the nearest window sample
+  int window_sample = 0;             ///< which sample was nearest
+  bool target_in_box = false;        ///< false: fell back to the nearest box
+};
+
+struct RetrievalStats {
+  int clusters_visited = 0;
+  int rows_visited = 0;  ///< rows whose box admitted the target
+  int rows_costed = 0;   ///< rows whose full cost was computed
+};
+
+RetrievalChoice retrieve(const RetrievalIndex& index, const RetrievalQuery& query,
+                         const RetrievalTunables& tunables, RetrievalStats* stats = nullptr);
+RetrievalChoice retrieve_brute_force(const RetrievalIndex& index, const RetrievalQuery& query,
+                                     const RetrievalTunables& tunables);
+
+/// A larger index for benchmarks and tests: `copies` replicas of `base`'s rows, each with
+/// gaussian noise on the features (`feature_noise`, feature units) and on the hit window
+/// (`window_noise_m`, m, one random offset per replica row), then re-clustered.
+RetrievalIndex replicated_index(const RetrievalIndex& base, int copies, double feature_noise,
+                                double window_noise_m, std::uint32_t seed, int clusters_per_group = 0);
+
+/// Features of a pose (canonical positions now and `dt_s` earlier, m) in `ground` (the
+/// pose's own ground frame). `velocity_weight_s` turns velocities into displacements.
+void pose_features(const CanonicalPose& now, const CanonicalPose& before, double dt_s,
+                   const GroundFrame& ground, double leg_length_m, double velocity_weight_s,
+                   std::span<float> out);
+
+}  // namespace kumite::content

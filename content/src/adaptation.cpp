@@ -1,0 +1,321 @@
+#include "kumite/content/adaptation.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "kumite/common/error.hpp"
+#include "kumite/content/ik.hpp"
+
+namespace kumite::content {
+
+using CJ = CanonicalJoint;
+using Role = Rig::Role;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+CanonicalJoint Effector::joint() const {
+  if (leg) return side == kLeft ? CJ::l_ankle : CJ::r_ankle;
+  return side == kLeft ? CJ::l_wrist : CJ::r_wrist;
+}
+
+namespace {
+
+struct RoleSpec {
+  CJ joint;
+  CJ child;
+  Role role;
+  int side;
+};
+// Order: the role of a joint index is the first spec that names it.
+constexpr std::array<RoleSpec, 17> kRoles{{
+    {CJ::pelvis, CJ::pelvis, Role::pelvis, -1},
+    {CJ::chest, CJ::neck, Role::chest, -1},
+    {CJ::spine, CJ::chest, Role::spine, -1},
+    {CJ::neck, CJ::head, Role::neck, -1},
+    {CJ::l_clavicle, CJ::l_shoulder, Role::clavicle, kLeft},
+    {CJ::r_clavicle, CJ::r_shoulder, Role::clavicle, kRight},
+    {CJ::l_shoulder, CJ::l_elbow, Role::shoulder, kLeft},
+    {CJ::r_shoulder, CJ::r_elbow, Role::shoulder, kRight},
+    {CJ::l_elbow, CJ::l_wrist, Role::elbow, kLeft},
+    {CJ::r_elbow, CJ::r_wrist, Role::elbow, kRight},
+    {CJ::l_hip, CJ::l_knee, Role::hip, kLeft},
+    {CJ::r_hip, CJ::r_knee, Role::hip, kRight},
+    {CJ::l_knee, CJ::l_ankle, Role::knee, kLeft},
+    {CJ::r_knee, CJ::r_ankle, Role::knee, kRight},
+    {CJ::l_ankle, CJ::l_toe, Role::ankle, kLeft},
+    {CJ::r_ankle, CJ::r_toe, Role::ankle, kRight},
+    {CJ::head, CJ::head, Role::none, -1},
+}};
+
+constexpr std::array<CJ, 2> kWrist{CJ::l_wrist, CJ::r_wrist};
+constexpr std::array<CJ, 2> kAnkle{CJ::l_ankle, CJ::r_ankle};
+constexpr std::array<CJ, 2> kShoulder{CJ::l_shoulder, CJ::r_shoulder};
+constexpr std::array<CJ, 2> kClavicle{CJ::l_clavicle, CJ::r_clavicle};
+
+float bone_radius(Role role, double length_m, double height_m) {
+  const double scale = height_m / 1.75;  // radii of a 1.75 m person, scaled
+  switch (role) {
+    case Role::pelvis: case Role::spine: case Role::chest: return static_cast<float>(0.11 * scale);
+    case Role::neck: return static_cast<float>(0.05 * scale);
+    case Role::hip: case Role::knee: return static_cast<float>(0.065 * scale);
+    case Role::shoulder: case Role::elbow: return static_cast<float>(0.045 * scale);
+    default: return static_cast<float>(std::clamp(0.2 * length_m, 0.02, 0.06) * scale);
+  }
+}
+
+// Trunk deltas from the CCD fallback (identity when unused): spine, chest, clavicle.
+struct TrunkDeltas {
+  Quaterniond spine = Quaterniond::Identity();
+  Quaterniond chest = Quaterniond::Identity();
+  Quaterniond clavicle = Quaterniond::Identity();
+  int clavicle_side = -1;
+  bool fixed_goal = false;  // later passes keep the effector goal of pass 1 (it must not move with the trunk)
+  Vector3d goal{0, 0, 0};
+  double root_drop_m = 0;   // m: pelvis lowered so held feet stay within the legs' reach
+};
+
+struct PassOut {
+  std::array<bool, 2> arm_reached{true, true};
+  std::array<bool, 2> leg_reached{true, true};
+  Vector3d effector_goal{0, 0, 0};
+};
+
+// One decode pass over the skeleton, parents first.
+void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
+  const Rig& rig = *job.rig;
+  const MkmFrame& f = *job.pose;
+  const Morphology& m = rig.morphology;
+  const Skeleton& sk = rig.skeleton;
+  const int n = sk.joint_count();
+  const Quaterniond trunk = td.spine * td.chest;
+  const Quaterniond chest_world = trunk * f.chest;
+  std::array<Vector3d, 2> wrist_goal{Vector3d::Zero(), Vector3d::Zero()};
+  std::array<Vector3d, 2> ankle_goal{Vector3d::Zero(), Vector3d::Zero()};
+
+  const Vector3d pelvis_pos(f.root_xz_m.x(), f.root_height_n * m.leg_length_m - td.root_drop_m, f.root_xz_m.y());
+  for (int i = 0; i < n; ++i) {
+    const int p = sk.parents[static_cast<std::size_t>(i)];
+    const auto ui = static_cast<std::size_t>(i);
+    Vector3d pos;
+    Quaterniond inh;
+    if (p < 0) {
+      inh = rig.rest_local[ui];
+      pos = pelvis_pos - inh * rig.root_to_pelvis_local;
+    } else {
+      const auto up = static_cast<std::size_t>(p);
+      pos = job.global_positions[up] + job.global_rotations[up] * sk.offsets[ui];
+      inh = job.global_rotations[up] * rig.rest_local[ui];
+    }
+    const int s = rig.side[ui];
+    auto aim = [&](const Vector3d& dir) { return swing_between(inh * rig.aim_local[ui], dir) * inh; };
+    Quaterniond rot = inh;
+    switch (rig.role[ui]) {
+      case Role::pelvis: rot = f.pelvis * rig.pelvis_frame_local.conjugate(); break;
+      case Role::spine: rot = aim(td.spine * f.spine_dir); break;
+      case Role::chest: rot = chest_world * rig.chest_frame_local.conjugate(); break;
+      case Role::neck: rot = aim(trunk * f.head_dir); break;
+      case Role::clavicle: {
+        const Quaterniond extra = s == td.clavicle_side ? td.clavicle : Quaterniond::Identity();
+        rot = aim(trunk * (extra * f.clavicle_dir[s]));
+        break;
+      }
+      case Role::shoulder: {
+        Vector3d goal = pos + f.arm_n[s] * m.arm_length(s);
+        if (job.reach && !job.reach->effector.leg && job.reach->effector.side == s) {
+          goal = td.fixed_goal ? td.goal : Vector3d(goal + job.reach->offset_m);
+          out.effector_goal = goal;
+        }
+        const Vector3d axis = (goal - pos).normalized();
+        const Vector3d pole = swivel_pole(axis, chest_world * arm_swivel_reference(s), f.arm_swivel_rad[s]);
+        const TwoBoneResult r = solve_two_bone(pos, goal, m.upper_arm_m[s], m.forearm_m[s], pole);
+        wrist_goal[s] = r.end;
+        out.arm_reached[s] = r.reached;
+        rot = aim(r.middle - pos);
+        break;
+      }
+      case Role::elbow: rot = aim(wrist_goal[s] - pos); break;
+      case Role::hip: {
+        Vector3d goal = pos + f.leg_n[s] * m.limb_leg_length(s);
+        if (job.feet && job.feet->weight[s] > 0) {
+          const double w = std::clamp(job.feet->weight[s], 0.0, 1.0);
+          goal = (1 - w) * goal + w * job.feet->ankle_m[s];
+        }
+        if (job.reach && job.reach->effector.leg && job.reach->effector.side == s) {
+          goal = td.fixed_goal ? td.goal : Vector3d(goal + job.reach->offset_m);
+          out.effector_goal = goal;
+        }
+        const Vector3d axis = (goal - pos).normalized();
+        const Vector3d pole = swivel_pole(axis, f.pelvis * leg_swivel_reference(s), f.leg_swivel_rad[s]);
+        const TwoBoneResult r = solve_two_bone(pos, goal, m.thigh_m[s], m.shin_m[s], pole);
+        ankle_goal[s] = r.end;
+        out.leg_reached[s] = r.reached;
+        rot = aim(r.middle - pos);
+        break;
+      }
+      case Role::knee: rot = aim(ankle_goal[s] - pos); break;
+      case Role::ankle: rot = aim(f.foot_dir[s]); break;
+      case Role::none: break;
+    }
+    rot.normalize();
+    job.global_positions[ui] = pos;
+    job.global_rotations[ui] = rot;
+    job.local_rotations[ui] = p < 0 ? rot : job.global_rotations[static_cast<std::size_t>(p)].conjugate() * rot;
+  }
+  if (job.root_position) *job.root_position = job.global_positions[0];
+}
+
+Vector3d joint_pos(const AdaptJob& job, CJ j) {
+  return job.global_positions[static_cast<std::size_t>(job.rig->skeleton.index(j))];
+}
+
+}  // namespace
+
+Rig make_rig(const Skeleton& skeleton, std::span<const Quaterniond> rest_local, std::string name) {
+  require_canonical_joints(skeleton, name);
+  Rig rig;
+  rig.name = std::move(name);
+  rig.skeleton = skeleton;
+  const int n = skeleton.joint_count();
+  const auto un = static_cast<std::size_t>(n);
+  if (!rest_local.empty() && rest_local.size() != un) {
+    throw Error("content", "skeleton", fmt::format("{}: rest pose has {} rotations for {} joints",
+                                                   rig.name, rest_local.size(), n));
+  }
+  rig.rest_local.assign(un, Quaterniond::Identity());
+  for (std::size_t i = 0; i < rest_local.size(); ++i) rig.rest_local[i] = rest_local[i].normalized();
+  std::vector<Vector3d> gp(un);
+  std::vector<Quaterniond> gr(un);
+  forward_kinematics(skeleton, Vector3d::Zero(), rig.rest_local, gp, gr);
+  canonical_positions(skeleton, gp, rig.rest_pose);
+  rig.morphology = measure_morphology(rig.rest_pose, rig.name);
+
+  rig.role.assign(un, Role::none);
+  rig.side.assign(un, -1);
+  rig.aim_local.assign(un, Vector3d::UnitY());
+  for (const RoleSpec& spec : kRoles) {
+    const int i = skeleton.index(spec.joint);
+    if (i < 0 || rig.role[static_cast<std::size_t>(i)] != Role::none || spec.role == Role::none) continue;
+    const auto ui = static_cast<std::size_t>(i);
+    if (spec.role != Role::pelvis && spec.role != Role::chest) {
+      const int c = skeleton.index(spec.child);
+      if (c < 0) continue;
+      const Vector3d v = gp[static_cast<std::size_t>(c)] - gp[ui];
+      if (v.norm() < 1e-3) continue;  // zero-length bone: nothing to aim
+      rig.aim_local[ui] = (gr[ui].conjugate() * v).normalized();
+    }
+    rig.role[ui] = spec.role;
+    rig.side[ui] = static_cast<std::int8_t>(spec.side);
+  }
+  const auto pelvis = static_cast<std::size_t>(skeleton.index(CJ::pelvis));
+  const auto chest = static_cast<std::size_t>(skeleton.index(CJ::chest));
+  rig.pelvis_frame_local = gr[pelvis].conjugate() * pelvis_frame(rig.rest_pose);
+  rig.chest_frame_local = gr[chest].conjugate() * chest_frame(rig.rest_pose);
+  // The root keeps its rest rotation when it is not the pelvis (e.g. a floor "Root" joint).
+  rig.root_to_pelvis_local = gr[0].conjugate() * (gp[pelvis] - gp[0]);
+
+  rig.joint_radii_m.assign(un, 0.03f);
+  for (std::size_t i = 1; i < un; ++i) {
+    const auto p = static_cast<std::size_t>(skeleton.parents[i]);
+    rig.joint_radii_m[i] = bone_radius(rig.role[p], skeleton.offsets[i].norm(), rig.morphology.height_m);
+  }
+  return rig;
+}
+
+bool AdaptJob::Validate() const {
+  if (!rig || !pose) return false;
+  const auto n = static_cast<std::size_t>(rig->joint_count());
+  return local_rotations.size() >= n && global_positions.size() >= n && global_rotations.size() >= n;
+}
+
+bool AdaptJob::Run() const {
+  if (!Validate()) return false;
+  TrunkDeltas td;
+  PassOut out;
+  decode_pass(*this, td, out);
+  if (feet) {
+    // Held feet the legs cannot reach: lower the pelvis just enough (a knee bend) rather
+    // than let the feet slide. Continuous in the inputs, so it never pops.
+    double drop = 0;
+    for (int s = 0; s < 2; ++s) {
+      if (feet->weight[static_cast<std::size_t>(s)] < 1.0 || (reach && reach->effector.leg && reach->effector.side == s)) continue;
+      const Vector3d hip = joint_pos(*this, s == kLeft ? CJ::l_hip : CJ::r_hip);
+      const Vector3d d = feet->ankle_m[static_cast<std::size_t>(s)] - hip;
+      const double l = rig->morphology.limb_leg_length(s) * (1 - 1e-6);
+      const double h2 = d.x() * d.x() + d.z() * d.z();
+      if (d.squaredNorm() <= l * l || h2 >= l * l) continue;
+      drop = std::max(drop, -d.y() - std::sqrt(l * l - h2));
+    }
+    if (drop > 0) {
+      td.root_drop_m = drop;
+      td.fixed_goal = reach != nullptr;
+      td.goal = out.effector_goal;
+      out = PassOut{};
+      decode_pass(*this, td, out);
+    }
+  }
+  const bool arm_reach = reach && !reach->effector.leg;
+  bool trunk_used = false;
+  if (arm_reach && !out.arm_reached[reach->effector.side]) {
+    // The arm alone cannot reach: bend spine/chest/clavicle (CCD) to bring the shoulder
+    // within the arm's length, then decode again with those trunk rotations.
+    const int s = reach->effector.side;
+    CcdChain chain;
+    const CJ pivots[3] = {CJ::spine, CJ::chest, kClavicle[s]};
+    const double limits[3] = {trunk.spine_rad, trunk.chest_rad, trunk.clavicle_rad};
+    int slot[3] = {-1, -1, -1};
+    for (int k = 0; k < 3; ++k) {
+      if (rig->skeleton.index(pivots[k]) < 0) continue;
+      slot[k] = chain.count;
+      chain.pivots[chain.count] = joint_pos(*this, pivots[k]);
+      chain.limit_rad[chain.count] = limits[k];
+      ++chain.count;
+    }
+    chain.limb_root = joint_pos(*this, kShoulder[s]);
+    std::array<Quaterniond, 4> deltas;
+    const double reach_m = rig->morphology.arm_length(s) * (1 - 1e-7);
+    solve_ccd_reach(chain, out.effector_goal, reach_m, trunk.iterations, deltas);
+    if (slot[0] >= 0) td.spine = deltas[slot[0]];
+    if (slot[1] >= 0) td.chest = deltas[slot[1]];
+    if (slot[2] >= 0) { td.clavicle = deltas[slot[2]]; td.clavicle_side = s; }
+    // The spine delta rotates about the spine joint, the chest delta about the chest: that
+    // is what the decode pass does when it applies them to the aimed directions/frames.
+    if (!td.fixed_goal) {
+      td.fixed_goal = true;
+      td.goal = out.effector_goal;
+    }
+    out = PassOut{};
+    decode_pass(*this, td, out);
+    trunk_used = true;
+  }
+  if (report) {
+    report->trunk_used = trunk_used;
+    report->foot_reached = out.leg_reached;
+    if (reach) {
+      report->effector_goal = out.effector_goal;
+      report->effector_reached = joint_pos(*this, reach->effector.joint());
+      report->reach_error_m = (report->effector_goal - report->effector_reached).norm();
+      report->reached = reach->effector.leg ? out.leg_reached[reach->effector.side]
+                                            : out.arm_reached[reach->effector.side];
+    } else {
+      report->reached = true;
+      report->reach_error_m = 0;
+    }
+  }
+  return true;
+}
+
+void decode_canonical(const Rig& rig, const MkmFrame& pose, CanonicalPose& out) {
+  const auto n = static_cast<std::size_t>(rig.joint_count());
+  std::vector<Quaterniond> local(n), global(n);
+  std::vector<Vector3d> pos(n);
+  AdaptJob job;
+  job.rig = &rig;
+  job.pose = &pose;
+  job.local_rotations = local;
+  job.global_positions = pos;
+  job.global_rotations = global;
+  job.Run();
+  canonical_positions(rig.skeleton, pos, out);
+}
+
+}  // namespace kumite::content

@@ -1,0 +1,570 @@
+#include "kumite/content/behaviour.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+
+#include "kumite/common/error.hpp"
+#include "kumite/content/bvh.hpp"
+#include "kumite/content/canonical.hpp"
+
+namespace kumite::content {
+
+using CJ = CanonicalJoint;
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+
+namespace {
+double smoothstep(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * (3 - 2 * x);
+}
+double wrap(double a) { return std::remainder(a, 2 * std::numbers::pi); }
+int group_of(const Effector& e) { return e.side + 2 * (e.leg ? 1 : 0); }
+std::optional<Effector> effector_of(OrderKind k) {
+  switch (k) {
+    case OrderKind::punch_left: return Effector{kLeft, false};
+    case OrderKind::punch_right: return Effector{kRight, false};
+    case OrderKind::kick_left: return Effector{kLeft, true};
+    case OrderKind::kick_right: return Effector{kRight, true};
+    default: return std::nullopt;
+  }
+}
+Rig actor_rig(const Database& db) { return make_rig(db.actor_skeleton, {}, db.actor_name); }
+}  // namespace
+
+// ---- StrikePlanner ----------------------------------------------------------------------
+
+StrikePlanner::StrikePlanner(std::shared_ptr<const Database> db, RetrievalTunables tunables)
+    : db_(std::move(db)), actor_(actor_rig(*db_)), tunables_(tunables) {}
+
+RetrievalQuery StrikePlanner::make_query(const StrikeRequest& r) const {
+  const double k = db_->actor.leg_length_m / r.character_leg_length_m;
+  // Retarget onto the actor: MKM is normalised already except the root's horizontal
+  // displacement, which scales with leg length (about the current root).
+  MkmFrame now = r.now, before = r.before;
+  before.root_xz_m = now.root_xz_m + (before.root_xz_m - now.root_xz_m) * k;
+  CanonicalPose pn, pb;
+  decode_canonical(actor_, now, pn);
+  decode_canonical(actor_, before, pb);
+  RetrievalQuery q;
+  q.group = r.group;
+  pose_features(pn, pb, r.dt_s, ground_frame_of(pn), db_->actor.leg_length_m, db_->velocity_weight_s, q.features);
+  q.target_m = (r.target_local_m * k).cast<float>();
+  return q;
+}
+
+StrikePlan StrikePlanner::plan(const StrikeRequest& r) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const RetrievalQuery q = make_query(r);
+  StrikePlan p;
+  p.id = r.id;
+  p.choice = retrieve(db_->index, q, tunables_);
+  if (p.choice.row >= 0) {
+    const auto row = static_cast<std::size_t>(p.choice.row);
+    p.segment = db_->index.segment[row];
+    p.start_frame = db_->index.start_frame[row];
+    p.contact_frame = db_->index.window_first[row] + p.choice.window_sample * db_->index.window_stride[row];
+  }
+  p.retrieval_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+  return p;
+}
+
+// ---- Behaviour --------------------------------------------------------------------------
+
+Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config,
+                     BehaviourTunables tunables)
+    : db_(std::move(db)), characters_(std::move(characters)), config_(config), tun_(tunables) {
+  if (characters_.empty()) throw Error("fighter", "config", "no characters to show");
+  if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
+  character_ = std::clamp(config.initial_character, 0, character_count() - 1);
+  rest_segment_ = find_segment(*db_, SegmentKind::rest).value_or(0);
+  std::size_t max_joints = 0;
+  for (const Rig& r : characters_) max_joints = std::max(max_joints, static_cast<std::size_t>(r.joint_count()));
+  local_.resize(max_joints);
+  global_.resize(max_joints);
+  rig_positions_.resize(max_joints);
+  positions_.resize(max_joints);
+  switch_offset_.assign(max_joints, Vector3d::Zero());
+  spot_xz_m_ = {config.home.x(), config.home.z()};
+  facing_rad_ = 0;
+  use_synchronous_planner(std::make_shared<StrikePlanner>(db_));
+  start_rest(0);
+  blend_elapsed_s_ = 1e9;
+}
+
+void Behaviour::set_planner(Submit submit, Poll poll) {
+  submit_ = std::move(submit);
+  poll_ = std::move(poll);
+}
+
+void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> planner) {
+  sync_planner_ = std::move(planner);
+  submit_ = [this](const StrikeRequest& r) { sync_results_.push_back(sync_planner_->plan(r)); };
+  poll_ = [this]() -> std::optional<StrikePlan> {
+    if (sync_results_.empty()) return std::nullopt;
+    StrikePlan p = sync_results_.front();
+    sync_results_.pop_front();
+    return p;
+  };
+}
+
+void Behaviour::order(const Order& o) { orders_.emplace_back(o, std::nullopt); }
+void Behaviour::order_strike(const Order& o, const Vector3d& target) { orders_.emplace_back(o, target); }
+
+void Behaviour::emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance) {
+  FighterEvent e;
+  e.time = t;
+  e.kind = kind;
+  e.order = o;
+  e.text = std::move(text);
+  e.distance_m = distance;
+  events_.push_back(std::move(e));
+}
+
+std::vector<FighterEvent> Behaviour::take_events() {
+  std::vector<FighterEvent> out;
+  out.swap(events_);
+  return out;
+}
+
+double Behaviour::stride_scale() const {
+  return characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m / db_->actor.leg_length_m;
+}
+
+GroundFrame Behaviour::ground() const { return ground_frame_of(pose_); }
+
+std::array<bool, 2> Behaviour::feet_locked() const {
+  return {feet_[0].weight > 0.99 && !feet_[0].stepping, feet_[1].weight > 0.99 && !feet_[1].stepping};
+}
+
+void Behaviour::sample(const Source& s, MkmFrame& out) const {
+  const Segment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  const double period = (seg.frame_count() - 1) * seg.frame_time_s;
+  double t = s.time_s;
+  if (s.loop && seg.kind != SegmentKind::rest) t = 0;  // no rest clip: hold the first frame
+  if (s.loop && period > 0) {
+    t = std::fmod(std::max(0.0, t), 2 * period);  // ping-pong: no seam to blend over
+    if (t > period) t = 2 * period - t;
+  }
+  const double x = std::clamp(t / seg.frame_time_s, 0.0, static_cast<double>(seg.frame_count() - 1));
+  const int i0 = std::min(static_cast<int>(x), seg.frame_count() - 2);
+  MkmFrame mixed;
+  blend_mkm(seg.frames[static_cast<std::size_t>(i0)], seg.frames[static_cast<std::size_t>(i0 + 1)], x - i0, mixed);
+  place_mkm(mixed, s.placement, s.anchor_xz_m, stride_scale(), out);
+}
+
+void Behaviour::start_rest(Timestamp) {
+  const Segment& rest = db_->segments[static_cast<std::size_t>(rest_segment_)];
+  if (have_pose_) spot_xz_m_ = pose_.root_xz_m;
+  previous_ = current_;
+  blend_elapsed_s_ = 0;
+  current_ = Source{};
+  current_.segment = rest_segment_;
+  current_.loop = true;
+  current_.anchor_xz_m = rest.frames[0].root_xz_m;
+  current_.placement.origin_xz = spot_xz_m_;
+  current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
+}
+
+void Behaviour::select_character(int index, Timestamp now) {
+  if (index < 0 || index >= character_count()) {
+    emit(FighterEvent::Kind::warning, now, Order{now, OrderKind::select_character, index},
+         fmt::format("no character {} (have {})", index + 1, character_count()));
+    return;
+  }
+  if (index == character_) return;
+  // Keep the root where it is under the new stride scale (re-base each source's origin).
+  const double old_scale = stride_scale();
+  character_ = index;
+  const double new_scale = stride_scale();
+  for (Source* s : {&current_, &previous_}) {
+    if (s->segment < 0) continue;
+    MkmFrame f;
+    const Segment& seg = db_->segments[static_cast<std::size_t>(s->segment)];
+    (void)seg;
+    Source probe = *s;
+    sample(probe, f);  // with the new scale
+    const Vector2d d_new = f.root_xz_m;
+    // Root under the old scale: origin + R (old * (root - anchor)) == what was shown.
+    const Vector2d rel = (d_new - s->placement.origin_xz) / new_scale;
+    const Vector2d d_old = s->placement.origin_xz + rel * old_scale;
+    s->placement.origin_xz += d_old - d_new;
+  }
+  for (Foot& f : feet_) f = Foot{};  // re-plant on the new legs (the easing hides the change)
+  switch_elapsed_s_ = -1;            // marks "compute offsets after this update's solve"
+  if (strike_.active) compute_reach_error();
+  emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
+       fmt::format("character {} ({})", index + 1, characters_[static_cast<std::size_t>(index)].name));
+}
+
+void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
+  while (!orders_.empty()) {
+    auto [o, explicit_target] = orders_.front();
+    orders_.pop_front();
+    switch (o.kind) {
+      case OrderKind::select_character: select_character(o.character, now); continue;
+      case OrderKind::pause: paused_ = true; emit(FighterEvent::Kind::order_accepted, now, o, "paused"); continue;
+      case OrderKind::resume: paused_ = false; emit(FighterEvent::Kind::order_accepted, now, o, "resumed"); continue;
+      case OrderKind::recentre:
+        recentre_goal_ = Vector2d(config_.home.x(), config_.home.z());
+        emit(FighterEvent::Kind::order_accepted, now, o, "recentre: walking home");
+        continue;
+      default: break;
+    }
+    const auto eff = effector_of(o.kind);
+    if (state_ == FighterState::striking || pending_) {
+      emit(FighterEvent::Kind::order_ignored, now, o,
+           fmt::format("ignored {}: mid-strike", to_string(o.kind)));
+      continue;
+    }
+    if (paused_) {
+      emit(FighterEvent::Kind::order_ignored, now, o, fmt::format("ignored {}: paused", to_string(o.kind)));
+      continue;
+    }
+    // Freeze the target now: the visitor's head (punches) or below it (kicks: the torso).
+    Vector3d target = explicit_target.value_or(head);
+    if (!explicit_target && eff->leg) target.y() -= tun_.kick_target_drop_m;
+    StrikeRequest r;
+    r.id = next_request_++;
+    r.group = group_of(*eff);
+    r.now = pose_;
+    r.before = have_pose_ ? pose_before_ : pose_;
+    r.dt_s = last_dt_;
+    r.target_local_m = ground().to_local(target);
+    r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
+    pending_ = {r.id, {o, target}};
+    emit(FighterEvent::Kind::order_accepted, now, o,
+         fmt::format("{} at ({:.2f}, {:.2f}, {:.2f}) m", to_string(o.kind), target.x(), target.y(), target.z()));
+    submit_(r);
+  }
+}
+
+void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
+  const Segment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
+  const GroundFrame g_char = ground_frame_of(pose_);
+  const GroundFrame g_clip = ground_frame_of(seg.frames[static_cast<std::size_t>(plan.start_frame)]);
+  previous_ = current_;
+  blend_elapsed_s_ = 0;
+  current_ = Source{};
+  current_.segment = plan.segment;
+  current_.time_s = plan.start_frame * seg.frame_time_s;
+  current_.placement.origin_xz = g_char.origin_xz;
+  current_.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
+  current_.anchor_xz_m = g_clip.origin_xz;
+  const Order order = pending_->second.first;
+  strike_ = StrikeInfo{};
+  strike_.active = true;
+  strike_.order = order;
+  strike_.target_room_m = pending_->second.second;
+  strike_.plan = plan;
+  strike_.effector = *seg.effector();
+  strike_.start_time_s = plan.start_frame * seg.frame_time_s;
+  strike_.contact_time_s = plan.contact_frame * seg.frame_time_s;
+  strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
+  state_ = FighterState::striking;
+  following_ = false;
+  compute_reach_error();
+  (void)now;
+}
+
+void Behaviour::compute_reach_error() {
+  // The pose at contact, composed exactly as update() will compose it then (same sources,
+  // same blend weight), decoded without the offset: d(t) must close exactly that gap.
+  const Source* strike_src = current_.segment == strike_.plan.segment && state_ == FighterState::striking ? &current_ : nullptr;
+  if (!strike_src) return;
+  const double ahead = strike_.contact_time_s - current_.time_s;
+  Source cur = current_, prev = previous_;
+  cur.time_s += ahead;
+  prev.time_s += ahead;
+  MkmFrame a, b, pose;
+  sample(cur, b);
+  const double be = blend_elapsed_s_ + ahead;
+  if (prev.segment >= 0 && be < config_.blend_time_s) {
+    sample(prev, a);
+    blend_mkm(a, b, smoothstep(be / config_.blend_time_s), pose);
+  } else {
+    pose = b;
+  }
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  CanonicalPose c;
+  decode_canonical(rig, pose, c);
+  strike_.error_m = strike_.target_room_m - at(c, strike_.effector.joint());
+}
+
+void Behaviour::update_follow(double dt, const Vector3d& head) {
+  const Vector2d head_xz(head.x(), head.z());
+  Vector2d to_head = head_xz - spot_xz_m_;
+  const double dist = to_head.norm();
+  Vector2d goal = spot_xz_m_;
+  if (dist > 1e-6) goal = head_xz - to_head / dist * config_.strike_distance_m;
+  if (recentre_goal_) goal = *recentre_goal_;
+  goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
+  goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
+  if (paused_) goal = spot_xz_m_;
+  const Vector2d off = goal - spot_xz_m_;
+  if (!following_ && off.norm() > tun_.follow_tolerance_m) following_ = true;
+  spot_velocity_.setZero();
+  if (following_) {
+    const double step = std::min(off.norm(), tun_.walk_speed_mps * dt);
+    if (off.norm() > 1e-9) spot_xz_m_ += off / off.norm() * step;
+    if (off.norm() > 1e-9 && dt > 0) spot_velocity_ = off / off.norm() * step / dt;
+    if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m) {
+      following_ = false;
+      recentre_goal_.reset();
+    }
+  }
+  // Face the visitor.
+  if (dist > 0.05 && !paused_) {
+    const double want = std::atan2(to_head.x(), to_head.y());
+    const double turn = std::clamp(wrap(want - facing_rad_), -tun_.turn_speed_rad_s * dt, tun_.turn_speed_rad_s * dt);
+    facing_rad_ = wrap(facing_rad_ + turn);
+  }
+  const Segment& rest = db_->segments[static_cast<std::size_t>(current_.segment)];
+  current_.placement.origin_xz = spot_xz_m_;
+  current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
+  state_ = following_ ? FighterState::following : FighterState::resting;
+}
+
+void Behaviour::update_feet(double dt) {
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const bool may_step = state_ == FighterState::resting || state_ == FighterState::following;
+  for (int s = 0; s < 2; ++s) {
+    Foot& f = feet_[static_cast<std::size_t>(s)];
+    const bool is_effector = strike_.active && strike_.effector.leg && strike_.effector.side == s &&
+                             state_ == FighterState::striking;
+    const bool planted = pose_.planted[static_cast<std::size_t>(s)] >= 0.5 && !is_effector;
+    const int ankle = rig.skeleton.index(s == kLeft ? CJ::l_ankle : CJ::r_ankle);
+    const int hip = rig.skeleton.index(s == kLeft ? CJ::l_hip : CJ::r_hip);
+    // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
+    const Vector3d free_ankle = rig_positions_[static_cast<std::size_t>(hip)] +
+                                pose_.leg_n[static_cast<std::size_t>(s)] * rig.morphology.limb_leg_length(s);
+    if (f.stepping) {
+      f.step_t += dt / tun_.step_time_s;
+      const double u = smoothstep(f.step_t);
+      f.lock = f.step_from + (f.step_to - f.step_from) * u +
+               Vector3d::UnitY() * tun_.step_height_m * std::sin(std::numbers::pi * std::min(1.0, f.step_t));
+      f.weight = 1;
+      if (f.step_t >= 1) {
+        f.stepping = false;
+        f.lock = f.step_to;
+      }
+    } else if (planted && have_pose_) {
+      if (!f.locked) {
+        f.locked = true;
+        f.lock = rig_positions_[static_cast<std::size_t>(ankle)];  // where it is drawn now
+      }
+      f.weight = 1;
+      const Foot& other = feet_[static_cast<std::size_t>(1 - s)];
+      // Land ahead of the body: half a step's worth of the root's current velocity.
+      Vector3d target = free_ankle + Vector3d(spot_velocity_.x(), 0, spot_velocity_.y()) * (0.5 * tun_.step_time_s);
+      target.y() = f.lock.y();
+      // Step when the foot lags behind, or at once when the leg can no longer reach it
+      // (a planted foot must never slide; lifting it is the honest alternative).
+      const bool lagging = !other.stepping && (target - f.lock).norm() > tun_.step_threshold_m;
+      const double stretch = (f.lock - rig_positions_[static_cast<std::size_t>(hip)]).norm() / rig.morphology.limb_leg_length(s);
+      if (may_step && (lagging || stretch > tun_.max_leg_stretch || !report_.foot_reached[static_cast<std::size_t>(s)])) {
+        f.stepping = true;
+        f.step_t = 0;
+        f.step_from = f.lock;
+        f.step_to = target;
+      }
+    } else {
+      f.locked = false;
+      f.weight = std::max(0.0, f.weight - dt / tun_.unlock_time_s);
+      if (f.weight > 0) continue;  // keep the last lock while fading out
+    }
+  }
+  for (int s = 0; s < 2; ++s) {
+    locks_.weight[static_cast<std::size_t>(s)] = feet_[static_cast<std::size_t>(s)].weight;
+    locks_.ankle_m[static_cast<std::size_t>(s)] = feet_[static_cast<std::size_t>(s)].lock;
+  }
+}
+
+void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
+  time_ = now;
+  ++updates_;
+  dt = std::max(0.0, dt);
+  const int old_character = character_;
+  std::vector<Vector3d> old_display;  // only on a switch (rare)
+  const std::size_t old_n = static_cast<std::size_t>(characters_[static_cast<std::size_t>(character_)].joint_count());
+
+  // A switch needs the old drawn pose; copy it before handle_orders changes character.
+  const bool switch_pending = std::any_of(orders_.begin(), orders_.end(), [](const auto& o) {
+    return o.first.kind == OrderKind::select_character;
+  });
+  if (switch_pending && have_pose_) old_display.assign(positions_.begin(), positions_.begin() + static_cast<std::ptrdiff_t>(old_n));
+
+  handle_orders(now, head);
+  if (pending_) {
+    if (auto p = poll_(); p && p->id == pending_->first) {
+      if (p->segment < 0) {
+        emit(FighterEvent::Kind::warning, now, pending_->second.first, "no strike in the database for this order");
+      } else {
+        start_strike(*p, now);
+      }
+      pending_.reset();
+    }
+  }
+
+  // Advance the clocks; land exactly on the contact time once (a sub-frame hold).
+  double step = dt;
+  bool contact_now = false;
+  if (state_ == FighterState::striking && !strike_.contact_done && current_.time_s + dt >= strike_.contact_time_s) {
+    step = std::max(0.0, strike_.contact_time_s - current_.time_s);
+    contact_now = true;
+  }
+  current_.time_s += step;
+  previous_.time_s += step;
+  blend_elapsed_s_ += step;
+  if (switch_elapsed_s_ >= 0) switch_elapsed_s_ += dt;
+  if (state_ == FighterState::striking && strike_.contact_done &&
+      current_.time_s >= strike_.end_time_s - config_.blend_time_s) {
+    start_rest(now);
+    state_ = FighterState::recovering;
+  }
+  if (state_ == FighterState::recovering && blend_elapsed_s_ >= config_.blend_time_s) {
+    state_ = FighterState::resting;
+    strike_.active = false;
+  }
+  if (state_ == FighterState::resting || state_ == FighterState::following) update_follow(dt, head);
+
+  // Compose the pose: cross-fade previous -> current.
+  pose_before_ = pose_;
+  MkmFrame cur;
+  sample(current_, cur);
+  if (previous_.segment >= 0 && blend_elapsed_s_ < config_.blend_time_s) {
+    MkmFrame prev;
+    sample(previous_, prev);
+    blend_mkm(prev, cur, smoothstep(blend_elapsed_s_ / config_.blend_time_s), pose_);
+  } else {
+    pose_ = cur;
+  }
+  if (!have_pose_) pose_before_ = pose_;
+
+  // d(t): zero at the strike start, the full error at contact, back to zero before the
+  // blend-out starts (so leaving the strike does not jump).
+  ReachGoal goal;
+  const ReachGoal* reach = nullptr;
+  if (strike_.active) {
+    const Source& s = state_ == FighterState::striking ? current_ : previous_;
+    const double t = s.time_s;
+    const double release = std::max(strike_.contact_time_s + 1e-3, strike_.end_time_s - config_.blend_time_s);
+    double ramp;
+    if (t <= strike_.contact_time_s) {
+      ramp = smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s));
+    } else {
+      ramp = 1 - smoothstep((t - strike_.contact_time_s) / (release - strike_.contact_time_s));
+    }
+    if (contact_now) ramp = 1;
+    goal.effector = strike_.effector;
+    goal.offset_m = strike_.error_m * ramp;
+    reach = &goal;
+  }
+  update_feet(step);
+  if (reach && strike_.effector.leg) {
+    // The kicking foot leaves its lock on the same ramp as d(t): fully free at contact, so
+    // the goal there is exactly decoded + d (what compute_reach_error assumed).
+    const double ramp = goal.offset_m.norm() > 0 ? goal.offset_m.norm() / std::max(1e-12, strike_.error_m.norm()) : 0.0;
+    locks_.weight[static_cast<std::size_t>(strike_.effector.side)] *= std::clamp(1 - ramp, 0.0, 1.0);
+    if (contact_now) locks_.weight[static_cast<std::size_t>(strike_.effector.side)] = 0;
+  }
+
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const auto n = static_cast<std::size_t>(rig.joint_count());
+  AdaptJob job;
+  job.rig = &rig;
+  job.pose = &pose_;
+  job.reach = reach;
+  job.feet = have_pose_ ? &locks_ : nullptr;
+  job.local_rotations = std::span(local_).first(n);
+  job.global_rotations = std::span(global_).first(n);
+  job.global_positions = std::span(rig_positions_).first(n);
+  job.root_position = &root_joint_;
+  job.report = &report_;
+  job.Run();
+  have_pose_ = true;
+  last_dt_ = dt > 0 ? dt : last_dt_;
+
+  if (contact_now) {
+    const Vector3d hit_point = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()))];
+    strike_.contact_done = true;
+    strike_.contact_distance_m = (hit_point - strike_.target_room_m).norm();
+    strike_.contact_reached = report_.reached;
+    strike_.hit = strike_.contact_distance_m <= config_.hit_radius_m;
+    strike_.contact_update = updates_;
+    const Segment& seg = db_->segments[static_cast<std::size_t>(strike_.plan.segment)];
+    emit(strike_.hit ? FighterEvent::Kind::hit : FighterEvent::Kind::miss, now, strike_.order,
+         fmt::format("{} {}: {} (frames {}->{}), hit point {:.1f} cm from the target{}", strike_.hit ? "hit" : "miss",
+                     to_string(strike_.order.kind), seg.name, strike_.plan.start_frame, strike_.plan.contact_frame,
+                     strike_.contact_distance_m * 100, report_.reached ? "" : " (target out of reach)"),
+         strike_.contact_distance_m);
+  }
+
+  // Character switch easing: offsets from the old drawn pose, fading over blend_time.
+  if (switch_elapsed_s_ < 0) {
+    switch_elapsed_s_ = 0;
+    const Rig& old_rig = characters_[static_cast<std::size_t>(old_character)];
+    CanonicalPose old_c, new_c;
+    if (!old_display.empty()) {
+      canonical_positions(old_rig.skeleton, old_display, old_c);
+    } else {
+      canonical_positions(rig.skeleton, rig_positions_, old_c);
+    }
+    canonical_positions(rig.skeleton, rig_positions_, new_c);
+    for (std::size_t i = 0; i < n; ++i) {
+      // The nearest canonical joint at or above i carries its offset.
+      int j = static_cast<int>(i);
+      int cj = -1;
+      while (j >= 0 && cj < 0) {
+        for (std::size_t c = 0; c < kCanonicalJointCount; ++c)
+          if (rig.skeleton.canonical[c] == j && old_c[c].allFinite()) { cj = static_cast<int>(c); break; }
+        if (cj < 0) j = rig.skeleton.parents[static_cast<std::size_t>(j)];
+      }
+      switch_offset_[i] = cj >= 0 ? Vector3d(old_c[static_cast<std::size_t>(cj)] - new_c[static_cast<std::size_t>(cj)]) : Vector3d::Zero();
+    }
+  }
+  const double fade = switch_elapsed_s_ < config_.blend_time_s ? 1 - smoothstep(switch_elapsed_s_ / config_.blend_time_s) : 0.0;
+  for (std::size_t i = 0; i < n; ++i) positions_[i] = rig_positions_[i] + switch_offset_[i] * fade;
+}
+
+FighterFrame Behaviour::frame() const {
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const auto n = static_cast<std::size_t>(rig.joint_count());
+  FighterFrame f;
+  f.time = time_;
+  f.state = state_;
+  f.character = character_;
+  f.joints = std::span<const Vector3d>(positions_).first(n);
+  f.parents = rig.skeleton.parents;
+  f.joint_radii_m = rig.joint_radii_m;
+  if (strike_.active || pending_) f.target = pending_ ? pending_->second.second : strike_.target_room_m;
+  f.root = Vector3d(pose_.root_xz_m.x(), 0, pose_.root_xz_m.y());
+  f.heading_rad = facing_rad_;
+  return f;
+}
+
+Rig load_character_rig(const std::string& name_or_path) {
+  std::filesystem::path path(name_or_path);
+  if (!std::filesystem::exists(path)) {
+    const auto candidate = default_content_dir() / "characters" / (name_or_path + ".bvh");
+    if (!std::filesystem::exists(candidate))
+      throw Error("fighter", "character", fmt::format("{}: no such character file (nor {})", name_or_path, candidate.string()));
+    path = candidate;
+  }
+  const Clip c = read_bvh(path);
+  if (c.frame_count < 1) throw Error("fighter", "character", fmt::format("{}: no rest frame", path.string()));
+  return make_rig(c.skeleton, c.rotations(0), path.stem().string());
+}
+
+std::vector<Rig> load_character_rigs(const FighterConfig& config) {
+  std::vector<Rig> rigs;
+  for (std::size_t i = 0; i < config.characters.size(); ++i) {
+    rigs.push_back(load_character_rig(config.characters[i].string()));
+    if (i < config.character_names.size() && !config.character_names[i].empty()) rigs.back().name = config.character_names[i];
+  }
+  return rigs;
+}
+
+}  // namespace kumite::content

@@ -1,0 +1,344 @@
+// Every TOML file content/ reads (dialect maps, motions.toml, characters.toml) goes through
+// this one translation unit: the only place in the library that includes toml++.
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include "kumite/common/error.hpp"
+#include "kumite/content/annotation.hpp"
+#include "kumite/content/canonical.hpp"
+#include "kumite/content/character.hpp"
+
+namespace kumite::content {
+
+namespace {
+
+/// Strict access to one TOML table: every error names file, line and the dotted key;
+/// unknown keys are errors (a typo must not be silently ignored).
+class Table {
+ public:
+  Table(const toml::table& t, std::string_view file, std::string prefix, std::string_view component)
+      : t_(t), file_(file), prefix_(std::move(prefix)), component_(component) {}
+
+  [[noreturn]] void fail(std::string_view code, std::string_view key, const toml::source_region& where,
+                         std::string_view msg) const {
+    throw file_error(component_, code, file_, static_cast<int>(where.begin.line), dotted(key), msg);
+  }
+  [[noreturn]] void fail(std::string_view code, std::string_view key, std::string_view msg) const {
+    const toml::node* n = t_.get(key);
+    fail(code, key, n ? n->source() : t_.source(), msg);
+  }
+
+  std::string dotted(std::string_view key) const { return prefix_.empty() ? std::string(key) : prefix_ + "." + std::string(key); }
+
+  void only(std::initializer_list<std::string_view> allowed) const {
+    for (const auto& [k, v] : t_) {
+      const std::string_view key = k.str();
+      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
+        fail("unknown_key", key, v.source(), "unknown key");
+      }
+    }
+  }
+
+  bool has(std::string_view key) const { return t_.contains(key); }
+
+  std::optional<std::string> opt_string(std::string_view key) const {
+    const toml::node* n = t_.get(key);
+    if (!n) return std::nullopt;
+    if (!n->is_string()) fail("type", key, "must be a string");
+    return std::string(n->as_string()->get());
+  }
+  std::string string(std::string_view key) const {
+    auto v = opt_string(key);
+    if (!v) fail("missing_key", key, t_.source(), "is required");
+    return *v;
+  }
+  std::optional<double> opt_number(std::string_view key) const {
+    const toml::node* n = t_.get(key);
+    if (!n) return std::nullopt;
+    if (auto i = n->value_exact<int64_t>()) return static_cast<double>(*i);
+    if (auto d = n->value_exact<double>()) {
+      if (!std::isfinite(*d)) fail("not_finite", key, "must be finite");
+      return *d;
+    }
+    fail("type", key, "must be a number");
+  }
+  double number(std::string_view key) const {
+    auto v = opt_number(key);
+    if (!v) fail("missing_key", key, t_.source(), "is required");
+    return *v;
+  }
+  std::optional<int64_t> opt_integer(std::string_view key) const {
+    const toml::node* n = t_.get(key);
+    if (!n) return std::nullopt;
+    if (auto i = n->value_exact<int64_t>()) return *i;
+    fail("type", key, "must be an integer");
+  }
+  int64_t integer(std::string_view key) const {
+    auto v = opt_integer(key);
+    if (!v) fail("missing_key", key, t_.source(), "is required");
+    return *v;
+  }
+  const toml::table* opt_table(std::string_view key) const {
+    const toml::node* n = t_.get(key);
+    if (!n) return nullptr;
+    if (!n->is_table()) fail("type", key, "must be a table");
+    return n->as_table();
+  }
+  const toml::array* opt_array(std::string_view key) const {
+    const toml::node* n = t_.get(key);
+    if (!n) return nullptr;
+    if (!n->is_array()) fail("type", key, "must be an array");
+    return n->as_array();
+  }
+  int line(std::string_view key) const {
+    const toml::node* n = t_.get(key);
+    return static_cast<int>((n ? n->source() : t_.source()).begin.line);
+  }
+  int line() const { return static_cast<int>(t_.source().begin.line); }
+  const toml::table& raw() const { return t_; }
+
+ private:
+  const toml::table& t_;
+  std::string_view file_;
+  std::string prefix_;
+  std::string_view component_;
+};
+
+toml::table parse_toml(std::string_view text, std::string_view source, std::string_view component) {
+  try {
+    return toml::parse(text, source);
+  } catch (const toml::parse_error& e) {
+    throw file_error(component, "parse", source, static_cast<int>(e.source().begin.line), "",
+                     std::string(e.description()));
+  }
+}
+
+std::string read_text(const std::filesystem::path& path, std::string_view component) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw file_error(component, "io", path.string(), 0, "", "cannot open file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+}  // namespace
+
+// ---- Dialect maps ---------------------------------------------------------------------------
+
+Dialect parse_dialect_toml(std::string_view text, std::string_view source) {
+  const toml::table doc = parse_toml(text, source, "dialect");
+  const Table top(doc, source, "", "dialect");
+  top.only({"name", "description", "joints"});
+  Dialect d;
+  d.name = top.string("name");
+  if (d.name.empty()) top.fail("value", "name", "must not be empty");
+  d.description = top.opt_string("description").value_or("");
+  d.source = std::string(source);
+  const toml::table* joints = top.opt_table("joints");
+  if (!joints) top.fail("missing_key", "joints", doc.source(), "is required ([joints] canonical = \"JointName\")");
+  const Table jt(*joints, source, "joints", "dialect");
+  std::set<std::string> used;
+  for (const auto& [k, v] : *joints) {
+    const auto c = canonical_joint_from_string(k.str());
+    if (!c) {
+      jt.fail("unknown_joint", k.str(), v.source(),
+              "not a canonical joint (pelvis, spine, chest, neck, head, l_/r_ clavicle, shoulder, elbow, wrist, "
+              "hip, knee, ankle, toe)");
+    }
+    const std::string name = jt.string(k.str());
+    if (name.empty()) jt.fail("value", k.str(), "must not be empty");
+    if (!used.insert(name).second) jt.fail("duplicate", k.str(), fmt::format("joint '{}' is mapped twice", name));
+    d.joints[static_cast<std::size_t>(*c)] = name;
+  }
+  return d;
+}
+
+Dialect read_dialect_toml(const std::filesystem::path& path) {
+  return parse_dialect_toml(read_text(path, "dialect"), path.string());
+}
+
+// ---- motions.toml ---------------------------------------------------------------------------
+
+namespace {
+
+MotionAnnotation parse_motion(const toml::table& t, std::string_view source, const std::string& prefix,
+                              std::set<std::string>& names) {
+  const Table m(t, source, prefix, "annotation");
+  m.only({"name", "semantics", "frames", "hit_segment", "hit_frame", "note", "peak_speed_mps", "extension"});
+  MotionAnnotation a;
+  a.line = m.line();
+  a.name = m.string("name");
+  if (a.name.empty()) m.fail("value", "name", "must not be empty");
+  if (!names.insert(a.name).second) m.fail("duplicate", "name", fmt::format("motion name '{}' is used twice", a.name));
+  const std::string sem = m.string("semantics");
+  const auto semantics = semantics_from_string(sem);
+  if (!semantics) m.fail("value", "semantics", fmt::format("unknown semantics '{}' (punch, kick, block, walk, rest, other)", sem));
+  a.semantics = *semantics;
+  const toml::array* frames = m.opt_array("frames");
+  if (!frames) m.fail("missing_key", "frames", t.source(), "is required: [first, last]");
+  if (frames->size() != 2 || !(*frames)[0].is_integer() || !(*frames)[1].is_integer()) {
+    m.fail("type", "frames", "must be [first, last] (two integers)");
+  }
+  const int64_t first = *(*frames)[0].value<int64_t>(), last = *(*frames)[1].value<int64_t>();
+  if (first < 0 || last < first || last > 100'000'000) {
+    m.fail("range", "frames", fmt::format("[{}, {}] must satisfy 0 <= first <= last", first, last));
+  }
+  a.first_frame = static_cast<int>(first);
+  a.last_frame = static_cast<int>(last);
+  if (auto seg = m.opt_string("hit_segment")) {
+    const auto h = hit_segment_from_string(*seg);
+    if (!h) m.fail("value", "hit_segment", fmt::format("unknown segment '{}' (left_hand, right_hand, left_foot, right_foot)", *seg));
+    a.hit_segment = *h;
+  }
+  if (auto hf = m.opt_integer("hit_frame")) {
+    if (*hf < a.first_frame || *hf > a.last_frame) {
+      m.fail("range", "hit_frame", fmt::format("{} is outside frames [{}, {}]", *hf, a.first_frame, a.last_frame));
+    }
+    a.hit_frame = static_cast<int>(*hf);
+  }
+  if (is_strike(a.semantics)) {
+    if (!a.hit_segment) m.fail("missing_key", "hit_segment", t.source(), fmt::format("is required for a {}", sem));
+    if (!a.hit_frame) m.fail("missing_key", "hit_frame", t.source(), fmt::format("is required for a {}", sem));
+    if (a.semantics == Semantics::punch && !is_hand(*a.hit_segment)) m.fail("value", "hit_segment", "a punch hits with a hand");
+    if (a.semantics == Semantics::kick && is_hand(*a.hit_segment)) m.fail("value", "hit_segment", "a kick hits with a foot");
+  } else {
+    if (a.hit_segment) m.fail("value", "hit_segment", fmt::format("only strikes (punch, kick) have one, not {}", sem));
+    if (a.hit_frame) m.fail("value", "hit_frame", fmt::format("only strikes (punch, kick) have one, not {}", sem));
+  }
+  a.note = m.opt_string("note").value_or("");
+  a.peak_speed_mps = m.opt_number("peak_speed_mps").value_or(0);
+  a.extension = m.opt_number("extension").value_or(0);
+  if (a.peak_speed_mps < 0) m.fail("range", "peak_speed_mps", "must be >= 0");
+  if (a.extension < 0) m.fail("range", "extension", "must be >= 0");
+  return a;
+}
+
+}  // namespace
+
+AnnotationSet parse_annotations(std::string_view text, std::string_view source) {
+  const toml::table doc = parse_toml(text, source, "annotation");
+  const Table top(doc, source, "", "annotation");
+  top.only({"version", "clip"});
+  AnnotationSet set;
+  set.source = std::string(source);
+  set.version = static_cast<int>(top.integer("version"));
+  if (set.version != kAnnotationVersion) {
+    top.fail("version", "version", fmt::format("version {} is not supported (expected {})", set.version, kAnnotationVersion));
+  }
+  const toml::array* clips = top.opt_array("clip");
+  if (!clips) return set;
+  std::set<std::string> clip_names, motion_names;
+  for (std::size_t i = 0; i < clips->size(); ++i) {
+    const std::string prefix = fmt::format("clip[{}]", i);
+    const toml::node& node = (*clips)[i];
+    if (!node.is_table()) throw file_error("annotation", "type", source, static_cast<int>(node.source().begin.line), prefix, "must be a table ([[clip]])");
+    const Table c(*node.as_table(), source, prefix, "annotation");
+    c.only({"file", "name", "mirror", "motion"});
+    ClipAnnotation clip;
+    clip.line = c.line();
+    clip.file = c.string("file");
+    if (clip.file.empty()) c.fail("value", "file", "must not be empty");
+    clip.name = c.opt_string("name").value_or(std::filesystem::path(clip.file).stem().string());
+    if (clip.name.empty()) c.fail("value", "name", "must not be empty");
+    if (!clip_names.insert(clip.name).second) c.fail("duplicate", "name", fmt::format("clip name '{}' is used twice", clip.name));
+    if (const toml::node* mirror = node.as_table()->get("mirror")) {
+      if (!mirror->is_boolean()) c.fail("type", "mirror", "must be true or false");
+      clip.mirror = mirror->as_boolean()->get();
+    }
+    if (const toml::array* motions = c.opt_array("motion")) {
+      for (std::size_t j = 0; j < motions->size(); ++j) {
+        const std::string mp = fmt::format("{}.motion[{}]", prefix, j);
+        const toml::node& mn = (*motions)[j];
+        if (!mn.is_table()) throw file_error("annotation", "type", source, static_cast<int>(mn.source().begin.line), mp, "must be a table ([[clip.motion]])");
+        clip.motions.push_back(parse_motion(*mn.as_table(), source, mp, motion_names));
+      }
+    }
+    set.clips.push_back(std::move(clip));
+  }
+  return set;
+}
+
+AnnotationSet read_annotations(const std::filesystem::path& path) {
+  return parse_annotations(read_text(path, "annotation"), path.string());
+}
+
+// ---- characters.toml -------------------------------------------------------------------------
+
+namespace {
+
+CharacterSpec parse_generate(const toml::table& t, std::string_view source, const std::string& prefix) {
+  const Table g(t, source, prefix, "character");
+  g.only({"stature_m", "dialect", "torso", "neck_head", "shoulder_width", "upper_arm", "forearm", "hand",
+          "pelvis_width", "thigh", "shin", "foot"});
+  CharacterSpec spec;
+  spec.stature_m = g.number("stature_m");
+  if (spec.stature_m < 0.3 || spec.stature_m > 3.0) g.fail("range", "stature_m", "must be 0.3..3 m");
+  spec.dialect = g.opt_string("dialect").value_or("cmu");
+  if (spec.dialect != "cmu" && spec.dialect != "motionbuilder") {
+    g.fail("value", "dialect", fmt::format("unknown dialect '{}' (cmu, motionbuilder)", spec.dialect));
+  }
+  auto factor = [&](std::string_view key, double& out) {
+    if (auto v = g.opt_number(key)) {
+      if (*v < 0.3 || *v > 3.0) g.fail("range", key, fmt::format("scale {} must be 0.3..3", *v));
+      out = *v;
+    }
+  };
+  SegmentScales& sc = spec.scales;
+  factor("torso", sc.torso);
+  factor("neck_head", sc.neck_head);
+  factor("shoulder_width", sc.shoulder_width);
+  factor("upper_arm", sc.upper_arm);
+  factor("forearm", sc.forearm);
+  factor("hand", sc.hand);
+  factor("pelvis_width", sc.pelvis_width);
+  factor("thigh", sc.thigh);
+  factor("shin", sc.shin);
+  factor("foot", sc.foot);
+  return spec;
+}
+
+}  // namespace
+
+CharacterCatalog parse_characters(std::string_view text, std::string_view source) {
+  const toml::table doc = parse_toml(text, source, "character");
+  const Table top(doc, source, "", "character");
+  top.only({"version", "character"});
+  const int64_t version = top.integer("version");
+  if (version != kCharacterCatalogVersion) {
+    top.fail("version", "version", fmt::format("version {} is not supported (expected {})", version, kCharacterCatalogVersion));
+  }
+  CharacterCatalog cat;
+  cat.source = std::string(source);
+  const toml::array* chars = top.opt_array("character");
+  if (!chars || chars->empty()) top.fail("missing_key", "character", doc.source(), "at least one [[character]] is required");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < chars->size(); ++i) {
+    const std::string prefix = fmt::format("character[{}]", i);
+    const toml::node& node = (*chars)[i];
+    if (!node.is_table()) throw file_error("character", "type", source, static_cast<int>(node.source().begin.line), prefix, "must be a table ([[character]])");
+    const Table c(*node.as_table(), source, prefix, "character");
+    c.only({"name", "display_name", "file", "notes", "generate"});
+    CharacterEntry e;
+    e.line = c.line();
+    e.name = c.string("name");
+    if (e.name.empty()) c.fail("value", "name", "must not be empty");
+    if (!names.insert(e.name).second) c.fail("duplicate", "name", fmt::format("character '{}' is listed twice", e.name));
+    e.display_name = c.opt_string("display_name").value_or(e.name);
+    e.file = c.string("file");
+    if (e.file.empty()) c.fail("value", "file", "must not be empty");
+    e.notes = c.opt_string("notes").value_or("");
+    if (const toml::table* g = c.opt_table("generate")) e.generate = parse_generate(*g, source, prefix + ".generate");
+    cat.characters.push_back(std::move(e));
+  }
+  return cat;
+}
+
+CharacterCatalog read_characters(const std::filesystem::path& path) {
+  return parse_characters(read_text(path, "character"), path.string());
+}
+
+}  // namespace kumite::content

@@ -1,0 +1,498 @@
+#include "kumite/content/database.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <type_traits>
+
+#include "kumite/common/atomic_file.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/content/annotation.hpp"
+
+namespace kumite::content {
+
+using CJ = CanonicalJoint;
+using Eigen::Vector3d;
+
+std::string_view to_string(SegmentKind k) {
+  switch (k) {
+    case SegmentKind::rest: return "rest";
+    case SegmentKind::walk: return "walk";
+    case SegmentKind::strike: return "strike";
+    case SegmentKind::other: return "other";
+  }
+  return "?";
+}
+
+std::optional<Effector> Segment::effector() const {
+  if (effector_group < 0) return std::nullopt;
+  return Effector{effector_group % 2, effector_group >= 2};
+}
+
+std::optional<int> find_segment(const Database& db, SegmentKind kind) {
+  for (std::size_t i = 0; i < db.segments.size(); ++i)
+    if (db.segments[i].kind == kind) return static_cast<int>(i);
+  return std::nullopt;
+}
+
+namespace {
+
+constexpr char kMagic[8] = {'K', 'U', 'M', 'I', 'T', 'E', 'D', 'B'};
+
+Error segment_error(const SegmentSource& s, std::string_view msg) {
+  return Error("database", "annotation", fmt::format("segment '{}': {}", s.name, msg));
+}
+
+void validate_source(const SegmentSource& s) {
+  if (!s.clip) throw segment_error(s, "no clip");
+  const int n = s.clip->frame_count;
+  if (s.first_frame < 0 || s.last_frame >= n || s.first_frame > s.last_frame) {
+    throw segment_error(s, fmt::format("frames {}..{} lie outside clip '{}' (0..{})", s.first_frame,
+                                       s.last_frame, s.clip->name, n - 1));
+  }
+  if (s.last_frame - s.first_frame < 1) throw segment_error(s, "needs at least 2 frames");
+  if (s.kind == SegmentKind::strike) {
+    if (!s.effector) throw segment_error(s, "a strike needs a hit segment (hand or foot)");
+    if (s.hit_frame < s.first_frame || s.hit_frame > s.last_frame) {
+      throw segment_error(s, fmt::format("hit frame {} lies outside the segment {}..{}", s.hit_frame,
+                                         s.first_frame, s.last_frame));
+    }
+  }
+}
+
+std::vector<CanonicalPose> clip_poses(const Clip& clip, int first, int last) {
+  const auto n = static_cast<std::size_t>(clip.skeleton.joint_count());
+  std::vector<Vector3d> gp(n);
+  std::vector<Eigen::Quaterniond> gr(n);
+  std::vector<CanonicalPose> out;
+  out.reserve(static_cast<std::size_t>(last - first + 1));
+  for (int f = first; f <= last; ++f) {
+    forward_kinematics(clip, f, gp, gr);
+    out.emplace_back();
+    canonical_positions(clip.skeleton, gp, out.back());
+  }
+  return out;
+}
+
+Morphology skeleton_morphology(const Skeleton& sk, std::string_view what) {
+  require_canonical_joints(sk, what);
+  const auto n = static_cast<std::size_t>(sk.joint_count());
+  std::vector<Eigen::Quaterniond> id(n, Eigen::Quaterniond::Identity()), gr(n);
+  std::vector<Vector3d> gp(n);
+  forward_kinematics(sk, Vector3d::Zero(), id, gp, gr);
+  CanonicalPose rest;
+  canonical_positions(sk, gp, rest);
+  return measure_morphology(rest, what);
+}
+
+double lowest_foot(const std::vector<CanonicalPose>& poses) {
+  double lo = std::numeric_limits<double>::infinity();
+  for (const auto& p : poses) {
+    for (CJ j : {CJ::l_ankle, CJ::r_ankle, CJ::l_toe, CJ::r_toe})
+      if (at(p, j).allFinite()) lo = std::min(lo, at(p, j).y());
+  }
+  return lo;
+}
+
+void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPose> poses,
+                 const Morphology& m, bool mirrored, const BuildOptions& o) {
+  const Clip& clip = *src.clip;
+  const double scale = db.actor.leg_length_m / m.leg_length_m;
+  // Put the floor at y = 0: features, hit paths and targets all measure height from it.
+  const double floor_y_raw = lowest_foot(poses);
+  for (auto& p : poses)
+    for (auto& j : p) j.y() -= floor_y_raw;
+  const double floor_y = 0;
+  Segment seg;
+  seg.name = mirrored ? src.name + ":mirror" : src.name;
+  seg.source_clip = clip.name;
+  seg.kind = src.kind;
+  seg.mirrored = mirrored;
+  seg.source_first_frame = src.first_frame;
+  seg.frame_time_s = clip.frame_time_s;
+  const int n = static_cast<int>(poses.size());
+  seg.frames.resize(static_cast<std::size_t>(n));
+  for (int f = 0; f < n; ++f) {
+    MkmFrame& fr = seg.frames[static_cast<std::size_t>(f)];
+    encode_mkm(poses[static_cast<std::size_t>(f)], m, floor_y, f > 0 ? &seg.frames[static_cast<std::size_t>(f - 1)] : nullptr, fr);
+    fr.root_xz_m *= scale;
+  }
+  // Planted feet: ankle low (relative to its lowest point in the segment) and slow.
+  for (int s = 0; s < 2; ++s) {
+    const CJ ankle = s == kLeft ? CJ::l_ankle : CJ::r_ankle;
+    double low = std::numeric_limits<double>::infinity();
+    for (const auto& p : poses) low = std::min(low, at(p, ankle).y());
+    for (int f = 0; f < n; ++f) {
+      const int a = std::max(0, f - 1), b = std::min(n - 1, f + 1);
+      const double speed = b > a ? (at(poses[static_cast<std::size_t>(b)], ankle) - at(poses[static_cast<std::size_t>(a)], ankle)).norm() /
+                                       ((b - a) * clip.frame_time_s)
+                                 : 0.0;
+      const double h = at(poses[static_cast<std::size_t>(f)], ankle).y() - low;
+      seg.frames[static_cast<std::size_t>(f)].planted[static_cast<std::size_t>(s)] =
+          (h < o.plant_height_m && speed < o.plant_speed_mps) ? 1.0 : 0.0;
+    }
+  }
+  const int seg_index = static_cast<int>(db.segments.size());
+  if (src.kind == SegmentKind::strike) {
+    Effector e = *src.effector;
+    if (mirrored) e.side = 1 - e.side;
+    seg.effector_group = static_cast<std::int8_t>(e.side + 2 * (e.leg ? 1 : 0));
+    seg.hit_frame = src.hit_frame - src.first_frame;
+    const CJ ej = e.joint();
+    seg.hit_path_m.resize(static_cast<std::size_t>(n));
+    for (int f = 0; f < n; ++f)
+      seg.hit_path_m[static_cast<std::size_t>(f)] = (at(poses[static_cast<std::size_t>(f)], ej) * scale).cast<float>();
+    // Candidates: start frames before the hit; the hit window around it.
+    const double ft = clip.frame_time_s;
+    const int stride = std::max(1, static_cast<int>(std::lround(o.start_stride_s / ft)));
+    const int last_start = std::min(static_cast<int>(o.start_window_s / ft), seg.hit_frame - static_cast<int>(std::lround(o.min_lead_s / ft)));
+    const int half = static_cast<int>(std::lround(o.window_half_s / ft));
+    const int wfirst = std::max(0, seg.hit_frame - half);
+    const int wlast = std::min(n - 1, seg.hit_frame + half);
+    const int wstride = std::max(1, (wlast - wfirst + kWindowMax - 1) / (kWindowMax - 1));
+    std::array<float, kFeatureDim> feat{};
+    std::vector<Eigen::Vector3f> pts;
+    for (int f = 0; f <= std::max(0, last_start); f += stride) {
+      const CanonicalPose& now = poses[static_cast<std::size_t>(f)];
+      const CanonicalPose& before = poses[static_cast<std::size_t>(std::max(0, f - 1))];
+      const GroundFrame g = ground_frame_of(now);
+      pose_features(now, before, f > 0 ? ft : 0.0, g, m.leg_length_m, o.velocity_weight_s, feat);
+      pts.clear();
+      for (int k = wfirst; k <= wlast && static_cast<int>(pts.size()) < kWindowMax; k += wstride)
+        pts.push_back((g.to_local(at(poses[static_cast<std::size_t>(k)], ej)) * scale).cast<float>());
+      db.index.add(seg.effector_group, feat, pts, seg_index, f, wfirst, wstride);
+    }
+  }
+  db.segments.push_back(std::move(seg));
+}
+
+// ---- binary I/O -------------------------------------------------------------------------
+
+std::uint64_t fnv1a(std::string_view bytes) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (unsigned char c : bytes) { h ^= c; h *= 1099511628211ull; }
+  return h;
+}
+
+class Writer {
+ public:
+  template <typename T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    out.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  void str(const std::string& s) { put<std::uint64_t>(s.size()); out += s; }
+  template <typename T>
+  void vec(const std::vector<T>& v) {
+    put<std::uint64_t>(v.size());
+    if (!v.empty()) out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+  void v3(const Vector3d& v) { put(v.x()); put(v.y()); put(v.z()); }
+  void q(const Eigen::Quaterniond& v) { put(v.w()); put(v.x()); put(v.y()); put(v.z()); }
+  std::string out;
+};
+
+class Reader {
+ public:
+  Reader(std::string_view bytes, std::string_view name) : b_(bytes), name_(name) {}
+  template <typename T>
+  T get(std::string_view what) {
+    need(sizeof(T), what);
+    T v;
+    std::memcpy(&v, b_.data() + pos_, sizeof(T));
+    pos_ += sizeof(T);
+    return v;
+  }
+  std::uint64_t count(std::string_view what, std::size_t element_size) {
+    const auto n = get<std::uint64_t>(what);
+    if (element_size > 0 && n > (b_.size() - pos_) / element_size) fail("corrupt", fmt::format("{}: count {} exceeds the file", what, n));
+    return n;
+  }
+  std::string str(std::string_view what) {
+    const auto n = count(what, 1);
+    std::string s(b_.substr(pos_, n));
+    pos_ += n;
+    return s;
+  }
+  template <typename T>
+  std::vector<T> vec(std::string_view what) {
+    const auto n = count(what, sizeof(T));
+    std::vector<T> v(n);
+    if (n) std::memcpy(v.data(), b_.data() + pos_, n * sizeof(T));
+    pos_ += n * sizeof(T);
+    return v;
+  }
+  double f(std::string_view what) {
+    const double v = get<double>(what);
+    if (!std::isfinite(v)) fail("corrupt", fmt::format("{}: not a finite number", what));
+    return v;
+  }
+  Vector3d v3(std::string_view what) { const double x = f(what), y = f(what), z = f(what); return {x, y, z}; }
+  Eigen::Quaterniond q(std::string_view what) {
+    const double w = f(what), x = f(what), y = f(what), z = f(what);
+    return Eigen::Quaterniond(w, x, y, z);
+  }
+  [[noreturn]] void fail(std::string_view code, std::string_view msg) const {
+    throw Error("database", std::string(code), fmt::format("{}: {}", name_, msg));
+  }
+  std::size_t pos() const { return pos_; }
+  std::size_t size() const { return b_.size(); }
+
+ private:
+  void need(std::size_t n, std::string_view what) const {
+    if (b_.size() - pos_ < n) fail("truncated", fmt::format("truncated at byte {} while reading {}", pos_, what));
+  }
+  std::string_view b_;
+  std::string_view name_;
+  std::size_t pos_ = 0;
+};
+
+void put_frame(Writer& w, const MkmFrame& f) {
+  w.put(f.root_xz_m.x()); w.put(f.root_xz_m.y()); w.put(f.root_height_n);
+  w.q(f.pelvis); w.q(f.chest); w.v3(f.spine_dir); w.v3(f.head_dir);
+  for (int s = 0; s < 2; ++s) {
+    w.v3(f.clavicle_dir[s]); w.v3(f.arm_n[s]); w.put(f.arm_swivel_rad[s]);
+    w.v3(f.leg_n[s]); w.put(f.leg_swivel_rad[s]); w.v3(f.foot_dir[s]); w.put(f.planted[s]);
+  }
+}
+MkmFrame get_frame(Reader& r) {
+  MkmFrame f;
+  f.root_xz_m.x() = r.f("frame"); f.root_xz_m.y() = r.f("frame"); f.root_height_n = r.f("frame");
+  f.pelvis = r.q("frame"); f.chest = r.q("frame"); f.spine_dir = r.v3("frame"); f.head_dir = r.v3("frame");
+  for (int s = 0; s < 2; ++s) {
+    f.clavicle_dir[s] = r.v3("frame"); f.arm_n[s] = r.v3("frame"); f.arm_swivel_rad[s] = r.f("frame");
+    f.leg_n[s] = r.v3("frame"); f.leg_swivel_rad[s] = r.f("frame"); f.foot_dir[s] = r.v3("frame");
+    f.planted[s] = r.f("frame");
+  }
+  return f;
+}
+
+void put_skeleton(Writer& w, const Skeleton& s) {
+  w.put<std::uint64_t>(s.names.size());
+  for (std::size_t i = 0; i < s.names.size(); ++i) {
+    w.str(s.names[i]);
+    w.put<std::int32_t>(s.parents[i]);
+    w.v3(s.offsets[i]);
+    w.put<std::uint8_t>(s.end_site[i] ? 1 : 0);
+  }
+  for (int c : s.canonical) w.put<std::int32_t>(c);
+}
+Skeleton get_skeleton(Reader& r) {
+  Skeleton s;
+  const auto n = r.count("skeleton", 8 + 4 + 24 + 1);
+  for (std::uint64_t i = 0; i < n; ++i) {
+    s.names.push_back(r.str("joint name"));
+    const auto p = r.get<std::int32_t>("joint parent");
+    if (p >= static_cast<std::int64_t>(i) || (i == 0 && p != -1) || (i > 0 && p < 0)) r.fail("corrupt", fmt::format("joint {}: bad parent {}", i, p));
+    s.parents.push_back(p);
+    s.offsets.push_back(r.v3("joint offset"));
+    s.end_site.push_back(r.get<std::uint8_t>("end site") != 0);
+  }
+  for (auto& c : s.canonical) {
+    c = r.get<std::int32_t>("canonical joint");
+    if (c < -1 || c >= static_cast<int>(n)) r.fail("corrupt", fmt::format("canonical joint index {} out of range", c));
+  }
+  return s;
+}
+
+}  // namespace
+
+std::vector<SegmentSource> segment_sources(const AnnotationSet& set, const std::vector<Clip>& clips) {
+  std::vector<SegmentSource> out;
+  for (std::size_t c = 0; c < set.clips.size() && c < clips.size(); ++c) {
+    for (const MotionAnnotation& m : set.clips[c].motions) {
+      SegmentSource s;
+      s.clip = &clips[c];
+      s.name = m.name;
+      s.first_frame = m.first_frame;
+      s.last_frame = m.last_frame;
+      s.mirror = set.clips[c].mirror;
+      switch (m.semantics) {
+        case Semantics::punch:
+        case Semantics::kick:
+          s.kind = SegmentKind::strike;
+          if (m.hit_segment) s.effector = Effector{is_left(*m.hit_segment) ? kLeft : kRight, !is_hand(*m.hit_segment)};
+          s.hit_frame = m.hit_frame.value_or(-1);
+          break;
+        case Semantics::rest: s.kind = SegmentKind::rest; break;
+        case Semantics::walk: s.kind = SegmentKind::walk; break;
+        default: continue;
+      }
+      out.push_back(std::move(s));
+    }
+  }
+  return out;
+}
+
+Database build_database(std::span<const SegmentSource> sources, const BuildOptions& o) {
+  Database db;
+  db.velocity_weight_s = o.velocity_weight_s;
+  if (sources.empty()) throw Error("database", "annotation", "no segments to build a database from");
+  for (const auto& s : sources) validate_source(s);
+  db.actor_name = sources.front().clip->name;
+  db.actor_skeleton = sources.front().clip->skeleton;
+  db.actor = skeleton_morphology(db.actor_skeleton, db.actor_name);
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    const SegmentSource& src = sources[i];
+    if (o.progress) o.progress(src.name, static_cast<double>(i) / static_cast<double>(sources.size()));
+    const Morphology m = skeleton_morphology(src.clip->skeleton, src.clip->name);
+    const auto poses = clip_poses(*src.clip, src.first_frame, src.last_frame);
+    add_segment(db, src, poses, m, false, o);
+    if (o.mirror && src.mirror) {
+      std::vector<CanonicalPose> mirrored(poses.size());
+      const GroundFrame g = ground_frame_of(poses.front());
+      for (std::size_t f = 0; f < poses.size(); ++f) mirror_pose(poses[f], g, mirrored[f]);
+      add_segment(db, src, mirrored, m, true, o);
+    }
+  }
+  if (o.progress) o.progress("clustering", 0.99);
+  db.index.build_clusters(o.clusters_per_group);
+  if (o.progress) o.progress("done", 1.0);
+  return db;
+}
+
+std::string serialize_database(const Database& db) {
+  Writer w;
+  w.out.append(kMagic, sizeof(kMagic));
+  w.put<std::uint32_t>(kDatabaseVersion);
+  w.str(db.actor_name);
+  put_skeleton(w, db.actor_skeleton);
+  w.put(db.velocity_weight_s);
+  w.put<std::uint64_t>(db.segments.size());
+  for (const Segment& s : db.segments) {
+    w.str(s.name); w.str(s.source_clip);
+    w.put<std::uint8_t>(static_cast<std::uint8_t>(s.kind));
+    w.put<std::int8_t>(s.effector_group);
+    w.put<std::uint8_t>(s.mirrored ? 1 : 0);
+    w.put<std::int32_t>(s.source_first_frame);
+    w.put(s.frame_time_s);
+    w.put<std::int32_t>(s.hit_frame);
+    w.put<std::uint64_t>(s.frames.size());
+    for (const auto& f : s.frames) put_frame(w, f);
+    w.put<std::uint64_t>(s.hit_path_m.size());
+    for (const auto& p : s.hit_path_m) { w.put(p.x()); w.put(p.y()); w.put(p.z()); }
+  }
+  const RetrievalIndex& ix = db.index;
+  w.put<std::int32_t>(ix.size);
+  w.vec(ix.features); w.vec(ix.window); w.vec(ix.window_count); w.vec(ix.box);
+  w.vec(ix.segment); w.vec(ix.start_frame); w.vec(ix.window_first); w.vec(ix.window_stride); w.vec(ix.group);
+  w.put<std::uint64_t>(ix.clusters.size());
+  for (const auto& c : ix.clusters) {
+    w.put(c.first); w.put(c.count); w.put(c.centroid); w.put(c.radius); w.put(c.box);
+  }
+  for (auto g : ix.group_clusters) w.put<std::int32_t>(g);
+  w.put<std::uint64_t>(fnv1a(w.out));
+  return std::move(w.out);
+}
+
+Database parse_database(std::string_view bytes, std::string_view name) {
+  Reader r(bytes, name);
+  if (bytes.size() < sizeof(kMagic) + 4 + 8 || std::memcmp(bytes.data(), kMagic, sizeof(kMagic)) != 0)
+    r.fail("magic", "not a Kumite motion database (bad magic; build one with kumite-motion build)");
+  for (std::size_t i = 0; i < sizeof(kMagic); ++i) r.get<char>("magic");
+  const auto version = r.get<std::uint32_t>("version");
+  if (version != kDatabaseVersion)
+    r.fail("version", fmt::format("format version {}, this program reads version {}: rebuild it with kumite-motion build",
+                                  version, kDatabaseVersion));
+  std::uint64_t stored;
+  std::memcpy(&stored, bytes.data() + bytes.size() - 8, 8);
+  if (stored != fnv1a(bytes.substr(0, bytes.size() - 8))) r.fail("checksum", "checksum mismatch (file corrupt or truncated)");
+  Reader body(bytes.substr(0, bytes.size() - 8), name);
+  for (std::size_t i = 0; i < sizeof(kMagic) + 4; ++i) body.get<char>("header");
+
+  Database db;
+  db.actor_name = body.str("actor name");
+  db.actor_skeleton = get_skeleton(body);
+  try {
+    db.actor = skeleton_morphology(db.actor_skeleton, db.actor_name);
+  } catch (const Error& e) {
+    body.fail("corrupt", e.what());
+  }
+  db.velocity_weight_s = body.f("velocity weight");
+  const auto nseg = body.count("segments", 8);
+  for (std::uint64_t i = 0; i < nseg; ++i) {
+    Segment s;
+    s.name = body.str("segment name");
+    s.source_clip = body.str("segment clip");
+    const auto kind = body.get<std::uint8_t>("segment kind");
+    if (kind > 3) body.fail("corrupt", fmt::format("segment {}: bad kind {}", i, kind));
+    s.kind = static_cast<SegmentKind>(kind);
+    s.effector_group = body.get<std::int8_t>("effector");
+    if (s.effector_group < -1 || s.effector_group >= kGroupCount) body.fail("corrupt", fmt::format("segment {}: bad effector", i));
+    s.mirrored = body.get<std::uint8_t>("mirrored") != 0;
+    s.source_first_frame = body.get<std::int32_t>("first frame");
+    s.frame_time_s = body.f("frame time");
+    if (!(s.frame_time_s > 0)) body.fail("corrupt", fmt::format("segment {}: frame time {} is not positive", i, s.frame_time_s));
+    s.hit_frame = body.get<std::int32_t>("hit frame");
+    const auto nf = body.count("frames", 47 * 8);
+    if (nf < 2) body.fail("corrupt", fmt::format("segment {}: {} frames", i, nf));
+    for (std::uint64_t f = 0; f < nf; ++f) s.frames.push_back(get_frame(body));
+    const auto np = body.count("hit path", 12);
+    if (np != 0 && np != nf) body.fail("corrupt", fmt::format("segment {}: hit path of {} for {} frames", i, np, nf));
+    for (std::uint64_t f = 0; f < np; ++f) {
+      const float x = body.get<float>("hit path"), y = body.get<float>("hit path"), z = body.get<float>("hit path");
+      s.hit_path_m.emplace_back(x, y, z);
+    }
+    if (s.kind == SegmentKind::strike && (s.effector_group < 0 || s.hit_frame < 0 || s.hit_frame >= static_cast<int>(nf) || np == 0))
+      body.fail("corrupt", fmt::format("segment {} ('{}'): strike without a valid hit", i, s.name));
+    db.segments.push_back(std::move(s));
+  }
+  RetrievalIndex& ix = db.index;
+  ix.size = body.get<std::int32_t>("index size");
+  ix.features = body.vec<float>("features");
+  ix.window = body.vec<float>("window");
+  ix.window_count = body.vec<std::uint8_t>("window count");
+  ix.box = body.vec<float>("boxes");
+  ix.segment = body.vec<std::int32_t>("row segment");
+  ix.start_frame = body.vec<std::int32_t>("row start");
+  ix.window_first = body.vec<std::int32_t>("row window");
+  ix.window_stride = body.vec<std::int32_t>("row window stride");
+  ix.group = body.vec<std::uint8_t>("row group");
+  const auto n = static_cast<std::size_t>(std::max(0, ix.size));
+  if (ix.size < 0 || ix.features.size() != n * kFeatureDim || ix.window.size() != n * kWindowMax * 3 ||
+      ix.window_count.size() != n || ix.box.size() != n * 6 || ix.segment.size() != n || ix.start_frame.size() != n ||
+      ix.window_first.size() != n || ix.window_stride.size() != n || ix.group.size() != n)
+    body.fail("corrupt", "retrieval index arrays disagree in size");
+  for (std::size_t r = 0; r < n; ++r) {
+    const int s = ix.segment[r];
+    if (s < 0 || s >= static_cast<int>(db.segments.size())) body.fail("corrupt", fmt::format("row {}: segment {} out of range", r, s));
+    const Segment& seg = db.segments[static_cast<std::size_t>(s)];
+    const int last_window = ix.window_first[r] + ix.window_stride[r] * (ix.window_count[r] - 1);
+    if (ix.window_count[r] < 1 || ix.window_count[r] > kWindowMax || ix.group[r] != seg.effector_group ||
+        ix.start_frame[r] < 0 || ix.start_frame[r] >= seg.frame_count() || ix.window_first[r] < 0 ||
+        ix.window_stride[r] < 1 || last_window >= seg.frame_count())
+      body.fail("corrupt", fmt::format("row {}: inconsistent with segment '{}'", r, seg.name));
+  }
+  const auto nc = body.count("clusters", 8);
+  for (std::uint64_t c = 0; c < nc; ++c) {
+    RetrievalIndex::Cluster cl;
+    cl.first = body.get<std::int32_t>("cluster");
+    cl.count = body.get<std::int32_t>("cluster");
+    cl.centroid = body.get<std::array<float, kFeatureDim>>("cluster");
+    cl.radius = body.get<float>("cluster");
+    cl.box = body.get<std::array<float, 6>>("cluster");
+    if (cl.first < 0 || cl.count < 1 || cl.first + cl.count > ix.size) body.fail("corrupt", fmt::format("cluster {}: rows out of range", c));
+    ix.clusters.push_back(cl);
+  }
+  for (auto& g : ix.group_clusters) {
+    g = body.get<std::int32_t>("group clusters");
+    if (g < 0 || g > static_cast<int>(nc)) body.fail("corrupt", "group cluster range out of range");
+  }
+  if (body.pos() != body.size()) body.fail("corrupt", fmt::format("{} unexpected bytes after the index", body.size() - body.pos()));
+  return db;
+}
+
+void save_database(const Database& db, const std::filesystem::path& path) {
+  write_file_atomically(path, serialize_database(db));
+}
+
+Database load_database(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("database", "io", fmt::format("{}: cannot open the motion database", path.string()));
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return parse_database(bytes, path.string());
+}
+
+}  // namespace kumite::content

@@ -1,0 +1,289 @@
+#include "kumite/content/mkm.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+#include "kumite/common/error.hpp"
+
+namespace kumite::content {
+
+using CJ = CanonicalJoint;
+using Eigen::Quaterniond;
+using Eigen::Vector3d;
+
+namespace {
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+constexpr std::array<CJ, 2> kShoulder{CJ::l_shoulder, CJ::r_shoulder};
+constexpr std::array<CJ, 2> kElbow{CJ::l_elbow, CJ::r_elbow};
+constexpr std::array<CJ, 2> kWrist{CJ::l_wrist, CJ::r_wrist};
+constexpr std::array<CJ, 2> kClavicle{CJ::l_clavicle, CJ::r_clavicle};
+constexpr std::array<CJ, 2> kHip{CJ::l_hip, CJ::r_hip};
+constexpr std::array<CJ, 2> kKnee{CJ::l_knee, CJ::r_knee};
+constexpr std::array<CJ, 2> kAnkle{CJ::l_ankle, CJ::r_ankle};
+constexpr std::array<CJ, 2> kToe{CJ::l_toe, CJ::r_toe};
+
+bool valid(const Vector3d& v) { return v.allFinite(); }
+
+// Right-handed frame from a lateral (toward the left) and an up vector.
+Quaterniond frame_from(const Vector3d& lateral, const Vector3d& up) {
+  Vector3d x = lateral.normalized();
+  Vector3d y = up - up.dot(x) * x;
+  if (y.norm() < 1e-9) y = Vector3d::UnitY() - x.y() * x;
+  y.normalize();
+  Eigen::Matrix3d m;
+  m.col(0) = x;
+  m.col(1) = y;
+  m.col(2) = x.cross(y);
+  return Quaterniond(m).normalized();
+}
+
+Vector3d normalized_or(const Vector3d& v, const Vector3d& fallback) {
+  const double n = v.norm();
+  return n > 1e-9 ? Vector3d(v / n) : fallback;
+}
+
+double wrap_angle(double a) {
+  return std::remainder(a, 2 * std::numbers::pi);
+}
+}  // namespace
+
+Vector3d GroundFrame::to_world(const Vector3d& local) const {
+  return rotation() * local + Vector3d(origin_xz.x(), 0, origin_xz.y());
+}
+Vector3d GroundFrame::to_local(const Vector3d& world) const {
+  return rotation().conjugate() * (world - Vector3d(origin_xz.x(), 0, origin_xz.y()));
+}
+GroundFrame GroundFrame::compose(const GroundFrame& other) const {
+  GroundFrame r;
+  const Vector3d o = to_world(Vector3d(other.origin_xz.x(), 0, other.origin_xz.y()));
+  r.origin_xz = {o.x(), o.z()};
+  r.yaw_rad = wrap_angle(yaw_rad + other.yaw_rad);
+  return r;
+}
+GroundFrame GroundFrame::inverse() const {
+  GroundFrame r;
+  r.yaw_rad = wrap_angle(-yaw_rad);
+  const Vector3d o = r.rotation() * Vector3d(-origin_xz.x(), 0, -origin_xz.y());
+  r.origin_xz = {o.x(), o.z()};
+  return r;
+}
+
+double yaw_of(const Vector3d& forward) { return std::atan2(forward.x(), forward.z()); }
+
+void canonical_positions(const Skeleton& skeleton, std::span<const Vector3d> global_positions,
+                         CanonicalPose& out) {
+  for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
+    const int i = skeleton.canonical[j];
+    out[j] = i >= 0 ? global_positions[static_cast<std::size_t>(i)] : Vector3d::Constant(kNaN);
+  }
+}
+
+void require_canonical_joints(const Skeleton& skeleton, std::string_view what) {
+  static constexpr std::array<CJ, 16> kRequired{
+      CJ::pelvis,     CJ::chest,   CJ::neck,    CJ::head,    CJ::l_shoulder, CJ::l_elbow,
+      CJ::l_wrist,    CJ::r_shoulder, CJ::r_elbow, CJ::r_wrist, CJ::l_hip,      CJ::l_knee,
+      CJ::l_ankle,    CJ::r_hip,   CJ::r_knee,  CJ::r_ankle};
+  for (CJ j : kRequired) {
+    if (skeleton.index(j) < 0) {
+      throw Error("content", "skeleton",
+                  fmt::format("{}: skeleton lacks the canonical joint '{}' that the fighter needs",
+                              what, to_string(j)));
+    }
+  }
+}
+
+Morphology measure_morphology(const CanonicalPose& rest, std::string_view what) {
+  for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
+    const auto cj = static_cast<CJ>(j);
+    const bool optional = cj == CJ::spine || cj == CJ::l_clavicle || cj == CJ::r_clavicle ||
+                          cj == CJ::l_toe || cj == CJ::r_toe;
+    if (!optional && !valid(rest[j])) {
+      throw Error("content", "skeleton",
+                  fmt::format("{}: skeleton lacks the canonical joint '{}' that the fighter needs",
+                              what, to_string(cj)));
+    }
+  }
+  Morphology m;
+  for (int s = 0; s < 2; ++s) {
+    m.upper_arm_m[s] = (at(rest, kElbow[s]) - at(rest, kShoulder[s])).norm();
+    m.forearm_m[s] = (at(rest, kWrist[s]) - at(rest, kElbow[s])).norm();
+    m.thigh_m[s] = (at(rest, kKnee[s]) - at(rest, kHip[s])).norm();
+    m.shin_m[s] = (at(rest, kAnkle[s]) - at(rest, kKnee[s])).norm();
+    if (m.upper_arm_m[s] < 1e-3 || m.forearm_m[s] < 1e-3 || m.thigh_m[s] < 1e-3 ||
+        m.shin_m[s] < 1e-3) {
+      throw Error("content", "skeleton",
+                  fmt::format("{}: a limb bone of the {} side is shorter than 1 mm", what,
+                              s == kLeft ? "left" : "right"));
+    }
+  }
+  // Pelvis height when standing straight: the pelvis->hips drop along the pelvis' up axis
+  // plus thigh and shin (independent of the rest pose's leg angles).
+  const Quaterniond pf = pelvis_frame(rest);
+  const Vector3d mid_hips = 0.5 * (at(rest, CJ::l_hip) + at(rest, CJ::r_hip));
+  const double drop = std::max(0.0, (at(rest, CJ::pelvis) - mid_hips).dot(pf * Vector3d::UnitY()));
+  m.leg_length_m = drop + 0.5 * (m.limb_leg_length(kLeft) + m.limb_leg_length(kRight));
+  double lowest = std::min(at(rest, CJ::l_ankle).y(), at(rest, CJ::r_ankle).y());
+  for (CJ t : kToe) {
+    if (valid(at(rest, t))) lowest = std::min(lowest, at(rest, t).y());
+  }
+  m.height_m = at(rest, CJ::head).y() - lowest;
+  return m;
+}
+
+// The pelvis frame is built from points rigid with the pelvis (pelvis and hips) so that
+// encode -> decode on the same skeleton is exact; rigs whose hips sit level with the pelvis
+// fall back to the chest for "up".
+Quaterniond pelvis_frame(const CanonicalPose& p) {
+  const Vector3d lateral = at(p, CJ::l_hip) - at(p, CJ::r_hip);
+  Vector3d up = at(p, CJ::pelvis) - 0.5 * (at(p, CJ::l_hip) + at(p, CJ::r_hip));
+  const Vector3d lat_unit = lateral.normalized();
+  if ((up - up.dot(lat_unit) * lat_unit).norm() < 0.02) up = at(p, CJ::chest) - at(p, CJ::pelvis);
+  return frame_from(lateral, up);
+}
+// Clavicle origins are rigid with the chest (shoulders move with the clavicles): use them
+// when the skeleton has both.
+Quaterniond chest_frame(const CanonicalPose& p) {
+  const bool clav = valid(at(p, CJ::l_clavicle)) && valid(at(p, CJ::r_clavicle)) &&
+                    (at(p, CJ::l_clavicle) - at(p, CJ::r_clavicle)).norm() > 0.02;
+  const Vector3d lateral = clav ? Vector3d(at(p, CJ::l_clavicle) - at(p, CJ::r_clavicle))
+                                : Vector3d(at(p, CJ::l_shoulder) - at(p, CJ::r_shoulder));
+  return frame_from(lateral, at(p, CJ::neck) - at(p, CJ::chest));
+}
+
+GroundFrame ground_frame_of(const CanonicalPose& p) {
+  GroundFrame g;
+  g.origin_xz = {at(p, CJ::pelvis).x(), at(p, CJ::pelvis).z()};
+  g.yaw_rad = yaw_of(pelvis_frame(p) * Vector3d::UnitZ());
+  return g;
+}
+GroundFrame ground_frame_of(const MkmFrame& f) {
+  GroundFrame g;
+  g.origin_xz = f.root_xz_m;
+  g.yaw_rad = yaw_of(f.pelvis * Vector3d::UnitZ());
+  return g;
+}
+
+Vector3d arm_swivel_reference(int side) {
+  return Vector3d(side == kLeft ? 1.0 : -1.0, 1.0, -1.0).normalized();
+}
+Vector3d leg_swivel_reference(int side) {
+  return Vector3d(side == kLeft ? 0.3 : -0.3, 1.0, -1.0).normalized();
+}
+
+double swivel_angle(const Vector3d& root, const Vector3d& middle, const Vector3d& end,
+                    const Vector3d& reference, double fallback) {
+  const Vector3d axis = end - root;
+  const double len = axis.norm();
+  if (len < 1e-9) return fallback;
+  const Vector3d a = axis / len;
+  Vector3d r = reference - reference.dot(a) * a;
+  Vector3d e = (middle - root) - (middle - root).dot(a) * a;
+  if (r.norm() < 1e-9 || e.norm() < 1e-6) return fallback;
+  r.normalize();
+  return std::atan2(a.dot(r.cross(e)), r.dot(e));
+}
+
+Vector3d swivel_pole(const Vector3d& axis_unit, const Vector3d& reference, double swivel_rad) {
+  Vector3d r = reference - reference.dot(axis_unit) * axis_unit;
+  if (r.norm() < 1e-9) r = axis_unit.unitOrthogonal();
+  r.normalize();
+  return std::cos(swivel_rad) * r + std::sin(swivel_rad) * axis_unit.cross(r);
+}
+
+void encode_mkm(const CanonicalPose& p, const Morphology& m, double floor_y_m,
+                const MkmFrame* previous, MkmFrame& out) {
+  const Vector3d& pelvis = at(p, CJ::pelvis);
+  out.root_xz_m = {pelvis.x(), pelvis.z()};
+  out.root_height_n = (pelvis.y() - floor_y_m) / m.leg_length_m;
+  out.pelvis = pelvis_frame(p);
+  out.chest = chest_frame(p);
+  const Vector3d up_chest = out.chest * Vector3d::UnitY();
+  const Vector3d spine_root = valid(at(p, CJ::spine)) ? at(p, CJ::spine) : pelvis;
+  out.spine_dir = normalized_or(at(p, CJ::chest) - spine_root, out.pelvis * Vector3d::UnitY());
+  out.head_dir = normalized_or(at(p, CJ::head) - at(p, CJ::neck), up_chest);
+  for (int s = 0; s < 2; ++s) {
+    const Vector3d outward = out.chest * Vector3d(s == kLeft ? 1 : -1, 0, 0);
+    const Vector3d& clav = at(p, kClavicle[s]);
+    out.clavicle_dir[s] = valid(clav) ? normalized_or(at(p, kShoulder[s]) - clav, outward) : outward;
+
+    const Vector3d& sh = at(p, kShoulder[s]);
+    const Vector3d& wr = at(p, kWrist[s]);
+    out.arm_n[s] = (wr - sh) / m.arm_length(s);
+    out.arm_swivel_rad[s] = swivel_angle(sh, at(p, kElbow[s]), wr, out.chest * arm_swivel_reference(s),
+                                         previous ? previous->arm_swivel_rad[s] : 0.0);
+    const Vector3d& hip = at(p, kHip[s]);
+    const Vector3d& an = at(p, kAnkle[s]);
+    out.leg_n[s] = (an - hip) / m.limb_leg_length(s);
+    out.leg_swivel_rad[s] = swivel_angle(hip, at(p, kKnee[s]), an, out.pelvis * leg_swivel_reference(s),
+                                         previous ? previous->leg_swivel_rad[s] : 0.0);
+    const Vector3d fwd_down = out.pelvis * Vector3d(0, -0.5, 1).normalized();
+    out.foot_dir[s] = valid(at(p, kToe[s])) ? normalized_or(at(p, kToe[s]) - an, fwd_down) : fwd_down;
+  }
+}
+
+void mirror_pose(const CanonicalPose& in, const GroundFrame& g, CanonicalPose& out) {
+  auto mirror = [&](const Vector3d& v) {
+    if (!valid(v)) return v;
+    Vector3d l = g.to_local(v);
+    l.x() = -l.x();
+    return g.to_world(l);
+  };
+  for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
+    const auto name = to_string(static_cast<CJ>(j));
+    std::size_t src = j;
+    if (name.starts_with("l_") || name.starts_with("r_")) {
+      std::string other(name);
+      other[0] = name[0] == 'l' ? 'r' : 'l';
+      src = static_cast<std::size_t>(*canonical_joint_from_string(other));
+    }
+    out[j] = mirror(in[src]);
+  }
+}
+
+void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out) {
+  const double u = 1 - w;
+  auto nlerp = [&](const Vector3d& x, const Vector3d& y) { return normalized_or(u * x + w * y, x); };
+  auto angle = [&](double x, double y) { return x + w * wrap_angle(y - x); };
+  out.root_xz_m = u * a.root_xz_m + w * b.root_xz_m;
+  out.root_height_n = u * a.root_height_n + w * b.root_height_n;
+  out.pelvis = a.pelvis.slerp(w, b.pelvis);
+  out.chest = a.chest.slerp(w, b.chest);
+  out.spine_dir = nlerp(a.spine_dir, b.spine_dir);
+  out.head_dir = nlerp(a.head_dir, b.head_dir);
+  for (int s = 0; s < 2; ++s) {
+    out.clavicle_dir[s] = nlerp(a.clavicle_dir[s], b.clavicle_dir[s]);
+    out.arm_n[s] = u * a.arm_n[s] + w * b.arm_n[s];
+    out.arm_swivel_rad[s] = angle(a.arm_swivel_rad[s], b.arm_swivel_rad[s]);
+    out.leg_n[s] = u * a.leg_n[s] + w * b.leg_n[s];
+    out.leg_swivel_rad[s] = angle(a.leg_swivel_rad[s], b.leg_swivel_rad[s]);
+    out.foot_dir[s] = nlerp(a.foot_dir[s], b.foot_dir[s]);
+    out.planted[s] = u * a.planted[s] + w * b.planted[s];
+  }
+}
+
+void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Vector2d& anchor_xz_m,
+               double stride_scale, MkmFrame& out) {
+  const Quaterniond r = placement.rotation();
+  const Eigen::Vector2d d = (in.root_xz_m - anchor_xz_m) * stride_scale;
+  const Vector3d root = placement.to_world(Vector3d(d.x(), 0, d.y()));
+  out.root_xz_m = {root.x(), root.z()};
+  out.root_height_n = in.root_height_n;
+  out.pelvis = r * in.pelvis;
+  out.chest = r * in.chest;
+  out.spine_dir = r * in.spine_dir;
+  out.head_dir = r * in.head_dir;
+  for (int s = 0; s < 2; ++s) {
+    out.clavicle_dir[s] = r * in.clavicle_dir[s];
+    out.arm_n[s] = r * in.arm_n[s];
+    out.arm_swivel_rad[s] = in.arm_swivel_rad[s];
+    out.leg_n[s] = r * in.leg_n[s];
+    out.leg_swivel_rad[s] = in.leg_swivel_rad[s];
+    out.foot_dir[s] = r * in.foot_dir[s];
+    out.planted[s] = in.planted[s];
+  }
+}
+
+}  // namespace kumite::content

@@ -1,0 +1,200 @@
+// MKM encode/decode, two-bone IK, reach and foot locks on SYNTHETIC skeletons (synthetic_body.hpp).
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+#include "kumite/content/adaptation.hpp"
+#include "kumite/content/ik.hpp"
+#include "kumite/content/mkm.hpp"
+#include "synthetic_body.hpp"
+
+using namespace kumite::content;
+using CJ = CanonicalJoint;
+using Eigen::Vector3d;
+
+namespace {
+
+CanonicalPose fk_canonical(const Clip& c, int f) {
+  const auto n = static_cast<std::size_t>(c.skeleton.joint_count());
+  std::vector<Vector3d> gp(n);
+  std::vector<Eigen::Quaterniond> gr(n);
+  forward_kinematics(c.skeleton, c.root_positions[static_cast<std::size_t>(f)], c.rotations(f), gp, gr);
+  CanonicalPose p;
+  canonical_positions(c.skeleton, gp, p);
+  return p;
+}
+
+struct Buffers {
+  explicit Buffers(const Rig& r)
+      : local(static_cast<std::size_t>(r.joint_count())), global(local.size()), pos(local.size()) {}
+  std::vector<Eigen::Quaterniond> local, global;
+  std::vector<Vector3d> pos;
+  AdaptJob job(const Rig& rig, const MkmFrame& f) {
+    AdaptJob j;
+    j.rig = &rig;
+    j.pose = &f;
+    j.local_rotations = local;
+    j.global_rotations = global;
+    j.global_positions = pos;
+    return j;
+  }
+  Vector3d at_joint(const Rig& rig, CJ j) const { return pos[static_cast<std::size_t>(rig.skeleton.index(j))]; }
+};
+
+}  // namespace
+
+TEST(Mkm, EncodeDecodeOnTheSameSkeletonReproducesEveryCanonicalJoint) {
+  const Skeleton s = synthetic::make_skeleton({});
+  const Clip clip = synthetic::make_punch_clip(s, 60, 0.5, 1.0);
+  const Rig rig = make_rig(s, {}, "synthetic");
+  MkmFrame prev, f;
+  for (int i = 0; i < clip.frame_count; ++i) {
+    const CanonicalPose src = fk_canonical(clip, i);
+    encode_mkm(src, rig.morphology, 0.0, i ? &prev : nullptr, f);
+    CanonicalPose out;
+    decode_canonical(rig, f, out);
+    for (std::size_t j = 0; j < kCanonicalJointCount; ++j)
+      EXPECT_LT((out[j] - src[j]).norm(), 1e-9) << "frame " << i << " joint " << to_string(static_cast<CJ>(j));
+    prev = f;
+  }
+}
+
+TEST(Mkm, RetargetKeepsNormalisedLimbsSwivelAndCharacterBones) {
+  const Skeleton actor = synthetic::make_skeleton({});
+  const Skeleton other = synthetic::make_skeleton({.scale = 0.86, .arm = 1.15, .leg = 0.9, .torso = 1.1,
+                                                   .assimp_names = true, .extra_roll_joint = true});
+  const Clip clip = synthetic::make_punch_clip(actor, 40);
+  const Rig ra = make_rig(actor, {}, "actor");
+  const Rig rc = make_rig(other, {}, "character");
+  EXPECT_LT(rc.morphology.leg_length_m, ra.morphology.leg_length_m);
+  Buffers b(rc);
+  MkmFrame f, back;
+  for (int i = 0; i < clip.frame_count; i += 3) {
+    encode_mkm(fk_canonical(clip, i), ra.morphology, 0.0, nullptr, f);
+    ASSERT_TRUE(b.job(rc, f).Run());
+    CanonicalPose out;
+    canonical_positions(rc.skeleton, b.pos, out);
+    encode_mkm(out, rc.morphology, 0.0, nullptr, back);
+    EXPECT_NEAR(back.root_height_n, f.root_height_n, 1e-9);
+    for (int s = 0; s < 2; ++s) {
+      EXPECT_LT((back.arm_n[s] - f.arm_n[s]).norm(), 1e-9);
+      EXPECT_LT((back.leg_n[s] - f.leg_n[s]).norm(), 1e-9);
+      EXPECT_NEAR(std::remainder(back.arm_swivel_rad[s] - f.arm_swivel_rad[s], 2 * M_PI), 0, 1e-6);
+      EXPECT_NEAR(std::remainder(back.leg_swivel_rad[s] - f.leg_swivel_rad[s], 2 * M_PI), 0, 1e-6);
+      EXPECT_LT((back.foot_dir[s] - f.foot_dir[s]).norm(), 1e-9);
+    }
+    EXPECT_TRUE(back.pelvis.isApprox(f.pelvis, 1e-9));
+    EXPECT_TRUE(back.chest.isApprox(f.chest, 1e-9));
+    // Bones keep the character's lengths (FK of its own offsets, whatever the rotations).
+    EXPECT_NEAR((at(out, CJ::r_elbow) - at(out, CJ::r_shoulder)).norm(), rc.morphology.upper_arm_m[kRight], 1e-9);
+  }
+}
+
+TEST(Ik, TwoBoneReachesEveryReachableTargetAndBendsTowardThePole) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < 2000; ++i) {
+    const Vector3d root(u(rng), u(rng), u(rng));
+    const double l1 = 0.2 + 0.2 * (u(rng) + 1), l2 = 0.2 + 0.2 * (u(rng) + 1);
+    const Vector3d dir = Vector3d(u(rng), u(rng), u(rng)).normalized();
+    const double d = std::abs(l1 - l2) + 1e-6 + (l1 + l2 - std::abs(l1 - l2) - 2e-6) * 0.5 * (u(rng) + 1);
+    const Vector3d target = root + dir * d;
+    const Vector3d pole = (dir.unitOrthogonal());
+    const TwoBoneResult r = solve_two_bone(root, target, l1, l2, pole);
+    ASSERT_TRUE(r.reached);
+    EXPECT_LT((r.end - target).norm(), 1e-9);
+    EXPECT_NEAR((r.middle - root).norm(), l1, 1e-9);
+    EXPECT_NEAR((target - r.middle).norm(), l2, 1e-6);
+    EXPECT_GE((r.middle - root).dot(pole), -1e-9);
+  }
+  const TwoBoneResult far = solve_two_bone(Vector3d::Zero(), Vector3d(2, 0, 0), 0.3, 0.3, Vector3d::UnitY());
+  EXPECT_FALSE(far.reached);
+  EXPECT_NEAR(far.end.x(), 0.6, 1e-6);
+}
+
+TEST(Adapt, ReachOffsetLandsTheWristExactlyUsingTheTrunkWhenNeeded) {
+  const Skeleton s = synthetic::make_skeleton({.scale = 0.9, .arm = 0.95});
+  const Clip clip = synthetic::make_punch_clip(s, 40);
+  const Rig rig = make_rig(s, {}, "c");
+  Buffers b(rig);
+  MkmFrame f;
+  encode_mkm(fk_canonical(clip, 20), rig.morphology, 0.0, nullptr, f);
+  ASSERT_TRUE(b.job(rig, f).Run());
+  const Vector3d wrist = b.at_joint(rig, CJ::r_wrist);
+  const Vector3d shoulder = b.at_joint(rig, CJ::r_shoulder);
+  const double arm = rig.morphology.arm_length(kRight);
+  int trunk = 0, unreachable = 0;
+  for (double dx : {-0.1, 0.0, 0.1}) {
+    for (double dy : {-0.1, 0.0, 0.1}) {
+      for (double dz : {-0.1, 0.0, 0.1, 0.2}) {
+        ReachGoal goal{{kRight, false}, Vector3d(dx, dy, dz)};
+        AdaptReport rep;
+        AdaptJob job = b.job(rig, f);
+        job.reach = &goal;
+        job.report = &rep;
+        ASSERT_TRUE(job.Run());
+        const Vector3d target = wrist + goal.offset_m;
+        EXPECT_LT((rep.effector_goal - target).norm(), 1e-12);
+        if (rep.reached) {
+          EXPECT_LT((b.at_joint(rig, CJ::r_wrist) - target).norm(), 1e-6) << dx << " " << dy << " " << dz;
+          EXPECT_LT(rep.reach_error_m, 1e-6);
+        } else {
+          ++unreachable;
+          std::printf("unreachable %g %g %g err %g\n", dx, dy, dz, rep.reach_error_m);
+        }
+        if (rep.trunk_used) {
+          ++trunk;
+          EXPECT_GT((target - shoulder).norm(), arm);  // only used when the arm alone fell short
+        }
+      }
+    }
+  }
+  EXPECT_GT(trunk, 0);        // +20 cm forward of a full extension needs the trunk
+  EXPECT_LT(unreachable, 6);  // and the trunk gets most of them
+}
+
+TEST(Adapt, FootLocksHoldTheAnkleAndValidateRejectsShortBuffers) {
+  const Skeleton s = synthetic::make_skeleton({});
+  const Clip clip = synthetic::make_punch_clip(s, 40);
+  const Rig rig = make_rig(s, {}, "c");
+  Buffers b(rig);
+  MkmFrame f;
+  encode_mkm(fk_canonical(clip, 0), rig.morphology, 0.0, nullptr, f);
+  ASSERT_TRUE(b.job(rig, f).Run());
+  FootLocks locks;
+  locks.weight = {1, 1};
+  locks.ankle_m = {b.at_joint(rig, CJ::l_ankle) + Vector3d(0.03, 0, 0.02), b.at_joint(rig, CJ::r_ankle)};
+  MkmFrame moved = f;
+  moved.root_xz_m += Eigen::Vector2d(0.05, 0.04);  // the body moves, the feet must not
+  AdaptJob job = b.job(rig, moved);
+  job.feet = &locks;
+  ASSERT_TRUE(job.Run());
+  EXPECT_LT((b.at_joint(rig, CJ::l_ankle) - locks.ankle_m[0]).norm(), 1e-9);
+  EXPECT_LT((b.at_joint(rig, CJ::r_ankle) - locks.ankle_m[1]).norm(), 1e-9);
+  std::vector<Vector3d> small(3);
+  job.global_positions = small;
+  EXPECT_FALSE(job.Validate());
+  EXPECT_FALSE(job.Run());
+}
+
+TEST(Mkm, MirrorSwapsSidesAndBlendEndsAtItsInputs) {
+  const Skeleton s = synthetic::make_skeleton({});
+  const Clip clip = synthetic::make_punch_clip(s, 40);
+  const CanonicalPose p = fk_canonical(clip, 20);
+  CanonicalPose m, mm;
+  const GroundFrame g = ground_frame_of(fk_canonical(clip, 0));
+  mirror_pose(p, g, m);
+  mirror_pose(m, g, mm);
+  for (std::size_t j = 0; j < kCanonicalJointCount; ++j) EXPECT_LT((mm[j] - p[j]).norm(), 1e-12);
+  EXPECT_NEAR(g.to_local(at(m, CJ::l_wrist)).x(), -g.to_local(at(p, CJ::r_wrist)).x(), 1e-12);
+  const Morphology morph = make_rig(s, {}, "c").morphology;
+  MkmFrame a, b, out;
+  encode_mkm(fk_canonical(clip, 0), morph, 0, nullptr, a);
+  encode_mkm(p, morph, 0, nullptr, b);
+  blend_mkm(a, b, 0.0, out);
+  EXPECT_LT((out.arm_n[1] - a.arm_n[1]).norm(), 1e-12);
+  blend_mkm(a, b, 1.0, out);
+  EXPECT_LT((out.arm_n[1] - b.arm_n[1]).norm(), 1e-12);
+  EXPECT_TRUE(out.pelvis.isApprox(b.pelvis, 1e-12));
+}

@@ -1,0 +1,243 @@
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+
+#include "kumite/common/error.hpp"
+#include "kumite/content/annotation.hpp"
+#include "kumite/content/bvh.hpp"
+#include "mocap_data.hpp"
+
+using namespace kumite::content;
+using kumite::content::testing::mocap_clip;
+
+namespace {
+
+std::string annotation_error(const std::string& text) {
+  try {
+    parse_annotations(text, "m.toml");
+  } catch (const kumite::Error& e) {
+    EXPECT_EQ(e.component(), "annotation");
+    return e.what();
+  }
+  return "(no error)";
+}
+
+const std::string kHeader = "version = 1\n[[clip]]\nfile = \"a.bvh\"\n[[clip.motion]]\nname = \"k\"\n";
+
+struct Listed {
+  HitSegment segment;
+  int peak;  // PROVENANCE.md peak frame
+};
+
+std::vector<const MotionAnnotation*> strikes_of(const ClipAnnotation& c, Semantics s) {
+  std::vector<const MotionAnnotation*> out;
+  for (const auto& m : c.motions) {
+    if (m.semantics == s) out.push_back(&m);
+  }
+  return out;
+}
+
+/// Every listed strike is found once (same limb, hit frame within `tolerance` frames), and
+/// nothing else of that kind is reported.
+void expect_strikes(const std::string& rel, Semantics kind, const std::vector<Listed>& listed, int tolerance = 4) {
+  const Clip& clip = mocap_clip(rel);
+  const ClipAnnotation a = propose_annotations(clip, rel + ".bvh");
+  const auto found = strikes_of(a, kind);
+  EXPECT_EQ(found.size(), listed.size()) << rel;
+  for (const auto& l : listed) {
+    const MotionAnnotation* match = nullptr;
+    for (const auto* m : found) {
+      if (m->hit_segment == l.segment && std::abs(*m->hit_frame - l.peak) <= tolerance) match = m;
+    }
+    ASSERT_NE(match, nullptr) << rel << ": " << to_string(kind) << " " << to_string(l.segment) << " at f" << l.peak
+                              << " not found";
+    EXPECT_LE(match->first_frame, l.peak - 10) << rel << " f" << l.peak;
+    EXPECT_GE(match->last_frame, l.peak + 10) << rel << " f" << l.peak;
+    EXPECT_GT(match->peak_speed_mps, 3.0) << rel << " f" << l.peak;
+    EXPECT_GT(match->extension, 0.85) << rel << " f" << l.peak;
+  }
+}
+
+}  // namespace
+
+// ---- Schema ---------------------------------------------------------------------------------
+
+TEST(Annotation, RoundTrip) {
+  AnnotationSet set;
+  ClipAnnotation c;
+  c.file = "clips/135_04.bvh";
+  c.name = "135_04";
+  c.mirror = false;
+  MotionAnnotation k;
+  k.name = "135_04_kick_right_1";
+  k.semantics = Semantics::kick;
+  k.first_frame = 330;
+  k.last_frame = 410;
+  k.hit_segment = HitSegment::right_foot;
+  k.hit_frame = 374;
+  k.note = "front kick \"mae-geri\"";
+  k.peak_speed_mps = 9.75;
+  k.extension = 0.945;
+  MotionAnnotation r;
+  r.name = "135_04_rest_1";
+  r.semantics = Semantics::rest;
+  r.first_frame = 0;
+  r.last_frame = 100;
+  c.motions = {k, r};
+  set.clips = {c};
+  const std::string text = format_annotations(set);
+  const AnnotationSet back = parse_annotations(text, "/some/dir/motions.toml");
+  ASSERT_EQ(back.clips.size(), 1u);
+  EXPECT_EQ(back.resolve(back.clips[0]), std::filesystem::path("/some/dir/clips/135_04.bvh"));
+  EXPECT_FALSE(back.clips[0].mirror);
+  ASSERT_EQ(back.clips[0].motions.size(), 2u);
+  const auto& bk = back.clips[0].motions[0];
+  EXPECT_EQ(bk.name, k.name);
+  EXPECT_EQ(bk.semantics, Semantics::kick);
+  EXPECT_EQ(bk.first_frame, 330);
+  EXPECT_EQ(bk.last_frame, 410);
+  EXPECT_EQ(bk.hit_segment, HitSegment::right_foot);
+  EXPECT_EQ(bk.hit_frame, 374);
+  EXPECT_EQ(bk.note, k.note);
+  EXPECT_DOUBLE_EQ(bk.peak_speed_mps, 9.75);
+  EXPECT_DOUBLE_EQ(bk.extension, 0.945);
+  EXPECT_GT(bk.line, 0);
+  EXPECT_FALSE(back.clips[0].motions[1].hit_frame);
+  EXPECT_EQ(format_annotations(back), text);
+}
+
+TEST(Annotation, SchemaErrorsNameFileLineKey) {
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"kick\"\nframes = [1, 9]\nhit_segment = \"right_knee\"\nhit_frame = 5\n"),
+            "m.toml:8: clip[0].motion[0].hit_segment: unknown segment 'right_knee' (left_hand, right_hand, left_foot, "
+            "right_foot)");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"kick\"\nframes = [1, 9]\nhit_segment = \"right_foot\"\nhit_frame = 12\n"),
+            "m.toml:9: clip[0].motion[0].hit_frame: 12 is outside frames [1, 9]");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"kick\"\nframes = [1, 9]\n"),
+            "m.toml:4: clip[0].motion[0].hit_segment: is required for a kick");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"punch\"\nframes = [1, 9]\nhit_segment = \"left_foot\"\nhit_frame = 5\n"),
+            "m.toml:8: clip[0].motion[0].hit_segment: a punch hits with a hand");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\nhit_frame = 5\n"),
+            "m.toml:8: clip[0].motion[0].hit_frame: only strikes (punch, kick) have one, not rest");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"dance\"\nframes = [1, 9]\n"),
+            "m.toml:6: clip[0].motion[0].semantics: unknown semantics 'dance' (punch, kick, block, walk, rest, other)");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [9, 1]\n"),
+            "m.toml:7: clip[0].motion[0].frames: [9, 1] must satisfy 0 <= first <= last");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\nspeed = 3\n"),
+            "m.toml:8: clip[0].motion[0].speed: unknown key");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\n[[clip.motion]]\nname = \"k\"\n"
+                                       "semantics = \"rest\"\nframes = [1, 9]\n"),
+            "m.toml:9: clip[0].motion[1].name: motion name 'k' is used twice");
+  EXPECT_EQ(annotation_error("version = 2\n"), "m.toml:1: version: version 2 is not supported (expected 1)");
+  EXPECT_EQ(annotation_error("[[clip]]\n"), "m.toml:1: version: is required");
+  EXPECT_NE(annotation_error("version = 1\n[[clip]\n").find("m.toml:2: "), std::string::npos);
+}
+
+TEST(Annotation, AnnotationOutsideTheClipIsAnError) {
+  KUMITE_REQUIRE_MOCAP();
+  const auto dir = kumite::content::testing::mocap_dir() / "cmu";
+  const std::string text = "version = 1\n[[clip]]\nfile = \"135_08.bvh\"\n[[clip.motion]]\nname = \"r\"\n"
+                           "semantics = \"rest\"\nframes = [0, 400]\n";
+  const AnnotationSet set = parse_annotations(text, (dir / "motions.toml").string());
+  try {
+    load_annotated_clips(set);
+    FAIL();
+  } catch (const kumite::Error& e) {
+    EXPECT_EQ(std::string(e.what()), (dir / "motions.toml").string() +
+                                         ":4: clip[0].motion[0].frames: [0, 400] is outside the clip '135_08' "
+                                         "(frames 0..290)");
+  }
+  const AnnotationSet missing = parse_annotations("version = 1\n[[clip]]\nfile = \"nope.bvh\"\n", "/tmp/m.toml");
+  EXPECT_THROW(load_annotated_clips(missing), kumite::Error);
+}
+
+// ---- The proposer on CMU subject 135 (PROVENANCE.md lists the strikes) -------------------------
+
+TEST(AnnotationMocap, FrontKicks13504) {
+  KUMITE_REQUIRE_MOCAP();
+  expect_strikes("cmu/135_04", Semantics::kick,
+                 {{HitSegment::right_foot, 374}, {HitSegment::left_foot, 584}, {HitSegment::right_foot, 812}});
+  EXPECT_TRUE(strikes_of(propose_annotations(mocap_clip("cmu/135_04"), "x"), Semantics::punch).empty());
+}
+
+TEST(AnnotationMocap, Roundhouse13507) {
+  KUMITE_REQUIRE_MOCAP();
+  expect_strikes("cmu/135_07", Semantics::kick,
+                 {{HitSegment::right_foot, 118}, {HitSegment::left_foot, 442}, {HitSegment::right_foot, 772},
+                  {HitSegment::left_foot, 1126}});
+  EXPECT_TRUE(strikes_of(propose_annotations(mocap_clip("cmu/135_07"), "x"), Semantics::punch).empty());
+}
+
+TEST(AnnotationMocap, SideKicks13511) {
+  KUMITE_REQUIRE_MOCAP();
+  // "The arms extend during the kicks; ignore hand peaks there": no punches may be reported.
+  expect_strikes("cmu/135_11", Semantics::kick,
+                 {{HitSegment::right_foot, 348}, {HitSegment::right_foot, 608}, {HitSegment::right_foot, 884},
+                  {HitSegment::left_foot, 1310}, {HitSegment::left_foot, 1578}, {HitSegment::left_foot, 1850},
+                  {HitSegment::left_foot, 2130}});
+  EXPECT_TRUE(strikes_of(propose_annotations(mocap_clip("cmu/135_11"), "x"), Semantics::punch).empty());
+}
+
+TEST(AnnotationMocap, LungePunches13509) {
+  KUMITE_REQUIRE_MOCAP();
+  // After about f1500 the slower arm motions (about 3 m/s) are not clean punches.
+  expect_strikes("cmu/135_09", Semantics::punch,
+                 {{HitSegment::right_hand, 304}, {HitSegment::left_hand, 530}, {HitSegment::right_hand, 760},
+                  {HitSegment::left_hand, 1000}});
+  EXPECT_TRUE(strikes_of(propose_annotations(mocap_clip("cmu/135_09"), "x"), Semantics::kick).empty());
+}
+
+TEST(AnnotationMocap, BlocksAreNotPunches) {
+  KUMITE_REQUIRE_MOCAP();
+  for (const char* rel : {"cmu/135_05", "cmu/135_10"}) {
+    const ClipAnnotation a = propose_annotations(mocap_clip(rel), "x");
+    EXPECT_TRUE(strikes_of(a, Semantics::punch).empty()) << rel;
+    EXPECT_TRUE(strikes_of(a, Semantics::kick).empty()) << rel;
+  }
+  // The fast low blocks of 135_05 (L f364, R f570, L f830) are offered as blocks to review.
+  const ClipAnnotation a = propose_annotations(mocap_clip("cmu/135_05"), "x");
+  for (int peak : {364, 570, 830}) {
+    bool found = false;
+    for (const auto* b : strikes_of(a, Semantics::block)) found = found || (b->first_frame <= peak + 5 && b->last_frame >= peak - 60);
+    EXPECT_TRUE(found) << "block near f" << peak;
+  }
+}
+
+TEST(AnnotationMocap, BoxerPunchesOtherDialect) {
+  KUMITE_REQUIRE_MOCAP();
+  expect_strikes("assimp/Boxing_Toes", Semantics::punch,
+                 {{HitSegment::left_hand, 578}, {HitSegment::left_hand, 926}, {HitSegment::right_hand, 349},
+                  {HitSegment::right_hand, 547}, {HitSegment::right_hand, 651}, {HitSegment::right_hand, 997},
+                  {HitSegment::right_hand, 1251}, {HitSegment::right_hand, 1421}});
+}
+
+TEST(AnnotationMocap, RestAndWalk) {
+  KUMITE_REQUIRE_MOCAP();
+  const ClipAnnotation still = propose_annotations(mocap_clip("cmu/135_08"), "x");
+  ASSERT_EQ(still.motions.size(), 1u);
+  EXPECT_EQ(still.motions[0].semantics, Semantics::rest);
+  EXPECT_GE(still.motions[0].last_frame - still.motions[0].first_frame, 250);
+  const ClipAnnotation walk = propose_annotations(mocap_clip("cmu/07_05"), "x");
+  ASSERT_FALSE(walk.motions.empty());
+  EXPECT_EQ(walk.motions[0].semantics, Semantics::walk);
+  EXPECT_GE(walk.motions[0].last_frame - walk.motions[0].first_frame, 400);
+  EXPECT_TRUE(strikes_of(walk, Semantics::kick).empty());
+  EXPECT_TRUE(strikes_of(walk, Semantics::punch).empty());
+}
+
+TEST(AnnotationMocap, AnnotateToolWritesAValidFile) {
+  KUMITE_REQUIRE_MOCAP();
+  const auto tool = std::filesystem::path(KUMITE_BINARY_DIR) / "bin" / "kumite-motion";
+  if (!std::filesystem::exists(tool)) GTEST_SKIP() << "kumite-motion not built";
+  const auto out = std::filesystem::path(KUMITE_BINARY_DIR) / "test_annotate" / "motions.toml";
+  std::filesystem::create_directories(out.parent_path());
+  std::filesystem::remove(out);
+  const std::string cmd = tool.string() + " annotate " + (kumite::content::testing::mocap_dir() / "cmu" / "135_08.bvh").string() +
+                          " --out " + out.string() + " > /dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  const AnnotationSet set = read_annotations(out);
+  ASSERT_EQ(set.clips.size(), 1u);
+  EXPECT_EQ(set.clips[0].name, "135_08");
+  EXPECT_EQ(load_annotated_clips(set).size(), 1u);  // the relative path resolves
+  // A bad command line exits non-zero with one line.
+  EXPECT_NE(std::system((tool.string() + " annotate /nonexistent.bvh --out /tmp/x.toml 2> /dev/null").c_str()), 0);
+}

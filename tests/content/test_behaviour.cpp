@@ -1,0 +1,220 @@
+// Behaviour driven by a scripted head, no window: strikes reach, orders are ignored
+// mid-strike, hit/miss, feet stay planted, character switches do not jump.
+// Data: SYNTHETIC clips and characters (fighter_fixtures.hpp).
+#include <gtest/gtest.h>
+
+#include "fighter_fixtures.hpp"
+#include "kumite/content/behaviour.hpp"
+
+using namespace kumite;
+using namespace kumite::content;
+using CJ = CanonicalJoint;
+using Eigen::Vector3d;
+
+namespace {
+
+constexpr double kDt = 1.0 / 120;
+
+FighterConfig test_config() {
+  FighterConfig c;
+  c.home = Vector3d(0, 0, 0);
+  c.min_x_m = -3;
+  c.max_x_m = 3;
+  c.min_z_m = -3;
+  c.max_z_m = 3;
+  return c;
+}
+
+struct Script {
+  double t = 0;
+  Vector3d head{0, 1.7, 0.9};
+  double max_jump_m = 0;       // largest joint displacement between two updates
+  double max_slide_m = 0;      // largest displacement of a held ankle between two updates
+  std::vector<FighterEvent> events;
+
+  void step(Behaviour& b, int n = 1) {
+    for (int i = 0; i < n; ++i) {
+      const auto before = std::vector<Vector3d>(b.joint_positions().begin(), b.joint_positions().end());
+      const auto locked_before = b.feet_locked();
+      const int char_before = b.current_character();
+      const Rig& rig0 = b.character(char_before);
+      const auto raw = b.rig_positions();  // without the switch easing
+      const Vector3d la = raw.empty() ? Vector3d::Zero() : raw[static_cast<std::size_t>(rig0.skeleton.index(CJ::l_ankle))];
+      const Vector3d ra = raw.empty() ? Vector3d::Zero() : raw[static_cast<std::size_t>(rig0.skeleton.index(CJ::r_ankle))];
+      t += kDt;
+      b.update(t, kDt, head);
+      for (auto& e : b.take_events()) events.push_back(e);
+      if (b.update_count() > 1 && b.current_character() == char_before) {
+        for (std::size_t j = 0; j < before.size(); ++j) {
+          const double d = (b.joint_positions()[j] - before[j]).norm();
+          max_jump_m = std::max(max_jump_m, d);
+        }
+        const auto locked = b.feet_locked();
+        const Rig& rig = b.character(b.current_character());
+        if (locked[0] && locked_before[0])
+          max_slide_m = std::max(max_slide_m, (b.rig_positions()[static_cast<std::size_t>(rig.skeleton.index(CJ::l_ankle))] - la).norm());
+        if (locked[1] && locked_before[1])
+          max_slide_m = std::max(max_slide_m, (b.rig_positions()[static_cast<std::size_t>(rig.skeleton.index(CJ::r_ankle))] - ra).norm());
+      }
+    }
+  }
+  // Steps until the current strike has passed contact (or a time limit).
+  void until_contact(Behaviour& b, double limit_s = 3) {
+    for (double s = 0; s < limit_s && !(b.strike().active && b.strike().contact_done); s += kDt) step(b);
+  }
+  void until_rest(Behaviour& b, double limit_s = 4) {
+    for (double s = 0; s < limit_s && b.state() != FighterState::resting; s += kDt) step(b);
+  }
+  int count(FighterEvent::Kind k) const {
+    return static_cast<int>(std::count_if(events.begin(), events.end(), [&](const auto& e) { return e.kind == k; }));
+  }
+};
+
+Behaviour make_behaviour(int character = 0) {
+  FighterConfig c = test_config();
+  c.initial_character = character;
+  return Behaviour(kumite::content::testing::synthetic_database().db, kumite::content::testing::synthetic_characters(), c);
+}
+
+Order order_of(OrderKind k, int character = -1) { return Order{0, k, character}; }
+
+}  // namespace
+
+TEST(Behaviour, StrikesLandOnReachableTargetsForEveryCharacterWithinOneMillimetre) {
+  for (int c = 0; c < 3; ++c) {
+    int reached = 0, total = 0;
+    for (double dx : {-0.15, 0.0, 0.15}) {
+      for (double dy : {-0.1, 0.0, 0.1}) {
+        Behaviour b = make_behaviour(c);
+        Script run;
+        run.step(b, 30);
+        const Rig& rig = b.character(c);
+        const double sh = rig.rest_pose[static_cast<std::size_t>(CJ::r_shoulder)].y() - rig.rest_pose[static_cast<std::size_t>(CJ::r_ankle)].y();
+        const Vector3d local(dx, sh + dy, 0.75 * rig.morphology.arm_length(kRight) + 0.1);
+        const Vector3d target = b.ground().to_world(local);
+        b.order_strike(order_of(OrderKind::punch_right), target);
+        run.until_contact(b);
+        ASSERT_TRUE(b.strike().contact_done) << rig.name;
+        ++total;
+        if (b.strike().contact_reached) {
+          ++reached;
+          EXPECT_LT(b.strike().contact_distance_m, 1e-3) << rig.name << " " << dx << " " << dy;
+          EXPECT_TRUE(b.strike().hit);
+        }
+        run.until_rest(b);
+        EXPECT_EQ(b.state(), FighterState::resting);
+        EXPECT_EQ(run.count(FighterEvent::Kind::hit) + run.count(FighterEvent::Kind::miss), 1);
+      }
+    }
+    EXPECT_GE(reached, total - 1) << "character " << c;
+  }
+}
+
+TEST(Behaviour, OrdersDuringAStrikeAreIgnoredWithAReason) {
+  Behaviour b = make_behaviour();
+  Script run;
+  run.step(b, 10);
+  b.order(order_of(OrderKind::punch_right));
+  run.step(b, 5);
+  EXPECT_EQ(b.state(), FighterState::striking);
+  b.order(order_of(OrderKind::punch_left));
+  b.order(order_of(OrderKind::kick_right));
+  run.step(b);
+  EXPECT_EQ(run.count(FighterEvent::Kind::order_ignored), 2);
+  for (const auto& e : run.events)
+    if (e.kind == FighterEvent::Kind::order_ignored) EXPECT_NE(e.text.find("mid-strike"), std::string::npos);
+  run.until_rest(b);
+  b.order(order_of(OrderKind::punch_left));  // accepted again once resting
+  run.step(b, 3);
+  EXPECT_EQ(b.state(), FighterState::striking);
+  EXPECT_EQ(b.strike().effector.side, kLeft);  // mirrored clips give left punches
+}
+
+TEST(Behaviour, FarTargetIsAMissReportedOutOfReach) {
+  Behaviour b = make_behaviour();
+  Script run;
+  run.step(b, 10);
+  b.order_strike(order_of(OrderKind::punch_right), b.ground().to_world(Vector3d(0, 1.4, 3.0)));
+  run.until_contact(b);
+  ASSERT_TRUE(b.strike().contact_done);
+  EXPECT_FALSE(b.strike().contact_reached);
+  EXPECT_FALSE(b.strike().hit);
+  EXPECT_GT(b.strike().contact_distance_m, 1.0);
+  ASSERT_EQ(run.count(FighterEvent::Kind::miss), 1);
+}
+
+TEST(Behaviour, TargetFrozenAtOrderTimeAndKicksWithoutClipsWarn) {
+  Behaviour b = make_behaviour();
+  Script run;
+  run.step(b, 10);
+  b.order(order_of(OrderKind::punch_right));
+  run.step(b);
+  const Vector3d frozen = b.strike().target_room_m;
+  EXPECT_LT((frozen - run.head).norm(), 1e-12);
+  run.head += Vector3d(0.3, 0, 0);  // the visitor moves; the strike keeps its target
+  run.until_contact(b);
+  EXPECT_LT((b.strike().target_room_m - frozen).norm(), 1e-12);
+  run.until_rest(b);
+  b.order(order_of(OrderKind::kick_left));  // the synthetic set has no kicks
+  run.step(b, 2);
+  EXPECT_EQ(run.count(FighterEvent::Kind::warning), 1);
+  EXPECT_NE(b.state(), FighterState::striking);
+}
+
+// Switching character mid-strike: drawn joints stay continuous. Bound: the largest per-update
+// joint motion of the strike itself (measured without a switch) plus the size difference
+// spread over the easing: offset <= ~0.3 m (1.5 m vs 2.0 m bodies) faded by a smoothstep over
+// blend_time (max slope 1.5 / blend_time) -> 0.3 * 1.5 * dt / 0.2 s = 1.9 cm per 1/120 s update.
+TEST(Behaviour, SwitchingCharacterMidStrikeDoesNotJump) {
+  Behaviour ref = make_behaviour(0);
+  Script rr;
+  rr.step(ref, 10);
+  ref.order(order_of(OrderKind::punch_right));
+  rr.step(ref, 2);
+  rr.until_rest(ref);
+  const double motion_bound = rr.max_jump_m;
+
+  Behaviour b = make_behaviour(0);
+  Script run;
+  run.step(b, 10);
+  b.order(order_of(OrderKind::punch_right));
+  run.step(b, 20);
+  ASSERT_EQ(b.state(), FighterState::striking);
+  double worst = 0;
+  for (int target_char : {1, 2, 0}) {
+    const auto before = std::vector<Vector3d>(b.joint_positions().begin(), b.joint_positions().end());
+    const Rig& old_rig = b.character(b.current_character());
+    b.order(order_of(OrderKind::select_character, target_char));
+    run.step(b);
+    const Rig& rig = b.character(b.current_character());
+    ASSERT_EQ(b.current_character(), target_char);
+    for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
+      const int io = old_rig.skeleton.canonical[j], in = rig.skeleton.canonical[j];
+      if (io < 0 || in < 0) continue;
+      worst = std::max(worst, (b.joint_positions()[static_cast<std::size_t>(in)] - before[static_cast<std::size_t>(io)]).norm());
+    }
+    run.step(b, 8);
+  }
+  run.until_rest(b);
+  EXPECT_LT(worst, motion_bound + 0.005) << "jump at the switch itself";
+  EXPECT_LT(run.max_jump_m, motion_bound + 0.019) << "jump while easing";
+  EXPECT_EQ(run.count(FighterEvent::Kind::character_changed), 3);
+  EXPECT_EQ(run.count(FighterEvent::Kind::hit) + run.count(FighterEvent::Kind::miss), 1);
+}
+
+TEST(Behaviour, FollowsTheVisitorWithPlantedFeetThatDoNotSlide) {
+  Behaviour b = make_behaviour(1);
+  Script run;
+  run.step(b, 30);
+  const Vector3d start = b.frame().root;
+  run.head = Vector3d(1.0, 1.7, 1.2);  // visitor steps aside and back
+  run.step(b, 30);
+  EXPECT_EQ(b.state(), FighterState::following);
+  run.step(b, 600);
+  EXPECT_EQ(b.state(), FighterState::resting);
+  const Vector3d root = b.frame().root;
+  EXPECT_GT((root - start).norm(), 0.5);
+  const double dist = Eigen::Vector2d(run.head.x() - root.x(), run.head.z() - root.z()).norm();
+  EXPECT_NEAR(dist, test_config().strike_distance_m, 0.3);
+  EXPECT_LT(run.max_slide_m, 0.002);  // 2 mm per update for held feet
+}

@@ -1,0 +1,89 @@
+// The SHIPPED content (content/motions + content/characters, real CMU 135 strikes): every
+// character lands its strikes on a grid of targets around head height within 1 mm when the
+// target is reachable, and planted feet stay put (<= 2 mm per frame).
+#include <gtest/gtest.h>
+
+#include "fighter_fixtures.hpp"
+#include "kumite/content/behaviour.hpp"
+
+using namespace kumite;
+using namespace kumite::content;
+using CJ = CanonicalJoint;
+using Eigen::Vector3d;
+
+namespace {
+struct Outcome {
+  bool contact = false, reached = false, hit = false;
+  double distance_m = 0, max_slide_m = 0;
+};
+
+Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) {
+  const double dt = 1.0 / 120;
+  double t = 0;
+  const Vector3d head(0, 1.7, 0.9);
+  for (int i = 0; i < 30; ++i) b.update(t += dt, dt, head);
+  const Vector3d target = b.ground().to_world(local_target);
+  b.order_strike(Order{t, kind}, target);
+  Outcome o;
+  const Rig* rig = &b.character(b.current_character());
+  const int ankles[2] = {rig->skeleton.index(CJ::l_ankle), rig->skeleton.index(CJ::r_ankle)};
+  for (int i = 0; i < 600 && !(b.state() == FighterState::resting && b.strike().contact_done); ++i) {
+    const auto locked_before = b.feet_locked();
+    const Vector3d before[2] = {b.rig_positions()[static_cast<std::size_t>(ankles[0])], b.rig_positions()[static_cast<std::size_t>(ankles[1])]};
+    b.update(t += dt, dt, head);
+    const auto locked = b.feet_locked();
+    for (int s = 0; s < 2; ++s) {
+      if (!(locked[s] && locked_before[s])) continue;
+      const double d = (b.rig_positions()[static_cast<std::size_t>(ankles[s])] - before[s]).norm();
+      if (getenv("DBG") && d > 0.002) std::printf("slide %.4f side %d reached %d state %d kind %d\n", d, s, (int)b.last_report().foot_reached[s], (int)b.state(), (int)kind);
+      o.max_slide_m = std::max(o.max_slide_m, d);
+    }
+  }
+  if (getenv("DBG")) {
+    const auto& st = b.strike();
+    std::printf("kind %d eff side %d leg %d seg %d start %d contact %d dist %.3f err (%.3f %.3f %.3f) reached %d\n", (int)kind, st.effector.side, (int)st.effector.leg,
+                st.plan.segment, st.plan.start_frame, st.plan.contact_frame, st.contact_distance_m, st.error_m.x(), st.error_m.y(), st.error_m.z(), (int)st.contact_reached);
+  }
+  o.contact = b.strike().contact_done;
+  o.reached = b.strike().contact_reached;
+  o.hit = b.strike().hit;
+  o.distance_m = b.strike().contact_distance_m;
+  return o;
+}
+}  // namespace
+
+TEST(BehaviourShipped, EveryCharacterReachesTargetsAroundHeadHeight) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  FighterConfig cfg;
+  cfg.home = Vector3d::Zero();
+  for (std::size_t c = 0; c < rigs.size(); ++c) {
+    const double h = rigs[c].morphology.height_m;
+    int reached = 0, total = 0;
+    double worst = 0, worst_slide = 0;
+    for (OrderKind kind : {OrderKind::punch_right, OrderKind::punch_left, OrderKind::kick_right, OrderKind::kick_left}) {
+      const bool kick = kind == OrderKind::kick_right || kind == OrderKind::kick_left;
+      for (double fy : {0.85, 0.95}) {
+        for (double dx : {-0.15, 0.0, 0.15}) {
+          cfg.initial_character = static_cast<int>(c);
+          Behaviour b(set.db, {rigs[c]}, cfg);
+          const Vector3d local(dx, kick ? fy * 0.65 * h : fy * h, kick ? 0.45 * h : 0.36 * h);
+          const Outcome o = strike_once(b, kind, local);
+          ASSERT_TRUE(o.contact) << rigs[c].name;
+          ++total;
+          worst_slide = std::max(worst_slide, o.max_slide_m);
+          if (o.reached) {
+            ++reached;
+            worst = std::max(worst, o.distance_m);
+            EXPECT_TRUE(o.hit);
+          }
+        }
+      }
+    }
+    EXPECT_LT(worst, 1e-3) << rigs[c].name;
+    EXPECT_LT(worst_slide, 2e-3) << rigs[c].name;
+    EXPECT_GE(reached, total * 3 / 4) << rigs[c].name << ": reached " << reached << " of " << total;
+    std::printf("%s (%.2f m): reached %d/%d, worst reach error %.2e m, worst foot slide %.2e m\n",
+                rigs[c].name.c_str(), h, reached, total, worst, worst_slide);
+  }
+}

@@ -1,0 +1,105 @@
+// The motion database: build (SYNTHETIC clips), save/load, and rejection of corrupt,
+// truncated and old-version files with one-line errors naming the file.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "fighter_fixtures.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/content/database.hpp"
+
+using namespace kumite;
+using namespace kumite::content;
+
+namespace {
+std::string error_of(std::string_view bytes, std::string* code = nullptr) {
+  try {
+    parse_database(bytes, "fighter.kdb");
+  } catch (const Error& e) {
+    if (code) *code = e.code();
+    return e.what();
+  }
+  return "";
+}
+}  // namespace
+
+TEST(Database, BuildMirrorsSegmentsAndGroupsStrikesByEffector) {
+  const Database& db = *kumite::content::testing::synthetic_database().db;
+  EXPECT_EQ(db.segments.size(), 14u);  // 7 segments + their mirrors
+  int left = 0, right = 0;
+  for (int r = 0; r < db.index.size; ++r) (db.index.group[static_cast<std::size_t>(r)] == kLeft ? left : right)++;
+  EXPECT_EQ(left, right);
+  EXPECT_GT(left, 6);
+  for (const auto& s : db.segments) {
+    if (s.kind != SegmentKind::strike) continue;
+    EXPECT_EQ(s.hit_path_m.size(), s.frames.size());
+    // A punch peaks forward of the body at its hit frame.
+    const GroundFrame g = ground_frame_of(s.frames[0]);
+    EXPECT_GT(g.to_local(s.hit_path_m[static_cast<std::size_t>(s.hit_frame)].cast<double>()).z(), 0.3);
+  }
+  // Planted feet are detected on the (static-legged) rest clip.
+  EXPECT_EQ(db.segments[0].frames[10].planted[0], 1.0);
+}
+
+TEST(Database, SaveLoadRoundTripIsExact) {
+  const Database& db = *kumite::content::testing::synthetic_database().db;
+  const auto dir = std::filesystem::temp_directory_path() / ("kumite_db_test_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const auto path = dir / "fighter.kdb";
+  save_database(db, path);
+  const Database back = load_database(path);
+  EXPECT_EQ(serialize_database(back), serialize_database(db));
+  EXPECT_EQ(back.index.clusters.size(), db.index.clusters.size());
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Database, CorruptTruncatedOldAndForeignFilesAreRejectedWithOneLine) {
+  const std::string good = serialize_database(*kumite::content::testing::synthetic_database().db);
+  std::string code;
+  std::string bad = good;
+  bad[bad.size() / 2] ^= 0x5a;
+  std::string msg = error_of(bad, &code);
+  EXPECT_EQ(code, "checksum");
+  EXPECT_NE(msg.find("fighter.kdb"), std::string::npos);
+  EXPECT_EQ(msg.find('\n'), std::string::npos);
+
+  msg = error_of(good.substr(0, good.size() - 100), &code);
+  EXPECT_FALSE(msg.empty());
+  EXPECT_NE(msg.find("fighter.kdb"), std::string::npos);
+
+  std::string old = good;
+  old[8] = 0;  // version 0 (the version sits after the 8-byte magic)
+  msg = error_of(old, &code);
+  EXPECT_EQ(code, "version");
+  EXPECT_NE(msg.find("version 0"), std::string::npos);
+  EXPECT_NE(msg.find("rebuild"), std::string::npos);
+
+  msg = error_of("BVH HIERARCHY", &code);
+  EXPECT_EQ(code, "magic");
+  msg = error_of("", &code);
+  EXPECT_EQ(code, "magic");
+
+  try {
+    load_database("/nonexistent/fighter.kdb");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/fighter.kdb"), std::string::npos);
+  }
+}
+
+TEST(Database, AnnotationsOutsideTheClipAreRejectedNamingTheSegment) {
+  const auto& set = kumite::content::testing::synthetic_database();
+  const Clip& c = set.clips[1];
+  std::vector<SegmentSource> src{{&c, "bad_range", 0, c.frame_count + 5, SegmentKind::strike, Effector{}, 10}};
+  try {
+    build_database(src, {});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad_range"), std::string::npos);
+  }
+  src = {{&c, "bad_hit", 0, 20, SegmentKind::strike, Effector{}, 40}};
+  EXPECT_THROW(build_database(src, {}), Error);
+  src = {{&c, "no_effector", 0, 20, SegmentKind::strike, std::nullopt, 10}};
+  EXPECT_THROW(build_database(src, {}), Error);
+}
