@@ -46,6 +46,7 @@ class TrackerInput final : public TrackingInput {
     } else {
       s.status = tracker_.running() ? "waiting for the first frame set" : "tracker stopped";
     }
+    s.status += fmt::format(", {} frame sets", tracker_.frames_processed());
     if (!tracker_.running()) s.status += " (tracker stopped)";
     const auto cams = tracker_.camera_status(display_time);
     for (std::size_t i = 0; i < cams.size(); ++i) {
