@@ -72,7 +72,8 @@ void plan_fighter(const content::FighterFrame& f, glm::vec3 colour, std::vector<
     const glm::vec3 p(f.joints[j].cast<float>().x(), f.joints[j].cast<float>().y(),
                       f.joints[j].cast<float>().z());
     const float r = j < f.joint_radii_m.size() ? f.joint_radii_m[j] : 0.04f;
-    items.push_back({sphere_model(p, r), joint_colour, Mesh::sphere});
+    // Joints a little fatter than their bones: no z-fighting seam where they meet.
+    items.push_back({sphere_model(p, r * 1.08f), joint_colour, Mesh::sphere});
     const int parent = j < f.parents.size() ? f.parents[j] : -1;
     if (parent < 0) continue;
     const auto& q = f.joints[static_cast<std::size_t>(parent)];

@@ -16,7 +16,7 @@ namespace {
 class TrackerInput final : public TrackingInput {
  public:
   TrackerInput(const InstallationConfig& c, tracking::RigCalibration rig,
-               tracking::TrackingConfig tc)
+               tracking::TrackingConfig tc, std::unique_ptr<tracking::FrameSource> source)
       : tracker_(rig, tc), head_(c.tracking.head_body), source_(c.tracking.source) {
     for (const auto& cam : rig.cameras) names_.push_back(cam.name);
     if (head_ >= static_cast<int>(tracker_.body_count()))
@@ -24,7 +24,10 @@ class TrackerInput final : public TrackingInput {
                        "tracking.head_body",
                        fmt::format("body {} does not exist ({} bodies in {})", head_,
                                    tracker_.body_count(), c.resolve(c.tracking.tracking).string()));
-    if (source_ == TrackingSource::recording) {
+    if (source) {
+      tracker_.start(std::move(source));
+      what_ = "frame source given by the caller";
+    } else if (source_ == TrackingSource::recording) {
       // Looping keeps a long demo tracked; the recording's clock is rebased onto now().
       tracker_.start(tracking::open_recording_source(c.resolve(c.tracking.recording), rig, tc,
                                                      {.realtime = true, .loop = true}));
@@ -77,7 +80,14 @@ std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& con
     return make_fixed_head_input("tracking.source = \"none\"");
   auto rig = tracking::read_calibration(config.resolve(config.tracking.calibration));
   auto tc = tracking::read_tracking_config(config.resolve(config.tracking.tracking));
-  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc));
+  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), nullptr);
+}
+
+std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config,
+                                                   std::unique_ptr<tracking::FrameSource> source) {
+  auto rig = tracking::read_calibration(config.resolve(config.tracking.calibration));
+  auto tc = tracking::read_tracking_config(config.resolve(config.tracking.tracking));
+  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), std::move(source));
 }
 
 }  // namespace kumite::app
