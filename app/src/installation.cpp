@@ -262,11 +262,10 @@ const FrameData& Installation::step(Timestamp now) {
   console_.fighter_state = frame_.fighter_state;
   console_.character = frame_.character;
   console_.character_name = character_name(frame_.character);
-  if (dt > 0) {
-    const double fps = 1.0 / dt;
-    fps_filtered_ = fps_filtered_ == 0 ? fps : 0.9 * fps_filtered_ + 0.1 * fps;
-  }
-  console_.fps = fps_filtered_;
+  // Frame rate from the smoothed frame time (the first step after start() has no interval).
+  if (frame_.frame > 0 && dt > 0)
+    dt_filtered_ = dt_filtered_ == 0 ? dt : 0.9 * dt_filtered_ + 0.1 * dt;
+  console_.fps = dt_filtered_ > 0 ? 1.0 / dt_filtered_ : 0;
   console_.frame_cpu_ms = (kumite::now() - cpu0) * 1e3;
   return frame_;
 }

@@ -198,3 +198,11 @@ TEST(Orders, BadRowsNameFileAndLine) {
   EXPECT_EQ(msg("2.0,pause\n1.0,resume\n"), "o.csv:2: time_s: 1 s comes before the previous row (2 s)");
   EXPECT_NO_THROW(load_orders_script(KUMITE_SOURCE_DIR "/config/orders-demo.csv"));
 }
+
+TEST(Installation, ConsoleFrameRateFromFrameIntervals) {
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  Installation inst(cfg, make_fixed_head_input("none"), {});
+  inst.start(10.0);
+  for (int i = 0; i < 200; ++i) inst.step(10.0 + 1e-4 + i / 50.0);  // 50 Hz
+  EXPECT_NEAR(inst.console().fps, 50.0, 0.01);
+}

@@ -142,7 +142,7 @@ class Installation {
   HeadPose last_good_head_;
   Timestamp start_ = 0, last_step_ = 0;
   bool started_ = false, quit_ = false, mono_ = false;
-  double fps_filtered_ = 0;
+  double dt_filtered_ = 0;  ///< s, smoothed frame interval
   std::uint64_t steps_ = 0;
 };
 
