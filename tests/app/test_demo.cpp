@@ -111,17 +111,17 @@ TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
   fs::remove_all(out);
   fs::create_directories(out);
   const fs::path script = out / "orders.csv";
-  std::ofstream(script) << "time_s,order\n0.3,punch_right\n0.45,kick_left\n2.0,character 9\n"
-                           "2.1,character 2\n2.5,kick_right\n";
+  std::ofstream(script) << "time_s,order\n0.3,punch_right\n0.45,kick_left\n1.5,character 9\n"
+                           "1.6,character 2\n1.9,kick_right\n";
   InstallationOptions io;
   io.orders_script = script;
   Installation inst(cfg, make_fixed_head_input("test"), io);
   ASSERT_TRUE(inst.console().problems.empty() || inst.character_count() == 5);
   ASSERT_EQ(inst.character_count(), 5);
   HeadlessOptions ho;
-  ho.frames = 240;  // 4 s at 60 Hz
+  ho.frames = 180;  // 3 s at 60 Hz
   ho.out = out;
-  ho.save_every = 60;
+  ho.save_every = 30;
   ho.resolution = std::array<int, 2>{320, 180};
   ho.real_time = false;
   ASSERT_EQ(run_headless(inst, ho), 0);
@@ -129,7 +129,7 @@ TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
   std::vector<nlohmann::json> frames;
   std::ifstream in(out / "frames.jsonl");
   for (std::string line; std::getline(in, line);) frames.push_back(nlohmann::json::parse(line));
-  ASSERT_EQ(frames.size(), 240u);
+  ASSERT_EQ(frames.size(), 180u);
 
   // Every scripted order appears once, with an outcome.
   std::map<std::string, std::vector<nlohmann::json>> by_order;
@@ -152,13 +152,13 @@ TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
   EXPECT_EQ(frames.back()["fighter"]["character"], 2);
 
   // The fighter is drawn where it stands: in Kenji's colour at first, Mei's after the switch.
-  for (int frame : {60, 180}) {
+  for (int frame : {60, 150}) {
     const auto& f = frames[static_cast<std::size_t>(frame)];
     ASSERT_TRUE(f["fighter"]["present"].get<bool>());
     const auto r = f["fighter"]["root"];
     const glm::dvec3 root(r[0].get<double>(), r[1].get<double>(), r[2].get<double>());
     const int character = f["fighter"]["character"].get<int>() - 1;
-    EXPECT_EQ(character, frame < 120 ? 0 : 1);
+    EXPECT_EQ(character, frame < 96 ? 0 : 1);
     for (const char* eye : {"left", "right"}) {
       const Image img = load_png(out / fmt::format("front_{}_{:05}.png", eye, frame));
       ASSERT_EQ(img.w, 320);
