@@ -53,7 +53,15 @@ int run(const Args& a) {
   kumite::app::InstallationOptions io;
   if (!a.orders.empty()) io.orders_script = a.orders;
   io.mono_eyes = config.stereo.mode == kumite::app::StereoMode::mono;
-  auto tracking = kumite::app::make_tracking_input(config);
+  // A tracker that cannot start (missing recording, calibration, cameras) is not a stop: the
+  // walls draw from the default head and the console says why.
+  std::unique_ptr<kumite::app::TrackingInput> tracking;
+  try {
+    tracking = kumite::app::make_tracking_input(config);
+  } catch (const kumite::Error& e) {
+    spdlog::error("tracking unavailable: {}", e.what());
+    tracking = kumite::app::make_fixed_head_input(std::string("tracking unavailable: ") + e.what());
+  }
   kumite::app::Installation inst(config, std::move(tracking), io);
   const bool headless = a.headless || !kumite::app::display_available();
   if (headless) {
