@@ -205,3 +205,13 @@ TEST(Config, ResolveIsRelativeToTheFile) {
   EXPECT_EQ(c.resolve("wu.bvh"), std::filesystem::path("/etc/kumite/wu.bvh"));
   EXPECT_EQ(c.resolve("/abs/x"), std::filesystem::path("/abs/x"));
 }
+
+TEST(Config, CaveWithOneWindowPerWall) {
+  const auto a = load_installation_config(KUMITE_SOURCE_DIR "/config/walls-cave-4windows.toml");
+  ASSERT_EQ(a.windows.size(), 4u);
+  ASSERT_EQ(a.walls.size(), 4u);
+  for (std::size_t w = 0; w < 4; ++w) EXPECT_EQ(a.window_of(w), static_cast<int>(w));
+  EXPECT_EQ(a.stereo.mode, StereoMode::quad_buffer);
+  EXPECT_FALSE(a.stereo.allow_fallback);
+  EXPECT_EQ(parse_installation_config(to_toml(a), "again.toml"), a);
+}
