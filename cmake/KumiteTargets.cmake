@@ -2,7 +2,7 @@
 add_library(kumite_warnings INTERFACE)
 target_compile_options(kumite_warnings INTERFACE
   $<$<CXX_COMPILER_ID:GNU,Clang>:-Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor
-    -Wcast-align -Woverloaded-virtual -Wnull-dereference -Wimplicit-fallthrough>)
+    -Wcast-align -Woverloaded-virtual -Wimplicit-fallthrough>)
 
 if(KUMITE_SANITIZE OR KUMITE_FUZZ)
   add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer

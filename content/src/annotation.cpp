@@ -316,8 +316,11 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
     for (int f = 0; f < frames; ++f) height[static_cast<std::size_t>(f)] = ankle.p[static_cast<std::size_t>(f)].y() - floor_y;
     for (int f : peaks(height, cfg.kick_min_height * body.stature_m, W)) {
       const double vmax = max_in(ankle.speed, f - A, f);
-      if (vmax < cfg.kick_min_speed) continue;
-      const auto [first, last] = bounds(ankle.speed, f, A, H, cfg.bound_speed_fraction);
+      const double extension =
+          (ankle.p[static_cast<std::size_t>(f)] - hip.p[static_cast<std::size_t>(f)]).norm() / body.leg_m;
+      if (vmax < cfg.kick_min_speed || extension < cfg.kick_min_extension) continue;
+      const auto span = bounds(ankle.speed, f, A, H, cfg.bound_speed_fraction);
+      const int first = span.first, last = span.second;
       Found k;
       k.kind = is_left(seg) ? "kick_left" : "kick_right";
       k.m.semantics = Semantics::kick;
@@ -326,7 +329,7 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
       k.m.first_frame = first;
       k.m.last_frame = last;
       k.m.peak_speed_mps = vmax;
-      k.m.extension = (ankle.p[static_cast<std::size_t>(f)] - hip.p[static_cast<std::size_t>(f)]).norm() / body.leg_m;
+      k.m.extension = extension;
       k.m.note = fmt::format("proposed: ankle {:.0f} cm above the floor at the hit", 100 * height[static_cast<std::size_t>(f)]);
       strikes.push_back(k);
     }
@@ -363,7 +366,8 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
       if (vmax < cfg.punch_min_speed || rmax < cfg.punch_min_radial_speed || drop_deg > cfg.punch_max_drop_deg) {
         continue;
       }
-      const auto [first, last] = bounds(wrist.speed, f, A, H, cfg.bound_speed_fraction);
+      const auto span = bounds(wrist.speed, f, A, H, cfg.bound_speed_fraction);
+      const int first = span.first, last = span.second;
       if (inside_kick(f, f)) continue;  // arms swing for balance during kicks
       Found p;
       p.kind = is_left(seg) ? "punch_left" : "punch_right";
@@ -380,7 +384,8 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
     }
     // Blocks: fast hands that are no punch (and not balance swings during kicks).
     for (int f : peaks(wrist.speed, cfg.block_min_speed, W)) {
-      const auto [first, last] = bounds(wrist.speed, f, A / 2, H / 2, cfg.bound_speed_fraction);
+      const auto span = bounds(wrist.speed, f, A / 2, H / 2, cfg.bound_speed_fraction);
+      const int first = span.first, last = span.second;
       const bool near_punch = std::any_of(punch_frames.begin(), punch_frames.end(),
                                           [&](int p) { return p >= first - A && p <= last + A; });
       if (near_punch || inside_kick(first, last)) continue;

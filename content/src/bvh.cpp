@@ -47,14 +47,14 @@ class Lexer {
     return text_.substr(start, pos_ - start);
   }
 
-  std::string_view expect_any(std::string_view what) {
+  std::string_view expect_any(std::string_view what, std::string_view key = "") {
     const auto t = next();
-    if (t.empty()) fail("truncated", what, fmt::format("unexpected end of file, expected {}", what));
+    if (t.empty()) fail("truncated", key, fmt::format("unexpected end of file, expected {}", what));
     return t;
   }
 
   void expect(std::string_view word, std::string_view key) {
-    const auto t = expect_any(word);
+    const auto t = expect_any(fmt::format("'{}'", word), key);
     if (lower(t) != lower(word)) fail("parse", key, fmt::format("expected '{}', found '{}'", word, printable(t)));
   }
 
@@ -292,8 +292,23 @@ std::string stem_of(std::string_view source) {
 
 }  // namespace
 
-double guess_bvh_unit_m(double extent) {
+double guess_bvh_unit_m(double extent, bool humanoid) {
   if (!(extent > 0)) return 0.01;
+  if (humanoid) {
+    // The unit that makes the body closest to 1.7 m (log scale); inches and CMU ASF units
+    // (the cgspeed conversions keep them: 1/0.45 inch) only when no metric unit is near.
+    struct Unit { double m; double penalty; };
+    constexpr Unit kUnits[] = {{0.01, 0}, {1.0, 0}, {0.001, 0}, {0.0254, 0.5}, {0.0254 / 0.45, 0.5}};
+    double best = 0.01, best_cost = 1e300;
+    for (const Unit& u : kUnits) {
+      const double cost = std::abs(std::log(extent * u.m / 1.7)) + u.penalty;
+      if (cost < best_cost) {
+        best_cost = cost;
+        best = u.m;
+      }
+    }
+    return best;
+  }
   if (extent < 5) return 1.0;
   if (extent < 500) return 0.01;
   return 0.001;
@@ -304,24 +319,44 @@ Clip parse_bvh(std::string_view text, std::string_view source, const BvhReadOpti
   RawSkeleton raw = read_hierarchy(lx);
 
   lx.expect("MOTION", "MOTION");
-  lx.expect("Frames:", "Frames");
-  const auto frames_tok = lx.expect_any("the frame count");
+  // "Frames: N" (also tolerated: "Frames:N").
+  std::string_view frames_tok = lx.expect_any("'Frames:'");
+  if (lower(frames_tok).rfind("frames:", 0) != 0) {
+    lx.fail("parse", "Frames", fmt::format("expected 'Frames:', found '{}'", Lexer::printable(frames_tok)));
+  }
+  frames_tok.remove_prefix(7);
+  if (frames_tok.empty()) frames_tok = lx.expect_any("the frame count");
   const double frames_d = lx.parse_number(frames_tok, "Frames");
   if (frames_d < 0 || frames_d != std::floor(frames_d)) {
     lx.fail("parse", "Frames", fmt::format("frame count must be a whole number >= 0, found '{}'", Lexer::printable(frames_tok)));
   }
   const auto frames = static_cast<long long>(frames_d);
   lx.expect("Frame", "Frame Time");
-  lx.expect("Time:", "Frame Time");
-  const double frame_time = lx.number("Frame Time");
+  std::string_view time_tok = lx.expect_any("'Time:'");
+  if (lower(time_tok).rfind("time:", 0) != 0) {
+    lx.fail("parse", "Frame Time", fmt::format("expected 'Time:', found '{}'", Lexer::printable(time_tok)));
+  }
+  time_tok.remove_prefix(5);
+  const double frame_time = time_tok.empty() ? lx.number("Frame Time") : lx.parse_number(time_tok, "Frame Time");
   if (!(frame_time > 0)) lx.fail("frame_time", "Frame Time", fmt::format("frame time must be > 0 s, found {}", frame_time));
   if (frame_time > 10) lx.fail("frame_time", "Frame Time", fmt::format("frame time {} s is implausible (> 10 s)", frame_time));
   lx.skip_rest_of_line();
 
+  // Canonical joints first (names and structure only): a recognised humanoid lets the unit
+  // be chosen from its body size.
+  raw.s.canonical.fill(-1);
+  if (options.map_canonical) {
+    const auto& dialects = default_dialects();  // a broken dialect file is reported, not hidden
+    try {
+      raw.s.dialect = content::map_canonical(raw.s, dialects, source);
+    } catch (const Error&) {
+      raw.s.canonical.fill(-1);  // not a humanoid we recognise: still a valid clip
+    }
+  }
   Clip clip;
   clip.name = stem_of(source);
   clip.frame_time_s = frame_time;
-  const double unit = options.unit_m.value_or(guess_bvh_unit_m(rest_extent(raw.s)));
+  const double unit = options.unit_m.value_or(guess_bvh_unit_m(rest_extent(raw.s), !raw.s.dialect.empty()));
   if (!(unit > 0) || !std::isfinite(unit)) throw file_error("bvh", "unit", source, 0, "unit_m", "unit must be > 0");
   clip.unit_m = unit;
 
@@ -424,14 +459,6 @@ Clip parse_bvh(std::string_view text, std::string_view source, const BvhReadOpti
     }
     for (std::size_t j = 1; j < n; ++j) s.offsets[j] = translations[j];
     if (varies) clip.local_translations = std::move(translations);
-  }
-  s.canonical.fill(-1);
-  if (options.map_canonical) {
-    try {
-      s.dialect = content::map_canonical(s, source);
-    } catch (const Error&) {
-      s.canonical.fill(-1);  // not a humanoid we recognise: still a valid clip
-    }
   }
   clip.skeleton = std::move(s);
   return clip;

@@ -6,7 +6,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -104,7 +104,9 @@ int run_make_characters(const MakeCharactersArgs& a) {
                p.leg_ratio(), p.torso_ratio(), p.shoulder_width_m, c.skeleton.dialect, path.string());
     if (a.check) {
       std::ifstream in(path, std::ios::binary);
-      const std::string old((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+      std::ostringstream current;
+      current << in.rdbuf();
+      const std::string old = current.str();
       if (old != text) {
         fmt::print(stderr, "kumite-motion: {}: differs from the generated skeleton\n", path.string());
         ++differing;

@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <map>
 
 #include "kumite/common/error.hpp"
 #include "kumite/content/annotation.hpp"
@@ -222,6 +223,10 @@ TEST(AnnotationMocap, RestAndWalk) {
   EXPECT_GE(walk.motions[0].last_frame - walk.motions[0].first_frame, 400);
   EXPECT_TRUE(strikes_of(walk, Semantics::kick).empty());
   EXPECT_TRUE(strikes_of(walk, Semantics::punch).empty());
+  // Running strides lift the ankle fast but with a bent knee: not kicks.
+  const ClipAnnotation run = propose_annotations(mocap_clip("cmu/09_06"), "x");
+  EXPECT_TRUE(strikes_of(run, Semantics::kick).empty());
+  EXPECT_TRUE(strikes_of(run, Semantics::punch).empty());
 }
 
 TEST(AnnotationMocap, AnnotateToolWritesAValidFile) {
@@ -240,4 +245,64 @@ TEST(AnnotationMocap, AnnotateToolWritesAValidFile) {
   EXPECT_EQ(load_annotated_clips(set).size(), 1u);  // the relative path resolves
   // A bad command line exits non-zero with one line.
   EXPECT_NE(std::system((tool.string() + " annotate /nonexistent.bvh --out /tmp/x.toml 2> /dev/null").c_str()), 0);
+}
+
+// ---- Other frame rates, units and dialects (synthetic variants of the real clips) --------------
+
+namespace {
+
+/// SYNTHETIC: every k-th frame of `c` (120 fps -> 120/k fps), written in metres with joints
+/// renamed by `rename` (others kept), then read back through the BVH reader so unit
+/// detection and dialect detection run as on a real file.
+Clip variant(const Clip& c, int k, const std::map<std::string, std::string>& rename) {
+  Clip d = c;
+  d.frame_count = (c.frame_count + k - 1) / k;
+  d.frame_time_s = c.frame_time_s * k;
+  d.unit_m = 1.0;
+  const auto n = static_cast<std::size_t>(c.skeleton.joint_count());
+  d.root_positions.clear();
+  d.local_rotations.clear();
+  for (int f = 0; f < c.frame_count; f += k) {
+    d.root_positions.push_back(c.root_positions[static_cast<std::size_t>(f)]);
+    for (std::size_t j = 0; j < n; ++j) d.local_rotations.push_back(c.local_rotations[static_cast<std::size_t>(f) * n + j]);
+  }
+  for (auto& name : d.skeleton.names) {
+    if (auto it = rename.find(name); it != rename.end()) name = it->second;
+  }
+  return parse_bvh(format_bvh(d), c.name + ".bvh");
+}
+
+const std::map<std::string, std::string> kBandaiNames = {
+    {"root", "Hips"}, {"upperback", "Spine"}, {"thorax", "Chest"}, {"lowerneck", "Neck"}, {"head", "Head"},
+    {"lclavicle", "Shoulder_L"}, {"lhumerus", "UpperArm_L"}, {"lradius", "LowerArm_L"}, {"lwrist", "Hand_L"},
+    {"rclavicle", "Shoulder_R"}, {"rhumerus", "UpperArm_R"}, {"rradius", "LowerArm_R"}, {"rwrist", "Hand_R"},
+    {"lfemur", "UpperLeg_L"}, {"ltibia", "LowerLeg_L"}, {"lfoot", "Foot_L"}, {"ltoes", "Toes_L"},
+    {"rfemur", "UpperLeg_R"}, {"rtibia", "LowerLeg_R"}, {"rfoot", "Foot_R"}, {"rtoes", "Toes_R"},
+    {"lhand", "Palm_L"}, {"rhand", "Palm_R"}, {"lfingers", "Fingers_L"}, {"rfingers", "Fingers_R"},
+    {"lthumb", "Thumb_L"}, {"rthumb", "Thumb_R"}, {"lhipjoint", "Pelvis_L"}, {"rhipjoint", "Pelvis_R"},
+    {"lowerback", "Waist"}, {"upperneck", "Neck1"}};
+
+}  // namespace
+
+TEST(AnnotationMocap, ThirtyFpsMetresOtherNames) {
+  KUMITE_REQUIRE_MOCAP();
+  const Clip kicks = variant(mocap_clip("cmu/135_04"), 4, kBandaiNames);
+  EXPECT_DOUBLE_EQ(kicks.unit_m, 1.0);
+  EXPECT_NEAR(kicks.frame_rate_hz(), 30.0, 1e-3);
+  EXPECT_EQ(kicks.skeleton.dialect, "bandai_namco");
+  const ClipAnnotation a = propose_annotations(kicks, "x");
+  const auto found = strikes_of(a, Semantics::kick);
+  ASSERT_EQ(found.size(), 3u);
+  const std::pair<HitSegment, int> listed[] = {{HitSegment::right_foot, 374}, {HitSegment::left_foot, 584},
+                                               {HitSegment::right_foot, 812}};
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(found[i]->hit_segment, listed[i].first);
+    EXPECT_NEAR(*found[i]->hit_frame * 4, listed[i].second, 8);  // within 2 frames at 30 fps
+  }
+  const Clip punches = variant(mocap_clip("cmu/135_09"), 4, {});
+  const ClipAnnotation pa = propose_annotations(punches, "x");
+  const auto p = strikes_of(pa, Semantics::punch);
+  ASSERT_EQ(p.size(), 4u);
+  const int peaks[] = {304, 530, 760, 1000};
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(*p[i]->hit_frame * 4, peaks[i], 12) << i;
 }

@@ -111,8 +111,9 @@ struct ProposerSettings {
   double punch_min_radial_speed = 1.2; ///< m/s, how fast the arm straightened in the approach
   double punch_max_drop_deg = 30;      ///< deg, shoulder -> wrist may point at most this far below horizontal
   double approach_s = 0.35;            ///< s, window before the peak that must hold the speeds
-  // Kicks (per foot): the ankle high and the leg extended.
-  double kick_min_height = 0.30;       ///< 1, ankle above the floor / stature at the peak
+  // Kicks (per foot): the ankle high, reached fast, the leg extended.
+  double kick_min_height = 0.22;       ///< 1, ankle above the floor / stature at the peak
+  double kick_min_extension = 0.80;    ///< 1, |ankle - hip| / leg length at the peak (running strides bend the knee)
   double kick_min_speed = 4.0;         ///< m/s, ankle speed in the approach
   // Segment bounds: where the hit point's speed falls below this fraction of its peak.
   double bound_speed_fraction = 0.15;  ///< 1

@@ -20,8 +20,7 @@
 namespace kumite::content {
 
 struct BvhReadOptions {
-  /// Metres per file unit; nullopt = detect: the rest pose's largest extent below 5 units
-  /// means metres, below 500 centimetres, else millimetres.
+  /// Metres per file unit; nullopt = detect from the rest pose's size (guess_bvh_unit_m).
   std::optional<double> unit_m;
   /// Fill Skeleton::canonical with map_canonical() and default_dialects() (best effort:
   /// when the core joints cannot be found, canonical stays -1 and dialect "").
@@ -43,7 +42,10 @@ std::string format_bvh(const Clip& clip);
 /// Writes format_bvh(clip) atomically (temporary file, then rename).
 void write_bvh(const std::filesystem::path& path, const Clip& clip);
 
-/// Detected unit (metres per file unit) for a rest-pose largest extent of `extent` file units.
-double guess_bvh_unit_m(double extent);
+/// Detected unit (metres per file unit) for a rest-pose largest extent of `extent` file
+/// units. A humanoid (canonical joints found) gets the unit among cm, m, mm, inch and CMU ASF
+/// units (2.54/0.45 cm) that makes it closest to 1.7 m, preferring metric ones; anything
+/// else: below 5 units metres, below 500 centimetres, else millimetres.
+double guess_bvh_unit_m(double extent, bool humanoid = false);
 
 }  // namespace kumite::content

@@ -1,0 +1,84 @@
+#pragma once
+// Multi-camera extrinsics: per-view board poses (solvePnP) chained through a pose graph
+// (breadth-first over the camera-view graph from the reference camera) give initial camera
+// and board poses; a Ceres bundle adjustment then refines all camera poses and board poses
+// jointly (intrinsics fixed or refined) under a robust (Huber) loss.
+// The rig frame is the reference camera's (camera 0) until `align` fixes the room frame.
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "kumite/calibration/detect.hpp"
+#include "kumite/tracking/calibration_file.hpp"
+
+namespace kumite::calibration {
+
+/// A rigid transform: x_to = R x_from + t.
+struct RigidPose {
+  cv::Matx33d R = cv::Matx33d::eye();
+  cv::Vec3d t{0, 0, 0};
+  RigidPose inverse() const { return {R.t(), -(R.t() * t)}; }
+  RigidPose operator*(const RigidPose& o) const { return {R * o.R, R * o.t + t}; }
+};
+
+struct ExtrinsicsOptions {
+  bool refine_intrinsics = false;
+  double huber_px = 1.0;        ///< robust loss scale (px): errors beyond count linearly
+  int min_corners = 8;          ///< fewer corners in a view: not used
+  int max_iterations = 100;
+  int threads = 1;
+  /// Called with a line of progress (pose graph, each solver iteration).
+  std::function<void(const std::string&)> progress;
+};
+
+struct ExtrinsicsResult {
+  std::vector<tracking::CameraCalibration> cameras;  ///< names, intrinsics, R/t (rig frame)
+  std::vector<double> rms_px;                        ///< per camera, after adjustment
+  std::vector<std::vector<double>> view_errors_px;   ///< [camera][frame]; NaN: not seen
+  std::vector<std::optional<RigidPose>> board_poses; ///< per frame: board -> rig
+  double rms_px_all = 0;
+  double initial_rms_px = 0;                         ///< before the bundle adjustment
+  int frames_used = 0;
+  int observations = 0;                              ///< corners in the adjustment
+};
+
+/// `cameras`: each camera's name and intrinsics (R/t ignored); `views[c][f]`: camera c's
+/// detection at frame f (empty when not seen). Throws kumite::Error naming the camera when
+/// one never sees the board or never shares a view with the others (rig not connected).
+ExtrinsicsResult solve_extrinsics(const std::vector<tracking::CameraCalibration>& cameras,
+                                  const std::vector<std::vector<BoardDetection>>& views,
+                                  const ExtrinsicsOptions& options = {});
+
+/// Board pose in a camera from one view (IPPE then Levenberg-Marquardt).
+std::optional<RigidPose> board_pose_in_camera(const BoardDetection& view, const tracking::CameraCalibration& cam);
+
+}  // namespace kumite::calibration
+
+namespace kumite::calibration {
+
+/// Room-from-board pose of a board lying face up on the floor: its origin (top-left tag
+/// corner) at `origin_room`, its +X along room +X turned by `yaw_deg` about room +Y, its +Y
+/// (down the printed page) toward room +Z (away from the front wall), its +Z into the floor.
+RigidPose floor_board_pose(const cv::Vec3d& origin_room, double yaw_deg);
+
+/// The board's pose in the rig frame (board -> rig) from views of it by calibrated cameras
+/// (`views[c]` for cameras[c]; empty when not seen): per-camera PnP, averaged, then refined
+/// jointly over all cameras' corners. Throws when no camera sees it.
+RigidPose board_pose_in_rig(const std::vector<tracking::CameraCalibration>& cameras,
+                            const std::vector<BoardDetection>& views);
+
+/// Re-expresses every camera in the room frame given room_from_rig (x_room = R x_rig + t).
+void apply_room_frame(std::vector<tracking::CameraCalibration>& cameras, const RigidPose& room_from_rig);
+
+/// Least-squares rigid transform with to ~ R from + t (Kabsch; at least 3 points, not collinear).
+RigidPose fit_rigid(const std::vector<cv::Vec3d>& from, const std::vector<cv::Vec3d>& to);
+
+/// A point seen by several calibrated cameras: (camera index, pixel). Linear (DLT)
+/// triangulation of the undistorted rays.
+cv::Vec3d triangulate(const std::vector<tracking::CameraCalibration>& cameras,
+                      const std::vector<std::pair<int, cv::Point2d>>& pixels);
+
+}  // namespace kumite::calibration

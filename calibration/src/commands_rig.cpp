@@ -1,0 +1,111 @@
+// extrinsics sub-command: several cameras, one board, a pose graph and a bundle adjustment.
+#include <cmath>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "kumite/calibration/commands.hpp"
+#include "kumite/calibration/intrinsics.hpp"
+#include "kumite/calibration/rig.hpp"
+#include "kumite/common/atomic_file.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/tracking/calibration_file.hpp"
+
+namespace kumite::calibration {
+
+/// Detections [camera][frame] of a recording-style folder (all images of one camera must
+/// have one size).
+std::vector<CameraViews> detect_rig(const Board& board, const RigImages& rig, const DetectorOptions& det) {
+  std::vector<CameraViews> out;
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+    std::vector<fs::path> present;
+    for (const auto& p : rig.paths[c]) {
+      if (!p.empty()) present.push_back(p);
+    }
+    CameraViews v = detect_views(board, present, rig.cameras[c], det);
+    // Back onto the common frame list (missing frames stay empty).
+    CameraViews full;
+    full.image_size = v.image_size;
+    std::size_t k = 0;
+    for (const auto& p : rig.paths[c]) {
+      full.images.push_back(p);
+      full.detections.push_back(p.empty() ? BoardDetection{} : v.detections[k++]);
+    }
+    out.push_back(std::move(full));
+  }
+  return out;
+}
+
+void run_extrinsics(const ExtrinsicsCommand& cmd) {
+  const Board board = read_board(cmd.board_file);
+  const RigImages images = scan_rig_images(cmd.images_dir);
+  DetectorOptions det;
+  det.quad_decimate = cmd.decimate;
+  const std::vector<CameraViews> views = detect_rig(board, images, det);
+
+  std::vector<tracking::CameraCalibration> cams;
+  std::optional<tracking::RigCalibration> given;
+  if (cmd.intrinsics) given = tracking::read_calibration(*cmd.intrinsics);
+  for (std::size_t c = 0; c < images.cameras.size(); ++c) {
+    const std::string& name = images.cameras[c];
+    tracking::CameraCalibration cam;
+    if (given) {
+      const auto* found = given->find(name);
+      if (!found) {
+        throw file_error("calibration", "missing_camera", cmd.intrinsics->string(), 0, name,
+                         fmt::format("no camera called {} (the folder {}): run `intrinsics --name {}` first or leave "
+                                     "out --intrinsics",
+                                     name, (cmd.images_dir / name).string(), name));
+      }
+      cam = *found;
+      if (cam.image_width != views[c].image_size.width || cam.image_height != views[c].image_size.height) {
+        throw file_error("calibration", "image_size", cmd.intrinsics->string(), 0, name,
+                         fmt::format("calibrated for {}x{} px but the images are {}x{} px: recalibrate its intrinsics",
+                                     cam.image_width, cam.image_height, views[c].image_size.width,
+                                     views[c].image_size.height));
+      }
+    } else {
+      spdlog::info("{}: calibrating intrinsics from its {} images", name, views[c].images.size());
+      std::vector<BoardDetection> dets;
+      for (const auto& d : views[c].detections) dets.push_back(d);
+      IntrinsicsResult r;
+      try {
+        r = calibrate_intrinsics(dets, views[c].image_size);
+      } catch (const Error& e) {
+        throw Error("calibration", e.code(), fmt::format("camera {}: {}", name, e.what()));
+      }
+      cam.name = name;
+      cam.image_width = views[c].image_size.width;
+      cam.image_height = views[c].image_size.height;
+      cam.camera_matrix = r.camera_matrix;
+      cam.distortion = r.distortion;
+      spdlog::info("{}: fx {:.2f} fy {:.2f} cx {:.2f} cy {:.2f}, RMS {:.3f} px", name, r.camera_matrix(0, 0),
+                   r.camera_matrix(1, 1), r.camera_matrix(0, 2), r.camera_matrix(1, 2), r.rms_px);
+    }
+    cam.name = name;
+    cams.push_back(cam);
+  }
+  std::vector<std::vector<BoardDetection>> dets;
+  for (const auto& v : views) dets.push_back(v.detections);
+  ExtrinsicsOptions opt;
+  opt.refine_intrinsics = cmd.refine_intrinsics;
+  opt.huber_px = cmd.huber_px;
+  opt.progress = [](const std::string& s) { spdlog::info("{}", s); };
+  const ExtrinsicsResult r = solve_extrinsics(cams, dets, opt);
+
+  for (std::size_t c = 0; c < r.cameras.size(); ++c) {
+    const cv::Vec3d p = r.cameras[c].position();
+    const cv::Vec3d p0 = r.cameras[0].position();
+    spdlog::info("{}: position ({:.4f}, {:.4f}, {:.4f}) m in {}'s frame, {:.4f} m from {}; RMS {:.3f} px", r.cameras[c].name,
+                 p[0], p[1], p[2], r.cameras[0].name, cv::norm(p - p0), r.cameras[0].name, r.rms_px[c]);
+  }
+  tracking::RigCalibration out;
+  out.cameras = r.cameras;
+  const fs::path backup = keep_previous_version(cmd.out);
+  if (!backup.empty()) spdlog::info("kept the previous calibration as {}", backup.string());
+  tracking::write_calibration(cmd.out, out);
+  spdlog::info("wrote {}: rig frame = {}'s camera frame; run `align` to fix the room frame", cmd.out.string(),
+               r.cameras[0].name);
+}
+
+}  // namespace kumite::calibration

@@ -1,0 +1,137 @@
+#include "kumite/calibration/detect.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+extern "C" {
+#include <apriltag.h>
+#include <tag36h11.h>
+}
+
+#include "kumite/common/error.hpp"
+
+namespace kumite::calibration {
+
+struct BoardDetector::Impl {
+  apriltag_family_t* family = nullptr;
+  apriltag_detector_t* detector = nullptr;
+  ~Impl() {
+    if (detector) apriltag_detector_destroy(detector);
+    if (family) tag36h11_destroy(family);
+  }
+};
+
+BoardDetector::BoardDetector(const Board& board, const DetectorOptions& options)
+    : board_(board), options_(options), impl_(std::make_unique<Impl>()) {
+  validate(board);
+  impl_->family = tag36h11_create();
+  impl_->detector = apriltag_detector_create();
+  apriltag_detector_add_family_bits(impl_->detector, impl_->family, std::max(options.max_hamming, 0));
+  impl_->detector->quad_decimate = options.quad_decimate;
+  impl_->detector->quad_sigma = options.quad_sigma;
+  impl_->detector->refine_edges = options.refine_edges;
+  impl_->detector->nthreads = std::max(1, options.threads);
+}
+
+BoardDetector::~BoardDetector() = default;
+
+std::vector<TagCorners> BoardDetector::detect_tags(const cv::Mat& grey_in) {
+  cv::Mat grey = grey_in;
+  if (grey.type() != CV_8U) throw Error("calibration", "image", "detect_tags needs an 8-bit grey image");
+  image_u8_t im{grey.cols, grey.rows, static_cast<int32_t>(grey.step[0]), grey.data};
+  zarray_t* dets = apriltag_detector_detect(impl_->detector, &im);
+  std::vector<TagCorners> out;
+  out.reserve(static_cast<std::size_t>(zarray_size(dets)));
+  for (int i = 0; i < zarray_size(dets); ++i) {
+    apriltag_detection_t* d = nullptr;
+    zarray_get(dets, i, &d);
+    if (d->hamming > options_.max_hamming) continue;
+    TagCorners t;
+    t.id = d->id;
+    t.hamming = d->hamming;
+    t.decision_margin = d->decision_margin;
+    // apriltag puts pixel centres at +0.5; OpenCV at integers.
+    for (int k = 0; k < 4; ++k) t.corners[static_cast<std::size_t>(k)] = {d->p[k][0] - 0.5, d->p[k][1] - 0.5};
+    out.push_back(t);
+  }
+  apriltag_detections_destroy(dets);
+  return out;
+}
+
+namespace {
+
+BoardDetection detect_chessboard(const Board& board, const cv::Mat& grey) {
+  BoardDetection det;
+  std::vector<cv::Point2f> corners;
+  const cv::Size pattern(board.cols, board.rows);
+  const int flags = cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_FAST_CHECK;
+  if (!cv::findChessboardCorners(grey, pattern, corners, flags)) return det;
+  cv::cornerSubPix(grey, corners, cv::Size(11, 11), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 30, 0.01));
+  const auto obj = board.corner_points();
+  for (int i = 0; i < static_cast<int>(corners.size()); ++i) {
+    det.corner_ids.push_back(i);
+    det.image_points.push_back(corners[static_cast<std::size_t>(i)]);
+    det.object_points.push_back(obj[static_cast<std::size_t>(i)]);
+  }
+  return det;
+}
+
+}  // namespace
+
+BoardDetection BoardDetector::detect(const cv::Mat& image) {
+  cv::Mat grey;
+  if (image.channels() == 3) {
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  } else if (image.channels() == 4) {
+    cv::cvtColor(image, grey, cv::COLOR_BGRA2GRAY);
+  } else {
+    grey = image;
+  }
+  if (grey.depth() != CV_8U) grey.convertTo(grey, CV_8U);
+  if (board_.type == BoardType::chessboard) return detect_chessboard(board_, grey);
+
+  BoardDetection det;
+  const auto tags = detect_tags(grey);
+  std::vector<bool> seen(static_cast<std::size_t>(board_.rows * board_.cols), false);
+  int count = 0;
+  for (const auto& t : tags) {
+    const int idx = board_.tag_index(t.id);
+    if (idx < 0 || seen[static_cast<std::size_t>(idx)]) continue;  // not ours, or a duplicate
+    seen[static_cast<std::size_t>(idx)] = true;
+    ++count;
+    // apriltag p[0..3]: bottom-left, bottom-right, top-right, top-left of the tag as printed;
+    // our corner k: 0 top-left, 1 top-right, 2 bottom-right, 3 bottom-left.
+    for (int p = 0; p < 4; ++p) {
+      const int id = idx * 4 + (3 - p);
+      const cv::Point3d o = board_.corner_point(id);
+      det.corner_ids.push_back(id);
+      det.image_points.emplace_back(static_cast<float>(t.corners[static_cast<std::size_t>(p)].x),
+                                    static_cast<float>(t.corners[static_cast<std::size_t>(p)].y));
+      det.object_points.emplace_back(static_cast<float>(o.x), static_cast<float>(o.y), 0.f);
+    }
+  }
+  if (count < options_.min_tags) return {};
+  return det;
+}
+
+cv::Mat read_image_grey(const std::filesystem::path& path) {
+  cv::Mat img;
+  try {
+    img = cv::imread(path.string(), cv::IMREAD_GRAYSCALE);
+  } catch (const cv::Exception&) {
+    img.release();
+  }
+  if (img.empty()) {
+    throw file_error("calibration", "image", path.string(), 0, "",
+                     "cannot read this image (missing, truncated or not an image): re-export or re-capture it");
+  }
+  return img;
+}
+
+}  // namespace kumite::calibration
