@@ -140,3 +140,44 @@ TEST(Accuracy, LostAfterCoastingLimitThenReacquired) {
   EXPECT_EQ(st[24], TrackingStatus::lost);
   EXPECT_EQ(st[25], TrackingStatus::tracked);
 }
+
+TEST(Accuracy, SecondBodyIsIndependentAndNeverStealsTheHeadsMarkers) {
+  const auto rig = corner_rig();
+  auto config = shipped_config();
+  // A hand prop that is not in the room, and whose distances partly resemble the head's.
+  BodyConfig prop;
+  prop.name = "prop";
+  prop.markers = {{0, 0, 0}, {config.bodies[0].markers[0] - config.bodies[0].markers[1]}, {0.0, 0.0, 0.09}};
+  config.bodies.push_back(prop);
+  SyntheticRenderer renderer(rig, config.bodies[0], noisy());
+  Pipeline pipeline(rig, config);
+  for (int i = 0; i < 30; ++i) {
+    const auto truth = scripted_visitor(i / 60.0);
+    const auto& r = pipeline.process(renderer.render(i, truth));
+    ASSERT_EQ(r.raw.size(), 2U);
+    EXPECT_EQ(r.raw[0].status, TrackingStatus::tracked);
+    EXPECT_EQ(r.raw[0].markers, 5);
+    EXPECT_EQ(r.raw[1].status, TrackingStatus::lost);
+    EXPECT_EQ(r.raw[1].body, 1);
+  }
+}
+
+TEST(Accuracy, TwoMarkersLeftGivePositionWithTheLastOrientation) {
+  const auto rig = corner_rig();
+  const auto config = shipped_config();
+  SyntheticRenderer all(rig, config.bodies[0], noisy());
+  SynthOptions two = noisy();
+  two.hidden_markers = {0, 2, 4};
+  SyntheticRenderer few(rig, config.bodies[0], two);
+  Pipeline pipeline(rig, config);
+  for (int i = 0; i < 40; ++i) {
+    // Walking slowly sideways; from frame 20 on only markers 1 and 3 are visible.
+    auto truth = static_visitor(i / 60.0);
+    truth.position.x() += 0.3 * i / 60.0;
+    const auto& r = pipeline.process((i < 20 ? all : few).render(i, truth));
+    ASSERT_EQ(r.raw[0].status, TrackingStatus::tracked) << i;
+    EXPECT_EQ(r.raw[0].markers, i < 20 ? 5 : 2);
+    const Eigen::Vector3d p(r.raw[0].position.data());
+    EXPECT_LT((p - truth.position).norm(), 0.002) << i;  // centroid of ALL 5 model markers
+  }
+}

@@ -1,7 +1,9 @@
 #include "kumite/tracking/calibration_file.hpp"
 
 #include <cmath>
+#include <fstream>
 #include <set>
+#include <vector>
 
 #include <fmt/format.h>
 #include <opencv2/core/persistence.hpp>
@@ -25,11 +27,23 @@ namespace {
   throw file_error("calibration", "invalid", path.string(), 0, where, what);
 }
 
+/// OpenCV allocates rows x cols before reading the data: refuse absurd sizes first (a
+/// corrupted "rows: 300000000" would otherwise ask for gigabytes).
+void check_matrix_size(const cv::FileNode& node, const fs::path& path, const std::string& where) {
+  if (!node.isMap()) return;
+  const cv::FileNode r = node["rows"], c = node["cols"];
+  if (!r.isInt() || !c.isInt()) fail(path, where, "not a matrix (rows and cols must be integers)");
+  const long long n = static_cast<long long>(static_cast<int>(r)) * static_cast<int>(c);
+  if (static_cast<int>(r) < 0 || static_cast<int>(c) < 0 || n > (1 << 20)) fail(path, where, "matrix too large");
+  if (static_cast<long long>(node["data"].size()) < n) fail(path, where, "matrix data shorter than rows x cols");
+}
+
 cv::Mat read_matrix(const cv::FileNode& cam, const char* key, int rows, int cols,
                     const fs::path& path, const std::string& where) {
   const cv::FileNode node = cam[key];
   if (node.empty()) fail(path, where + "." + key, "missing");
   cv::Mat m;
+  check_matrix_size(node, path, where + "." + key);
   try {
     node >> m;
   } catch (const cv::Exception&) {
@@ -59,13 +73,108 @@ int read_positive_int(const cv::FileNode& cam, const char* key, const fs::path& 
   return v;
 }
 
+RigCalibration read_calibration_unchecked(const fs::path& path);
+
+/// OpenCV 4.6's YAML parser loops forever on some malformed files (found by fuzzing: control
+/// bytes inside numbers; a block line dedenting to a level that was never opened). A
+/// calibration file is plain text with consistent block indentation: check that first.
+void check_yaml_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::vector<std::size_t> indents;  // open block indentation levels
+  int flow = 0;                      // depth inside [ ] / { }
+  std::size_t flow_indent = 0;       // indentation of the line that opened it
+  int n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    for (const unsigned char ch : line) {
+      if ((ch < 0x20 && ch != '\t' && ch != '\r') || ch == 0x7f) {
+        throw file_error("calibration", "parse", path.string(), n, "",
+                         fmt::format("not a text file (control byte 0x{:02x})", ch));
+      }
+    }
+    // Valid UTF-8 only (OpenCV's parser mishandles stray high bytes).
+    for (std::size_t i = 0; i < line.size();) {
+      const auto b = static_cast<unsigned char>(line[i]);
+      const int len = b < 0x80 ? 1 : (b >> 5) == 0x6 && b >= 0xc2 ? 2 : (b >> 4) == 0xe ? 3 : (b >> 3) == 0x1e && b <= 0xf4 ? 4 : 0;
+      bool ok = len > 0 && i + static_cast<std::size_t>(len) <= line.size();
+      for (int k = 1; ok && k < len; ++k) ok = (static_cast<unsigned char>(line[i + k]) & 0xc0) == 0x80;
+      if (!ok) throw file_error("calibration", "parse", path.string(), n, "", "not UTF-8 text");
+      i += static_cast<std::size_t>(len);
+    }
+    const std::size_t indent = line.find_first_not_of(' ');
+    if (indent != std::string::npos && indent > 0 && line[indent] == '%') {
+      throw file_error("calibration", "parse", path.string(), n, "", "a directive (%...) must start the line");
+    }
+    if (line.find('%') != std::string::npos && n > 1) {
+      throw file_error("calibration", "parse", path.string(), n, "", "'%' only in the first line's directive");
+    }
+    if (line.rfind("---", 0) == 0 || line.rfind("...", 0) == 0) {
+      if (!indents.empty()) throw file_error("calibration", "parse", path.string(), n, "", "one YAML document per file");
+      continue;
+    }
+    if (indent == std::string::npos || line[indent] == '#' || line[indent] == '%') continue;
+    if (flow > 0 && indent <= flow_indent) {
+      throw file_error("calibration", "parse", path.string(), n, "", "unclosed [ or { above");
+    }
+    if (flow == 0) {
+      flow_indent = indent;
+      if (indents.empty()) {
+        indents.push_back(indent);  // the document's first level
+      } else if (indent < indents.front()) {
+        throw file_error("calibration", "parse", path.string(), n, "", "indentation above the document's first level");
+      } else {
+        bool dedented = false;
+        while (indents.back() > indent) indents.pop_back(), dedented = true;
+        if (indents.back() < indent) {
+          if (dedented) throw file_error("calibration", "parse", path.string(), n, "", "inconsistent indentation");
+          indents.push_back(indent);
+        }
+      }
+    }
+    bool quoted = false;
+    char quote = 0;
+    for (std::size_t i = indent; i < line.size(); ++i) {
+      const char c = line[i];
+      if (quoted) {
+        if (c == quote) quoted = false;
+      } else if (c == '"' || c == '\'') {
+        quoted = true, quote = c;
+      } else if (c == '#' && i > 0 && line[i - 1] == ' ') {
+        break;
+      } else if (c == '[' || c == '{') {
+        ++flow;
+      } else if (c == ']' || c == '}') {
+        flow = std::max(0, flow - 1);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 RigCalibration read_calibration(const fs::path& path) {
+  // OpenCV's parser can throw more than cv::Exception on malformed files (std::length_error
+  // was found by fuzzing): every failure becomes one kumite::Error naming the file.
+  try {
+    return read_calibration_unchecked(path);
+  } catch (const Error&) {
+    throw;
+  } catch (const cv::Exception& e) {
+    throw file_error("calibration", "parse", path.string(), 0, "", "not valid: " + (e.err.empty() ? std::string(e.what()) : e.err));
+  } catch (const std::exception& e) {
+    throw file_error("calibration", "parse", path.string(), 0, "", std::string("not valid: ") + e.what());
+  }
+}
+
+namespace {
+
+RigCalibration read_calibration_unchecked(const fs::path& path) {
   std::error_code ec;
   if (!fs::exists(path, ec)) {
     throw file_error("calibration", "missing", path.string(), 0, "", "no such file");
   }
+  check_yaml_text(path);
   cv::FileStorage fsr;
   try {
     if (!fsr.open(path.string(), cv::FileStorage::READ)) {
@@ -114,7 +223,12 @@ RigCalibration read_calibration(const fs::path& path) {
     if (!cam["rms_px"].empty()) c.rms_px = static_cast<double>(cam["rms_px"]);
     if (!cam["per_view_errors_px"].empty()) {
       cv::Mat e;
-      cam["per_view_errors_px"] >> e;
+      check_matrix_size(cam["per_view_errors_px"], path, where + ".per_view_errors_px");
+      try {
+        cam["per_view_errors_px"] >> e;
+      } catch (const cv::Exception&) {
+        fail(path, where + ".per_view_errors_px", "not a matrix");
+      }
       e.convertTo(e, CV_64F);
       c.per_view_errors_px.assign(e.begin<double>(), e.end<double>());
     }
@@ -122,6 +236,8 @@ RigCalibration read_calibration(const fs::path& path) {
   }
   return rig;
 }
+
+}  // namespace
 
 void write_calibration(const fs::path& path, const RigCalibration& rig) {
   const fs::path tmp = temporary_path_beside(path.extension() == ".yml" || path.extension() == ".yaml"

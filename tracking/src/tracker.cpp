@@ -88,6 +88,7 @@ std::unique_ptr<FrameSource> open_recording_source(const std::filesystem::path& 
 // Tracker
 
 struct Tracker::Snapshot {
+  BodyPose pose;  // the published pose, so predict() reads one consistent slot
   Timestamp timestamp = 0;
   Timestamp last_measured = -1;
   double p[3] = {0, 0, 0}, v[3] = {0, 0, 0}, q[4] = {1, 0, 0, 0}, w[3] = {0, 0, 0};
@@ -117,6 +118,7 @@ int Tracker::find_body(std::string_view name) const { return config_.find_body(n
 void Tracker::start(std::unique_ptr<FrameSource> source) {
   stop();
   source_ = std::move(source);
+  pipeline_->reset();
   stop_.store(false);
   running_.store(true, std::memory_order_release);
   thread_ = std::thread([this] { run(); });
@@ -165,6 +167,7 @@ void Tracker::run() {
         s.q[0] = st.orientation.w(), s.q[1] = st.orientation.x(), s.q[2] = st.orientation.y(),
         s.q[3] = st.orientation.z();
         s.valid = st.valid && r.filtered[b].status != TrackingStatus::lost;
+        s.pose = r.filtered[b];
         snapshots_[b]->value.publish(s);
         poses_[b]->publish(r.filtered[b]);
       }
@@ -198,14 +201,14 @@ const LatestValue<BodyPose>& Tracker::slot(int body) const {
 }
 
 BodyPose Tracker::predict(int body, Timestamp t) const {
-  const auto pose = slot(body).read();
+  (void)slot(body);  // checks the index
   const auto snap = snapshots_[body]->value.read();
-  if (!pose || !snap) {
+  if (!snap) {
     BodyPose lost;
     lost.body = body;
     return lost;
   }
-  BodyPose out = *pose;
+  BodyPose out = snap->pose;
   if (!snap->valid || t - snap->last_measured > config_.coasting_s) {
     if (out.status != TrackingStatus::lost) out.status = TrackingStatus::lost;
     return out;

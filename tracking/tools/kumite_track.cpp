@@ -288,8 +288,8 @@ int main(int argc, char** argv) {
   CLI::App app{"kumite-track: optical head tracking (recorded or live cameras) and synthetic recordings"};
   app.require_subcommand(0, 1);
   RunOptions run;
-  app.add_option("--calibration", run.calibration, "rig calibration (OpenCV YAML)")->check(CLI::ExistingFile);
-  app.add_option("--config", run.config, "tracking.toml")->check(CLI::ExistingFile);
+  app.add_option("--calibration", run.calibration, "rig calibration (OpenCV YAML)");
+  app.add_option("--config", run.config, "tracking.toml");
   app.add_option("--recording", run.recording, "recording folder (frames.csv, camN/NNNNNN.png)");
   app.add_flag("--live", run.live, "capture from the V4L2 cameras in the config's [[cameras]]");
   app.add_option("--out", run.out, "poses.csv to write");
