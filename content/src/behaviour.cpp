@@ -140,7 +140,7 @@ std::array<bool, 2> Behaviour::feet_locked() const {
 }
 
 void Behaviour::sample(const Source& s, MkmFrame& out) const {
-  const Segment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
   const double period = (seg.frame_count() - 1) * seg.frame_time_s;
   double t = s.time_s;
   if (s.loop && seg.kind != SegmentKind::rest) t = 0;  // no rest clip: hold the first frame
@@ -156,7 +156,7 @@ void Behaviour::sample(const Source& s, MkmFrame& out) const {
 }
 
 void Behaviour::start_rest(Timestamp) {
-  const Segment& rest = db_->segments[static_cast<std::size_t>(rest_segment_)];
+  const MotionSegment& rest = db_->segments[static_cast<std::size_t>(rest_segment_)];
   if (have_pose_) spot_xz_m_ = pose_.root_xz_m;
   previous_ = current_;
   blend_elapsed_s_ = 0;
@@ -182,7 +182,7 @@ void Behaviour::select_character(int index, Timestamp now) {
   for (Source* s : {&current_, &previous_}) {
     if (s->segment < 0) continue;
     MkmFrame f;
-    const Segment& seg = db_->segments[static_cast<std::size_t>(s->segment)];
+    const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s->segment)];
     (void)seg;
     Source probe = *s;
     sample(probe, f);  // with the new scale
@@ -242,7 +242,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
 }
 
 void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
-  const Segment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   const GroundFrame g_char = ground_frame_of(pose_);
   const GroundFrame g_clip = ground_frame_of(seg.frames[static_cast<std::size_t>(plan.start_frame)]);
   previous_ = current_;
@@ -321,7 +321,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
     const double turn = std::clamp(wrap(want - facing_rad_), -tun_.turn_speed_rad_s * dt, tun_.turn_speed_rad_s * dt);
     facing_rad_ = wrap(facing_rad_ + turn);
   }
-  const Segment& rest = db_->segments[static_cast<std::size_t>(current_.segment)];
+  const MotionSegment& rest = db_->segments[static_cast<std::size_t>(current_.segment)];
   current_.placement.origin_xz = spot_xz_m_;
   current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
   state_ = following_ ? FighterState::following : FighterState::resting;
@@ -494,7 +494,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     strike_.contact_reached = report_.reached;
     strike_.hit = strike_.contact_distance_m <= config_.hit_radius_m;
     strike_.contact_update = updates_;
-    const Segment& seg = db_->segments[static_cast<std::size_t>(strike_.plan.segment)];
+    const MotionSegment& seg = db_->segments[static_cast<std::size_t>(strike_.plan.segment)];
     emit(strike_.hit ? FighterEvent::Kind::hit : FighterEvent::Kind::miss, now, strike_.order,
          fmt::format("{} {}: {} (frames {}->{}), hit point {:.1f} cm from the target{}", strike_.hit ? "hit" : "miss",
                      to_string(strike_.order.kind), seg.name, strike_.plan.start_frame, strike_.plan.contact_frame,
@@ -545,6 +545,81 @@ FighterFrame Behaviour::frame() const {
   return f;
 }
 
+StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& character, OrderKind order,
+                              const Vector3d& target, const FighterConfig& config_in) {
+  FighterConfig config = config_in;
+  config.home = Vector3d::Zero();
+  config.initial_character = 0;
+  config.min_x_m = config.min_z_m = -1e3;
+  config.max_x_m = config.max_z_m = 1e3;
+  Behaviour b(db, {character}, config);
+  // Plan outside update() so the per-frame timings hold adaptation only.
+  const StrikePlanner planner(db);
+  std::optional<StrikeRequest> request;
+  std::optional<StrikePlan> result;
+  b.set_planner([&](const StrikeRequest& r) { request = r; },
+                [&]() -> std::optional<StrikePlan> { auto r = result; result.reset(); return r; });
+  StrikeRecording rec;
+  const Rig& rig = character;
+  const auto n = static_cast<std::size_t>(rig.joint_count());
+  rec.motion.name = "strike";
+  rec.motion.skeleton = rig.skeleton;
+  rec.motion.unit_m = character.unit_m;
+  const Vector3d head(0, 1.7, config.strike_distance_m);  // straight ahead: no following
+  double dt = 1.0 / 120, t = 0;
+  const int ankles[2] = {rig.skeleton.index(CJ::l_ankle), rig.skeleton.index(CJ::r_ankle)};
+  auto record = [&] {
+    rec.motion.root_positions.push_back(b.root_position());
+    rec.motion.local_rotations.insert(rec.motion.local_rotations.end(), b.local_rotations().begin(),
+                                      b.local_rotations().begin() + static_cast<std::ptrdiff_t>(n));
+    ++rec.motion.frame_count;
+  };
+  auto timed_update = [&] {
+    const auto locked_before = b.feet_locked();
+    const Vector3d before[2] = {b.rig_positions()[static_cast<std::size_t>(ankles[0])],
+                                b.rig_positions()[static_cast<std::size_t>(ankles[1])]};
+    const auto t0 = std::chrono::steady_clock::now();
+    b.update(t, dt, head);
+    rec.update_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
+    const auto locked = b.feet_locked();
+    for (int s = 0; s < 2; ++s)
+      if (locked[static_cast<std::size_t>(s)] && locked_before[static_cast<std::size_t>(s)])
+        rec.max_foot_slide_m = std::max(rec.max_foot_slide_m,
+                                        (b.rig_positions()[static_cast<std::size_t>(ankles[s])] - before[s]).norm());
+    for (auto& e : b.take_events()) rec.events.push_back(std::string(to_string(e.kind)) + ": " + e.text);
+    record();
+    t += dt;
+  };
+  b.update(t, 0, head);  // the rest pose at the origin
+  b.take_events();
+  record();
+  b.order_strike(Order{t, order}, target);
+  timed_update();  // sends the request
+  if (request) {
+    const StrikePlan p = planner.plan(*request);
+    rec.retrieval_us = p.retrieval_us;
+    result = p;
+    if (p.segment >= 0) dt = db->segments[static_cast<std::size_t>(p.segment)].frame_time_s;
+  }
+  for (int i = 0; i < 100000; ++i) {
+    timed_update();
+    if (b.strike().contact_done && b.state() == FighterState::resting) break;
+    if (!b.strike().active && !b.strike().contact_done && i > 2) break;  // nothing to strike with
+  }
+  rec.motion.frame_time_s = dt;
+  rec.strike = b.strike();
+  if (rec.strike.contact_done) {
+    rec.contact_frame = rec.strike.contact_update - 1;  // update k (1-based) recorded frame k-1
+    const MotionSegment& seg = db->segments[static_cast<std::size_t>(rec.strike.plan.segment)];
+    rec.segment_name = seg.name;
+    rec.source_clip = seg.source_clip;
+    rec.source_start_frame = seg.source_first_frame + rec.strike.plan.start_frame;
+    rec.mirrored = seg.mirrored;
+  }
+  rec.effector_joint = rig.skeleton.index(effector_of(order).value_or(Effector{}).joint());
+  return rec;
+}
+
 Rig load_character_rig(const std::string& name_or_path) {
   std::filesystem::path path(name_or_path);
   if (!std::filesystem::exists(path)) {
@@ -555,7 +630,9 @@ Rig load_character_rig(const std::string& name_or_path) {
   }
   const Clip c = read_bvh(path);
   if (c.frame_count < 1) throw Error("fighter", "character", fmt::format("{}: no rest frame", path.string()));
-  return make_rig(c.skeleton, c.rotations(0), path.stem().string());
+  Rig rig = make_rig(c.skeleton, c.rotations(0), path.stem().string());
+  rig.unit_m = c.unit_m;
+  return rig;
 }
 
 std::vector<Rig> load_character_rigs(const FighterConfig& config) {

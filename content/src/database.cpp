@@ -26,7 +26,7 @@ std::string_view to_string(SegmentKind k) {
   return "?";
 }
 
-std::optional<Effector> Segment::effector() const {
+std::optional<Effector> MotionSegment::effector() const {
   if (effector_group < 0) return std::nullopt;
   return Effector{effector_group % 2, effector_group >= 2};
 }
@@ -105,7 +105,7 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
   for (auto& p : poses)
     for (auto& j : p) j.y() -= floor_y_raw;
   const double floor_y = 0;
-  Segment seg;
+  MotionSegment seg;
   seg.name = mirrored ? src.name + ":mirror" : src.name;
   seg.source_clip = clip.name;
   seg.kind = src.kind;
@@ -148,9 +148,8 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
     const double ft = clip.frame_time_s;
     const int stride = std::max(1, static_cast<int>(std::lround(o.start_stride_s / ft)));
     const int last_start = std::min(static_cast<int>(o.start_window_s / ft), seg.hit_frame - static_cast<int>(std::lround(o.min_lead_s / ft)));
-    const int half = static_cast<int>(std::lround(o.window_half_s / ft));
-    const int wfirst = std::max(0, seg.hit_frame - half);
-    const int wlast = std::min(n - 1, seg.hit_frame + half);
+    const int wfirst = std::max(0, seg.hit_frame - static_cast<int>(std::lround(o.window_before_s / ft)));
+    const int wlast = std::min(n - 1, seg.hit_frame + static_cast<int>(std::lround(o.window_after_s / ft)));
     const int wstride = std::max(1, (wlast - wfirst + kWindowMax - 1) / (kWindowMax - 1));
     std::array<float, kFeatureDim> feat{};
     std::vector<Eigen::Vector3f> pts;
@@ -361,7 +360,7 @@ std::string serialize_database(const Database& db) {
   put_skeleton(w, db.actor_skeleton);
   w.put(db.velocity_weight_s);
   w.put<std::uint64_t>(db.segments.size());
-  for (const Segment& s : db.segments) {
+  for (const MotionSegment& s : db.segments) {
     w.str(s.name); w.str(s.source_clip);
     w.put<std::uint8_t>(static_cast<std::uint8_t>(s.kind));
     w.put<std::int8_t>(s.effector_group);
@@ -413,7 +412,7 @@ Database parse_database(std::string_view bytes, std::string_view name) {
   db.velocity_weight_s = body.f("velocity weight");
   const auto nseg = body.count("segments", 8);
   for (std::uint64_t i = 0; i < nseg; ++i) {
-    Segment s;
+    MotionSegment s;
     s.name = body.str("segment name");
     s.source_clip = body.str("segment clip");
     const auto kind = body.get<std::uint8_t>("segment kind");
@@ -458,7 +457,7 @@ Database parse_database(std::string_view bytes, std::string_view name) {
   for (std::size_t r = 0; r < n; ++r) {
     const int s = ix.segment[r];
     if (s < 0 || s >= static_cast<int>(db.segments.size())) body.fail("corrupt", fmt::format("row {}: segment {} out of range", r, s));
-    const Segment& seg = db.segments[static_cast<std::size_t>(s)];
+    const MotionSegment& seg = db.segments[static_cast<std::size_t>(s)];
     const int last_window = ix.window_first[r] + ix.window_stride[r] * (ix.window_count[r] - 1);
     if (ix.window_count[r] < 1 || ix.window_count[r] > kWindowMax || ix.group[r] != seg.effector_group ||
         ix.start_frame[r] < 0 || ix.start_frame[r] >= seg.frame_count() || ix.window_first[r] < 0 ||
@@ -481,6 +480,10 @@ Database parse_database(std::string_view bytes, std::string_view name) {
     if (g < 0 || g > static_cast<int>(nc)) body.fail("corrupt", "group cluster range out of range");
   }
   if (body.pos() != body.size()) body.fail("corrupt", fmt::format("{} unexpected bytes after the index", body.size() - body.pos()));
+  for (int g = 0; g < kGroupCount; ++g)
+    if (ix.group_clusters[static_cast<std::size_t>(g)] > ix.group_clusters[static_cast<std::size_t>(g) + 1])
+      body.fail("corrupt", "group cluster ranges out of order");
+  ix.build_blocks();
   return db;
 }
 

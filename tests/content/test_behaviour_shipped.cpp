@@ -35,14 +35,8 @@ Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) 
     for (int s = 0; s < 2; ++s) {
       if (!(locked[s] && locked_before[s])) continue;
       const double d = (b.rig_positions()[static_cast<std::size_t>(ankles[s])] - before[s]).norm();
-      if (getenv("DBG") && d > 0.002) std::printf("slide %.4f side %d reached %d state %d kind %d\n", d, s, (int)b.last_report().foot_reached[s], (int)b.state(), (int)kind);
       o.max_slide_m = std::max(o.max_slide_m, d);
     }
-  }
-  if (getenv("DBG")) {
-    const auto& st = b.strike();
-    std::printf("kind %d eff side %d leg %d seg %d start %d contact %d dist %.3f err (%.3f %.3f %.3f) reached %d\n", (int)kind, st.effector.side, (int)st.effector.leg,
-                st.plan.segment, st.plan.start_frame, st.plan.contact_frame, st.contact_distance_m, st.error_m.x(), st.error_m.y(), st.error_m.z(), (int)st.contact_reached);
   }
   o.contact = b.strike().contact_done;
   o.reached = b.strike().contact_reached;

@@ -78,7 +78,7 @@ TEST(Retrieval, TheStartPoseOfAClipRetrievesThatClipsStart) {
   int exact = 0, total = 0;
   for (int r = 0; r < db.index.size; r += 3) {
     const auto ur = static_cast<std::size_t>(r);
-    const Segment& seg = db.segments[static_cast<std::size_t>(db.index.segment[ur])];
+    const MotionSegment& seg = db.segments[static_cast<std::size_t>(db.index.segment[ur])];
     const int f = db.index.start_frame[ur];
     if (f == 0) continue;
     StrikeRequest req;

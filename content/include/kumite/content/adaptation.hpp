@@ -38,6 +38,7 @@ struct Rig {
   Eigen::Quaterniond chest_frame_local = Eigen::Quaterniond::Identity();   ///< geometric frame in chest joint frame
   Eigen::Vector3d root_to_pelvis_local{0, 0, 0};  ///< m, pelvis from the root joint, root frame at rest
   std::vector<float> joint_radii_m;  ///< suggested capsule radius of the bone ending at each joint
+  double unit_m = 1.0;               ///< metres per unit of the file it came from (for writing back)
 
   int joint_count() const { return skeleton.joint_count(); }
 };

@@ -206,6 +206,26 @@ class Behaviour {
   int updates_ = 0;
 };
 
+/// One strike played from rest on one character, frame by frame at the strike clip's frame
+/// rate (what `kumite-motion strike` writes and `bench` times). The character starts at
+/// rest with its ground frame at the room origin facing +Z; the target is in that frame.
+struct StrikeRecording {
+  Clip motion;                  ///< the adapted motion on the character's skeleton (m)
+  int contact_frame = -1;       ///< frame of `motion` at contact (-1: no strike happened)
+  int effector_joint = -1;      ///< skeleton joint whose position is the hit point
+  Behaviour::StrikeInfo strike; ///< plan, target, contact distance, reach flag
+  std::string segment_name;     ///< chosen database segment
+  std::string source_clip;      ///< clip it came from
+  int source_start_frame = 0;   ///< frame of the source clip where the strike starts
+  bool mirrored = false;
+  double retrieval_us = 0;               ///< µs, planning (features + search)
+  std::vector<double> update_us;         ///< µs per frame: blend + retarget + reach + feet
+  double max_foot_slide_m = 0;           ///< m per frame, held ankles
+  std::vector<std::string> events;       ///< event texts in order
+};
+StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& character, OrderKind order,
+                              const Eigen::Vector3d& target_ground_m, const FighterConfig& config = {});
+
 /// Loads the characters of a FighterConfig (BVH, first frame = rest pose) into rigs.
 std::vector<Rig> load_character_rigs(const FighterConfig& config);
 /// Loads one character: a file path, or a name looked up as

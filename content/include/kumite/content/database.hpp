@@ -50,8 +50,10 @@ struct BuildOptions {
   bool mirror = true;                 ///< add left/right mirrored copies
   double start_stride_s = 1.0 / 30;   ///< s between candidate start frames of a strike
   double start_window_s = 0.40;       ///< s: starts lie within this much after the segment start
-  double min_lead_s = 0.20;           ///< s: a strike starts at least this long before its hit
-  double window_half_s = 0.10;        ///< s each side of the hit frame: the hit window
+  double min_lead_s = 0.25;           ///< s: a strike starts at least this long before its hit
+                                      ///< (>= blend time + window_before_s: the limb must travel)
+  double window_before_s = 0.04;      ///< s before the hit frame where contact may happen
+  double window_after_s = 0.08;       ///< s after the hit frame where contact may happen
   double plant_height_m = 0.05;       ///< m above the segment's lowest ankle: foot may be planted
   double plant_speed_mps = 0.30;      ///< m/s: slower ankles are planted (when low enough)
   double velocity_weight_s = 0.10;    ///< s: feature velocities count as displacement over this
@@ -61,7 +63,7 @@ struct BuildOptions {
 
 /// A segment as stored: frames are MKM (root_xz_m in the database actor's metres, in the
 /// clip's own floor frame).
-struct Segment {
+struct MotionSegment {
   std::string name;
   std::string source_clip;
   SegmentKind kind = SegmentKind::other;
@@ -82,7 +84,7 @@ struct Database {
   Skeleton actor_skeleton;     ///< for retargeting queries onto the actor (T-pose rest)
   Morphology actor;            ///< measured on actor_skeleton
   double velocity_weight_s = 0.10;  ///< s, as built (queries must use the same)
-  std::vector<Segment> segments;
+  std::vector<MotionSegment> segments;
   RetrievalIndex index;
 };
 
