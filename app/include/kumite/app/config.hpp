@@ -1,0 +1,154 @@
+#pragma once
+// The installation file (TOML, e.g. config/demo.toml) as plain structs (as SGCT does): every
+// optional part is std::optional or has a documented default, validate() checks the meaning,
+// to_toml() writes it back (round trip). toml++ is included in config.cpp only.
+//
+// Room frame: metres, right-handed, +Y up, floor at y = 0, the visitor faces the front wall,
+// which lies toward -Z. Head frame (the tracked glasses): +X right, +Y up, looking -Z.
+// Relative paths in the file are relative to the file's own folder (resolve()).
+#include <array>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace kumite::app {
+
+using Vec3 = std::array<double, 3>;
+
+enum class StereoMode { quad_buffer, side_by_side, top_bottom, anaglyph, mono };
+std::string_view to_string(StereoMode m);
+std::optional<StereoMode> stereo_mode_from_string(std::string_view s);
+
+/// One output window (or, with several walls in it, one window split into viewports).
+struct WindowConfig {
+  std::string name;
+  std::array<int, 2> size{1280, 720};     ///< pixels (windowed); fullscreen uses the monitor's
+  std::array<int, 2> position{0, 0};      ///< pixels, top-left on the desktop (windowed)
+  int monitor = 0;                        ///< 0-based monitor index for fullscreen
+  bool fullscreen = false;
+  bool operator==(const WindowConfig&) const = default;
+};
+
+/// One projection wall: a rectangle given by three corners (the fourth is implied).
+struct WallConfig {
+  std::string name;
+  Vec3 lower_left{}, lower_right{}, upper_left{};  ///< m, room frame
+  std::optional<Vec3> upper_right;  ///< m; optional, checked against the implied corner
+  std::array<int, 2> resolution{1920, 1080};       ///< pixels of the wall's image
+  std::string window;                               ///< window showing it ("" = the first)
+  /// Pixels in the window: x, y (from the window's lower-left, as OpenGL), width, height.
+  /// Absent: the whole window.
+  std::optional<std::array<int, 4>> viewport;
+  bool operator==(const WallConfig&) const = default;
+};
+
+struct StereoConfig {
+  StereoMode mode = StereoMode::mono;
+  /// Quad-buffer only: when no stereo context exists, use `fallback` instead of failing.
+  bool allow_fallback = false;
+  StereoMode fallback = StereoMode::anaglyph;
+  bool operator==(const StereoConfig&) const = default;
+};
+
+struct ViewerConfig {
+  double interpupillary_distance_m = 0.064;  ///< m, between the eye centres
+  /// m, head frame: eye midpoint relative to the marker centroid (+X right, +Y up, -Z ahead).
+  Vec3 eye_offset_m{0.0, -0.03, -0.01};
+  /// m, room frame: head position used until tracking delivers (and with source = "none").
+  Vec3 default_head_m{0.0, 1.70, 0.0};
+  bool operator==(const ViewerConfig&) const = default;
+};
+
+struct ProjectionConfig {
+  double near_m = 0.05;  ///< m, near clip distance from the eye
+  double far_m = 100.0;  ///< m, far clip distance
+  bool operator==(const ProjectionConfig&) const = default;
+};
+
+/// One key of the supervisor console. action: "punch_left", "punch_right", "kick_left",
+/// "kick_right", "pause", "resume", "recentre", "character N" (1-based), "quit".
+struct KeyBinding {
+  std::string action;
+  std::string key;  ///< key name as written ("J", "SPACE", "F1", "KP_1", ...)
+  int code = 0;     ///< GLFW key code
+  bool operator==(const KeyBinding&) const = default;
+};
+
+struct CharacterConfig {
+  std::string name;
+  std::filesystem::path bvh;  ///< as written (relative to the file's folder)
+  bool operator==(const CharacterConfig&) const = default;
+};
+
+struct FighterSection {
+  std::filesystem::path database;  ///< fighter.kdb (kumite-motion build), as written
+  int initial_character = 0;       ///< 0-based
+  Vec3 home_m{0.0, 0.0, -2.5};     ///< m, room frame, on the floor
+  double strike_distance_m = 0.9;  ///< m, horizontal root -> head when striking
+  double hit_radius_m = 0.10;      ///< m
+  std::array<double, 2> x_limits_m{-1.4, 1.4};   ///< m, where it may walk (room x)
+  std::array<double, 2> z_limits_m{-4.0, -1.7};  ///< m, where it may walk (room z)
+  bool operator==(const FighterSection&) const = default;
+};
+
+enum class TrackingSource { none, recording, live };
+std::string_view to_string(TrackingSource s);
+
+struct TrackingConfig {
+  TrackingSource source = TrackingSource::none;
+  std::filesystem::path calibration;  ///< rig calibration (OpenCV YAML), as written
+  std::filesystem::path tracking;     ///< tracking.toml, as written
+  std::filesystem::path recording;    ///< recording folder (source = "recording")
+  int head_body = 0;                  ///< body index of the glasses in tracking.toml
+  /// s, how long a lost head keeps its last good pose before the console calls it lost.
+  double lost_after_s = 0.25;
+  bool operator==(const TrackingConfig&) const = default;
+};
+
+struct InstallationConfig {
+  std::filesystem::path file;  ///< where it was read from ("" when built in code)
+  double display_rate_hz = 60.0;
+  std::vector<WindowConfig> windows;
+  std::vector<WallConfig> walls;
+  StereoConfig stereo;
+  ViewerConfig viewer;
+  ProjectionConfig projection;
+  std::vector<KeyBinding> keys;
+  std::vector<CharacterConfig> characters;
+  FighterSection fighter;
+  TrackingConfig tracking;
+  std::optional<std::filesystem::path> orders_script;  ///< `time_s,order` rows, as written
+
+  /// Source line of each key path ("walls[1].lower_left", "stereo.mode"); 0 when unknown.
+  std::map<std::string, int> lines;
+  int line_of(const std::string& key) const;
+
+  /// A path from the file made absolute against the file's folder (unchanged if absolute).
+  std::filesystem::path resolve(const std::filesystem::path& p) const;
+  /// The window index showing wall `w` (after validate(), always valid).
+  int window_of(std::size_t w) const;
+
+  bool operator==(const InstallationConfig& o) const;  ///< ignores `file` and `lines`
+};
+
+/// Reads and validates an installation file. Throws kumite::Error("config", ...) whose message
+/// is "file:line: key: what is wrong".
+InstallationConfig load_installation_config(const std::filesystem::path& file);
+/// Parses and validates TOML text; `file_name` is used in messages (and for resolve()).
+InstallationConfig parse_installation_config(std::string_view text,
+                                             const std::filesystem::path& file_name);
+/// Semantic checks (walls, windows, keys, characters, ranges). Throws like the loaders.
+void validate(const InstallationConfig& config);
+/// Geometry checks of one wall: degenerate, skewed (edges not perpendicular) and
+/// non-rectangular (a given upper_right off the implied corner). "" when fine.
+std::string check_wall_geometry(const WallConfig& wall);
+/// TOML text that parse_installation_config() reads back to an equal config.
+std::string to_toml(const InstallationConfig& config);
+
+/// GLFW key code for a key name ("A", "7", "SPACE", "F5", "KP_2", "LEFT", ...), or nullopt.
+std::optional<int> key_code_from_name(std::string_view name);
+
+}  // namespace kumite::app

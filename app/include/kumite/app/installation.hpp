@@ -1,0 +1,149 @@
+#pragma once
+// The installation's frame, CPU side: tracking in, orders in, the fighter advanced, eyes and
+// per-wall views computed, the console's state updated. Rendering (headless or windows)
+// happens elsewhere from FrameData. Nothing here waits on a camera, a file or retrieval.
+#include <deque>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "kumite/app/config.hpp"
+#include "kumite/app/orders.hpp"
+#include "kumite/app/scene.hpp"
+#include "kumite/common/wire.hpp"
+
+namespace kumite::content {
+class Fighter;
+}
+
+namespace kumite::app {
+
+/// One camera as the console shows it.
+struct CameraView {
+  std::string name;
+  std::string status;   ///< "ok", "no frames", "reconnecting"
+  int blobs = 0;        ///< blobs in its newest frame
+  double since_last_ms = -1;  ///< ms since its newest frame (-1: never)
+};
+
+/// What the tracking side has at one display time.
+struct TrackingSnapshot {
+  std::optional<BodyPose> head;      ///< newest head pose, predicted to the display time
+  Timestamp measured_at = 0;         ///< s, camera time of the frame set it came from
+  std::vector<CameraView> cameras;
+  std::string status;                ///< one line: "tracked", "lost", "no tracking", ...
+};
+
+/// Where head poses come from (the tracker, or nothing). poll() never blocks.
+class TrackingInput {
+ public:
+  virtual ~TrackingInput() = default;
+  virtual TrackingSnapshot poll(Timestamp display_time) = 0;
+  /// The clock the tracker's timestamps use, so pose age can be measured (s).
+  virtual Timestamp clock() const = 0;
+  virtual std::string describe() const = 0;
+};
+
+/// No tracking: the head stays at the configured default position (console usable alone).
+std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why);
+
+/// One event of a frame, ready for the log and the console.
+struct FrameEvent {
+  std::string type;      ///< "order", "order_ignored", "hit", "miss", "character_changed", "warning"
+  std::string order;     ///< the order concerned, text form ("" if none)
+  std::string text;      ///< one line for people
+  double distance_m = 0; ///< hit / miss
+  double time_s = 0;     ///< s since the start of the run
+};
+
+/// The console's state: computed every frame, drawn by ImGui in windows, logged headless.
+struct ConsoleState {
+  double fps = 0;                  ///< Hz, frames per second (rolling)
+  double frame_cpu_ms = 0;         ///< ms, CPU of the last frame's step()
+  std::string tracking;            ///< "tracked", "coasting", "lost", "no tracking", ...
+  std::vector<CameraView> cameras;
+  int markers_seen = 0;
+  bool head_live = false;          ///< false: using the last good (or default) head
+  double pose_age_ms = -1;         ///< ms, camera time to render time (-1: none)
+  std::string fighter_state = "none";
+  int character = 0;               ///< 0-based
+  std::string character_name;
+  bool paused = false;
+  std::string last_order;          ///< e.g. "punch_right"
+  std::string last_outcome;        ///< "accepted", "hit (0.04 m)", "miss (0.31 m)", "ignored: ..."
+  std::vector<std::string> problems;  ///< what is wrong now (one line each)
+  std::deque<std::string> recent;     ///< recent events, newest last
+};
+
+/// Everything a renderer and the log need about one frame.
+struct FrameData {
+  std::uint64_t frame = 0;
+  double time_s = 0;          ///< s since the start of the run
+  Timestamp now = 0;          ///< s, the frame loop's clock (display time)
+  HeadPose head;              ///< the pose used (predicted, or last good, or default)
+  Eyes eyes;
+  WallViews views;            ///< [wall][eye]
+  std::vector<DrawItem> items;///< the fighter and its target
+  std::vector<FrameEvent> events;
+  double pose_age_ms = -1;    ///< ms, -1 when no pose
+  bool has_fighter = false;
+  std::string fighter_state;
+  int character = 0;
+  std::optional<glm::dvec3> fighter_root;  ///< m, room frame (top view)
+  double fighter_heading_rad = 0;
+};
+
+struct InstallationOptions {
+  std::optional<std::filesystem::path> orders_script;  ///< overrides the config's
+  bool mono_eyes = false;  ///< mono stereo: both eyes at the midpoint
+};
+
+class Installation {
+ public:
+  /// Builds the fighter (a missing database or character becomes a console problem, not a
+  /// stop) and reads the orders script (a bad script is an error: it names file and line).
+  Installation(InstallationConfig config, std::unique_ptr<TrackingInput> tracking,
+               const InstallationOptions& options);
+  ~Installation();
+
+  /// Starts the run's clock (orders script times count from here).
+  void start(Timestamp now);
+  /// A supervisor order (keys), applied at the next step().
+  void order(const Order& order);
+  /// One frame at display time `now`: tracking, orders, fighter, eyes, views, console.
+  const FrameData& step(Timestamp now);
+
+  const FrameData& frame() const { return frame_; }
+  const ConsoleState& console() const { return console_; }
+  const InstallationConfig& config() const { return config_; }
+  std::span<const WallFrame> walls() const { return walls_; }
+  int character_count() const;
+  std::string character_name(int index) const;
+  bool quit_requested() const { return quit_; }
+  void request_quit() { quit_ = true; }
+
+ private:
+  void update_head(Timestamp now);
+  void apply_orders(Timestamp now);
+  void update_fighter(Timestamp now, double dt);
+  void note(const FrameEvent& e);
+
+  InstallationConfig config_;
+  std::vector<WallFrame> walls_;
+  std::unique_ptr<TrackingInput> tracking_;
+  std::unique_ptr<content::Fighter> fighter_;
+  std::string fighter_problem_;
+  OrderScript script_;
+  std::vector<Order> pending_;
+  std::vector<Order> due_;
+  FrameData frame_;
+  ConsoleState console_;
+  HeadPose last_good_head_;
+  Timestamp start_ = 0, last_step_ = 0;
+  bool started_ = false, quit_ = false, mono_ = false;
+  double dt_filtered_ = 0;  ///< s, smoothed frame interval
+  std::uint64_t steps_ = 0;
+};
+
+}  // namespace kumite::app

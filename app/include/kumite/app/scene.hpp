@@ -1,0 +1,60 @@
+#pragma once
+// What a frame draws, computed on the CPU once per frame (no GL here): per wall and eye the
+// view and projection, and the fighter as a list of lit primitives (capsules = a cylinder per
+// bone + a sphere per joint; the strike target as a small sphere). The GL renderer only walks
+// these lists, so the per-frame CPU cost is measurable on its own (bench/app).
+#include <array>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include <glm/mat4x4.hpp>
+#include <glm/vec3.hpp>
+
+#include "kumite/app/projection.hpp"
+
+namespace kumite::content {
+struct FighterFrame;
+}
+
+namespace kumite::app {
+
+enum class Mesh : unsigned char { sphere, cylinder };
+
+/// One lit primitive: the unit mesh (sphere radius 1 at the origin; cylinder radius 1 along
+/// +Y from y = 0 to 1) placed by `model` (room frame, metres).
+struct DrawItem {
+  glm::mat4 model{1.0f};
+  glm::vec3 colour{1.0f};  ///< linear RGB 0..1
+  Mesh mesh = Mesh::sphere;
+};
+
+/// The views of every wall for both eyes. Index [wall][0 = left, 1 = right].
+using WallViews = std::vector<std::array<EyeView, 2>>;
+
+/// Fills `views` (resized to walls.size()) for `eyes`. A view that comes out invalid (an eye
+/// on or behind a wall's plane) keeps its previous value: walls keep drawing from the last
+/// good eye positions. Returns how many views were kept that way.
+int plan_views(std::span<const WallFrame> walls, const Eyes& eyes, double near_m, double far_m,
+               WallViews& views);
+
+/// The colour of character `index` (0-based), cycling through a palette of warm, saturated
+/// colours that stand out on the dark room.
+glm::vec3 character_colour(int index);
+/// The strike target's colour.
+inline constexpr glm::vec3 kTargetColour{0.95f, 0.1f, 0.1f};
+
+/// Appends the fighter as capsules (cylinder per bone, sphere per joint) and, during a
+/// strike, the target sphere. `items` is cleared first; no allocation once it has capacity.
+void plan_fighter(const content::FighterFrame& fighter, glm::vec3 colour,
+                  std::vector<DrawItem>& items);
+
+/// The room's static lines (wall outlines, floor grid continuing into the virtual room):
+/// pairs of points (m, room frame) with a colour each.
+struct LineVertex {
+  glm::vec3 position;
+  glm::vec3 colour;
+};
+std::vector<LineVertex> room_lines(std::span<const WallFrame> walls);
+
+}  // namespace kumite::app

@@ -1,0 +1,655 @@
+// The installation file: TOML (toml++, included here only) <-> InstallationConfig.
+#include "kumite/app/config.hpp"
+
+#include <GLFW/glfw3.h>  // key codes only
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <initializer_list>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+#include <toml++/toml.h>
+
+#include "kumite/common/error.hpp"
+#include "kumite/common/wire.hpp"
+
+namespace kumite::app {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+/// Edges may be off perpendicular by this much before a wall counts as skewed (degrees):
+/// a surveyed wall is good to a few millimetres over metres (~0.1 deg).
+constexpr double kMaxSkewDeg = 0.5;
+/// Edges shorter than this make a wall degenerate (metres).
+constexpr double kMinEdgeM = 0.01;
+/// A given upper_right corner may miss the implied one by this much (metres).
+constexpr double kCornerToleranceM = 0.01;
+
+std::string join_key(const std::string& path, std::string_view key) {
+  return path.empty() ? std::string(key) : path + "." + std::string(key);
+}
+
+/// Reads one file into an InstallationConfig, remembering the line of every key.
+class Reader {
+ public:
+  Reader(std::string file, InstallationConfig& cfg) : file_(std::move(file)), cfg_(cfg) {}
+
+  [[noreturn]] void fail(std::string_view code, int line, const std::string& key,
+                         const std::string& msg) const {
+    throw file_error("config", code, file_, line, key, msg);
+  }
+
+  int line(const toml::node& n) const { return static_cast<int>(n.source().begin.line); }
+
+  void remember(const std::string& key, const toml::node& n) { cfg_.lines[key] = line(n); }
+
+  void only_keys(const toml::table& t, const std::string& path,
+                 std::initializer_list<std::string_view> allowed) const {
+    for (auto&& [k, v] : t) {
+      if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end()) {
+        std::string list;
+        for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        fail("unknown_key", line(v), join_key(path, k.str()),
+             fmt::format("unknown key (allowed here: {})", list));
+      }
+    }
+  }
+
+  const toml::table* table(const toml::table& t, std::string_view key, const std::string& path,
+                           bool required) {
+    const toml::node* n = t.get(key);
+    const std::string full = join_key(path, key);
+    if (!n) {
+      if (required) fail("missing_key", line(t), full, "missing table");
+      return nullptr;
+    }
+    remember(full, *n);
+    if (!n->is_table()) fail("type", line(*n), full, "expected a table");
+    return n->as_table();
+  }
+
+  const toml::array* array(const toml::table& t, std::string_view key, const std::string& path,
+                           bool required) {
+    const toml::node* n = t.get(key);
+    const std::string full = join_key(path, key);
+    if (!n) {
+      if (required) fail("missing_key", line(t), full, "missing");
+      return nullptr;
+    }
+    remember(full, *n);
+    if (!n->is_array()) fail("type", line(*n), full, "expected an array");
+    return n->as_array();
+  }
+
+  template <typename F>
+  bool read(const toml::table& t, std::string_view key, const std::string& path, bool required,
+            F&& convert) {
+    const toml::node* n = t.get(key);
+    const std::string full = join_key(path, key);
+    if (!n) {
+      if (required) fail("missing_key", line(t), full, "missing");
+      return false;
+    }
+    remember(full, *n);
+    convert(*n, full);
+    return true;
+  }
+
+  bool number(const toml::table& t, std::string_view key, const std::string& path, double& out,
+              bool required = false) {
+    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
+      if (!n.is_number()) fail("type", line(n), full, "expected a number");
+      out = n.value<double>().value();
+    });
+  }
+
+  bool integer(const toml::table& t, std::string_view key, const std::string& path, int& out,
+               bool required = false) {
+    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
+      if (!n.is_integer()) fail("type", line(n), full, "expected an integer");
+      out = static_cast<int>(n.value<std::int64_t>().value());
+    });
+  }
+
+  bool boolean(const toml::table& t, std::string_view key, const std::string& path, bool& out,
+               bool required = false) {
+    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
+      if (!n.is_boolean()) fail("type", line(n), full, "expected true or false");
+      out = n.value<bool>().value();
+    });
+  }
+
+  bool string(const toml::table& t, std::string_view key, const std::string& path,
+              std::string& out, bool required = false) {
+    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
+      if (!n.is_string()) fail("type", line(n), full, "expected a string");
+      out = n.value<std::string>().value();
+    });
+  }
+
+  bool path(const toml::table& t, std::string_view key, const std::string& p,
+            std::filesystem::path& out, bool required = false) {
+    std::string s;
+    if (!string(t, key, p, s, required)) return false;
+    if (s.empty()) fail("empty", cfg_.line_of(join_key(p, key)), join_key(p, key), "empty path");
+    out = s;
+    return true;
+  }
+
+  template <std::size_t N, typename T>
+  bool numbers(const toml::table& t, std::string_view key, const std::string& path,
+               std::array<T, N>& out, bool required = false) {
+    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
+      const auto* a = n.as_array();
+      if (!a || a->size() != N)
+        fail("type", line(n), full, fmt::format("expected an array of {} numbers", N));
+      for (std::size_t i = 0; i < N; ++i) {
+        const toml::node& e = (*a)[i];
+        if constexpr (std::is_integral_v<T>) {
+          if (!e.is_integer()) fail("type", line(n), full, fmt::format("expected {} integers", N));
+          out[i] = static_cast<T>(e.value<std::int64_t>().value());
+        } else {
+          if (!e.is_number()) fail("type", line(n), full, fmt::format("expected {} numbers", N));
+          out[i] = e.value<double>().value();
+        }
+      }
+    });
+  }
+
+  void parse(const toml::table& root);
+
+ private:
+  void parse_windows(const toml::table& root);
+  void parse_walls(const toml::table& root);
+  void parse_stereo(const toml::table& root);
+  void parse_viewer(const toml::table& root);
+  void parse_keys(const toml::table& root);
+  void parse_characters(const toml::table& root);
+  void parse_fighter(const toml::table& root);
+  void parse_tracking(const toml::table& root);
+
+  template <typename F>
+  void each_table(const toml::table& root, std::string_view key, bool required, F&& f) {
+    const toml::array* a = array(root, key, "", required);
+    if (!a) return;
+    for (std::size_t i = 0; i < a->size(); ++i) {
+      const std::string p = fmt::format("{}[{}]", key, i);
+      const toml::node& n = (*a)[i];
+      remember(p, n);
+      if (!n.is_table()) fail("type", line(n), p, "expected a table ([[" + std::string(key) + "]])");
+      f(*n.as_table(), p);
+    }
+  }
+
+  std::string file_;
+  InstallationConfig& cfg_;
+};
+
+void Reader::parse(const toml::table& root) {
+  only_keys(root, "", {"display_rate_hz", "windows", "walls", "stereo", "viewer", "projection",
+                       "keys", "characters", "fighter", "tracking", "orders"});
+  number(root, "display_rate_hz", "", cfg_.display_rate_hz);
+  parse_windows(root);
+  parse_walls(root);
+  parse_stereo(root);
+  parse_viewer(root);
+  if (const auto* p = table(root, "projection", "", false)) {
+    only_keys(*p, "projection", {"near_m", "far_m"});
+    number(*p, "near_m", "projection", cfg_.projection.near_m);
+    number(*p, "far_m", "projection", cfg_.projection.far_m);
+  }
+  parse_keys(root);
+  parse_characters(root);
+  parse_fighter(root);
+  parse_tracking(root);
+  if (const auto* o = table(root, "orders", "", false)) {
+    only_keys(*o, "orders", {"script"});
+    std::filesystem::path s;
+    if (path(*o, "script", "orders", s)) cfg_.orders_script = s;
+  }
+}
+
+void Reader::parse_windows(const toml::table& root) {
+  each_table(root, "windows", false, [&](const toml::table& t, const std::string& p) {
+    only_keys(t, p, {"name", "size", "position", "monitor", "fullscreen"});
+    WindowConfig w;
+    string(t, "name", p, w.name, true);
+    numbers(t, "size", p, w.size);
+    numbers(t, "position", p, w.position);
+    integer(t, "monitor", p, w.monitor);
+    boolean(t, "fullscreen", p, w.fullscreen);
+    cfg_.windows.push_back(w);
+  });
+}
+
+void Reader::parse_walls(const toml::table& root) {
+  if (!root.get("walls")) fail("missing_wall", 1, "walls", "no [[walls]]: at least one wall is needed");
+  each_table(root, "walls", true, [&](const toml::table& t, const std::string& p) {
+    only_keys(t, p, {"name", "lower_left", "lower_right", "upper_left", "upper_right",
+                     "resolution", "window", "viewport"});
+    WallConfig w;
+    string(t, "name", p, w.name, true);
+    numbers(t, "lower_left", p, w.lower_left, true);
+    numbers(t, "lower_right", p, w.lower_right, true);
+    numbers(t, "upper_left", p, w.upper_left, true);
+    Vec3 ur{};
+    if (numbers(t, "upper_right", p, ur)) w.upper_right = ur;
+    numbers(t, "resolution", p, w.resolution);
+    string(t, "window", p, w.window);
+    std::array<int, 4> vp{};
+    if (numbers(t, "viewport", p, vp)) w.viewport = vp;
+    cfg_.walls.push_back(w);
+  });
+}
+
+void Reader::parse_stereo(const toml::table& root) {
+  const auto* s = table(root, "stereo", "", false);
+  if (!s) return;
+  only_keys(*s, "stereo", {"mode", "allow_fallback", "fallback"});
+  auto mode = [&](std::string_view key, StereoMode& out) {
+    std::string text;
+    if (!string(*s, key, "stereo", text)) return;
+    const auto m = stereo_mode_from_string(text);
+    if (!m)
+      fail("unknown_stereo_mode", cfg_.line_of("stereo." + std::string(key)),
+           "stereo." + std::string(key),
+           fmt::format("unknown stereo mode \"{}\" (quad_buffer, side_by_side, top_bottom, "
+                       "anaglyph, mono)", text));
+    out = *m;
+  };
+  mode("mode", cfg_.stereo.mode);
+  boolean(*s, "allow_fallback", "stereo", cfg_.stereo.allow_fallback);
+  mode("fallback", cfg_.stereo.fallback);
+}
+
+void Reader::parse_viewer(const toml::table& root) {
+  const auto* v = table(root, "viewer", "", false);
+  if (!v) return;
+  only_keys(*v, "viewer", {"interpupillary_distance_m", "eye_offset_m", "default_head_m"});
+  number(*v, "interpupillary_distance_m", "viewer", cfg_.viewer.interpupillary_distance_m);
+  numbers(*v, "eye_offset_m", "viewer", cfg_.viewer.eye_offset_m);
+  numbers(*v, "default_head_m", "viewer", cfg_.viewer.default_head_m);
+}
+
+void Reader::parse_keys(const toml::table& root) {
+  const auto* k = table(root, "keys", "", false);
+  if (!k) return;
+  for (auto&& [action_key, node] : *k) {
+    const std::string action(action_key.str());
+    const std::string full = "keys." + action;
+    remember(full, node);
+    if (!node.is_string()) fail("type", line(node), full, "expected a key name (string)");
+    const std::string name = node.value<std::string>().value();
+    const auto code = key_code_from_name(name);
+    if (!code)
+      fail("unknown_key_name", line(node), full,
+           fmt::format("unknown key name \"{}\" (A-Z, 0-9, F1-F12, KP_0-KP_9, SPACE, ENTER, "
+                       "TAB, BACKSPACE, ESCAPE, LEFT, RIGHT, UP, DOWN, ...)", name));
+    // "character_2" in the file is the action "character 2".
+    std::string act = action;
+    if (act.rfind("character_", 0) == 0) act = "character " + act.substr(10);
+    cfg_.keys.push_back({act, name, *code});
+  }
+}
+
+void Reader::parse_characters(const toml::table& root) {
+  each_table(root, "characters", false, [&](const toml::table& t, const std::string& p) {
+    only_keys(t, p, {"name", "bvh"});
+    CharacterConfig c;
+    string(t, "name", p, c.name, true);
+    path(t, "bvh", p, c.bvh, true);
+    cfg_.characters.push_back(c);
+  });
+}
+
+void Reader::parse_fighter(const toml::table& root) {
+  const auto* f = table(root, "fighter", "", false);
+  if (!f) return;
+  only_keys(*f, "fighter", {"database", "initial_character", "home_m", "strike_distance_m",
+                            "hit_radius_m", "x_limits_m", "z_limits_m"});
+  auto& s = cfg_.fighter;
+  path(*f, "database", "fighter", s.database);
+  if (integer(*f, "initial_character", "fighter", s.initial_character)) s.initial_character -= 1;
+  numbers(*f, "home_m", "fighter", s.home_m);
+  number(*f, "strike_distance_m", "fighter", s.strike_distance_m);
+  number(*f, "hit_radius_m", "fighter", s.hit_radius_m);
+  numbers(*f, "x_limits_m", "fighter", s.x_limits_m);
+  numbers(*f, "z_limits_m", "fighter", s.z_limits_m);
+}
+
+void Reader::parse_tracking(const toml::table& root) {
+  const auto* t = table(root, "tracking", "", false);
+  if (!t) return;
+  only_keys(*t, "tracking",
+            {"source", "calibration", "tracking", "recording", "head_body", "lost_after_s"});
+  auto& c = cfg_.tracking;
+  std::string src;
+  if (string(*t, "source", "tracking", src)) {
+    if (src == "none") c.source = TrackingSource::none;
+    else if (src == "recording") c.source = TrackingSource::recording;
+    else if (src == "live") c.source = TrackingSource::live;
+    else
+      fail("unknown_source", cfg_.line_of("tracking.source"), "tracking.source",
+           fmt::format("unknown tracking source \"{}\" (none, recording, live)", src));
+  }
+  path(*t, "calibration", "tracking", c.calibration);
+  path(*t, "tracking", "tracking", c.tracking);
+  path(*t, "recording", "tracking", c.recording);
+  integer(*t, "head_body", "tracking", c.head_body);
+  number(*t, "lost_after_s", "tracking", c.lost_after_s);
+}
+
+[[noreturn]] void fail_at(const InstallationConfig& c, std::string_view code,
+                          const std::string& key, const std::string& msg) {
+  throw file_error("config", code, c.file.string(), c.line_of(key), key, msg);
+}
+
+double norm(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
+Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
+double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+toml::array to_array(const Vec3& v) { return toml::array{v[0], v[1], v[2]}; }
+template <std::size_t N>
+toml::array to_array(const std::array<int, N>& v) {
+  toml::array a;
+  for (int x : v) a.push_back(x);
+  return a;
+}
+toml::array to_array(const std::array<double, 2>& v) { return toml::array{v[0], v[1]}; }
+
+}  // namespace
+
+std::string_view to_string(StereoMode m) {
+  switch (m) {
+    case StereoMode::quad_buffer: return "quad_buffer";
+    case StereoMode::side_by_side: return "side_by_side";
+    case StereoMode::top_bottom: return "top_bottom";
+    case StereoMode::anaglyph: return "anaglyph";
+    case StereoMode::mono: return "mono";
+  }
+  return "?";
+}
+
+std::optional<StereoMode> stereo_mode_from_string(std::string_view s) {
+  for (auto m : {StereoMode::quad_buffer, StereoMode::side_by_side, StereoMode::top_bottom,
+                 StereoMode::anaglyph, StereoMode::mono})
+    if (to_string(m) == s) return m;
+  return std::nullopt;
+}
+
+std::string_view to_string(TrackingSource s) {
+  switch (s) {
+    case TrackingSource::none: return "none";
+    case TrackingSource::recording: return "recording";
+    case TrackingSource::live: return "live";
+  }
+  return "?";
+}
+
+std::optional<int> key_code_from_name(std::string_view name) {
+  if (name.size() == 1) {
+    const char c = name[0];
+    if (c >= 'A' && c <= 'Z') return GLFW_KEY_A + (c - 'A');
+    if (c >= 'a' && c <= 'z') return GLFW_KEY_A + (c - 'a');
+    if (c >= '0' && c <= '9') return GLFW_KEY_0 + (c - '0');
+  }
+  if (name.size() >= 2 && name.size() <= 3 && name[0] == 'F') {
+    int n = 0;
+    for (char c : name.substr(1)) {
+      if (c < '0' || c > '9') return std::nullopt;
+      n = n * 10 + (c - '0');
+    }
+    if (n >= 1 && n <= 12) return GLFW_KEY_F1 + (n - 1);
+    return std::nullopt;
+  }
+  if (name.size() == 4 && name.substr(0, 3) == "KP_" && name[3] >= '0' && name[3] <= '9')
+    return GLFW_KEY_KP_0 + (name[3] - '0');
+  static const std::pair<std::string_view, int> named[] = {
+      {"SPACE", GLFW_KEY_SPACE},     {"ENTER", GLFW_KEY_ENTER},   {"TAB", GLFW_KEY_TAB},
+      {"BACKSPACE", GLFW_KEY_BACKSPACE}, {"ESCAPE", GLFW_KEY_ESCAPE}, {"LEFT", GLFW_KEY_LEFT},
+      {"RIGHT", GLFW_KEY_RIGHT},     {"UP", GLFW_KEY_UP},         {"DOWN", GLFW_KEY_DOWN},
+      {"HOME", GLFW_KEY_HOME},       {"END", GLFW_KEY_END},       {"INSERT", GLFW_KEY_INSERT},
+      {"DELETE", GLFW_KEY_DELETE},   {"PAGE_UP", GLFW_KEY_PAGE_UP},
+      {"PAGE_DOWN", GLFW_KEY_PAGE_DOWN}, {"COMMA", GLFW_KEY_COMMA}, {"PERIOD", GLFW_KEY_PERIOD},
+      {"MINUS", GLFW_KEY_MINUS},     {"SLASH", GLFW_KEY_SLASH},   {"SEMICOLON", GLFW_KEY_SEMICOLON},
+  };
+  for (auto& [n, code] : named)
+    if (n == name) return code;
+  return std::nullopt;
+}
+
+int InstallationConfig::line_of(const std::string& key) const {
+  const auto it = lines.find(key);
+  return it == lines.end() ? 0 : it->second;
+}
+
+std::filesystem::path InstallationConfig::resolve(const std::filesystem::path& p) const {
+  if (p.empty() || p.is_absolute()) return p;
+  return (file.has_parent_path() ? file.parent_path() : std::filesystem::path(".")) / p;
+}
+
+int InstallationConfig::window_of(std::size_t w) const {
+  const auto& name = walls.at(w).window;
+  if (name.empty()) return 0;
+  for (std::size_t i = 0; i < windows.size(); ++i)
+    if (windows[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+
+bool InstallationConfig::operator==(const InstallationConfig& o) const {
+  return display_rate_hz == o.display_rate_hz && windows == o.windows && walls == o.walls &&
+         stereo == o.stereo && viewer == o.viewer && projection == o.projection &&
+         keys == o.keys && characters == o.characters && fighter == o.fighter &&
+         tracking == o.tracking && orders_script == o.orders_script;
+}
+
+std::string check_wall_geometry(const WallConfig& w) {
+  const Vec3 right = sub(w.lower_right, w.lower_left);
+  const Vec3 up = sub(w.upper_left, w.lower_left);
+  const double lr = norm(right), lu = norm(up);
+  if (lr < kMinEdgeM || lu < kMinEdgeM)
+    return fmt::format("degenerate: corners coincide (edges {:.3f} m and {:.3f} m)", lr, lu);
+  const double c = dot(right, up) / (lr * lu);
+  if (std::abs(c) > 1.0 - 1e-9) return "degenerate: the three corners lie on one line";
+  const double angle = std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / kPi;
+  if (std::abs(angle - 90.0) > kMaxSkewDeg)
+    return fmt::format(
+        "skewed: lower_left->lower_right and lower_left->upper_left meet at {:.2f} deg, not 90 "
+        "(tolerance {} deg)",
+        angle, kMaxSkewDeg);
+  if (w.upper_right) {
+    const Vec3 implied{w.lower_right[0] + up[0], w.lower_right[1] + up[1], w.lower_right[2] + up[2]};
+    const double miss = norm(sub(*w.upper_right, implied));
+    if (miss > kCornerToleranceM)
+      return fmt::format(
+          "not rectangular: upper_right is {:.3f} m from the corner the other three imply "
+          "[{:.3f}, {:.3f}, {:.3f}]",
+          miss, implied[0], implied[1], implied[2]);
+  }
+  return {};
+}
+
+void validate(const InstallationConfig& c) {
+  if (!(c.display_rate_hz > 0 && c.display_rate_hz <= 1000))
+    fail_at(c, "range", "display_rate_hz", "must be in (0, 1000] Hz");
+  if (c.walls.empty()) fail_at(c, "missing_wall", "walls", "no [[walls]]: at least one wall is needed");
+  std::set<std::string> names;
+  for (std::size_t i = 0; i < c.windows.size(); ++i) {
+    const auto& w = c.windows[i];
+    const std::string p = fmt::format("windows[{}]", i);
+    if (w.name.empty()) fail_at(c, "empty", p + ".name", "empty window name");
+    if (!names.insert(w.name).second)
+      fail_at(c, "duplicate", p + ".name", "window \"" + w.name + "\" is defined twice");
+    if (w.size[0] <= 0 || w.size[1] <= 0) fail_at(c, "range", p + ".size", "size must be positive");
+    if (w.monitor < 0) fail_at(c, "range", p + ".monitor", "monitor index must be >= 0");
+  }
+  names.clear();
+  for (std::size_t i = 0; i < c.walls.size(); ++i) {
+    const auto& w = c.walls[i];
+    const std::string p = fmt::format("walls[{}]", i);
+    if (w.name.empty()) fail_at(c, "empty", p + ".name", "empty wall name");
+    if (!names.insert(w.name).second)
+      fail_at(c, "duplicate", p + ".name", "wall \"" + w.name + "\" is defined twice");
+    if (const std::string geo = check_wall_geometry(w); !geo.empty())
+      fail_at(c, "wall_geometry", p, "wall \"" + w.name + "\" is " + geo);
+    if (w.resolution[0] <= 0 || w.resolution[1] <= 0 || w.resolution[0] > 16384 ||
+        w.resolution[1] > 16384)
+      fail_at(c, "range", p + ".resolution",
+              "wall \"" + w.name + "\": resolution must be 1..16384 pixels each way");
+    if (!w.window.empty() && c.window_of(i) < 0)
+      fail_at(c, "unknown_window", p + ".window",
+              "wall \"" + w.name + "\" names window \"" + w.window + "\", which is not defined");
+    if (w.viewport && ((*w.viewport)[2] <= 0 || (*w.viewport)[3] <= 0))
+      fail_at(c, "range", p + ".viewport", "wall \"" + w.name + "\": viewport size must be positive");
+  }
+  if (c.stereo.fallback == StereoMode::quad_buffer)
+    fail_at(c, "stereo_fallback", "stereo.fallback", "quad_buffer cannot be its own fallback");
+  const auto& v = c.viewer;
+  if (!(v.interpupillary_distance_m >= 0 && v.interpupillary_distance_m <= 0.1))
+    fail_at(c, "range", "viewer.interpupillary_distance_m", "must be in [0, 0.1] m");
+  if (norm(v.eye_offset_m) > 0.3)
+    fail_at(c, "range", "viewer.eye_offset_m", "more than 0.3 m from the markers: check the units");
+  const auto& pr = c.projection;
+  if (!(pr.near_m > 0 && pr.far_m > pr.near_m))
+    fail_at(c, "range", "projection.near_m", "need 0 < near_m < far_m");
+  // Keys: known actions, no key bound twice, characters that exist.
+  std::map<int, std::string> used;
+  for (const auto& k : c.keys) {
+    const std::string key = "keys." + (k.action.rfind("character ", 0) == 0
+                                           ? "character_" + k.action.substr(10)
+                                           : k.action);
+    if (k.action != "quit" && !parse_order(k.action))
+      fail_at(c, "unknown_action", key,
+              "unknown action (punch_left, punch_right, kick_left, kick_right, pause, resume, "
+              "recentre, character_N, quit)");
+    if (auto o = parse_order(k.action); o && o->kind == OrderKind::select_character &&
+                                        o->character >= static_cast<int>(c.characters.size()))
+      fail_at(c, "unknown_character", key,
+              fmt::format("character {} does not exist ({} characters defined)", o->character + 1,
+                          c.characters.size()));
+    if (auto [it, fresh] = used.emplace(k.code, k.action); !fresh)
+      fail_at(c, "duplicate_key", key,
+              "key \"" + k.key + "\" is already bound to \"" + it->second + "\"");
+  }
+  for (std::size_t i = 0; i < c.characters.size(); ++i)
+    if (c.characters[i].name.empty())
+      fail_at(c, "empty", fmt::format("characters[{}].name", i), "empty character name");
+  if (!c.characters.empty() &&
+      (c.fighter.initial_character < 0 ||
+       c.fighter.initial_character >= static_cast<int>(c.characters.size())))
+    fail_at(c, "unknown_character", "fighter.initial_character",
+            fmt::format("character {} does not exist ({} characters defined)",
+                        c.fighter.initial_character + 1, c.characters.size()));
+  if (c.fighter.x_limits_m[0] >= c.fighter.x_limits_m[1])
+    fail_at(c, "range", "fighter.x_limits_m", "need min < max");
+  if (c.fighter.z_limits_m[0] >= c.fighter.z_limits_m[1])
+    fail_at(c, "range", "fighter.z_limits_m", "need min < max");
+  const auto& t = c.tracking;
+  if (t.source != TrackingSource::none) {
+    if (t.calibration.empty())
+      fail_at(c, "missing_key", "tracking", "tracking.calibration is needed for source = \"" +
+                                                std::string(to_string(t.source)) + "\"");
+    if (t.tracking.empty())
+      fail_at(c, "missing_key", "tracking", "tracking.tracking (tracking.toml) is needed");
+  }
+  if (t.source == TrackingSource::recording && t.recording.empty())
+    fail_at(c, "missing_key", "tracking", "tracking.recording is needed for source = \"recording\"");
+  if (t.head_body < 0) fail_at(c, "range", "tracking.head_body", "must be >= 0");
+}
+
+InstallationConfig parse_installation_config(std::string_view text,
+                                             const std::filesystem::path& file_name) {
+  InstallationConfig cfg;
+  cfg.file = file_name;
+  toml::table root;
+  try {
+    root = toml::parse(text, file_name.string());
+  } catch (const toml::parse_error& e) {
+    throw file_error("config", "parse", file_name.string(),
+                     static_cast<int>(e.source().begin.line), "", std::string(e.description()));
+  }
+  Reader(file_name.string(), cfg).parse(root);
+  validate(cfg);
+  return cfg;
+}
+
+InstallationConfig load_installation_config(const std::filesystem::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw file_error("config", "open", file.string(), 0, "", "cannot open the file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return parse_installation_config(ss.str(), file);
+}
+
+std::string to_toml(const InstallationConfig& c) {
+  toml::table root;
+  root.insert("display_rate_hz", c.display_rate_hz);
+  toml::array windows;
+  for (const auto& w : c.windows)
+    windows.push_back(toml::table{{"name", w.name},
+                                  {"size", to_array(w.size)},
+                                  {"position", to_array(w.position)},
+                                  {"monitor", w.monitor},
+                                  {"fullscreen", w.fullscreen}});
+  if (!windows.empty()) root.insert("windows", std::move(windows));
+  toml::array walls;
+  for (const auto& w : c.walls) {
+    toml::table t{{"name", w.name},
+                  {"lower_left", to_array(w.lower_left)},
+                  {"lower_right", to_array(w.lower_right)},
+                  {"upper_left", to_array(w.upper_left)},
+                  {"resolution", to_array(w.resolution)}};
+    if (w.upper_right) t.insert("upper_right", to_array(*w.upper_right));
+    if (!w.window.empty()) t.insert("window", w.window);
+    if (w.viewport) t.insert("viewport", to_array(*w.viewport));
+    walls.push_back(std::move(t));
+  }
+  root.insert("walls", std::move(walls));
+  root.insert("stereo", toml::table{{"mode", std::string(to_string(c.stereo.mode))},
+                                    {"allow_fallback", c.stereo.allow_fallback},
+                                    {"fallback", std::string(to_string(c.stereo.fallback))}});
+  root.insert("viewer",
+              toml::table{{"interpupillary_distance_m", c.viewer.interpupillary_distance_m},
+                          {"eye_offset_m", to_array(c.viewer.eye_offset_m)},
+                          {"default_head_m", to_array(c.viewer.default_head_m)}});
+  root.insert("projection",
+              toml::table{{"near_m", c.projection.near_m}, {"far_m", c.projection.far_m}});
+  toml::table keys;
+  for (const auto& k : c.keys) {
+    std::string action = k.action;
+    if (action.rfind("character ", 0) == 0) action = "character_" + action.substr(10);
+    keys.insert(action, k.key);
+  }
+  root.insert("keys", std::move(keys));
+  toml::array chars;
+  for (const auto& ch : c.characters)
+    chars.push_back(toml::table{{"name", ch.name}, {"bvh", ch.bvh.generic_string()}});
+  if (!chars.empty()) root.insert("characters", std::move(chars));
+  const auto& f = c.fighter;
+  toml::table fighter{{"initial_character", f.initial_character + 1},
+                      {"home_m", to_array(f.home_m)},
+                      {"strike_distance_m", f.strike_distance_m},
+                      {"hit_radius_m", f.hit_radius_m},
+                      {"x_limits_m", to_array(f.x_limits_m)},
+                      {"z_limits_m", to_array(f.z_limits_m)}};
+  if (!f.database.empty()) fighter.insert("database", f.database.generic_string());
+  root.insert("fighter", std::move(fighter));
+  const auto& t = c.tracking;
+  toml::table tracking{{"source", std::string(to_string(t.source))},
+                       {"head_body", t.head_body},
+                       {"lost_after_s", t.lost_after_s}};
+  if (!t.calibration.empty()) tracking.insert("calibration", t.calibration.generic_string());
+  if (!t.tracking.empty()) tracking.insert("tracking", t.tracking.generic_string());
+  if (!t.recording.empty()) tracking.insert("recording", t.recording.generic_string());
+  root.insert("tracking", std::move(tracking));
+  if (c.orders_script) root.insert("orders", toml::table{{"script", c.orders_script->generic_string()}});
+  std::ostringstream out;
+  out << root << "\n";
+  return out.str();
+}
+
+}  // namespace kumite::app

@@ -1,0 +1,185 @@
+#include "console.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "gl.hpp"
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_opengl3.h>
+
+#include <fmt/format.h>
+
+namespace kumite::app {
+
+void handle_key(Installation& inst, int key) {
+  for (const auto& k : inst.config().keys) {
+    if (k.code != key) continue;
+    if (k.action == "quit") {
+      inst.request_quit();
+      return;
+    }
+    if (auto o = parse_order(k.action, now())) inst.order(*o);
+    return;
+  }
+}
+
+Console::Console(GLFWwindow* window, StereoMode mode) : window_(window), mode_(mode) {
+  glfwMakeContextCurrent(window_);
+  glfwSwapInterval(0);
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini beside the binary
+  ImGui::StyleColorsDark();
+  ImGui_ImplGlfw_InitForOpenGL(window_, true);
+  ImGui_ImplOpenGL3_Init("#version 330 core");
+}
+
+Console::~Console() {
+  glfwMakeContextCurrent(window_);
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window_);
+}
+
+namespace {
+
+const ImVec4 kRed(1.0f, 0.35f, 0.3f, 1.0f);
+const ImVec4 kGreen(0.4f, 0.9f, 0.4f, 1.0f);
+const ImVec4 kAmber(1.0f, 0.75f, 0.25f, 1.0f);
+
+std::string key_for(const Installation& inst, const std::string& action) {
+  for (const auto& k : inst.config().keys)
+    if (k.action == action) return k.key;
+  return "";
+}
+
+void order_button(Installation& inst, const char* label, const std::string& action) {
+  const std::string key = key_for(inst, action);
+  const std::string text = key.empty() ? std::string(label) : fmt::format("{} [{}]", label, key);
+  if (ImGui::Button(text.c_str(), ImVec2(170, 0)))
+    if (auto o = parse_order(action, now())) inst.order(*o);
+}
+
+ImU32 colour(glm::vec3 c) {
+  return IM_COL32(static_cast<int>(c.r * 255), static_cast<int>(c.g * 255),
+                  static_cast<int>(c.b * 255), 255);
+}
+
+/// The room from above: walls (x, z), the visitor (head, facing), the fighter and target.
+void top_view(const Installation& inst, const FrameData& f) {
+  const ImVec2 size(ImGui::GetContentRegionAvail().x, 300);
+  const ImVec2 o = ImGui::GetCursorScreenPos();
+  ImDrawList* dl = ImGui::GetWindowDrawList();
+  dl->AddRectFilled(o, ImVec2(o.x + size.x, o.y + size.y), IM_COL32(18, 20, 26, 255));
+  // Room x in [-3, 3] across, z in [-5, 2] down (the front wall at the top).
+  const double x0 = -3.0, x1 = 3.0, z0 = -5.0, z1 = 2.0;
+  const float s = static_cast<float>(std::min(size.x / (x1 - x0), size.y / (z1 - z0)));
+  auto at = [&](double x, double z) {
+    return ImVec2(o.x + static_cast<float>(x - x0) * s, o.y + static_cast<float>(z - z0) * s);
+  };
+  for (double x = -3; x <= 3.01; x += 0.5)
+    dl->AddLine(at(x, z0), at(x, z1), IM_COL32(40, 44, 54, 255));
+  for (double z = z0; z <= z1 + 0.01; z += 0.5)
+    dl->AddLine(at(x0, z), at(x1, z), IM_COL32(40, 44, 54, 255));
+  for (const auto& w : inst.walls()) {
+    const glm::dvec3 d = w.pb + (w.pc - w.pa);
+    dl->AddLine(at(w.pa.x, w.pa.z), at(w.pb.x, w.pb.z), IM_COL32(120, 160, 230, 255), 2.5f);
+    dl->AddLine(at(w.pc.x, w.pc.z), at(d.x, d.z), IM_COL32(120, 160, 230, 255), 2.5f);
+  }
+  // Visitor: eyes' midpoint and facing (head -Z).
+  const glm::dvec3 mid = (f.eyes.left + f.eyes.right) * 0.5;
+  const glm::dvec3 ahead = f.head.orientation * glm::dvec3(0, 0, -0.35);
+  const ImU32 visitor = inst.console().head_live ? IM_COL32(90, 230, 120, 255) : IM_COL32(230, 180, 60, 255);
+  dl->AddCircleFilled(at(mid.x, mid.z), 7, visitor);
+  dl->AddLine(at(mid.x, mid.z), at(mid.x + ahead.x, mid.z + ahead.z), visitor, 2.0f);
+  if (f.fighter_root) {
+    const auto& r = *f.fighter_root;
+    const ImU32 c = colour(character_colour(f.character));
+    dl->AddCircleFilled(at(r.x, r.z), 9, c);
+    // heading 0 faces +Z (the visitor).
+    const double hx = std::sin(f.fighter_heading_rad) * 0.4, hz = std::cos(f.fighter_heading_rad) * 0.4;
+    dl->AddLine(at(r.x, r.z), at(r.x + hx, r.z + hz), c, 2.0f);
+  }
+  for (const auto& item : f.items)
+    if (item.colour == kTargetColour) {
+      const glm::vec3 p(item.model[3]);
+      dl->AddCircle(at(p.x, p.z), 6, IM_COL32(255, 40, 40, 255), 0, 2.0f);
+    }
+  dl->AddText(ImVec2(o.x + 4, o.y + 2), IM_COL32(180, 180, 190, 255), "top view (front wall up)");
+  ImGui::Dummy(size);
+}
+
+}  // namespace
+
+void Console::frame(Installation& inst, const FrameData& f) {
+  glfwMakeContextCurrent(window_);
+  ImGui_ImplOpenGL3_NewFrame();
+  ImGui_ImplGlfw_NewFrame();
+  ImGui::NewFrame();
+  const ConsoleState& c = inst.console();
+  ImGui::SetNextWindowPos(ImVec2(0, 0));
+  ImGui::SetNextWindowSize(ImGui::GetIO().DisplaySize);
+  ImGui::Begin("Kumite supervisor", nullptr,
+               ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoCollapse);
+  ImGui::Text("%.1f fps   frame CPU %.3f ms   stereo %s   t = %.1f s", c.fps, c.frame_cpu_ms,
+              std::string(to_string(mode_)).c_str(), f.time_s);
+  ImGui::Columns(2, nullptr, false);
+  // Left column: orders and the key map.
+  ImGui::TextColored(kAmber, "Orders");
+  order_button(inst, "Punch left", "punch_left");
+  ImGui::SameLine();
+  order_button(inst, "Punch right", "punch_right");
+  order_button(inst, "Kick left", "kick_left");
+  ImGui::SameLine();
+  order_button(inst, "Kick right", "kick_right");
+  for (int i = 0; i < inst.character_count(); ++i) {
+    const std::string label = fmt::format("{} {}", i + 1, inst.character_name(i));
+    order_button(inst, label.c_str(), fmt::format("character {}", i + 1));
+    if (i % 2 == 0 && i + 1 < inst.character_count()) ImGui::SameLine();
+  }
+  order_button(inst, c.paused ? "Resume" : "Pause", c.paused ? "resume" : "pause");
+  ImGui::SameLine();
+  order_button(inst, "Recentre", "recentre");
+  ImGui::Separator();
+  ImGui::TextColored(kAmber, "Key map");
+  for (const auto& k : inst.config().keys) ImGui::Text("%-10s %s", k.key.c_str(), k.action.c_str());
+  ImGui::NextColumn();
+  // Right column: status.
+  ImGui::TextColored(kAmber, "Tracking");
+  ImGui::TextColored(c.head_live ? kGreen : kRed, "head: %s", c.tracking.c_str());
+  ImGui::Text("head  [%.2f, %.2f, %.2f] m   markers %d", f.head.position.x, f.head.position.y,
+              f.head.position.z, c.markers_seen);
+  if (c.pose_age_ms >= 0) ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
+  else ImGui::Text("latency: no pose");
+  for (const auto& cam : c.cameras)
+    ImGui::TextColored(cam.status == "ok" ? kGreen : kRed, "camera %-8s %-12s %3d blobs  last frame %.0f ms ago",
+                       cam.name.c_str(), cam.status.c_str(), cam.blobs, cam.since_last_ms);
+  ImGui::Separator();
+  ImGui::TextColored(kAmber, "Fighter");
+  ImGui::Text("state %s   character %d %s%s", c.fighter_state.c_str(), c.character + 1,
+              c.character_name.c_str(), c.paused ? "   PAUSED" : "");
+  ImGui::Text("last order %s", c.last_order.empty() ? "-" : c.last_order.c_str());
+  ImGui::Text("outcome    %s", c.last_outcome.empty() ? "-" : c.last_outcome.c_str());
+  ImGui::Columns(1);
+  ImGui::Separator();
+  for (const auto& p : c.problems) ImGui::TextColored(kRed, "! %s", p.c_str());
+  top_view(inst, f);
+  ImGui::TextColored(kAmber, "Recent events");
+  for (auto it = c.recent.rbegin(); it != c.recent.rend(); ++it) ImGui::TextUnformatted(it->c_str());
+  ImGui::End();
+  ImGui::Render();
+  int w = 0, h = 0;
+  glfwGetFramebufferSize(window_, &w, &h);
+  glViewport(0, 0, w, h);
+  glClearColor(0.08f, 0.08f, 0.1f, 1.0f);
+  glClear(GL_COLOR_BUFFER_BIT);
+  ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+}
+
+void Console::swap() { glfwSwapBuffers(window_); }
+
+}  // namespace kumite::app

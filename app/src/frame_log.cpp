@@ -1,0 +1,97 @@
+#include "kumite/app/frame_log.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include "kumite/common/atomic_file.hpp"
+#include "kumite/common/error.hpp"
+
+namespace kumite::app {
+
+namespace {
+using nlohmann::json;
+
+json mat(const glm::dmat4& m) {
+  json a = json::array();
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) a.push_back(m[c][r]);
+  return a;
+}
+json vec(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
+}  // namespace
+
+std::string frame_json(const FrameData& f, const ConsoleState& c,
+                       const std::vector<std::string>& wall_names, bool stereo) {
+  json j;
+  j["frame"] = f.frame;
+  j["time_s"] = f.time_s;
+  j["head"] = {{"position", vec(f.head.position)},
+               {"quaternion", json::array({f.head.orientation.w, f.head.orientation.x,
+                                           f.head.orientation.y, f.head.orientation.z})},
+               {"live", c.head_live}};
+  j["eyes"] = {{"left", vec(f.eyes.left)}, {"right", vec(f.eyes.right)}};
+  json walls = json::object();
+  for (std::size_t w = 0; w < f.views.size() && w < wall_names.size(); ++w) {
+    json per = json::object();
+    const char* names[2] = {"left", "right"};
+    for (int e = 0; e < (stereo ? 2 : 1); ++e) {
+      const auto& v = f.views[w][static_cast<std::size_t>(e)];
+      per[stereo ? names[e] : "mono"] = {{"view", mat(v.view)}, {"projection", mat(v.projection)}};
+    }
+    walls[wall_names[w]] = per;
+  }
+  j["walls"] = walls;
+  j["fighter"] = {{"present", f.has_fighter},
+                  {"state", f.fighter_state},
+                  {"character", f.character + 1},
+                  {"character_name", c.character_name}};
+  if (f.fighter_root) j["fighter"]["root"] = vec(*f.fighter_root);
+  json events = json::array();
+  for (const auto& e : f.events) {
+    json ev = {{"type", e.type}, {"time_s", e.time_s}};
+    if (!e.order.empty()) ev["order"] = e.order;
+    if (!e.text.empty()) ev["text"] = e.text;
+    if (e.type == "hit" || e.type == "miss") ev["distance_m"] = e.distance_m;
+    events.push_back(ev);
+  }
+  j["events"] = events;
+  j["pose_age_ms"] = f.pose_age_ms >= 0 ? json(f.pose_age_ms) : json(nullptr);
+  json cams = json::array();
+  for (const auto& cam : c.cameras)
+    cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"since_last_ms", cam.since_last_ms}});
+  j["console"] = {{"tracking", c.tracking},
+                  {"markers_seen", c.markers_seen},
+                  {"cameras", cams},
+                  {"paused", c.paused},
+                  {"last_order", c.last_order},
+                  {"last_outcome", c.last_outcome},
+                  {"problems", c.problems},
+                  {"frame_cpu_ms", c.frame_cpu_ms}};
+  return j.dump();
+}
+
+FrameLog::FrameLog(std::filesystem::path path)
+    : path_(std::move(path)), tmp_(temporary_path_beside(path_)), out_(tmp_) {
+  if (!out_) throw Error("io", "open", "cannot write " + tmp_.string());
+}
+
+FrameLog::~FrameLog() {
+  if (!closed_) {
+    out_.close();
+    std::error_code ec;
+    std::filesystem::remove(tmp_, ec);
+  }
+}
+
+void FrameLog::write(const FrameData& f, const ConsoleState& c,
+                     const std::vector<std::string>& wall_names, bool stereo) {
+  out_ << frame_json(f, c, wall_names, stereo) << '\n';
+}
+
+void FrameLog::close() {
+  out_.close();
+  if (!out_) throw Error("io", "write", "cannot write " + tmp_.string());
+  commit_temporary(tmp_, path_);
+  closed_ = true;
+}
+
+}  // namespace kumite::app

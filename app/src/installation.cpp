@@ -1,0 +1,273 @@
+#include "kumite/app/installation.hpp"
+
+#include <cmath>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "kumite/common/error.hpp"
+#include "kumite/content/fighter.hpp"
+
+namespace kumite::app {
+
+namespace {
+
+/// Recent events the console keeps.
+constexpr std::size_t kRecentEvents = 12;
+
+class FixedHeadInput final : public TrackingInput {
+ public:
+  explicit FixedHeadInput(std::string why) : why_(std::move(why)) {}
+  TrackingSnapshot poll(Timestamp) override { return {std::nullopt, 0, {}, why_}; }
+  Timestamp clock() const override { return now(); }
+  std::string describe() const override { return "none (" + why_ + ")"; }
+
+ private:
+  std::string why_;
+};
+
+glm::dvec3 to_glm(const Vec3& v) { return {v[0], v[1], v[2]}; }
+
+content::FighterConfig fighter_config(const InstallationConfig& c) {
+  content::FighterConfig f;
+  f.database = c.resolve(c.fighter.database);
+  for (const auto& ch : c.characters) {
+    f.characters.push_back(c.resolve(ch.bvh));
+    f.character_names.push_back(ch.name);
+  }
+  f.initial_character = c.fighter.initial_character;
+  f.home = {c.fighter.home_m[0], c.fighter.home_m[1], c.fighter.home_m[2]};
+  f.strike_distance_m = c.fighter.strike_distance_m;
+  f.hit_radius_m = c.fighter.hit_radius_m;
+  f.min_x_m = c.fighter.x_limits_m[0];
+  f.max_x_m = c.fighter.x_limits_m[1];
+  f.min_z_m = c.fighter.z_limits_m[0];
+  f.max_z_m = c.fighter.z_limits_m[1];
+  return f;
+}
+
+FrameEvent to_frame_event(const content::FighterEvent& e, Timestamp start) {
+  using K = content::FighterEvent::Kind;
+  FrameEvent f;
+  f.time_s = e.time - start;
+  f.text = e.text;
+  f.distance_m = e.distance_m;
+  switch (e.kind) {
+    case K::order_accepted: f.type = "order"; f.order = to_string(e.order); break;
+    case K::order_ignored: f.type = "order_ignored"; f.order = to_string(e.order); break;
+    case K::hit: f.type = "hit"; break;
+    case K::miss: f.type = "miss"; break;
+    case K::character_changed: f.type = "character_changed"; f.order = to_string(e.order); break;
+    case K::warning: f.type = "warning"; break;
+  }
+  return f;
+}
+
+/// Says which file is missing before the content module gets to it (the operator's view).
+void check_fighter_files(const InstallationConfig& c) {
+  if (c.fighter.database.empty())
+    throw file_error("config", "missing_key", c.file.string(), c.line_of("fighter"),
+                     "fighter.database", "no fighter database configured");
+  const auto db = c.resolve(c.fighter.database);
+  if (!std::filesystem::exists(db))
+    throw file_error("config", "missing_file", c.file.string(), c.line_of("fighter.database"),
+                     "fighter.database",
+                     fmt::format("{} does not exist (made at set-up: scripts/make-demo-data.sh)",
+                                 db.string()));
+  if (c.characters.empty())
+    throw file_error("config", "missing_key", c.file.string(), 0, "characters",
+                     "no [[characters]] configured");
+  for (std::size_t i = 0; i < c.characters.size(); ++i) {
+    const auto bvh = c.resolve(c.characters[i].bvh);
+    if (!std::filesystem::exists(bvh))
+      throw file_error("config", "missing_file", c.file.string(),
+                       c.line_of(fmt::format("characters[{}].bvh", i)),
+                       fmt::format("characters[{}].bvh", i),
+                       fmt::format("character {} \"{}\": {} does not exist", i + 1,
+                                   c.characters[i].name, bvh.string()));
+  }
+}
+
+}  // namespace
+
+std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why) {
+  return std::make_unique<FixedHeadInput>(std::move(why));
+}
+
+Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingInput> tracking,
+                           const InstallationOptions& options)
+    : config_(std::move(config)), tracking_(std::move(tracking)), mono_(options.mono_eyes) {
+  for (const auto& w : config_.walls) walls_.push_back(wall_frame(w));
+  last_good_head_.position = to_glm(config_.viewer.default_head_m);
+  frame_.head = last_good_head_;
+  if (!tracking_) tracking_ = make_fixed_head_input("tracking.source = \"none\"");
+  // A bad orders script is the operator's mistake at start-up: say so and stop.
+  std::optional<std::filesystem::path> script = options.orders_script;
+  if (!script && config_.orders_script) script = config_.resolve(*config_.orders_script);
+  if (script) script_ = OrderScript(load_orders_script(*script), 0);
+  // A missing database or character is not: the walls still draw, the console says why.
+  try {
+    check_fighter_files(config_);
+    fighter_ = content::Fighter::create(fighter_config(config_));
+  } catch (const std::exception& e) {
+    fighter_problem_ = std::string("no fighter: ") + e.what();
+    spdlog::error("{}", fighter_problem_);
+  }
+  frame_.views.resize(walls_.size());
+}
+
+Installation::~Installation() = default;
+
+int Installation::character_count() const {
+  return fighter_ ? fighter_->character_count() : static_cast<int>(config_.characters.size());
+}
+
+std::string Installation::character_name(int index) const {
+  if (fighter_) return fighter_->character_name(index);
+  return index >= 0 && index < static_cast<int>(config_.characters.size())
+             ? config_.characters[static_cast<std::size_t>(index)].name
+             : "?";
+}
+
+void Installation::start(Timestamp t) {
+  start_ = t;
+  last_step_ = t;
+  script_.restart(t);
+  started_ = true;
+}
+
+void Installation::order(const Order& o) { pending_.push_back(o); }
+
+void Installation::note(const FrameEvent& e) {
+  frame_.events.push_back(e);
+  std::string line = fmt::format("{:7.2f} s  {}", e.time_s, e.type);
+  if (!e.order.empty()) line += " " + e.order;
+  if (!e.text.empty()) line += ": " + e.text;
+  console_.recent.push_back(line);
+  while (console_.recent.size() > kRecentEvents) console_.recent.pop_front();
+  if (e.type == "order" || e.type == "order_ignored") {
+    console_.last_order = e.order;
+    console_.last_outcome = e.type == "order" ? "accepted" : "ignored: " + e.text;
+  } else if (e.type == "hit" || e.type == "miss") {
+    console_.last_outcome = fmt::format("{} ({:.2f} m)", e.type, e.distance_m);
+  }
+  if (e.type == "warning" || e.type == "order_ignored")
+    spdlog::warn("{}", line);
+  else
+    spdlog::info("{}", line);
+}
+
+void Installation::update_head(Timestamp now) {
+  const TrackingSnapshot snap = tracking_->poll(now);
+  console_.cameras = snap.cameras;
+  console_.tracking = snap.status;
+  frame_.pose_age_ms = -1;
+  bool live = false;
+  if (snap.head && snap.head->status != TrackingStatus::lost) {
+    const double age_s = tracking_->clock() - snap.measured_at;
+    frame_.pose_age_ms = age_s * 1e3;
+    console_.markers_seen = snap.head->markers;
+    if (age_s <= config_.tracking.lost_after_s) {
+      const auto& p = snap.head->position;
+      const auto& q = snap.head->orientation;
+      last_good_head_.position = {p[0], p[1], p[2]};
+      last_good_head_.orientation = glm::normalize(glm::dquat(q[0], q[1], q[2], q[3]));
+      live = true;
+    }
+  } else {
+    console_.markers_seen = snap.head ? snap.head->markers : 0;
+  }
+  console_.head_live = live;
+  console_.pose_age_ms = frame_.pose_age_ms;
+  if (!live && config_.tracking.source != TrackingSource::none)
+    console_.problems.push_back(
+        fmt::format("head not tracked ({}): walls drawn from the last good head position",
+                    snap.status));
+  for (const auto& c : snap.cameras)
+    if (c.status != "ok") console_.problems.push_back("camera " + c.name + ": " + c.status);
+  frame_.head = last_good_head_;
+  const double ipd = mono_ ? 0.0 : config_.viewer.interpupillary_distance_m;
+  frame_.eyes = eyes_from_head(frame_.head, ipd, to_glm(config_.viewer.eye_offset_m));
+}
+
+void Installation::apply_orders(Timestamp now) {
+  due_.clear();
+  script_.due(now, due_);
+  due_.insert(due_.end(), pending_.begin(), pending_.end());
+  pending_.clear();
+  for (const Order& o : due_) {
+    FrameEvent e;
+    e.time_s = now - start_;
+    e.order = to_string(o);
+    if (o.kind == OrderKind::pause) console_.paused = true;
+    if (o.kind == OrderKind::resume) console_.paused = false;
+    if (!fighter_) {
+      e.type = "order_ignored";
+      e.text = fighter_problem_;
+      note(e);
+      continue;
+    }
+    if (o.kind == OrderKind::select_character &&
+        (o.character < 0 || o.character >= fighter_->character_count())) {
+      e.type = "order_ignored";
+      e.text = fmt::format("character {} does not exist ({} characters)", o.character + 1,
+                           fighter_->character_count());
+      note(e);
+      continue;
+    }
+    Order timed = o;
+    timed.time = now;
+    fighter_->order(timed);
+  }
+}
+
+void Installation::update_fighter(Timestamp now, double dt) {
+  frame_.items.clear();
+  frame_.has_fighter = static_cast<bool>(fighter_);
+  if (!fighter_) {
+    console_.problems.push_back(fighter_problem_);
+    frame_.fighter_state = "none";
+    frame_.fighter_root.reset();
+    return;
+  }
+  const glm::dvec3 mid = (frame_.eyes.left + frame_.eyes.right) * 0.5;
+  fighter_->update(now, dt, Eigen::Vector3d(mid.x, mid.y, mid.z));
+  const content::FighterFrame f = fighter_->frame();
+  plan_fighter(f, character_colour(f.character), frame_.items);
+  frame_.fighter_state = std::string(content::to_string(f.state));
+  frame_.character = f.character;
+  frame_.fighter_root = glm::dvec3(f.root.x(), f.root.y(), f.root.z());
+  frame_.fighter_heading_rad = f.heading_rad;
+  for (const auto& e : fighter_->take_events()) note(to_frame_event(e, start_));
+}
+
+const FrameData& Installation::step(Timestamp now) {
+  if (!started_) start(now);
+  const double dt = std::max(0.0, now - last_step_);
+  last_step_ = now;
+  const Timestamp cpu0 = kumite::now();
+  frame_.frame = steps_++;
+  frame_.events.clear();
+  console_.problems.clear();
+  frame_.now = now;
+  frame_.time_s = now - start_;
+  update_head(now);
+  if (const int kept = plan_views(walls_, frame_.eyes, config_.projection.near_m,
+                                  config_.projection.far_m, frame_.views);
+      kept > 0)
+    console_.problems.push_back(fmt::format(
+        "an eye is on or behind {} wall plane(s): those walls keep their last good view", kept));
+  apply_orders(now);
+  update_fighter(now, dt);
+  console_.fighter_state = frame_.fighter_state;
+  console_.character = frame_.character;
+  console_.character_name = character_name(frame_.character);
+  // Frame rate from the smoothed frame time (the first step after start() has no interval).
+  if (frame_.frame > 0 && dt > 0)
+    dt_filtered_ = dt_filtered_ == 0 ? dt : 0.9 * dt_filtered_ + 0.1 * dt;
+  console_.fps = dt_filtered_ > 0 ? 1.0 / dt_filtered_ : 0;
+  console_.frame_cpu_ms = (kumite::now() - cpu0) * 1e3;
+  return frame_;
+}
+
+}  // namespace kumite::app

@@ -1,0 +1,245 @@
+#include "kumite/app/renderer.hpp"
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include <glm/gtc/type_ptr.hpp>
+
+#include "gl.hpp"
+#include "kumite/common/error.hpp"
+
+namespace kumite::app {
+
+namespace {
+
+constexpr const char* kLitVertex = R"(#version 330 core
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_normal;
+uniform mat4 u_model;
+uniform mat4 u_view_projection;
+out vec3 v_normal;
+void main() {
+  v_normal = transpose(inverse(mat3(u_model))) * a_normal;
+  gl_Position = u_view_projection * (u_model * vec4(a_position, 1.0));
+}
+)";
+
+constexpr const char* kLitFragment = R"(#version 330 core
+in vec3 v_normal;
+uniform vec3 u_colour;
+out vec4 o_colour;
+void main() {
+  // A key light from above-front-left and a dimmer fill from behind: shapes read in 3D.
+  vec3 n = normalize(v_normal);
+  float key = max(dot(n, normalize(vec3(-0.4, 0.8, 0.6))), 0.0);
+  float fill = max(dot(n, normalize(vec3(0.5, 0.2, -0.8))), 0.0);
+  o_colour = vec4(u_colour * (0.30 + 0.70 * key + 0.25 * fill), 1.0);
+}
+)";
+
+constexpr const char* kLineVertex = R"(#version 330 core
+layout(location = 0) in vec3 a_position;
+layout(location = 1) in vec3 a_colour;
+uniform mat4 u_view_projection;
+out vec3 v_colour;
+void main() {
+  v_colour = a_colour;
+  gl_Position = u_view_projection * vec4(a_position, 1.0);
+}
+)";
+
+constexpr const char* kLineFragment = R"(#version 330 core
+in vec3 v_colour;
+out vec4 o_colour;
+void main() { o_colour = vec4(v_colour, 1.0); }
+)";
+
+GLuint compile(GLenum type, const char* source) {
+  const GLuint s = glCreateShader(type);
+  glShaderSource(s, 1, &source, nullptr);
+  glCompileShader(s);
+  GLint ok = 0;
+  glGetShaderiv(s, GL_COMPILE_STATUS, &ok);
+  if (!ok) {
+    char log[1024] = {};
+    glGetShaderInfoLog(s, sizeof log, nullptr, log);
+    throw Error("gl", "shader", std::string("shader does not compile: ") + log);
+  }
+  return s;
+}
+
+GLuint program(const char* vs, const char* fs) {
+  const GLuint p = glCreateProgram();
+  const GLuint v = compile(GL_VERTEX_SHADER, vs), f = compile(GL_FRAGMENT_SHADER, fs);
+  glAttachShader(p, v);
+  glAttachShader(p, f);
+  glLinkProgram(p);
+  glDeleteShader(v);
+  glDeleteShader(f);
+  GLint ok = 0;
+  glGetProgramiv(p, GL_LINK_STATUS, &ok);
+  if (!ok) throw Error("gl", "shader", "shader program does not link");
+  return p;
+}
+
+struct MeshBuffers {
+  GLuint vao = 0, vbo = 0, ebo = 0;
+  GLsizei count = 0;
+};
+
+/// Interleaved position + normal, indexed triangles.
+MeshBuffers upload(const std::vector<float>& vertices, const std::vector<unsigned>& indices) {
+  MeshBuffers m;
+  glGenVertexArrays(1, &m.vao);
+  glBindVertexArray(m.vao);
+  glGenBuffers(1, &m.vbo);
+  glBindBuffer(GL_ARRAY_BUFFER, m.vbo);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices.size() * sizeof(float)),
+               vertices.data(), GL_STATIC_DRAW);
+  glGenBuffers(1, &m.ebo);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, m.ebo);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(indices.size() * sizeof(unsigned)),
+               indices.data(), GL_STATIC_DRAW);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float),
+                        reinterpret_cast<const void*>(3 * sizeof(float)));
+  glEnableVertexAttribArray(0);
+  glEnableVertexAttribArray(1);
+  glBindVertexArray(0);
+  m.count = static_cast<GLsizei>(indices.size());
+  return m;
+}
+
+constexpr float kPi = 3.14159265358979f;
+
+MeshBuffers make_sphere(int slices, int stacks) {
+  std::vector<float> v;
+  std::vector<unsigned> idx;
+  for (int i = 0; i <= stacks; ++i) {
+    const float phi = kPi * static_cast<float>(i) / static_cast<float>(stacks);
+    for (int j = 0; j <= slices; ++j) {
+      const float th = 2 * kPi * static_cast<float>(j) / static_cast<float>(slices);
+      const float x = std::sin(phi) * std::cos(th), y = std::cos(phi), z = std::sin(phi) * std::sin(th);
+      v.insert(v.end(), {x, y, z, x, y, z});
+    }
+  }
+  const unsigned row = static_cast<unsigned>(slices + 1);
+  for (unsigned i = 0; i < static_cast<unsigned>(stacks); ++i)
+    for (unsigned j = 0; j < static_cast<unsigned>(slices); ++j) {
+      const unsigned a = i * row + j, b = a + row;
+      idx.insert(idx.end(), {a, b, a + 1, a + 1, b, b + 1});
+    }
+  return upload(v, idx);
+}
+
+MeshBuffers make_cylinder(int slices) {
+  std::vector<float> v;
+  std::vector<unsigned> idx;
+  for (int j = 0; j <= slices; ++j) {
+    const float th = 2 * kPi * static_cast<float>(j) / static_cast<float>(slices);
+    const float x = std::cos(th), z = std::sin(th);
+    v.insert(v.end(), {x, 0, z, x, 0, z, x, 1, z, x, 0, z});
+  }
+  for (unsigned j = 0; j < static_cast<unsigned>(slices); ++j) {
+    const unsigned a = 2 * j;
+    idx.insert(idx.end(), {a, a + 1, a + 2, a + 2, a + 1, a + 3});
+  }
+  return upload(v, idx);
+}
+
+}  // namespace
+
+struct Renderer::Impl {
+  GLuint lit = 0, lines = 0;
+  GLint lit_model = -1, lit_vp = -1, lit_colour = -1, lines_vp = -1;
+  MeshBuffers sphere, cylinder;
+  GLuint line_vao = 0, line_vbo = 0;
+  GLsizei line_count = 0;
+};
+
+Renderer::Renderer(std::span<const WallFrame> walls) : impl_(std::make_unique<Impl>()) {
+  GLint major = 0, minor = 0;
+  glGetIntegerv(GL_MAJOR_VERSION, &major);
+  glGetIntegerv(GL_MINOR_VERSION, &minor);
+  if (major * 10 + minor < 33)
+    throw Error("gl", "version", "OpenGL 3.3 is needed; the context has " + gl_description());
+  auto& m = *impl_;
+  m.lit = program(kLitVertex, kLitFragment);
+  m.lit_model = glGetUniformLocation(m.lit, "u_model");
+  m.lit_vp = glGetUniformLocation(m.lit, "u_view_projection");
+  m.lit_colour = glGetUniformLocation(m.lit, "u_colour");
+  m.lines = program(kLineVertex, kLineFragment);
+  m.lines_vp = glGetUniformLocation(m.lines, "u_view_projection");
+  m.sphere = make_sphere(20, 12);
+  m.cylinder = make_cylinder(16);
+  const auto lines = room_lines(walls);
+  glGenVertexArrays(1, &m.line_vao);
+  glBindVertexArray(m.line_vao);
+  glGenBuffers(1, &m.line_vbo);
+  glBindBuffer(GL_ARRAY_BUFFER, m.line_vbo);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(lines.size() * sizeof(LineVertex)),
+               lines.data(), GL_STATIC_DRAW);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(LineVertex), nullptr);
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, sizeof(LineVertex),
+                        reinterpret_cast<const void*>(sizeof(glm::vec3)));
+  glEnableVertexAttribArray(0);
+  glEnableVertexAttribArray(1);
+  glBindVertexArray(0);
+  m.line_count = static_cast<GLsizei>(lines.size());
+}
+
+Renderer::~Renderer() {
+  auto& m = *impl_;
+  for (auto* b : {&m.sphere, &m.cylinder}) {
+    glDeleteBuffers(1, &b->vbo);
+    glDeleteBuffers(1, &b->ebo);
+    glDeleteVertexArrays(1, &b->vao);
+  }
+  glDeleteBuffers(1, &m.line_vbo);
+  glDeleteVertexArrays(1, &m.line_vao);
+  glDeleteProgram(m.lit);
+  glDeleteProgram(m.lines);
+}
+
+void Renderer::clear(int x, int y, int width, int height) {
+  glViewport(x, y, width, height);
+  glEnable(GL_SCISSOR_TEST);
+  glScissor(x, y, width, height);
+  glClearColor(0.06f, 0.07f, 0.09f, 1.0f);
+  glClearDepth(1.0);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  glDisable(GL_SCISSOR_TEST);
+}
+
+void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
+  auto& m = *impl_;
+  const glm::mat4 vp = glm::mat4(view.projection * view.view);
+  glEnable(GL_DEPTH_TEST);
+  glDepthFunc(GL_LESS);
+  glDisable(GL_CULL_FACE);  // open cylinders: their insides may show at the ends
+  glUseProgram(m.lines);
+  glUniformMatrix4fv(m.lines_vp, 1, GL_FALSE, glm::value_ptr(vp));
+  glBindVertexArray(m.line_vao);
+  glDrawArrays(GL_LINES, 0, m.line_count);
+  glUseProgram(m.lit);
+  glUniformMatrix4fv(m.lit_vp, 1, GL_FALSE, glm::value_ptr(vp));
+  for (const auto& item : items) {
+    const MeshBuffers& mesh = item.mesh == Mesh::sphere ? m.sphere : m.cylinder;
+    glUniformMatrix4fv(m.lit_model, 1, GL_FALSE, glm::value_ptr(item.model));
+    glUniform3fv(m.lit_colour, 1, glm::value_ptr(item.colour));
+    glBindVertexArray(mesh.vao);
+    glDrawElements(GL_TRIANGLES, mesh.count, GL_UNSIGNED_INT, nullptr);
+  }
+  glBindVertexArray(0);
+}
+
+std::string gl_description() {
+  auto str = [](GLenum e) {
+    const auto* s = reinterpret_cast<const char*>(glGetString(e));
+    return std::string(s ? s : "?");
+  };
+  return str(GL_VERSION) + " / " + str(GL_RENDERER);
+}
+
+}  // namespace kumite::app

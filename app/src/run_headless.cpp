@@ -1,0 +1,87 @@
+// Headless runs: EGL surfaceless context, one framebuffer per wall, PNG per wall and eye.
+#include <algorithm>
+#include <chrono>
+#include <thread>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "gl.hpp"
+#include "kumite/app/frame_log.hpp"
+#include "kumite/app/headless.hpp"
+#include "kumite/app/renderer.hpp"
+#include "kumite/app/run.hpp"
+#include "kumite/common/error.hpp"
+
+namespace kumite::app {
+
+int run_headless(Installation& inst, const HeadlessOptions& opt) {
+  const auto& cfg = inst.config();
+  std::filesystem::create_directories(opt.out);
+  HeadlessContext context;
+  spdlog::info("headless: {}", gl_description());
+  Renderer renderer(inst.walls());
+  std::vector<std::unique_ptr<OffscreenTarget>> targets;
+  std::vector<std::string> names;
+  for (const auto& w : cfg.walls) {
+    const auto res = opt.resolution.value_or(w.resolution);
+    targets.push_back(std::make_unique<OffscreenTarget>(res[0], res[1]));
+    names.push_back(w.name);
+  }
+  const bool stereo = cfg.stereo.mode != StereoMode::mono;
+  const char* eye_names[2] = {stereo ? "left" : "mono", "right"};
+  FrameLog log(opt.out / "frames.jsonl");
+  std::vector<std::uint8_t> pixels;
+  const double step = 1.0 / cfg.display_rate_hz;
+  const Timestamp t0 = now();
+  inst.start(t0);
+  double render_s = 0, png_s = 0;
+  for (int i = 0; i < opt.frames && !inst.quit_requested(); ++i) {
+    // Real time: wait for the frame's slot; when rendering is slower than the display rate,
+    // the frame is late and takes the present time (the fighter and tracker move on in real
+    // time). Simulated: exact steps of 1/rate, as fast as rendering goes.
+    Timestamp t = t0 + i * step;
+    if (opt.real_time) {
+      while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
+      t = std::max(t, now());
+    }
+    const FrameData& f = inst.step(t);
+    const bool save = opt.save_every > 0 && i % opt.save_every == 0;
+    for (std::size_t w = 0; w < targets.size(); ++w) {
+      for (int e = 0; e < (stereo ? 2 : 1); ++e) {
+        const Timestamp r0 = now();
+        auto& target = *targets[w];
+        target.bind();
+        renderer.clear(0, 0, target.width(), target.height());
+        renderer.draw(f.views[w][static_cast<std::size_t>(e)], f.items);
+        if (!save) {
+          glFlush();
+          render_s += now() - r0;
+          continue;
+        }
+        target.read(pixels);
+        const Timestamp r1 = now();
+        render_s += r1 - r0;
+        write_png(opt.out / fmt::format("{}_{}_{:05}.png", names[w], eye_names[e], i),
+                  target.width(), target.height(), pixels);
+        png_s += now() - r1;
+      }
+    }
+    log.write(f, inst.console(), names, stereo);
+  }
+  glFinish();
+  log.close();
+  const double wall_s = now() - t0;
+  spdlog::info("headless: {} frames in {:.2f} s ({:.1f} ms/frame; GL {:.1f} ms, PNG {:.1f} ms per frame) -> {}",
+               opt.frames, wall_s, wall_s * 1e3 / opt.frames, render_s * 1e3 / opt.frames,
+               png_s * 1e3 / opt.frames, opt.out.string());
+  return 0;
+}
+
+bool display_available() {
+  const char* x = std::getenv("DISPLAY");
+  const char* w = std::getenv("WAYLAND_DISPLAY");
+  return (x && *x) || (w && *w);
+}
+
+}  // namespace kumite::app

@@ -1,0 +1,222 @@
+// Windowed runs: one GLFW window per [[windows]] entry (walls in its viewports, drawn in the
+// stereo mode), and the supervisor console in a window of its own.
+#include <chrono>
+#include <cstdlib>
+#include <thread>
+
+#include "gl.hpp"
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include "console.hpp"
+#include "kumite/app/frame_log.hpp"
+#include "kumite/app/headless.hpp"
+#include "kumite/app/run.hpp"
+#include "kumite/app/stereo.hpp"
+#include "kumite/common/error.hpp"
+
+namespace kumite::app {
+
+namespace {
+
+struct WindowSlot {
+  GLFWwindow* window = nullptr;
+  std::unique_ptr<Renderer> renderer;
+  WindowConfig config;
+  std::vector<std::size_t> walls;  ///< wall indices shown in it
+};
+
+/// What key callbacks need (set as every window's user pointer).
+struct KeyContext {
+  Installation* installation = nullptr;
+};
+
+void on_key(GLFWwindow* w, int key, int, int action, int) {
+  if (action != GLFW_PRESS) return;
+  auto* ctx = static_cast<KeyContext*>(glfwGetWindowUserPointer(w));
+  if (!ctx) return;
+  handle_key(*ctx->installation, key);
+}
+
+void glfw_error(int code, const char* text) { spdlog::debug("GLFW error 0x{:x}: {}", code, text); }
+
+void context_hints(bool stereo) {
+  glfwDefaultWindowHints();
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  glfwWindowHint(GLFW_STEREO, stereo ? GLFW_TRUE : GLFW_FALSE);
+}
+
+GLFWwindow* open_window(const WindowConfig& c, bool stereo, GLFWwindow* share) {
+  context_hints(stereo);
+  GLFWmonitor* monitor = nullptr;
+  int width = c.size[0], height = c.size[1];
+  if (c.fullscreen) {
+    int count = 0;
+    GLFWmonitor** monitors = glfwGetMonitors(&count);
+    if (c.monitor >= count)
+      throw Error("app", "monitor",
+                  fmt::format("window \"{}\": monitor {} does not exist ({} connected)", c.name,
+                              c.monitor, count));
+    monitor = monitors[c.monitor];
+    const GLFWvidmode* mode = glfwGetVideoMode(monitor);
+    width = mode->width;
+    height = mode->height;
+  }
+  GLFWwindow* w = glfwCreateWindow(width, height, ("kumite: " + c.name).c_str(), monitor, share);
+  if (w && !c.fullscreen) glfwSetWindowPos(w, c.position[0], c.position[1]);
+  return w;
+}
+
+/// A wall's viewport in the window's framebuffer: the config's pixels scaled from the
+/// configured window size to the actual framebuffer (fullscreen, HiDPI).
+Viewport wall_viewport(const WallConfig& wall, const WindowConfig& win, int fb_w, int fb_h) {
+  if (!wall.viewport) return {0, 0, fb_w, fb_h};
+  const auto& v = *wall.viewport;
+  const double sx = static_cast<double>(fb_w) / win.size[0];
+  const double sy = static_cast<double>(fb_h) / win.size[1];
+  return {static_cast<int>(v[0] * sx), static_cast<int>(v[1] * sy), static_cast<int>(v[2] * sx),
+          static_cast<int>(v[3] * sy)};
+}
+
+void screenshot(GLFWwindow* w, const std::filesystem::path& path) {
+  int fb_w = 0, fb_h = 0;
+  glfwGetFramebufferSize(w, &fb_w, &fb_h);
+  std::vector<std::uint8_t> rgba(static_cast<std::size_t>(fb_w) * fb_h * 4);
+  glReadBuffer(GL_BACK);
+  glPixelStorei(GL_PACK_ALIGNMENT, 1);
+  glReadPixels(0, 0, fb_w, fb_h, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+  const std::size_t row = static_cast<std::size_t>(fb_w) * 4;
+  std::vector<std::uint8_t> flipped(rgba.size());
+  for (int y = 0; y < fb_h; ++y)
+    std::copy_n(rgba.data() + static_cast<std::size_t>(fb_h - 1 - y) * row, row,
+                flipped.data() + static_cast<std::size_t>(y) * row);
+  write_png(path, fb_w, fb_h, flipped);
+  spdlog::info("screenshot {}", path.string());
+}
+
+}  // namespace
+
+int run_windows(Installation& inst, const WindowOptions& opt) {
+  const auto& cfg = inst.config();
+  glfwSetErrorCallback(glfw_error);
+  if (!glfwInit())
+    throw Error("app", "display", "cannot open the display (GLFW init failed): use --headless");
+  struct Terminate {
+    ~Terminate() { glfwTerminate(); }
+  } terminate;
+
+  StereoMode mode = cfg.stereo.mode;
+  std::vector<WindowConfig> windows = cfg.windows;
+  if (windows.empty()) windows.push_back(WindowConfig{"main"});
+  std::vector<WindowSlot> slots(windows.size());
+  KeyContext keys{&inst};
+  for (std::size_t i = 0; i < windows.size(); ++i) {
+    auto& s = slots[i];
+    s.config = windows[i];
+    GLFWwindow* share = i > 0 ? slots[0].window : nullptr;
+    s.window = open_window(s.config, mode == StereoMode::quad_buffer, share);
+    if (!s.window && mode == StereoMode::quad_buffer) {
+      const std::string why = fmt::format(
+          "quad-buffer stereo: the display offers no stereo OpenGL context for window \"{}\" "
+          "(Xvfb and most consumer GPUs have none)",
+          s.config.name);
+      if (!cfg.stereo.allow_fallback)
+        throw Error("app", "no_stereo",
+                    why + "; set [stereo] allow_fallback = true or another stereo.mode");
+      mode = cfg.stereo.fallback;
+      spdlog::warn("{}: falling back to {} (stereo.allow_fallback)", why, to_string(mode));
+      s.window = open_window(s.config, false, share);
+    }
+    if (!s.window)
+      throw Error("app", "window",
+                  fmt::format("cannot open window \"{}\" with an OpenGL 3.3 core context",
+                              s.config.name));
+    glfwMakeContextCurrent(s.window);
+    if (mode == StereoMode::quad_buffer) {
+      GLboolean stereo = GL_FALSE;
+      glGetBooleanv(GL_STEREO, &stereo);
+      if (!stereo) throw Error("app", "no_stereo", "quad-buffer: the context has no stereo buffers");
+    }
+    glfwSwapInterval(i == 0 ? 1 : 0);
+    glfwSetWindowUserPointer(s.window, &keys);
+    glfwSetKeyCallback(s.window, on_key);
+    s.renderer = std::make_unique<Renderer>(inst.walls());
+    spdlog::info("window \"{}\": {} ({} stereo)", s.config.name, gl_description(), to_string(mode));
+  }
+  for (std::size_t w = 0; w < cfg.walls.size(); ++w) {
+    const int i = cfg.window_of(w);
+    slots[static_cast<std::size_t>(std::max(0, i))].walls.push_back(w);
+  }
+
+  std::unique_ptr<Console> console;
+  if (opt.console) {
+    context_hints(false);
+    GLFWwindow* cw = glfwCreateWindow(960, 760, "kumite: supervisor console", nullptr, nullptr);
+    if (!cw) throw Error("app", "window", "cannot open the supervisor console window");
+    glfwSetWindowUserPointer(cw, &keys);
+    glfwSetKeyCallback(cw, on_key);  // before ImGui, which chains to it
+    console = std::make_unique<Console>(cw, mode);
+  }
+
+  std::unique_ptr<FrameLog> log;
+  std::vector<std::string> names;
+  for (const auto& w : cfg.walls) names.push_back(w.name);
+  if (opt.log) log = std::make_unique<FrameLog>(*opt.log);
+
+  const Timestamp t0 = now();
+  inst.start(t0);
+  bool done = false;
+  while (!done) {
+    glfwPollEvents();
+    const Timestamp t = now();
+    const FrameData& f = inst.step(t);
+    for (auto& s : slots) {
+      glfwMakeContextCurrent(s.window);
+      int fb_w = 0, fb_h = 0;
+      glfwGetFramebufferSize(s.window, &fb_w, &fb_h);
+      s.renderer->clear(0, 0, fb_w, fb_h);
+      for (std::size_t w : s.walls)
+        draw_wall_stereo(*s.renderer, mode, wall_viewport(cfg.walls[w], s.config, fb_w, fb_h),
+                         f.views[w], f.items);
+    }
+    const bool last = inst.quit_requested() || (opt.seconds && t - t0 >= *opt.seconds);
+    if (last && opt.screenshot) {
+      glfwMakeContextCurrent(slots[0].window);
+      screenshot(slots[0].window, *opt.screenshot);
+    }
+    for (auto& s : slots) glfwSwapBuffers(s.window);
+    if (console) {
+      console->frame(inst, f);
+      if (last && opt.screenshot) {
+        auto p = *opt.screenshot;
+        screenshot(console->window(), p.replace_filename(p.stem().string() + "-console.png"));
+      }
+      console->swap();
+      if (glfwWindowShouldClose(console->window())) done = true;
+    }
+    if (log) log->write(f, inst.console(), names, mode != StereoMode::mono);
+    for (auto& s : slots)
+      if (glfwWindowShouldClose(s.window)) done = true;
+    if (last) done = true;
+    // Without vsync (Xvfb, several windows) hold the display rate instead of spinning.
+    const Timestamp next = t + 1.0 / cfg.display_rate_hz;
+    if (const double wait = next - now(); wait > 0)
+      std::this_thread::sleep_for(std::chrono::duration<double>(wait));
+  }
+  if (log) log->close();
+  console.reset();
+  for (auto& s : slots) {
+    glfwMakeContextCurrent(s.window);
+    s.renderer.reset();
+    glfwDestroyWindow(s.window);
+  }
+  return 0;
+}
+
+}  // namespace kumite::app

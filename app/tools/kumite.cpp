@@ -1,0 +1,115 @@
+// kumite: the installation. Reads the installation file, starts tracking, the fighter and the
+// orders script, then renders the walls in windows (with a display) or headless.
+//
+//   kumite --config config/demo.toml                      # windows, or headless without a display
+//   kumite --config config/demo.toml --headless --frames 300 --out out/demo --save-every 30
+#include <CLI/CLI.hpp>
+
+#include <iostream>
+
+#include "kumite/app/config.hpp"
+#include "kumite/app/installation.hpp"
+#include "kumite/app/run.hpp"
+#include "kumite/app/tracking_input.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/common/log.hpp"
+
+namespace {
+
+struct Args {
+  std::string config = "config/demo.toml";
+  bool headless = false;
+  int frames = 300;
+  std::string out = "out/kumite";
+  int save_every = 30;
+  std::string orders;
+  std::string resolution;
+  std::string stereo;
+  double seconds = 0;
+  bool no_console = false;
+  bool simulated = false;
+  std::string screenshot;
+  std::string log;
+  int verbosity = 1;
+};
+
+std::optional<std::array<int, 2>> parse_resolution(const std::string& s) {
+  if (s.empty()) return std::nullopt;
+  int w = 0, h = 0;
+  char x = 0;
+  std::istringstream in(s);
+  if (!(in >> w >> x >> h) || x != 'x' || w <= 0 || h <= 0)
+    throw kumite::Error("cli", "resolution", "--resolution: expected WIDTHxHEIGHT, got \"" + s + "\"");
+  return std::array<int, 2>{w, h};
+}
+
+int run(const Args& a) {
+  auto config = kumite::app::load_installation_config(a.config);
+  if (!a.stereo.empty()) {
+    const auto m = kumite::app::stereo_mode_from_string(a.stereo);
+    if (!m) throw kumite::Error("cli", "stereo", "--stereo: unknown stereo mode \"" + a.stereo + "\"");
+    config.stereo.mode = *m;
+  }
+  kumite::app::InstallationOptions io;
+  if (!a.orders.empty()) io.orders_script = a.orders;
+  io.mono_eyes = config.stereo.mode == kumite::app::StereoMode::mono;
+  // A tracker that cannot start (missing recording, calibration, cameras) is not a stop: the
+  // walls draw from the default head and the console says why.
+  std::unique_ptr<kumite::app::TrackingInput> tracking;
+  try {
+    tracking = kumite::app::make_tracking_input(config);
+  } catch (const kumite::Error& e) {
+    spdlog::error("tracking unavailable: {}", e.what());
+    tracking = kumite::app::make_fixed_head_input(std::string("tracking unavailable: ") + e.what());
+  }
+  kumite::app::Installation inst(config, std::move(tracking), io);
+  const bool headless = a.headless || !kumite::app::display_available();
+  if (headless) {
+    if (!a.headless) spdlog::info("no display ($DISPLAY unset): rendering headless into {}", a.out);
+    kumite::app::HeadlessOptions ho;
+    ho.frames = a.frames;
+    ho.out = a.out;
+    ho.save_every = a.save_every;
+    ho.resolution = parse_resolution(a.resolution);
+    ho.real_time = !a.simulated;
+    return kumite::app::run_headless(inst, ho);
+  }
+  kumite::app::WindowOptions wo;
+  if (a.seconds > 0) wo.seconds = a.seconds;
+  wo.console = !a.no_console;
+  if (!a.screenshot.empty()) wo.screenshot = a.screenshot;
+  if (!a.log.empty()) wo.log = a.log;
+  return kumite::app::run_windows(inst, wo);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"kumite: the installation (walls in stereo, the fighter, the supervisor console)"};
+  Args a;
+  app.add_option("--config", a.config, "installation file (TOML)")->capture_default_str();
+  app.add_flag("--headless", a.headless, "render off-screen (EGL) even with a display");
+  app.add_option("--frames", a.frames, "headless: frames to render")->capture_default_str();
+  app.add_option("--out", a.out, "headless: output folder (PNGs, frames.jsonl)")->capture_default_str();
+  app.add_option("--save-every", a.save_every, "headless: PNGs every K-th frame (0 = none)")->capture_default_str();
+  app.add_option("--orders", a.orders, "orders script (rows time_s,order); overrides the config's");
+  app.add_option("--resolution", a.resolution, "headless: WIDTHxHEIGHT for every wall (overrides config)");
+  app.add_option("--stereo", a.stereo, "override stereo mode: quad_buffer side_by_side top_bottom anaglyph mono");
+  app.add_flag("--simulated-time", a.simulated, "headless: step time by 1/rate without waiting for real time");
+  app.add_option("--seconds", a.seconds, "windows: stop after this many seconds");
+  app.add_flag("--no-console", a.no_console, "windows: no supervisor console window");
+  app.add_option("--screenshot", a.screenshot, "windows: PNG of the first window at the end");
+  app.add_option("--log", a.log, "windows: write frames.jsonl here");
+  app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->capture_default_str();
+  CLI11_PARSE(app, argc, argv);
+  kumite::init_logging(a.verbosity);
+  try {
+    return run(a);
+  } catch (const kumite::Error& e) {
+    std::cerr << "kumite: " << e.what() << "\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "kumite: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,113 @@
+// App figures: CPU per frame excluding GPU draw (4 walls in stereo), and headless render
+// time per 1920x1080 wall image on llvmpipe.
+//   build/bin/kumite_app_bench --benchmark_format=json
+#include <benchmark/benchmark.h>
+
+#include <Eigen/Core>
+
+#include "kumite/app/config.hpp"
+#include "kumite/app/headless.hpp"
+#include "kumite/app/installation.hpp"
+#include "kumite/app/renderer.hpp"
+#include "kumite/app/scene.hpp"
+#include "kumite/content/fighter.hpp"
+
+using namespace kumite::app;
+
+namespace {
+
+/// A synthetic 31-joint chain figure (the CMU skeleton's joint count): bench data only.
+struct Figure {
+  std::vector<Eigen::Vector3d> joints;
+  std::vector<int> parents;
+  std::vector<float> radii;
+  kumite::content::FighterFrame frame() const {
+    kumite::content::FighterFrame f;
+    f.joints = joints;
+    f.parents = parents;
+    f.joint_radii_m = radii;
+    f.target = Eigen::Vector3d(0, 1.6, -1.0);
+    return f;
+  }
+};
+
+Figure figure() {
+  Figure f;
+  for (int i = 0; i < 31; ++i) {
+    const int parent = i == 0 ? -1 : (i % 5 == 0 ? 0 : i - 1);
+    f.joints.emplace_back(0.05 * (i % 5) - 0.1, 0.06 * i, -2.5 + 0.01 * i);
+    f.parents.push_back(parent);
+    f.radii.push_back(0.05f);
+  }
+  return f;
+}
+
+std::vector<WallFrame> demo_walls() {
+  const auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  std::vector<WallFrame> w;
+  for (const auto& c : cfg.walls) w.push_back(wall_frame(c));
+  return w;
+}
+
+void BM_PlanViews4WallsStereo(benchmark::State& state) {
+  const auto walls = demo_walls();
+  WallViews views;
+  HeadPose head;
+  double x = 0;
+  for (auto _ : state) {
+    head.position.x = (x += 1e-6);
+    const Eyes eyes = eyes_from_head(head, 0.064, {0, -0.03, -0.01});
+    benchmark::DoNotOptimize(plan_views(walls, eyes, 0.05, 100, views));
+  }
+}
+BENCHMARK(BM_PlanViews4WallsStereo);
+
+void BM_PlanFighter31Joints(benchmark::State& state) {
+  const Figure fig = figure();
+  const auto f = fig.frame();
+  std::vector<DrawItem> items;
+  for (auto _ : state) {
+    plan_fighter(f, character_colour(0), items);
+    benchmark::DoNotOptimize(items.data());
+  }
+}
+BENCHMARK(BM_PlanFighter31Joints);
+
+/// The whole CPU step of the demo installation (tracking poll, orders, eyes, 4 walls x 2
+/// eyes, console state), without the fighter when content is not built in.
+void BM_InstallationStepDemo(benchmark::State& state) {
+  auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  cfg.orders_script.reset();
+  cfg.tracking.source = TrackingSource::none;
+  Installation inst(cfg, make_fixed_head_input("bench"), {});
+  double t = 1000;
+  inst.start(t);
+  for (auto _ : state) benchmark::DoNotOptimize(inst.step(t += 1.0 / 60).frame);
+  state.counters["walls"] = static_cast<double>(cfg.walls.size());
+}
+BENCHMARK(BM_InstallationStepDemo);
+
+/// One 1920x1080 wall image on llvmpipe: clear + room + 31-joint figure, glFinish'ed by the
+/// read-back (arg 1) or not read back (arg 0; then the next frame's clear waits for it).
+void BM_HeadlessWall1080p(benchmark::State& state) {
+  HeadlessContext context;
+  const auto walls = demo_walls();
+  Renderer renderer(walls);
+  OffscreenTarget target(1920, 1080);
+  std::vector<DrawItem> items;
+  plan_fighter(figure().frame(), character_colour(0), items);
+  const EyeView view = off_axis(walls[0], {0, 1.67, 0}, 0.05, 100);
+  std::vector<std::uint8_t> rgba;
+  for (auto _ : state) {
+    target.bind();
+    renderer.clear(0, 0, 1920, 1080);
+    renderer.draw(view, items);
+    target.read(rgba);
+  }
+  state.counters["px"] = 1920.0 * 1080.0;
+}
+BENCHMARK(BM_HeadlessWall1080p)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+}  // namespace
+
+BENCHMARK_MAIN();

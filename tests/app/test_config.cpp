@@ -1,0 +1,217 @@
+// The installation file: round trips and every bad-config case, each naming file, line, key.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "kumite/app/config.hpp"
+#include "kumite/common/error.hpp"
+
+using namespace kumite::app;
+
+namespace {
+
+// Line numbers below matter: the tests check that errors name them.
+const std::string kBase = R"(display_rate_hz = 60.0
+[[windows]]
+name = "main"
+size = [1280, 720]
+
+[[walls]]
+name = "front"
+lower_left = [-1.5, 0.0, -1.5]
+lower_right = [1.5, 0.0, -1.5]
+upper_left = [-1.5, 2.4, -1.5]
+resolution = [1920, 1080]
+window = "main"
+
+[stereo]
+mode = "side_by_side"
+
+[keys]
+punch_left = "J"
+character_1 = "1"
+
+[[characters]]
+name = "Wu"
+bvh = "wu.bvh"
+)";
+
+std::string replace(std::string s, const std::string& from, const std::string& to) {
+  const auto at = s.find(from);
+  EXPECT_NE(at, std::string::npos) << from;
+  if (at != std::string::npos) s.replace(at, from.size(), to);
+  return s;
+}
+
+/// The one-line message of the error parsing `text` raises ("" when it parses).
+std::string error_of(const std::string& text, std::string* code = nullptr) {
+  try {
+    parse_installation_config(text, "bad.toml");
+  } catch (const kumite::Error& e) {
+    if (code) *code = e.code();
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+TEST(Config, BaseParses) {
+  const auto c = parse_installation_config(kBase, "base.toml");
+  ASSERT_EQ(c.walls.size(), 1u);
+  EXPECT_EQ(c.walls[0].name, "front");
+  EXPECT_EQ(c.stereo.mode, StereoMode::side_by_side);
+  ASSERT_EQ(c.keys.size(), 2u);
+  // toml++ keeps keys sorted: "character_1" comes first.
+  EXPECT_EQ(c.keys[0].action, "character 1");
+  EXPECT_EQ(c.keys[1].action, "punch_left");
+  EXPECT_EQ(c.window_of(0), 0);
+  EXPECT_EQ(c.line_of("walls[0].lower_left"), 8);
+}
+
+TEST(Config, RoundTrip) {
+  const auto a = parse_installation_config(kBase, "base.toml");
+  const std::string text = to_toml(a);
+  const auto b = parse_installation_config(text, "again.toml");
+  EXPECT_EQ(a, b) << text;
+  EXPECT_EQ(to_toml(b), text);
+}
+
+TEST(Config, DemoFileRoundTrips) {
+  const auto a = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  EXPECT_GE(a.walls.size(), 4u);
+  const auto b = parse_installation_config(to_toml(a), "again.toml");
+  EXPECT_EQ(a, b);
+}
+
+TEST(Config, MissingWall) {
+  std::string code;
+  const auto text = kBase.substr(0, kBase.find("[[walls]]")) + kBase.substr(kBase.find("[stereo]"));
+  const auto msg = error_of(text, &code);
+  EXPECT_EQ(code, "missing_wall");
+  EXPECT_NE(msg.find("bad.toml:1: walls:"), std::string::npos) << msg;
+}
+
+TEST(Config, UnknownStereoMode) {
+  std::string code;
+  const auto msg = error_of(replace(kBase, "\"side_by_side\"", "\"interlaced\""), &code);
+  EXPECT_EQ(code, "unknown_stereo_mode");
+  EXPECT_NE(msg.find("bad.toml:15: stereo.mode: unknown stereo mode \"interlaced\""),
+            std::string::npos) << msg;
+}
+
+TEST(Config, UnknownKeyName) {
+  std::string code;
+  const auto msg = error_of(replace(kBase, "punch_left = \"J\"", "punch_left = \"Jay\""), &code);
+  EXPECT_EQ(code, "unknown_key_name");
+  EXPECT_NE(msg.find("bad.toml:18: keys.punch_left: unknown key name \"Jay\""), std::string::npos)
+      << msg;
+}
+
+TEST(Config, UnknownAction) {
+  const auto msg = error_of(replace(kBase, "punch_left = \"J\"", "uppercut = \"J\""));
+  EXPECT_NE(msg.find("bad.toml:18: keys.uppercut: unknown action"), std::string::npos) << msg;
+}
+
+TEST(Config, KeyBoundTwice) {
+  const auto msg = error_of(replace(kBase, "character_1 = \"1\"", "character_1 = \"j\""));
+  EXPECT_NE(msg.find("bad.toml:18: keys.punch_left: key \"J\" is already bound to \"character 1\""),
+            std::string::npos) << msg;
+}
+
+TEST(Config, KeyForCharacterThatDoesNotExist) {
+  std::string code;
+  const auto msg = error_of(replace(kBase, "character_1 = \"1\"", "character_3 = \"3\""), &code);
+  EXPECT_EQ(code, "unknown_character");
+  EXPECT_NE(msg.find("bad.toml:19: keys.character_3: character 3 does not exist (1 characters"),
+            std::string::npos) << msg;
+}
+
+TEST(Config, DegenerateWall) {
+  std::string code;
+  const auto msg = error_of(replace(kBase, "upper_left = [-1.5, 2.4, -1.5]",
+                                    "upper_left = [-1.5, 0.0, -1.5]"), &code);
+  EXPECT_EQ(code, "wall_geometry");
+  EXPECT_NE(msg.find("bad.toml:6: walls[0]: wall \"front\" is degenerate"), std::string::npos)
+      << msg;
+  // Collinear corners are degenerate too.
+  const auto msg2 = error_of(replace(kBase, "upper_left = [-1.5, 2.4, -1.5]",
+                                     "upper_left = [4.5, 0.0, -1.5]"));
+  EXPECT_NE(msg2.find("wall \"front\" is degenerate: the three corners lie on one line"),
+            std::string::npos) << msg2;
+}
+
+TEST(Config, SkewedWall) {
+  const auto msg = error_of(replace(kBase, "upper_left = [-1.5, 2.4, -1.5]",
+                                    "upper_left = [-1.2, 2.4, -1.5]"));
+  EXPECT_NE(msg.find("walls[0]: wall \"front\" is skewed"), std::string::npos) << msg;
+  // A survey a millimetre off is fine.
+  EXPECT_EQ(error_of(replace(kBase, "upper_left = [-1.5, 2.4, -1.5]",
+                             "upper_left = [-1.501, 2.4, -1.5]")), "");
+}
+
+TEST(Config, NonRectangularWall) {
+  const auto msg = error_of(replace(kBase, "resolution = [1920, 1080]",
+                                    "upper_right = [1.5, 2.6, -1.5]\nresolution = [1920, 1080]"));
+  EXPECT_NE(msg.find("wall \"front\" is not rectangular: upper_right is 0.200 m"),
+            std::string::npos) << msg;
+  EXPECT_EQ(error_of(replace(kBase, "resolution = [1920, 1080]",
+                             "upper_right = [1.5, 2.4, -1.5]\nresolution = [1920, 1080]")), "");
+}
+
+TEST(Config, WallOnUnknownWindow) {
+  const auto msg = error_of(replace(kBase, "window = \"main\"", "window = \"side\""));
+  EXPECT_NE(msg.find("bad.toml:12: walls[0].window: wall \"front\" names window \"side\""),
+            std::string::npos) << msg;
+}
+
+TEST(Config, UnknownKeyInTable) {
+  const auto msg = error_of(replace(kBase, "resolution = [1920, 1080]", "resolutoin = [1920, 1080]"));
+  EXPECT_NE(msg.find("bad.toml:11: walls[0].resolutoin: unknown key"), std::string::npos) << msg;
+}
+
+TEST(Config, WrongTypeAndMissingCorner) {
+  auto msg = error_of(replace(kBase, "lower_left = [-1.5, 0.0, -1.5]", "lower_left = [-1.5, 0.0]"));
+  EXPECT_NE(msg.find("bad.toml:8: walls[0].lower_left: expected an array of 3 numbers"),
+            std::string::npos) << msg;
+  msg = error_of(replace(kBase, "lower_left = [-1.5, 0.0, -1.5]\n", ""));
+  EXPECT_NE(msg.find("walls[0].lower_left: missing"), std::string::npos) << msg;
+}
+
+TEST(Config, SyntaxErrorNamesTheLine) {
+  const auto msg = error_of(replace(kBase, "mode = \"side_by_side\"", "mode = side_by_side\""));
+  EXPECT_NE(msg.find("bad.toml:15:"), std::string::npos) << msg;
+}
+
+TEST(Config, TrackingNeedsItsFiles) {
+  const auto msg = error_of(kBase + "[tracking]\nsource = \"recording\"\ncalibration = \"c.yaml\"\n"
+                                    "tracking = \"t.toml\"\n");
+  EXPECT_NE(msg.find("tracking.recording is needed"), std::string::npos) << msg;
+  const auto msg2 = error_of(kBase + "[tracking]\nsource = \"tape\"\n");
+  EXPECT_NE(msg2.find("tracking.source: unknown tracking source \"tape\""), std::string::npos) << msg2;
+}
+
+TEST(Config, MissingFile) {
+  try {
+    load_installation_config("/nonexistent/kumite.toml");
+    FAIL();
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/kumite.toml"), std::string::npos);
+  }
+}
+
+TEST(Config, ResolveIsRelativeToTheFile) {
+  auto c = parse_installation_config(kBase, "/etc/kumite/room.toml");
+  EXPECT_EQ(c.resolve("wu.bvh"), std::filesystem::path("/etc/kumite/wu.bvh"));
+  EXPECT_EQ(c.resolve("/abs/x"), std::filesystem::path("/abs/x"));
+}
+
+TEST(Config, CaveWithOneWindowPerWall) {
+  const auto a = load_installation_config(KUMITE_SOURCE_DIR "/config/walls-cave-4windows.toml");
+  ASSERT_EQ(a.windows.size(), 4u);
+  ASSERT_EQ(a.walls.size(), 4u);
+  for (std::size_t w = 0; w < 4; ++w) EXPECT_EQ(a.window_of(w), static_cast<int>(w));
+  EXPECT_EQ(a.stereo.mode, StereoMode::quad_buffer);
+  EXPECT_FALSE(a.stereo.allow_fallback);
+  EXPECT_EQ(parse_installation_config(to_toml(a), "again.toml"), a);
+}

@@ -1,0 +1,176 @@
+// The demo installation headless, with the real fighter: the shipped motions are built into
+// a database here (as set-up does), the shipped characters are loaded, a script of orders is
+// played, and the run's PNGs and frames.jsonl are checked: the fighter's colour where its
+// root projects, the character switch in colour, every scripted order logged once with its
+// outcome, strikes ending in hit or miss. Tracking: none (the head stays at the default),
+// so the test stays short; the tracker's recorded path is exercised by kumite itself.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <map>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <unistd.h>
+
+#define STB_IMAGE_STATIC
+#define STB_IMAGE_IMPLEMENTATION
+#include <stb/stb_image.h>
+
+#include "kumite/app/config.hpp"
+#include "kumite/app/installation.hpp"
+#include "kumite/app/run.hpp"
+#include "kumite/app/scene.hpp"
+#include "kumite/content/annotation.hpp"
+#include "kumite/content/database.hpp"
+
+using namespace kumite::app;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kSource = KUMITE_SOURCE_DIR;
+
+/// Builds the shipped motions into a database once per test binary (a few seconds).
+fs::path demo_database() {
+  static const fs::path path = [] {
+    const fs::path dir = fs::temp_directory_path() / ("kumite_app_test_db_" + std::to_string(::getpid()));
+    fs::create_directories(dir);
+    const auto set = kumite::content::read_annotations(kSource / "content/motions/motions.toml");
+    const auto clips = kumite::content::load_annotated_clips(set);
+    const auto sources = kumite::content::segment_sources(set, clips);
+    const auto db = kumite::content::build_database(sources, {});
+    kumite::content::save_database(db, dir / "fighter.kdb");
+    return dir / "fighter.kdb";
+  }();
+  return path;
+}
+
+struct Image {
+  int w = 0, h = 0;
+  std::vector<unsigned char> rgb;
+  const unsigned char* at(int x, int y) const { return &rgb[(static_cast<std::size_t>(y) * w + x) * 3]; }
+};
+
+Image load_png(const fs::path& p) {
+  Image img;
+  int n = 0;
+  unsigned char* data = stbi_load(p.c_str(), &img.w, &img.h, &n, 3);
+  if (!data) return img;
+  img.rgb.assign(data, data + static_cast<std::size_t>(img.w) * img.h * 3);
+  stbi_image_free(data);
+  return img;
+}
+
+bool near_colour(const unsigned char* px, glm::vec3 base) {
+  const float r = px[0], g = px[1], b = px[2];
+  const float m = std::max({r, g, b});
+  if (m < 40) return false;
+  const float bm = std::max({base.r, base.g, base.b});
+  return std::abs(r / m - base.r / bm) < 0.12f && std::abs(g / m - base.g / bm) < 0.12f &&
+         std::abs(b / m - base.b / bm) < 0.12f;
+}
+
+glm::dmat4 matrix(const nlohmann::json& a) {
+  glm::dmat4 m;
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) m[c][r] = a[static_cast<std::size_t>(c * 4 + r)].get<double>();
+  return m;
+}
+
+/// Pixel (top-left origin) of a room point in a wall image, from the logged matrices.
+glm::ivec2 project(const nlohmann::json& wall_eye, const glm::dvec3& p, int w, int h) {
+  const glm::dvec4 c = matrix(wall_eye["projection"]) * matrix(wall_eye["view"]) * glm::dvec4(p, 1);
+  return {static_cast<int>((c.x / c.w + 1) / 2 * w), static_cast<int>((1 - c.y / c.w) / 2 * h)};
+}
+
+/// Pixels of `colour` in the box around the fighter standing at `root` (1.9 m tall, 1.2 m wide).
+std::pair<int, int> count_fighter_pixels(const Image& img, const nlohmann::json& wall_eye,
+                                         const glm::dvec3& root, glm::vec3 colour) {
+  const auto top = project(wall_eye, root + glm::dvec3(0, 2.0, 0), img.w, img.h);
+  const auto foot = project(wall_eye, root, img.w, img.h);
+  const auto left = project(wall_eye, root + glm::dvec3(-0.7, 1, 0), img.w, img.h);
+  const auto right = project(wall_eye, root + glm::dvec3(0.7, 1, 0), img.w, img.h);
+  int inside = 0, outside = 0;
+  for (int y = 0; y < img.h; ++y)
+    for (int x = 0; x < img.w; ++x) {
+      if (!near_colour(img.at(x, y), colour)) continue;
+      const bool in = x >= left.x && x <= right.x && y >= top.y && y <= foot.y + 2;
+      (in ? inside : outside)++;
+    }
+  return {inside, outside};
+}
+
+}  // namespace
+
+TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = demo_database();
+  cfg.tracking.source = TrackingSource::none;
+  const fs::path out = fs::temp_directory_path() / ("kumite_app_test_demo_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const fs::path script = out / "orders.csv";
+  std::ofstream(script) << "time_s,order\n0.3,punch_right\n0.45,kick_left\n1.5,character 9\n"
+                           "1.6,character 2\n1.9,kick_right\n";
+  InstallationOptions io;
+  io.orders_script = script;
+  Installation inst(cfg, make_fixed_head_input("test"), io);
+  ASSERT_TRUE(inst.console().problems.empty() || inst.character_count() == 5);
+  ASSERT_EQ(inst.character_count(), 5);
+  HeadlessOptions ho;
+  ho.frames = 180;  // 3 s at 60 Hz
+  ho.out = out;
+  ho.save_every = 30;
+  ho.resolution = std::array<int, 2>{320, 180};
+  ho.real_time = false;
+  ASSERT_EQ(run_headless(inst, ho), 0);
+
+  std::vector<nlohmann::json> frames;
+  std::ifstream in(out / "frames.jsonl");
+  for (std::string line; std::getline(in, line);) frames.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(frames.size(), 180u);
+
+  // Every scripted order appears once, with an outcome.
+  std::map<std::string, std::vector<nlohmann::json>> by_order;
+  int hits_or_misses = 0;
+  for (const auto& f : frames)
+    for (const auto& e : f["events"]) {
+      if (e.contains("order")) by_order[e["order"].get<std::string>()].push_back(e);
+      if (e["type"] == "hit" || e["type"] == "miss") ++hits_or_misses;
+    }
+  for (const char* o : {"punch_right", "kick_left", "character 9", "character 2", "kick_right"})
+    EXPECT_FALSE(by_order[o].empty()) << o << " missing from frames.jsonl";
+  ASSERT_FALSE(by_order["punch_right"].empty());
+  EXPECT_EQ(by_order["punch_right"][0]["type"], "order");
+  ASSERT_FALSE(by_order["kick_left"].empty());
+  EXPECT_EQ(by_order["kick_left"][0]["type"], "order_ignored");  // mid-strike
+  ASSERT_FALSE(by_order["character 9"].empty());
+  EXPECT_EQ(by_order["character 9"][0]["type"], "order_ignored");
+  EXPECT_NE(by_order["character 9"][0]["text"].get<std::string>().find("does not exist"), std::string::npos);
+  EXPECT_GE(hits_or_misses, 2) << "the punch and the kick each end in hit or miss";
+  EXPECT_EQ(frames.back()["fighter"]["character"], 2);
+
+  // The fighter is drawn where it stands: in Kenji's colour at first, Mei's after the switch.
+  for (int frame : {60, 150}) {
+    const auto& f = frames[static_cast<std::size_t>(frame)];
+    ASSERT_TRUE(f["fighter"]["present"].get<bool>());
+    const auto r = f["fighter"]["root"];
+    const glm::dvec3 root(r[0].get<double>(), r[1].get<double>(), r[2].get<double>());
+    const int character = f["fighter"]["character"].get<int>() - 1;
+    EXPECT_EQ(character, frame < 96 ? 0 : 1);
+    for (const char* eye : {"left", "right"}) {
+      const Image img = load_png(out / fmt::format("front_{}_{:05}.png", eye, frame));
+      ASSERT_EQ(img.w, 320);
+      const auto [inside, outside] = count_fighter_pixels(img, f["walls"]["front"][eye], root,
+                                                          character_colour(character));
+      EXPECT_GT(inside, 150) << "frame " << frame << " " << eye;
+      EXPECT_LT(outside, inside / 20) << "frame " << frame << " " << eye;
+      // The other character's colour is absent.
+      const auto [other, unused] = count_fighter_pixels(img, f["walls"]["front"][eye], root,
+                                                        character_colour(1 - character));
+      EXPECT_LT(other, inside / 20);
+    }
+  }
+  fs::remove_all(out);
+}

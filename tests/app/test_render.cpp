@@ -1,0 +1,146 @@
+// Headless rendering: a synthetic stick figure (test data made here, not a fighter: joints
+// placed by hand) drawn on the front wall must show up in the character's colour where its
+// projection says, and nowhere else; the target sphere shows in red.
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+
+#include <cstdlib>
+#include <string>
+
+#include "kumite/app/headless.hpp"
+#include "kumite/app/renderer.hpp"
+#include "kumite/app/scene.hpp"
+#include "kumite/content/fighter.hpp"
+
+// Mesa keeps some allocations for the life of the process; they are not ours.
+extern "C" const char* __lsan_default_suppressions() {
+  return "leak:libEGL_mesa\nleak:libgallium\nleak:libGLX_mesa\nleak:swrast_dri\nleak:libLLVM\n"
+         "leak:libglapi\nleak:libEGL.so\nleak:libOpenGL\n";
+}
+
+using namespace kumite::app;
+
+namespace {
+
+struct StickFigure {
+  std::vector<Eigen::Vector3d> joints;
+  std::vector<int> parents;
+  std::vector<float> radii;
+};
+
+/// A 1.75 m figure standing at (x, 0, z): pelvis, chest, head, two arms, two legs.
+StickFigure stick_figure(double x, double z) {
+  StickFigure s;
+  auto add = [&](double jx, double jy, double jz, int parent, float r) {
+    s.joints.emplace_back(x + jx, jy, z + jz);
+    s.parents.push_back(parent);
+    s.radii.push_back(r);
+  };
+  add(0, 1.0, 0, -1, 0.10f);      // 0 pelvis
+  add(0, 1.45, 0, 0, 0.12f);      // 1 chest
+  add(0, 1.68, 0, 1, 0.10f);      // 2 head
+  add(-0.2, 1.4, 0, 1, 0.05f);    // 3 l shoulder
+  add(-0.45, 1.2, 0.1, 3, 0.045f);// 4 l hand
+  add(0.2, 1.4, 0, 1, 0.05f);     // 5 r shoulder
+  add(0.45, 1.2, 0.1, 5, 0.045f); // 6 r hand
+  add(-0.1, 0.5, 0, 0, 0.07f);    // 7 l knee
+  add(-0.1, 0.05, 0, 7, 0.05f);   // 8 l foot
+  add(0.1, 0.5, 0, 0, 0.07f);     // 9 r knee
+  add(0.1, 0.05, 0, 9, 0.05f);    // 10 r foot
+  return s;
+}
+
+kumite::content::FighterFrame frame_of(const StickFigure& s) {
+  kumite::content::FighterFrame f;
+  f.joints = s.joints;
+  f.parents = s.parents;
+  f.joint_radii_m = s.radii;
+  return f;
+}
+
+struct Pixel {
+  int x, y;  // top-left origin
+};
+
+Pixel project(const EyeView& v, const glm::dvec3& p, int w, int h) {
+  const glm::dvec4 c = v.projection * v.view * glm::dvec4(p, 1.0);
+  const double nx = c.x / c.w, ny = c.y / c.w;
+  return {static_cast<int>((nx + 1) / 2 * w), static_cast<int>((1 - ny) / 2 * h)};
+}
+
+bool near_colour(const std::uint8_t* px, glm::vec3 base) {
+  // Lit surfaces are the base colour scaled by 0.3..1.25: compare hue by channel ratios.
+  const float r = px[0], g = px[1], b = px[2];
+  const float m = std::max({r, g, b});
+  if (m < 40) return false;
+  const float bm = std::max({base.r, base.g, base.b});
+  return std::abs(r / m - base.r / bm) < 0.12f && std::abs(g / m - base.g / bm) < 0.12f &&
+         std::abs(b / m - base.b / bm) < 0.12f;
+}
+
+}  // namespace
+
+TEST(Render, StickFigureAppearsWhereProjected) {
+  HeadlessContext context;
+  const WallFrame front = wall_frame({-1.5, 0, -1.5}, {1.5, 0, -1.5}, {-1.5, 2.4, -1.5});
+  const WallFrame walls[] = {front};
+  Renderer renderer(walls);
+  const int w = 320, h = 256;
+  OffscreenTarget target(w, h);
+  const StickFigure fig = stick_figure(0.6, -2.5);
+  auto f = frame_of(fig);
+  f.target = Eigen::Vector3d(-0.5, 1.5, -1.0);
+  std::vector<DrawItem> items;
+  const glm::vec3 colour = character_colour(0);
+  plan_fighter(f, colour, items);
+  ASSERT_EQ(items.size(), 11u + 10u + 1u);  // joints + bones + target
+
+  const EyeView view = off_axis(front, {0.0, 1.67, 0.0}, 0.05, 100.0);
+  target.bind();
+  renderer.clear(0, 0, w, h);
+  renderer.draw(view, items);
+  std::vector<std::uint8_t> rgba;
+  target.read(rgba);
+  if (const char* dump = std::getenv("KUMITE_TEST_DUMP")) write_png(std::string(dump) + "/stick.png", w, h, rgba);
+
+  // The figure's screen box (head to feet, hand to hand) with a margin for the radii.
+  const Pixel head = project(view, {0.6, 1.8, -2.5}, w, h), feet = project(view, {0.6, 0.0, -2.5}, w, h);
+  const Pixel lhand = project(view, {0.6 - 0.5, 1.2, -2.4}, w, h), rhand = project(view, {0.6 + 0.5, 1.2, -2.4}, w, h);
+  int inside = 0, outside = 0, red = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const std::uint8_t* px = &rgba[(static_cast<std::size_t>(y) * w + x) * 4];
+      if (near_colour(px, kTargetColour)) ++red;
+      if (!near_colour(px, colour)) continue;
+      const bool in = x >= lhand.x - 3 && x <= rhand.x + 3 && y >= head.y - 3 && y <= feet.y + 3;
+      (in ? inside : outside)++;
+    }
+  // The figure covers a good part of its box; nothing orange strays outside it.
+  const int box = (rhand.x - lhand.x) * (feet.y - head.y);
+  EXPECT_GT(inside, box / 12) << "box " << box;
+  EXPECT_EQ(outside, 0);
+  EXPECT_GT(red, 10);  // the target sphere, 5 cm at 1.7 m
+  // The figure stands right of centre (x = 0.6 m): most of it right of the image centre.
+  EXPECT_GT(lhand.x, w / 2 - 20);
+}
+
+TEST(Render, EmptyRoomHasNoFighterColour) {
+  HeadlessContext context;
+  const WallFrame front = wall_frame({-1.5, 0, -1.5}, {1.5, 0, -1.5}, {-1.5, 2.4, -1.5});
+  const WallFrame walls[] = {front};
+  Renderer renderer(walls);
+  OffscreenTarget target(160, 128);
+  target.bind();
+  renderer.clear(0, 0, 160, 128);
+  renderer.draw(off_axis(front, {0.0, 1.67, 0.0}, 0.05, 100.0), {});
+  std::vector<std::uint8_t> rgba;
+  target.read(rgba);
+  int coloured = 0, lines = 0;
+  for (std::size_t i = 0; i < rgba.size(); i += 4) {
+    if (near_colour(&rgba[i], character_colour(0))) ++coloured;
+    if (rgba[i + 2] > 60) ++lines;  // the floor grid
+  }
+  EXPECT_EQ(coloured, 0);
+  EXPECT_GT(lines, 100);
+}
