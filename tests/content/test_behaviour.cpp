@@ -121,8 +121,11 @@ TEST(Behaviour, OrdersDuringAStrikeAreIgnoredWithAReason) {
   b.order(order_of(OrderKind::kick_right));
   run.step(b);
   EXPECT_EQ(run.count(FighterEvent::Kind::order_ignored), 2);
-  for (const auto& e : run.events)
-    if (e.kind == FighterEvent::Kind::order_ignored) EXPECT_NE(e.text.find("mid-strike"), std::string::npos);
+  for (const auto& e : run.events) {
+    if (e.kind == FighterEvent::Kind::order_ignored) {
+      EXPECT_NE(e.text.find("mid-strike"), std::string::npos);
+    }
+  }
   run.until_rest(b);
   b.order(order_of(OrderKind::punch_left));  // accepted again once resting
   run.step(b, 3);

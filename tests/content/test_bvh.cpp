@@ -298,8 +298,8 @@ INSTANTIATE_TEST_SUITE_P(AllDialects, BvhRoundTrip,
                          ::testing::Values("cmu/07_05", "cmu/09_06", "cmu/135_03", "cmu/135_04", "cmu/135_05",
                                            "cmu/135_06", "cmu/135_07", "cmu/135_08", "cmu/135_09", "cmu/135_10",
                                            "cmu/135_11", "assimp/Boxing_Toes"),
-                         [](const auto& info) {
-                           std::string n = info.param;
+                         [](const auto& param_info) {
+                           std::string n = param_info.param;
                            for (char& ch : n) if (ch == '/') ch = '_';
                            return n;
                          });
