@@ -47,8 +47,6 @@ constexpr std::array<RoleSpec, 17> kRoles{{
     {CJ::head, CJ::head, Role::none, -1},
 }};
 
-constexpr std::array<CJ, 2> kWrist{CJ::l_wrist, CJ::r_wrist};
-constexpr std::array<CJ, 2> kAnkle{CJ::l_ankle, CJ::r_ankle};
 constexpr std::array<CJ, 2> kShoulder{CJ::l_shoulder, CJ::r_shoulder};
 constexpr std::array<CJ, 2> kClavicle{CJ::l_clavicle, CJ::r_clavicle};
 
