@@ -275,17 +275,21 @@ void RetrievalIndex::build_clusters(int clusters_per_group, std::uint32_t seed) 
       std::copy_n(old.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(order[i]) * width), width,
                   v.begin() + static_cast<std::ptrdiff_t>(i * width));
   };
-  permute(features, kFeatureDim);
-  permute(window, kWindowMax * 3);
-  permute(window_count, 1);
-  permute(box, 6);
-  permute(segment, 1);
-  permute(start_frame, 1);
-  permute(window_first, 1);
-  permute(window_stride, 1);
+  // Every per-row array, reordered together.
+  auto permute_rows = [&] {
+    permute(features, kFeatureDim);
+    permute(window, kWindowMax * 3);
+    permute(window_count, 1);
+    permute(box, 6);
+    permute(segment, 1);
+    permute(start_frame, 1);
+    permute(window_first, 1);
+    permute(window_stride, 1);
+    permute(group, 1);
+  };
+  permute_rows();
   std::vector<int> sorted_assignment(order.size());
   for (std::size_t i = 0; i < order.size(); ++i) sorted_assignment[i] = assignment[static_cast<std::size_t>(order[i])];
-  permute(group, 1);
 
   clusters.clear();
   for (int g = 0; g < kGroupCount; ++g) {
@@ -334,15 +338,7 @@ void RetrievalIndex::build_clusters(int clusters_per_group, std::uint32_t seed) 
     std::stable_sort(order.begin() + cl.first, order.begin() + cl.first + cl.count,
                      [&](int a, int b) { return code[static_cast<std::size_t>(a)] < code[static_cast<std::size_t>(b)]; });
   }
-  permute(features, kFeatureDim);
-  permute(window, kWindowMax * 3);
-  permute(window_count, 1);
-  permute(box, 6);
-  permute(segment, 1);
-  permute(start_frame, 1);
-  permute(window_first, 1);
-  permute(window_stride, 1);
-  permute(group, 1);
+  permute_rows();
   build_blocks();
 }
 
