@@ -8,6 +8,7 @@
 
 #include "kumite/calibration/rig.hpp"
 #include "kumite/common/error.hpp"
+#include "reprojection.hpp"
 
 namespace kumite::calibration {
 namespace {
@@ -26,14 +27,11 @@ struct FixedCameraCost {
       pc[i] = T(cam.translation[i]);
       for (int j = 0; j < 3; ++j) pc[i] += T(cam.rotation(i, j)) * (pr[j] + board[3 + j]);
     }
-    const T x = pc[0] / pc[2], y = pc[1] / pc[2];
-    const auto& d = cam.distortion;
-    const T r2 = x * x + y * y;
-    const T radial = T(1) + T(d[0]) * r2 + T(d[1]) * r2 * r2 + T(d[4]) * r2 * r2 * r2;
-    const T xd = x * radial + T(2 * d[2]) * x * y + T(d[3]) * (r2 + T(2) * x * x);
-    const T yd = y * radial + T(d[2]) * (r2 + T(2) * y * y) + T(2 * d[3]) * x * y;
-    r[0] = T(cam.camera_matrix(0, 0)) * xd + T(cam.camera_matrix(0, 2)) - T(u);
-    r[1] = T(cam.camera_matrix(1, 1)) * yd + T(cam.camera_matrix(1, 2)) - T(v);
+    T k[kIntrinsicCount], uv[2];
+    intrinsics_of(cam, k);
+    project_to_pixel(k, pc, uv);
+    r[0] = uv[0] - T(u);
+    r[1] = uv[1] - T(v);
     return true;
   }
 };

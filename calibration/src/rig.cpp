@@ -10,6 +10,7 @@
 #include <opencv2/calib3d.hpp>
 
 #include "kumite/common/error.hpp"
+#include "reprojection.hpp"
 
 namespace kumite::calibration {
 namespace {
@@ -26,13 +27,10 @@ struct ReprojectionCost {
     for (int i = 0; i < 3; ++i) pr[i] += board[3 + i];
     ceres::AngleAxisRotatePoint(cam, pr, pc);
     for (int i = 0; i < 3; ++i) pc[i] += cam[3 + i];
-    const T x = pc[0] / pc[2], y = pc[1] / pc[2];
-    const T r2 = x * x + y * y;
-    const T radial = T(1) + k[4] * r2 + k[5] * r2 * r2 + k[8] * r2 * r2 * r2;
-    const T xd = x * radial + T(2) * k[6] * x * y + k[7] * (r2 + T(2) * x * x);
-    const T yd = y * radial + k[6] * (r2 + T(2) * y * y) + T(2) * k[7] * x * y;
-    r[0] = k[0] * xd + k[2] - T(u);
-    r[1] = k[1] * yd + k[3] - T(v);
+    T uv[2];
+    project_to_pixel(k, pc, uv);
+    r[0] = uv[0] - T(u);
+    r[1] = uv[1] - T(v);
     return true;
   }
 };
