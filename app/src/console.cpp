@@ -151,6 +151,7 @@ void Console::frame(Installation& inst, const FrameData& f) {
   // Right column: status.
   ImGui::TextColored(kAmber, "Tracking");
   ImGui::TextColored(c.head_live ? kGreen : kRed, "head: %s", c.tracking.c_str());
+  if (!c.tracking_source.empty()) ImGui::TextWrapped("%s", c.tracking_source.c_str());
   ImGui::Text("head  [%.2f, %.2f, %.2f] m   markers %d", f.head.position.x, f.head.position.y,
               f.head.position.z, c.markers_seen);
   if (c.pose_age_ms >= 0) ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);

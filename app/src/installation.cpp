@@ -18,7 +18,11 @@ constexpr std::size_t kRecentEvents = 12;
 class FixedHeadInput final : public TrackingInput {
  public:
   explicit FixedHeadInput(std::string why) : why_(std::move(why)) {}
-  TrackingSnapshot poll(Timestamp) override { return {std::nullopt, 0, {}, why_}; }
+  TrackingSnapshot poll(Timestamp) override {
+    TrackingSnapshot s;
+    s.status = why_;
+    return s;
+  }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return "none (" + why_ + ")"; }
 
@@ -161,11 +165,14 @@ void Installation::update_head(Timestamp now) {
   const TrackingSnapshot snap = tracking_->poll(now);
   console_.cameras = snap.cameras;
   console_.tracking = snap.status;
-  frame_.pose_age_ms = -1;
+  console_.tracking_source = snap.source;
+  for (const auto& p : snap.problems) console_.problems.push_back(p);
+  // Pose age: the newest head measurement's camera time to now, the moment this frame takes
+  // the head for rendering (the draw follows at once), tracked or not.
+  const double age_s = snap.measured_at >= 0 ? tracking_->clock() - snap.measured_at : -1;
+  frame_.pose_age_ms = age_s >= 0 ? age_s * 1e3 : -1;
   bool live = false;
-  if (snap.head && snap.head->status != TrackingStatus::lost) {
-    const double age_s = tracking_->clock() - snap.measured_at;
-    frame_.pose_age_ms = age_s * 1e3;
+  if (snap.head && snap.head->status != TrackingStatus::lost && age_s >= 0) {
     console_.markers_seen = snap.head->markers;
     if (age_s <= config_.tracking.lost_after_s) {
       const auto& p = snap.head->position;

@@ -30,6 +30,7 @@ struct Args {
   bool simulated = false;
   std::string screenshot;
   std::string log;
+  std::string data_dir;
   int verbosity = 1;
 };
 
@@ -44,7 +45,9 @@ std::optional<std::array<int, 2>> parse_resolution(const std::string& s) {
 }
 
 int run(const Args& a) {
-  auto config = kumite::app::load_installation_config(a.config);
+  auto config = kumite::app::load_installation_config(
+      a.config, a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
+  if (!config.data_root().empty()) spdlog::info("data folder ${{data_dir}}: {}", config.data_root().string());
   if (!a.stereo.empty()) {
     const auto m = kumite::app::stereo_mode_from_string(a.stereo);
     if (!m) throw kumite::Error("cli", "stereo", "--stereo: unknown stereo mode \"" + a.stereo + "\"");
@@ -100,6 +103,9 @@ int main(int argc, char** argv) {
   app.add_flag("--no-console", a.no_console, "windows: no supervisor console window");
   app.add_option("--screenshot", a.screenshot, "windows: PNG of the first window at the end");
   app.add_option("--log", a.log, "windows: write frames.jsonl here");
+  app.add_option("--data-dir", a.data_dir,
+                 "folder of the data made at set-up (what ${data_dir} means in the config; "
+                 "default $KUMITE_DATA_DIR, else the config's data_dir)");
   app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   kumite::init_logging(a.verbosity);
