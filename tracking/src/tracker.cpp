@@ -1,5 +1,6 @@
 #include "kumite/tracking/tracker.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cerrno>
 #include <chrono>
@@ -185,8 +186,17 @@ class RecordingSource final : public FrameSource {
     const std::size_t buffers = static_cast<std::size_t>(std::max(1, options_.buffered_sets));
     for (;;) {
       std::unique_lock lock(mutex_);
-      cv_.wait(lock, [&] { return closed_ || next_decode_ >= end_seq_ || ready_.size() + in_flight_ < buffers; });
-      if (closed_ || next_decode_ >= end_seq_) return;
+      // Like a camera, decoding goes on whether or not the tracker takes the sets: it waits
+      // only while `buffers` sets lie ready for a later time (one that comes due frees one).
+      for (;;) {
+        if (closed_ || next_decode_ >= end_seq_) return;
+        const Timestamp t = kumite::now();
+        auto first_future = std::find_if(ready_.begin(), ready_.end(), [&](const auto& r) { return due(r.first) > t; });
+        const auto future = static_cast<std::size_t>(std::distance(first_future, ready_.end()));
+        if (future + in_flight_ < buffers) break;
+        if (first_future == ready_.end()) cv_.wait(lock);
+        else cv_.wait_until(lock, steady_at(due(first_future->first)));
+      }
       // Skip what cannot be decoded before it is due (from memory: what a newer due set
       // already replaces).
       const Timestamp t = kumite::now();
@@ -217,10 +227,26 @@ class RecordingSource final : public FrameSource {
         options_.counters->decode_ms.store(decode_s_ * 1e3);
       }
       for (auto& m : skipped) messages_.push_back(std::move(m));
+      if (handed_any_ && n <= last_handed_) {  // another worker's newer set went first
+        options_.counters->dropped_stale.fetch_add(1);
+        continue;
+      }
       stamp(set, n);
       ready_.emplace(n, std::move(set));
+      drop_stale(kumite::now());
       cv_.notify_all();
     }
+  }
+
+  /// Sets older than the newest due one will never be handed over: dropped (the tracker is
+  /// behind). Returns the newest due one, or ready_.end().
+  std::map<std::uint64_t, FrameSet>::iterator drop_stale(Timestamp t) {
+    auto pick = ready_.end();
+    for (auto it = ready_.begin(); it != ready_.end() && due(it->first) <= t; ++it) pick = it;
+    if (pick == ready_.end()) return pick;
+    options_.counters->dropped_stale.fetch_add(static_cast<std::uint64_t>(std::distance(ready_.begin(), pick)));
+    ready_.erase(ready_.begin(), pick);
+    return ready_.begin();
   }
 
   bool next_realtime(FrameSet& out, double timeout_s) {
@@ -229,15 +255,13 @@ class RecordingSource final : public FrameSource {
     for (;;) {
       if (closed_) return false;
       const Timestamp t = kumite::now();
-      if (!ready_.empty() && due(ready_.begin()->first) <= t) {
-        auto pick = ready_.begin();
-        for (auto it = ready_.begin(); it != ready_.end() && due(it->first) <= t; ++it) pick = it;
-        const auto stale = static_cast<std::uint64_t>(std::distance(ready_.begin(), pick));
+      if (const auto pick = drop_stale(t); pick != ready_.end()) {
         auto& c = *options_.counters;
-        c.dropped_stale.fetch_add(stale);
         const std::uint64_t n = pick->first;
         out = std::move(pick->second);
-        ready_.erase(ready_.begin(), std::next(pick));
+        ready_.erase(pick);
+        last_handed_ = n;
+        handed_any_ = true;
         const double late_ms = (t - due(n)) * 1e3;
         if (late_ms > c.max_handover_late_ms.load()) c.max_handover_late_ms.store(late_ms);
         c.delivered.fetch_add(1);
@@ -290,6 +314,8 @@ class RecordingSource final : public FrameSource {
   std::uint64_t preloaded_ = 0;
   std::uint64_t next_decode_ = 0;   // next sequence number a worker may take
   std::size_t in_flight_ = 0;
+  std::uint64_t last_handed_ = 0;   // sequence number of the last set handed over
+  bool handed_any_ = false;
   double decode_s_ = 0;             // s per set, smoothed
   std::map<std::uint64_t, FrameSet> ready_;  // decoded, waiting for their due time
   Timestamp last_report_ = 0;

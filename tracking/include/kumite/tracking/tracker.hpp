@@ -89,7 +89,9 @@ struct RecordingOptions {
   struct Counters {
     std::atomic<std::uint64_t> delivered{0};      ///< frame sets handed over
     std::atomic<std::uint64_t> not_decoded{0};    ///< skipped: could not be decoded before due
-    std::atomic<std::uint64_t> dropped_stale{0};  ///< decoded, but a newer set was due at hand-over
+    /// dropped because the consumer was behind: a newer set was due at hand-over, or the
+    /// buffers were full while it came due
+    std::atomic<std::uint64_t> dropped_stale{0};
     std::atomic<std::uint64_t> preloaded{0};      ///< frame sets in memory (preload_sets)
     std::atomic<bool> playing{false};             ///< the clock has started
     std::atomic<double> decode_ms{0};             ///< ms per frame set (all cameras), smoothed
