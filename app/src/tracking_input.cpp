@@ -100,9 +100,11 @@ class TrackerInput final : public TrackingInput {
       rate_n0_ = n;
     }
     s.source = fmt::format(
-        "recording: {:.1f} frame sets/s tracked, {:.1f}/s skipped (decode {:.0f} ms/set), {:.1f}/s dropped "
+        "recording ({}): {:.1f} frame sets/s tracked, {:.1f}/s skipped (decoder behind), {:.1f}/s dropped "
         "(tracker behind); totals {} / {} / {}",
-        rates_[0], rates_[1], c.decode_ms.load(), rates_[2], n[0], n[1], n[2]);
+        preload_ > 0 ? fmt::format("{} sets looped from memory", c.preloaded.load())
+                     : fmt::format("from disk, decode {:.0f} ms/set", c.decode_ms.load()),
+        rates_[0], rates_[1], rates_[2], n[0], n[1], n[2]);
     const double all = rates_[0] + rates_[1] + rates_[2];
     if (all > 0 && rates_[0] < 0.9 * all)
       s.problems.push_back(fmt::format(

@@ -283,10 +283,12 @@ class RecordingSource final : public FrameSource {
     const std::uint64_t delivered = c.delivered.load(), skipped = c.not_decoded.load(), stale = c.dropped_stale.load();
     const std::uint64_t d = delivered - reported_[0], k = skipped - reported_[1], s = stale - reported_[2];
     if (k + s > 0) {
-      messages_.push_back(fmt::format(
-          "recording: in the last {:.1f} s {} frame sets handed over, {} skipped (decoding takes {:.0f} ms per set "
-          "on {} thread(s)), {} dropped (the tracker was behind)",
-          t - last_report_, d, k, decode_s_ * 1e3, std::max(1, options_.decode_threads), s));
+      const std::string how = from_memory_ ? std::string("played from memory")
+                                           : fmt::format("decoding takes {:.0f} ms per set on {} thread(s)",
+                                                         decode_s_ * 1e3, std::max(1, options_.decode_threads));
+      messages_.push_back(fmt::format("recording: in the last {:.1f} s {} frame sets handed over, {} skipped ({}), {} "
+                                      "dropped (the tracker was behind)",
+                                      t - last_report_, d, k, how, s));
     }
     reported_ = {delivered, skipped, stale};
     last_report_ = t;
