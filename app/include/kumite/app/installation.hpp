@@ -141,6 +141,9 @@ class Installation {
   std::unique_ptr<TrackingInput> tracking_;
   std::unique_ptr<content::Fighter> fighter_;
   std::string fighter_problem_;
+  std::vector<std::string> missing_characters_;  // one line each (left out of the fighter)
+  std::vector<int> fighter_of_config_;  // config character -> the fighter's (-1: not loaded)
+  std::vector<int> config_of_fighter_;
   OrderScript script_;
   std::vector<Order> pending_;
   std::vector<Order> due_;
