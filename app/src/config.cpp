@@ -328,7 +328,7 @@ void Reader::parse_tracking(const toml::table& root) {
   if (!t) return;
   only_keys(*t, "tracking",
             {"source", "calibration", "tracking", "recording", "head_body", "lost_after_s",
-             "recording_preload", "decode_threads"});
+             "recording_preload", "decode_threads", "realtime_priority"});
   auto& c = cfg_.tracking;
   std::string src;
   if (string(*t, "source", "tracking", src)) {
@@ -346,6 +346,7 @@ void Reader::parse_tracking(const toml::table& root) {
   number(*t, "lost_after_s", "tracking", c.lost_after_s);
   integer(*t, "recording_preload", "tracking", c.recording_preload);
   integer(*t, "decode_threads", "tracking", c.decode_threads);
+  integer(*t, "realtime_priority", "tracking", c.realtime_priority);
 }
 
 [[noreturn]] void fail_at(const InstallationConfig& c, std::string_view code,
@@ -601,6 +602,8 @@ void validate(const InstallationConfig& c) {
   }
   if (t.decode_threads < 1 || t.decode_threads > 16)
     fail_at(c, "range", "tracking.decode_threads", "must be 1..16");
+  if (t.realtime_priority < 0 || t.realtime_priority > 99)
+    fail_at(c, "range", "tracking.realtime_priority", "must be 0..99 (0 = normal scheduling)");
 }
 
 namespace {
@@ -697,7 +700,8 @@ std::string to_toml(const InstallationConfig& c) {
                        {"head_body", t.head_body},
                        {"lost_after_s", t.lost_after_s},
                        {"recording_preload", t.recording_preload},
-                       {"decode_threads", t.decode_threads}};
+                       {"decode_threads", t.decode_threads},
+                       {"realtime_priority", t.realtime_priority}};
   if (!t.calibration.empty()) tracking.insert("calibration", t.calibration.generic_string());
   if (!t.tracking.empty()) tracking.insert("tracking", t.tracking.generic_string());
   if (!t.recording.empty()) tracking.insert("recording", t.recording.generic_string());

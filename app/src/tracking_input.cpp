@@ -23,6 +23,7 @@ class TrackerInput final : public TrackingInput {
                tracking::TrackingConfig tc, std::unique_ptr<tracking::FrameSource> source)
       : preload_(c.tracking.recording_preload), tracker_(rig, tc), head_(c.tracking.head_body),
         source_(c.tracking.source) {
+    tracker_.set_realtime_priority(c.tracking.realtime_priority);
     for (const auto& cam : rig.cameras) names_.push_back(cam.name);
     if (head_ >= static_cast<int>(tracker_.body_count()))
       throw file_error("config", "range", c.file.string(), c.line_of("tracking.head_body"),

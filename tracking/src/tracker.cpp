@@ -5,11 +5,14 @@
 #include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 #include <limits>
 #include <map>
 #include <mutex>
 #include <thread>
 
+#include <pthread.h>
+#include <sched.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -17,6 +20,7 @@
 #include <spdlog/spdlog.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/tracking/packed_image.hpp"
 #include "kumite/tracking/pipeline.hpp"
 
 namespace kumite::tracking {
@@ -51,6 +55,29 @@ std::chrono::steady_clock::time_point steady_at(Timestamp t) {
 
 /// Seconds between drop reports on the log.
 constexpr double kReportEvery_s = 5.0;
+
+/// A preloaded frame set: its images packed losslessly (see packed_image.hpp), so a whole
+/// recording fits in memory and a set expands far faster than its PNGs decode.
+struct PackedSet {
+  PackedSet() = default;
+  explicit PackedSet(const FrameSet& set) : frame(set.frame), timestamp(set.timestamp), camera_times(set.camera_times) {
+    images.reserve(set.images.size());
+    for (const auto& im : set.images) images.emplace_back(im);
+  }
+  FrameSet unpack() const {
+    FrameSet out;
+    out.frame = frame;
+    out.timestamp = timestamp;
+    out.camera_times = camera_times;
+    out.images.reserve(images.size());
+    for (const auto& im : images) out.images.push_back(im.unpack());
+    return out;
+  }
+  std::uint64_t frame = 0;
+  Timestamp timestamp = 0;
+  std::vector<PackedImage> images;
+  std::vector<Timestamp> camera_times;
+};
 
 class RecordingSource final : public FrameSource {
  public:
@@ -120,7 +147,7 @@ class RecordingSource final : public FrameSource {
     const double interval = playable_ > 1 ? rel_.back() / static_cast<double>(playable_ - 1) : 1.0 / 60;
     period_ = rel_.back() + interval;
     loop_frames_ = rows[playable_ - 1].frame + 1;
-    memory_.resize(from_memory_ ? playable_ : 1);
+    memory_.resize(from_memory_ ? playable_ : 0);
     end_seq_ = options_.loop ? std::numeric_limits<std::uint64_t>::max() : playable_;
     const int threads = std::max(1, options_.decode_threads);
     for (int k = 0; k < threads; ++k) workers_.emplace_back([this] { work(); });
@@ -131,7 +158,7 @@ class RecordingSource final : public FrameSource {
   }
 
   FrameSet load(std::size_t i, std::vector<std::string>& skipped) const {
-    if (from_memory_) return memory_[i];  // shares the pixels (the pipeline only reads them)
+    if (from_memory_) return memory_[i].unpack();
     return recording_.load(i, &skipped);
   }
 
@@ -152,9 +179,11 @@ class RecordingSource final : public FrameSource {
       const Timestamp t0 = kumite::now();
       FrameSet set = recording_.load(i, &skipped);
       const double took = kumite::now() - t0;
+      PackedSet packed = from_memory_ ? PackedSet(set) : PackedSet();
       lock.lock();
       for (auto& m : skipped) messages_.push_back(std::move(m));
-      memory_[i] = std::move(set);
+      if (from_memory_) memory_[i] = std::move(packed);
+      else first_ = std::move(set);
       decode_s_ = decode_s_ <= 0 ? took : 0.8 * decode_s_ + 0.2 * took;
       options_.counters->decode_ms.store(decode_s_ * 1e3);
       if (from_memory_) options_.counters->preloaded.store(++preloaded_);
@@ -163,9 +192,8 @@ class RecordingSource final : public FrameSource {
         last_report_ = start_;
         options_.counters->playing.store(true);
         if (!from_memory_) {
-          stamp(memory_[0], 0);
-          ready_.emplace(0, std::move(memory_[0]));
-          memory_.clear();
+          stamp(first_, 0);
+          ready_.emplace(0, std::move(first_));
           next_decode_ = 1;
         }
         cv_.notify_all();
@@ -311,7 +339,8 @@ class RecordingSource final : public FrameSource {
   std::uint64_t loop_frames_ = 0;   // frame numbers per loop
   std::uint64_t end_seq_ = 0;       // sequence numbers run 0 .. end_seq_ - 1
   Timestamp start_ = -1;            // the clock's start (-1: not yet)
-  std::vector<FrameSet> memory_;    // preloaded sets
+  std::vector<PackedSet> memory_;   // preloaded sets, packed (a few kB per image)
+  FrameSet first_;                  // streaming: set 0, decoded before the clock starts
   std::size_t next_preload_ = 0, preloaded_done_ = 0;
   std::uint64_t preloaded_ = 0;
   std::uint64_t next_decode_ = 0;   // next sequence number a worker may take
@@ -384,7 +413,24 @@ Timestamp Tracker::clock_now() const {
   return kumite::now();
 }
 
+namespace {
+/// SCHED_FIFO for the calling thread; one log line either way.
+void use_realtime_priority(int priority) {
+  if (priority <= 0) return;
+  sched_param param{};
+  param.sched_priority = std::clamp(priority, sched_get_priority_min(SCHED_FIFO), sched_get_priority_max(SCHED_FIFO));
+  if (const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); err != 0) {
+    spdlog::warn("tracker: cannot run at real-time priority {} ({}); running at normal priority "
+                 "(grant CAP_SYS_NICE or an rtprio limit to the installation's user)",
+                 param.sched_priority, std::strerror(err));
+  } else {
+    spdlog::info("tracker: thread runs at real-time priority {} (SCHED_FIFO)", param.sched_priority);
+  }
+}
+}  // namespace
+
 void Tracker::run() {
+  use_realtime_priority(realtime_priority_);
   std::vector<Timestamp> last_frame(rig_.cameras.size(), -1);
   bool first = true;
   try {

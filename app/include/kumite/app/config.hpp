@@ -113,6 +113,10 @@ struct TrackingConfig {
   /// cannot be decoded before they are due are skipped (as a camera drops frames).
   int recording_preload = 0;
   int decode_threads = 1;  ///< threads decoding the recording's PNGs ahead of its clock
+  /// SCHED_FIFO priority of the tracker thread (1..99; 0 = normal scheduling): its pose is
+  /// then ready about a millisecond after each frame set whatever the renderer does. Needs
+  /// CAP_SYS_NICE or an rtprio limit; without them the tracker says so and runs normally.
+  int realtime_priority = 0;
   bool operator==(const TrackingConfig&) const = default;
 };
 

@@ -154,6 +154,12 @@ class Tracker {
   /// Optional per-frame hook, called on the tracker thread after publishing (the tool writes
   /// poses.csv rows with it). Set before start().
   void on_frame(std::function<void(const FrameResult&)> hook) { hook_ = std::move(hook); }
+  /// Runs the tracker thread under SCHED_FIFO at `priority` (1..99; 0 = the normal
+  /// scheduler, the default), so rendering and decoding never hold a frame set back: its
+  /// pose is ready about a millisecond after the set is due. Needs root, CAP_SYS_NICE or an
+  /// rtprio limit (limits.conf); without them the tracker logs once why and runs normally.
+  /// The thread sleeps between sets, so it cannot starve the machine. Set before start().
+  void set_realtime_priority(int priority) { realtime_priority_ = priority; }
 
  private:
   struct Snapshot;  // filter state, trivially copyable
@@ -177,6 +183,7 @@ class Tracker {
   std::atomic<bool> stop_{false};
   std::atomic<bool> running_{false};
   std::atomic<std::uint64_t> processed_{0};
+  int realtime_priority_ = 0;
 };
 
 }  // namespace kumite::tracking
