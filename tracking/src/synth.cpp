@@ -159,7 +159,7 @@ FrameSet SyntheticRenderer::render(std::uint64_t frame, const TrajectoryPoint& p
   set.camera_times.assign(rig_.cameras.size(), pose.t);
   const auto markers = marker_positions(pose);
   std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> jitter(0, std::max(options_.centroid_noise_px / std::sqrt(2.0), 1e-12));
+  std::normal_distribution<double> jitter(0, std::max(options_.centroid_sigma_px, 1e-12));
   for (std::size_t c = 0; c < rig_.cameras.size(); ++c) {
     const bool dead = static_cast<int>(c) == options_.dead_camera && pose.t >= options_.dead_after_s;
     const bool dropped = options_.drop_probability > 0 && u(rng_) < options_.drop_probability;
@@ -222,12 +222,12 @@ void write_synthetic_recording(const fs::path& dir, const RigCalibration& rig, c
   write_file_atomically(dir / "README.txt",
                         fmt::format("SYNTHETIC recording written by kumite-track synth (not camera data).\n"
                                     "{}\nbody: {} ({} markers), {} frame sets at {} Hz, {} cameras\n"
-                                    "centroid noise {} px, image noise {} grey levels, hidden markers: [{}], "
+                                    "centroid noise sigma {} px per axis, image noise {} grey levels, hidden markers: [{}], "
                                     "spurious blobs/camera: {}, static lamps/camera: {}, dead camera: {} after {} s, "
                                     "drop probability: {}, seed {}\n"
                                     "truth.csv is the trajectory the frames were drawn from (body centroid, body->room).\n",
                                     description, body.name, body.markers.size(), trajectory.size(), options.fps,
-                                    rig.cameras.size(), options.centroid_noise_px, options.image_noise, hidden,
+                                    rig.cameras.size(), options.centroid_sigma_px, options.image_noise, hidden,
                                     options.spurious_blobs, options.static_lamps, options.dead_camera,
                                     options.dead_after_s, options.drop_probability, options.seed));
 }

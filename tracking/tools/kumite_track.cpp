@@ -306,7 +306,7 @@ int main(int argc, char** argv) {
   sc->add_option("--trajectory", synth.trajectory, "scripted, static, or a CSV timestamp_s,x,y,z,qw,qx,qy,qz")->capture_default_str();
   sc->add_option("--duration", synth.duration_s, "seconds")->capture_default_str()->check(CLI::Range(0.001, 3600.0));
   sc->add_option("--fps", synth.options.fps, "frame sets per second")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
-  sc->add_option("--noise-px", synth.options.centroid_noise_px, "RMS 2-D jitter of each spot centre (px)")->capture_default_str();
+  sc->add_option("--noise-px", synth.options.centroid_sigma_px, "jitter of each spot centre: sigma per image axis (px)")->capture_default_str();
   sc->add_option("--image-noise", synth.options.image_noise, "sensor noise sigma (grey levels)")->capture_default_str();
   sc->add_option("--hide", synth.hidden, "model markers never drawn, e.g. 0,3");
   sc->add_option("--spurious", synth.options.spurious_blobs, "random spots per camera per frame")->capture_default_str();

@@ -38,7 +38,8 @@ TrajectoryPoint sample(const std::vector<TrajectoryPoint>& trajectory, Timestamp
 
 struct SynthOptions {
   double fps = 60;                    ///< Hz: frame-set rate
-  double centroid_noise_px = 0.3;     ///< px: RMS 2-D displacement of each spot centre (sigma/axis = this/sqrt 2)
+  double centroid_sigma_px = 0.3;     ///< px: sigma of each spot centre's jitter PER IMAGE AXIS (x and y
+                                      ///< each; the 2-D RMS displacement is sqrt(2) x this)
   double image_noise = 2.0;           ///< grey levels: sigma of the sensor noise
   double background = 12;             ///< grey level
   double peak = 220;                  ///< grey levels above the background at a spot's centre
