@@ -57,6 +57,10 @@ TEST(Accuracy, MovingVisitorWithPointThreePixelPerAxisNoiseReachesTheBound) {
   EXPECT_LE(s.raw_pos_rms_m, 0.001) << "position RMS (m)";
   EXPECT_LE(s.raw_pos_rms_m, 1.1 * s.bound_pos_rms_m) << "position RMS vs its Cramer-Rao bound (m)";
   EXPECT_LE(s.raw_rot_rms_deg, 1.1 * s.bound_rot_rms_deg) << "orientation RMS vs its Cramer-Rao bound (deg)";
+  // The published pose (One Euro, shipped settings) averages over frame sets: it meets both
+  // limits with margin under this reading too, lag on the moving head included.
+  EXPECT_LE(s.filtered_pos_rms_m, 0.001) << "filtered position RMS (m)";
+  EXPECT_LE(s.filtered_rot_rms_deg, 0.26) << "filtered orientation RMS (deg)";
 }
 
 TEST(Accuracy, NoiselessFramesAreNearlyExact) {

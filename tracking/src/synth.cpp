@@ -218,18 +218,19 @@ void write_synthetic_recording(const fs::path& dir, const RigCalibration& rig, c
   write_frames_csv(dir / "frames.csv", frames);
   write_truth_csv(dir / "truth.csv", truth);
   std::string hidden;
-  for (int h : options.hidden_markers) hidden += fmt::format("{} ", h);
+  for (int h : options.hidden_markers) hidden += fmt::format("{}{}", hidden.empty() ? "" : ",", h);
+  const std::string dead = options.dead_camera < 0 ? std::string("none")
+                                                   : fmt::format("{} from {} s on", options.dead_camera, options.dead_after_s);
   write_file_atomically(dir / "README.txt",
                         fmt::format("SYNTHETIC recording written by kumite-track synth (not camera data).\n"
                                     "{}\nbody: {} ({} markers), {} frame sets at {} Hz, {} cameras\n"
                                     "centroid noise sigma {} px per axis, image noise {} grey levels, hidden markers: [{}], "
-                                    "spurious blobs/camera: {}, static lamps/camera: {}, dead camera: {} after {} s, "
+                                    "spurious blobs/camera: {}, static lamps/camera: {}, dead camera: {}, "
                                     "drop probability: {}, seed {}\n"
                                     "truth.csv is the trajectory the frames were drawn from (body centroid, body->room).\n",
                                     description, body.name, body.markers.size(), trajectory.size(), options.fps,
                                     rig.cameras.size(), options.centroid_sigma_px, options.image_noise, hidden,
-                                    options.spurious_blobs, options.static_lamps, options.dead_camera,
-                                    options.dead_after_s, options.drop_probability, options.seed));
+                                    options.spurious_blobs, options.static_lamps, dead, options.drop_probability, options.seed));
 }
 
 RigCalibration corner_rig(double side_m, double height_m, int width, int height, double focal_px) {

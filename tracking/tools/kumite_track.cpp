@@ -67,7 +67,9 @@ double percentile(std::vector<double> v, double p) {
 /// Collects poses.csv rows and the summary figures from the tracker thread.
 class Collector {
  public:
-  Collector(std::optional<TruthTable> truth, bool unfiltered) : truth_(std::move(truth)), unfiltered_(unfiltered) {
+  Collector(std::optional<TruthTable> truth, bool unfiltered, std::vector<std::string> cameras)
+      : truth_(std::move(truth)), unfiltered_(unfiltered), camera_names_(std::move(cameras)),
+        images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0) {
     rows_ = "frame,timestamp_s,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms\n";
   }
 
@@ -80,15 +82,25 @@ class Collector {
                          p.cameras, r.latency_ms);
     latency_.push_back(r.latency_ms);
     ++frames_;
+    last_time_ = r.timestamp;
     status_[static_cast<int>(p.status)]++;
-    const BodyPose& f = r.filtered.at(0);
-    if (f.status == TrackingStatus::tracked) {
-      filtered_.emplace_back(f.position[0], f.position[1], f.position[2]);
-    } else {
-      flush_jitter();
+    for (std::size_t c = 0; c < images_.size() && c < r.has_image.size(); ++c) {
+      if (!r.has_image[c]) continue;
+      ++images_[c];
+      last_image_[c] = r.timestamp;
     }
-    if (!truth_) return;
-    const TruthRow* t = truth_->find(r.frame);
+    const BodyPose& f = r.filtered.at(0);
+    const TruthRow* t = truth_ ? truth_->find(r.frame) : nullptr;
+    if (f.status == TrackingStatus::tracked && (!truth_ || t)) {
+      // Jitter = RMS distance of the filtered position from its mean. With truth, of the
+      // filtered position minus the truth (the visitor's own motion is not jitter; on a moving
+      // head the filter's varying lag still counts); without, meaningful only when still.
+      Eigen::Vector3d x(f.position[0], f.position[1], f.position[2]);
+      if (t) x -= Eigen::Vector3d(t->x, t->y, t->z);
+      jitter_sum_ += x;
+      jitter_sum2_ += x.squaredNorm();
+      ++jitter_n_;
+    }
     if (!t) return;
     const Eigen::Vector3d tp(t->x, t->y, t->z);
     const Eigen::Quaterniond tq(t->qw, t->qx, t->qy, t->qz);
@@ -108,7 +120,6 @@ class Collector {
 
   void summary(std::size_t skipped) {
     std::lock_guard lock(mutex_);
-    flush_jitter();
     std::printf("frame sets: %d (tracked %d, coasting %d, lost %d); warnings: %zu\n", frames_, status_[1],
                 status_[2], status_[0], skipped);
     if (truth_) {
@@ -122,21 +133,25 @@ class Collector {
       std::printf("no truth.csv: no accuracy figures\n");
     }
     if (jitter_n_ > 0) {
-      std::printf("jitter (filtered position, RMS second difference / sqrt 6): %.3f mm\n",
-                  1e3 * std::sqrt(jitter2_ / jitter_n_ / 6.0));
+      const Eigen::Vector3d mean = jitter_sum_ / jitter_n_;
+      std::printf("jitter (%s, RMS distance from its mean): %.3f mm\n",
+                  truth_ ? "filtered position minus truth" : "filtered position; includes real motion",
+                  1e3 * std::sqrt(std::max(0.0, jitter_sum2_ / jitter_n_ - mean.squaredNorm())));
+    }
+    for (std::size_t c = 0; c < camera_names_.size(); ++c) {
+      std::string line = fmt::format("camera {}: images in {} of {} frame sets", camera_names_[c], images_[c], frames_);
+      if (last_image_[c] < 0) {
+        line += ", never delivered one";
+      } else if (last_time_ - last_image_[c] > 0) {
+        line += fmt::format(", the last at {:.3f} s ({:.3f} s before the end)", last_image_[c], last_time_ - last_image_[c]);
+      }
+      std::printf("%s\n", line.c_str());
     }
     std::printf("latency per frame set (ms): p50 %.3f, p90 %.3f, p99 %.3f, max %.3f\n", percentile(latency_, 0.5),
                 percentile(latency_, 0.9), percentile(latency_, 0.99), percentile(latency_, 1.0));
   }
 
  private:
-  void flush_jitter() {
-    for (std::size_t i = 2; i < filtered_.size(); ++i) {
-      jitter2_ += (filtered_[i] - 2 * filtered_[i - 1] + filtered_[i - 2]).squaredNorm();
-      ++jitter_n_;
-    }
-    filtered_.clear();
-  }
   struct Err {
     double pos2 = 0, rot2 = 0;
     int n = 0;
@@ -146,8 +161,12 @@ class Collector {
   bool unfiltered_;
   std::string rows_;
   std::vector<double> latency_;
-  std::vector<Eigen::Vector3d> filtered_;
-  double jitter2_ = 0;
+  std::vector<std::string> camera_names_;
+  std::vector<int> images_;          // per camera: frame sets with an image
+  std::vector<Timestamp> last_image_;  // per camera: time of its last image (s, -1 = none)
+  Timestamp last_time_ = 0;
+  Eigen::Vector3d jitter_sum_{0, 0, 0};
+  double jitter_sum2_ = 0;
   int jitter_n_ = 0;
   int frames_ = 0;
   int status_[3] = {0, 0, 0};
@@ -185,7 +204,9 @@ int run_tracker(const RunOptions& o) {
       if (first.find("SYNTHETIC") != std::string::npos) spdlog::info("{}", first);
     }
   }
-  Collector collector(std::move(truth), o.unfiltered);
+  std::vector<std::string> names;
+  for (const auto& c : rig.cameras) names.push_back(c.name);
+  Collector collector(std::move(truth), o.unfiltered, names);
   Tracker tracker(rig, config);
   std::atomic<std::size_t> skipped{0};
   tracker.on_frame([&](const FrameResult& r) { collector.add(r); });
@@ -207,20 +228,33 @@ int run_tracker(const RunOptions& o) {
   const Timestamp start = kumite::now();
   tracker.start(std::move(source));
   Timestamp last_status = start;
+  // Camera states as the console shows them: every change (a camera that stops, comes back or
+  // reconnects), and for live cameras a reminder every 2 s while one is not ok.
+  std::vector<CameraState> shown(rig.cameras.size(), CameraState::ok);
+  const auto report_cameras = [&](bool remind) {
+    if (tracker.frames_processed() == 0) return;
+    const auto cams = tracker.camera_status();
+    for (std::size_t c = 0; c < cams.size(); ++c) {
+      if (cams[c].state == shown[c] && !(remind && cams[c].state != CameraState::ok)) continue;
+      if (cams[c].state == CameraState::ok) {
+        spdlog::info("camera {}: ok again", rig.cameras[c].name);
+      } else if (cams[c].since_last_s < 0) {
+        spdlog::warn("camera {}: {} (no frame yet)", rig.cameras[c].name, to_string(cams[c].state));
+      } else {
+        spdlog::warn("camera {}: {} ({:.1f} s since the last frame)", rig.cameras[c].name, to_string(cams[c].state),
+                     cams[c].since_last_s);
+      }
+      shown[c] = cams[c].state;
+    }
+  };
   while (tracker.running() && !g_interrupted.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     if (o.duration_s > 0 && kumite::now() - start > o.duration_s) break;
-    if (o.live && kumite::now() - last_status > 2.0) {
-      last_status = kumite::now();
-      const auto cams = tracker.camera_status();
-      for (std::size_t c = 0; c < cams.size(); ++c) {
-        if (cams[c].state != CameraState::ok) {
-          spdlog::warn("camera {}: {} ({:.1f} s since the last frame)", rig.cameras[c].name, to_string(cams[c].state),
-                       cams[c].since_last_s);
-        }
-      }
-    }
+    const bool remind = o.live && kumite::now() - last_status > 2.0;
+    if (remind) last_status = kumite::now();
+    report_cameras(remind);
   }
+  report_cameras(false);
   tracker.stop();
   skipped = sink_count->load();
   collector.write(o.out);
