@@ -67,8 +67,9 @@ double percentile(std::vector<double> v, double p) {
 /// Collects poses.csv rows and the summary figures from the tracker thread.
 class Collector {
  public:
-  Collector(std::optional<TruthTable> truth, bool unfiltered, std::vector<std::string> cameras)
-      : truth_(std::move(truth)), unfiltered_(unfiltered), camera_names_(std::move(cameras)),
+  Collector(std::optional<TruthTable> truth, bool unfiltered, std::vector<std::string> cameras, double camera_timeout_s)
+      : truth_(std::move(truth)), unfiltered_(unfiltered), camera_timeout_s_(camera_timeout_s),
+        camera_names_(std::move(cameras)),
         images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0) {
     rows_ = "frame,timestamp_s,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms\n";
   }
@@ -82,6 +83,7 @@ class Collector {
                          p.cameras, r.latency_ms);
     latency_.push_back(r.latency_ms);
     ++frames_;
+    if (frames_ == 1) first_time_ = r.timestamp;
     last_time_ = r.timestamp;
     status_[static_cast<int>(p.status)]++;
     for (std::size_t c = 0; c < images_.size() && c < r.has_image.size(); ++c) {
@@ -117,6 +119,16 @@ class Collector {
   }
 
   void write(const fs::path& out) const { write_file_atomically(out, rows_); }
+  /// s of source time covered so far (first to latest frame set).
+  double elapsed_s() {
+    std::lock_guard lock(mutex_);
+    return frames_ ? last_time_ - first_time_ : 0.0;
+  }
+  /// s: timestamp of the latest frame set (0 before the first).
+  Timestamp last_time() {
+    std::lock_guard lock(mutex_);
+    return last_time_;
+  }
 
   void summary(std::size_t skipped) {
     std::lock_guard lock(mutex_);
@@ -142,7 +154,7 @@ class Collector {
       std::string line = fmt::format("camera {}: images in {} of {} frame sets", camera_names_[c], images_[c], frames_);
       if (last_image_[c] < 0) {
         line += ", never delivered one";
-      } else if (last_time_ - last_image_[c] > 0) {
+      } else if (last_time_ - last_image_[c] > camera_timeout_s_) {  // it stopped
         line += fmt::format(", the last at {:.3f} s ({:.3f} s before the end)", last_image_[c], last_time_ - last_image_[c]);
       }
       std::printf("%s\n", line.c_str());
@@ -161,10 +173,11 @@ class Collector {
   bool unfiltered_;
   std::string rows_;
   std::vector<double> latency_;
+  double camera_timeout_s_;
   std::vector<std::string> camera_names_;
   std::vector<int> images_;          // per camera: frame sets with an image
   std::vector<Timestamp> last_image_;  // per camera: time of its last image (s, -1 = none)
-  Timestamp last_time_ = 0;
+  Timestamp first_time_ = 0, last_time_ = 0;
   Eigen::Vector3d jitter_sum_{0, 0, 0};
   double jitter_sum2_ = 0;
   int jitter_n_ = 0;
@@ -206,7 +219,7 @@ int run_tracker(const RunOptions& o) {
   }
   std::vector<std::string> names;
   for (const auto& c : rig.cameras) names.push_back(c.name);
-  Collector collector(std::move(truth), o.unfiltered, names);
+  Collector collector(std::move(truth), o.unfiltered, names, config.camera_timeout_s);
   Tracker tracker(rig, config);
   std::atomic<std::size_t> skipped{0};
   tracker.on_frame([&](const FrameResult& r) { collector.add(r); });
@@ -233,9 +246,15 @@ int run_tracker(const RunOptions& o) {
   std::vector<CameraState> shown(rig.cameras.size(), CameraState::ok);
   const auto report_cameras = [&](bool remind) {
     if (tracker.frames_processed() == 0) return;
-    const auto cams = tracker.camera_status();
+    // Live: against now (all cameras may have stopped). A recording: against its latest frame
+    // set, i.e. whether a camera keeps up with the others (played in real time, decoding may
+    // fall behind the clock, and after the end nothing arrives at all).
+    const auto cams = o.live ? tracker.camera_status() : tracker.camera_status(collector.last_time());
     for (std::size_t c = 0; c < cams.size(); ++c) {
       if (cams[c].state == shown[c] && !(remind && cams[c].state != CameraState::ok)) continue;
+      // A camera that has not delivered its first image is only reported once the others
+      // have run for camera_timeout_s (a dropped first frame is not news).
+      if (cams[c].since_last_s < 0 && collector.elapsed_s() <= config.camera_timeout_s) continue;
       if (cams[c].state == CameraState::ok) {
         spdlog::info("camera {}: ok again", rig.cameras[c].name);
       } else if (cams[c].since_last_s < 0) {
