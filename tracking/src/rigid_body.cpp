@@ -205,16 +205,18 @@ std::optional<BodyFit> RigidBodyModel::identify(std::span<const Marker> markers,
 namespace {
 
 // Pose refinement on the image evidence (RigidBodyModel::refine).
-// An image of a matched marker that triangulation left out (its leave-one-out test, a pair
-// that claimed it first) is taken back when it lies this close to where the fitted pose
-// projects the marker and no other marker claimed it: every image is information, and the
-// estimate only reaches the Cramer-Rao bound with all of them.
-constexpr double kRegatherPx = 2.0;
+// An image of a matched marker that triangulation left out (a pair that claimed it first, a
+// leave-one-out test on a noisy ray) is taken back when it lies this close to where the fitted
+// pose projects the marker and no other marker claimed it: every image is information, and the
+// estimate only reaches the Cramer-Rao bound with all of them. As tight as the triangulation's
+// own outlier test (outlier_px), so what it dropped as wrong does not come back.
+constexpr double kRegatherPx = 1.2;
 // Huber loss threshold (px): residuals up to it count fully (pixel noise is ~0.1-0.5 px);
-// beyond it their weight falls as 1/residual, so one wrong blob cannot drag the pose.
+// beyond it their weight falls as 1/residual, so one wrong blob pulls little on the first step.
 constexpr double kHuberPx = 1.0;
-// After the first step, an image further than this from the refined projection is dropped.
-constexpr double kRejectPx = 3.0;
+// From the second step on, an image further than this from the projection is dropped (a good
+// one at sigma 0.3 px per axis is that far once in ~10^5).
+constexpr double kRejectPx = 1.5;
 
 struct Ray {
   int model;   // model marker
