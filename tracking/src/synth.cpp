@@ -167,8 +167,9 @@ FrameSet SyntheticRenderer::render(std::uint64_t frame, const TrajectoryPoint& p
     const CameraModel cam(rig_.cameras[c]);
     cv::Mat img = backgrounds_[c][frame % backgrounds_[c].size()].clone();
     for (std::size_t m = 0; m < markers.size(); ++m) {
-      if (std::find(options_.hidden_markers.begin(), options_.hidden_markers.end(), static_cast<int>(m)) !=
-          options_.hidden_markers.end()) {
+      const bool hiding = pose.t >= options_.hide_from_s && pose.t < options_.hide_until_s;
+      if (hiding && std::find(options_.hidden_markers.begin(), options_.hidden_markers.end(), static_cast<int>(m)) !=
+                        options_.hidden_markers.end()) {
         continue;
       }
       Eigen::Vector2d px;
@@ -219,6 +220,9 @@ void write_synthetic_recording(const fs::path& dir, const RigCalibration& rig, c
   write_truth_csv(dir / "truth.csv", truth);
   std::string hidden;
   for (int h : options.hidden_markers) hidden += fmt::format("{}{}", hidden.empty() ? "" : ",", h);
+  if (!hidden.empty() && (options.hide_from_s > 0 || options.hide_until_s < 1e299)) {
+    hidden += fmt::format(" from {} s until {} s", options.hide_from_s, options.hide_until_s);
+  }
   const std::string dead = options.dead_camera < 0 ? std::string("none")
                                                    : fmt::format("{} from {} s on", options.dead_camera, options.dead_after_s);
   write_file_atomically(dir / "README.txt",

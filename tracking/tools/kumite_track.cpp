@@ -67,10 +67,11 @@ double percentile(std::vector<double> v, double p) {
 /// Collects poses.csv rows and the summary figures from the tracker thread.
 class Collector {
  public:
-  Collector(std::optional<TruthTable> truth, bool unfiltered, std::vector<std::string> cameras, double camera_timeout_s)
+  Collector(std::optional<TruthTable> truth, bool unfiltered, std::vector<std::string> cameras, double camera_timeout_s,
+            std::string body_name)
       : truth_(std::move(truth)), unfiltered_(unfiltered), camera_timeout_s_(camera_timeout_s),
         camera_names_(std::move(cameras)),
-        images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0) {
+        images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0), body_name_(std::move(body_name)) {
     rows_ = "frame,timestamp_s,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms\n";
   }
 
@@ -92,6 +93,15 @@ class Collector {
       last_image_[c] = r.timestamp;
     }
     const BodyPose& f = r.filtered.at(0);
+    // The console says when the head is lost (past coasting) and when it is found again.
+    if (f.status == TrackingStatus::lost && was_tracked_) {
+      spdlog::warn("{}: lost at {:.3f} s (frame {})", body_name_, r.timestamp, r.frame);
+    } else if (f.status == TrackingStatus::tracked && !was_tracked_) {
+      spdlog::info("{}: {} at {:.3f} s (frame {}, {} markers, {} cameras)", body_name_,
+                   ever_tracked_ ? "tracked again" : "found", r.timestamp, r.frame, f.markers, f.cameras);
+      ever_tracked_ = true;
+    }
+    if (f.status != TrackingStatus::coasting) was_tracked_ = f.status == TrackingStatus::tracked;
     const TruthRow* t = truth_ ? truth_->find(r.frame) : nullptr;
     if (f.status == TrackingStatus::tracked && (!truth_ || t)) {
       // Jitter = RMS distance of the filtered position from its mean. With truth, of the
@@ -178,6 +188,8 @@ class Collector {
   std::vector<int> images_;          // per camera: frame sets with an image
   std::vector<Timestamp> last_image_;  // per camera: time of its last image (s, -1 = none)
   Timestamp first_time_ = 0, last_time_ = 0;
+  bool was_tracked_ = false, ever_tracked_ = false;
+  std::string body_name_;
   Eigen::Vector3d jitter_sum_{0, 0, 0};
   double jitter_sum2_ = 0;
   int jitter_n_ = 0;
@@ -219,7 +231,7 @@ int run_tracker(const RunOptions& o) {
   }
   std::vector<std::string> names;
   for (const auto& c : rig.cameras) names.push_back(c.name);
-  Collector collector(std::move(truth), o.unfiltered, names, config.camera_timeout_s);
+  Collector collector(std::move(truth), o.unfiltered, names, config.camera_timeout_s, config.bodies.at(0).name);
   Tracker tracker(rig, config);
   std::atomic<std::size_t> skipped{0};
   tracker.on_frame([&](const FrameResult& r) { collector.add(r); });
@@ -361,7 +373,9 @@ int main(int argc, char** argv) {
   sc->add_option("--fps", synth.options.fps, "frame sets per second")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
   sc->add_option("--noise-px", synth.options.centroid_sigma_px, "jitter of each spot centre: sigma per image axis (px)")->capture_default_str();
   sc->add_option("--image-noise", synth.options.image_noise, "sensor noise sigma (grey levels)")->capture_default_str();
-  sc->add_option("--hide", synth.hidden, "model markers never drawn, e.g. 0,3");
+  sc->add_option("--hide", synth.hidden, "model markers not drawn, e.g. 0,3 (all the time, or see --hide-from/--hide-until)");
+  sc->add_option("--hide-from", synth.options.hide_from_s, "hide them from this time on (s)")->capture_default_str();
+  sc->add_option("--hide-until", synth.options.hide_until_s, "hide them until this time (s)");
   sc->add_option("--spurious", synth.options.spurious_blobs, "random spots per camera per frame")->capture_default_str();
   sc->add_option("--lamps", synth.options.static_lamps, "static bright spots per camera")->capture_default_str();
   sc->add_option("--dead-camera", synth.options.dead_camera, "camera index that stops delivering")->capture_default_str();
