@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <initializer_list>
 #include <set>
@@ -190,9 +191,10 @@ class Reader {
 };
 
 void Reader::parse(const toml::table& root) {
-  only_keys(root, "", {"display_rate_hz", "windows", "walls", "stereo", "viewer", "projection",
-                       "keys", "characters", "fighter", "tracking", "orders"});
+  only_keys(root, "", {"display_rate_hz", "data_dir", "windows", "walls", "stereo", "viewer",
+                       "projection", "keys", "characters", "fighter", "tracking", "orders"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
+  path(root, "data_dir", "", cfg_.data_dir);
   parse_windows(root);
   parse_walls(root);
   parse_stereo(root);
@@ -325,7 +327,8 @@ void Reader::parse_tracking(const toml::table& root) {
   const auto* t = table(root, "tracking", "", false);
   if (!t) return;
   only_keys(*t, "tracking",
-            {"source", "calibration", "tracking", "recording", "head_body", "lost_after_s"});
+            {"source", "calibration", "tracking", "recording", "head_body", "lost_after_s",
+             "recording_preload", "decode_threads"});
   auto& c = cfg_.tracking;
   std::string src;
   if (string(*t, "source", "tracking", src)) {
@@ -341,6 +344,8 @@ void Reader::parse_tracking(const toml::table& root) {
   path(*t, "recording", "tracking", c.recording);
   integer(*t, "head_body", "tracking", c.head_body);
   number(*t, "lost_after_s", "tracking", c.lost_after_s);
+  integer(*t, "recording_preload", "tracking", c.recording_preload);
+  integer(*t, "decode_threads", "tracking", c.decode_threads);
 }
 
 [[noreturn]] void fail_at(const InstallationConfig& c, std::string_view code,
@@ -427,7 +432,26 @@ int InstallationConfig::line_of(const std::string& key) const {
   return it == lines.end() ? 0 : it->second;
 }
 
+namespace {
+/// The rest of `p` after "${data_dir}" (and its separator), or nullopt when it does not start so.
+std::optional<std::string> after_data_dir(const std::filesystem::path& p) {
+  const std::string s = p.generic_string();
+  if (s.rfind(kDataDirPlaceholder, 0) != 0) return std::nullopt;
+  std::string rest = s.substr(kDataDirPlaceholder.size());
+  while (!rest.empty() && rest.front() == '/') rest.erase(0, 1);
+  return rest;
+}
+}  // namespace
+
+std::filesystem::path InstallationConfig::data_root() const {
+  if (data_dir_override && !data_dir_override->empty()) return *data_dir_override;
+  if (data_dir.empty()) return {};
+  if (data_dir.is_absolute()) return data_dir;
+  return (file.has_parent_path() ? file.parent_path() : std::filesystem::path(".")) / data_dir;
+}
+
 std::filesystem::path InstallationConfig::resolve(const std::filesystem::path& p) const {
+  if (const auto rest = after_data_dir(p)) return rest->empty() ? data_root() : data_root() / *rest;
   if (p.empty() || p.is_absolute()) return p;
   return (file.has_parent_path() ? file.parent_path() : std::filesystem::path(".")) / p;
 }
@@ -444,7 +468,7 @@ bool InstallationConfig::operator==(const InstallationConfig& o) const {
   return display_rate_hz == o.display_rate_hz && windows == o.windows && walls == o.walls &&
          stereo == o.stereo && viewer == o.viewer && projection == o.projection &&
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
-         tracking == o.tracking && orders_script == o.orders_script;
+         tracking == o.tracking && orders_script == o.orders_script && data_dir == o.data_dir;
 }
 
 std::string check_wall_geometry(const WallConfig& w) {
@@ -559,12 +583,32 @@ void validate(const InstallationConfig& c) {
   if (t.source == TrackingSource::recording && t.recording.empty())
     fail_at(c, "missing_key", "tracking", "tracking.recording is needed for source = \"recording\"");
   if (t.head_body < 0) fail_at(c, "range", "tracking.head_body", "must be >= 0");
+  if (t.recording_preload < 0) fail_at(c, "range", "tracking.recording_preload", "must be >= 0");
+  // "${data_dir}" needs a data folder from somewhere.
+  if (c.data_root().empty()) {
+    std::vector<std::pair<std::string, std::filesystem::path>> paths{
+        {"fighter.database", c.fighter.database}, {"tracking.calibration", t.calibration},
+        {"tracking.tracking", t.tracking}, {"tracking.recording", t.recording}};
+    for (std::size_t i = 0; i < c.characters.size(); ++i)
+      paths.emplace_back(fmt::format("characters[{}].bvh", i), c.characters[i].bvh);
+    if (c.orders_script) paths.emplace_back("orders.script", *c.orders_script);
+    for (const auto& [key, p] : paths)
+      if (after_data_dir(p))
+        fail_at(c, "missing_key", key,
+                fmt::format("{} uses {} but no data folder is given (top-level data_dir, ${}, or "
+                            "kumite --data-dir)",
+                            p.generic_string(), kDataDirPlaceholder, kDataDirEnv));
+  }
+  if (t.decode_threads < 1 || t.decode_threads > 16)
+    fail_at(c, "range", "tracking.decode_threads", "must be 1..16");
 }
 
-InstallationConfig parse_installation_config(std::string_view text,
-                                             const std::filesystem::path& file_name) {
+namespace {
+InstallationConfig parse_config(std::string_view text, const std::filesystem::path& file_name,
+                                std::optional<std::filesystem::path> data_dir_override) {
   InstallationConfig cfg;
   cfg.file = file_name;
+  cfg.data_dir_override = std::move(data_dir_override);
   toml::table root;
   try {
     root = toml::parse(text, file_name.string());
@@ -576,17 +620,27 @@ InstallationConfig parse_installation_config(std::string_view text,
   validate(cfg);
   return cfg;
 }
+}  // namespace
 
-InstallationConfig load_installation_config(const std::filesystem::path& file) {
+InstallationConfig parse_installation_config(std::string_view text,
+                                             const std::filesystem::path& file_name) {
+  return parse_config(text, file_name, std::nullopt);
+}
+
+InstallationConfig load_installation_config(const std::filesystem::path& file,
+                                            std::optional<std::filesystem::path> data_dir) {
   std::ifstream in(file, std::ios::binary);
   if (!in) throw file_error("config", "open", file.string(), 0, "", "cannot open the file");
   std::stringstream ss;
   ss << in.rdbuf();
-  return parse_installation_config(ss.str(), file);
+  if (!data_dir)
+    if (const char* env = std::getenv(kDataDirEnv); env && *env) data_dir = std::filesystem::path(env);
+  return parse_config(ss.str(), file, std::move(data_dir));
 }
 
 std::string to_toml(const InstallationConfig& c) {
   toml::table root;
+  if (!c.data_dir.empty()) root.insert("data_dir", c.data_dir.generic_string());
   root.insert("display_rate_hz", c.display_rate_hz);
   toml::array windows;
   for (const auto& w : c.windows)
@@ -641,7 +695,9 @@ std::string to_toml(const InstallationConfig& c) {
   const auto& t = c.tracking;
   toml::table tracking{{"source", std::string(to_string(t.source))},
                        {"head_body", t.head_body},
-                       {"lost_after_s", t.lost_after_s}};
+                       {"lost_after_s", t.lost_after_s},
+                       {"recording_preload", t.recording_preload},
+                       {"decode_threads", t.decode_threads}};
   if (!t.calibration.empty()) tracking.insert("calibration", t.calibration.generic_string());
   if (!t.tracking.empty()) tracking.insert("tracking", t.tracking.generic_string());
   if (!t.recording.empty()) tracking.insert("recording", t.recording.generic_string());

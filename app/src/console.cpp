@@ -151,13 +151,17 @@ void Console::frame(Installation& inst, const FrameData& f) {
   // Right column: status.
   ImGui::TextColored(kAmber, "Tracking");
   ImGui::TextColored(c.head_live ? kGreen : kRed, "head: %s", c.tracking.c_str());
+  if (!c.tracking_source.empty()) ImGui::TextWrapped("%s", c.tracking_source.c_str());
   ImGui::Text("head  [%.2f, %.2f, %.2f] m   markers %d", f.head.position.x, f.head.position.y,
               f.head.position.z, c.markers_seen);
   if (c.pose_age_ms >= 0) ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
   else ImGui::Text("latency: no pose");
-  for (const auto& cam : c.cameras)
-    ImGui::TextColored(cam.status == "ok" ? kGreen : kRed, "camera %-8s %-12s %3d blobs  last frame %.0f ms ago",
-                       cam.name.c_str(), cam.status.c_str(), cam.blobs, cam.since_last_ms);
+  for (const auto& cam : c.cameras) {
+    const std::string last = cam.since_last_ms >= 0 ? fmt::format("last frame {:.0f} ms ago", cam.since_last_ms)
+                                                    : std::string("never a frame");
+    ImGui::TextColored(cam.status == "ok" ? kGreen : kRed, "camera %-8s %-12s %3d blobs  %s", cam.name.c_str(),
+                       cam.status.c_str(), cam.blobs, last.c_str());
+  }
   ImGui::Separator();
   ImGui::TextColored(kAmber, "Fighter");
   ImGui::Text("state %s   character %d %s%s", c.fighter_state.c_str(), c.character + 1,
@@ -167,9 +171,14 @@ void Console::frame(Installation& inst, const FrameData& f) {
   ImGui::Columns(1);
   ImGui::Separator();
   for (const auto& p : c.problems) ImGui::TextColored(kRed, "! %s", p.c_str());
+  // The top view beside the recent events, so both stay on screen.
+  ImGui::Columns(2, "view_and_events", false);  // its own id: the columns above keep their widths
+  ImGui::SetColumnWidth(0, 280);
   top_view(inst, f);
-  ImGui::TextColored(kAmber, "Recent events");
-  for (auto it = c.recent.rbegin(); it != c.recent.rend(); ++it) ImGui::TextUnformatted(it->c_str());
+  ImGui::NextColumn();
+  ImGui::TextColored(kAmber, "Recent events (newest first)");
+  for (auto it = c.recent.rbegin(); it != c.recent.rend(); ++it) ImGui::TextWrapped("%s", it->c_str());
+  ImGui::Columns(1);
   ImGui::End();
   ImGui::Render();
   int w = 0, h = 0;

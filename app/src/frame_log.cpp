@@ -59,6 +59,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
   for (const auto& cam : c.cameras)
     cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"since_last_ms", cam.since_last_ms}});
   j["console"] = {{"tracking", c.tracking},
+                  {"tracking_source", c.tracking_source},
                   {"markers_seen", c.markers_seen},
                   {"cameras", cams},
                   {"paused", c.paused},

@@ -1,5 +1,6 @@
 #include "kumite/app/installation.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include <fmt/format.h>
@@ -18,7 +19,11 @@ constexpr std::size_t kRecentEvents = 12;
 class FixedHeadInput final : public TrackingInput {
  public:
   explicit FixedHeadInput(std::string why) : why_(std::move(why)) {}
-  TrackingSnapshot poll(Timestamp) override { return {std::nullopt, 0, {}, why_}; }
+  TrackingSnapshot poll(Timestamp) override {
+    TrackingSnapshot s;
+    s.status = why_;
+    return s;
+  }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return "none (" + why_ + ")"; }
 
@@ -28,14 +33,17 @@ class FixedHeadInput final : public TrackingInput {
 
 glm::dvec3 to_glm(const Vec3& v) { return {v[0], v[1], v[2]}; }
 
-content::FighterConfig fighter_config(const InstallationConfig& c) {
+/// The fighter's config with the characters whose files exist (`loaded`: config indices).
+content::FighterConfig fighter_config(const InstallationConfig& c, const std::vector<int>& loaded) {
   content::FighterConfig f;
   f.database = c.resolve(c.fighter.database);
-  for (const auto& ch : c.characters) {
+  for (const int i : loaded) {
+    const auto& ch = c.characters[static_cast<std::size_t>(i)];
     f.characters.push_back(c.resolve(ch.bvh));
     f.character_names.push_back(ch.name);
   }
-  f.initial_character = c.fighter.initial_character;
+  const auto initial = std::find(loaded.begin(), loaded.end(), c.fighter.initial_character);
+  f.initial_character = initial == loaded.end() ? 0 : static_cast<int>(initial - loaded.begin());
   f.home = {c.fighter.home_m[0], c.fighter.home_m[1], c.fighter.home_m[2]};
   f.strike_distance_m = c.fighter.strike_distance_m;
   f.hit_radius_m = c.fighter.hit_radius_m;
@@ -63,8 +71,10 @@ FrameEvent to_frame_event(const content::FighterEvent& e, Timestamp start) {
   return f;
 }
 
-/// Says which file is missing before the content module gets to it (the operator's view).
-void check_fighter_files(const InstallationConfig& c) {
+/// Says which file is missing before the content module gets to it (the operator's view):
+/// throws for a missing database or when no character file exists; returns one line per
+/// missing character (that character is left out, its key ignored).
+std::vector<std::string> check_fighter_files(const InstallationConfig& c, std::vector<int>& loaded) {
   if (c.fighter.database.empty())
     throw file_error("config", "missing_key", c.file.string(), c.line_of("fighter"),
                      "fighter.database", "no fighter database configured");
@@ -77,15 +87,24 @@ void check_fighter_files(const InstallationConfig& c) {
   if (c.characters.empty())
     throw file_error("config", "missing_key", c.file.string(), 0, "characters",
                      "no [[characters]] configured");
+  std::vector<std::string> missing;
   for (std::size_t i = 0; i < c.characters.size(); ++i) {
     const auto bvh = c.resolve(c.characters[i].bvh);
-    if (!std::filesystem::exists(bvh))
-      throw file_error("config", "missing_file", c.file.string(),
-                       c.line_of(fmt::format("characters[{}].bvh", i)),
-                       fmt::format("characters[{}].bvh", i),
-                       fmt::format("character {} \"{}\": {} does not exist", i + 1,
-                                   c.characters[i].name, bvh.string()));
+    if (std::filesystem::exists(bvh)) {
+      loaded.push_back(static_cast<int>(i));
+      continue;
+    }
+    missing.push_back(file_error("config", "missing_file", c.file.string(),
+                                 c.line_of(fmt::format("characters[{}].bvh", i)),
+                                 fmt::format("characters[{}].bvh", i),
+                                 fmt::format("character {} \"{}\": {} does not exist: left out", i + 1,
+                                             c.characters[i].name, bvh.string()))
+                          .what());
   }
+  if (loaded.empty())
+    throw file_error("config", "missing_file", c.file.string(), c.line_of("characters"), "characters",
+                     "none of the character files exists");
+  return missing;
 }
 
 }  // namespace
@@ -107,8 +126,15 @@ Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingIn
   if (script) script_ = OrderScript(load_orders_script(*script), 0);
   // A missing database or character is not: the walls still draw, the console says why.
   try {
-    check_fighter_files(config_);
-    fighter_ = content::Fighter::create(fighter_config(config_));
+    std::vector<int> loaded;
+    missing_characters_ = check_fighter_files(config_, loaded);
+    for (const auto& m : missing_characters_) spdlog::error("{}", m);
+    fighter_ = content::Fighter::create(fighter_config(config_, loaded));
+    fighter_of_config_.assign(config_.characters.size(), -1);
+    for (std::size_t k = 0; k < loaded.size(); ++k) {
+      fighter_of_config_[static_cast<std::size_t>(loaded[k])] = static_cast<int>(k);
+      config_of_fighter_.push_back(loaded[k]);
+    }
   } catch (const std::exception& e) {
     fighter_problem_ = std::string("no fighter: ") + e.what();
     spdlog::error("{}", fighter_problem_);
@@ -118,12 +144,9 @@ Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingIn
 
 Installation::~Installation() = default;
 
-int Installation::character_count() const {
-  return fighter_ ? fighter_->character_count() : static_cast<int>(config_.characters.size());
-}
+int Installation::character_count() const { return static_cast<int>(config_.characters.size()); }
 
 std::string Installation::character_name(int index) const {
-  if (fighter_) return fighter_->character_name(index);
   return index >= 0 && index < static_cast<int>(config_.characters.size())
              ? config_.characters[static_cast<std::size_t>(index)].name
              : "?";
@@ -161,11 +184,14 @@ void Installation::update_head(Timestamp now) {
   const TrackingSnapshot snap = tracking_->poll(now);
   console_.cameras = snap.cameras;
   console_.tracking = snap.status;
-  frame_.pose_age_ms = -1;
+  console_.tracking_source = snap.source;
+  for (const auto& p : snap.problems) console_.problems.push_back(p);
+  // Pose age: the newest head measurement's camera time to now, the moment this frame takes
+  // the head for rendering (the draw follows at once), tracked or not.
+  const double age_s = snap.measured_at >= 0 ? tracking_->clock() - snap.measured_at : -1;
+  frame_.pose_age_ms = age_s >= 0 ? age_s * 1e3 : -1;
   bool live = false;
-  if (snap.head && snap.head->status != TrackingStatus::lost) {
-    const double age_s = tracking_->clock() - snap.measured_at;
-    frame_.pose_age_ms = age_s * 1e3;
+  if (snap.head && snap.head->status != TrackingStatus::lost && age_s >= 0) {
     console_.markers_seen = snap.head->markers;
     if (age_s <= config_.tracking.lost_after_s) {
       const auto& p = snap.head->position;
@@ -208,15 +234,25 @@ void Installation::apply_orders(Timestamp now) {
       continue;
     }
     if (o.kind == OrderKind::select_character &&
-        (o.character < 0 || o.character >= fighter_->character_count())) {
+        (o.character < 0 || o.character >= character_count())) {
       e.type = "order_ignored";
       e.text = fmt::format("character {} does not exist ({} characters)", o.character + 1,
-                           fighter_->character_count());
+                           character_count());
       note(e);
       continue;
     }
     Order timed = o;
     timed.time = now;
+    if (o.kind == OrderKind::select_character) {  // config numbering -> the fighter's
+      timed.character = fighter_of_config_[static_cast<std::size_t>(o.character)];
+      if (timed.character < 0) {
+        e.type = "order_ignored";
+        e.text = fmt::format("character {} \"{}\" is not loaded (its file is missing)", o.character + 1,
+                             character_name(o.character));
+        note(e);
+        continue;
+      }
+    }
     fighter_->order(timed);
   }
 }
@@ -233,12 +269,22 @@ void Installation::update_fighter(Timestamp now, double dt) {
   const glm::dvec3 mid = (frame_.eyes.left + frame_.eyes.right) * 0.5;
   fighter_->update(now, dt, Eigen::Vector3d(mid.x, mid.y, mid.z));
   const content::FighterFrame f = fighter_->frame();
-  plan_fighter(f, character_colour(f.character), frame_.items);
+  const int character = config_of_fighter_.at(static_cast<std::size_t>(f.character));
+  plan_fighter(f, character_colour(character), frame_.items);
   frame_.fighter_state = std::string(content::to_string(f.state));
-  frame_.character = f.character;
+  frame_.character = character;
   frame_.fighter_root = glm::dvec3(f.root.x(), f.root.y(), f.root.z());
   frame_.fighter_heading_rad = f.heading_rad;
-  for (const auto& e : fighter_->take_events()) note(to_frame_event(e, start_));
+  for (auto e : fighter_->take_events()) {
+    if (e.order.kind == OrderKind::select_character && e.order.character >= 0 &&
+        e.order.character < static_cast<int>(config_of_fighter_.size())) {  // back to config numbering
+      e.order.character = config_of_fighter_[static_cast<std::size_t>(e.order.character)];
+      if (e.kind == content::FighterEvent::Kind::character_changed)
+        e.text = fmt::format("character {} ({})", e.order.character + 1, character_name(e.order.character));
+    }
+    note(to_frame_event(e, start_));
+  }
+  for (const auto& m : missing_characters_) console_.problems.push_back(m);
 }
 
 const FrameData& Installation::step(Timestamp now) {

@@ -56,20 +56,19 @@ GLFWwindow* open_window(const WindowConfig& c, bool stereo, GLFWwindow* share) {
   context_hints(stereo);
   GLFWmonitor* monitor = nullptr;
   int width = c.size[0], height = c.size[1];
-  if (c.fullscreen) {
-    int count = 0;
-    GLFWmonitor** monitors = glfwGetMonitors(&count);
-    if (c.monitor >= count)
-      throw Error("app", "monitor",
-                  fmt::format("window \"{}\": monitor {} does not exist ({} connected)", c.name,
-                              c.monitor, count));
+  int count = 0;
+  GLFWmonitor** monitors = c.fullscreen ? glfwGetMonitors(&count) : nullptr;
+  if (c.fullscreen && c.monitor >= count)  // a projector unplugged: show the wall anyway
+    spdlog::error("window \"{}\": monitor {} does not exist ({} connected): opened as a {}x{} window instead",
+                  c.name, c.monitor, count, width, height);
+  if (c.fullscreen && c.monitor < count) {
     monitor = monitors[c.monitor];
     const GLFWvidmode* mode = glfwGetVideoMode(monitor);
     width = mode->width;
     height = mode->height;
   }
   GLFWwindow* w = glfwCreateWindow(width, height, ("kumite: " + c.name).c_str(), monitor, share);
-  if (w && !c.fullscreen) glfwSetWindowPos(w, c.position[0], c.position[1]);
+  if (w && !monitor) glfwSetWindowPos(w, c.position[0], c.position[1]);
   return w;
 }
 

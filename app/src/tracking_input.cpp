@@ -1,7 +1,11 @@
 // The tracker (kumite::tracking::Tracker) behind TrackingInput: its own thread reads the
-// recording (paced in real time and rebased onto kumite::now()) or the live cameras; poll()
-// reads the newest filtered head pose and predicts it to the display time, never waiting.
+// recording (played on a real-time clock like cameras: decoded ahead by workers, each frame
+// set handed over at its due time and stamped with it, sets that cannot be decoded in time
+// skipped) or the live cameras; poll() reads the newest filtered head pose and predicts it to
+// the display time, never waiting.
 #include "kumite/app/tracking_input.hpp"
+
+#include <array>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -17,7 +21,8 @@ class TrackerInput final : public TrackingInput {
  public:
   TrackerInput(const InstallationConfig& c, tracking::RigCalibration rig,
                tracking::TrackingConfig tc, std::unique_ptr<tracking::FrameSource> source)
-      : tracker_(rig, tc), head_(c.tracking.head_body), source_(c.tracking.source) {
+      : preload_(c.tracking.recording_preload), tracker_(rig, tc), head_(c.tracking.head_body),
+        source_(c.tracking.source) {
     for (const auto& cam : rig.cameras) names_.push_back(cam.name);
     if (head_ >= static_cast<int>(tracker_.body_count()))
       throw file_error("config", "range", c.file.string(), c.line_of("tracking.head_body"),
@@ -28,9 +33,15 @@ class TrackerInput final : public TrackingInput {
       tracker_.start(std::move(source));
       what_ = "frame source given by the caller";
     } else if (source_ == TrackingSource::recording) {
-      // Looping keeps a long demo tracked; the recording's clock is rebased onto now().
-      tracker_.start(tracking::open_recording_source(c.resolve(c.tracking.recording), rig, tc,
-                                                     {.realtime = true, .loop = true}));
+      // Looping keeps a long demo tracked; the recording plays on now()'s clock.
+      counters_ = std::make_shared<tracking::RecordingOptions::Counters>();
+      tracking::RecordingOptions o;
+      o.realtime = true;
+      o.loop = true;
+      o.decode_threads = c.tracking.decode_threads;
+      o.preload_sets = static_cast<std::size_t>(c.tracking.recording_preload);
+      o.counters = counters_;
+      tracker_.start(tracking::open_recording_source(c.resolve(c.tracking.recording), rig, tc, o));
       what_ = "recording " + c.resolve(c.tracking.recording).string();
     } else {
       tracker_.start(tracking::open_live_source(rig, tc));
@@ -43,8 +54,11 @@ class TrackerInput final : public TrackingInput {
     TrackingSnapshot s;
     const auto latest = tracker_.latest(head_);
     if (latest) {
+      // A coasting pose is a prediction: its age counts from the last frame set that saw the
+      // head (if that one came and went between two polls, an older one: the age errs long).
+      if (latest->status == TrackingStatus::tracked) last_measured_ = latest->timestamp;
       s.head = tracker_.predict(head_, display_time);
-      s.measured_at = latest->timestamp;
+      s.measured_at = last_measured_;
       s.status = std::string(to_string(s.head->status));
     } else {
       s.status = tracker_.running() ? "waiting for the first frame set" : "tracker stopped";
@@ -60,12 +74,51 @@ class TrackerInput final : public TrackingInput {
       v.since_last_ms = cams[i].since_last_s >= 0 ? cams[i].since_last_s * 1e3 : -1;
       s.cameras.push_back(v);
     }
+    if (counters_) describe_recording(display_time, s);
     return s;
   }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return what_; }
 
  private:
+  /// The recording's rates over the last second or so, and a problem when it cannot keep up.
+  void describe_recording(Timestamp t, TrackingSnapshot& s) {
+    const auto& c = *counters_;
+    if (!c.playing.load()) {
+      const auto want = static_cast<std::uint64_t>(preload_);
+      s.source = want > 0 ? fmt::format("recording: loading {} of {} frame sets into memory", c.preloaded.load(), want)
+                          : "recording: decoding the first frame set";
+      return;
+    }
+    const std::array<std::uint64_t, 3> n{c.delivered.load(), c.not_decoded.load(), c.dropped_stale.load()};
+    if (rate_t0_ < 0 || t - rate_t0_ >= 1.0) {
+      if (rate_t0_ >= 0) {
+        const double dt = t - rate_t0_;
+        for (int k = 0; k < 3; ++k) rates_[k] = static_cast<double>(n[k] - rate_n0_[k]) / dt;
+      }
+      rate_t0_ = t;
+      rate_n0_ = n;
+    }
+    s.source = fmt::format(
+        "recording ({}): {:.1f} frame sets/s tracked, {:.1f}/s skipped (decoder behind), {:.1f}/s dropped "
+        "(tracker behind); totals {} / {} / {}",
+        preload_ > 0 ? fmt::format("{} sets looped from memory", c.preloaded.load())
+                     : fmt::format("from disk, decode {:.0f} ms/set", c.decode_ms.load()),
+        rates_[0], rates_[1], rates_[2], n[0], n[1], n[2]);
+    const double all = rates_[0] + rates_[1] + rates_[2];
+    if (all > 0 && rates_[0] < 0.9 * all)
+      s.problems.push_back(fmt::format(
+          "recording: only {:.0f}% of frame sets reach the tracker (PNG decoding {:.0f} ms per set): "
+          "pose age grows; set tracking.recording_preload to play from memory",
+          100 * rates_[0] / all, c.decode_ms.load()));
+  }
+
+  std::shared_ptr<tracking::RecordingOptions::Counters> counters_;
+  int preload_ = 0;
+  Timestamp last_measured_ = -1;
+  Timestamp rate_t0_ = -1;
+  std::array<std::uint64_t, 3> rate_n0_{0, 0, 0};
+  std::array<double, 3> rates_{0, 0, 0};
   tracking::Tracker tracker_;
   int head_;
   TrackingSource source_;

@@ -5,7 +5,13 @@
 //   kumite --config config/demo.toml --headless --frames 300 --out out/demo --save-every 30
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <cerrno>
 #include <iostream>
+
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 #include "kumite/app/config.hpp"
 #include "kumite/app/installation.hpp"
@@ -30,6 +36,8 @@ struct Args {
   bool simulated = false;
   std::string screenshot;
   std::string log;
+  std::string data_dir;
+  int render_nice = 5;
   int verbosity = 1;
 };
 
@@ -43,8 +51,20 @@ std::optional<std::array<int, 2>> parse_resolution(const std::string& s) {
   return std::array<int, 2>{w, h};
 }
 
+/// Raises the calling thread's nice value by `n` (threads it starts later inherit it).
+void lower_render_priority(int n) {
+  if (n <= 0) return;
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  errno = 0;
+  const int now_nice = ::getpriority(PRIO_PROCESS, tid);
+  if (errno == 0 && ::setpriority(PRIO_PROCESS, tid, std::min(19, now_nice + n)) == 0)
+    spdlog::debug("render thread: nice {}", std::min(19, now_nice + n));
+}
+
 int run(const Args& a) {
-  auto config = kumite::app::load_installation_config(a.config);
+  auto config = kumite::app::load_installation_config(
+      a.config, a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
+  if (!config.data_root().empty()) spdlog::info("data folder ${{data_dir}}: {}", config.data_root().string());
   if (!a.stereo.empty()) {
     const auto m = kumite::app::stereo_mode_from_string(a.stereo);
     if (!m) throw kumite::Error("cli", "stereo", "--stereo: unknown stereo mode \"" + a.stereo + "\"");
@@ -63,6 +83,9 @@ int run(const Args& a) {
     tracking = kumite::app::make_fixed_head_input(std::string("tracking unavailable: ") + e.what());
   }
   kumite::app::Installation inst(config, std::move(tracking), io);
+  // The tracker's threads are running (at the process's priority); the render thread and the
+  // GL driver's threads it starts from here on (llvmpipe) yield to them when the cores are short.
+  lower_render_priority(a.render_nice);
   const bool headless = a.headless || !kumite::app::display_available();
   if (headless) {
     if (!a.headless) spdlog::info("no display ($DISPLAY unset): rendering headless into {}", a.out);
@@ -100,6 +123,12 @@ int main(int argc, char** argv) {
   app.add_flag("--no-console", a.no_console, "windows: no supervisor console window");
   app.add_option("--screenshot", a.screenshot, "windows: PNG of the first window at the end");
   app.add_option("--log", a.log, "windows: write frames.jsonl here");
+  app.add_option("--data-dir", a.data_dir,
+                 "folder of the data made at set-up (what ${data_dir} means in the config; "
+                 "default $KUMITE_DATA_DIR, else the config's data_dir)");
+  app.add_option("--render-nice", a.render_nice,
+                 "nice value added to the render thread (and GL threads it starts), so tracking wins the cores; 0 = off")
+      ->capture_default_str();
   app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   kumite::init_logging(a.verbosity);

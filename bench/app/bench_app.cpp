@@ -108,6 +108,44 @@ void BM_HeadlessWall1080p(benchmark::State& state) {
 }
 BENCHMARK(BM_HeadlessWall1080p)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
+/// One headless frame of the demo: its 4 walls x 2 eyes, each image read back (as when the
+/// frame's PNGs are saved, without the encoding). Arg 0: the demo's resolutions (3 walls
+/// 1920x1080, the floor 1920x1920); arg 1: 320x180 each, as tests/app/test_demo.cpp renders.
+void BM_HeadlessDemoFrame(benchmark::State& state) {
+  HeadlessContext context;
+  const auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  const auto walls = demo_walls();
+  Renderer renderer(walls);
+  std::vector<std::unique_ptr<OffscreenTarget>> targets;
+  for (const auto& w : cfg.walls) {
+    const auto res = state.range(0) == 0 ? w.resolution : std::array<int, 2>{320, 180};
+    targets.push_back(std::make_unique<OffscreenTarget>(res[0], res[1]));
+  }
+  std::vector<DrawItem> items;
+  plan_fighter(figure().frame(), character_colour(0), items);
+  WallViews views;
+  HeadPose head;
+  head.position = {0, 1.67, 0};
+  const Eyes eyes = eyes_from_head(head, 0.064, {0, -0.03, -0.01});
+  views.resize(walls.size());
+  plan_views(walls, eyes, 0.05, 100, views);
+  std::vector<std::uint8_t> rgba;
+  double px = 0;
+  for (auto _ : state) {
+    for (std::size_t w = 0; w < targets.size(); ++w)
+      for (std::size_t e = 0; e < 2; ++e) {
+        targets[w]->bind();
+        renderer.clear(0, 0, targets[w]->width(), targets[w]->height());
+        renderer.draw(views[w][e], items);
+        targets[w]->read(rgba);
+      }
+  }
+  for (const auto& t : targets) px += 2.0 * t->width() * t->height();
+  state.counters["images"] = 2.0 * static_cast<double>(targets.size());
+  state.counters["px_per_frame"] = px;
+}
+BENCHMARK(BM_HeadlessDemoFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
 }  // namespace
 
 BENCHMARK_MAIN();

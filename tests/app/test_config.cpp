@@ -215,3 +215,25 @@ TEST(Config, CaveWithOneWindowPerWall) {
   EXPECT_FALSE(a.stereo.allow_fallback);
   EXPECT_EQ(parse_installation_config(to_toml(a), "again.toml"), a);
 }
+
+TEST(Config, DataDirPlaceholder) {
+  const std::string fighter = "[fighter]\ndatabase = \"${data_dir}/fighter.kdb\"\n";
+  // Used without a data folder: the key is named.
+  const auto msg = error_of(kBase + fighter);
+  EXPECT_NE(msg.find("bad.toml:25: fighter.database: ${data_dir}/fighter.kdb uses ${data_dir}"), std::string::npos)
+      << msg;
+  // data_dir is relative to the file's folder; an override (--data-dir, KUMITE_DATA_DIR) wins.
+  auto c = parse_installation_config("data_dir = \"../build/demo\"\n" + kBase + fighter, "/etc/kumite/room.toml");
+  EXPECT_EQ(c.resolve(c.fighter.database), std::filesystem::path("/etc/kumite/../build/demo/fighter.kdb"));
+  EXPECT_EQ(c.resolve("wu.bvh"), std::filesystem::path("/etc/kumite/wu.bvh"));
+  c.data_dir_override = "/data/run7";
+  EXPECT_EQ(c.resolve(c.fighter.database), std::filesystem::path("/data/run7/fighter.kdb"));
+  // It round-trips (the override is not written back).
+  EXPECT_EQ(parse_installation_config(to_toml(c), "/etc/kumite/room.toml"), c);
+}
+
+TEST(Config, DemoFindsItsDataThroughTheOverride) {
+  const auto c = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml", std::filesystem::path("/x/demo"));
+  EXPECT_EQ(c.resolve(c.tracking.recording), std::filesystem::path("/x/demo/recording"));
+  EXPECT_EQ(c.resolve(c.fighter.database), std::filesystem::path("/x/demo/fighter.kdb"));
+}

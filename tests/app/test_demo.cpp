@@ -174,3 +174,37 @@ TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
   }
   fs::remove_all(out);
 }
+
+TEST(Demo, AMissingCharacterFileLeavesTheOthersAndKeepsTheKeyNumbers) {
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = demo_database();
+  cfg.tracking.source = TrackingSource::none;
+  cfg.characters[0].bvh = "/nonexistent/kenji.bvh";  // character 1 (the initial one) is missing
+  const fs::path dir = fs::temp_directory_path() / ("kumite_app_test_chars_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  const fs::path script = dir / "orders.csv";
+  std::ofstream(script) << "time_s,order\n0.1,character 1\n0.2,character 3\n";
+  InstallationOptions io;
+  io.orders_script = script;
+  Installation inst(cfg, make_fixed_head_input("test"), io);
+  EXPECT_EQ(inst.character_count(), 5);
+  EXPECT_EQ(inst.character_name(2), "Bruno");
+  std::vector<FrameEvent> events;
+  for (int i = 0; i <= 30; ++i) {
+    const auto& f = inst.step(1000.0 + i / 60.0);
+    events.insert(events.end(), f.events.begin(), f.events.end());
+  }
+  ASSERT_TRUE(inst.frame().has_fighter) << "the other four characters still make a fighter";
+  EXPECT_EQ(inst.frame().character, 2) << "character 3 (Bruno), in the config's numbering";
+  bool said_missing = false;
+  for (const auto& p : inst.console().problems) said_missing |= p.find("kenji.bvh does not exist") != std::string::npos;
+  EXPECT_TRUE(said_missing);
+  bool ignored_1 = false, changed_3 = false;
+  for (const auto& e : events) {
+    if (e.type == "order_ignored" && e.order == "character 1") ignored_1 = e.text.find("not loaded") != std::string::npos;
+    if (e.type == "character_changed") changed_3 = e.text == "character 3 (Bruno)" && e.order == "character 3";
+  }
+  EXPECT_TRUE(ignored_1);
+  EXPECT_TRUE(changed_3);
+  fs::remove_all(dir);
+}

@@ -5,7 +5,10 @@
 //
 // Room frame: metres, right-handed, +Y up, floor at y = 0, the visitor faces the front wall,
 // which lies toward -Z. Head frame (the tracked glasses): +X right, +Y up, looking -Z.
-// Relative paths in the file are relative to the file's own folder (resolve()).
+// Relative paths in the file are relative to the file's own folder (resolve()). A path may
+// start with "${data_dir}/": the data made at set-up (database, recording), found in
+// `kumite --data-dir`, else $KUMITE_DATA_DIR, else the file's top-level `data_dir` key
+// (relative to the file's folder); see resolve().
 #include <array>
 #include <filesystem>
 #include <map>
@@ -105,11 +108,26 @@ struct TrackingConfig {
   int head_body = 0;                  ///< body index of the glasses in tracking.toml
   /// s, how long a lost head keeps its last good pose before the console calls it lost.
   double lost_after_s = 0.25;
+  /// Frame sets of the recording decoded into memory before playback starts, then played
+  /// (looped) from memory at the recording's rate; 0 = stream from disk, where sets that
+  /// cannot be decoded before they are due are skipped (as a camera drops frames).
+  int recording_preload = 0;
+  int decode_threads = 1;  ///< threads decoding the recording's PNGs ahead of its clock
   bool operator==(const TrackingConfig&) const = default;
 };
 
+/// The placeholder a path in the file may start with (see InstallationConfig::resolve).
+inline constexpr std::string_view kDataDirPlaceholder = "${data_dir}";
+/// Environment variable overriding `data_dir` (load_installation_config reads it).
+inline constexpr const char* kDataDirEnv = "KUMITE_DATA_DIR";
+
 struct InstallationConfig {
   std::filesystem::path file;  ///< where it was read from ("" when built in code)
+  /// `data_dir` as written (relative to the file's folder): what "${data_dir}" in a path means.
+  std::filesystem::path data_dir;
+  /// Overrides data_dir (absolute, or relative to the working directory): set from
+  /// $KUMITE_DATA_DIR by load_installation_config, or by `kumite --data-dir`. Not written back.
+  std::optional<std::filesystem::path> data_dir_override;
   double display_rate_hz = 60.0;
   std::vector<WindowConfig> windows;
   std::vector<WallConfig> walls;
@@ -126,8 +144,12 @@ struct InstallationConfig {
   std::map<std::string, int> lines;
   int line_of(const std::string& key) const;
 
-  /// A path from the file made absolute against the file's folder (unchanged if absolute).
+  /// A path from the file made usable: "${data_dir}/rest" becomes data_root() / rest; other
+  /// relative paths are taken against the file's folder; absolute ones are unchanged.
   std::filesystem::path resolve(const std::filesystem::path& p) const;
+  /// The folder "${data_dir}" stands for (data_dir_override, else data_dir against the
+  /// file's folder); empty when neither is set.
+  std::filesystem::path data_root() const;
   /// The window index showing wall `w` (after validate(), always valid).
   int window_of(std::size_t w) const;
 
@@ -136,7 +158,9 @@ struct InstallationConfig {
 
 /// Reads and validates an installation file. Throws kumite::Error("config", ...) whose message
 /// is "file:line: key: what is wrong".
-InstallationConfig load_installation_config(const std::filesystem::path& file);
+/// `data_dir` overrides the file's data_dir key (default: $KUMITE_DATA_DIR when set).
+InstallationConfig load_installation_config(const std::filesystem::path& file,
+                                            std::optional<std::filesystem::path> data_dir = std::nullopt);
 /// Parses and validates TOML text; `file_name` is used in messages (and for resolve()).
 InstallationConfig parse_installation_config(std::string_view text,
                                              const std::filesystem::path& file_name);

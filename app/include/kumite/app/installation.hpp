@@ -30,9 +30,13 @@ struct CameraView {
 /// What the tracking side has at one display time.
 struct TrackingSnapshot {
   std::optional<BodyPose> head;      ///< newest head pose, predicted to the display time
-  Timestamp measured_at = 0;         ///< s, camera time of the frame set it came from
+  /// s, camera time of the newest frame set that measured the head (-1: none yet); the
+  /// pose age at render is clock() - measured_at.
+  Timestamp measured_at = -1;
   std::vector<CameraView> cameras;
   std::string status;                ///< one line: "tracked", "lost", "no tracking", ...
+  std::string source;                ///< one line about the frame source (recording: rates, drops)
+  std::vector<std::string> problems; ///< what is wrong with the source now
 };
 
 /// Where head poses come from (the tracker, or nothing). poll() never blocks.
@@ -62,10 +66,13 @@ struct ConsoleState {
   double fps = 0;                  ///< Hz, frames per second (rolling)
   double frame_cpu_ms = 0;         ///< ms, CPU of the last frame's step()
   std::string tracking;            ///< "tracked", "coasting", "lost", "no tracking", ...
+  std::string tracking_source;     ///< the frame source: frame sets per second, skipped, dropped
   std::vector<CameraView> cameras;
   int markers_seen = 0;
   bool head_live = false;          ///< false: using the last good (or default) head
-  double pose_age_ms = -1;         ///< ms, camera time to render time (-1: none)
+  /// ms, camera time of the newest head measurement to the moment this frame samples it for
+  /// rendering (-1: none yet); logged whether or not the head counts as tracked.
+  double pose_age_ms = -1;
   std::string fighter_state = "none";
   int character = 0;               ///< 0-based
   std::string character_name;
@@ -134,6 +141,9 @@ class Installation {
   std::unique_ptr<TrackingInput> tracking_;
   std::unique_ptr<content::Fighter> fighter_;
   std::string fighter_problem_;
+  std::vector<std::string> missing_characters_;  // one line each (left out of the fighter)
+  std::vector<int> fighter_of_config_;  // config character -> the fighter's (-1: not loaded)
+  std::vector<int> config_of_fighter_;
   OrderScript script_;
   std::vector<Order> pending_;
   std::vector<Order> due_;

@@ -66,9 +66,39 @@ class FrameSource {
   virtual std::vector<std::string> take_messages() { return {}; }
 };
 
+/// How a recording plays. As fast as possible (realtime = false): every frame set, in order,
+/// decoded on the caller's thread, with the recording's own timestamps. In real time: like
+/// cameras, on a clock that does not wait for anyone: frame set i is due at
+/// start + (t_i - t_0) (+ the recording's length per loop), is handed over no earlier than
+/// that and stamped with that time (kumite::now()'s clock). Worker threads decode ahead of
+/// the clock; a set they cannot decode before it is due is skipped (the decoder is behind),
+/// and when the consumer is behind, only the newest due set is handed over and older ones
+/// are dropped (a camera with `buffered_sets` driver buffers). Nothing is stamped in the past.
 struct RecordingOptions {
-  bool realtime = false;  ///< pace frame sets by their timestamps and rebase them onto now()
+  bool realtime = false;  ///< pace frame sets on the clock above (see there)
   bool loop = false;      ///< start again at the end
+  int decode_threads = 1;  ///< realtime: threads decoding PNGs ahead of the clock
+  /// realtime: nice value added to the decode threads (Linux; 0 = as the caller), so the
+  /// tracker and the renderer win when the 2 cores are short.
+  int decode_nice = 5;
+  int buffered_sets = 3;  ///< realtime: decoded sets waiting for their time (>= 1)
+  /// realtime: decode the first N frame sets into memory before the clock starts and play
+  /// only those (looped if `loop`); 0 = stream every set from disk.
+  std::size_t preload_sets = 0;
+  /// Counts the source keeps (any thread may read them while it runs).
+  struct Counters {
+    std::atomic<std::uint64_t> delivered{0};      ///< frame sets handed over
+    std::atomic<std::uint64_t> not_decoded{0};    ///< skipped: could not be decoded before due
+    /// dropped because the consumer was behind: a newer set was due at hand-over, or the
+    /// buffers were full while it came due
+    std::atomic<std::uint64_t> dropped_stale{0};
+    std::atomic<std::uint64_t> preloaded{0};      ///< frame sets in memory (preload_sets)
+    std::atomic<bool> playing{false};             ///< the clock has started
+    std::atomic<double> decode_ms{0};             ///< ms per frame set (all cameras), smoothed
+    std::atomic<double> max_handover_late_ms{0};  ///< ms, worst (hand-over time - due time)
+  };
+  /// Optional: where the counts go (the app shows them on its console).
+  std::shared_ptr<Counters> counters;
 };
 
 /// A source reading a recording (see recording.hpp). Throws kumite::Error as Recording does.
