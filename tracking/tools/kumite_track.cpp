@@ -43,6 +43,7 @@ struct RunOptions {
   std::string calibration, config, recording, out;
   bool live = false;
   bool realtime = false;
+  int decode_threads = 1;
   bool unfiltered = false;
   double duration_s = 0;
   int verbosity = 1;
@@ -95,10 +96,10 @@ class Collector {
     const BodyPose& f = r.filtered.at(0);
     // The console says when the head is lost (past coasting) and when it is found again.
     if (f.status == TrackingStatus::lost && was_tracked_) {
-      spdlog::warn("{}: lost at {:.3f} s (frame {})", body_name_, r.timestamp, r.frame);
+      spdlog::warn("{}: lost at {:.3f} s (frame {})", body_name_, r.timestamp - first_time_, r.frame);
     } else if (f.status == TrackingStatus::tracked && !was_tracked_) {
       spdlog::info("{}: {} at {:.3f} s (frame {}, {} markers, {} cameras)", body_name_,
-                   ever_tracked_ ? "tracked again" : "found", r.timestamp, r.frame, f.markers, f.cameras);
+                   ever_tracked_ ? "tracked again" : "found", r.timestamp - first_time_, r.frame, f.markers, f.cameras);
       ever_tracked_ = true;
     }
     if (f.status != TrackingStatus::coasting) was_tracked_ = f.status == TrackingStatus::tracked;
@@ -165,7 +166,8 @@ class Collector {
       if (last_image_[c] < 0) {
         line += ", never delivered one";
       } else if (last_time_ - last_image_[c] > camera_timeout_s_) {  // it stopped
-        line += fmt::format(", the last at {:.3f} s ({:.3f} s before the end)", last_image_[c], last_time_ - last_image_[c]);
+        line += fmt::format(", the last at {:.3f} s ({:.3f} s before the end)", last_image_[c] - first_time_,
+                            last_time_ - last_image_[c]);
       }
       std::printf("%s\n", line.c_str());
     }
@@ -214,10 +216,15 @@ int run_tracker(const RunOptions& o) {
   const TrackingConfig config = read_tracking_config(o.config);
   std::unique_ptr<FrameSource> source;
   std::optional<TruthTable> truth;
+  auto playback = std::make_shared<RecordingOptions::Counters>();
   if (o.live) {
     source = open_live_source(rig, config);
   } else {
-    source = open_recording_source(o.recording, rig, config, {.realtime = o.realtime});
+    RecordingOptions ro;
+    ro.realtime = o.realtime;
+    ro.decode_threads = o.decode_threads;
+    ro.counters = playback;
+    source = open_recording_source(o.recording, rig, config, ro);
     truth = read_truth(o.recording);
     if (truth) {
       for (const auto& s : truth->skipped) spdlog::warn("{}", s);
@@ -290,6 +297,13 @@ int run_tracker(const RunOptions& o) {
   skipped = sink_count->load();
   collector.write(o.out);
   collector.summary(skipped.load());
+  if (o.realtime) {
+    std::printf("real-time playback: %llu frame sets delivered, %llu skipped (not decoded in time: try "
+                "--decode-threads), %llu dropped (the tracker was behind)\n",
+                static_cast<unsigned long long>(playback->delivered.load()),
+                static_cast<unsigned long long>(playback->not_decoded.load()),
+                static_cast<unsigned long long>(playback->dropped_stale.load()));
+  }
   std::printf("wrote %s\n", o.out.c_str());
   return 0;
 }
@@ -359,6 +373,8 @@ int main(int argc, char** argv) {
   app.add_flag("--live", run.live, "capture from the V4L2 cameras in the config's [[cameras]]");
   app.add_option("--out", run.out, "poses.csv to write");
   app.add_flag("--realtime", run.realtime, "play a recording at its own pace (default: as fast as possible)");
+  app.add_option("--decode-threads", run.decode_threads, "--realtime: threads decoding PNGs ahead of the clock")
+      ->capture_default_str()->check(CLI::Range(1, 16));
   app.add_flag("--unfiltered", run.unfiltered, "write the unsmoothed measurement instead of the filtered pose");
   app.add_option("--duration", run.duration_s, "stop after this many seconds (0 = until the end / Ctrl-C)");
   app.add_option("-v,--verbosity", run.verbosity, "0 = warnings, 1 = info, 2 = debug")->check(CLI::Range(0, 2));
