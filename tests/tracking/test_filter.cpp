@@ -3,6 +3,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <cstdio>
 #include <random>
 #include <sstream>
 
@@ -71,18 +72,26 @@ TEST(PoseFilter, TracksAConstantVelocityAndPredictsAhead) {
 }
 
 TEST(PoseFilter, SmoothsNoiseAtRest) {
-  FilterConfig cfg;
-  PoseFilter f(cfg, 60);
-  std::mt19937 rng(3);
-  std::normal_distribution<double> n(0, 0.0005);
-  double raw2 = 0, filt2 = 0;
-  for (int i = 0; i < 600; ++i) {
-    const Eigen::Vector3d noise(n(rng), n(rng), n(rng));
-    const auto& s = f.update(i / 60.0, noise, Eigen::Quaterniond::Identity());
-    if (i > 60) {
-      raw2 += noise.squaredNorm();
-      filt2 += s.position.squaredNorm();
+  // Position noise of the unsmoothed pose at sigma 0.3 px per axis is ~0.2 mm per axis (the
+  // bench prints it). The shipped settings (beta 600 /m, d_cutoff 4 Hz) halve it at rest and
+  // trade the rest for little lag on a moving head (0.6 mm instead of 5 mm with beta 60,
+  // d_cutoff 1, which cut noise at rest to a quarter); noisier measurements are smoothed less
+  // (the speed estimate sees the noise as motion).
+  for (const double sigma_m : {0.0002, 0.0005}) {
+    FilterConfig cfg;
+    PoseFilter f(cfg, 60);
+    std::mt19937 rng(3);
+    std::normal_distribution<double> n(0, sigma_m);
+    double raw2 = 0, filt2 = 0;
+    for (int i = 0; i < 600; ++i) {
+      const Eigen::Vector3d noise(n(rng), n(rng), n(rng));
+      const auto& s = f.update(i / 60.0, noise, Eigen::Quaterniond::Identity());
+      if (i > 60) {
+        raw2 += noise.squaredNorm();
+        filt2 += s.position.squaredNorm();
+      }
     }
+    std::printf("sigma %.1f mm per axis: filtered/raw RMS %.2f\n", sigma_m * 1e3, std::sqrt(filt2 / raw2));
+    EXPECT_LT(std::sqrt(filt2), (sigma_m < 0.0003 ? 0.55 : 0.75) * std::sqrt(raw2)) << sigma_m;
   }
-  EXPECT_LT(std::sqrt(filt2), 0.35 * std::sqrt(raw2));
 }

@@ -65,6 +65,7 @@ struct Pipeline::Impl {
     triangulator = std::make_unique<Triangulator>(std::span<const CameraModel>(cameras), config.match);
     result.blobs.resize(cameras.size());
     result.masked.resize(cameras.size());
+    result.has_image.resize(cameras.size());
   }
 
   void detect(const FrameSet& frames) {
@@ -73,6 +74,7 @@ struct Pipeline::Impl {
       result.blobs[c].clear();
       result.masked[c] = 0;
       observations[c].clear();
+      result.has_image[c] = 0;
       if (c >= frames.images.size() || frames.images[c].empty()) continue;
       const cv::Mat& img = frames.images[c];
       const auto& cal = rig.cameras[c];
@@ -81,6 +83,7 @@ struct Pipeline::Impl {
                                                           img.cols, img.rows, cal.image_width, cal.image_height));
       }
       ++result.cameras_with_images;
+      result.has_image[c] = 1;
       result.blobs[c] = detectors[c].detect(img);
       if (config.static_mask) result.masked[c] = masks[c].apply(result.blobs[c]);
       cameras[c].observe(result.blobs[c], observations[c]);

@@ -1,6 +1,7 @@
 #include "kumite/tracking/rigid_body.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -201,42 +202,119 @@ std::optional<BodyFit> RigidBodyModel::identify(std::span<const Marker> markers,
   return best;
 }
 
+namespace {
+
+// Pose refinement on the image evidence (RigidBodyModel::refine).
+// An image of a matched marker that triangulation left out (a pair that claimed it first, a
+// leave-one-out test on a noisy ray) is taken back when it lies this close to where the fitted
+// pose projects the marker and no other marker claimed it: every image is information, and the
+// estimate only reaches the Cramer-Rao bound with all of them. As tight as the triangulation's
+// own outlier test (outlier_px), so what it dropped as wrong does not come back.
+constexpr double kRegatherPx = 1.2;
+// Huber loss threshold (px): residuals up to it count fully (pixel noise is ~0.1-0.5 px);
+// beyond it their weight falls as 1/residual, so one wrong blob pulls little on the first step.
+constexpr double kHuberPx = 1.0;
+// From the second step on, an image further than this from the projection is dropped (a good
+// one at sigma 0.3 px per axis is that far once in ~10^5).
+constexpr double kRejectPx = 1.5;
+
+struct Ray {
+  int model;   // model marker
+  int camera;
+  int blob;    // index into the camera's observations
+  bool active = true;
+};
+
+}  // namespace
+
 void RigidBodyModel::refine(std::span<const Marker> markers, std::span<const CameraModel> cameras,
                             std::span<const std::vector<Observation>> obs, BodyFit& fit) const {
   if (!fit.full) return;
-  for (int iter = 0; iter < 4; ++iter) {
+  const std::size_t ncam = std::min(cameras.size(), obs.size());
+  // Which images every marker of this frame set already owns (another marker's are not ours).
+  std::array<std::vector<std::uint8_t>, kMaxCameras> claimed;
+  for (std::size_t c = 0; c < ncam; ++c) claimed[c].assign(obs[c].size(), 0);
+  for (const Marker& mk : markers)
+    for (std::size_t c = 0; c < ncam; ++c)
+      if (mk.blob[c] >= 0 && static_cast<std::size_t>(mk.blob[c]) < obs[c].size()) claimed[c][mk.blob[c]] = 1;
+  std::vector<Ray> rays;
+  for (std::size_t m = 0; m < fit.marker_of.size(); ++m) {
+    if (fit.marker_of[m] < 0) continue;
+    const Marker& mk = markers[fit.marker_of[m]];
+    const Eigen::Vector3d X = fit.pose.apply(config_.markers[m]);
+    for (std::size_t c = 0; c < ncam; ++c) {
+      if (mk.blob[c] >= 0) {
+        rays.push_back({static_cast<int>(m), static_cast<int>(c), mk.blob[c]});
+        continue;
+      }
+      const Eigen::Vector3d p = cameras[c].to_camera(X);
+      if (p.z() < 1e-6) continue;
+      const Eigen::Vector2d n(p.x() / p.z(), p.y() / p.z());
+      const double gate = kRegatherPx / cameras[c].focal_px();
+      double best = gate * gate;
+      int best_i = -1;
+      for (std::size_t i = 0; i < obs[c].size(); ++i) {
+        if (claimed[c][i]) continue;
+        const double d2 = (obs[c][i].normalised - n).squaredNorm();
+        if (d2 < best) best = d2, best_i = static_cast<int>(i);
+      }
+      if (best_i >= 0) {
+        claimed[c][best_i] = 1;
+        rays.push_back({static_cast<int>(m), static_cast<int>(c), best_i});
+      }
+    }
+  }
+  // A marker whose image (nearly) merges with another model marker's in a camera: its blob
+  // there is not where the marker is, so that image is not used (matched or not, every model
+  // marker counts: an unmatched one may still have been drawn into the same blob).
+  for (Ray& ray : rays) {
+    const CameraModel& cam = cameras[ray.camera];
+    const Eigen::Vector3d pa = cam.to_camera(fit.pose.apply(config_.markers[ray.model]));
+    for (std::size_t k = 0; k < config_.markers.size() && ray.active; ++k) {
+      if (static_cast<int>(k) == ray.model) continue;
+      const Eigen::Vector3d pb = cam.to_camera(fit.pose.apply(config_.markers[k]));
+      const Eigen::Vector2d d = pa.head<2>() / pa.z() - pb.head<2>() / pb.z();
+      if (cam.focal_px() * d.norm() < kMinImageSeparationPx) ray.active = false;
+    }
+  }
+  // Gauss-Newton (iteratively reweighted for the Huber loss) on the reprojection error in
+  // pixels of every image, over the 6 pose parameters: rotation increment w (left-multiplied)
+  // and translation.
+  for (int iter = 0; iter < 5; ++iter) {
     Eigen::Matrix<double, 6, 6> JtJ = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> Jtr = Eigen::Matrix<double, 6, 1>::Zero();
     int rows = 0;
     const Eigen::Matrix3d R = fit.pose.rotation.toRotationMatrix();
-    for (std::size_t m = 0; m < fit.marker_of.size(); ++m) {
-      if (fit.marker_of[m] < 0) continue;
-      const Marker& mk = markers[fit.marker_of[m]];
-      const Eigen::Vector3d arm = R * config_.markers[m];  // room-frame lever arm
+    for (Ray& ray : rays) {
+      if (!ray.active) continue;
+      const CameraModel& cam = cameras[ray.camera];
+      const Eigen::Vector3d arm = R * config_.markers[ray.model];  // room-frame lever arm
       const Eigen::Vector3d X = arm + fit.pose.translation;
-      for (std::size_t c = 0; c < cameras.size() && c < obs.size(); ++c) {
-        if (mk.blob[c] < 0) continue;
-        const CameraModel& cam = cameras[c];
-        const Eigen::Vector3d p = cam.to_camera(X);
-        if (p.z() < 1e-6) continue;
-        const double iz = 1.0 / p.z(), f = cam.focal_px();
-        const Eigen::Vector2d r = f * (Eigen::Vector2d(p.x() * iz, p.y() * iz) - obs[c][mk.blob[c]].normalised);
-        Eigen::Matrix<double, 2, 3> Jp;
-        Jp << iz, 0, -p.x() * iz * iz, 0, iz, -p.y() * iz * iz;
-        Eigen::Matrix3d Rc;
-        for (int i = 0; i < 3; ++i)
-          for (int j = 0; j < 3; ++j) Rc(i, j) = cam.calibration().rotation(i, j);
-        const Eigen::Matrix<double, 2, 3> JX = f * Jp * Rc;  // d pixel / d X (room)
-        // X = exp([w]x) arm + t: dX/dw = -[arm]x, dX/dt = I.
-        Eigen::Matrix3d skew;
-        skew << 0, -arm.z(), arm.y(), arm.z(), 0, -arm.x(), -arm.y(), arm.x(), 0;
-        Eigen::Matrix<double, 2, 6> J;
-        J.leftCols<3>() = -JX * skew;
-        J.rightCols<3>() = JX;
-        JtJ += J.transpose() * J;
-        Jtr += J.transpose() * r;
-        rows += 2;
+      const Eigen::Vector3d p = cam.to_camera(X);
+      if (p.z() < 1e-6) continue;
+      const double iz = 1.0 / p.z(), f = cam.focal_px();
+      const Eigen::Vector2d r = f * (Eigen::Vector2d(p.x() * iz, p.y() * iz) - obs[ray.camera][ray.blob].normalised);
+      const double e = r.norm();
+      if (iter > 0 && e > kRejectPx) {
+        ray.active = false;
+        continue;
       }
+      const double w = e <= kHuberPx ? 1.0 : kHuberPx / e;
+      Eigen::Matrix<double, 2, 3> Jp;
+      Jp << iz, 0, -p.x() * iz * iz, 0, iz, -p.y() * iz * iz;
+      Eigen::Matrix3d Rc;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) Rc(i, j) = cam.calibration().rotation(i, j);
+      const Eigen::Matrix<double, 2, 3> JX = f * Jp * Rc;  // d pixel / d X (room)
+      // X = exp([w]x) arm + t: dX/dw = -[arm]x, dX/dt = I.
+      Eigen::Matrix3d skew;
+      skew << 0, -arm.z(), arm.y(), arm.z(), 0, -arm.x(), -arm.y(), arm.x(), 0;
+      Eigen::Matrix<double, 2, 6> J;
+      J.leftCols<3>() = -JX * skew;
+      J.rightCols<3>() = JX;
+      JtJ += w * J.transpose() * J;
+      Jtr += w * J.transpose() * r;
+      rows += 2;
     }
     if (rows < 8) return;
     const Eigen::Matrix<double, 6, 1> step = JtJ.ldlt().solve(-Jtr);
@@ -263,6 +341,68 @@ std::optional<BodyFit> RigidBodyModel::fit(std::span<const Marker> markers,
     return found;
   }
   return near;
+}
+
+PoseErrorBound pose_error_bound(const RigidBodyModel& body, const RigidPose& pose,
+                                std::span<const CameraModel> cameras, double sigma_px,
+                                std::span<const int> hidden) {
+  // Fisher information of (rotation vector, centroid position) from every visible marker
+  // image; the Jacobian of the full projection (distortion included) by central differences.
+  const Eigen::Vector3d centroid_room = pose.apply(body.centroid());
+  const auto project = [&](const CameraModel& cam, std::size_t m, const Eigen::Matrix<double, 6, 1>& d,
+                           Eigen::Vector2d& px) {
+    const Eigen::Vector3d w = d.head<3>();
+    const Eigen::Quaterniond q =
+        w.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(w.norm(), w.normalized())) * pose.rotation : pose.rotation;
+    const Eigen::Vector3d X = q * (body.config().markers[m] - body.centroid()) + centroid_room + d.tail<3>();
+    return cam.project(X, px);
+  };
+  Eigen::Matrix<double, 6, 6> info = Eigen::Matrix<double, 6, 6>::Zero();
+  PoseErrorBound out;
+  constexpr double h = 1e-6;
+  const Eigen::Matrix<double, 6, 1> zero = Eigen::Matrix<double, 6, 1>::Zero();
+  const auto is_hidden = [&](std::size_t m) {
+    return std::find(hidden.begin(), hidden.end(), static_cast<int>(m)) != hidden.end();
+  };
+  for (const CameraModel& cam : cameras) {
+    const auto& c = cam.calibration();
+    std::vector<Eigen::Vector2d> px(body.size());
+    std::vector<std::uint8_t> seen(body.size(), 0);
+    for (std::size_t m = 0; m < body.size(); ++m) {
+      seen[m] = !is_hidden(m) && cam.to_camera(pose.apply(body.config().markers[m])).z() > 0 &&
+                project(cam, m, zero, px[m]) && px[m].x() >= 0 && px[m].y() >= 0 &&
+                px[m].x() <= c.image_width - 1 && px[m].y() <= c.image_height - 1;
+    }
+    for (std::size_t m = 0; m < body.size(); ++m) {
+      if (!seen[m]) continue;
+      bool merged = false;
+      for (std::size_t k = 0; k < body.size(); ++k) {
+        merged = merged || (k != m && seen[k] && (px[k] - px[m]).norm() < kMinImageSeparationPx);
+      }
+      if (merged) continue;
+      Eigen::Matrix<double, 2, 6> J;
+      for (int k = 0; k < 6; ++k) {
+        Eigen::Matrix<double, 6, 1> d = zero;
+        Eigen::Vector2d a, b;
+        d[k] = h;
+        project(cam, m, d, a);
+        d[k] = -h;
+        project(cam, m, d, b);
+        J.col(k) = (a - b) / (2 * h);
+      }
+      info += J.transpose() * J;
+      ++out.observations;
+    }
+  }
+  const Eigen::FullPivLU<Eigen::Matrix<double, 6, 6>> lu(info);
+  if (out.observations < 3 || lu.rank() < 6) {
+    out.orientation_rad = out.position_m = std::numeric_limits<double>::infinity();
+    return out;
+  }
+  const Eigen::Matrix<double, 6, 6> cov = sigma_px * sigma_px * lu.inverse();
+  out.orientation_rad = std::sqrt(cov.topLeftCorner<3, 3>().trace());
+  out.position_m = std::sqrt(cov.bottomRightCorner<3, 3>().trace());
+  return out;
 }
 
 }  // namespace kumite::tracking

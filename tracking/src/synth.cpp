@@ -159,7 +159,7 @@ FrameSet SyntheticRenderer::render(std::uint64_t frame, const TrajectoryPoint& p
   set.camera_times.assign(rig_.cameras.size(), pose.t);
   const auto markers = marker_positions(pose);
   std::uniform_real_distribution<double> u(0, 1);
-  std::normal_distribution<double> jitter(0, std::max(options_.centroid_noise_px / std::sqrt(2.0), 1e-12));
+  std::normal_distribution<double> jitter(0, std::max(options_.centroid_sigma_px, 1e-12));
   for (std::size_t c = 0; c < rig_.cameras.size(); ++c) {
     const bool dead = static_cast<int>(c) == options_.dead_camera && pose.t >= options_.dead_after_s;
     const bool dropped = options_.drop_probability > 0 && u(rng_) < options_.drop_probability;
@@ -167,8 +167,9 @@ FrameSet SyntheticRenderer::render(std::uint64_t frame, const TrajectoryPoint& p
     const CameraModel cam(rig_.cameras[c]);
     cv::Mat img = backgrounds_[c][frame % backgrounds_[c].size()].clone();
     for (std::size_t m = 0; m < markers.size(); ++m) {
-      if (std::find(options_.hidden_markers.begin(), options_.hidden_markers.end(), static_cast<int>(m)) !=
-          options_.hidden_markers.end()) {
+      const bool hiding = pose.t >= options_.hide_from_s && pose.t < options_.hide_until_s;
+      if (hiding && std::find(options_.hidden_markers.begin(), options_.hidden_markers.end(), static_cast<int>(m)) !=
+                        options_.hidden_markers.end()) {
         continue;
       }
       Eigen::Vector2d px;
@@ -218,18 +219,22 @@ void write_synthetic_recording(const fs::path& dir, const RigCalibration& rig, c
   write_frames_csv(dir / "frames.csv", frames);
   write_truth_csv(dir / "truth.csv", truth);
   std::string hidden;
-  for (int h : options.hidden_markers) hidden += fmt::format("{} ", h);
+  for (int h : options.hidden_markers) hidden += fmt::format("{}{}", hidden.empty() ? "" : ",", h);
+  if (!hidden.empty() && (options.hide_from_s > 0 || options.hide_until_s < 1e299)) {
+    hidden += fmt::format(" from {} s until {} s", options.hide_from_s, options.hide_until_s);
+  }
+  const std::string dead = options.dead_camera < 0 ? std::string("none")
+                                                   : fmt::format("{} from {} s on", options.dead_camera, options.dead_after_s);
   write_file_atomically(dir / "README.txt",
                         fmt::format("SYNTHETIC recording written by kumite-track synth (not camera data).\n"
                                     "{}\nbody: {} ({} markers), {} frame sets at {} Hz, {} cameras\n"
-                                    "centroid noise {} px, image noise {} grey levels, hidden markers: [{}], "
-                                    "spurious blobs/camera: {}, static lamps/camera: {}, dead camera: {} after {} s, "
+                                    "centroid noise sigma {} px per axis, image noise {} grey levels, hidden markers: [{}], "
+                                    "spurious blobs/camera: {}, static lamps/camera: {}, dead camera: {}, "
                                     "drop probability: {}, seed {}\n"
                                     "truth.csv is the trajectory the frames were drawn from (body centroid, body->room).\n",
                                     description, body.name, body.markers.size(), trajectory.size(), options.fps,
-                                    rig.cameras.size(), options.centroid_noise_px, options.image_noise, hidden,
-                                    options.spurious_blobs, options.static_lamps, options.dead_camera,
-                                    options.dead_after_s, options.drop_probability, options.seed));
+                                    rig.cameras.size(), options.centroid_sigma_px, options.image_noise, hidden,
+                                    options.spurious_blobs, options.static_lamps, dead, options.drop_probability, options.seed));
 }
 
 RigCalibration corner_rig(double side_m, double height_m, int width, int height, double focal_px) {

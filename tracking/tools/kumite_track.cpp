@@ -43,6 +43,7 @@ struct RunOptions {
   std::string calibration, config, recording, out;
   bool live = false;
   bool realtime = false;
+  int decode_threads = 1;
   bool unfiltered = false;
   double duration_s = 0;
   int verbosity = 1;
@@ -67,7 +68,11 @@ double percentile(std::vector<double> v, double p) {
 /// Collects poses.csv rows and the summary figures from the tracker thread.
 class Collector {
  public:
-  Collector(std::optional<TruthTable> truth, bool unfiltered) : truth_(std::move(truth)), unfiltered_(unfiltered) {
+  Collector(std::optional<TruthTable> truth, bool unfiltered, std::vector<std::string> cameras, double camera_timeout_s,
+            std::string body_name)
+      : truth_(std::move(truth)), unfiltered_(unfiltered), camera_timeout_s_(camera_timeout_s),
+        camera_names_(std::move(cameras)),
+        images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0), body_name_(std::move(body_name)) {
     rows_ = "frame,timestamp_s,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms\n";
   }
 
@@ -80,15 +85,35 @@ class Collector {
                          p.cameras, r.latency_ms);
     latency_.push_back(r.latency_ms);
     ++frames_;
+    if (frames_ == 1) first_time_ = r.timestamp;
+    last_time_ = r.timestamp;
     status_[static_cast<int>(p.status)]++;
-    const BodyPose& f = r.filtered.at(0);
-    if (f.status == TrackingStatus::tracked) {
-      filtered_.emplace_back(f.position[0], f.position[1], f.position[2]);
-    } else {
-      flush_jitter();
+    for (std::size_t c = 0; c < images_.size() && c < r.has_image.size(); ++c) {
+      if (!r.has_image[c]) continue;
+      ++images_[c];
+      last_image_[c] = r.timestamp;
     }
-    if (!truth_) return;
-    const TruthRow* t = truth_->find(r.frame);
+    const BodyPose& f = r.filtered.at(0);
+    // The console says when the head is lost (past coasting) and when it is found again.
+    if (f.status == TrackingStatus::lost && was_tracked_) {
+      spdlog::warn("{}: lost at {:.3f} s (frame {})", body_name_, r.timestamp - first_time_, r.frame);
+    } else if (f.status == TrackingStatus::tracked && !was_tracked_) {
+      spdlog::info("{}: {} at {:.3f} s (frame {}, {} markers, {} cameras)", body_name_,
+                   ever_tracked_ ? "tracked again" : "found", r.timestamp - first_time_, r.frame, f.markers, f.cameras);
+      ever_tracked_ = true;
+    }
+    if (f.status != TrackingStatus::coasting) was_tracked_ = f.status == TrackingStatus::tracked;
+    const TruthRow* t = truth_ ? truth_->find(r.frame) : nullptr;
+    if (f.status == TrackingStatus::tracked && (!truth_ || t)) {
+      // Jitter = RMS distance of the filtered position from its mean. With truth, of the
+      // filtered position minus the truth (the visitor's own motion is not jitter; on a moving
+      // head the filter's varying lag still counts); without, meaningful only when still.
+      Eigen::Vector3d x(f.position[0], f.position[1], f.position[2]);
+      if (t) x -= Eigen::Vector3d(t->x, t->y, t->z);
+      jitter_sum_ += x;
+      jitter_sum2_ += x.squaredNorm();
+      ++jitter_n_;
+    }
     if (!t) return;
     const Eigen::Vector3d tp(t->x, t->y, t->z);
     const Eigen::Quaterniond tq(t->qw, t->qx, t->qy, t->qz);
@@ -105,10 +130,19 @@ class Collector {
   }
 
   void write(const fs::path& out) const { write_file_atomically(out, rows_); }
+  /// s of source time covered so far (first to latest frame set).
+  double elapsed_s() {
+    std::lock_guard lock(mutex_);
+    return frames_ ? last_time_ - first_time_ : 0.0;
+  }
+  /// s: timestamp of the latest frame set (0 before the first).
+  Timestamp last_time() {
+    std::lock_guard lock(mutex_);
+    return last_time_;
+  }
 
   void summary(std::size_t skipped) {
     std::lock_guard lock(mutex_);
-    flush_jitter();
     std::printf("frame sets: %d (tracked %d, coasting %d, lost %d); warnings: %zu\n", frames_, status_[1],
                 status_[2], status_[0], skipped);
     if (truth_) {
@@ -122,21 +156,26 @@ class Collector {
       std::printf("no truth.csv: no accuracy figures\n");
     }
     if (jitter_n_ > 0) {
-      std::printf("jitter (filtered position, RMS second difference / sqrt 6): %.3f mm\n",
-                  1e3 * std::sqrt(jitter2_ / jitter_n_ / 6.0));
+      const Eigen::Vector3d mean = jitter_sum_ / jitter_n_;
+      std::printf("jitter (%s, RMS distance from its mean): %.3f mm\n",
+                  truth_ ? "filtered position minus truth" : "filtered position; includes real motion",
+                  1e3 * std::sqrt(std::max(0.0, jitter_sum2_ / jitter_n_ - mean.squaredNorm())));
+    }
+    for (std::size_t c = 0; c < camera_names_.size(); ++c) {
+      std::string line = fmt::format("camera {}: images in {} of {} frame sets", camera_names_[c], images_[c], frames_);
+      if (last_image_[c] < 0) {
+        line += ", never delivered one";
+      } else if (last_time_ - last_image_[c] > camera_timeout_s_) {  // it stopped
+        line += fmt::format(", the last at {:.3f} s ({:.3f} s before the end)", last_image_[c] - first_time_,
+                            last_time_ - last_image_[c]);
+      }
+      std::printf("%s\n", line.c_str());
     }
     std::printf("latency per frame set (ms): p50 %.3f, p90 %.3f, p99 %.3f, max %.3f\n", percentile(latency_, 0.5),
                 percentile(latency_, 0.9), percentile(latency_, 0.99), percentile(latency_, 1.0));
   }
 
  private:
-  void flush_jitter() {
-    for (std::size_t i = 2; i < filtered_.size(); ++i) {
-      jitter2_ += (filtered_[i] - 2 * filtered_[i - 1] + filtered_[i - 2]).squaredNorm();
-      ++jitter_n_;
-    }
-    filtered_.clear();
-  }
   struct Err {
     double pos2 = 0, rot2 = 0;
     int n = 0;
@@ -146,8 +185,15 @@ class Collector {
   bool unfiltered_;
   std::string rows_;
   std::vector<double> latency_;
-  std::vector<Eigen::Vector3d> filtered_;
-  double jitter2_ = 0;
+  double camera_timeout_s_;
+  std::vector<std::string> camera_names_;
+  std::vector<int> images_;          // per camera: frame sets with an image
+  std::vector<Timestamp> last_image_;  // per camera: time of its last image (s, -1 = none)
+  Timestamp first_time_ = 0, last_time_ = 0;
+  bool was_tracked_ = false, ever_tracked_ = false;
+  std::string body_name_;
+  Eigen::Vector3d jitter_sum_{0, 0, 0};
+  double jitter_sum2_ = 0;
   int jitter_n_ = 0;
   int frames_ = 0;
   int status_[3] = {0, 0, 0};
@@ -170,10 +216,15 @@ int run_tracker(const RunOptions& o) {
   const TrackingConfig config = read_tracking_config(o.config);
   std::unique_ptr<FrameSource> source;
   std::optional<TruthTable> truth;
+  auto playback = std::make_shared<RecordingOptions::Counters>();
   if (o.live) {
     source = open_live_source(rig, config);
   } else {
-    source = open_recording_source(o.recording, rig, config, {.realtime = o.realtime});
+    RecordingOptions ro;
+    ro.realtime = o.realtime;
+    ro.decode_threads = o.decode_threads;
+    ro.counters = playback;
+    source = open_recording_source(o.recording, rig, config, ro);
     truth = read_truth(o.recording);
     if (truth) {
       for (const auto& s : truth->skipped) spdlog::warn("{}", s);
@@ -185,7 +236,9 @@ int run_tracker(const RunOptions& o) {
       if (first.find("SYNTHETIC") != std::string::npos) spdlog::info("{}", first);
     }
   }
-  Collector collector(std::move(truth), o.unfiltered);
+  std::vector<std::string> names;
+  for (const auto& c : rig.cameras) names.push_back(c.name);
+  Collector collector(std::move(truth), o.unfiltered, names, config.camera_timeout_s, config.bodies.at(0).name);
   Tracker tracker(rig, config);
   std::atomic<std::size_t> skipped{0};
   tracker.on_frame([&](const FrameResult& r) { collector.add(r); });
@@ -207,24 +260,50 @@ int run_tracker(const RunOptions& o) {
   const Timestamp start = kumite::now();
   tracker.start(std::move(source));
   Timestamp last_status = start;
+  // Camera states as the console shows them: every change (a camera that stops, comes back or
+  // reconnects), and for live cameras a reminder every 2 s while one is not ok.
+  std::vector<CameraState> shown(rig.cameras.size(), CameraState::ok);
+  const auto report_cameras = [&](bool remind) {
+    if (tracker.frames_processed() == 0) return;
+    // Live: against now (all cameras may have stopped). A recording: against its latest frame
+    // set, i.e. whether a camera keeps up with the others (played in real time, decoding may
+    // fall behind the clock, and after the end nothing arrives at all).
+    const auto cams = o.live ? tracker.camera_status() : tracker.camera_status(collector.last_time());
+    for (std::size_t c = 0; c < cams.size(); ++c) {
+      if (cams[c].state == shown[c] && !(remind && cams[c].state != CameraState::ok)) continue;
+      // A camera that has not delivered its first image is only reported once the others
+      // have run for camera_timeout_s (a dropped first frame is not news).
+      if (cams[c].since_last_s < 0 && collector.elapsed_s() <= config.camera_timeout_s) continue;
+      if (cams[c].state == CameraState::ok) {
+        spdlog::info("camera {}: ok again", rig.cameras[c].name);
+      } else if (cams[c].since_last_s < 0) {
+        spdlog::warn("camera {}: {} (no frame yet)", rig.cameras[c].name, to_string(cams[c].state));
+      } else {
+        spdlog::warn("camera {}: {} ({:.1f} s since the last frame)", rig.cameras[c].name, to_string(cams[c].state),
+                     cams[c].since_last_s);
+      }
+      shown[c] = cams[c].state;
+    }
+  };
   while (tracker.running() && !g_interrupted.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     if (o.duration_s > 0 && kumite::now() - start > o.duration_s) break;
-    if (o.live && kumite::now() - last_status > 2.0) {
-      last_status = kumite::now();
-      const auto cams = tracker.camera_status();
-      for (std::size_t c = 0; c < cams.size(); ++c) {
-        if (cams[c].state != CameraState::ok) {
-          spdlog::warn("camera {}: {} ({:.1f} s since the last frame)", rig.cameras[c].name, to_string(cams[c].state),
-                       cams[c].since_last_s);
-        }
-      }
-    }
+    const bool remind = o.live && kumite::now() - last_status > 2.0;
+    if (remind) last_status = kumite::now();
+    report_cameras(remind);
   }
+  report_cameras(false);
   tracker.stop();
   skipped = sink_count->load();
   collector.write(o.out);
   collector.summary(skipped.load());
+  if (o.realtime) {
+    std::printf("real-time playback: %llu frame sets delivered, %llu skipped (not decoded in time: try "
+                "--decode-threads), %llu dropped (the tracker was behind)\n",
+                static_cast<unsigned long long>(playback->delivered.load()),
+                static_cast<unsigned long long>(playback->not_decoded.load()),
+                static_cast<unsigned long long>(playback->dropped_stale.load()));
+  }
   std::printf("wrote %s\n", o.out.c_str());
   return 0;
 }
@@ -294,6 +373,8 @@ int main(int argc, char** argv) {
   app.add_flag("--live", run.live, "capture from the V4L2 cameras in the config's [[cameras]]");
   app.add_option("--out", run.out, "poses.csv to write");
   app.add_flag("--realtime", run.realtime, "play a recording at its own pace (default: as fast as possible)");
+  app.add_option("--decode-threads", run.decode_threads, "--realtime: threads decoding PNGs ahead of the clock")
+      ->capture_default_str()->check(CLI::Range(1, 16));
   app.add_flag("--unfiltered", run.unfiltered, "write the unsmoothed measurement instead of the filtered pose");
   app.add_option("--duration", run.duration_s, "stop after this many seconds (0 = until the end / Ctrl-C)");
   app.add_option("-v,--verbosity", run.verbosity, "0 = warnings, 1 = info, 2 = debug")->check(CLI::Range(0, 2));
@@ -306,9 +387,11 @@ int main(int argc, char** argv) {
   sc->add_option("--trajectory", synth.trajectory, "scripted, static, or a CSV timestamp_s,x,y,z,qw,qx,qy,qz")->capture_default_str();
   sc->add_option("--duration", synth.duration_s, "seconds")->capture_default_str()->check(CLI::Range(0.001, 3600.0));
   sc->add_option("--fps", synth.options.fps, "frame sets per second")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
-  sc->add_option("--noise-px", synth.options.centroid_noise_px, "RMS 2-D jitter of each spot centre (px)")->capture_default_str();
+  sc->add_option("--noise-px", synth.options.centroid_sigma_px, "jitter of each spot centre: sigma per image axis (px)")->capture_default_str();
   sc->add_option("--image-noise", synth.options.image_noise, "sensor noise sigma (grey levels)")->capture_default_str();
-  sc->add_option("--hide", synth.hidden, "model markers never drawn, e.g. 0,3");
+  sc->add_option("--hide", synth.hidden, "model markers not drawn, e.g. 0,3 (all the time, or see --hide-from/--hide-until)");
+  sc->add_option("--hide-from", synth.options.hide_from_s, "hide them from this time on (s)")->capture_default_str();
+  sc->add_option("--hide-until", synth.options.hide_until_s, "hide them until this time (s)");
   sc->add_option("--spurious", synth.options.spurious_blobs, "random spots per camera per frame")->capture_default_str();
   sc->add_option("--lamps", synth.options.static_lamps, "static bright spots per camera")->capture_default_str();
   sc->add_option("--dead-camera", synth.options.dead_camera, "camera index that stops delivering")->capture_default_str();

@@ -37,10 +37,10 @@ struct MatchConfig {
 struct FilterConfig {
   bool enabled = true;
   double min_cutoff_hz = 1.0;       ///< Hz: cutoff at rest (lower = less jitter, more lag)
-  double beta = 60.0;               ///< 1/m: cutoff grows by beta * speed (m/s)
-  double d_cutoff_hz = 1.0;         ///< Hz: cutoff of the speed estimate
+  double beta = 600.0;              ///< 1/m: cutoff grows by beta * speed (m/s)
+  double d_cutoff_hz = 4.0;         ///< Hz: cutoff of the speed estimate
   double rot_min_cutoff_hz = 1.0;   ///< Hz
-  double rot_beta = 20.0;           ///< 1/rad: cutoff grows by rot_beta * angular speed (rad/s)
+  double rot_beta = 80.0;           ///< 1/rad: cutoff grows by rot_beta * angular speed (rad/s)
   double rot_d_cutoff_hz = 1.0;     ///< Hz
   double max_prediction_s = 0.1;    ///< s: predict() never extrapolates further than this
 };

@@ -29,6 +29,7 @@ struct FrameResult {
   std::vector<Marker> markers;             ///< triangulated markers
   std::vector<std::vector<Blob>> blobs;    ///< per camera, after the static mask
   std::vector<int> masked;                 ///< per camera: blobs removed by the static mask
+  std::vector<std::uint8_t> has_image;    ///< per camera: 1 = it delivered an image for this set
   int cameras_with_images = 0;
   double latency_ms = 0;                   ///< processing time of this frame set
 };

@@ -15,6 +15,11 @@
 
 namespace kumite::tracking {
 
+/// px: two markers of a body whose images lie closer than this in a camera have merged into
+/// one blob (or nearly): its centroid sits between them, so the pose refinement uses neither
+/// image from that camera (and pose_error_bound() counts neither).
+inline constexpr double kMinImageSeparationPx = 5.0;
+
 /// A rigid transform body -> room: x_room = rotation * x_body + translation.
 struct RigidPose {
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
@@ -68,5 +73,22 @@ class RigidBodyModel {
   Eigen::Vector3d centroid_;
   Eigen::MatrixXd distance_;  // model inter-marker distances (m)
 };
+
+/// The Cramer-Rao lower bound on the error of ANY unbiased single-frame estimate of a body's
+/// pose from the image positions of its markers, when each image position carries independent
+/// Gaussian noise of `sigma_px` per image axis (x and y): the floor under what the estimator
+/// (identification + fit + refine) can reach for this rig, marker layout and noise, whatever
+/// its cleverness. Only a temporal model (a filter) or more information (longer lenses, more
+/// cameras, a wider marker layout) goes below it. Every camera that has a marker in front of
+/// it and inside its image is counted, except images of two markers closer than
+/// kMinImageSeparationPx (merged: no usable information); `hidden` model markers are not.
+struct PoseErrorBound {
+  double orientation_rad = 0;  ///< RMS rotation error (rad): sqrt of the trace of its covariance
+  double position_m = 0;       ///< RMS error of the reported position (centroid of the model markers), m
+  int observations = 0;        ///< marker images counted
+};
+PoseErrorBound pose_error_bound(const RigidBodyModel& body, const RigidPose& pose,
+                                std::span<const CameraModel> cameras, double sigma_px,
+                                std::span<const int> hidden = {});
 
 }  // namespace kumite::tracking

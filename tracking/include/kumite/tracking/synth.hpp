@@ -38,13 +38,16 @@ TrajectoryPoint sample(const std::vector<TrajectoryPoint>& trajectory, Timestamp
 
 struct SynthOptions {
   double fps = 60;                    ///< Hz: frame-set rate
-  double centroid_noise_px = 0.3;     ///< px: RMS 2-D displacement of each spot centre (sigma/axis = this/sqrt 2)
+  double centroid_sigma_px = 0.3;     ///< px: sigma of each spot centre's jitter PER IMAGE AXIS (x and y
+                                      ///< each; the 2-D RMS displacement is sqrt(2) x this)
   double image_noise = 2.0;           ///< grey levels: sigma of the sensor noise
   double background = 12;             ///< grey level
   double peak = 220;                  ///< grey levels above the background at a spot's centre
   double marker_diameter_m = 0.014;   ///< m
   double blur_px = 0.6;               ///< px: optics blur sigma added to the spot size
-  std::vector<int> hidden_markers;    ///< model markers never drawn (body 0)
+  std::vector<int> hidden_markers;    ///< model markers not drawn (body 0) ...
+  double hide_from_s = 0;             ///< ... from this time (s) ...
+  double hide_until_s = 1e300;        ///< ... until this time (s): hidden while from <= t < until
   int spurious_blobs = 0;             ///< random spots per camera per frame (moving each frame)
   int static_lamps = 0;               ///< fixed bright spots per camera (lamps, reflections)
   int dead_camera = -1;               ///< camera index that stops delivering ...
