@@ -116,8 +116,7 @@ void run_intrinsics(const IntrinsicsCommand& cmd) {
   const Board board = read_board(cmd.board_file);
   if (cmd.images.empty()) throw Error("calibration", "args", "no images given: pass the board views of this camera");
   if (cmd.name.empty()) throw Error("calibration", "args", "--name must not be empty");
-  DetectorOptions det;
-  det.quad_decimate = cmd.decimate;
+  const DetectorOptions& det = cmd.detector;
   const CameraViews views = detect_views(board, cmd.images, cmd.name, det);
   IntrinsicsOptions opt;
   opt.outlier_factor = cmd.outlier_factor;

@@ -20,8 +20,7 @@ RigidPose room_from_floor_board(const AlignCommand& cmd, const tracking::RigCali
   const Board board = read_board(cmd.board_file);
   const RigImages images = scan_rig_images(cmd.images_dir);
   std::vector<BoardDetection> views(rig.cameras.size());
-  DetectorOptions det;
-  det.quad_decimate = cmd.decimate;
+  const DetectorOptions& det = cmd.detector;
   BoardDetector detector(board, det);
   int seen = 0;
   for (std::size_t c = 0; c < images.cameras.size(); ++c) {

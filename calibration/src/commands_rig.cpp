@@ -39,8 +39,7 @@ std::vector<CameraViews> detect_rig(const Board& board, const RigImages& rig, co
 void run_extrinsics(const ExtrinsicsCommand& cmd) {
   const Board board = read_board(cmd.board_file);
   const RigImages images = scan_rig_images(cmd.images_dir);
-  DetectorOptions det;
-  det.quad_decimate = cmd.decimate;
+  const DetectorOptions& det = cmd.detector;
   const std::vector<CameraViews> views = detect_rig(board, images, det);
 
   std::vector<tracking::CameraCalibration> cams;

@@ -26,6 +26,12 @@ struct BoardDetector::Impl {
   }
 };
 
+DetectorOptions technician_detector() {
+  DetectorOptions o;
+  o.quad_decimate = 1.f;
+  return o;
+}
+
 BoardDetector::BoardDetector(const Board& board, const DetectorOptions& options)
     : board_(board), options_(options), impl_(std::make_unique<Impl>()) {
   validate(board);

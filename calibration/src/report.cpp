@@ -191,8 +191,7 @@ void run_report(const ReportCommand& cmd) {
   std::error_code ec;
   fs::create_directories(cmd.out_dir, ec);
   if (ec) throw file_error("calibration", "io", cmd.out_dir.string(), 0, "", "cannot create the report folder: " + ec.message());
-  DetectorOptions det;
-  det.quad_decimate = cmd.decimate;
+  const DetectorOptions& det = cmd.detector;
   const std::vector<CameraViews> views = detect_rig(board, images, det);
 
   json report;

@@ -16,10 +16,23 @@ namespace kc = kumite::calibration;
 
 namespace {
 
-void add_decimate(CLI::App* s, float& decimate) {
-  s->add_option("--decimate", decimate, "tag detection on an image decimated by this (1 = most accurate; 2 = ~4x faster)")
+/// Tag detection settings (apriltag's, as its own apriltag_demo names them).
+void add_detector(CLI::App* s, kc::DetectorOptions& d) {
+  s->add_option("--decimate", d.quad_decimate,
+                "find tags on the image shrunk by this factor. Default 1 (full resolution): offline calibration "
+                "puts accuracy first, and small, far or steeply tilted tags (the ones that cover image corners "
+                "and show the lens distortion) are only found at full resolution; 2 is ~4x faster per image")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 4.0));
+  s->add_option("--blur", d.quad_sigma,
+                "Gaussian blur (px) of the image the tags are found on; keeps sensor noise from breaking tags "
+                "apart (0 = none; corners are refined on the unblurred image)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 3.0));
+  s->add_option("--refine-edges", d.refine_edges,
+                "snap tag edges to the image gradients at full resolution (true/false; false gives apriltag's "
+                "raw corners, as in its own test data)")
+      ->capture_default_str();
 }
 
 void add_board(CLI::App& app, kc::BoardCommand& c, std::string& type) {
@@ -44,7 +57,7 @@ void add_intrinsics(CLI::App& app, kc::IntrinsicsCommand& c) {
   s->add_option("--name", c.name, "camera name (its folder name in recordings)")->capture_default_str();
   s->add_flag("--fix-aspect", c.fix_aspect_ratio, "force fx = fy");
   s->add_option("--outlier-factor", c.outlier_factor, "reject views above this x the median view error")->capture_default_str();
-  add_decimate(s, c.decimate);
+  add_detector(s, c.detector);
 }
 
 void add_extrinsics(CLI::App& app, kc::ExtrinsicsCommand& c) {
@@ -55,7 +68,7 @@ void add_extrinsics(CLI::App& app, kc::ExtrinsicsCommand& c) {
   s->add_option("--intrinsics", c.intrinsics, "calibration file with each camera's intrinsics (default: calibrate them from these images)");
   s->add_flag("--refine-intrinsics", c.refine_intrinsics, "let the bundle adjustment refine intrinsics too");
   s->add_option("--huber", c.huber_px, "robust loss scale, px")->capture_default_str();
-  add_decimate(s, c.decimate);
+  add_detector(s, c.detector);
 }
 
 void add_align(CLI::App& app, kc::AlignCommand& c, std::vector<double>& origin) {
@@ -67,7 +80,7 @@ void add_align(CLI::App& app, kc::AlignCommand& c, std::vector<double>& origin) 
   s->add_option("--origin", origin, "room position x y z (m) of the board origin (its top-left tag corner)")->expected(3);
   s->add_option("--yaw", c.board_yaw_deg, "board rotation about room +Y, degrees (0: board +X = room +X, top edge toward the front wall)")->capture_default_str();
   s->add_option("--points", c.points_file, "alternative: TOML with three floor points (room x y z and pixels per camera)");
-  add_decimate(s, c.decimate);
+  add_detector(s, c.detector);
 }
 
 void add_report(CLI::App& app, kc::ReportCommand& c) {
@@ -78,7 +91,7 @@ void add_report(CLI::App& app, kc::ReportCommand& c) {
   s->add_option("--out", c.out_dir, "report folder")->capture_default_str();
   s->add_option("--area-width", c.area_width_m, "tracked area along x, m")->capture_default_str();
   s->add_option("--area-depth", c.area_depth_m, "tracked area along z, m")->capture_default_str();
-  add_decimate(s, c.decimate);
+  add_detector(s, c.detector);
 }
 
 void add_wand(CLI::App& app, kc::WandCommand& c) {

@@ -28,6 +28,13 @@ struct DetectorOptions {
   int min_tags = 2;           ///< fewer tags in view: no board detection
 };
 
+/// What `kumite-calibrate` uses unless told otherwise (its --decimate, --blur, --refine-edges).
+/// Offline calibration puts accuracy first: tags are found at full resolution (decimate 1),
+/// which keeps the small, far and steeply tilted tags that carry the image corners and the
+/// lens distortion (decimate 2 finds 14 of the 47 tags of apriltag's own test photos,
+/// decimate 1 all of them), at ~4x the time per image.
+DetectorOptions technician_detector();
+
 /// One tag as the apriltag library reports it (corners in its order: p[0] .. p[3], counter-
 /// clockwise from the bottom-left), in OpenCV pixel coordinates.
 struct TagCorners {
