@@ -53,7 +53,11 @@ CameraViews detect_views(const Board& board, const std::vector<fs::path>& images
     out.detections.push_back(detector.detect(grey));
     if (!out.detections.back().empty()) ++found;
     if ((i + 1) % 10 == 0 || i + 1 == images.size()) {
-      spdlog::info("{}: detected the board in {} of {} images ({} read)", camera, found, images.size(), i + 1);
+      if (i + 1 < images.size()) {
+        spdlog::info("{}: {} of {} images read, board found in {} so far", camera, i + 1, images.size(), found);
+      } else {
+        spdlog::info("{}: board found in {} of {} images", camera, found, images.size());
+      }
     }
   }
   return out;

@@ -29,6 +29,7 @@ struct BoardDetector::Impl {
 DetectorOptions technician_detector() {
   DetectorOptions o;
   o.quad_decimate = 1.f;
+  o.refine_edges = false;  // apriltag's own corners are sub-pixel at full resolution
   return o;
 }
 

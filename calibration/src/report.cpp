@@ -73,7 +73,7 @@ cv::Mat coverage_map(const std::vector<BoardDetection>& views, cv::Size size, do
 
 /// Bar chart of per-view errors with the median and the outlier limit (3 x median).
 cv::Mat error_chart(const std::string& title, const std::vector<std::string>& labels, const std::vector<double>& err) {
-  const int w = std::max(720, 40 + 26 * static_cast<int>(err.size())), h = 320, base = 260, top = 40;
+  const int w = std::max(720, 40 + 26 * static_cast<int>(err.size())), h = 330, base = 260, top = 40;
   cv::Mat img(h, w, CV_8UC3, cv::Scalar(40, 40, 40));
   std::vector<double> finite;
   for (double e : err) {
@@ -91,10 +91,11 @@ cv::Mat error_chart(const std::string& title, const std::vector<std::string>& la
     } else {
       text(img, "x", {x + 4, base - 4}, 0.45, {60, 60, 230});
     }
-    // The end of the name tells views apart ("000012" -> "0012", "left02" -> "ft02").
+    // The end of the name tells views apart ("000012" -> "0012", "left02" -> "ft02"); labels
+    // alternate between two lines, as four characters are wider than a bar's pitch.
     const std::string& l = labels[i];
-    cv::putText(img, l.substr(l.size() > 4 ? l.size() - 4 : 0), {x, base + 14}, cv::FONT_HERSHEY_PLAIN, 0.8,
-                {220, 220, 220});
+    cv::putText(img, l.substr(l.size() > 4 ? l.size() - 4 : 0), {x - 3, base + 14 + 13 * static_cast<int>(i % 2)},
+                cv::FONT_HERSHEY_PLAIN, 0.8, {220, 220, 220});
   }
   cv::line(img, {25, y_of(med)}, {w - 5, y_of(med)}, {0, 220, 255}, 1, cv::LINE_AA);
   cv::line(img, {25, y_of(3 * med)}, {w - 5, y_of(3 * med)}, {60, 60, 230}, 1, cv::LINE_AA);
@@ -255,7 +256,7 @@ void run_report(const ReportCommand& cmd) {
     const fs::path heat_png = cmd.out_dir / (c.name + "_coverage.png");
     const fs::path err_png = cmd.out_dir / (c.name + "_view_errors.png");
     cv::Mat heat_annotated = heat.clone();
-    text(heat_annotated, fmt::format("{}: board corners over the image, {:.0f} % of cells covered", c.name, coverage * 100),
+    text(heat_annotated, fmt::format("{}: board corners over the image, {:.0f} % of cells covered", c.name, std::floor(coverage * 100)),
          {10, 22}, 0.55);
     write_png_atomically(heat_png, heat_annotated);
     write_png_atomically(err_png, error_chart(fmt::format("{}: per-view reprojection RMS (board pose per view)", c.name), labels, errs));
@@ -266,8 +267,9 @@ void run_report(const ReportCommand& cmd) {
     jc["coverage_png"] = heat_png.filename().string();
     jc["view_errors_png"] = err_png.filename().string();
     jc["verdict"] = advice(c.rms_px.value_or(rms), coverage, static_cast<int>(seen.size()));
+    // Percentages rounded down, so that "60 %" is never a "needs attention" below the 60 % mark.
     spdlog::info("{}: {} views with the board, RMS {:.3f} px, coverage {:.0f} %: {}", c.name, seen.size(), rms,
-                 coverage * 100, jc["verdict"].get<std::string>());
+                 std::floor(coverage * 100), jc["verdict"].get<std::string>());
     cams.push_back(jc);
   }
   report["cameras"] = cams;

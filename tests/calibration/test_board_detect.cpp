@@ -159,8 +159,8 @@ TEST(Detect, UnreadableImageIsNamed) {
 
 // apriltag's own test data (../shared/data/calibration/PROVENANCE.md): the corners upstream's
 // test_detection.c printed at commit 1c21707 with quad_decimate 1 and refine_edges off, i.e.
-// the library's raw corners. We detect them as `kumite-calibrate ... --decimate 1 --blur 0
-// --refine-edges false` does (the tool's defaults with the blur and edge refinement off), on
+// the library's raw corners. We detect them as `kumite-calibrate ... --blur 0` does (the
+// tool's defaults, decimate 1 and no edge refinement, with the blur off), on
 // the image decoded by the library's own JPEG decoder, as upstream did (libjpeg's IDCT differs
 // by a grey level here and there). Checks the +0.5 px pixel-centre convention, the corner
 // order and that nothing is lost on the way.
@@ -180,9 +180,9 @@ TEST(Detect, AprilTagKnownAnswerWithinATenthOfAPixel) {
                                                {"34139872896_defdb2f8d9_c", {711.3130, 364.1447}}};
   Board any;  // detect_tags ignores the board
   DetectorOptions opt = technician_detector();
-  opt.quad_sigma = 0;          // --blur 0
-  opt.refine_edges = false;    // --refine-edges false
+  opt.quad_sigma = 0;  // --blur 0
   ASSERT_EQ(opt.quad_decimate, 1.f) << "the tool's default --decimate";
+  ASSERT_FALSE(opt.refine_edges) << "the tool's default at --decimate 1";
   BoardDetector det(any, opt);
   int files = 0, listed = 0, within = 0;
   double worst_all = 0;

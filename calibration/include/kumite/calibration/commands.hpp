@@ -64,7 +64,7 @@ struct ExtrinsicsCommand {
   fs::path images_dir;
   fs::path out;
   std::optional<fs::path> intrinsics;  ///< calibration file with every camera's intrinsics
-  bool refine_intrinsics = false;
+  bool refine_intrinsics = false;  ///< refine --intrinsics in the adjustment (always when calibrated here)
   double huber_px = 1.0;
   DetectorOptions detector = technician_detector();  ///< --decimate, --blur, --refine-edges
 };
