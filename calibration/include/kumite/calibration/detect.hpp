@@ -33,8 +33,9 @@ struct DetectorOptions {
 /// which keeps the small, far and steeply tilted tags that carry the image corners and the
 /// lens distortion (decimate 2 finds 14 of the 47 tags of apriltag's own test photos,
 /// decimate 1 all of them), at ~4x the time per image. No edge refinement there: apriltag
-/// 3.3's refine_edges samples whole pixels and, at decimate 1, biases the corners (synthetic
-/// 4-camera set: positions 1-2 mm off and fx +0.06 % with it, 0.2-0.8 mm and 0.02 % without).
+/// 3.3's refine_edges samples whole pixels and, at decimate 1, runs on the blurred image; it
+/// biases the corners (synthetic 4-camera set: positions 1-2 mm off and fx +0.06 % with it,
+/// 0.2-0.8 mm and <= 0.02 % without).
 DetectorOptions technician_detector();
 
 /// One tag as the apriltag library reports it (corners in its order: p[0] .. p[3], counter-
