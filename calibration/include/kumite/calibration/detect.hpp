@@ -32,7 +32,7 @@ struct DetectorOptions {
 /// Offline calibration puts accuracy first: tags are found at full resolution (decimate 1),
 /// which keeps the small, far and steeply tilted tags that carry the image corners and the
 /// lens distortion (decimate 2 finds 14 of the 47 tags of apriltag's own test photos,
-/// decimate 1 all of them), at ~4x the time per image. No edge refinement there: apriltag
+/// decimate 1 all of them), at ~3x the time per image. No edge refinement there: apriltag
 /// 3.3's refine_edges samples whole pixels and, at decimate 1, runs on the blurred image; it
 /// biases the corners (synthetic 4-camera set: positions 1-2 mm off and fx +0.06 % with it,
 /// 0.2-0.8 mm and <= 0.02 % without).
