@@ -107,7 +107,16 @@ cv::Mat error_chart(const std::string& title, const std::vector<std::string>& la
 }
 
 /// Top view of the room (x right, z down the picture: front wall at the top).
+/// `extrinsics` writes the rig in its first camera's frame (that camera at the origin, axes
+/// aligned); `align` moves it into the room. Exactly that pose means: not aligned yet.
+bool is_aligned(const tracking::RigCalibration& rig) {
+  if (rig.cameras.empty()) return false;
+  const auto& c = rig.cameras[0];
+  return cv::norm(c.rotation - cv::Matx33d::eye()) > 1e-9 || cv::norm(c.translation) > 1e-9;
+}
+
 cv::Mat top_view(const tracking::RigCalibration& rig, double area_w, double area_d) {
+  const bool aligned = is_aligned(rig);
   double extent = std::max(area_w, area_d) / 2 + 0.5;
   for (const auto& c : rig.cameras) {
     const cv::Vec3d p = c.position();
@@ -132,6 +141,7 @@ cv::Mat top_view(const tracking::RigCalibration& rig, double area_w, double area
   cv::arrowedLine(img, px(0, 0), px(0, 0.4), {200, 0, 0}, 2, cv::LINE_AA, 0, 0.2);
   cv::putText(img, "+X", px(0.42, 0.03), cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 200}, 1, cv::LINE_AA);
   cv::putText(img, "+Z", px(0.03, 0.5), cv::FONT_HERSHEY_SIMPLEX, 0.45, {200, 0, 0}, 1, cv::LINE_AA);
+  std::vector<cv::Rect> labels;  // where camera labels went
   const std::vector<cv::Scalar> colours{{200, 90, 30}, {30, 140, 220}, {60, 170, 60}, {180, 60, 170}, {40, 40, 200}, {140, 140, 20}};
   for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
     const auto& c = rig.cameras[i];
@@ -162,13 +172,24 @@ cv::Mat top_view(const tracking::RigCalibration& rig, double area_w, double area
       cv::polylines(img, poly, true, col, 1, cv::LINE_AA);
     }
     cv::circle(img, px(p[0], p[2]), 7, col, -1, cv::LINE_AA);
-    const std::string label = fmt::format("{} (y {:.2f} m)", c.name, p[1]);
+    const double height = std::abs(p[1]) < 0.005 ? 0.0 : p[1];  // no "-0.00"
+    const std::string label = fmt::format("{} (y {:.2f} m)", c.name, height);
     int baseline = 0;
     const cv::Size ts = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, 0.5, 1, &baseline);
     const cv::Point at = px(p[0], p[2]);
     const int lx = at.x + 10 + ts.width < size ? at.x + 10 : at.x - 10 - ts.width;  // keep it on the picture
-    const int ly = at.y - 8 - ts.height > 0 ? at.y - 8 : at.y + 8 + ts.height;
+    int ly = at.y - 8 - ts.height > 0 ? at.y - 8 : at.y + 8 + ts.height;
+    // Cameras close together (a stereo pair): stack their labels instead of overprinting them.
+    for (const cv::Rect& r : labels) {
+      if ((r & cv::Rect(lx, ly - ts.height, ts.width, ts.height + baseline)).area() > 0) ly = r.y - 4;
+    }
+    labels.emplace_back(lx, ly - ts.height, ts.width, ts.height + baseline);
     cv::putText(img, label, {lx, ly}, cv::FONT_HERSHEY_SIMPLEX, 0.5, {20, 20, 20}, 1, cv::LINE_AA);
+  }
+  if (!aligned) {
+    text(img, fmt::format("NOT ALIGNED: drawn in {}'s camera frame; run `align` to place the rig in the room",
+                          rig.cameras.empty() ? std::string("the first camera") : rig.cameras[0].name),
+         {10, 44}, 0.5, {60, 60, 230});
   }
   cv::putText(img, fmt::format("top view, 0.5 m grid; green: tracked area {:.1f} x {:.1f} m", area_w, area_d), {10, 20},
               cv::FONT_HERSHEY_SIMPLEX, 0.5, {20, 20, 20}, 1, cv::LINE_AA);
@@ -276,6 +297,9 @@ void run_report(const ReportCommand& cmd) {
   const fs::path top_png = cmd.out_dir / "rig_top_view.png";
   write_png_atomically(top_png, top_view(rig, cmd.area_width_m, cmd.area_depth_m));
   report["rig_top_view_png"] = top_png.filename().string();
+  report["aligned_to_room"] = is_aligned(rig);
+  if (!is_aligned(rig)) spdlog::warn("the rig is not aligned to the room yet (run `align`): the top view shows it in {}'s frame",
+                                     rig.cameras.empty() ? std::string("the first camera") : rig.cameras[0].name);
   report["tracked_area_m"] = {cmd.area_width_m, cmd.area_depth_m};
   const fs::path json_path = cmd.out_dir / "report.json";
   write_file_atomically(json_path, report.dump(2) + "\n");
