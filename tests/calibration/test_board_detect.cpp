@@ -115,6 +115,23 @@ TEST(Board, RenderedTagBoardIsDetectedWithTheRightCorners) {
   EXPECT_LT(std::sqrt(sum2 / d.size()), 0.2);
 }
 
+TEST(Detect, ToolDefaultsLeaveTheImageAloneAndRepeat) {
+  // apriltag 3.3 blurs (quad_sigma) an undecimated input in place; the detector must hand it a
+  // copy, or every call would blur the caller's image once more until no tag is left.
+  const Board b = tag_board();
+  cv::Mat img = render_board(b, 2000, 0.02);
+  const cv::Mat before = img.clone();
+  BoardDetector det(b, technician_detector());
+  std::size_t first = 0;
+  for (int i = 0; i < 8; ++i) {
+    const BoardDetection d = det.detect(img);
+    if (i == 0) first = d.size();
+    EXPECT_EQ(d.size(), first) << "call " << i;
+  }
+  EXPECT_EQ(first, 48u);
+  EXPECT_EQ(cv::norm(img, before, cv::NORM_INF), 0.0);
+}
+
 TEST(Board, PartialViewStillDetected) {
   const Board b = tag_board();
   cv::Mat img = render_board(b, 2000, 0.02);
