@@ -53,7 +53,11 @@ CameraViews detect_views(const Board& board, const std::vector<fs::path>& images
     out.detections.push_back(detector.detect(grey));
     if (!out.detections.back().empty()) ++found;
     if ((i + 1) % 10 == 0 || i + 1 == images.size()) {
-      spdlog::info("{}: detected the board in {} of {} images ({} read)", camera, found, images.size(), i + 1);
+      if (i + 1 < images.size()) {
+        spdlog::info("{}: {} of {} images read, board found in {} so far", camera, i + 1, images.size(), found);
+      } else {
+        spdlog::info("{}: board found in {} of {} images", camera, found, images.size());
+      }
     }
   }
   return out;
@@ -116,8 +120,7 @@ void run_intrinsics(const IntrinsicsCommand& cmd) {
   const Board board = read_board(cmd.board_file);
   if (cmd.images.empty()) throw Error("calibration", "args", "no images given: pass the board views of this camera");
   if (cmd.name.empty()) throw Error("calibration", "args", "--name must not be empty");
-  DetectorOptions det;
-  det.quad_decimate = cmd.decimate;
+  const DetectorOptions& det = cmd.detector;
   const CameraViews views = detect_views(board, cmd.images, cmd.name, det);
   IntrinsicsOptions opt;
   opt.outlier_factor = cmd.outlier_factor;

@@ -20,8 +20,7 @@ RigidPose room_from_floor_board(const AlignCommand& cmd, const tracking::RigCali
   const Board board = read_board(cmd.board_file);
   const RigImages images = scan_rig_images(cmd.images_dir);
   std::vector<BoardDetection> views(rig.cameras.size());
-  DetectorOptions det;
-  det.quad_decimate = cmd.decimate;
+  const DetectorOptions& det = cmd.detector;
   BoardDetector detector(board, det);
   int seen = 0;
   for (std::size_t c = 0; c < images.cameras.size(); ++c) {
@@ -51,6 +50,10 @@ RigidPose room_from_floor_board(const AlignCommand& cmd, const tracking::RigCali
                             cmd.images_dir.string()));
   }
   const RigidPose board_in_rig = board_pose_in_rig(rig.cameras, views);
+  // Say where the board is taken to be: a forgotten --origin/--yaw silently means (0, 0, 0), 0.
+  spdlog::info("floor board origin (its top-left tag corner) taken at room x {:.3f} y {:.3f} z {:.3f} m, yaw {:.1f} deg "
+               "(--origin, --yaw)",
+               cmd.board_origin_room[0], cmd.board_origin_room[1], cmd.board_origin_room[2], cmd.board_yaw_deg);
   return floor_board_pose(cmd.board_origin_room, cmd.board_yaw_deg) * board_in_rig.inverse();
 }
 

@@ -26,6 +26,13 @@ struct BoardDetector::Impl {
   }
 };
 
+DetectorOptions technician_detector() {
+  DetectorOptions o;
+  o.quad_decimate = 1.f;
+  o.refine_edges = false;  // apriltag's own corners are sub-pixel at full resolution
+  return o;
+}
+
 BoardDetector::BoardDetector(const Board& board, const DetectorOptions& options)
     : board_(board), options_(options), impl_(std::make_unique<Impl>()) {
   validate(board);
@@ -41,8 +48,12 @@ BoardDetector::BoardDetector(const Board& board, const DetectorOptions& options)
 BoardDetector::~BoardDetector() = default;
 
 std::vector<TagCorners> BoardDetector::detect_tags(const cv::Mat& grey_in) {
+  if (grey_in.type() != CV_8U) throw Error("calibration", "image", "detect_tags needs an 8-bit grey image");
+  // apriltag 3.3 blurs (quad_sigma) the image it is given in place when it does not decimate
+  // (and then decodes and refines edges on the blurred image): hand it a copy, or the caller's
+  // image would come back blurred, once more on every call.
   cv::Mat grey = grey_in;
-  if (grey.type() != CV_8U) throw Error("calibration", "image", "detect_tags needs an 8-bit grey image");
+  if (impl_->detector->quad_decimate <= 1.f && impl_->detector->quad_sigma != 0.f) grey = grey_in.clone();
   image_u8_t im{grey.cols, grey.rows, static_cast<int32_t>(grey.step[0]), grey.data};
   zarray_t* dets = apriltag_detector_detect(impl_->detector, &im);
   std::vector<TagCorners> out;

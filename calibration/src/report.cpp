@@ -73,7 +73,7 @@ cv::Mat coverage_map(const std::vector<BoardDetection>& views, cv::Size size, do
 
 /// Bar chart of per-view errors with the median and the outlier limit (3 x median).
 cv::Mat error_chart(const std::string& title, const std::vector<std::string>& labels, const std::vector<double>& err) {
-  const int w = std::max(720, 40 + 26 * static_cast<int>(err.size())), h = 320, base = 260, top = 40;
+  const int w = std::max(720, 40 + 26 * static_cast<int>(err.size())), h = 330, base = 260, top = 40;
   cv::Mat img(h, w, CV_8UC3, cv::Scalar(40, 40, 40));
   std::vector<double> finite;
   for (double e : err) {
@@ -91,10 +91,11 @@ cv::Mat error_chart(const std::string& title, const std::vector<std::string>& la
     } else {
       text(img, "x", {x + 4, base - 4}, 0.45, {60, 60, 230});
     }
-    // The end of the name tells views apart ("000012" -> "0012", "left02" -> "ft02").
+    // The end of the name tells views apart ("000012" -> "0012", "left02" -> "ft02"); labels
+    // alternate between two lines, as four characters are wider than a bar's pitch.
     const std::string& l = labels[i];
-    cv::putText(img, l.substr(l.size() > 4 ? l.size() - 4 : 0), {x, base + 14}, cv::FONT_HERSHEY_PLAIN, 0.8,
-                {220, 220, 220});
+    cv::putText(img, l.substr(l.size() > 4 ? l.size() - 4 : 0), {x - 3, base + 14 + 13 * static_cast<int>(i % 2)},
+                cv::FONT_HERSHEY_PLAIN, 0.8, {220, 220, 220});
   }
   cv::line(img, {25, y_of(med)}, {w - 5, y_of(med)}, {0, 220, 255}, 1, cv::LINE_AA);
   cv::line(img, {25, y_of(3 * med)}, {w - 5, y_of(3 * med)}, {60, 60, 230}, 1, cv::LINE_AA);
@@ -106,7 +107,16 @@ cv::Mat error_chart(const std::string& title, const std::vector<std::string>& la
 }
 
 /// Top view of the room (x right, z down the picture: front wall at the top).
+/// `extrinsics` writes the rig in its first camera's frame (that camera at the origin, axes
+/// aligned); `align` moves it into the room. Exactly that pose means: not aligned yet.
+bool is_aligned(const tracking::RigCalibration& rig) {
+  if (rig.cameras.empty()) return false;
+  const auto& c = rig.cameras[0];
+  return cv::norm(c.rotation - cv::Matx33d::eye()) > 1e-9 || cv::norm(c.translation) > 1e-9;
+}
+
 cv::Mat top_view(const tracking::RigCalibration& rig, double area_w, double area_d) {
+  const bool aligned = is_aligned(rig);
   double extent = std::max(area_w, area_d) / 2 + 0.5;
   for (const auto& c : rig.cameras) {
     const cv::Vec3d p = c.position();
@@ -131,6 +141,7 @@ cv::Mat top_view(const tracking::RigCalibration& rig, double area_w, double area
   cv::arrowedLine(img, px(0, 0), px(0, 0.4), {200, 0, 0}, 2, cv::LINE_AA, 0, 0.2);
   cv::putText(img, "+X", px(0.42, 0.03), cv::FONT_HERSHEY_SIMPLEX, 0.45, {0, 0, 200}, 1, cv::LINE_AA);
   cv::putText(img, "+Z", px(0.03, 0.5), cv::FONT_HERSHEY_SIMPLEX, 0.45, {200, 0, 0}, 1, cv::LINE_AA);
+  std::vector<cv::Rect> labels;  // where camera labels went
   const std::vector<cv::Scalar> colours{{200, 90, 30}, {30, 140, 220}, {60, 170, 60}, {180, 60, 170}, {40, 40, 200}, {140, 140, 20}};
   for (std::size_t i = 0; i < rig.cameras.size(); ++i) {
     const auto& c = rig.cameras[i];
@@ -161,13 +172,24 @@ cv::Mat top_view(const tracking::RigCalibration& rig, double area_w, double area
       cv::polylines(img, poly, true, col, 1, cv::LINE_AA);
     }
     cv::circle(img, px(p[0], p[2]), 7, col, -1, cv::LINE_AA);
-    const std::string label = fmt::format("{} (y {:.2f} m)", c.name, p[1]);
+    const double height = std::abs(p[1]) < 0.005 ? 0.0 : p[1];  // no "-0.00"
+    const std::string label = fmt::format("{} (y {:.2f} m)", c.name, height);
     int baseline = 0;
     const cv::Size ts = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, 0.5, 1, &baseline);
     const cv::Point at = px(p[0], p[2]);
     const int lx = at.x + 10 + ts.width < size ? at.x + 10 : at.x - 10 - ts.width;  // keep it on the picture
-    const int ly = at.y - 8 - ts.height > 0 ? at.y - 8 : at.y + 8 + ts.height;
+    int ly = at.y - 8 - ts.height > 0 ? at.y - 8 : at.y + 8 + ts.height;
+    // Cameras close together (a stereo pair): stack their labels instead of overprinting them.
+    for (const cv::Rect& r : labels) {
+      if ((r & cv::Rect(lx, ly - ts.height, ts.width, ts.height + baseline)).area() > 0) ly = r.y - 4;
+    }
+    labels.emplace_back(lx, ly - ts.height, ts.width, ts.height + baseline);
     cv::putText(img, label, {lx, ly}, cv::FONT_HERSHEY_SIMPLEX, 0.5, {20, 20, 20}, 1, cv::LINE_AA);
+  }
+  if (!aligned) {
+    text(img, fmt::format("NOT ALIGNED: drawn in {}'s camera frame; run `align` to place the rig in the room",
+                          rig.cameras.empty() ? std::string("the first camera") : rig.cameras[0].name),
+         {10, 44}, 0.5, {60, 60, 230});
   }
   cv::putText(img, fmt::format("top view, 0.5 m grid; green: tracked area {:.1f} x {:.1f} m", area_w, area_d), {10, 20},
               cv::FONT_HERSHEY_SIMPLEX, 0.5, {20, 20, 20}, 1, cv::LINE_AA);
@@ -191,8 +213,7 @@ void run_report(const ReportCommand& cmd) {
   std::error_code ec;
   fs::create_directories(cmd.out_dir, ec);
   if (ec) throw file_error("calibration", "io", cmd.out_dir.string(), 0, "", "cannot create the report folder: " + ec.message());
-  DetectorOptions det;
-  det.quad_decimate = cmd.decimate;
+  const DetectorOptions& det = cmd.detector;
   const std::vector<CameraViews> views = detect_rig(board, images, det);
 
   json report;
@@ -256,7 +277,7 @@ void run_report(const ReportCommand& cmd) {
     const fs::path heat_png = cmd.out_dir / (c.name + "_coverage.png");
     const fs::path err_png = cmd.out_dir / (c.name + "_view_errors.png");
     cv::Mat heat_annotated = heat.clone();
-    text(heat_annotated, fmt::format("{}: board corners over the image, {:.0f} % of cells covered", c.name, coverage * 100),
+    text(heat_annotated, fmt::format("{}: board corners over the image, {:.0f} % of cells covered", c.name, std::floor(coverage * 100)),
          {10, 22}, 0.55);
     write_png_atomically(heat_png, heat_annotated);
     write_png_atomically(err_png, error_chart(fmt::format("{}: per-view reprojection RMS (board pose per view)", c.name), labels, errs));
@@ -267,14 +288,18 @@ void run_report(const ReportCommand& cmd) {
     jc["coverage_png"] = heat_png.filename().string();
     jc["view_errors_png"] = err_png.filename().string();
     jc["verdict"] = advice(c.rms_px.value_or(rms), coverage, static_cast<int>(seen.size()));
+    // Percentages rounded down, so that "60 %" is never a "needs attention" below the 60 % mark.
     spdlog::info("{}: {} views with the board, RMS {:.3f} px, coverage {:.0f} %: {}", c.name, seen.size(), rms,
-                 coverage * 100, jc["verdict"].get<std::string>());
+                 std::floor(coverage * 100), jc["verdict"].get<std::string>());
     cams.push_back(jc);
   }
   report["cameras"] = cams;
   const fs::path top_png = cmd.out_dir / "rig_top_view.png";
   write_png_atomically(top_png, top_view(rig, cmd.area_width_m, cmd.area_depth_m));
   report["rig_top_view_png"] = top_png.filename().string();
+  report["aligned_to_room"] = is_aligned(rig);
+  if (!is_aligned(rig)) spdlog::warn("the rig is not aligned to the room yet (run `align`): the top view shows it in {}'s frame",
+                                     rig.cameras.empty() ? std::string("the first camera") : rig.cameras[0].name);
   report["tracked_area_m"] = {cmd.area_width_m, cmd.area_depth_m};
   const fs::path json_path = cmd.out_dir / "report.json";
   write_file_atomically(json_path, report.dump(2) + "\n");

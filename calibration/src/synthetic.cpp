@@ -1,6 +1,7 @@
 #include "kumite/calibration/synthetic.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
@@ -43,31 +44,46 @@ cv::Point2d project(const Camera& cam, const cv::Vec3d& world) {
 
 namespace {
 
-/// Normalised coordinates of a distorted pixel: fixed-point inversion of the distortion,
-/// checked by projecting forward. Returns false when it does not converge (far corners of a
-/// strongly distorted lens).
-bool undistort(const Camera& cam, double u, double v, double& x, double& y) {
-  const auto& d = cam.dist;
-  const double yd = (v - cam.K(1, 2)) / cam.K(1, 1);
-  const double xd = (u - cam.K(0, 2) - cam.K(0, 1) * yd) / cam.K(0, 0);
-  x = xd;
-  y = yd;
-  for (int i = 0; i < 40; ++i) {
-    const double r2 = x * x + y * y;
-    const double radial = 1 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
-    const double dx = 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x);
-    const double dy = d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;
-    const double nx = (xd - dx) / radial, ny = (yd - dy) / radial;
-    const bool done = std::abs(nx - x) + std::abs(ny - y) < 1e-10;
-    x = nx;
-    y = ny;
-    if (done) break;
-  }
+/// Forward distortion of normalised (x, y) and its 2x2 Jacobian.
+void distort(const cv::Vec<double, 5>& d, double x, double y, double& xd, double& yd, cv::Matx22d& J) {
   const double r2 = x * x + y * y;
   const double radial = 1 + d[0] * r2 + d[1] * r2 * r2 + d[4] * r2 * r2 * r2;
-  const double ex = x * radial + 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x) - xd;
-  const double ey = y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y - yd;
-  return std::abs(ex) * cam.K(0, 0) < 1e-4 && std::abs(ey) * cam.K(1, 1) < 1e-4;
+  const double dradial = d[0] + 2 * d[1] * r2 + 3 * d[4] * r2 * r2;  // d radial / d r2
+  xd = x * radial + 2 * d[2] * x * y + d[3] * (r2 + 2 * x * x);
+  yd = y * radial + d[2] * (r2 + 2 * y * y) + 2 * d[3] * x * y;
+  J = cv::Matx22d(radial + 2 * x * x * dradial + 2 * d[2] * y + 6 * d[3] * x,
+                  2 * x * y * dradial + 2 * d[2] * x + 2 * d[3] * y,
+                  2 * x * y * dradial + 2 * d[2] * x + 2 * d[3] * y,
+                  radial + 2 * y * y * dradial + 6 * d[2] * y + 2 * d[3] * x);
+}
+
+/// Normalised coordinates of a distorted pixel: Newton's method on the forward model from
+/// (x, y) as given (the neighbouring sample's answer, or the distorted coordinates), accepted
+/// only when projecting forward lands within 1e-4 px of the pixel. Returns false when it does
+/// not converge (far corners of a strongly distorted lens).
+bool undistort(const Camera& cam, double u, double v, double& x, double& y) {
+  const double yt = (v - cam.K(1, 2)) / cam.K(1, 1);
+  const double xt = (u - cam.K(0, 2) - cam.K(0, 1) * yt) / cam.K(0, 0);
+  if (!std::isfinite(x) || !std::isfinite(y)) {
+    x = xt;
+    y = yt;
+  }
+  double xd = 0, yd = 0;
+  cv::Matx22d J;
+  for (int i = 0; i < 20; ++i) {
+    distort(cam.dist, x, y, xd, yd, J);
+    const double ex = xd - xt, ey = yd - yt;
+    if (std::abs(ex) * cam.K(0, 0) < 1e-7 && std::abs(ey) * cam.K(1, 1) < 1e-7) return true;
+    const double det = J(0, 0) * J(1, 1) - J(0, 1) * J(1, 0);
+    if (!(std::abs(det) > 1e-12)) break;
+    x -= (J(1, 1) * ex - J(0, 1) * ey) / det;
+    y -= (-J(1, 0) * ex + J(0, 0) * ey) / det;
+  }
+  distort(cam.dist, x, y, xd, yd, J);
+  const bool ok = std::abs(xd - xt) * cam.K(0, 0) < 1e-4 && std::abs(yd - yt) * cam.K(1, 1) < 1e-4 &&
+                  J(0, 0) * J(1, 1) - J(0, 1) * J(1, 0) > 0;  // not past the fold of the polynomial
+  if (!ok) x = y = std::numeric_limits<double>::quiet_NaN();  // the next sample starts afresh
+  return ok;
 }
 
 }  // namespace
@@ -116,13 +132,17 @@ cv::Mat render_view(const BoardPattern& pattern, const Board& board, const Camer
   cv::parallel_for_(cv::Range(roi.y, roi.y + roi.height), [&](const cv::Range& rows) {
     for (int v = rows.start; v < rows.end; ++v) {
       float* out = acc.ptr<float>(v);
+      // Each sample's undistortion starts from the previous one's (1/ss px away): 1-2 steps.
+      std::vector<cv::Vec2d> warm(static_cast<std::size_t>(ss * ss), cv::Vec2d(std::nan(""), std::nan("")));
       for (int u = roi.x; u < roi.x + roi.width; ++u) {
         double sum = 0;
         for (int sy = 0; sy < ss; ++sy) {
           for (int sx = 0; sx < ss; ++sx) {
             // Sample positions spread over the pixel's area (pixel centres at integers).
             const double pu = u - 0.5 + (sx + 0.5) / ss, pv = v - 0.5 + (sy + 0.5) / ss;
-            double x = 0, y = 0;
+            cv::Vec2d& xy = warm[static_cast<std::size_t>(sy * ss + sx)];
+            double& x = xy[0];
+            double& y = xy[1];
             double value = opt.background;
             if (undistort(cam, pu, pv, x, y)) {
               const cv::Vec3d dir = Rbc * cv::Vec3d(x, y, 1.0);

@@ -115,6 +115,23 @@ TEST(Board, RenderedTagBoardIsDetectedWithTheRightCorners) {
   EXPECT_LT(std::sqrt(sum2 / d.size()), 0.2);
 }
 
+TEST(Detect, ToolDefaultsLeaveTheImageAloneAndRepeat) {
+  // apriltag 3.3 blurs (quad_sigma) an undecimated input in place; the detector must hand it a
+  // copy, or every call would blur the caller's image once more until no tag is left.
+  const Board b = tag_board();
+  cv::Mat img = render_board(b, 2000, 0.02);
+  const cv::Mat before = img.clone();
+  BoardDetector det(b, technician_detector());
+  std::size_t first = 0;
+  for (int i = 0; i < 8; ++i) {
+    const BoardDetection d = det.detect(img);
+    if (i == 0) first = d.size();
+    EXPECT_EQ(d.size(), first) << "call " << i;
+  }
+  EXPECT_EQ(first, 48u);
+  EXPECT_EQ(cv::norm(img, before, cv::NORM_INF), 0.0);
+}
+
 TEST(Board, PartialViewStillDetected) {
   const Board b = tag_board();
   cv::Mat img = render_board(b, 2000, 0.02);
@@ -157,38 +174,51 @@ TEST(Detect, UnreadableImageIsNamed) {
   }
 }
 
-// apriltag's own test data: corners as the C library reports them (quad_decimate 1,
-// refine_edges off, +0.5 px pixel-centre convention).
+// apriltag's own test data (../shared/data/calibration/PROVENANCE.md): the corners upstream's
+// test_detection.c printed at commit 1c21707 with quad_decimate 1 and refine_edges off, i.e.
+// the library's raw corners. We detect them as `kumite-calibrate ... --blur 0` does (the
+// tool's defaults, decimate 1 and no edge refinement, with the blur off), on
+// the image decoded by the library's own JPEG decoder, as upstream did (libjpeg's IDCT differs
+// by a grey level here and there). Checks the +0.5 px pixel-centre convention, the corner
+// order and that nothing is lost on the way.
+//
+// Debian's apriltag 3.3.0 (September 2022) predates that commit: 45 of the 47 listed tags come
+// out identical to the 4 printed decimals; on the two below one edge's line fit differs (the
+// other corners are identical), by 0.106 and 0.140 px. Those two are held to 0.15 px; with the
+// reference's library version they meet 0.1 px like the rest.
 TEST(Detect, AprilTagKnownAnswerWithinATenthOfAPixel) {
   const fs::path dir = fs::path(KUMITE_SHARED_DATA_DIR) / "calibration/apriltag-test";
   if (!fs::exists(dir)) GTEST_SKIP() << "no shared data at " << dir;
+  struct Known {
+    const char* file;
+    cv::Point2d first_corner;  // as listed
+  };
+  const Known library_version_differences[] = {{"33369213973_9d9bb4cc96_c", {414.9603, 338.8232}},
+                                               {"34139872896_defdb2f8d9_c", {711.3130, 364.1447}}};
   Board any;  // detect_tags ignores the board
-  DetectorOptions opt;
-  opt.quad_decimate = 1;
-  opt.quad_sigma = 0;
-  opt.refine_edges = false;
-  opt.max_hamming = 2;
+  DetectorOptions opt = technician_detector();
+  opt.quad_sigma = 0;  // --blur 0
+  ASSERT_EQ(opt.quad_decimate, 1.f) << "the tool's default --decimate";
+  ASSERT_FALSE(opt.refine_edges) << "the tool's default at --decimate 1";
   BoardDetector det(any, opt);
   int files = 0, listed = 0, within = 0;
+  double worst_all = 0;
   for (const auto& e : fs::directory_iterator(dir)) {
     if (e.path().extension() != ".txt") continue;
     ++files;
     std::ifstream in(e.path());
-    std::vector<std::array<cv::Point2d, 4>> expected;
+    std::vector<std::pair<int, std::array<cv::Point2d, 4>>> expected;
     std::string line;
     while (std::getline(in, line)) {
       std::array<cv::Point2d, 4> c{};
       int id = 0;
       if (std::sscanf(line.c_str(), "%d, (%lf %lf), (%lf %lf), (%lf %lf), (%lf %lf)", &id, &c[0].x, &c[0].y,
                       &c[1].x, &c[1].y, &c[2].x, &c[2].y, &c[3].x, &c[3].y) == 9) {
-        expected.push_back(c);
+        expected.emplace_back(id, c);
       }
     }
     fs::path jpg = e.path();
     jpg.replace_extension(".jpg");
-    // Decoded with the apriltag library's own JPEG decoder, as upstream made the list
-    // (libjpeg's IDCT differs by a grey level here and there, which moves a few corners by
-    // up to 0.14 px).
     pjpeg_t* pj = pjpeg_create_from_file(jpg.c_str(), 0, nullptr);
     ASSERT_NE(pj, nullptr) << jpg;
     image_u8_t* u8 = pjpeg_to_u8_baseline(pj);
@@ -197,9 +227,10 @@ TEST(Detect, AprilTagKnownAnswerWithinATenthOfAPixel) {
     pjpeg_destroy(pj);
     const auto tags = det.detect_tags(grey);
     EXPECT_EQ(tags.size(), expected.size()) << jpg;
-    for (const auto& ex : expected) {
+    for (const auto& [id, ex] : expected) {
       double best = 1e9;
       for (const auto& t : tags) {
+        if (t.id != id) continue;
         double worst = 0;
         for (int k = 0; k < 4; ++k) {
           const cv::Point2d ours = t.corners[static_cast<std::size_t>(k)] + cv::Point2d(0.5, 0.5);
@@ -209,15 +240,20 @@ TEST(Detect, AprilTagKnownAnswerWithinATenthOfAPixel) {
         }
         best = std::min(best, worst);
       }
-      EXPECT_LT(best, 0.15) << jpg << " tag at " << ex[0];
+      bool known = false;
+      for (const auto& k : library_version_differences) {
+        known = known || (jpg.stem() == k.file && cv::norm(ex[0] - k.first_corner) < 1e-3);
+      }
+      EXPECT_LT(best, known ? 0.15 : 0.1) << jpg << " tag " << id << " listed at " << ex[0];
       ++listed;
       if (best < 0.1) ++within;
+      worst_all = std::max(worst_all, best);
     }
   }
   EXPECT_EQ(files, 3);
-  // Debian's apriltag 3.3 is older than the commit that made the list:
-  // 45 of the 47 listed tags agree within 0.1 px per coordinate, the other two within 0.14 px.
-  EXPECT_GE(within, listed - 2) << within << " of " << listed << " tags within 0.1 px";
+  EXPECT_EQ(listed, 47);
+  std::printf("apriltag known answer: %d of %d tags within 0.1 px, worst corner coordinate %.4f px\n", within, listed,
+              worst_all);
 }
 
 TEST(Board, ShippedBoardFilesParse) {

@@ -55,7 +55,7 @@ struct IntrinsicsCommand {
   std::string name = "cam0";
   bool fix_aspect_ratio = false;
   double outlier_factor = 3.0;
-  float decimate = 1.f;            ///< apriltag quad_decimate (2: ~4x faster, a few far tags fewer)
+  DetectorOptions detector = technician_detector();  ///< --decimate, --blur, --refine-edges
 };
 void run_intrinsics(const IntrinsicsCommand& cmd);
 
@@ -64,9 +64,9 @@ struct ExtrinsicsCommand {
   fs::path images_dir;
   fs::path out;
   std::optional<fs::path> intrinsics;  ///< calibration file with every camera's intrinsics
-  bool refine_intrinsics = false;
+  bool refine_intrinsics = false;  ///< refine --intrinsics in the adjustment (always when calibrated here)
   double huber_px = 1.0;
-  float decimate = 1.f;            ///< apriltag quad_decimate (2: ~4x faster, a few far tags fewer)
+  DetectorOptions detector = technician_detector();  ///< --decimate, --blur, --refine-edges
 };
 void run_extrinsics(const ExtrinsicsCommand& cmd);
 
@@ -89,7 +89,7 @@ struct AlignCommand {
   cv::Vec3d board_origin_room{0, 0, 0};  ///< m, room position of the board's origin
   double board_yaw_deg = 0;        ///< rotation of the board about room +Y (0: board +X = room +X)
   std::optional<fs::path> points_file;   ///< alternative: three marked floor points (TOML)
-  float decimate = 1.f;            ///< apriltag quad_decimate (2: ~4x faster, a few far tags fewer)
+  DetectorOptions detector = technician_detector();  ///< --decimate, --blur, --refine-edges
 };
 void run_align(const AlignCommand& cmd);
 
@@ -100,7 +100,7 @@ struct ReportCommand {
   fs::path out_dir = "report";
   double area_width_m = 3.0;       ///< tracked area (x), centred on the room origin
   double area_depth_m = 3.0;       ///< tracked area (z)
-  float decimate = 1.f;            ///< apriltag quad_decimate (2: ~4x faster, a few far tags fewer)
+  DetectorOptions detector = technician_detector();  ///< --decimate, --blur, --refine-edges
 };
 void run_report(const ReportCommand& cmd);
 

@@ -20,13 +20,23 @@ struct DetectorOptions {
   /// (bench/calibration), same corners (edges are refined on the unblurred image).
   float quad_sigma = 0.8f;
   /// apriltag: snap quad edges to image gradients at full resolution. Needed with decimation;
-  /// it leaves a near-constant ~(-0.12, -0.12) px shift of every corner (its integer
-  /// sampling), which amounts to a 0.1 px principal-point shift and costs no accuracy.
+  /// it leaves a ~(-0.12, -0.12) px shift of the corners (its integer sampling). Without
+  /// decimation it does more harm than good (see technician_detector()).
   bool refine_edges = true;
   int threads = 1;            ///< apriltag worker threads
   int max_hamming = 1;        ///< reject tags decoded with more bit errors than this
   int min_tags = 2;           ///< fewer tags in view: no board detection
 };
+
+/// What `kumite-calibrate` uses unless told otherwise (its --decimate, --blur, --refine-edges).
+/// Offline calibration puts accuracy first: tags are found at full resolution (decimate 1),
+/// which keeps the small, far and steeply tilted tags that carry the image corners and the
+/// lens distortion (decimate 2 finds 14 of the 47 tags of apriltag's own test photos,
+/// decimate 1 all of them), at ~3x the time per image. No edge refinement there: apriltag
+/// 3.3's refine_edges samples whole pixels and, at decimate 1, runs on the blurred image; it
+/// biases the corners (synthetic 4-camera set: positions 1-2 mm off and fx +0.06 % with it,
+/// 0.2-0.8 mm and <= 0.02 % without).
+DetectorOptions technician_detector();
 
 /// One tag as the apriltag library reports it (corners in its order: p[0] .. p[3], counter-
 /// clockwise from the bottom-left), in OpenCV pixel coordinates.
