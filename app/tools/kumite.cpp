@@ -13,6 +13,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include "kumite/common/realtime.hpp"
 #include "kumite/app/config.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
@@ -108,6 +109,7 @@ int run(const Args& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  kumite::keep_freed_memory();  // before any thread: frame-sized buffers are reused, not remapped
   CLI::App app{"kumite: the installation (walls in stereo, the fighter, the supervisor console)"};
   Args a;
   app.add_option("--config", a.config, "installation file (TOML)")->capture_default_str();

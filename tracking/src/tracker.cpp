@@ -55,6 +55,11 @@ std::chrono::steady_clock::time_point steady_at(Timestamp t) {
 
 /// Seconds between drop reports on the log.
 constexpr double kReportEvery_s = 5.0;
+/// s: a worker whose buffers are full wakes this long after the first buffered set is due,
+/// not at that moment, so it does not take the lock just as the tracker (higher priority)
+/// comes for that set: a low-priority worker preempted while holding the lock delayed
+/// hand-overs by 3-8 ms. The buffers hold 50 ms of sets, so the lag costs nothing.
+constexpr double kWorkerLag_s = 0.002;
 
 /// A preloaded frame set: its images packed losslessly (see packed_image.hpp), so a whole
 /// recording fits in memory and a set expands far faster than its PNGs decode.
@@ -223,7 +228,7 @@ class RecordingSource final : public FrameSource {
         const auto future = static_cast<std::size_t>(std::distance(first_future, ready_.end()));
         if (future + in_flight_ < buffers) break;
         if (first_future == ready_.end()) cv_.wait(lock);
-        else cv_.wait_until(lock, steady_at(due(first_future->first)));
+        else cv_.wait_until(lock, steady_at(due(first_future->first) + kWorkerLag_s));
       }
       // Skip what cannot be decoded before it is due (from memory: what a newer due set
       // already replaces).
@@ -262,6 +267,7 @@ class RecordingSource final : public FrameSource {
       stamp(set, n);
       ready_.emplace(n, std::move(set));
       drop_stale(kumite::now());
+      lock.unlock();  // the tracker, woken, must not find the lock held by a low-priority worker
       cv_.notify_all();
     }
   }
@@ -294,6 +300,7 @@ class RecordingSource final : public FrameSource {
         if (late_ms > c.max_handover_late_ms.load()) c.max_handover_late_ms.store(late_ms);
         c.delivered.fetch_add(1);
         report(t);
+        lock.unlock();
         cv_.notify_all();
         return true;
       }

@@ -20,6 +20,7 @@
 #include <spdlog/sinks/sink.h>
 #include <spdlog/spdlog.h>
 
+#include "kumite/common/realtime.hpp"
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/log.hpp"
@@ -364,6 +365,7 @@ int run_synth(SynthCli s) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  kumite::keep_freed_memory();  // before any thread: frame-sized buffers are reused, not remapped
   CLI::App app{"kumite-track: optical head tracking (recorded or live cameras) and synthetic recordings"};
   app.require_subcommand(0, 1);
   RunOptions run;
