@@ -81,6 +81,12 @@ void plan_fighter(const content::FighterFrame& f, glm::vec3 colour, std::vector<
                       static_cast<float>(q.z()));
     if (glm::length(p - a) < 1e-4f) continue;  // zero-length bone (BVH end sites, roots)
     items.push_back({bone_model(a, p, r), colour, Mesh::cylinder});
+    // A bone fatter than its parent joint's sphere (the head on its neck, the chest on the
+    // spine) gets its own rounded end there, so it reads as a capsule, not a cut cylinder.
+    const float parent_r = static_cast<std::size_t>(parent) < f.joint_radii_m.size()
+                               ? f.joint_radii_m[static_cast<std::size_t>(parent)] * 1.08f
+                               : 0.04f;
+    if (r > parent_r) items.push_back({sphere_model(a, r), colour, Mesh::sphere});
   }
   if (f.target) {
     const glm::vec3 t(static_cast<float>(f.target->x()), static_cast<float>(f.target->y()),

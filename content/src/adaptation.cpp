@@ -50,6 +50,9 @@ constexpr std::array<RoleSpec, 17> kRoles{{
 constexpr std::array<CJ, 2> kShoulder{CJ::l_shoulder, CJ::r_shoulder};
 constexpr std::array<CJ, 2> kClavicle{CJ::l_clavicle, CJ::r_clavicle};
 
+/// m, a 1.75 m person's head drawn as a capsule (scaled with height like the bones).
+constexpr double kHeadRadius_m = 0.075;
+
 float bone_radius(Role role, double length_m, double height_m) {
   const double scale = height_m / 1.75;  // radii of a 1.75 m person, scaled
   switch (role) {
@@ -216,6 +219,11 @@ Rig make_rig(const Skeleton& skeleton, std::span<const Quaterniond> rest_local, 
     const auto p = static_cast<std::size_t>(skeleton.parents[i]);
     rig.joint_radii_m[i] = bone_radius(rig.role[p], skeleton.offsets[i].norm(), rig.morphology.height_m);
   }
+  // The head has no role of its own; by its bone's length alone it was drawn as a thin stick
+  // on the shoulders. The bones to its end sites get a head's radius instead.
+  const int head = skeleton.index(CJ::head);
+  for (std::size_t i = 1; i < un; ++i)
+    if (head >= 0 && skeleton.parents[i] == head) rig.joint_radii_m[i] = static_cast<float>(kHeadRadius_m * rig.morphology.height_m / 1.75);
   return rig;
 }
 

@@ -94,7 +94,10 @@ TEST(Render, StickFigureAppearsWhereProjected) {
   std::vector<DrawItem> items;
   const glm::vec3 colour = character_colour(0);
   plan_fighter(f, colour, items);
-  ASSERT_EQ(items.size(), 11u + 10u + 1u);  // joints + bones + target
+  std::size_t caps = 0;  // bones fatter than their parent joint's sphere get a rounded end
+  for (std::size_t j = 1; j < f.parents.size(); ++j)
+    if (f.parents[j] >= 0 && f.joint_radii_m[j] > 1.08f * f.joint_radii_m[static_cast<std::size_t>(f.parents[j])]) ++caps;
+  ASSERT_EQ(items.size(), 11u + 10u + caps + 1u);  // joints + bones + rounded ends + target
 
   const EyeView view = off_axis(front, {0.0, 1.67, 0.0}, 0.05, 100.0);
   target.bind();
