@@ -110,19 +110,26 @@ TEST(LatestValue, EmptyThenNewest) {
 
 TEST(LatestValue, ReaderNeverSeesATornValue) {
   // Writer publishes poses whose fields all equal the frame number; a torn read would mix two.
+  // It keeps publishing until the reader has read often enough (on a loaded machine the reader
+  // may not run at all during 200000 publishes, which made this test fail without a bug).
   LatestValue<BodyPose> slot;
   std::atomic<bool> done{false};
+  std::atomic<std::uint64_t> reads{0}, published{0};
+  constexpr std::uint64_t kMinPublishes = 200000, kMinReads = 1000;
   std::thread writer([&] {
-    for (std::uint64_t i = 1; i <= 200000; ++i) {
+    std::uint64_t i = 0;
+    while (i < kMinPublishes || reads.load(std::memory_order_relaxed) < kMinReads) {
+      ++i;
       BodyPose p;
       p.frame = i;
       p.timestamp = double(i);
       p.position = {double(i), double(i), double(i)};
       slot.publish(p);
     }
+    published = i;
     done = true;
   });
-  std::uint64_t reads = 0, last = 0;
+  std::uint64_t last = 0;
   while (!done) {
     if (auto r = slot.read()) {
       ASSERT_EQ(r->timestamp, double(r->frame));
@@ -130,10 +137,10 @@ TEST(LatestValue, ReaderNeverSeesATornValue) {
       ASSERT_EQ(r->position[2], double(r->frame));
       ASSERT_GE(r->frame, last);  // never goes back in time
       last = r->frame;
-      ++reads;
+      reads.fetch_add(1, std::memory_order_relaxed);
     }
   }
   writer.join();
-  EXPECT_GT(reads, 0u);
-  EXPECT_EQ(slot.read()->frame, 200000u);
+  EXPECT_GE(reads.load(), kMinReads);
+  EXPECT_EQ(slot.read()->frame, published.load());
 }
