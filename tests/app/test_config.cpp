@@ -191,6 +191,17 @@ TEST(Config, TrackingNeedsItsFiles) {
   EXPECT_NE(msg2.find("tracking.source: unknown tracking source \"tape\""), std::string::npos) << msg2;
 }
 
+TEST(Config, TrackingPlaybackSettingsOutOfRange) {
+  // The bad key stands on line 25: kBase has 23 lines, then "[tracking]".
+  const auto priority = error_of(kBase + "[tracking]\nrealtime_priority = 120\n");
+  EXPECT_NE(priority.find("bad.toml:25: tracking.realtime_priority: must be 0..99"), std::string::npos) << priority;
+  const auto threads = error_of(kBase + "[tracking]\ndecode_threads = 0\n");
+  EXPECT_NE(threads.find("bad.toml:25: tracking.decode_threads: must be 1..16"), std::string::npos) << threads;
+  const auto preload = error_of(kBase + "[tracking]\nrecording_preload = -1\n");
+  EXPECT_NE(preload.find("bad.toml:25: tracking.recording_preload: must be >= 0"), std::string::npos) << preload;
+  EXPECT_EQ(error_of(kBase + "[tracking]\nrealtime_priority = 10\ndecode_threads = 2\nrecording_preload = 480\n"), "");
+}
+
 TEST(Config, MissingFile) {
   try {
     load_installation_config("/nonexistent/kumite.toml");
