@@ -6,20 +6,16 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
-#include <cerrno>
 #include <iostream>
 
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
 
-#include "kumite/common/realtime.hpp"
 #include "kumite/app/config.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
 #include "kumite/app/tracking_input.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/log.hpp"
+#include "kumite/common/realtime.hpp"
 
 namespace {
 
@@ -54,12 +50,7 @@ std::optional<std::array<int, 2>> parse_resolution(const std::string& s) {
 
 /// Raises the calling thread's nice value by `n` (threads it starts later inherit it).
 void lower_render_priority(int n) {
-  if (n <= 0) return;
-  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
-  errno = 0;
-  const int now_nice = ::getpriority(PRIO_PROCESS, tid);
-  if (errno == 0 && ::setpriority(PRIO_PROCESS, tid, std::min(19, now_nice + n)) == 0)
-    spdlog::debug("render thread: nice {}", std::min(19, now_nice + n));
+  if (const auto nice = kumite::lower_this_thread_priority(n)) spdlog::debug("render thread: nice {}", *nice);
 }
 
 int run(const Args& a) {

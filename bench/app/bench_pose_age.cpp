@@ -14,16 +14,14 @@
 #include <cstdio>
 #include <thread>
 
-#include <pthread.h>
-#include <sched.h>
 
 #include <fmt/format.h>
 
-#include "kumite/common/realtime.hpp"
 #include "kumite/app/config.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/tracking_input.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/common/realtime.hpp"
 #include "kumite/tracking/tracker.hpp"
 
 using namespace kumite;
@@ -42,9 +40,7 @@ double percentile(std::vector<double> v, double p) {
 std::vector<double> wake_latency_ms(double seconds) {
   std::vector<double> late;
   std::thread probe([&] {
-    sched_param param{};
-    param.sched_priority = 10;
-    (void)pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);  // as the tracker (else normal)
+    (void)run_this_thread_realtime(10);  // as the tracker (else normal)
     const Timestamp end = now() + seconds;
     while (now() < end) {
       const Timestamp due = now() + 0.002;

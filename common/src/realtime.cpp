@@ -1,6 +1,15 @@
 #include "kumite/common/realtime.hpp"
 
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+
 #include <malloc.h>
+#include <pthread.h>
+#include <sched.h>
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
 
 namespace kumite {
 
@@ -11,6 +20,24 @@ constexpr int kMmapThreshold = 64 << 20;
 /// bytes: free memory at the heap's top kept instead of trimmed back to the kernel.
 constexpr int kTrimThreshold = 512 << 20;
 }  // namespace
+
+std::optional<int> lower_this_thread_priority(int by) {
+  if (by <= 0) return std::nullopt;
+  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
+  errno = 0;
+  const int now_nice = ::getpriority(PRIO_PROCESS, tid);
+  if (errno != 0) return std::nullopt;
+  const int nice = std::min(19, now_nice + by);
+  if (::setpriority(PRIO_PROCESS, tid, nice) != 0) return std::nullopt;
+  return nice;
+}
+
+std::string run_this_thread_realtime(int priority) {
+  sched_param param{};
+  param.sched_priority = std::clamp(priority, sched_get_priority_min(SCHED_FIFO), sched_get_priority_max(SCHED_FIFO));
+  const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param);
+  return err == 0 ? std::string() : std::string(std::strerror(err));
+}
 
 bool keep_freed_memory() {
   const bool a = mallopt(M_MMAP_THRESHOLD, kMmapThreshold) == 1;

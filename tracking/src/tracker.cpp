@@ -2,24 +2,18 @@
 
 #include <algorithm>
 #include <array>
-#include <cerrno>
 #include <chrono>
 #include <condition_variable>
-#include <cstring>
 #include <limits>
 #include <map>
 #include <mutex>
 #include <thread>
 
-#include <pthread.h>
-#include <sched.h>
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <unistd.h>
 
 #include <spdlog/spdlog.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/common/realtime.hpp"
 #include "kumite/tracking/packed_image.hpp"
 #include "kumite/tracking/pipeline.hpp"
 
@@ -38,15 +32,6 @@ std::string_view to_string(CameraState s) {
 // Recorded source
 
 namespace {
-
-/// Lowers the calling thread's priority by `nice` (Linux: per-thread nice values).
-void lower_thread_priority(int nice) {
-  if (nice <= 0) return;
-  const auto tid = static_cast<id_t>(::syscall(SYS_gettid));
-  errno = 0;
-  const int now_nice = ::getpriority(PRIO_PROCESS, tid);
-  if (errno == 0) (void)::setpriority(PRIO_PROCESS, tid, std::min(19, now_nice + nice));
-}
 
 std::chrono::steady_clock::time_point steady_at(Timestamp t) {
   return std::chrono::steady_clock::now() +
@@ -214,7 +199,7 @@ class RecordingSource final : public FrameSource {
   }
 
   void work() {
-    lower_thread_priority(options_.decode_nice);
+    (void)lower_this_thread_priority(options_.decode_nice);
     if (!preload()) return;
     const std::size_t buffers = static_cast<std::size_t>(std::max(1, options_.buffered_sets));
     for (;;) {
@@ -424,14 +409,12 @@ namespace {
 /// SCHED_FIFO for the calling thread; one log line either way.
 void use_realtime_priority(int priority) {
   if (priority <= 0) return;
-  sched_param param{};
-  param.sched_priority = std::clamp(priority, sched_get_priority_min(SCHED_FIFO), sched_get_priority_max(SCHED_FIFO));
-  if (const int err = pthread_setschedparam(pthread_self(), SCHED_FIFO, &param); err != 0) {
+  if (const std::string why = run_this_thread_realtime(priority); !why.empty()) {
     spdlog::warn("tracker: cannot run at real-time priority {} ({}); running at normal priority "
                  "(grant CAP_SYS_NICE or an rtprio limit to the installation's user)",
-                 param.sched_priority, std::strerror(err));
+                 priority, why);
   } else {
-    spdlog::info("tracker: thread runs at real-time priority {} (SCHED_FIFO)", param.sched_priority);
+    spdlog::info("tracker: thread runs at real-time priority {} (SCHED_FIFO)", priority);
   }
 }
 }  // namespace

@@ -20,10 +20,10 @@
 #include <spdlog/sinks/sink.h>
 #include <spdlog/spdlog.h>
 
-#include "kumite/common/realtime.hpp"
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/log.hpp"
+#include "kumite/common/realtime.hpp"
 #include "kumite/tracking/calibration_file.hpp"
 #include "kumite/tracking/config.hpp"
 #include "kumite/tracking/pipeline.hpp"

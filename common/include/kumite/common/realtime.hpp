@@ -1,8 +1,19 @@
 #pragma once
-// Process-wide settings for the programs that run the tracker in real time (kumite,
-// kumite-track): call once at the start of main, before threads start.
+// Scheduling and memory settings for the programs that run the tracker in real time
+// (kumite, kumite-track, the pose-age bench). Linux.
+#include <optional>
+#include <string>
 
 namespace kumite {
+
+/// Lowers the calling thread's priority by `by` nice steps (per-thread nice values; at most
+/// 19). Returns the new nice value, or nullopt when `by` <= 0 or the system refused.
+std::optional<int> lower_this_thread_priority(int by);
+
+/// Runs the calling thread under SCHED_FIFO at `priority` (clamped to the system's range).
+/// Returns "" on success, else why not (e.g. "Operation not permitted": needs root,
+/// CAP_SYS_NICE or an rtprio limit).
+std::string run_this_thread_realtime(int priority);
 
 /// Tells the allocator to keep freed memory instead of returning it to the kernel, so the
 /// camera-sized buffers a frame set allocates and frees (4 x 1.3 MB, 60 times a second) come
