@@ -47,26 +47,18 @@ constexpr double kReportEvery_s = 5.0;
 constexpr double kWorkerLag_s = 0.002;
 
 /// A preloaded frame set: its images packed losslessly (see packed_image.hpp), so a whole
-/// recording fits in memory and a set expands far faster than its PNGs decode.
+/// recording fits in memory and a set expands far faster than its PNGs decode. Frame number
+/// and times are not kept: stamp() gives every handed-over set its own.
 struct PackedSet {
   PackedSet() = default;
-  explicit PackedSet(const FrameSet& set) : frame(set.frame), timestamp(set.timestamp), camera_times(set.camera_times) {
-    images.reserve(set.images.size());
-    for (const auto& im : set.images) images.emplace_back(im);
-  }
+  explicit PackedSet(const FrameSet& set) : images(set.images.begin(), set.images.end()) {}
   FrameSet unpack() const {
     FrameSet out;
-    out.frame = frame;
-    out.timestamp = timestamp;
-    out.camera_times = camera_times;
     out.images.reserve(images.size());
     for (const auto& im : images) out.images.push_back(im.unpack());
     return out;
   }
-  std::uint64_t frame = 0;
-  Timestamp timestamp = 0;
   std::vector<PackedImage> images;
-  std::vector<Timestamp> camera_times;
 };
 
 class RecordingSource final : public FrameSource {
