@@ -10,9 +10,11 @@
 
 extern "C" {
 #include <apriltag.h>
+#include <common/image_u8.h>
 #include <tag36h11.h>
 }
 
+#include "kumite/calibration/tag_quads.hpp"
 #include "kumite/common/error.hpp"
 
 namespace kumite::calibration {
@@ -20,6 +22,11 @@ namespace kumite::calibration {
 struct BoardDetector::Impl {
   apriltag_family_t* family = nullptr;
   apriltag_detector_t* detector = nullptr;
+  /// Full resolution without edge refinement: corners re-fitted by fit_tag_quads() on the
+  /// image the library segmented, which we then blur ourselves (blur_sigma, px).
+  bool refit = false;
+  float blur_sigma = 0;
+  QuadFitParams quad_params;
   ~Impl() {
     if (detector) apriltag_detector_destroy(detector);
     if (family) tag36h11_destroy(family);
@@ -43,7 +50,62 @@ BoardDetector::BoardDetector(const Board& board, const DetectorOptions& options)
   impl_->detector->quad_sigma = options.quad_sigma;
   impl_->detector->refine_edges = options.refine_edges;
   impl_->detector->nthreads = std::max(1, options.threads);
+  impl_->refit =
+      options.refit_corners && options.quad_decimate <= 1.f && !options.refine_edges && options.quad_sigma >= 0.f;
+  if (impl_->refit) {
+    // We blur, so that the library and fit_tag_quads() see the same image.
+    impl_->blur_sigma = options.quad_sigma;
+    impl_->detector->quad_sigma = 0;
+    const auto& q = impl_->detector->qtp;
+    QuadFitParams& p = impl_->quad_params;
+    p.min_white_black_diff = q.min_white_black_diff;
+    p.min_cluster_pixels = q.min_cluster_pixels;
+    p.max_nmaxima = q.max_nmaxima;
+    p.cos_critical_rad = q.cos_critical_rad;
+    p.max_line_fit_mse = q.max_line_fit_mse;
+    p.min_tag_width = std::max(3, static_cast<int>(static_cast<float>(impl_->family->width_at_border) /
+                                                   std::max(1.f, options.quad_decimate)));
+  }
 }
+
+namespace {
+
+/// apriltag's blur before segmentation: a Gaussian of sigma px over 4 sigma (odd) pixels.
+void apriltag_blur(cv::Mat& grey, float sigma) {
+  int ksz = static_cast<int>(4 * sigma);
+  if ((ksz & 1) == 0) ++ksz;
+  if (ksz <= 1) return;
+  image_u8_t im{grey.cols, grey.rows, static_cast<int32_t>(grey.step[0]), grey.data};
+  image_u8_gaussian_blur(&im, sigma, ksz);
+}
+
+/// Our re-fitted quad for a detection: the quad whose corners, in some rotation, lie within
+/// kSameQuad_px of the library's. Returns false when there is none.
+bool refitted_corners(const std::vector<TagQuad>& quads, const apriltag_detection_t& d, std::array<cv::Point2d, 4>& out) {
+  constexpr double kSameQuad_px = 1.0;  // the duplicates move a corner by ~0.1 px
+  double best = kSameQuad_px;
+  bool found = false;
+  // The decoded corners start at the tag's own corner and may wind the other way round.
+  for (const auto& q : quads) {
+    for (int shift = 0; shift < 4; ++shift) {
+      for (int step : {1, 3}) {
+        double worst = 0;
+        for (int k = 0; k < 4; ++k) {
+          const cv::Point2d& p = q.p[static_cast<std::size_t>((shift + step * k) & 3)];
+          worst = std::max(worst, std::hypot(p.x - d.p[k][0], p.y - d.p[k][1]));
+        }
+        if (worst < best) {
+          best = worst;
+          found = true;
+          for (int k = 0; k < 4; ++k) out[static_cast<std::size_t>(k)] = q.p[static_cast<std::size_t>((shift + step * k) & 3)];
+        }
+      }
+    }
+  }
+  return found;
+}
+
+}  // namespace
 
 BoardDetector::~BoardDetector() = default;
 
@@ -54,8 +116,14 @@ std::vector<TagCorners> BoardDetector::detect_tags(const cv::Mat& grey_in) {
   // image would come back blurred, once more on every call.
   cv::Mat grey = grey_in;
   if (impl_->detector->quad_decimate <= 1.f && impl_->detector->quad_sigma != 0.f) grey = grey_in.clone();
+  if (impl_->refit && impl_->blur_sigma > 0.f) {
+    grey = grey_in.clone();
+    apriltag_blur(grey, impl_->blur_sigma);
+  }
   image_u8_t im{grey.cols, grey.rows, static_cast<int32_t>(grey.step[0]), grey.data};
   zarray_t* dets = apriltag_detector_detect(impl_->detector, &im);
+  std::vector<TagQuad> quads;
+  if (impl_->refit && zarray_size(dets) > 0) quads = fit_tag_quads(grey, impl_->quad_params);
   std::vector<TagCorners> out;
   out.reserve(static_cast<std::size_t>(zarray_size(dets)));
   for (int i = 0; i < zarray_size(dets); ++i) {
@@ -66,8 +134,11 @@ std::vector<TagCorners> BoardDetector::detect_tags(const cv::Mat& grey_in) {
     t.id = d->id;
     t.hamming = d->hamming;
     t.decision_margin = d->decision_margin;
+    std::array<cv::Point2d, 4> p;
+    for (int k = 0; k < 4; ++k) p[static_cast<std::size_t>(k)] = {d->p[k][0], d->p[k][1]};
+    if (impl_->refit) t.refitted = refitted_corners(quads, *d, p);
     // apriltag puts pixel centres at +0.5; OpenCV at integers.
-    for (int k = 0; k < 4; ++k) t.corners[static_cast<std::size_t>(k)] = {d->p[k][0] - 0.5, d->p[k][1] - 0.5};
+    for (std::size_t k = 0; k < 4; ++k) t.corners[k] = p[k] - cv::Point2d(0.5, 0.5);
     out.push_back(t);
   }
   apriltag_detections_destroy(dets);

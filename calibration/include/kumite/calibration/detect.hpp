@@ -23,6 +23,9 @@ struct DetectorOptions {
   /// it leaves a ~(-0.12, -0.12) px shift of the corners (its integer sampling). Without
   /// decimation it does more harm than good (see technician_detector()).
   bool refine_edges = true;
+  /// Full resolution without edge refinement: re-fit each tag's corners without apriltag
+  /// 3.3.0's duplicate edge points (tag_quads.hpp). Off: the library's corners as they come.
+  bool refit_corners = true;
   int threads = 1;            ///< apriltag worker threads
   int max_hamming = 1;        ///< reject tags decoded with more bit errors than this
   int min_tags = 2;           ///< fewer tags in view: no board detection
@@ -38,13 +41,16 @@ struct DetectorOptions {
 /// 0.2-0.8 mm and <= 0.02 % without).
 DetectorOptions technician_detector();
 
-/// One tag as the apriltag library reports it (corners in its order: p[0] .. p[3], counter-
+/// One tag as the apriltag library decodes it (corners in its order: p[0] .. p[3], counter-
 /// clockwise from the bottom-left), in OpenCV pixel coordinates.
 struct TagCorners {
   int id = -1;
   std::array<cv::Point2d, 4> corners{};
   int hamming = 0;
   double decision_margin = 0;
+  /// Corners re-fitted by fit_tag_quads() (tag_quads.hpp: without apriltag 3.3.0's duplicate
+  /// edge points); false: the library's own (decimation or edge refinement on, or no match).
+  bool refitted = false;
 };
 
 /// The board's corners found in one image (corner ids as in board.hpp).
