@@ -86,7 +86,9 @@ class TrackerInput final : public TrackingInput {
   void describe_recording(Timestamp t, TrackingSnapshot& s) {
     const auto& c = *counters_;
     if (!c.playing.load()) {
-      const auto want = static_cast<std::uint64_t>(preload_);
+      // The recording may hold fewer sets than the config asks to preload.
+      const std::uint64_t asked = c.to_preload.load();
+      const auto want = asked > 0 ? asked : static_cast<std::uint64_t>(preload_);
       s.source = want > 0 ? fmt::format("recording: loading {} of {} frame sets into memory", c.preloaded.load(), want)
                           : "recording: decoding the first frame set";
       return;

@@ -500,7 +500,10 @@ bool fit_quad(std::vector<EdgePoint>& pts, const cv::Mat& im, const QuadFitParam
 }  // namespace
 
 std::vector<TagQuad> fit_tag_quads(const cv::Mat& grey, const QuadFitParams& params) {
-  CV_Assert(grey.type() == CV_8U && grey.cols >= 2 * kTile_px && grey.rows >= 2 * kTile_px);
+  CV_Assert(grey.type() == CV_8U);
+  // Too small for one threshold tile around another, or too large for half-pixel uint16
+  // coordinates (the library's own limit): no quads.
+  if (grey.cols < 2 * kTile_px || grey.rows < 2 * kTile_px || grey.cols >= 32768 || grey.rows >= 32768) return {};
   const cv::Mat t = threshold(grey, params.min_white_black_diff);
   Components uf = connect(t);
   auto clusters = edge_clusters(t, uf, params.keep_diagonal_duplicates);

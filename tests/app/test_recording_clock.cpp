@@ -147,10 +147,29 @@ TEST(RecordingClock, PreloadedSetsLoopFromMemory) {
       frames.push_back(set.frame);
     }
   EXPECT_EQ(counters->preloaded.load(), 5u);
+  EXPECT_EQ(counters->to_preload.load(), 5u);
   EXPECT_TRUE(counters->playing.load());
   ASSERT_EQ(frames.size(), 12u);
   EXPECT_GT(frames.back(), 5u);  // it looped
   source->close();
   EXPECT_FALSE(source->next(set, 0.1));
   EXPECT_TRUE(source->end_of_stream());
+}
+
+TEST(RecordingClock, PreloadCountsNoMoreSetsThanTheRecordingHas) {
+  // The console says "loading N of M": M is what will be loaded, not what the config asked.
+  TinyRecording rec(6);
+  auto counters = std::make_shared<RecordingOptions::Counters>();
+  RecordingOptions o;
+  o.realtime = true;
+  o.preload_sets = 480;
+  o.counters = counters;
+  auto source = open_recording_source(rec.dir, rec.rig, {}, o);
+  FrameSet set;
+  const Timestamp deadline = now() + 10;
+  while (!source->next(set, 0.1) && now() < deadline) {
+  }
+  EXPECT_EQ(counters->to_preload.load(), 6u);
+  EXPECT_EQ(counters->preloaded.load(), 6u);
+  source->close();
 }

@@ -345,6 +345,28 @@ TEST(Detect, TagQuadsReproduceTheLibraryAndDifferOnlyByTheDuplicates) {
               tags, same, moved, largest_move);
 }
 
+TEST(Detect, TagQuadsSurviveNoiseAndTinyImages) {
+  cv::Mat noise(240, 320, CV_8U);
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  for (const auto& q : fit_tag_quads(noise)) {
+    for (const auto& p : q.p) EXPECT_TRUE(std::isfinite(p.x) && std::isfinite(p.y));
+  }
+  EXPECT_TRUE(fit_tag_quads(cv::Mat(7, 300, CV_8U, cv::Scalar(0))).empty());
+  EXPECT_TRUE(fit_tag_quads(cv::Mat(8, 8, CV_8U, cv::Scalar(255))).empty());
+  // A single black square on white: one quad, its corners on the square's outline.
+  cv::Mat square(64, 64, CV_8U, cv::Scalar(255));
+  cv::rectangle(square, cv::Rect(16, 20, 30, 24), cv::Scalar(0), cv::FILLED);
+  const auto quads = fit_tag_quads(square);
+  ASSERT_EQ(quads.size(), 1u);
+  for (const auto& p : quads[0].p) {
+    // Edges half-way between the last black and first white pixel, +0.5 px (apriltag's
+    // convention): x at 16 or 46, y at 20 or 44.
+    EXPECT_NEAR(std::min(std::abs(p.x - 16), std::abs(p.x - 46)), 0, 0.05) << p;
+    EXPECT_NEAR(std::min(std::abs(p.y - 20), std::abs(p.y - 44)), 0, 0.05) << p;
+  }
+}
+
 TEST(Board, ShippedBoardFilesParse) {
   const fs::path dir = fs::path(KUMITE_SOURCE_DIR) / "config/boards";
   int n = 0;

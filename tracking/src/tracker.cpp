@@ -124,6 +124,7 @@ class RecordingSource final : public FrameSource {
     const auto& rows = recording_.index().rows;
     playable_ = options_.preload_sets > 0 ? std::min(options_.preload_sets, rows.size()) : rows.size();
     from_memory_ = options_.preload_sets > 0;
+    if (from_memory_ && options_.counters) options_.counters->to_preload.store(playable_);
     rel_.resize(playable_);
     for (std::size_t i = 0; i < playable_; ++i) rel_[i] = rows[i].timestamp - rows[0].timestamp;
     const double interval = playable_ > 1 ? rel_.back() / static_cast<double>(playable_ - 1) : 1.0 / 60;

@@ -46,7 +46,8 @@ struct TagQuad {
 };
 
 /// All quads in a grey (CV_8U) image at full resolution. The image is the one the library
-/// segments: with quad_sigma set, the blurred image (see BoardDetector::detect_tags).
+/// segments: with quad_sigma set, the blurred image (see BoardDetector::detect_tags). None in
+/// an image under 8 px or from 32768 px on a side.
 std::vector<TagQuad> fit_tag_quads(const cv::Mat& grey, const QuadFitParams& params = {});
 
 }  // namespace kumite::calibration

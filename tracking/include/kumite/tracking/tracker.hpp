@@ -93,6 +93,7 @@ struct RecordingOptions {
     /// buffers were full while it came due
     std::atomic<std::uint64_t> dropped_stale{0};
     std::atomic<std::uint64_t> preloaded{0};      ///< frame sets in memory (preload_sets)
+    std::atomic<std::uint64_t> to_preload{0};     ///< sets being preloaded: preload_sets or fewer
     std::atomic<bool> playing{false};             ///< the clock has started
     std::atomic<double> decode_ms{0};             ///< ms per frame set (all cameras), smoothed
     std::atomic<double> max_handover_late_ms{0};  ///< ms, worst (hand-over time - due time)
