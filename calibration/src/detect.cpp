@@ -123,7 +123,17 @@ std::vector<TagCorners> BoardDetector::detect_tags(const cv::Mat& grey_in) {
   image_u8_t im{grey.cols, grey.rows, static_cast<int32_t>(grey.step[0]), grey.data};
   zarray_t* dets = apriltag_detector_detect(impl_->detector, &im);
   std::vector<TagQuad> quads;
-  if (impl_->refit && zarray_size(dets) > 0) quads = fit_tag_quads(grey, impl_->quad_params);
+  if (impl_->refit && zarray_size(dets) > 0) {
+    std::vector<cv::Rect2d> near;
+    for (int i = 0; i < zarray_size(dets); ++i) {
+      apriltag_detection_t* d = nullptr;
+      zarray_get(dets, i, &d);
+      double x0 = d->p[0][0], x1 = x0, y0 = d->p[0][1], y1 = y0;
+      for (const auto& p : d->p) x0 = std::min(x0, p[0]), x1 = std::max(x1, p[0]), y0 = std::min(y0, p[1]), y1 = std::max(y1, p[1]);
+      near.emplace_back(x0 - 2, y0 - 2, x1 - x0 + 4, y1 - y0 + 4);
+    }
+    quads = fit_tag_quads(grey, impl_->quad_params, &near);
+  }
   std::vector<TagCorners> out;
   out.reserve(static_cast<std::size_t>(zarray_size(dets)));
   for (int i = 0; i < zarray_size(dets); ++i) {

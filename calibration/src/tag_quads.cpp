@@ -499,7 +499,8 @@ bool fit_quad(std::vector<EdgePoint>& pts, const cv::Mat& im, const QuadFitParam
 
 }  // namespace
 
-std::vector<TagQuad> fit_tag_quads(const cv::Mat& grey, const QuadFitParams& params) {
+std::vector<TagQuad> fit_tag_quads(const cv::Mat& grey, const QuadFitParams& params,
+                                   const std::vector<cv::Rect2d>* near) {
   CV_Assert(grey.type() == CV_8U);
   // Too small for one threshold tile around another, or too large for half-pixel uint16
   // coordinates (the library's own limit): no quads.
@@ -511,6 +512,12 @@ std::vector<TagQuad> fit_tag_quads(const cv::Mat& grey, const QuadFitParams& par
   std::vector<TagQuad> quads;
   for (auto& c : clusters) {
     if (c.size() < static_cast<std::size_t>(params.min_cluster_pixels) || c.size() > too_big) continue;
+    if (near != nullptr) {
+      int x0 = c[0].x2, x1 = x0, y0 = c[0].y2, y1 = y0;
+      for (const auto& p : c) x0 = std::min<int>(x0, p.x2), x1 = std::max<int>(x1, p.x2), y0 = std::min<int>(y0, p.y2), y1 = std::max<int>(y1, p.y2);
+      const cv::Rect2d box(x0 * 0.5, y0 * 0.5, (x1 - x0) * 0.5 + 1, (y1 - y0) * 0.5 + 1);
+      if (std::none_of(near->begin(), near->end(), [&](const cv::Rect2d& r) { return (r & box).area() > 0; })) continue;
+    }
     TagQuad q;
     if (fit_quad(c, grey, params, q)) quads.push_back(q);
   }

@@ -48,6 +48,9 @@ struct TagQuad {
 /// All quads in a grey (CV_8U) image at full resolution. The image is the one the library
 /// segments: with quad_sigma set, the blurred image (see BoardDetector::detect_tags). None in
 /// an image under 8 px or from 32768 px on a side.
-std::vector<TagQuad> fit_tag_quads(const cv::Mat& grey, const QuadFitParams& params = {});
+/// near: when given, only clusters of edge points whose bounding box meets one of these
+/// rectangles (px) are fitted (the tags the library decoded; saves half the time).
+std::vector<TagQuad> fit_tag_quads(const cv::Mat& grey, const QuadFitParams& params = {},
+                                   const std::vector<cv::Rect2d>* near = nullptr);
 
 }  // namespace kumite::calibration
