@@ -9,16 +9,10 @@
 #include <fmt/format.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/common/text.hpp"
 
 namespace kumite::app {
 
-namespace {
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-}  // namespace
 
 std::vector<Order> parse_orders_script(std::string_view text, std::string_view file) {
   std::vector<Order> out;
@@ -29,12 +23,12 @@ std::vector<Order> parse_orders_script(std::string_view text, std::string_view f
     const std::string_view raw = text.substr(0, nl);
     text = nl == std::string_view::npos ? std::string_view{} : text.substr(nl + 1);
     ++line_no;
-    const std::string_view line = trim(raw);
+    const std::string_view line = trim_blanks(raw);
     if (line.empty() || line.front() == '#') continue;
     const auto comma = line.find(',');
     if (comma == std::string_view::npos)
       throw file_error("orders", "parse", file, line_no, "", "expected `time_s,order`");
-    const std::string_view t = trim(line.substr(0, comma)), o = trim(line.substr(comma + 1));
+    const std::string_view t = trim_blanks(line.substr(0, comma)), o = trim_blanks(line.substr(comma + 1));
     if (t == "time_s" && o == "order" && out.empty()) continue;  // header
     double time = 0;
     const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), time);

@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "kumite/common/text.hpp"
+
 namespace kumite {
 
 std::string_view to_string(TrackingStatus s) {
@@ -36,16 +38,9 @@ std::string to_string(const Order& order) {
   return std::string(to_string(order.kind));
 }
 
-namespace {
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
-}
-}  // namespace
 
 std::optional<Order> parse_order(std::string_view text, Timestamp time) {
-  text = trim(text);
+  text = trim_blanks(text);
   Order o;
   o.time = time;
   static constexpr OrderKind kSimple[] = {OrderKind::punch_left, OrderKind::punch_right,
@@ -60,7 +55,7 @@ std::optional<Order> parse_order(std::string_view text, Timestamp time) {
   }
   constexpr std::string_view kChar = "character";
   if (text.substr(0, kChar.size()) == kChar) {
-    std::string_view rest = trim(text.substr(kChar.size()));
+    std::string_view rest = trim_blanks(text.substr(kChar.size()));
     if (!rest.empty() && rest.front() == '_') rest = rest.substr(1);  // "character_2"
     int n = 0;
     auto [p, ec] = std::from_chars(rest.data(), rest.data() + rest.size(), n);

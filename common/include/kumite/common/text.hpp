@@ -1,0 +1,15 @@
+#pragma once
+// Small text helpers shared by the line-oriented parsers (orders over the wire, order scripts).
+#include <string_view>
+
+namespace kumite {
+
+/// s without leading blanks (space, tab) and trailing blanks or a carriage return (a CSV
+/// saved on Windows).
+inline std::string_view trim_blanks(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+}  // namespace kumite
