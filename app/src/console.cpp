@@ -154,7 +154,12 @@ void Console::frame(Installation& inst, const FrameData& f) {
   if (!c.tracking_source.empty()) ImGui::TextWrapped("%s", c.tracking_source.c_str());
   ImGui::Text("head  [%.2f, %.2f, %.2f] m   markers %d", f.head.position.x, f.head.position.y,
               f.head.position.z, c.markers_seen);
-  if (c.pose_age_ms >= 0) ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
+  if (c.pose_age_ms >= 0 && c.tracking_latency_ms >= 0) {
+    ImGui::Text("latency (pose age at render) %.1f ms: tracking %.1f + waiting for the display %.1f", c.pose_age_ms,
+                c.tracking_latency_ms, c.pose_age_ms - c.tracking_latency_ms);
+  } else if (c.pose_age_ms >= 0) {
+    ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
+  }
   else ImGui::Text("latency: no pose");
   for (const auto& cam : c.cameras) {
     const std::string last = cam.since_last_ms >= 0 ? fmt::format("last frame {:.0f} ms ago", cam.since_last_ms)

@@ -55,6 +55,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
   }
   j["events"] = events;
   j["pose_age_ms"] = f.pose_age_ms >= 0 ? json(f.pose_age_ms) : json(nullptr);
+  j["tracking_latency_ms"] = f.tracking_latency_ms >= 0 ? json(f.tracking_latency_ms) : json(nullptr);
   json cams = json::array();
   for (const auto& cam : c.cameras)
     cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"since_last_ms", cam.since_last_ms}});

@@ -190,6 +190,8 @@ void Installation::update_head(Timestamp now) {
   // the head for rendering (the draw follows at once), tracked or not.
   const double age_s = snap.measured_at >= 0 ? tracking_->clock() - snap.measured_at : -1;
   frame_.pose_age_ms = age_s >= 0 ? age_s * 1e3 : -1;
+  frame_.tracking_latency_ms =
+      age_s >= 0 && snap.measured_ready_at >= snap.measured_at ? (snap.measured_ready_at - snap.measured_at) * 1e3 : -1;
   bool live = false;
   if (snap.head && snap.head->status != TrackingStatus::lost && age_s >= 0) {
     console_.markers_seen = snap.head->markers;
@@ -205,6 +207,7 @@ void Installation::update_head(Timestamp now) {
   }
   console_.head_live = live;
   console_.pose_age_ms = frame_.pose_age_ms;
+  console_.tracking_latency_ms = frame_.tracking_latency_ms;
   if (!live && config_.tracking.source != TrackingSource::none)
     console_.problems.push_back(
         fmt::format("head not tracked ({}): walls drawn from the last good head position",

@@ -57,9 +57,13 @@ class TrackerInput final : public TrackingInput {
     if (latest) {
       // A coasting pose is a prediction: its age counts from the last frame set that saw the
       // head (if that one came and went between two polls, an older one: the age errs long).
-      if (latest->status == TrackingStatus::tracked) last_measured_ = latest->timestamp;
+      if (latest->status == TrackingStatus::tracked) {
+        last_measured_ = latest->timestamp;
+        last_ready_ = latest->ready_at;
+      }
       s.head = tracker_.predict(head_, display_time);
       s.measured_at = last_measured_;
+      s.measured_ready_at = last_ready_;
       s.status = std::string(to_string(s.head->status));
     } else {
       s.status = tracker_.running() ? "waiting for the first frame set" : "tracker stopped";
@@ -119,6 +123,7 @@ class TrackerInput final : public TrackingInput {
   std::shared_ptr<tracking::RecordingOptions::Counters> counters_;
   int preload_ = 0;
   Timestamp last_measured_ = -1;
+  Timestamp last_ready_ = -1;  // when last_measured_'s pose was published
   Timestamp rate_t0_ = -1;
   std::array<std::uint64_t, 3> rate_n0_{0, 0, 0};
   std::array<double, 3> rates_{0, 0, 0};

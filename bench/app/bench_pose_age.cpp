@@ -6,7 +6,9 @@
 // Installation::step() (tracking poll + prediction, orders, fighter, 4 walls x 2 eyes,
 // console) without GL. Prints one JSON object; the source's counts are in it, and the
 // machine's own wake-up lateness for a real-time thread (measured first, 3 s), the floor
-// under any pose-age figure here.
+// under any pose-age figure here. Pose age = tracking latency (frame set due -> pose published)
+// + display wait (published -> sampled by a frame); the wait depends on the display loop's
+// phase against the camera clock (up to one camera period), the latency is ours.
 //   build/bin/kumite_app_pose_age [config/demo.toml] [frame sets to preload = 60] [seconds = 6]
 //                                 [decode threads = 1]
 #include <algorithm>
@@ -79,7 +81,7 @@ int run(int argc, char** argv) {
   while (!counters->playing.load()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const double load_s = now() - load0;
   const double step = 1.0 / cfg.display_rate_hz;
-  std::vector<double> ages, cpu;
+  std::vector<double> ages, latency, wait, cpu;
   int live = 0, frames = 0;
   const Timestamp t0 = now();
   inst.start(t0);
@@ -94,6 +96,10 @@ int run(int argc, char** argv) {
       continue;
     }
     if (f.pose_age_ms >= 0) ages.push_back(f.pose_age_ms);
+    if (f.pose_age_ms >= 0 && f.tracking_latency_ms >= 0) {
+      latency.push_back(f.tracking_latency_ms);
+      wait.push_back(f.pose_age_ms - f.tracking_latency_ms);
+    }
     if (inst.console().head_live) ++live;
     cpu.push_back(inst.console().frame_cpu_ms);
   }
@@ -105,6 +111,8 @@ int run(int argc, char** argv) {
       "\"decode_ms_per_set\": %.1f, \"max_handover_late_ms\": %.2f, "
       "\"pose_age_ms\": {\"median\": %.3f, \"p95\": %.3f, \"p99\": %.3f, \"max\": %.3f}, "
       "\"target_pose_age_ms\": %.3f, "
+      "\"tracking_latency_ms\": {\"median\": %.3f, \"p99\": %.3f, \"max\": %.3f}, "
+      "\"display_wait_ms\": {\"median\": %.3f, \"p99\": %.3f, \"max\": %.3f}, "
       "\"step_cpu_ms\": {\"median\": %.4f, \"p95\": %.4f, \"max\": %.4f}, \"walls\": %zu, "
       "\"fighter\": %s, \"machine_wake_late_ms\": {\"p50\": %.3f, \"p99\": %.3f, \"p999\": %.3f, \"max\": %.3f}}\n",
       preload > 0 ? fmt::format("memory ({} frame sets)", std::min(preload, rec.size())).c_str() : "disk",
@@ -113,7 +121,9 @@ int run(int argc, char** argv) {
       static_cast<double>(counters->not_decoded.load() - counts0[1]) / measured_s,
       static_cast<double>(counters->dropped_stale.load() - counts0[2]) / measured_s, counters->decode_ms.load(),
       counters->max_handover_late_ms.load(), percentile(ages, 0.5), percentile(ages, 0.95), percentile(ages, 0.99),
-      percentile(ages, 1.0), camera_period * 1e3 + 3.0, percentile(cpu, 0.5), percentile(cpu, 0.95),
+      percentile(ages, 1.0), camera_period * 1e3 + 3.0, percentile(latency, 0.5), percentile(latency, 0.99),
+      percentile(latency, 1.0), percentile(wait, 0.5), percentile(wait, 0.99), percentile(wait, 1.0),
+      percentile(cpu, 0.5), percentile(cpu, 0.95),
       percentile(cpu, 1.0), cfg.walls.size(), inst.frame().has_fighter ? "true" : "false", percentile(wake, 0.5),
       percentile(wake, 0.99), percentile(wake, 0.999), percentile(wake, 1.0));
   return 0;

@@ -66,6 +66,7 @@ TrackingSnapshot tracked(double t, double x, double y, double z) {
   p.markers = 4;
   s.head = p;
   s.measured_at = t;
+  s.measured_ready_at = t + 0.0012;  // published 1.2 ms after its camera time
   s.status = "tracked";
   s.cameras = {{"cam0", "ok", 4, 8.0}, {"cam1", "ok", 4, 8.0}};
   return s;
@@ -100,6 +101,7 @@ TEST(Installation, TrackingLostMidRunKeepsTheLastGoodEyes) {
     const auto& f = inst.step(100 + i / 60.0);
     EXPECT_TRUE(inst.console().head_live);
     EXPECT_NEAR(f.pose_age_ms, 5.0, 1e-6);
+    EXPECT_NEAR(f.tracking_latency_ms, 1.2, 1e-6);
     last_tracked = f;
   }
   EXPECT_NEAR(last_tracked.head.position.z, 0.29, 1e-9);
@@ -107,6 +109,7 @@ TEST(Installation, TrackingLostMidRunKeepsTheLastGoodEyes) {
     const auto& f = inst.step(100 + i / 60.0);
     EXPECT_FALSE(inst.console().head_live);
     EXPECT_EQ(f.pose_age_ms, -1);
+    EXPECT_EQ(f.tracking_latency_ms, -1);
     EXPECT_EQ(f.head.position, last_tracked.head.position);
     EXPECT_EQ(f.eyes.left, last_tracked.eyes.left);
     EXPECT_EQ(f.views[0][0].view, last_tracked.views[0][0].view);

@@ -192,11 +192,13 @@ TEST(Tracker, RunsARecordingInTheBackgroundAndPublishes) {
   ASSERT_TRUE(pose.has_value());
   EXPECT_EQ(pose->status, TrackingStatus::tracked);
   EXPECT_EQ(pose->frame, 19U);
+  EXPECT_EQ(pose->ready_at, pose->timestamp) << "on the recording's own clock, processing takes no time";
   const auto truth = static_visitor(0);
   EXPECT_NEAR(pose->position[1], truth.position.y(), 0.002);
   // Prediction: a still head stays put; far beyond the coasting limit it is lost.
   const BodyPose ahead = tracker.predict(0, pose->timestamp + 0.03);
   EXPECT_EQ(ahead.status, TrackingStatus::tracked);
+  EXPECT_EQ(ahead.ready_at, pose->ready_at) << "a prediction keeps its measurement's publish time";
   EXPECT_NEAR(ahead.position[0], pose->position[0], 0.002);
   EXPECT_EQ(tracker.predict(0, pose->timestamp + 1.0).status, TrackingStatus::lost);
   // Camera status on the recording's clock: cam3 stopped at 0.1 s.

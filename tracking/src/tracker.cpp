@@ -431,6 +431,9 @@ void Tracker::run() {
         first = false;
       }
       const FrameResult& r = pipeline_->process(frames);
+      // On a recording's own clock (played as fast as possible) processing takes no time.
+      const Timestamp ready =
+          clock_is_source_.load(std::memory_order_acquire) ? frames.timestamp : kumite::now();
       for (std::size_t b = 0; b < r.filtered.size(); ++b) {
         Snapshot s;
         const FilteredState& st = r.states[b];
@@ -445,8 +448,9 @@ void Tracker::run() {
         s.q[3] = st.orientation.z();
         s.valid = st.valid && r.filtered[b].status != TrackingStatus::lost;
         s.pose = r.filtered[b];
+        s.pose.ready_at = ready;
         snapshots_[b]->value.publish(s);
-        poses_[b]->publish(r.filtered[b]);
+        poses_[b]->publish(s.pose);
       }
       for (std::size_t c = 0; c < cameras_.size(); ++c) {
         const bool has = c < frames.images.size() && !frames.images[c].empty();

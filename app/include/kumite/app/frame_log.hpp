@@ -3,6 +3,7 @@
 // frame, time_s, head {position m, quaternion w,x,y,z}, eyes {left, right} (m), walls
 // {name: {left|right: {view, projection}}} (16 numbers each, column-major, OpenGL
 // convention), fighter {state, character, character_name}, events [...], pose_age_ms,
+// tracking_latency_ms (its part from the frame set's camera time to the pose published),
 // console {...}. Written to a temporary file, renamed into place by close() (nothing
 // half-written).
 #include <filesystem>

@@ -33,6 +33,9 @@ struct TrackingSnapshot {
   /// s, camera time of the newest frame set that measured the head (-1: none yet); the
   /// pose age at render is clock() - measured_at.
   Timestamp measured_at = -1;
+  /// s, when that measurement's pose was published (-1: unknown): ready_at - measured_at is
+  /// the tracking latency, clock() - ready_at the wait for the display.
+  Timestamp measured_ready_at = -1;
   std::vector<CameraView> cameras;
   std::string status;                ///< one line: "tracked", "lost", "no tracking", ...
   std::string source;                ///< one line about the frame source (recording: rates, drops)
@@ -73,6 +76,8 @@ struct ConsoleState {
   /// ms, camera time of the newest head measurement to the moment this frame samples it for
   /// rendering (-1: none yet); logged whether or not the head counts as tracked.
   double pose_age_ms = -1;
+  /// ms, the tracking part of pose_age_ms: frame set due to its pose published (-1: unknown).
+  double tracking_latency_ms = -1;
   std::string fighter_state = "none";
   int character = 0;               ///< 0-based
   std::string character_name;
@@ -94,6 +99,7 @@ struct FrameData {
   std::vector<DrawItem> items;///< the fighter and its target
   std::vector<FrameEvent> events;
   double pose_age_ms = -1;    ///< ms, -1 when no pose
+  double tracking_latency_ms = -1;  ///< ms, the tracking part of pose_age_ms (-1: unknown)
   bool has_fighter = false;
   std::string fighter_state;
   int character = 0;
