@@ -86,7 +86,9 @@ void plan_fighter(const content::FighterFrame& f, glm::vec3 colour, std::vector<
     const float parent_r = static_cast<std::size_t>(parent) < f.joint_radii_m.size()
                                ? f.joint_radii_m[static_cast<std::size_t>(parent)] * 1.08f
                                : 0.04f;
-    if (r > parent_r) items.push_back({sphere_model(a, r), colour, Mesh::sphere});
+    // Its radius stays just inside the cylinder's facets (32 slices: cos(pi/32) = 0.995): at
+    // the full radius the two tangent surfaces z-fight in a sawtooth along the bone.
+    if (r > parent_r) items.push_back({sphere_model(a, r * 0.985f), colour, Mesh::sphere});
   }
   if (f.target) {
     const glm::vec3 t(static_cast<float>(f.target->x()), static_cast<float>(f.target->y()),
