@@ -13,7 +13,6 @@
 
 namespace kumite::app {
 
-
 std::vector<Order> parse_orders_script(std::string_view text, std::string_view file) {
   std::vector<Order> out;
   int line_no = 0;

@@ -2,6 +2,7 @@
 // an estimated calibration is from a reference one (e.g. kumite_make_synthetic_rig's
 // truth.yaml): camera position (mm), rotation (deg), fx and fy (%), both in the room frame.
 // Prints one JSON object; exit 1 when a camera of the reference is missing.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <exception>
@@ -18,7 +19,7 @@ int main(int argc, char** argv) {
   try {
     const auto est = kumite::tracking::read_calibration(argv[1]);
     const auto truth = kumite::tracking::read_calibration(argv[2]);
-    bool missing = false;
+    bool missing = false, first = true;
     double worst_mm = 0, worst_deg = 0, worst_f = 0;
     std::printf("{\"cameras\": [");
     for (std::size_t i = 0; i < truth.cameras.size(); ++i) {
@@ -38,8 +39,10 @@ int main(int argc, char** argv) {
       worst_mm = std::max(worst_mm, mm);
       worst_deg = std::max(worst_deg, deg);
       worst_f = std::max({worst_f, std::abs(fx), std::abs(fy)});
+      // Camera names are plain (they are folder names); no escaping needed.
       std::printf("%s{\"name\": \"%s\", \"position_mm\": %.3f, \"rotation_deg\": %.4f, \"fx_pct\": %.3f, \"fy_pct\": %.3f}",
-                  i ? ", " : "", t.name.c_str(), mm, deg, fx, fy);
+                  first ? "" : ", ", t.name.c_str(), mm, deg, fx, fy);
+      first = false;
     }
     std::printf("], \"worst_position_mm\": %.3f, \"worst_rotation_deg\": %.4f, \"worst_focal_pct\": %.3f}\n", worst_mm,
                 worst_deg, worst_f);

@@ -7,6 +7,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <spdlog/spdlog.h>
 
 extern "C" {
 #include <apriltag.h>
@@ -136,6 +137,7 @@ std::vector<TagCorners> BoardDetector::detect_tags(const cv::Mat& grey_in) {
   }
   std::vector<TagCorners> out;
   out.reserve(static_cast<std::size_t>(zarray_size(dets)));
+  int not_refitted = 0;
   for (int i = 0; i < zarray_size(dets); ++i) {
     apriltag_detection_t* d = nullptr;
     zarray_get(dets, i, &d);
@@ -146,10 +148,19 @@ std::vector<TagCorners> BoardDetector::detect_tags(const cv::Mat& grey_in) {
     t.decision_margin = d->decision_margin;
     std::array<cv::Point2d, 4> p;
     for (int k = 0; k < 4; ++k) p[static_cast<std::size_t>(k)] = {d->p[k][0], d->p[k][1]};
-    if (impl_->refit) t.refitted = refitted_corners(quads, *d, p);
+    if (impl_->refit) {
+      t.refitted = refitted_corners(quads, *d, p);
+      if (!t.refitted) ++not_refitted;
+    }
     // apriltag puts pixel centres at +0.5; OpenCV at integers.
     for (std::size_t k = 0; k < 4; ++k) t.corners[k] = p[k] - cv::Point2d(0.5, 0.5);
     out.push_back(t);
+  }
+  if (not_refitted > 0) {
+    // Not expected (every decoded quad is one of ours, give or take a duplicate point); the
+    // library's own corners are kept for those tags.
+    spdlog::debug("{} of {} tags kept apriltag's own corners: no re-fitted quad within 1 px", not_refitted,
+                  out.size());
   }
   apriltag_detections_destroy(dets);
   return out;

@@ -115,8 +115,11 @@ class Components {
   std::vector<uint32_t> size_;
 };
 
-/// Same-coloured neighbours joined: white 8-connected, black 4-connected. The library joins
-/// from columns 1 .. w-2 only (and only leftwards on the first row); so do we.
+/// Same-coloured neighbours joined: white 8-connected, black 4-connected, as the library joins
+/// them: from columns 1 .. w-2 only (only leftwards on the first row), and skipping a join
+/// upwards when the neighbours already imply it. The skips change nothing inside the image,
+/// but the last column is never joined leftwards, so there they leave pixels apart, and the
+/// component sizes at the right border depend on them: we skip the same joins.
 Components connect(const cv::Mat& t) {
   const int w = t.cols, h = t.rows;
   Components uf(w * h);
@@ -132,11 +135,12 @@ Components connect(const cv::Mat& t) {
       const uint8_t v = row[x];
       if (v == kNoEdge) continue;
       const auto ux = static_cast<uint32_t>(x);
-      if (row[x - 1] == v) uf.join(here + ux, here + ux - 1);
-      if (up[x] == v) uf.join(here + ux, above + ux);
+      const uint8_t left = row[x - 1], up_left = up[x - 1], up_mid = up[x], up_right = up[x + 1];
+      if (left == v) uf.join(here + ux, here + ux - 1);
+      if (up_mid == v && (x == 1 || !(left == up_left && up_left == up_mid))) uf.join(here + ux, above + ux);
       if (v == kWhite) {
-        if (up[x - 1] == v) uf.join(here + ux, above + ux - 1);
-        if (up[x + 1] == v) uf.join(here + ux, above + ux + 1);
+        if (up_left == v && (x == 1 || !(left == up_left || up_mid == up_left))) uf.join(here + ux, above + ux - 1);
+        if (up_right == v && up_mid != up_right) uf.join(here + ux, above + ux + 1);
       }
     }
   }
@@ -209,7 +213,8 @@ std::vector<std::vector<EdgePoint>> edge_clusters(const cv::Mat& t, Components& 
 
 /// Sorts by angle_key in the library's order, including the order of ties (which decides the
 /// windows of the corner search): sorting networks up to 5 points, above that a merge sort
-/// that takes from the second half on a tie. scratch holds at least 2n points.
+/// that takes from the second half on a tie. scratch holds n + n/2 + n/4 + ... points
+/// (2n + one per level of recursion).
 void sort_by_angle(EdgePoint* pts, std::size_t n, EdgePoint* scratch) {
   auto order = [pts](std::size_t a, std::size_t b) {
     if (pts[a].angle_key - pts[b].angle_key > 0) std::swap(pts[a], pts[b]);
@@ -366,10 +371,11 @@ bool corner_indices(const std::vector<Moments>& m, const QuadFitParams& prm, std
     }
   }
   if (maxima.size() < 4) return false;
-  if (static_cast<int>(maxima.size()) > prm.max_nmaxima) {
+  const int keep = std::max(prm.max_nmaxima, 0);
+  if (static_cast<int>(maxima.size()) > keep) {
     std::vector<double> sorted = maxima_errs;
     std::sort(sorted.begin(), sorted.end(), std::greater<>());
-    const double keep_above = sorted[static_cast<std::size_t>(prm.max_nmaxima)];
+    const double keep_above = sorted[static_cast<std::size_t>(keep)];
     std::vector<int> kept;
     for (std::size_t i = 0; i < maxima.size(); ++i) {
       if (maxima_errs[i] > keep_above) kept.push_back(maxima[i]);
@@ -410,10 +416,17 @@ bool corner_indices(const std::vector<Moments>& m, const QuadFitParams& prm, std
   return best / sz < max_mse;
 }
 
+/// Corner b - a as the library computes it: float corners subtracted in float.
+cv::Point2d float_step(const cv::Point2d& a, const cv::Point2d& b) {
+  return {static_cast<double>(static_cast<float>(b.x) - static_cast<float>(a.x)),
+          static_cast<double>(static_cast<float>(b.y) - static_cast<float>(a.y))};
+}
+
 /// Area of the triangle a, b, c by Heron's formula (as the library computes it).
 double heron(const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& c) {
   auto length = [](const cv::Point2d& u, const cv::Point2d& v) {
-    return std::sqrt((v.x - u.x) * (v.x - u.x) + (v.y - u.y) * (v.y - u.y));
+    const cv::Point2d d = float_step(u, v);
+    return std::sqrt(d.x * d.x + d.y * d.y);
   };
   const double la = length(a, b), lb = length(b, c), lc = length(c, a);
   const double s = (la + lb + lc) / 2;
@@ -427,7 +440,7 @@ bool fit_quad(std::vector<EdgePoint>& pts, const cv::Mat& im, const QuadFitParam
     xmin = std::min(xmin, p.x2), xmax = std::max(xmax, p.x2);
     ymin = std::min(ymin, p.y2), ymax = std::max(ymax, p.y2);
   }
-  if ((xmax - xmin) * (ymax - ymin) < prm.min_tag_width) return false;
+  if (int64_t{xmax - xmin} * int64_t{ymax - ymin} < prm.min_tag_width) return false;
   // The centre is nudged off the half-pixel grid so that fewer points share an angle.
   const float cx = static_cast<float>((xmin + xmax) * 0.5 + 0.05118);
   const float cy = static_cast<float>((ymin + ymax) * 0.5 + -0.028581);
@@ -486,11 +499,11 @@ bool fit_quad(std::vector<EdgePoint>& pts, const cv::Mat& im, const QuadFitParam
     // The library keeps quad corners in float; its later checks and its output see those.
     quad.p[i] = {static_cast<float>(a.px + l0 * a00), static_cast<float>(a.py + l0 * a10)};
   }
-  const double min_area = static_cast<double>(prm.min_tag_width) * prm.min_tag_width;
+  const double min_area = 0.95 * prm.min_tag_width * prm.min_tag_width;  // px^2, the library's 0.95
   if (heron(quad.p[0], quad.p[1], quad.p[2]) + heron(quad.p[2], quad.p[3], quad.p[0]) < min_area) return false;
   for (std::size_t i = 0; i < 4; ++i) {
-    const cv::Point2d d1 = quad.p[(i + 1) & 3] - quad.p[i];
-    const cv::Point2d d2 = quad.p[(i + 2) & 3] - quad.p[(i + 1) & 3];
+    const cv::Point2d d1 = float_step(quad.p[i], quad.p[(i + 1) & 3]);
+    const cv::Point2d d2 = float_step(quad.p[(i + 1) & 3], quad.p[(i + 2) & 3]);
     const double cos_turn = (d1.x * d2.x + d1.y * d2.y) / std::sqrt((d1.x * d1.x + d1.y * d1.y) * (d2.x * d2.x + d2.y * d2.y));
     if (cos_turn > prm.cos_critical_rad || cos_turn < -prm.cos_critical_rad || d1.x * d2.y < d1.y * d2.x) return false;
   }

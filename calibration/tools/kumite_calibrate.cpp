@@ -28,7 +28,7 @@ void add_detector(CLI::App* s, kc::DetectorOptions& d) {
   s->add_option("--decimate", d.quad_decimate,
                 "find tags on the image shrunk by this factor. Default 1 (full resolution): offline calibration "
                 "puts accuracy first; small, far or steeply tilted tags (the ones that reach the image corners "
-                "and show the lens distortion) are only found at full resolution. 2 is ~3x faster per image")
+                "and show the lens distortion) are only found at full resolution. 2 is ~5x faster per image")
       ->capture_default_str()
       ->check(CLI::Range(1.0, 4.0));
   s->add_option("--blur", d.quad_sigma,

@@ -121,6 +121,21 @@ TEST(Installation, TrackingLostMidRunKeepsTheLastGoodEyes) {
   EXPECT_TRUE(has_problem(inst.console(), "/nonexistent/fighter.kdb"));
 }
 
+TEST(Installation, CoastingPoseHasAnAgeButNoLatencySplit) {
+  // The head was last measured 30 ms ago (two sets missed it): its age says so, but the age
+  // is not "tracking latency + waiting for the display" then.
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  auto tracking = std::make_unique<ScriptedTracking>();
+  TrackingSnapshot s = tracked(100 - 0.030, 0.3, 1.6, 0.2);
+  s.head->status = kumite::TrackingStatus::coasting;
+  s.status = "coasting";
+  tracking->snaps.push_back(s);
+  Installation inst(cfg, std::move(tracking), {});
+  const auto& f = inst.step(100);
+  EXPECT_NEAR(f.pose_age_ms, 30.0, 1e-6);
+  EXPECT_EQ(f.tracking_latency_ms, -1);
+}
+
 TEST(Installation, StalePoseCountsAsLost) {
   auto cfg = parse_installation_config(kRoom, "room.toml");
   auto tracking = std::make_unique<ScriptedTracking>();

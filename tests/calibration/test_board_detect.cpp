@@ -1,6 +1,8 @@
 // Board model, board.toml, rendering, and detection known answers.
 #include <algorithm>
 #include <cmath>
+#include <iterator>
+#include <set>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -14,6 +16,9 @@ extern "C" {
 #include <common/image_u8.h>
 #include <common/pjpeg.h>
 #include <tag36h11.h>
+// Not in apriltag's public header, but exported by libapriltag 3.3.0: the library's raw quad
+// search, the oracle fit_tag_quads() is checked against (tests only).
+zarray_t* apriltag_quad_thresh(apriltag_detector_t* td, image_u8_t* im);
 }
 
 #include "kumite/calibration/board.hpp"
@@ -345,6 +350,90 @@ TEST(Detect, TagQuadsReproduceTheLibraryAndDifferOnlyByTheDuplicates) {
               tags, same, moved, largest_move);
 }
 
+// With the 3.3.0 duplicates kept, fit_tag_quads() must give every quad the library's own
+// quad search gives, float for float, and no other: on the three photos, blurred and not,
+// and on SYNTHETIC images of small dark quads (some cut by the image border, some below the
+// library's minimum area) with sensor noise.
+TEST(Detect, TagQuadsAreTheLibrarysQuadsExactly) {
+  apriltag_detector_t* td = apriltag_detector_create();
+  apriltag_family_t* tf = tag36h11_create();
+  apriltag_detector_add_family(td, tf);
+  td->quad_decimate = 1;
+  td->refine_edges = false;
+  {
+    // apriltag_quad_thresh needs the worker pool apriltag_detector_detect creates.
+    cv::Mat blank(16, 16, CV_8U, cv::Scalar(0));
+    image_u8_t u8{16, 16, 16, blank.data};
+    apriltag_detections_destroy(apriltag_detector_detect(td, &u8));
+  }
+  QuadFitParams as_330;
+  as_330.keep_diagonal_duplicates = true;
+  using Corners = std::array<float, 8>;
+  auto differences = [&](const cv::Mat& grey) {
+    cv::Mat copy = grey.clone();
+    image_u8_t u8{copy.cols, copy.rows, static_cast<int32_t>(copy.step[0]), copy.data};
+    zarray_t* lib = apriltag_quad_thresh(td, &u8);
+    std::multiset<Corners> theirs, ours;
+    for (int i = 0; i < zarray_size(lib); ++i) {
+      quad* q = nullptr;
+      zarray_get_volatile(lib, i, &q);
+      theirs.insert({q->p[0][0], q->p[0][1], q->p[1][0], q->p[1][1], q->p[2][0], q->p[2][1], q->p[3][0], q->p[3][1]});
+    }
+    zarray_destroy(lib);
+    for (const auto& q : fit_tag_quads(grey, as_330)) {
+      Corners c{};
+      for (std::size_t k = 0; k < 4; ++k) {
+        c[2 * k] = static_cast<float>(q.p[k].x);
+        c[2 * k + 1] = static_cast<float>(q.p[k].y);
+      }
+      ours.insert(c);
+    }
+    std::vector<Corners> diff;
+    std::set_symmetric_difference(theirs.begin(), theirs.end(), ours.begin(), ours.end(), std::back_inserter(diff));
+    return std::make_pair(diff.size(), theirs.size());
+  };
+  std::size_t photo_quads = 0;
+  for (const auto& photo : apriltag_test_photos()) {
+    for (double blur : {0.0, 0.8}) {
+      cv::Mat g = photo.grey;
+      if (blur > 0) cv::GaussianBlur(photo.grey, g, cv::Size(0, 0), blur);
+      const auto [diff, n] = differences(g);
+      EXPECT_EQ(diff, 0u) << photo.jpg << " blur " << blur << ": " << n << " library quads";
+      photo_quads += n;
+    }
+  }
+  cv::RNG rng(1);
+  std::size_t synthetic_quads = 0;
+  int images_differing = 0;
+  for (int t = 0; t < 400; ++t) {
+    const int w = rng.uniform(40, 100), h = rng.uniform(40, 100);
+    cv::Mat g(h, w, CV_8U, cv::Scalar(rng.uniform(150, 256)));
+    for (int k = rng.uniform(1, 6); k > 0; --k) {
+      const cv::Point2f c(rng.uniform(0.f, static_cast<float>(w)), rng.uniform(0.f, static_cast<float>(h)));
+      const float size = rng.uniform(3.f, 20.f), angle = rng.uniform(0.f, 6.28f);
+      std::vector<cv::Point> pts;
+      for (int j = 0; j < 4; ++j) {
+        const float a = angle + static_cast<float>(j) * 1.5708f + rng.uniform(-0.2f, 0.2f);
+        pts.emplace_back(cvRound((c.x + size * std::cos(a)) * 16), cvRound((c.y + size * std::sin(a)) * 16));
+      }
+      cv::fillConvexPoly(g, pts, cv::Scalar(rng.uniform(0, 100)), cv::LINE_AA, 4);
+    }
+    cv::Mat noise(h, w, CV_8U);
+    rng.fill(noise, cv::RNG::NORMAL, 0, rng.uniform(0, 8));
+    cv::add(g, noise, g);
+    const auto [diff, n] = differences(g);
+    if (diff != 0) ++images_differing;
+    synthetic_quads += n;
+  }
+  EXPECT_EQ(images_differing, 0) << "of 400 synthetic images";
+  EXPECT_GT(photo_quads, 200u);
+  EXPECT_GT(synthetic_quads, 300u);
+  std::printf("library quads reproduced: %zu on the photos, %zu on 400 synthetic images\n", photo_quads,
+              synthetic_quads);
+  apriltag_detector_destroy(td);
+  tag36h11_destroy(tf);
+}
+
 TEST(Detect, TagQuadsSurviveNoiseAndTinyImages) {
   cv::Mat noise(240, 320, CV_8U);
   cv::RNG rng(7);
@@ -352,8 +441,12 @@ TEST(Detect, TagQuadsSurviveNoiseAndTinyImages) {
   for (const auto& q : fit_tag_quads(noise)) {
     for (const auto& p : q.p) EXPECT_TRUE(std::isfinite(p.x) && std::isfinite(p.y));
   }
-  EXPECT_TRUE(fit_tag_quads(cv::Mat(7, 300, CV_8U, cv::Scalar(0))).empty());
-  EXPECT_TRUE(fit_tag_quads(cv::Mat(8, 8, CV_8U, cv::Scalar(255))).empty());
+  // Too small for the threshold tiles (without the guard: reads outside the tile maps).
+  for (const cv::Size size : {cv::Size(300, 3), cv::Size(3, 300), cv::Size(7, 7), cv::Size(1, 1)}) {
+    cv::Mat tiny(size, CV_8U);
+    rng.fill(tiny, cv::RNG::UNIFORM, 0, 256);
+    EXPECT_TRUE(fit_tag_quads(tiny).empty()) << size;
+  }
   // A single black square on white: one quad, its corners on the square's outline.
   cv::Mat square(64, 64, CV_8U, cv::Scalar(255));
   cv::rectangle(square, cv::Rect(16, 20, 30, 24), cv::Scalar(0), cv::FILLED);

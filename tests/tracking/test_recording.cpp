@@ -192,7 +192,9 @@ TEST(Tracker, RunsARecordingInTheBackgroundAndPublishes) {
   ASSERT_TRUE(pose.has_value());
   EXPECT_EQ(pose->status, TrackingStatus::tracked);
   EXPECT_EQ(pose->frame, 19U);
-  EXPECT_EQ(pose->ready_at, pose->timestamp) << "on the recording's own clock, processing takes no time";
+  // On the recording's own clock the latency is the processing time.
+  EXPECT_GT(pose->ready_at, pose->timestamp);
+  EXPECT_LT(pose->ready_at - pose->timestamp, 0.5);
   const auto truth = static_visitor(0);
   EXPECT_NEAR(pose->position[1], truth.position.y(), 0.002);
   // Prediction: a still head stays put; far beyond the coasting limit it is lost.

@@ -430,10 +430,13 @@ void Tracker::run() {
         clock_is_source_.store(std::abs(frames.timestamp - kumite::now()) > 60.0, std::memory_order_release);
         first = false;
       }
+      const Timestamp started = kumite::now();
       const FrameResult& r = pipeline_->process(frames);
-      // On a recording's own clock (played as fast as possible) processing takes no time.
-      const Timestamp ready =
-          clock_is_source_.load(std::memory_order_acquire) ? frames.timestamp : kumite::now();
+      // On a recording's own clock (played as fast as possible) the set is handed over at
+      // once: its latency is the processing time.
+      const Timestamp ready = clock_is_source_.load(std::memory_order_acquire)
+                                  ? frames.timestamp + (kumite::now() - started)
+                                  : kumite::now();
       for (std::size_t b = 0; b < r.filtered.size(); ++b) {
         Snapshot s;
         const FilteredState& st = r.states[b];

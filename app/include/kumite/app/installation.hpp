@@ -76,7 +76,8 @@ struct ConsoleState {
   /// ms, camera time of the newest head measurement to the moment this frame samples it for
   /// rendering (-1: none yet); logged whether or not the head counts as tracked.
   double pose_age_ms = -1;
-  /// ms, the tracking part of pose_age_ms: frame set due to its pose published (-1: unknown).
+  /// ms, the tracking part of pose_age_ms: frame set due to its pose published (-1: unknown,
+  /// or the head not tracked now).
   double tracking_latency_ms = -1;
   std::string fighter_state = "none";
   int character = 0;               ///< 0-based
@@ -99,7 +100,7 @@ struct FrameData {
   std::vector<DrawItem> items;///< the fighter and its target
   std::vector<FrameEvent> events;
   double pose_age_ms = -1;    ///< ms, -1 when no pose
-  double tracking_latency_ms = -1;  ///< ms, the tracking part of pose_age_ms (-1: unknown)
+  double tracking_latency_ms = -1;  ///< ms, the tracking part of pose_age_ms (-1: unknown, not tracked)
   bool has_fighter = false;
   std::string fighter_state;
   int character = 0;

@@ -32,8 +32,9 @@ struct BodyPose {
   std::array<double, 4> orientation{1, 0, 0, 0};    ///< w,x,y,z: rotates body frame -> room
   std::int32_t markers = 0;  ///< markers of this body seen in the frame set
   std::int32_t cameras = 0;  ///< cameras that contributed
-  /// s, tracker clock when the pose was published (-1: unknown): ready_at - timestamp is the
-  /// tracking latency (frame set due -> pose readable), the first part of the pose age.
+  /// s, tracker clock when the measured pose was published (-1: unknown): for a measured pose
+  /// ready_at - timestamp is the tracking latency (frame set due -> pose readable), the first
+  /// part of the pose age. A prediction (Tracker::predict) keeps its measurement's ready_at.
   Timestamp ready_at = -1;
 };
 
