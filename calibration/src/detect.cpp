@@ -52,7 +52,7 @@ BoardDetector::BoardDetector(const Board& board, const DetectorOptions& options)
   impl_->detector->refine_edges = options.refine_edges;
   impl_->detector->nthreads = std::max(1, options.threads);
   impl_->refit =
-      options.refit_corners && options.quad_decimate <= 1.f && !options.refine_edges && options.quad_sigma >= 0.f;
+      options.refit_corners && options.quad_decimate == 1.f && !options.refine_edges && options.quad_sigma >= 0.f;
   if (impl_->refit) {
     // We blur, so that the library and fit_tag_quads() see the same image.
     impl_->blur_sigma = options.quad_sigma;
@@ -64,8 +64,7 @@ BoardDetector::BoardDetector(const Board& board, const DetectorOptions& options)
     p.max_nmaxima = q.max_nmaxima;
     p.cos_critical_rad = q.cos_critical_rad;
     p.max_line_fit_mse = q.max_line_fit_mse;
-    p.min_tag_width = std::max(3, static_cast<int>(static_cast<float>(impl_->family->width_at_border) /
-                                                   std::max(1.f, options.quad_decimate)));
+    p.min_tag_width = std::max(3, impl_->family->width_at_border);  // over quad_decimate, 1 here
   }
 }
 
