@@ -191,9 +191,10 @@ class Reader {
 };
 
 void Reader::parse(const toml::table& root) {
-  only_keys(root, "", {"display_rate_hz", "data_dir", "windows", "walls", "stereo", "viewer",
+  only_keys(root, "", {"display_rate_hz", "late_latch", "data_dir", "windows", "walls", "stereo", "viewer",
                        "projection", "keys", "characters", "fighter", "tracking", "orders"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
+  boolean(root, "late_latch", "", cfg_.late_latch);
   path(root, "data_dir", "", cfg_.data_dir);
   parse_windows(root);
   parse_walls(root);
@@ -466,7 +467,7 @@ int InstallationConfig::window_of(std::size_t w) const {
 }
 
 bool InstallationConfig::operator==(const InstallationConfig& o) const {
-  return display_rate_hz == o.display_rate_hz && windows == o.windows && walls == o.walls &&
+  return display_rate_hz == o.display_rate_hz && late_latch == o.late_latch && windows == o.windows && walls == o.walls &&
          stereo == o.stereo && viewer == o.viewer && projection == o.projection &&
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
          tracking == o.tracking && orders_script == o.orders_script && data_dir == o.data_dir;
@@ -645,6 +646,7 @@ std::string to_toml(const InstallationConfig& c) {
   toml::table root;
   if (!c.data_dir.empty()) root.insert("data_dir", c.data_dir.generic_string());
   root.insert("display_rate_hz", c.display_rate_hz);
+  root.insert("late_latch", c.late_latch);
   toml::array windows;
   for (const auto& w : c.windows)
     windows.push_back(toml::table{{"name", w.name},

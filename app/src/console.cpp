@@ -161,6 +161,14 @@ void Console::frame(Installation& inst, const FrameData& f) {
     ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
   }
   else ImGui::Text("latency: no pose");
+  if (!c.late_latch)
+    ImGui::Text("late latch off: pose taken at the frame's start");
+  else if (c.draw_budget_ms < 0)
+    ImGui::Text("late latch: measuring the drawing time");
+  else if (c.draw_budget_ms >= 1e3 / inst.config().display_rate_hz)
+    ImGui::Text("late latch: no room (drawing budget %.0f ms)", c.draw_budget_ms);
+  else
+    ImGui::Text("late latch: pose taken %.1f ms in (drawing budget %.1f ms)", c.latch_ms, c.draw_budget_ms);
   for (const auto& cam : c.cameras) {
     const std::string last = cam.since_last_ms >= 0 ? fmt::format("last frame {:.0f} ms ago", cam.since_last_ms)
                                                     : std::string("never a frame");

@@ -56,6 +56,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
   j["events"] = events;
   j["pose_age_ms"] = f.pose_age_ms >= 0 ? json(f.pose_age_ms) : json(nullptr);
   j["tracking_latency_ms"] = f.tracking_latency_ms >= 0 ? json(f.tracking_latency_ms) : json(nullptr);
+  j["latch_ms"] = f.latch_ms;
   json cams = json::array();
   for (const auto& cam : c.cameras)
     cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"since_last_ms", cam.since_last_ms}});
@@ -67,7 +68,9 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
                   {"last_order", c.last_order},
                   {"last_outcome", c.last_outcome},
                   {"problems", c.problems},
-                  {"frame_cpu_ms", c.frame_cpu_ms}};
+                  {"frame_cpu_ms", c.frame_cpu_ms},
+                  {"late_latch", c.late_latch},
+                  {"draw_budget_ms", c.draw_budget_ms >= 0 ? json(c.draw_budget_ms) : json(nullptr)}};
   return j.dump();
 }
 

@@ -1,7 +1,9 @@
 #include "kumite/app/installation.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
@@ -15,6 +17,8 @@ namespace {
 
 /// Recent events the console keeps.
 constexpr std::size_t kRecentEvents = 12;
+/// s, how often a late-latching frame looks for a pose that is late (frame_pacer.hpp).
+constexpr double kLatchPoll_s = 0.00025;
 
 class FixedHeadInput final : public TrackingInput {
  public:
@@ -115,7 +119,8 @@ std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why) {
 
 Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingInput> tracking,
                            const InstallationOptions& options)
-    : config_(std::move(config)), tracking_(std::move(tracking)), mono_(options.mono_eyes) {
+    : config_(std::move(config)), tracking_(std::move(tracking)), pacer_(config_.late_latch),
+      mono_(options.mono_eyes) {
   for (const auto& w : config_.walls) walls_.push_back(wall_frame(w));
   last_good_head_.position = to_glm(config_.viewer.default_head_m);
   frame_.head = last_good_head_;
@@ -160,6 +165,21 @@ void Installation::start(Timestamp t) {
 }
 
 void Installation::order(const Order& o) { pending_.push_back(o); }
+
+Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
+  const PoseTiming at_start = tracking_->pose_timing(start);
+  if (const auto w = pacer_.window(start, deadline, at_start.next_ready)) {
+    // Until the pose after the one out at the start is out, or drawing must begin.
+    for (Timestamp t = kumite::now(); t < w->last; t = kumite::now()) {
+      if (t >= w->first && tracking_->pose_timing(t).newest != at_start.newest) break;
+      const double sleep_s = t < w->first ? w->first - t : std::min(kLatchPoll_s, w->last - t);
+      std::this_thread::sleep_for(std::chrono::duration<double>(sleep_s));
+    }
+  }
+  const Timestamp t = kumite::now();
+  latch_ms_ = std::max(0.0, t - start) * 1e3;
+  return t;
+}
 
 void Installation::note(const FrameEvent& e) {
   frame_.events.push_back(e);
@@ -319,6 +339,12 @@ const FrameData& Installation::step(Timestamp now) {
   if (frame_.frame > 0 && dt > 0)
     dt_filtered_ = dt_filtered_ == 0 ? dt : 0.9 * dt_filtered_ + 0.1 * dt;
   console_.fps = dt_filtered_ > 0 ? 1.0 / dt_filtered_ : 0;
+  frame_.latch_ms = latch_ms_;
+  console_.latch_ms = latch_ms_;
+  latch_ms_ = 0;  // a loop that does not call latch() takes the pose at the frame's start
+  console_.late_latch = pacer_.enabled();
+  const auto budget = pacer_.draw_budget_s();
+  console_.draw_budget_ms = budget ? *budget * 1e3 : -1;
   console_.frame_cpu_ms = (kumite::now() - cpu0) * 1e3;
   return frame_;
 }

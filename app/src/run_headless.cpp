@@ -15,6 +15,14 @@
 
 namespace kumite::app {
 
+namespace {
+
+void sleep_until(Timestamp t) {
+  while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
+}
+
+}  // namespace
+
 int run_headless(Installation& inst, const HeadlessOptions& opt) {
   const auto& cfg = inst.config();
   std::filesystem::create_directories(opt.out);
@@ -42,8 +50,10 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
     // time). Simulated: exact steps of 1/rate, as fast as rendering goes.
     Timestamp t = t0 + i * step;
     if (opt.real_time) {
-      while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
-      t = std::max(t, now());
+      // Late latching (config late_latch) as in windows: the frame's pose just after the
+      // tracker's next one is out, when this frame's work still fits before the next tick.
+      sleep_until(t);
+      t = std::max(t, inst.latch(now(), t + step));
     }
     const FrameData& f = inst.step(t);
     const bool save = opt.save_every > 0 && i % opt.save_every == 0;
@@ -68,6 +78,10 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
       }
     }
     log.write(f, inst.console(), names, stereo);
+    if (opt.real_time) {
+      glFinish();  // the frame's whole work, GPU included, is what the latch leaves room for
+      inst.drawn(now() - t);
+    }
   }
   glFinish();
   log.close();

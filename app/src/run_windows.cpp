@@ -1,5 +1,6 @@
 // Windowed runs: one GLFW window per [[windows]] entry (walls in its viewports, drawn in the
 // stereo mode), and the supervisor console in a window of its own.
+#include <algorithm>
 #include <chrono>
 #include <cstdlib>
 #include <thread>
@@ -81,6 +82,10 @@ Viewport wall_viewport(const WallConfig& wall, const WindowConfig& win, int fb_w
   const double sy = static_cast<double>(fb_h) / win.size[1];
   return {static_cast<int>(v[0] * sx), static_cast<int>(v[1] * sy), static_cast<int>(v[2] * sx),
           static_cast<int>(v[3] * sy)};
+}
+
+void sleep_until(Timestamp t) {
+  while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
 }
 
 void screenshot(GLFWwindow* w, const std::filesystem::path& path) {
@@ -170,10 +175,14 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
 
   const Timestamp t0 = now();
   inst.start(t0);
+  const double period = 1.0 / cfg.display_rate_hz;
+  Timestamp slot = t0;  // this frame's start: the swap came back (vsync), or the loop's tick
   bool done = false;
   while (!done) {
     glfwPollEvents();
-    const Timestamp t = now();
+    // Late latching: take the pose just after the tracker's next one is out, if drawing
+    // still fits before the next vsync; the picture shows at the same vsync either way.
+    const Timestamp t = inst.latch(now(), slot + period);
     const FrameData& f = inst.step(t);
     for (auto& s : slots) {
       glfwMakeContextCurrent(s.window);
@@ -183,13 +192,17 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
       for (std::size_t w : s.walls)
         draw_wall_stereo(*s.renderer, mode, wall_viewport(cfg.walls[w], s.config, fb_w, fb_h),
                          f.views[w], f.items);
+      // The drawing time the latch must leave room for is the GPU's too: wait for it.
+      if (cfg.late_latch) glFinish();
     }
+    inst.drawn(now() - t);
     const bool last = inst.quit_requested() || (opt.seconds && t - t0 >= *opt.seconds);
     if (last && opt.screenshot) {
       glfwMakeContextCurrent(slots[0].window);
       screenshot(slots[0].window, *opt.screenshot);
     }
     for (auto& s : slots) glfwSwapBuffers(s.window);
+    const Timestamp swapped = now();  // at vsync where the first window syncs to it
     if (console) {
       console->frame(inst, f);
       if (last && opt.screenshot) {
@@ -203,10 +216,10 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
     for (auto& s : slots)
       if (glfwWindowShouldClose(s.window)) done = true;
     if (last) done = true;
-    // Without vsync (Xvfb, several windows) hold the display rate instead of spinning.
-    const Timestamp next = t + 1.0 / cfg.display_rate_hz;
-    if (const double wait = next - now(); wait > 0)
-      std::this_thread::sleep_for(std::chrono::duration<double>(wait));
+    // The next frame starts at the vsync the swap waited for, or, without vsync (Xvfb), one
+    // period after this one: hold the display rate instead of spinning.
+    slot = std::max(slot + period, swapped);
+    sleep_until(slot);
   }
   if (log) log->close();
   console.reset();

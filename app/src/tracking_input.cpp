@@ -5,6 +5,8 @@
 // the display time, never waiting.
 #include "kumite/app/tracking_input.hpp"
 
+#include "kumite/app/frame_pacer.hpp"
+
 #include <array>
 
 #include <fmt/format.h>
@@ -55,6 +57,7 @@ class TrackerInput final : public TrackingInput {
     TrackingSnapshot s;
     const auto latest = tracker_.latest(head_);
     if (latest) {
+      pose_clock_.observe(latest->frame, latest->timestamp, latest->ready_at);
       // A coasting pose is a prediction: its age counts from the last frame set that saw the
       // head (if that one came and went between two polls, an older one: the age errs long).
       if (latest->status == TrackingStatus::tracked) {
@@ -84,6 +87,15 @@ class TrackerInput final : public TrackingInput {
   }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return what_; }
+  PoseTiming pose_timing(Timestamp t) override {
+    PoseTiming p;
+    if (const auto latest = tracker_.latest(head_)) {
+      pose_clock_.observe(latest->frame, latest->timestamp, latest->ready_at);
+      p.newest = latest->frame + 1;  // 0 means none
+    }
+    p.next_ready = pose_clock_.next_ready_after(t);
+    return p;
+  }
 
  private:
   /// The recording's rates over the last second or so, and a problem when it cannot keep up.
@@ -121,6 +133,7 @@ class TrackerInput final : public TrackingInput {
   }
 
   std::shared_ptr<tracking::RecordingOptions::Counters> counters_;
+  PoseClock pose_clock_;  // when the next pose should be out (late latching)
   int preload_ = 0;
   Timestamp last_measured_ = -1;
   Timestamp last_ready_ = -1;  // when last_measured_'s pose was published

@@ -9,10 +9,16 @@
 // under any pose-age figure here. Pose age = tracking latency (frame set due -> pose published)
 // + display wait (published -> sampled by a frame); the wait depends on the display loop's
 // phase against the camera clock (up to one camera period), the latency is ours.
+// Two ways of taking the pose, in alternating one-second blocks of the same run (so the same
+// phase and the same machine): at the frame's start, and late-latched (Installation::
+// latch: just after the tracker's next pose is out, but never so late that the frame's work
+// would miss the next tick). Each gets `seconds` of measurement.
 //   build/bin/kumite_app_pose_age [config/demo.toml] [frame sets to preload = 60] [seconds = 6]
 //                                 [decode threads = 1]
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <string>
 #include <cstdio>
 #include <thread>
 
@@ -39,6 +45,29 @@ double percentile(std::vector<double> v, double p) {
 /// The machine's own share of pose age: how late a SCHED_FIFO thread (as the tracker's)
 /// wakes from a 2 ms sleep, over `seconds`, with nothing of ours running. On a virtual
 /// machine the hypervisor's scheduling shows here; no code of ours can do better than this.
+void sleep_until(Timestamp t) {
+  while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
+}
+
+/// One way of taking the pose: its frames' figures (ms).
+struct Samples {
+  std::vector<double> ages, latency, wait, latch, cpu;
+  int live = 0;
+  std::string json() const {
+    return fmt::format(
+        "{{\"frames\": {}, \"head_live_frames\": {}, \"frames_with_pose_age\": {}, "
+        "\"pose_age_ms\": {{\"median\": {:.3f}, \"p95\": {:.3f}, \"p99\": {:.3f}, \"max\": {:.3f}}}, "
+        "\"tracking_latency_ms\": {{\"median\": {:.3f}, \"p99\": {:.3f}, \"max\": {:.3f}}}, "
+        "\"display_wait_ms\": {{\"median\": {:.3f}, \"p99\": {:.3f}, \"max\": {:.3f}}}, "
+        "\"latch_ms\": {{\"median\": {:.3f}, \"max\": {:.3f}}}, "
+        "\"step_cpu_ms\": {{\"median\": {:.4f}, \"p95\": {:.4f}, \"max\": {:.4f}}}}}",
+        cpu.size(), live, ages.size(), percentile(ages, 0.5), percentile(ages, 0.95), percentile(ages, 0.99),
+        percentile(ages, 1.0), percentile(latency, 0.5), percentile(latency, 0.99), percentile(latency, 1.0),
+        percentile(wait, 0.5), percentile(wait, 0.99), percentile(wait, 1.0), percentile(latch, 0.5),
+        percentile(latch, 1.0), percentile(cpu, 0.5), percentile(cpu, 0.95), percentile(cpu, 1.0));
+  }
+};
+
 std::vector<double> wake_latency_ms(double seconds) {
   std::vector<double> late;
   std::thread probe([&] {
@@ -81,51 +110,49 @@ int run(int argc, char** argv) {
   while (!counters->playing.load()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
   const double load_s = now() - load0;
   const double step = 1.0 / cfg.display_rate_hz;
-  std::vector<double> ages, latency, wait, cpu;
-  int live = 0, frames = 0;
+  Samples modes[2];  // [0] pose at the frame's start, [1] late-latched
   const Timestamp t0 = now();
   inst.start(t0);
   std::uint64_t counts0[3] = {0, 0, 0};
-  for (Timestamp next = t0; now() - t0 < seconds; next += step) {
-    while (now() < next) std::this_thread::sleep_for(std::chrono::duration<double>(next - now()));
-    const auto& f = inst.step(now());
-    ++frames;
-    if (now() - t0 < 1.0) {  // the tracker's first second: filter and mask settle
+  for (Timestamp next = t0; now() - t0 < 1.0 + 2 * seconds; next += step) {
+    sleep_until(next);
+    const double since = now() - t0;
+    // The tracker's first second: filter and mask settle (and the drawing time is measured).
+    const bool measuring = since >= 1.0;
+    const int mode = measuring ? static_cast<int>(std::floor(since - 1.0)) % 2 : 1;
+    const Timestamp t = mode == 1 ? inst.latch(now(), next + step) : now();
+    const auto& f = inst.step(t);
+    inst.drawn(now() - t);  // no GL here: the frame's work is step()
+    if (!measuring) {
       counts0[0] = counters->delivered.load(), counts0[1] = counters->not_decoded.load(),
       counts0[2] = counters->dropped_stale.load();
       continue;
     }
-    if (f.pose_age_ms >= 0) ages.push_back(f.pose_age_ms);
+    Samples& m = modes[mode];
+    if (f.pose_age_ms >= 0) m.ages.push_back(f.pose_age_ms);
     if (f.pose_age_ms >= 0 && f.tracking_latency_ms >= 0) {
-      latency.push_back(f.tracking_latency_ms);
-      wait.push_back(f.pose_age_ms - f.tracking_latency_ms);
+      m.latency.push_back(f.tracking_latency_ms);
+      m.wait.push_back(f.pose_age_ms - f.tracking_latency_ms);
     }
-    if (inst.console().head_live) ++live;
-    cpu.push_back(inst.console().frame_cpu_ms);
+    m.latch.push_back(f.latch_ms);
+    if (inst.console().head_live) ++m.live;
+    m.cpu.push_back(inst.console().frame_cpu_ms);
   }
   const double measured_s = now() - t0 - 1.0;
   std::printf(
-      "{\"source\": \"%s\", \"decode_threads\": %d, \"load_s\": %.2f, \"frames\": %d, \"measured_frames\": %zu, "
-      "\"head_live_frames\": %d, \"frames_with_pose_age\": %zu, \"camera_period_ms\": %.3f, "
+      "{\"source\": \"%s\", \"decode_threads\": %d, \"load_s\": %.2f, \"camera_period_ms\": %.3f, "
       "\"frame_sets_per_s\": {\"tracked\": %.1f, \"skipped_decoder_behind\": %.1f, \"dropped_tracker_behind\": %.1f}, "
-      "\"decode_ms_per_set\": %.1f, \"max_handover_late_ms\": %.2f, "
-      "\"pose_age_ms\": {\"median\": %.3f, \"p95\": %.3f, \"p99\": %.3f, \"max\": %.3f}, "
-      "\"target_pose_age_ms\": %.3f, "
-      "\"tracking_latency_ms\": {\"median\": %.3f, \"p99\": %.3f, \"max\": %.3f}, "
-      "\"display_wait_ms\": {\"median\": %.3f, \"p99\": %.3f, \"max\": %.3f}, "
-      "\"step_cpu_ms\": {\"median\": %.4f, \"p95\": %.4f, \"max\": %.4f}, \"walls\": %zu, "
-      "\"fighter\": %s, \"machine_wake_late_ms\": {\"p50\": %.3f, \"p99\": %.3f, \"p999\": %.3f, \"max\": %.3f}}\n",
+      "\"decode_ms_per_set\": %.1f, \"max_handover_late_ms\": %.2f, \"target_pose_age_ms\": %.3f, "
+      "\"walls\": %zu, \"fighter\": %s,\n \"at_frame_start\": %s,\n \"late_latch\": %s,\n "
+      "\"machine_wake_late_ms\": {\"p50\": %.3f, \"p99\": %.3f, \"p999\": %.3f, \"max\": %.3f}}\n",
       preload > 0 ? fmt::format("memory ({} frame sets)", std::min(preload, rec.size())).c_str() : "disk",
-      threads, load_s, frames, cpu.size(), live, ages.size(), camera_period * 1e3,
+      threads, load_s, camera_period * 1e3,
       static_cast<double>(counters->delivered.load() - counts0[0]) / measured_s,
       static_cast<double>(counters->not_decoded.load() - counts0[1]) / measured_s,
       static_cast<double>(counters->dropped_stale.load() - counts0[2]) / measured_s, counters->decode_ms.load(),
-      counters->max_handover_late_ms.load(), percentile(ages, 0.5), percentile(ages, 0.95), percentile(ages, 0.99),
-      percentile(ages, 1.0), camera_period * 1e3 + 3.0, percentile(latency, 0.5), percentile(latency, 0.99),
-      percentile(latency, 1.0), percentile(wait, 0.5), percentile(wait, 0.99), percentile(wait, 1.0),
-      percentile(cpu, 0.5), percentile(cpu, 0.95),
-      percentile(cpu, 1.0), cfg.walls.size(), inst.frame().has_fighter ? "true" : "false", percentile(wake, 0.5),
-      percentile(wake, 0.99), percentile(wake, 0.999), percentile(wake, 1.0));
+      counters->max_handover_late_ms.load(), camera_period * 1e3 + 3.0, cfg.walls.size(),
+      inst.frame().has_fighter ? "true" : "false", modes[0].json().c_str(), modes[1].json().c_str(),
+      percentile(wake, 0.5), percentile(wake, 0.99), percentile(wake, 0.999), percentile(wake, 1.0));
   return 0;
 }
 

@@ -248,3 +248,12 @@ TEST(Config, DemoFindsItsDataThroughTheOverride) {
   EXPECT_EQ(c.resolve(c.tracking.recording), std::filesystem::path("/x/demo/recording"));
   EXPECT_EQ(c.resolve(c.fighter.database), std::filesystem::path("/x/demo/fighter.kdb"));
 }
+
+TEST(Config, LateLatchIsOnUnlessTurnedOff) {
+  EXPECT_TRUE(parse_installation_config(kBase, "base.toml").late_latch);
+  const auto off = parse_installation_config("late_latch = false\n" + std::string(kBase), "off.toml");
+  EXPECT_FALSE(off.late_latch);
+  EXPECT_EQ(parse_installation_config(to_toml(off), "again.toml"), off);
+  const auto msg = error_of("late_latch = \"yes\"\n" + std::string(kBase));
+  EXPECT_NE(msg.find("bad.toml:1: late_latch: expected true or false"), std::string::npos) << msg;
+}

@@ -133,6 +133,9 @@ struct InstallationConfig {
   /// $KUMITE_DATA_DIR by load_installation_config, or by `kumite --data-dir`. Not written back.
   std::optional<std::filesystem::path> data_dir_override;
   double display_rate_hz = 60.0;
+  /// Take each frame's head pose as late as drawing allows, just after the tracker's next
+  /// pose is out, instead of at the frame's start (lower pose age; see frame_pacer.hpp).
+  bool late_latch = true;
   std::vector<WindowConfig> windows;
   std::vector<WallConfig> walls;
   StereoConfig stereo;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kumite/app/config.hpp"
+#include "kumite/app/frame_pacer.hpp"
 #include "kumite/app/orders.hpp"
 #include "kumite/app/scene.hpp"
 #include "kumite/common/wire.hpp"
@@ -42,6 +43,14 @@ struct TrackingSnapshot {
   std::vector<std::string> problems; ///< what is wrong with the source now
 };
 
+/// When head poses come out, for late latching (frame_pacer.hpp).
+struct PoseTiming {
+  std::uint64_t newest = 0;  ///< 1 + frame-set number of the newest head pose out (0: none yet)
+  /// s, clock(): when the one after it is expected out (nullopt: unknown: no tracker, too
+  /// few poses yet, or none lately).
+  std::optional<Timestamp> next_ready;
+};
+
 /// Where head poses come from (the tracker, or nothing). poll() never blocks.
 class TrackingInput {
  public:
@@ -50,6 +59,8 @@ class TrackingInput {
   /// The clock the tracker's timestamps use, so pose age can be measured (s).
   virtual Timestamp clock() const = 0;
   virtual std::string describe() const = 0;
+  /// The newest head pose out now and when the next is expected (late latching; never blocks).
+  virtual PoseTiming pose_timing(Timestamp /*t*/) { return {}; }
 };
 
 /// No tracking: the head stays at the configured default position (console usable alone).
@@ -79,6 +90,11 @@ struct ConsoleState {
   /// ms, the tracking part of pose_age_ms: frame set due to its pose published (-1: unknown,
   /// or the head not tracked now).
   double tracking_latency_ms = -1;
+  /// ms, how far into its display frame this frame took the pose (late latching; 0: at the
+  /// frame's start), and the drawing time the latch leaves room for (-1: not measured yet).
+  double latch_ms = 0;
+  double draw_budget_ms = -1;
+  bool late_latch = false;         ///< config late_latch
   std::string fighter_state = "none";
   int character = 0;               ///< 0-based
   std::string character_name;
@@ -101,6 +117,7 @@ struct FrameData {
   std::vector<FrameEvent> events;
   double pose_age_ms = -1;    ///< ms, -1 when no pose
   double tracking_latency_ms = -1;  ///< ms, the tracking part of pose_age_ms (-1: unknown, not tracked)
+  double latch_ms = 0;        ///< ms, the pose taken this long after the frame's start (late latching)
   bool has_fighter = false;
   std::string fighter_state;
   int character = 0;
@@ -125,6 +142,14 @@ class Installation {
   void start(Timestamp now);
   /// A supervisor order (keys), applied at the next step().
   void order(const Order& order);
+  /// Late latching (config late_latch), for a frame loop whose frame runs from `start`
+  /// (vsync, or its tick) to `deadline` (the next one): sleeps until the tracker's next pose
+  /// is out, but never past the last moment drawing (as measured through drawn()) still
+  /// fits before the deadline; returns at once when latching is off or the tracker's timing
+  /// unknown. Returns the time to step() with (see frame_pacer.hpp).
+  Timestamp latch(Timestamp start, Timestamp deadline);
+  /// The last frame's drawing time (s): from its step() to its picture handed to the display.
+  void drawn(double seconds) { pacer_.drawn(seconds); }
   /// One frame at display time `now`: tracking, orders, fighter, eyes, views, console.
   const FrameData& step(Timestamp now);
 
@@ -156,6 +181,8 @@ class Installation {
   std::vector<Order> due_;
   FrameData frame_;
   ConsoleState console_;
+  FramePacer pacer_;
+  double latch_ms_ = 0;  ///< from the last latch(), for the next step()
   HeadPose last_good_head_;
   Timestamp start_ = 0, last_step_ = 0;
   bool started_ = false, quit_ = false, mono_ = false;

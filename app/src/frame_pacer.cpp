@@ -1,0 +1,72 @@
+#include "kumite/app/frame_pacer.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace kumite::app {
+
+namespace {
+
+/// A period sample this far from the estimate is an outlier (a skipped timestamp, a clock
+/// step); this many in a row mean the camera rate really changed: start over from them.
+constexpr double kPeriodOutlierRatio = 2.0;
+constexpr int kOutliersToReseed = 8;
+/// Weight of a new period sample (camera periods are steady: a slow average is fine).
+constexpr double kPeriodWeight = 0.1;
+
+}  // namespace
+
+void PoseClock::observe(std::uint64_t frame, Timestamp timestamp, Timestamp ready_at) {
+  if (ready_at < timestamp) return;
+  if (seen_ > 0 && frame == last_frame_) return;
+  if (seen_ > 0 && frame < last_frame_) *this = PoseClock{};  // the tracker started over
+  if (seen_ > 0 && timestamp > last_timestamp_) {
+    const double sample = (timestamp - last_timestamp_) / static_cast<double>(frame - last_frame_);
+    const bool outlier = period_s_ > 0 && (sample > kPeriodOutlierRatio * period_s_ ||
+                                           sample < period_s_ / kPeriodOutlierRatio);
+    outliers_ = outlier ? outliers_ + 1 : 0;
+    if (period_s_ <= 0 || outliers_ >= kOutliersToReseed)
+      period_s_ = sample, outliers_ = 0;
+    else if (!outlier)
+      period_s_ += kPeriodWeight * (sample - period_s_);
+  }
+  latency_[seen_ % kWindow] = ready_at - timestamp;
+  ++seen_;
+  last_frame_ = frame;
+  last_timestamp_ = timestamp;
+  const std::size_t n = std::min(seen_, kWindow);
+  aim_s_ = *std::min_element(latency_.begin(), latency_.begin() + static_cast<std::ptrdiff_t>(n));
+}
+
+std::optional<Timestamp> PoseClock::next_ready_after(Timestamp t) const {
+  if (seen_ < kMinPoses || period_s_ <= 0) return std::nullopt;
+  if (t - last_timestamp_ > kStalePeriods * period_s_) return std::nullopt;
+  // Pose k after the newest is expected at last_timestamp + k periods + the latency; the
+  // newest itself (k = 0) has been seen, so it is published already.
+  const Timestamp first = last_timestamp_ + aim_s_;
+  const double k = std::max(1.0, std::floor((t - first) / period_s_) + 1.0);
+  return first + k * period_s_;
+}
+
+std::optional<LatchWindow> FramePacer::window(Timestamp start, Timestamp deadline,
+                                              std::optional<Timestamp> next_ready) const {
+  const auto budget = draw_budget_s();
+  if (!enabled_ || !next_ready || !budget) return std::nullopt;
+  const LatchWindow w{std::max(start, *next_ready + kLatchMargin_s), deadline - *budget};
+  if (w.first > w.last) return std::nullopt;
+  return w;
+}
+
+void FramePacer::drawn(double seconds) {
+  draw_[drawn_ % kDrawWindow] = std::max(0.0, seconds);
+  ++drawn_;
+}
+
+std::optional<double> FramePacer::draw_budget_s() const {
+  if (drawn_ < kMinDrawSamples) return std::nullopt;
+  const std::size_t n = std::min(drawn_, kDrawWindow);
+  const double slowest = *std::max_element(draw_.begin(), draw_.begin() + static_cast<std::ptrdiff_t>(n));
+  return slowest * kDrawSafety + kDrawMargin_s;
+}
+
+}  // namespace kumite::app

@@ -1,0 +1,207 @@
+// Late latching (frame_pacer.hpp): when the tracker's next pose is expected (PoseClock), the
+// window a frame may take it in (FramePacer), and Installation::latch waiting in that window
+// for a scripted tracker. No figure here depends on this machine's speed: the waits are
+// checked by what they waited for (bench/app/bench_pose_age.cpp measures pose ages).
+#include <gtest/gtest.h>
+
+#include "kumite/app/frame_pacer.hpp"
+#include "kumite/app/installation.hpp"
+
+using namespace kumite::app;
+using kumite::Timestamp;
+
+namespace {
+
+constexpr double kPeriod = 1.0 / 60.0;
+
+/// Poses of a 60 Hz camera from t = 100 s, published 1.5, 2.0, 2.5, 1.5, ... ms after their
+/// camera time.
+void observe_60hz(PoseClock& c, int from, int to) {
+  for (int i = from; i < to; ++i)
+    c.observe(static_cast<std::uint64_t>(i), 100 + i * kPeriod, 100 + i * kPeriod + 0.0015 + 0.0005 * (i % 3));
+}
+
+}  // namespace
+
+TEST(PoseClock, UnknownUntilEnoughPoses) {
+  PoseClock c;
+  EXPECT_FALSE(c.next_ready_after(100).has_value());
+  observe_60hz(c, 0, static_cast<int>(PoseClock::kMinPoses) - 1);
+  EXPECT_FALSE(c.next_ready_after(100.1).has_value());
+  observe_60hz(c, static_cast<int>(PoseClock::kMinPoses) - 1, static_cast<int>(PoseClock::kMinPoses));
+  EXPECT_TRUE(c.next_ready_after(100.1).has_value());
+}
+
+TEST(PoseClock, PredictsTheNextPublishFromPeriodAndFastestLatency) {
+  PoseClock c;
+  observe_60hz(c, 0, 20);  // newest: frame 19 at 100 + 19/60
+  EXPECT_NEAR(c.period_s(), kPeriod, 1e-12);
+  EXPECT_NEAR(c.latency_s(), 0.0015, 1e-12);
+  const Timestamp last = 100 + 19 * kPeriod;
+  // Just after the newest was out: the next one, frame 20.
+  EXPECT_NEAR(*c.next_ready_after(last + 0.003), last + kPeriod + 0.0015, 1e-9);
+  // Even before the newest's own expected publish: it is out (seen), so the next.
+  EXPECT_NEAR(*c.next_ready_after(last), last + kPeriod + 0.0015, 1e-9);
+  // Frame 20 due but not seen yet (late): it is still the one expected next.
+  EXPECT_NEAR(*c.next_ready_after(last + kPeriod + 0.001), last + kPeriod + 0.0015, 1e-9);
+  // Past frame 20's expected publish: frame 21.
+  EXPECT_NEAR(*c.next_ready_after(last + kPeriod + 0.002), last + 2 * kPeriod + 0.0015, 1e-9);
+  // Nothing for more than kStalePeriods periods (a camera gone): unknown.
+  EXPECT_TRUE(c.next_ready_after(last + 2.9 * kPeriod).has_value());
+  EXPECT_FALSE(c.next_ready_after(last + 3.1 * kPeriod).has_value());
+}
+
+TEST(PoseClock, SkippedSetsRepeatsAndRestarts) {
+  PoseClock c;
+  // Every other set reaches the display (a 30 Hz poll of a 60 Hz camera): still 60 Hz.
+  for (int i = 0; i < 40; i += 2) c.observe(static_cast<std::uint64_t>(i), 100 + i * kPeriod, 100 + i * kPeriod + 0.002);
+  EXPECT_NEAR(c.period_s(), kPeriod, 1e-12);
+  const std::size_t n = c.poses();
+  c.observe(38, 100 + 38 * kPeriod, 100 + 38 * kPeriod + 0.009);  // the same pose polled again
+  EXPECT_EQ(c.poses(), n);
+  EXPECT_NEAR(c.latency_s(), 0.002, 1e-12);
+  c.observe(50, 100 + 50 * kPeriod, 99);  // published before its camera time: not a latency
+  EXPECT_EQ(c.poses(), n);
+  c.observe(3, 200, 200.001);  // the tracker started over
+  EXPECT_EQ(c.poses(), 1u);
+  EXPECT_EQ(c.period_s(), 0);
+}
+
+TEST(PoseClock, OneGapLeavesThePeriodARealRateChangeResetsIt) {
+  PoseClock c;
+  observe_60hz(c, 0, 20);
+  // A 1 s hole between two consecutive sets (a stalled camera): one outlier, ignored.
+  c.observe(20, 101 + 20 * kPeriod, 101 + 20 * kPeriod + 0.0015);
+  EXPECT_NEAR(c.period_s(), kPeriod, 1e-12);
+  // The camera now runs at 200 Hz: every set an outlier, until the estimate starts over.
+  Timestamp t = 101 + 20 * kPeriod;
+  for (int i = 21; i < 30; ++i) {
+    t += 1.0 / 200;
+    c.observe(static_cast<std::uint64_t>(i), t, t + 0.0015);
+  }
+  EXPECT_NEAR(c.period_s(), 1.0 / 200, 1e-9);
+  // A small drift (199 Hz) is followed gradually.
+  for (int i = 30; i < 130; ++i) {
+    t += 1.0 / 199;
+    c.observe(static_cast<std::uint64_t>(i), t, t + 0.0015);
+  }
+  EXPECT_NEAR(c.period_s(), 1.0 / 199, 1e-8);
+}
+
+TEST(FramePacer, WindowFromTheExpectedPoseToTheLastMomentDrawingFits) {
+  FramePacer p;
+  const Timestamp start = 10, deadline = 10 + kPeriod;
+  // No drawing time measured yet: take the pose at the start.
+  EXPECT_FALSE(p.window(start, deadline, 10.005).has_value());
+  for (std::size_t i = 0; i < FramePacer::kMinDrawSamples; ++i) p.drawn(0.002);
+  ASSERT_TRUE(p.draw_budget_s().has_value());
+  const double budget = 0.002 * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s;
+  EXPECT_NEAR(*p.draw_budget_s(), budget, 1e-12);
+  const auto w = p.window(start, deadline, 10.005);
+  ASSERT_TRUE(w.has_value());
+  EXPECT_NEAR(w->first, 10.005 + FramePacer::kLatchMargin_s, 1e-12);
+  EXPECT_NEAR(w->last, deadline - budget, 1e-12);
+  // Due already (late): look from the start.
+  EXPECT_NEAR(p.window(start, deadline, 9.999)->first, start, 1e-12);
+  // Expected too late for drawing to fit, or unknown: at the start.
+  EXPECT_FALSE(p.window(start, deadline, deadline - budget + 0.0001).has_value());
+  EXPECT_FALSE(p.window(start, deadline, std::nullopt).has_value());
+  // Latching off (config late_latch = false).
+  FramePacer off(false);
+  for (int i = 0; i < 20; ++i) off.drawn(0.002);
+  EXPECT_FALSE(off.window(start, deadline, 10.005).has_value());
+}
+
+TEST(FramePacer, BudgetFollowsTheSlowestRecentFrame) {
+  FramePacer p;
+  p.drawn(0.010);
+  for (std::size_t i = 1; i < FramePacer::kDrawWindow; ++i) p.drawn(0.001);
+  EXPECT_NEAR(*p.draw_budget_s(), 0.010 * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s, 1e-12);
+  p.drawn(0.001);  // the slow frame leaves the window
+  EXPECT_NEAR(*p.draw_budget_s(), 0.001 * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s, 1e-12);
+  // A frame too slow for any latch: no window even for a pose due at once.
+  for (std::size_t i = 0; i < FramePacer::kDrawWindow; ++i) p.drawn(0.016);
+  EXPECT_FALSE(p.window(10, 10 + kPeriod, 10.0).has_value());
+}
+
+namespace {
+
+const char* kRoom = R"(
+[[walls]]
+name = "front"
+lower_left = [-1.5, 0.0, -1.5]
+lower_right = [1.5, 0.0, -1.5]
+upper_left = [-1.5, 2.4, -1.5]
+[[characters]]
+name = "A"
+bvh = "a.bvh"
+[fighter]
+database = "/nonexistent/fighter.kdb"
+)";
+
+/// A tracker whose next pose is expected at `expected` and comes out at `out` (never if
+/// negative), on kumite::now()'s clock; counts how often the frame loop looked.
+class TimedTracking final : public TrackingInput {
+ public:
+  Timestamp expected = 0, out = -1;
+  bool known = true;
+  int looks = 0;
+  TrackingSnapshot poll(Timestamp) override { return {}; }
+  Timestamp clock() const override { return kumite::now(); }
+  std::string describe() const override { return "timed"; }
+  PoseTiming pose_timing(Timestamp) override {
+    ++looks;
+    PoseTiming p;
+    p.newest = out >= 0 && kumite::now() >= out ? 2 : 1;
+    if (known) p.next_ready = expected;
+    return p;
+  }
+};
+
+struct Latched {
+  Timestamp start = 0, returned = 0, last = 0;
+  int looks = 0;
+  double latch_ms = 0;
+};
+
+/// One frame of a 60 Hz loop that measured 1 ms drawing times; the pose expected 4 ms into
+/// the frame and out `out_after` s into it (negative: never).
+Latched latch_once(bool late_latch, double out_after, bool known = true) {
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  cfg.late_latch = late_latch;
+  auto tracking = std::make_unique<TimedTracking>();
+  auto* tr = tracking.get();
+  Installation inst(cfg, std::move(tracking), {});
+  for (int i = 0; i < 20; ++i) inst.drawn(0.001);
+  Latched r;
+  r.start = kumite::now();
+  tr->expected = r.start + 0.004;
+  tr->out = out_after >= 0 ? r.start + out_after : -1;
+  tr->known = known;
+  r.last = r.start + kPeriod - (0.001 * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s);
+  r.returned = inst.latch(r.start, r.start + kPeriod);
+  r.looks = tr->looks;
+  r.latch_ms = inst.step(r.returned).latch_ms;
+  return r;
+}
+
+}  // namespace
+
+TEST(InstallationLatch, WaitsForThePoseExpectedInTheFrame) {
+  const Latched r = latch_once(true, 0.006);  // out 2 ms later than expected
+  EXPECT_GE(r.returned, r.start + 0.006);
+  EXPECT_GT(r.looks, 1);
+  EXPECT_NEAR(r.latch_ms, (r.returned - r.start) * 1e3, 1e-9);
+}
+
+TEST(InstallationLatch, NeverPastTheMomentDrawingMustStart) {
+  const Latched r = latch_once(true, -1);  // the pose never comes (a camera gone)
+  EXPECT_GE(r.returned, r.last);
+  EXPECT_GT(r.looks, 1);
+}
+
+TEST(InstallationLatch, TakesThePoseAtOnceWhenOffOrTheTimingIsUnknown) {
+  for (const auto& r : {latch_once(false, 0.006), latch_once(true, 0.006, false)}) {
+    EXPECT_EQ(r.looks, 1);  // looked once, did not wait
+  }
+}
