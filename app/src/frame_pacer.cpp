@@ -38,14 +38,10 @@ void PoseClock::observe(std::uint64_t frame, Timestamp timestamp, Timestamp read
   aim_s_ = *std::min_element(latency_.begin(), latency_.begin() + static_cast<std::ptrdiff_t>(n));
 }
 
-std::optional<Timestamp> PoseClock::next_ready_after(Timestamp t) const {
+std::optional<Timestamp> PoseClock::next_ready(Timestamp t) const {
   if (seen_ < kMinPoses || period_s_ <= 0) return std::nullopt;
   if (t - last_timestamp_ > kStalePeriods * period_s_) return std::nullopt;
-  // Pose k after the newest is expected at last_timestamp + k periods + the latency; the
-  // newest itself (k = 0) has been seen, so it is published already.
-  const Timestamp first = last_timestamp_ + aim_s_;
-  const double k = std::max(1.0, std::floor((t - first) / period_s_) + 1.0);
-  return first + k * period_s_;
+  return last_timestamp_ + period_s_ + aim_s_;
 }
 
 std::optional<LatchWindow> FramePacer::window(Timestamp start, Timestamp deadline,

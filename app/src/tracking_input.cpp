@@ -93,7 +93,7 @@ class TrackerInput final : public TrackingInput {
       pose_clock_.observe(latest->frame, latest->timestamp, latest->ready_at);
       p.newest = latest->frame + 1;  // 0 means none
     }
-    p.next_ready = pose_clock_.next_ready_after(t);
+    p.next_ready = pose_clock_.next_ready(t);
     return p;
   }
 

@@ -25,11 +25,11 @@ void observe_60hz(PoseClock& c, int from, int to) {
 
 TEST(PoseClock, UnknownUntilEnoughPoses) {
   PoseClock c;
-  EXPECT_FALSE(c.next_ready_after(100).has_value());
+  EXPECT_FALSE(c.next_ready(100).has_value());
   observe_60hz(c, 0, static_cast<int>(PoseClock::kMinPoses) - 1);
-  EXPECT_FALSE(c.next_ready_after(100.1).has_value());
+  EXPECT_FALSE(c.next_ready(100.1).has_value());
   observe_60hz(c, static_cast<int>(PoseClock::kMinPoses) - 1, static_cast<int>(PoseClock::kMinPoses));
-  EXPECT_TRUE(c.next_ready_after(100.1).has_value());
+  EXPECT_TRUE(c.next_ready(100.1).has_value());
 }
 
 TEST(PoseClock, PredictsTheNextPublishFromPeriodAndFastestLatency) {
@@ -38,17 +38,17 @@ TEST(PoseClock, PredictsTheNextPublishFromPeriodAndFastestLatency) {
   EXPECT_NEAR(c.period_s(), kPeriod, 1e-12);
   EXPECT_NEAR(c.latency_s(), 0.0015, 1e-12);
   const Timestamp last = 100 + 19 * kPeriod;
-  // Just after the newest was out: the next one, frame 20.
-  EXPECT_NEAR(*c.next_ready_after(last + 0.003), last + kPeriod + 0.0015, 1e-9);
+  const Timestamp frame20 = last + kPeriod + 0.0015;
+  // Just after the newest was out: frame 20, one period on.
+  EXPECT_NEAR(*c.next_ready(last + 0.003), frame20, 1e-9);
   // Even before the newest's own expected publish: it is out (seen), so the next.
-  EXPECT_NEAR(*c.next_ready_after(last), last + kPeriod + 0.0015, 1e-9);
-  // Frame 20 due but not seen yet (late): it is still the one expected next.
-  EXPECT_NEAR(*c.next_ready_after(last + kPeriod + 0.001), last + kPeriod + 0.0015, 1e-9);
-  // Past frame 20's expected publish: frame 21.
-  EXPECT_NEAR(*c.next_ready_after(last + kPeriod + 0.002), last + 2 * kPeriod + 0.0015, 1e-9);
+  EXPECT_NEAR(*c.next_ready(last), frame20, 1e-9);
+  // Frame 20 overdue (not seen yet): still the one to look for, though its time is past.
+  EXPECT_NEAR(*c.next_ready(last + kPeriod + 0.008), frame20, 1e-9);
+  EXPECT_NEAR(*c.next_ready(last + 2.5 * kPeriod), frame20, 1e-9);
   // Nothing for more than kStalePeriods periods (a camera gone): unknown.
-  EXPECT_TRUE(c.next_ready_after(last + 2.9 * kPeriod).has_value());
-  EXPECT_FALSE(c.next_ready_after(last + 3.1 * kPeriod).has_value());
+  EXPECT_TRUE(c.next_ready(last + 2.9 * kPeriod).has_value());
+  EXPECT_FALSE(c.next_ready(last + 3.1 * kPeriod).has_value());
 }
 
 TEST(PoseClock, SkippedSetsRepeatsAndRestarts) {
@@ -164,9 +164,9 @@ struct Latched {
   double latch_ms = 0;
 };
 
-/// One frame of a 60 Hz loop that measured 1 ms drawing times; the pose expected 4 ms into
-/// the frame and out `out_after` s into it (negative: never).
-Latched latch_once(bool late_latch, double out_after, bool known = true) {
+/// One frame of a 60 Hz loop that measured 1 ms drawing times; the pose expected
+/// `expected_after` s into the frame and out `out_after` s into it (negative: never).
+Latched latch_once(bool late_latch, double out_after, bool known = true, double expected_after = 0.004) {
   auto cfg = parse_installation_config(kRoom, "room.toml");
   cfg.late_latch = late_latch;
   auto tracking = std::make_unique<TimedTracking>();
@@ -175,7 +175,7 @@ Latched latch_once(bool late_latch, double out_after, bool known = true) {
   for (int i = 0; i < 20; ++i) inst.drawn(0.001);
   Latched r;
   r.start = kumite::now();
-  tr->expected = r.start + 0.004;
+  tr->expected = r.start + expected_after;
   tr->out = out_after >= 0 ? r.start + out_after : -1;
   tr->known = known;
   r.last = r.start + kPeriod - (0.001 * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s);
@@ -192,6 +192,12 @@ TEST(InstallationLatch, WaitsForThePoseExpectedInTheFrame) {
   EXPECT_GE(r.returned, r.start + 0.006);
   EXPECT_GT(r.looks, 1);
   EXPECT_NEAR(r.latch_ms, (r.returned - r.start) * 1e3, 1e-9);
+}
+
+TEST(InstallationLatch, AnOverduePoseIsLookedForFromTheStart) {
+  const Latched r = latch_once(true, 0.003, true, -0.002);  // due 2 ms before the frame, out 3 ms in
+  EXPECT_GE(r.returned, r.start + 0.003);
+  EXPECT_GT(r.looks, 1);
 }
 
 TEST(InstallationLatch, NeverPastTheMomentDrawingMustStart) {

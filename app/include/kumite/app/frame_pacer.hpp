@@ -40,9 +40,11 @@ class PoseClock {
   /// A published pose: its frame-set number, camera time and publish time (s). The same
   /// frame again (polled twice) is ignored; so is a publish time before the camera time.
   void observe(std::uint64_t frame, Timestamp timestamp, Timestamp ready_at);
-  /// The first publish time expected after `t` (s); nullopt while unknown (too few poses,
-  /// or none for kStalePeriods periods before `t`).
-  std::optional<Timestamp> next_ready_after(Timestamp t) const;
+  /// When the pose after the newest seen is expected out (s): one period after the newest's
+  /// camera time plus the latency; before `t` when it is overdue (it is still the one to
+  /// look for: a late pose, or, if its set was dropped, the one after). nullopt while
+  /// unknown: too few poses, or none for kStalePeriods periods before `t` (a camera gone).
+  std::optional<Timestamp> next_ready(Timestamp t) const;
   double period_s() const { return period_s_; }    ///< s, camera period (0: not yet known)
   /// s, the publish latency expected: the least of the recent ones. A frame starts looking
   /// for the pose then and polls until it is out, so aiming early costs a few polls, aiming

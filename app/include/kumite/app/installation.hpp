@@ -46,8 +46,8 @@ struct TrackingSnapshot {
 /// When head poses come out, for late latching (frame_pacer.hpp).
 struct PoseTiming {
   std::uint64_t newest = 0;  ///< 1 + frame-set number of the newest head pose out (0: none yet)
-  /// s, clock(): when the one after it is expected out (nullopt: unknown: no tracker, too
-  /// few poses yet, or none lately).
+  /// s, clock(): when the one after it is expected out, possibly already past (overdue);
+  /// nullopt: unknown (no tracker, too few poses yet, or none lately).
   std::optional<Timestamp> next_ready;
 };
 
