@@ -78,8 +78,10 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
       }
     }
     log.write(f, inst.console(), names, stereo);
-    if (opt.real_time) {
-      glFinish();  // the frame's whole work, GPU included, is what the latch leaves room for
+    if (opt.real_time && cfg.late_latch) {
+      // The frame's whole work (GPU, PNGs, log) is what the latch must leave room for before
+      // the next tick: a frame that saves PNGs holds the budget up for the next 120 frames.
+      glFinish();
       inst.drawn(now() - t);
     }
   }

@@ -84,6 +84,9 @@ Viewport wall_viewport(const WallConfig& wall, const WindowConfig& win, int fb_w
           static_cast<int>(v[3] * sy)};
 }
 
+/// s: a swap that returns this close before the next tick is taken to have waited for vsync.
+constexpr double kVsyncTolerance_s = 0.001;
+
 void sleep_until(Timestamp t) {
   while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
 }
@@ -202,7 +205,13 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
       screenshot(slots[0].window, *opt.screenshot);
     }
     for (auto& s : slots) glfwSwapBuffers(s.window);
-    const Timestamp swapped = now();  // at vsync where the first window syncs to it
+    // Drivers that queue the swap return at once: wait for the flip, so `swapped` is the
+    // vsync and the next frame's drawing time does not include this one's.
+    if (cfg.late_latch) {
+      glfwMakeContextCurrent(slots[0].window);
+      glFinish();
+    }
+    const Timestamp swapped = now();
     if (console) {
       console->frame(inst, f);
       if (last && opt.screenshot) {
@@ -216,9 +225,12 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
     for (auto& s : slots)
       if (glfwWindowShouldClose(s.window)) done = true;
     if (last) done = true;
-    // The next frame starts at the vsync the swap waited for, or, without vsync (Xvfb), one
-    // period after this one: hold the display rate instead of spinning.
-    slot = std::max(slot + period, swapped);
+    // The next frame starts at the vsync the swap waited for: a swap that came back at most
+    // kVsyncTolerance_s before the next tick did wait for one (a display a little faster than
+    // display_rate_hz: anchored to its vsync, the ticks do not drift away from it). One that
+    // came back earlier did not (Xvfb, no vsync): the next tick holds the display rate. Late
+    // frames start at once.
+    slot = swapped > slot + period - kVsyncTolerance_s ? swapped : slot + period;
     sleep_until(slot);
   }
   if (log) log->close();

@@ -42,9 +42,6 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
 }
 
-/// The machine's own share of pose age: how late a SCHED_FIFO thread (as the tracker's)
-/// wakes from a 2 ms sleep, over `seconds`, with nothing of ours running. On a virtual
-/// machine the hypervisor's scheduling shows here; no code of ours can do better than this.
 void sleep_until(Timestamp t) {
   while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
 }
@@ -68,6 +65,9 @@ struct Samples {
   }
 };
 
+/// The machine's own share of pose age: how late a SCHED_FIFO thread (as the tracker's)
+/// wakes from a 2 ms sleep, over `seconds`, with nothing of ours running. On a virtual
+/// machine the hypervisor's scheduling shows here; no code of ours can do better than this.
 std::vector<double> wake_latency_ms(double seconds) {
   std::vector<double> late;
   std::thread probe([&] {
