@@ -45,12 +45,16 @@ std::optional<Timestamp> PoseClock::next_ready(Timestamp t) const {
 }
 
 std::optional<LatchWindow> FramePacer::window(Timestamp start, Timestamp deadline,
-                                              std::optional<Timestamp> next_ready) const {
+                                              std::optional<Timestamp> next_ready, double period_s) const {
   const auto budget = draw_budget_s();
   if (!enabled_ || !next_ready || !budget) return std::nullopt;
-  const LatchWindow w{std::max(start, *next_ready + kLatchMargin_s), deadline - *budget};
-  if (w.first > w.last) return std::nullopt;
-  return w;
+  const Timestamp expected = *next_ready + kLatchMargin_s;
+  const Timestamp last = deadline - *budget;
+  if (std::max(start, expected) > last) return std::nullopt;
+  // A camera faster than the display: the poses after the next that are still expected
+  // before `last` are fresher; wait for the last of them.
+  const int later = period_s > 0 ? static_cast<int>(std::floor((last - expected) / period_s)) : 0;
+  return LatchWindow{std::max(start, expected + later * period_s), last, 1 + later};
 }
 
 void FramePacer::drawn(double seconds) {

@@ -168,10 +168,12 @@ void Installation::order(const Order& o) { pending_.push_back(o); }
 
 Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
   const PoseTiming at_start = tracking_->pose_timing(start);
-  if (const auto w = pacer_.window(start, deadline, at_start.next_ready)) {
-    // Until the pose after the one out at the start is out, or drawing must begin.
+  if (const auto w = pacer_.window(start, deadline, at_start.next_ready, at_start.period_s)) {
+    // Until the pose looked for is out (poses may be skipped: any as new will do), or
+    // drawing must begin.
+    const std::uint64_t wanted = at_start.newest + static_cast<std::uint64_t>(w->poses);
     for (Timestamp t = kumite::now(); t < w->last; t = kumite::now()) {
-      if (t >= w->first && tracking_->pose_timing(t).newest != at_start.newest) break;
+      if (t >= w->first && tracking_->pose_timing(t).newest >= wanted) break;
       const double sleep_s = t < w->first ? w->first - t : std::min(kLatchPoll_s, w->last - t);
       std::this_thread::sleep_for(std::chrono::duration<double>(sleep_s));
     }

@@ -94,6 +94,7 @@ class TrackerInput final : public TrackingInput {
       p.newest = latest->frame + 1;  // 0 means none
     }
     p.next_ready = pose_clock_.next_ready(t);
+    p.period_s = pose_clock_.period_s();
     return p;
   }
 

@@ -106,6 +106,13 @@ TEST(FramePacer, WindowFromTheExpectedPoseToTheLastMomentDrawingFits) {
   // Expected too late for drawing to fit, or unknown: at the start.
   EXPECT_FALSE(p.window(start, deadline, deadline - budget + 0.0001).has_value());
   EXPECT_FALSE(p.window(start, deadline, std::nullopt).has_value());
+  // A 120 Hz camera: the pose after the next is expected before drawing must start too.
+  const auto fast = p.window(start, deadline, 10.002, 1.0 / 120);
+  ASSERT_TRUE(fast.has_value());
+  EXPECT_EQ(fast->poses, 2);
+  EXPECT_NEAR(fast->first, 10.002 + 1.0 / 120 + FramePacer::kLatchMargin_s, 1e-12);
+  EXPECT_EQ(p.window(start, deadline, 10.005, 1.0 / 120)->poses, 1);  // the second would not fit
+  EXPECT_EQ(p.window(start, deadline, 10.005, 1.0 / 60)->poses, 1);
   // Latching off (config late_latch = false).
   FramePacer off(false);
   for (int i = 0; i < 20; ++i) off.drawn(0.002);
@@ -139,11 +146,13 @@ bvh = "a.bvh"
 database = "/nonexistent/fighter.kdb"
 )";
 
-/// A tracker whose next pose is expected at `expected` and comes out at `out` (never if
-/// negative), on kumite::now()'s clock; counts how often the frame loop looked.
+/// A tracker whose next pose is expected at `expected`, with poses coming out at `outs` (on
+/// kumite::now()'s clock) every `period` s; counts how often the frame loop looked.
 class TimedTracking final : public TrackingInput {
  public:
-  Timestamp expected = 0, out = -1;
+  Timestamp expected = 0;
+  std::vector<Timestamp> outs;
+  double period = 0;
   bool known = true;
   int looks = 0;
   TrackingSnapshot poll(Timestamp) override { return {}; }
@@ -152,10 +161,24 @@ class TimedTracking final : public TrackingInput {
   PoseTiming pose_timing(Timestamp) override {
     ++looks;
     PoseTiming p;
-    p.newest = out >= 0 && kumite::now() >= out ? 2 : 1;
+    p.newest = 1;  // a pose was out at the start
+    for (const Timestamp o : outs) p.newest += kumite::now() >= o ? 1 : 0;
     if (known) p.next_ready = expected;
+    p.period_s = period;
     return p;
   }
+};
+
+/// One frame of a slow loop (1 s frames, 0.3 s drawing times measured, so the latch window
+/// ends at about 0.62 s: a loaded machine's late wake-ups cannot blur what is checked).
+constexpr double kFrame = 1.0, kDraw = 0.3;
+
+struct Setup {
+  bool late_latch = true;
+  bool known = true;               ///< the tracker's timing known
+  double expected_after = 0.004;   ///< s into the frame: the next pose expected
+  std::vector<double> out_after;   ///< s into the frame: poses out (none: never)
+  double period = 0;               ///< s between poses (0: unknown)
 };
 
 struct Latched {
@@ -164,23 +187,19 @@ struct Latched {
   double latch_ms = 0;
 };
 
-/// One frame of a slow loop (1 s frames, 0.3 s drawing times measured, so the latch window
-/// ends at about 0.62 s: a loaded machine's late wake-ups cannot blur what is checked); the
-/// pose expected `expected_after` s into the frame and out `out_after` s into it (negative:
-/// never).
-constexpr double kFrame = 1.0, kDraw = 0.3;
-Latched latch_once(bool late_latch, double out_after, bool known = true, double expected_after = 0.004) {
+Latched latch_once(const Setup& setup) {
   auto cfg = parse_installation_config(kRoom, "room.toml");
-  cfg.late_latch = late_latch;
+  cfg.late_latch = setup.late_latch;
   auto tracking = std::make_unique<TimedTracking>();
   auto* tr = tracking.get();
   Installation inst(cfg, std::move(tracking), {});
   for (int i = 0; i < 20; ++i) inst.drawn(kDraw);
   Latched r;
   r.start = kumite::now();
-  tr->expected = r.start + expected_after;
-  tr->out = out_after >= 0 ? r.start + out_after : -1;
-  tr->known = known;
+  tr->expected = r.start + setup.expected_after;
+  for (const double o : setup.out_after) tr->outs.push_back(r.start + o);
+  tr->known = setup.known;
+  tr->period = setup.period;
   r.last = r.start + kFrame - (kDraw * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s);
   r.returned = inst.latch(r.start, r.start + kFrame);
   r.looks = tr->looks;
@@ -191,7 +210,7 @@ Latched latch_once(bool late_latch, double out_after, bool known = true, double 
 }  // namespace
 
 TEST(InstallationLatch, WaitsForThePoseExpectedInTheFrame) {
-  const Latched r = latch_once(true, 0.006);  // out 2 ms later than expected
+  const Latched r = latch_once({.out_after = {0.006}});  // out 2 ms later than expected
   EXPECT_GE(r.returned, r.start + 0.006);
   EXPECT_LT(r.returned, r.start + 0.3);  // and stops looking once it is out
   EXPECT_GT(r.looks, 1);
@@ -199,21 +218,30 @@ TEST(InstallationLatch, WaitsForThePoseExpectedInTheFrame) {
 }
 
 TEST(InstallationLatch, AnOverduePoseIsLookedForFromTheStart) {
-  const Latched r = latch_once(true, 0.003, true, -0.002);  // due 2 ms before the frame, out 3 ms in
+  // Due 2 ms before the frame, out 3 ms into it.
+  const Latched r = latch_once({.expected_after = -0.002, .out_after = {0.003}});
   EXPECT_GE(r.returned, r.start + 0.003);
   EXPECT_LT(r.returned, r.start + 0.3);
   EXPECT_GT(r.looks, 1);
 }
 
+TEST(InstallationLatch, ACameraFasterThanTheDisplayGivesTheLastPoseThatFits) {
+  // Poses every 0.25 s: at 0.004, 0.254, 0.504 s fit before drawing must start (0.62 s).
+  const Latched r = latch_once({.out_after = {0.004, 0.254, 0.504}, .period = 0.25});
+  EXPECT_GE(r.returned, r.start + 0.504);
+  EXPECT_LT(r.returned, r.start + kFrame - 0.15);
+}
+
 TEST(InstallationLatch, NeverPastTheMomentDrawingMustStart) {
-  const Latched r = latch_once(true, -1);  // the pose never comes (a camera gone)
+  const Latched r = latch_once({});  // the pose never comes (a camera gone)
   EXPECT_GE(r.returned, r.last);
   EXPECT_LT(r.returned, r.start + kFrame - 0.15);  // drawing still fits before the deadline
   EXPECT_GT(r.looks, 1);
 }
 
 TEST(InstallationLatch, TakesThePoseAtOnceWhenOffOrTheTimingIsUnknown) {
-  for (const auto& r : {latch_once(false, 0.006), latch_once(true, 0.006, false)}) {
+  for (const auto& r : {latch_once({.late_latch = false, .out_after = {0.006}}),
+                        latch_once({.known = false, .out_after = {0.006}})}) {
     EXPECT_EQ(r.looks, 1);  // looked once, did not wait
   }
 }

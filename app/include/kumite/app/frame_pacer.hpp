@@ -63,10 +63,12 @@ class PoseClock {
 };
 
 /// When a frame may take its pose: from `first` (the pose expected out) to `last` (drawing
-/// must start), s.
+/// must start), s; the pose looked for is the `poses`-th after the newest out at the frame's
+/// start (more than 1 when the camera is faster than the display and later ones still fit).
 struct LatchWindow {
   Timestamp first = 0;
   Timestamp last = 0;
+  int poses = 1;
 };
 
 /// Picks when a frame takes its pose (see the top of this file).
@@ -86,11 +88,12 @@ class FramePacer {
   bool enabled() const { return enabled_; }
 
   /// When to take the pose in the frame [start, deadline) given when the tracker's next pose
-  /// is expected: from just after that time (or `start`, if it is due already) to the last
-  /// moment drawing fits before the deadline. nullopt (take it at `start`): latching off,
-  /// the tracker's timing or the drawing time unknown, or the pose expected too late.
-  std::optional<LatchWindow> window(Timestamp start, Timestamp deadline,
-                                    std::optional<Timestamp> next_ready) const;
+  /// is expected and its period (s; 0: unknown): from just after the last pose expected
+  /// before drawing must start (or `start`, if it is due already) to the last moment drawing
+  /// fits before the deadline. nullopt (take it at `start`): latching off, the tracker's
+  /// timing or the drawing time unknown, or the next pose expected too late.
+  std::optional<LatchWindow> window(Timestamp start, Timestamp deadline, std::optional<Timestamp> next_ready,
+                                    double period_s = 0) const;
   /// One frame's drawing time: from taking the pose to the picture handed to the display (s).
   void drawn(double seconds);
   /// s, the drawing time latching leaves room for; nullopt until kMinDrawSamples are in.

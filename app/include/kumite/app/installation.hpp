@@ -49,6 +49,7 @@ struct PoseTiming {
   /// s, clock(): when the one after it is expected out, possibly already past (overdue);
   /// nullopt: unknown (no tracker, too few poses yet, or none lately).
   std::optional<Timestamp> next_ready;
+  double period_s = 0;  ///< s, between poses (camera period; 0: unknown)
 };
 
 /// Where head poses come from (the tracker, or nothing). poll() never blocks.
