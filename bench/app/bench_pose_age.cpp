@@ -10,9 +10,11 @@
 // + display wait (published -> sampled by a frame); the wait depends on the display loop's
 // phase against the camera clock (up to one camera period), the latency is ours.
 // Two ways of taking the pose, in alternating one-second blocks of the same run (so the same
-// phase and the same machine): at the frame's start, and late-latched (Installation::
+// phases and the same machine): at the frame's start, and late-latched (Installation::
 // latch: just after the tracker's next pose is out, but never so late that the frame's work
-// would miss the next tick). Each gets `seconds` of measurement.
+// would miss the next tick). Each gets `seconds` of measurement. After each pair of blocks
+// the display's ticks move by 1/seconds of a frame, so the run sweeps the phase against the
+// camera clock evenly (one run's phase would otherwise be luck: anywhere from best to worst).
 //   build/bin/kumite_app_pose_age [config/demo.toml] [frame sets to preload = 60] [seconds = 6]
 //                                 [decode threads = 1]
 #include <algorithm>
@@ -114,12 +116,19 @@ int run(int argc, char** argv) {
   const Timestamp t0 = now();
   inst.start(t0);
   std::uint64_t counts0[3] = {0, 0, 0};
+  int pair = 0;
   for (Timestamp next = t0; now() - t0 < 1.0 + 2 * seconds; next += step) {
     sleep_until(next);
     const double since = now() - t0;
     // The tracker's first second: filter and mask settle (and the drawing time is measured).
     const bool measuring = since >= 1.0;
-    const int mode = measuring ? static_cast<int>(std::floor(since - 1.0)) % 2 : 1;
+    const int block = measuring ? static_cast<int>(std::floor(since - 1.0)) : -1;
+    const int mode = measuring ? block % 2 : 1;
+    if (measuring && block / 2 != pair) {  // a new pair of blocks: the next phase
+      pair = block / 2;
+      next += step / seconds;
+      sleep_until(next);
+    }
     const Timestamp t = mode == 1 ? inst.latch(now(), next + step) : now();
     const auto& f = inst.step(t);
     inst.drawn(now() - t);  // no GL here: the frame's work is step()
