@@ -44,17 +44,22 @@ std::optional<Timestamp> PoseClock::next_ready(Timestamp t) const {
   return last_timestamp_ + period_s_ + aim_s_;
 }
 
-std::optional<LatchWindow> FramePacer::window(Timestamp start, Timestamp deadline,
-                                              std::optional<Timestamp> next_ready, double period_s) const {
+std::optional<LatchWindow> FramePacer::window(Timestamp start, Timestamp deadline, const PoseTiming& timing) const {
   const auto budget = draw_budget_s();
-  if (!enabled_ || !next_ready || !budget) return std::nullopt;
-  const Timestamp expected = *next_ready + kLatchMargin_s;
-  const Timestamp last = deadline - *budget;
-  if (std::max(start, expected) > last) return std::nullopt;
+  if (!enabled_ || !timing.next_ready || !budget) return std::nullopt;
+  const double period = timing.period_s;
+  const Timestamp expected = *timing.next_ready + kLatchMargin_s;
+  const Timestamp drawing = deadline - *budget;  // drawing must start
+  if (std::max(start, expected) > drawing) return std::nullopt;
   // A camera faster than the display: the poses after the next that are still expected
-  // before `last` are fresher; wait for the last of them.
-  const int later = period_s > 0 ? static_cast<int>(std::floor((last - expected) / period_s)) : 0;
-  return LatchWindow{std::max(start, expected + later * period_s), last, 1 + later};
+  // before drawing must start are fresher; wait for the last of them.
+  const int later = period > 0 ? static_cast<int>(std::floor((drawing - expected) / period)) : 0;
+  LatchWindow w{std::max(start, expected + later * period), drawing, 1 + later};
+  if (period > 0 && timing.newest_at >= 0) {  // no longer than the tracking budget (at least one look)
+    const Timestamp due = timing.newest_at + (1 + later) * period;
+    w.last = std::min(w.last, std::max(w.first, due + kTrackingBudget_s - kWakeAllowance_s));
+  }
+  return w;
 }
 
 void FramePacer::drawn(double seconds) {

@@ -92,6 +92,7 @@ class TrackerInput final : public TrackingInput {
     if (const auto latest = tracker_.latest(head_)) {
       pose_clock_.observe(latest->frame, latest->timestamp, latest->ready_at);
       p.newest = latest->frame + 1;  // 0 means none
+      p.newest_at = latest->timestamp;
     }
     p.next_ready = pose_clock_.next_ready(t);
     p.period_s = pose_clock_.period_s();

@@ -21,6 +21,16 @@ void observe_60hz(PoseClock& c, int from, int to) {
     c.observe(static_cast<std::uint64_t>(i), 100 + i * kPeriod, 100 + i * kPeriod + 0.0015 + 0.0005 * (i % 3));
 }
 
+/// What the frame loop knows of the tracker's timing.
+PoseTiming timing(std::optional<Timestamp> next_ready, double period_s = 0, Timestamp newest_at = -1) {
+  PoseTiming t;
+  t.newest = 1;
+  t.newest_at = newest_at;
+  t.next_ready = next_ready;
+  t.period_s = period_s;
+  return t;
+}
+
 }  // namespace
 
 TEST(PoseClock, UnknownUntilEnoughPoses) {
@@ -92,31 +102,41 @@ TEST(FramePacer, WindowFromTheExpectedPoseToTheLastMomentDrawingFits) {
   FramePacer p;
   const Timestamp start = 10, deadline = 10 + kPeriod;
   // No drawing time measured yet: take the pose at the start.
-  EXPECT_FALSE(p.window(start, deadline, 10.005).has_value());
+  EXPECT_FALSE(p.window(start, deadline, timing(10.005)).has_value());
   for (std::size_t i = 0; i < FramePacer::kMinDrawSamples; ++i) p.drawn(0.002);
   ASSERT_TRUE(p.draw_budget_s().has_value());
   const double budget = 0.002 * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s;
   EXPECT_NEAR(*p.draw_budget_s(), budget, 1e-12);
-  const auto w = p.window(start, deadline, 10.005);
+  const auto w = p.window(start, deadline, timing(10.005));
   ASSERT_TRUE(w.has_value());
   EXPECT_NEAR(w->first, 10.005 + FramePacer::kLatchMargin_s, 1e-12);
   EXPECT_NEAR(w->last, deadline - budget, 1e-12);
   // Due already (late): look from the start.
-  EXPECT_NEAR(p.window(start, deadline, 9.999)->first, start, 1e-12);
+  EXPECT_NEAR(p.window(start, deadline, timing(9.999))->first, start, 1e-12);
   // Expected too late for drawing to fit, or unknown: at the start.
-  EXPECT_FALSE(p.window(start, deadline, deadline - budget + 0.0001).has_value());
-  EXPECT_FALSE(p.window(start, deadline, std::nullopt).has_value());
+  EXPECT_FALSE(p.window(start, deadline, timing(deadline - budget + 0.0001)).has_value());
+  EXPECT_FALSE(p.window(start, deadline, timing(std::nullopt)).has_value());
   // A 120 Hz camera: the pose after the next is expected before drawing must start too.
-  const auto fast = p.window(start, deadline, 10.002, 1.0 / 120);
+  const auto fast = p.window(start, deadline, timing(10.002, 1.0 / 120));
   ASSERT_TRUE(fast.has_value());
   EXPECT_EQ(fast->poses, 2);
   EXPECT_NEAR(fast->first, 10.002 + 1.0 / 120 + FramePacer::kLatchMargin_s, 1e-12);
-  EXPECT_EQ(p.window(start, deadline, 10.005, 1.0 / 120)->poses, 1);  // the second would not fit
-  EXPECT_EQ(p.window(start, deadline, 10.005, 1.0 / 60)->poses, 1);
+  EXPECT_EQ(p.window(start, deadline, timing(10.005, 1.0 / 120))->poses, 1);  // the second would not fit
+  EXPECT_EQ(p.window(start, deadline, timing(10.005, 1.0 / 60))->poses, 1);
+  // No longer than the tracking budget past the awaited pose's camera time: the pose held
+  // is then one period + kTrackingBudget_s old.
+  const Timestamp due = 10.006;
+  const auto capped = p.window(start, deadline, timing(due + 0.0015, kPeriod, due - kPeriod));
+  ASSERT_TRUE(capped.has_value());
+  EXPECT_NEAR(capped->first, due + 0.0015 + FramePacer::kLatchMargin_s, 1e-12);
+  EXPECT_NEAR(capped->last, due + FramePacer::kTrackingBudget_s - FramePacer::kWakeAllowance_s, 1e-12);
+  // A tracker slower than the budget: one look when the pose is expected.
+  const auto slow = p.window(start, deadline, timing(due + 0.003, kPeriod, due - kPeriod));
+  EXPECT_NEAR(slow->last, slow->first, 1e-12);
   // Latching off (config late_latch = false).
   FramePacer off(false);
   for (int i = 0; i < 20; ++i) off.drawn(0.002);
-  EXPECT_FALSE(off.window(start, deadline, 10.005).has_value());
+  EXPECT_FALSE(off.window(start, deadline, timing(10.005)).has_value());
 }
 
 TEST(FramePacer, BudgetFollowsTheSlowestRecentFrame) {
@@ -128,7 +148,7 @@ TEST(FramePacer, BudgetFollowsTheSlowestRecentFrame) {
   EXPECT_NEAR(*p.draw_budget_s(), 0.001 * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s, 1e-12);
   // A frame too slow for any latch: no window even for a pose due at once.
   for (std::size_t i = 0; i < FramePacer::kDrawWindow; ++i) p.drawn(0.016);
-  EXPECT_FALSE(p.window(10, 10 + kPeriod, 10.0).has_value());
+  EXPECT_FALSE(p.window(10, 10 + kPeriod, timing(10.0)).has_value());
 }
 
 namespace {
@@ -153,6 +173,7 @@ class TimedTracking final : public TrackingInput {
   Timestamp expected = 0;
   std::vector<Timestamp> outs;
   double period = 0;
+  Timestamp newest_at = -1;  // camera time of the pose out at the start (-1: not given)
   bool known = true;
   int looks = 0;
   TrackingSnapshot poll(Timestamp) override { return {}; }
@@ -165,6 +186,7 @@ class TimedTracking final : public TrackingInput {
     for (const Timestamp o : outs) p.newest += kumite::now() >= o ? 1 : 0;
     if (known) p.next_ready = expected;
     p.period_s = period;
+    p.newest_at = newest_at;
     return p;
   }
 };
@@ -179,6 +201,8 @@ struct Setup {
   double expected_after = 0.004;   ///< s into the frame: the next pose expected
   std::vector<double> out_after;   ///< s into the frame: poses out (none: never)
   double period = 0;               ///< s between poses (0: unknown)
+  double newest_at = -1;           ///< s into the frame: camera time of the pose out at its start
+  bool newest_known = false;
 };
 
 struct Latched {
@@ -200,6 +224,7 @@ Latched latch_once(const Setup& setup) {
   for (const double o : setup.out_after) tr->outs.push_back(r.start + o);
   tr->known = setup.known;
   tr->period = setup.period;
+  if (setup.newest_known) tr->newest_at = r.start + setup.newest_at;
   r.last = r.start + kFrame - (kDraw * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s);
   r.returned = inst.latch(r.start, r.start + kFrame);
   r.looks = tr->looks;
@@ -230,6 +255,16 @@ TEST(InstallationLatch, ACameraFasterThanTheDisplayGivesTheLastPoseThatFits) {
   const Latched r = latch_once({.out_after = {0.004, 0.254, 0.504}, .period = 0.25});
   EXPECT_GE(r.returned, r.start + 0.504);
   EXPECT_LT(r.returned, r.start + kFrame - 0.15);
+}
+
+TEST(InstallationLatch, NoLongerThanTheTrackingBudgetAfterTheAwaitedPoseIsDue) {
+  // Poses every 0.25 s; the one out at the start was measured 0.246 s before it, so the
+  // next two are due 0.004 and 0.254 s in (out on time) and the third, awaited, 0.504 s in
+  // (never out): the frame stops looking kTrackingBudget_s after that, not at 0.62 s.
+  const Latched r = latch_once({.out_after = {0.004, 0.254}, .period = 0.25, .newest_at = -0.246,
+                                .newest_known = true});
+  EXPECT_GE(r.returned, r.start + 0.504 + FramePacer::kTrackingBudget_s - FramePacer::kWakeAllowance_s);
+  EXPECT_LT(r.returned, r.start + 0.58);
 }
 
 TEST(InstallationLatch, NeverPastTheMomentDrawingMustStart) {

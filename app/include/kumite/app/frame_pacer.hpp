@@ -62,6 +62,16 @@ class PoseClock {
   int outliers_ = 0;  // period samples in a row far from period_s_
 };
 
+/// When head poses come out, as the frame loop sees them (TrackingInput::pose_timing).
+struct PoseTiming {
+  std::uint64_t newest = 0;  ///< 1 + frame-set number of the newest head pose out (0: none yet)
+  Timestamp newest_at = -1;  ///< s, its camera time (-1: none)
+  /// s: when the one after it is expected out, possibly already past (overdue); nullopt:
+  /// unknown (no tracker, too few poses yet, or none lately).
+  std::optional<Timestamp> next_ready;
+  double period_s = 0;  ///< s, between poses (camera period; 0: unknown)
+};
+
 /// When a frame may take its pose: from `first` (the pose expected out) to `last` (drawing
 /// must start), s; the pose looked for is the `poses`-th after the newest out at the frame's
 /// start (more than 1 when the camera is faster than the display and later ones still fit).
@@ -83,17 +93,27 @@ class FramePacer {
   static constexpr double kDrawMargin_s = 0.002;  ///< s: swap, scheduling
   /// s, taken after the predicted publish time (the pose is copied out a little later).
   static constexpr double kLatchMargin_s = 0.0005;
+  /// s: the tracking latency the pose-age target allows (one camera period + 3 ms). A frame
+  /// looks for the awaited pose until this long after its camera time, less
+  /// kWakeAllowance_s: by then the pose it holds is nearly one period + 3 ms old, and
+  /// waiting on for a late one risks taking an older pose than the target (the visitor
+  /// would see the same picture: the frame's start would have taken the same pose, younger
+  /// on the clock).
+  static constexpr double kTrackingBudget_s = 0.003;
+  /// s: the last look's poll interval and a wake-up's usual lateness, so the pose held when
+  /// the frame stops looking is still inside the target when it is taken.
+  static constexpr double kWakeAllowance_s = 0.001;
 
   explicit FramePacer(bool enabled = true) : enabled_(enabled) {}
   bool enabled() const { return enabled_; }
 
-  /// When to take the pose in the frame [start, deadline) given when the tracker's next pose
-  /// is expected and its period (s; 0: unknown): from just after the last pose expected
-  /// before drawing must start (or `start`, if it is due already) to the last moment drawing
-  /// fits before the deadline. nullopt (take it at `start`): latching off, the tracker's
-  /// timing or the drawing time unknown, or the next pose expected too late.
-  std::optional<LatchWindow> window(Timestamp start, Timestamp deadline, std::optional<Timestamp> next_ready,
-                                    double period_s = 0) const;
+  /// When to take the pose in the frame [start, deadline) given the tracker's timing: from
+  /// just after the last pose expected before drawing must start (or `start`, if it is due
+  /// already) to kTrackingBudget_s - kWakeAllowance_s after that pose's camera time (when the newest's camera
+  /// time and the period are known), but never past the last moment drawing fits before the
+  /// deadline. nullopt (take it at `start`): latching off, the tracker's timing or the
+  /// drawing time unknown, or the next pose expected too late.
+  std::optional<LatchWindow> window(Timestamp start, Timestamp deadline, const PoseTiming& timing) const;
   /// One frame's drawing time: from taking the pose to the picture handed to the display (s).
   void drawn(double seconds);
   /// s, the drawing time latching leaves room for; nullopt until kMinDrawSamples are in.

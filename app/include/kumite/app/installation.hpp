@@ -43,15 +43,6 @@ struct TrackingSnapshot {
   std::vector<std::string> problems; ///< what is wrong with the source now
 };
 
-/// When head poses come out, for late latching (frame_pacer.hpp).
-struct PoseTiming {
-  std::uint64_t newest = 0;  ///< 1 + frame-set number of the newest head pose out (0: none yet)
-  /// s, clock(): when the one after it is expected out, possibly already past (overdue);
-  /// nullopt: unknown (no tracker, too few poses yet, or none lately).
-  std::optional<Timestamp> next_ready;
-  double period_s = 0;  ///< s, between poses (camera period; 0: unknown)
-};
-
 /// Where head poses come from (the tracker, or nothing). poll() never blocks.
 class TrackingInput {
  public:
