@@ -15,14 +15,6 @@
 
 namespace kumite::app {
 
-namespace {
-
-void sleep_until(Timestamp t) {
-  while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
-}
-
-}  // namespace
-
 int run_headless(Installation& inst, const HeadlessOptions& opt) {
   const auto& cfg = inst.config();
   std::filesystem::create_directories(opt.out);

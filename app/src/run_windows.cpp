@@ -87,10 +87,6 @@ Viewport wall_viewport(const WallConfig& wall, const WindowConfig& win, int fb_w
 /// s: a swap that returns this close before the next tick is taken to have waited for vsync.
 constexpr double kVsyncTolerance_s = 0.001;
 
-void sleep_until(Timestamp t) {
-  while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
-}
-
 void screenshot(GLFWwindow* w, const std::filesystem::path& path) {
   int fb_w = 0, fb_h = 0;
   glfwGetFramebufferSize(w, &fb_w, &fb_h);

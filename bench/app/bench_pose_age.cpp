@@ -44,10 +44,6 @@ double percentile(std::vector<double> v, double p) {
   return v[std::min(v.size() - 1, static_cast<std::size_t>(p * static_cast<double>(v.size())))];
 }
 
-void sleep_until(Timestamp t) {
-  while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
-}
-
 /// One way of taking the pose: its frames' figures (ms).
 struct Samples {
   std::vector<double> ages, latency, wait, latch, cpu;

@@ -3,6 +3,7 @@
 // (std::chrono::steady_clock), as a double. Recorded data keeps the recording's own
 // timestamps (seconds from its start); live data uses now().
 #include <chrono>
+#include <thread>
 
 namespace kumite {
 
@@ -13,6 +14,11 @@ using Timestamp = double;
 inline Timestamp now() {
   using namespace std::chrono;
   return duration<double>(steady_clock::now().time_since_epoch()).count();
+}
+
+/// Sleeps until now() >= t (at once if it is past); a sleep that ends early sleeps again.
+inline void sleep_until(Timestamp t) {
+  while (now() < t) std::this_thread::sleep_for(std::chrono::duration<double>(t - now()));
 }
 
 }  // namespace kumite
