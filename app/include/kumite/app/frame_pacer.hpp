@@ -10,9 +10,10 @@
 // tracking latency (plus a margin) old, and the walls show the visitor's newer position.
 //
 // PoseClock predicts when the next pose will be published from the poses seen; FramePacer
-// gives the window to take it in: from just after the predicted time to the last moment
-// drawing can start and still make the deadline. The frame loop (Installation::latch) sleeps
-// to the window's start and, if the pose is late, polls until it is out or the window ends.
+// gives the window to take it in: from just after the predicted time until the tracking
+// latency the pose-age target allows is spent, and never past the last moment drawing can
+// start and still make the deadline. The frame loop (Installation::latch) sleeps to the
+// window's start and, if the pose is late, polls until it is out or the window ends.
 // That wait only spends the frame's idle time (the thread would otherwise wait for vsync in
 // the swap): the picture goes out at the same deadline, a late pose costs nothing but its
 // freshness, and a tracker that stops publishing (a camera gone, a recording ended) makes
