@@ -159,8 +159,9 @@ void Console::frame(Installation& inst, const FrameData& f) {
                 c.tracking_latency_ms, c.pose_age_ms - c.tracking_latency_ms);
   } else if (c.pose_age_ms >= 0) {
     ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
+  } else {
+    ImGui::Text("latency: no pose");
   }
-  else ImGui::Text("latency: no pose");
   if (!c.late_latch)
     ImGui::Text("late latch off: pose taken at the frame's start");
   else if (c.draw_budget_ms < 0)

@@ -172,11 +172,9 @@ Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
     // Until the pose looked for is out (poses may be skipped: any as new will do), or
     // drawing must begin.
     const std::uint64_t wanted = at_start.newest + static_cast<std::uint64_t>(w->poses);
-    for (Timestamp t = kumite::now(); t < w->last; t = kumite::now()) {
-      if (t >= w->first && tracking_->pose_timing(t).newest >= wanted) break;
-      const double sleep_s = t < w->first ? w->first - t : std::min(kLatchPoll_s, w->last - t);
-      std::this_thread::sleep_for(std::chrono::duration<double>(sleep_s));
-    }
+    sleep_until(w->first);
+    for (Timestamp t = kumite::now(); t < w->last && tracking_->pose_timing(t).newest < wanted; t = kumite::now())
+      std::this_thread::sleep_for(std::chrono::duration<double>(std::min(kLatchPoll_s, w->last - t)));
   }
   const Timestamp t = kumite::now();
   latch_ms_ = std::max(0.0, t - start) * 1e3;

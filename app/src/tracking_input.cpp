@@ -57,7 +57,6 @@ class TrackerInput final : public TrackingInput {
     TrackingSnapshot s;
     const auto latest = tracker_.latest(head_);
     if (latest) {
-      pose_clock_.observe(latest->frame, latest->timestamp, latest->ready_at);
       // A coasting pose is a prediction: its age counts from the last frame set that saw the
       // head (if that one came and went between two polls, an older one: the age errs long).
       if (latest->status == TrackingStatus::tracked) {

@@ -1,9 +1,10 @@
 // The frame loop's CPU side: tracking lost mid-run, a camera gone, stale poses, an eye past a
 // wall, orders from scripts (and bad scripts naming file and line), orders for characters
-// that do not exist. A scripted TrackingInput (a test double) stands in for the tracker.
+// that do not exist, late latching. A scripted TrackingInput (a test double) stands in for the tracker.
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <vector>
 
 #include "kumite/app/frame_log.hpp"
 #include "kumite/app/installation.hpp"
@@ -223,4 +224,123 @@ TEST(Installation, ConsoleFrameRateFromFrameIntervals) {
   inst.start(10.0);
   for (int i = 0; i < 200; ++i) inst.step(10.0 + 1e-4 + i / 50.0);  // 50 Hz
   EXPECT_NEAR(inst.console().fps, 50.0, 0.01);
+}
+
+// Late latching: Installation::latch waits in the window FramePacer gives (frame_pacer.hpp)
+// for a tracker scripted on the real clock; the waits are checked by what they waited for.
+namespace {
+
+/// A tracker whose next pose is expected at `expected`, with poses coming out at `outs` (on
+/// kumite::now()'s clock) every `period` s; counts how often the frame loop looked.
+class TimedTracking final : public TrackingInput {
+ public:
+  kumite::Timestamp expected = 0;
+  std::vector<kumite::Timestamp> outs;
+  double period = 0;
+  kumite::Timestamp newest_at = -1;  // camera time of the pose out at the start (-1: not given)
+  bool known = true;
+  int looks = 0;
+  TrackingSnapshot poll(kumite::Timestamp) override { return {}; }
+  kumite::Timestamp clock() const override { return kumite::now(); }
+  std::string describe() const override { return "timed"; }
+  PoseTiming pose_timing(kumite::Timestamp) override {
+    ++looks;
+    PoseTiming p;
+    p.newest = 1;  // a pose was out at the start
+    for (const kumite::Timestamp o : outs) p.newest += kumite::now() >= o ? 1 : 0;
+    if (known) p.next_ready = expected;
+    p.period_s = period;
+    p.newest_at = newest_at;
+    return p;
+  }
+};
+
+/// One frame of a slow loop (1 s frames, 0.3 s drawing times measured, so the latch window
+/// ends at about 0.62 s: a loaded machine's late wake-ups cannot blur what is checked).
+constexpr double kFrame = 1.0, kDraw = 0.3;
+
+struct Setup {
+  bool late_latch = true;
+  bool known = true;               ///< the tracker's timing known
+  double expected_after = 0.004;   ///< s into the frame: the next pose expected
+  std::vector<double> out_after;   ///< s into the frame: poses out (none: never)
+  double period = 0;               ///< s between poses (0: unknown)
+  double newest_at = -1;           ///< s into the frame: camera time of the pose out at its start
+  bool newest_known = false;
+};
+
+struct Latched {
+  kumite::Timestamp start = 0, returned = 0, last = 0;
+  int looks = 0;
+  double latch_ms = 0;
+};
+
+Latched latch_once(const Setup& setup) {
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  cfg.late_latch = setup.late_latch;
+  auto tracking = std::make_unique<TimedTracking>();
+  auto* tr = tracking.get();
+  Installation inst(cfg, std::move(tracking), {});
+  for (int i = 0; i < 20; ++i) inst.drawn(kDraw);
+  Latched r;
+  r.start = kumite::now();
+  tr->expected = r.start + setup.expected_after;
+  for (const double o : setup.out_after) tr->outs.push_back(r.start + o);
+  tr->known = setup.known;
+  tr->period = setup.period;
+  if (setup.newest_known) tr->newest_at = r.start + setup.newest_at;
+  r.last = r.start + kFrame - (kDraw * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s);
+  r.returned = inst.latch(r.start, r.start + kFrame);
+  r.looks = tr->looks;
+  r.latch_ms = inst.step(r.returned).latch_ms;
+  return r;
+}
+
+}  // namespace
+
+TEST(InstallationLatch, WaitsForThePoseExpectedInTheFrame) {
+  const Latched r = latch_once({.out_after = {0.006}});  // out 2 ms later than expected
+  EXPECT_GE(r.returned, r.start + 0.006);
+  EXPECT_LT(r.returned, r.start + 0.3);  // and stops looking once it is out
+  EXPECT_GT(r.looks, 1);
+  EXPECT_NEAR(r.latch_ms, (r.returned - r.start) * 1e3, 1e-9);
+}
+
+TEST(InstallationLatch, AnOverduePoseIsLookedForFromTheStart) {
+  // Due 2 ms before the frame, out 3 ms into it.
+  const Latched r = latch_once({.expected_after = -0.002, .out_after = {0.003}});
+  EXPECT_GE(r.returned, r.start + 0.003);
+  EXPECT_LT(r.returned, r.start + 0.3);
+  EXPECT_GT(r.looks, 1);
+}
+
+TEST(InstallationLatch, ACameraFasterThanTheDisplayGivesTheLastPoseThatFits) {
+  // Poses every 0.25 s: at 0.004, 0.254, 0.504 s fit before drawing must start (0.62 s).
+  const Latched r = latch_once({.out_after = {0.004, 0.254, 0.504}, .period = 0.25});
+  EXPECT_GE(r.returned, r.start + 0.504);
+  EXPECT_LT(r.returned, r.start + kFrame - 0.15);
+}
+
+TEST(InstallationLatch, NoLongerThanTheTrackingBudgetAfterTheAwaitedPoseIsDue) {
+  // Poses every 0.25 s; the one out at the start was measured 0.246 s before it, so the
+  // next two are due 0.004 and 0.254 s in (out on time) and the third, awaited, 0.504 s in
+  // (never out): the frame stops looking kTrackingBudget_s after that, not at 0.62 s.
+  const Latched r = latch_once({.out_after = {0.004, 0.254}, .period = 0.25, .newest_at = -0.246,
+                                .newest_known = true});
+  EXPECT_GE(r.returned, r.start + 0.504 + FramePacer::kTrackingBudget_s - FramePacer::kWakeAllowance_s);
+  EXPECT_LT(r.returned, r.start + 0.58);
+}
+
+TEST(InstallationLatch, NeverPastTheMomentDrawingMustStart) {
+  const Latched r = latch_once({});  // the pose never comes (a camera gone)
+  EXPECT_GE(r.returned, r.last);
+  EXPECT_LT(r.returned, r.start + kFrame - 0.15);  // drawing still fits before the deadline
+  EXPECT_GT(r.looks, 1);
+}
+
+TEST(InstallationLatch, TakesThePoseAtOnceWhenOffOrTheTimingIsUnknown) {
+  for (const auto& r : {latch_once({.late_latch = false, .out_after = {0.006}}),
+                        latch_once({.known = false, .out_after = {0.006}})}) {
+    EXPECT_EQ(r.looks, 1);  // looked once, did not wait
+  }
 }
