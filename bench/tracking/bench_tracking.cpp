@@ -10,7 +10,6 @@
 // usual one) and 0.3 px RMS in 2-D (sigma 0.212 px per axis), each with the Cramer-Rao bound
 // of the rig for the same frames (no single-frame estimator does better on average).
 #include <sched.h>
-#include <time.h>
 
 #include <algorithm>
 #include <chrono>
@@ -25,6 +24,7 @@
 #include <fmt/format.h>
 #include <opencv2/imgproc.hpp>
 
+#include "kumite/common/time.hpp"
 #include "kumite/tracking/blobs.hpp"
 #include "kumite/tracking/config.hpp"
 #include "kumite/tracking/pipeline.hpp"
@@ -38,11 +38,7 @@ using Clock = std::chrono::steady_clock;
 namespace {
 
 /// CPU time of this thread (ms): excludes the time other processes hold the core.
-double thread_cpu_ms() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
-}
+double thread_cpu_ms() { return 1e3 * kumite::thread_cpu_time(); }
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
