@@ -181,6 +181,23 @@ TEST(Detect, UnreadableImageIsNamed) {
   } catch (const kumite::Error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/view.png"), std::string::npos);
   }
+  // A photo cut short in copying: its name and why, and no raw libpng line on stderr.
+  const fs::path cut = fs::temp_directory_path() / ("kumite-cut-" + std::to_string(::getpid()) + ".png");
+  std::vector<unsigned char> png;
+  cv::imencode(".png", cv::Mat(64, 64, CV_8UC1, cv::Scalar(90)), png);
+  std::ofstream(cut, std::ios::binary).write(reinterpret_cast<const char*>(png.data()),
+                                             static_cast<std::streamsize>(png.size() / 2));
+  testing::internal::CaptureStderr();
+  try {
+    read_image_grey(cut);
+    ADD_FAILURE() << "a cut PNG was read";
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(std::string(e.what()).find(cut.string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("PNG cut short"), std::string::npos) << e.what();
+  }
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(err.find("libpng"), std::string::npos) << err;
+  fs::remove(cut);
 }
 
 namespace {

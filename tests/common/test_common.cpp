@@ -7,6 +7,7 @@
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/common/image_file.hpp"
 #include "kumite/common/latest.hpp"
 #include "kumite/common/wire.hpp"
 
@@ -66,6 +67,30 @@ TEST(AtomicFile, UnwritableDirectoryNamesThePath) {
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent-dir/x.txt"), std::string::npos);
+  }
+}
+
+TEST(ImageFile, AWholePngPassesACutOneIsNamed) {
+  // The smallest whole PNG (1x1 grey, written by hand: signature, IHDR, IDAT, IEND).
+  const std::vector<unsigned char> png = {
+      0x89, 'P',  'N',  'G',  '\r', '\n', 0x1a, '\n', 0,    0,    0,    13,   'I',  'H',  'D',  'R',  0,
+      0,    0,    1,    0,    0,    0,    1,    8,    0,    0,    0,    0,    0x3a, 0x7e, 0x9b, 0x55, 0,
+      0,    0,    10,   'I',  'D',  'A',  'T',  0x78, 0x9c, 0x63, 0x60, 0,    0,    0,    2,    0,    1,
+      0x48, 0xaf, 0xa4, 0x71, 0,    0,    0,    0,    'I',  'E',  'N',  'D',  0xae, 0x42, 0x60, 0x82};
+  EXPECT_EQ(incomplete_image(png), "");
+  const std::vector<unsigned char> cut(png.begin(), png.end() - 5);
+  EXPECT_EQ(incomplete_image(cut), "PNG cut short (no IEND chunk at its end)");
+  EXPECT_EQ(incomplete_image({}), "empty file");
+  EXPECT_EQ(incomplete_image({'n', 'o', 't'}), "");  // not a PNG: the decoder decides
+
+  const fs::path d = fresh_dir("image");
+  write_file_atomically(d / "a.png", std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+  EXPECT_EQ(read_file_bytes(d / "a.png"), png);
+  try {
+    (void)read_file_bytes(d / "missing.png");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("missing.png: cannot open"), std::string::npos) << e.what();
   }
 }
 

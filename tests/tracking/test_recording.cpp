@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include <opencv2/imgcodecs.hpp>
@@ -99,6 +100,19 @@ TEST(Recording, MissingFolderFilesCorruptAndWrongSizeImages) {
   ASSERT_EQ(skipped.size(), 2U);
   EXPECT_NE(skipped[0].find("000002.png: cannot decode"), std::string::npos) << skipped[0];
   EXPECT_NE(skipped[1].find("640x480 image, the calibration says 1280x1024"), std::string::npos) << skipped[1];
+  // A PNG cut short (a copy that did not finish): one line naming it, and nothing from
+  // libpng on stderr (it prints "libpng error: Read Error" when it is handed such a file).
+  const fs::path cut = dir / "cam0" / "000003.png";
+  std::ostringstream whole;
+  whole << std::ifstream(cut, std::ios::binary).rdbuf();
+  write_text(cut, whole.str().substr(0, whole.str().size() / 2));
+  testing::internal::CaptureStderr();
+  EXPECT_TRUE(rec.load(3, &skipped).images[0].empty());
+  const std::string err = testing::internal::GetCapturedStderr();
+  EXPECT_EQ(err.find("libpng"), std::string::npos) << err;
+  ASSERT_EQ(skipped.size(), 4U);  // the cut one (cam0), then the wrong size again (cam3)
+  EXPECT_NE(skipped[2].find("000003.png: PNG cut short (no IEND chunk at its end): skipped"), std::string::npos)
+      << skipped[2];
 
   // What can run keeps running: the pipeline tracks every frame set on the other cameras.
   Pipeline pipeline(rig, ktest::shipped_config());

@@ -13,6 +13,7 @@
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/common/image_file.hpp"
 
 namespace kumite::tracking {
 namespace fs = std::filesystem;
@@ -202,6 +203,26 @@ Recording::Recording(const fs::path& dir, const RigCalibration& rig) : dir_(dir)
   }
 }
 
+namespace {
+/// The image in `file` as 8-bit grey, or an empty Mat and `why` (a few words).
+cv::Mat decode_grey(const fs::path& file, std::string& why) {
+  try {
+    const std::vector<unsigned char> bytes = read_file_bytes(file);
+    why = incomplete_image(bytes);
+    if (!why.empty()) return {};
+    cv::Mat img = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<unsigned char*>(bytes.data())),
+                               cv::IMREAD_GRAYSCALE);
+    if (img.empty()) why = "cannot decode the image";
+    return img;
+  } catch (const Error&) {
+    why = "cannot read the file";
+  } catch (const cv::Exception&) {
+    why = "cannot decode the image";
+  }
+  return {};
+}
+}  // namespace
+
 FrameSet Recording::load(std::size_t i, std::vector<std::string>* skipped) const {
   const FrameRow& row = index_.rows.at(i);
   FrameSet set;
@@ -214,9 +235,10 @@ FrameSet Recording::load(std::size_t i, std::vector<std::string>* skipped) const
     const fs::path file = dir_ / names_[c] / frame_file_name(row.frame);
     std::error_code ec;
     if (!fs::exists(file, ec)) continue;  // that camera delivered no image for this frame set
-    cv::Mat img = cv::imread(file.string(), cv::IMREAD_GRAYSCALE);
+    std::string why;
+    cv::Mat img = decode_grey(file, why);
     if (img.empty()) {
-      if (skipped) skipped->push_back(fmt::format("{}: cannot decode the image: skipped", file.string()));
+      if (skipped) skipped->push_back(fmt::format("{}: {}: skipped", file.string(), why));
       continue;
     }
     if (img.size() != sizes_[c]) {

@@ -1,0 +1,23 @@
+#pragma once
+// Image files read from disk (recordings, calibration photos): whole, or why not.
+//
+// libpng and libjpeg, under OpenCV's decoders, print their own raw line on stderr when a
+// file ends early ("libpng error: Read Error"), before OpenCV returns an empty image and the
+// caller's one clear line names the file. A PNG cut short (a copy or a write that did not
+// finish, the usual damage) is therefore found here first, from its bytes: a whole PNG ends
+// with its IEND chunk. Damage inside a whole file, and other formats (libjpeg only warns
+// and returns the image with its missing part grey), are left to the decoder.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace kumite {
+
+/// The file's bytes. Throws kumite::Error("io", ...) naming the path when it cannot be read.
+std::vector<unsigned char> read_file_bytes(const std::filesystem::path& path);
+
+/// Why `bytes` cannot be a whole image file, as a few words for a message: an empty file, a
+/// PNG without its IEND chunk at the end. "" otherwise (the decoder decides).
+std::string incomplete_image(const std::vector<unsigned char>& bytes);
+
+}  // namespace kumite
