@@ -107,7 +107,7 @@ int main(int argc, char** argv) {
   app.add_flag("--headless", a.headless, "render off-screen (EGL) even with a display");
   app.add_option("--frames", a.frames, "headless: frames to render")->capture_default_str();
   app.add_option("--out", a.out, "headless: output folder (PNGs, frames.jsonl)")->capture_default_str();
-  app.add_option("--save-every", a.save_every, "headless: PNGs every K-th frame (0 = none)")->capture_default_str();
+  app.add_option("--save-every", a.save_every, "headless: PNGs every K-th frame and at each strike's hit or miss (0 = none)")->capture_default_str();
   app.add_option("--orders", a.orders, "orders script (rows time_s,order); overrides the config's");
   app.add_option("--resolution", a.resolution, "headless: WIDTHxHEIGHT for every wall (overrides config)");
   app.add_option("--stereo", a.stereo, "override stereo mode: quad_buffer side_by_side top_bottom anaglyph mono");

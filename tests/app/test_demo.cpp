@@ -137,8 +137,17 @@ TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
   for (const auto& f : frames)
     for (const auto& e : f["events"]) {
       if (e.contains("order")) by_order[e["order"].get<std::string>()].push_back(e);
-      if (e["type"] == "hit" || e["type"] == "miss") ++hits_or_misses;
+      if (e["type"] == "hit" || e["type"] == "miss") {
+        ++hits_or_misses;
+        // The moment of contact is saved whatever --save-every says (frame 30k is anyway).
+        const int frame = f["frame"].get<int>();
+        for (const char* name : {"front_left", "front_right", "floor_left", "floor_right"})
+          EXPECT_TRUE(fs::exists(out / fmt::format("{}_{:05}.png", name, frame))) << name << " at contact, frame " << frame;
+      }
     }
+  int saved = 0;
+  for (const auto& entry : fs::directory_iterator(out)) saved += entry.path().extension() == ".png";
+  EXPECT_LE(saved, 8 * (6 + hits_or_misses)) << "PNGs only every 30th frame and at contacts";
   for (const char* o : {"punch_right", "kick_left", "character 9", "character 2", "kick_right"})
     EXPECT_FALSE(by_order[o].empty()) << o << " missing from frames.jsonl";
   ASSERT_FALSE(by_order["punch_right"].empty());

@@ -12,7 +12,7 @@ namespace kumite::app {
 struct HeadlessOptions {
   int frames = 60;                 ///< frames to render
   std::filesystem::path out;       ///< output folder (made if missing)
-  int save_every = 1;              ///< write PNGs every K-th frame (frame % K == 0)
+  int save_every = 1;              ///< write PNGs every K-th frame (frame % K == 0) and at each hit or miss (0 = none)
   std::optional<std::array<int, 2>> resolution;  ///< pixels, overrides every wall's
   /// Frame times: true = the display rate's steps on the run's clock, waiting for real time
   /// when rendering is faster (so a live tracker and the fighter see real time); false =
