@@ -191,10 +191,11 @@ class Reader {
 };
 
 void Reader::parse(const toml::table& root) {
-  only_keys(root, "", {"display_rate_hz", "late_latch", "data_dir", "windows", "walls", "stereo", "viewer",
+  only_keys(root, "", {"display_rate_hz", "late_latch", "display_latency_ms", "data_dir", "windows", "walls", "stereo", "viewer",
                        "projection", "keys", "characters", "fighter", "tracking", "orders"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
   boolean(root, "late_latch", "", cfg_.late_latch);
+  number(root, "display_latency_ms", "", cfg_.display_latency_ms);
   path(root, "data_dir", "", cfg_.data_dir);
   parse_windows(root);
   parse_walls(root);
@@ -467,7 +468,8 @@ int InstallationConfig::window_of(std::size_t w) const {
 }
 
 bool InstallationConfig::operator==(const InstallationConfig& o) const {
-  return display_rate_hz == o.display_rate_hz && late_latch == o.late_latch && windows == o.windows && walls == o.walls &&
+  return display_rate_hz == o.display_rate_hz && late_latch == o.late_latch &&
+         display_latency_ms == o.display_latency_ms && windows == o.windows && walls == o.walls &&
          stereo == o.stereo && viewer == o.viewer && projection == o.projection &&
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
          tracking == o.tracking && orders_script == o.orders_script && data_dir == o.data_dir;
@@ -502,6 +504,8 @@ std::string check_wall_geometry(const WallConfig& w) {
 void validate(const InstallationConfig& c) {
   if (!(c.display_rate_hz > 0 && c.display_rate_hz <= 1000))
     fail_at(c, "range", "display_rate_hz", "must be in (0, 1000] Hz");
+  if (!(c.display_latency_ms >= 0 && c.display_latency_ms <= 200))
+    fail_at(c, "range", "display_latency_ms", "must be in [0, 200] ms (the projectors' input lag)");
   if (c.walls.empty()) fail_at(c, "missing_wall", "walls", "no [[walls]]: at least one wall is needed");
   std::set<std::string> names;
   for (std::size_t i = 0; i < c.windows.size(); ++i) {
@@ -647,6 +651,7 @@ std::string to_toml(const InstallationConfig& c) {
   if (!c.data_dir.empty()) root.insert("data_dir", c.data_dir.generic_string());
   root.insert("display_rate_hz", c.display_rate_hz);
   root.insert("late_latch", c.late_latch);
+  root.insert("display_latency_ms", c.display_latency_ms);
   toml::array windows;
   for (const auto& w : c.windows)
     windows.push_back(toml::table{{"name", w.name},

@@ -57,6 +57,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
   j["pose_age_ms"] = f.pose_age_ms >= 0 ? json(f.pose_age_ms) : json(nullptr);
   j["tracking_latency_ms"] = f.tracking_latency_ms >= 0 ? json(f.tracking_latency_ms) : json(nullptr);
   j["latch_ms"] = f.latch_ms;
+  j["predicted_ahead_ms"] = f.predicted_ahead_ms;
   json cams = json::array();
   for (const auto& cam : c.cameras)
     cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"since_last_ms", cam.since_last_ms}});

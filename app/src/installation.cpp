@@ -23,7 +23,7 @@ constexpr double kLatchPoll_s = 0.00025;
 class FixedHeadInput final : public TrackingInput {
  public:
   explicit FixedHeadInput(std::string why) : why_(std::move(why)) {}
-  TrackingSnapshot poll(Timestamp) override {
+  TrackingSnapshot poll(Timestamp, Timestamp) override {
     TrackingSnapshot s;
     s.status = why_;
     return s;
@@ -200,8 +200,12 @@ void Installation::note(const FrameEvent& e) {
     spdlog::info("{}", line);
 }
 
-void Installation::update_head(Timestamp now) {
-  const TrackingSnapshot snap = tracking_->poll(now);
+void Installation::update_head(Timestamp now, Timestamp shown_at) {
+  // The head as it will be when the visitor sees this frame: at its vsync, plus the time
+  // the projectors take to show it.
+  const Timestamp seen_at = std::max(now, shown_at) + config_.display_latency_ms * 1e-3;
+  frame_.predicted_ahead_ms = (seen_at - now) * 1e3;
+  const TrackingSnapshot snap = tracking_->poll(now, seen_at);
   console_.cameras = snap.cameras;
   console_.tracking = snap.status;
   console_.tracking_source = snap.source;
@@ -314,7 +318,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
   for (const auto& m : missing_characters_) console_.problems.push_back(m);
 }
 
-const FrameData& Installation::step(Timestamp now) {
+const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   if (!started_) start(now);
   const double dt = std::max(0.0, now - last_step_);
   last_step_ = now;
@@ -324,7 +328,7 @@ const FrameData& Installation::step(Timestamp now) {
   console_.problems.clear();
   frame_.now = now;
   frame_.time_s = now - start_;
-  update_head(now);
+  update_head(now, shown_at);
   if (const int kept = plan_views(walls_, frame_.eyes, config_.projection.near_m,
                                   config_.projection.far_m, frame_.views);
       kept > 0)

@@ -41,13 +41,16 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
     // the frame is late and takes the present time (the fighter and tracker move on in real
     // time). Simulated: exact steps of 1/rate, as fast as rendering goes.
     Timestamp t = t0 + i * step;
+    Timestamp shown = t;  // simulated: the frame is its own moment
     if (opt.real_time) {
       // Late latching (config late_latch) as in windows: the frame's pose just after the
-      // tracker's next one is out, when this frame's work still fits before the next tick.
+      // tracker's next one is out, when this frame's work still fits before the next tick,
+      // which is when it counts as shown (a window's next vsync).
+      shown = t + step;
       sleep_until(t);
-      t = std::max(t, inst.latch(now(), t + step));
+      t = std::max(t, inst.latch(now(), shown));
     }
-    const FrameData& f = inst.step(t);
+    const FrameData& f = inst.step(t, shown);
     // Every K-th frame, and each strike's moment of contact (a hit or a miss), which a
     // strike-long run would otherwise rarely catch.
     const bool contact = std::any_of(f.events.begin(), f.events.end(),

@@ -181,8 +181,9 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
     glfwPollEvents();
     // Late latching: take the pose just after the tracker's next one is out, if drawing
     // still fits before the next vsync; the picture shows at the same vsync either way.
+    // The picture is seen at the next vsync: the head is predicted to then.
     const Timestamp t = inst.latch(now(), slot + period);
-    const FrameData& f = inst.step(t);
+    const FrameData& f = inst.step(t, slot + period);
     for (auto& s : slots) {
       glfwMakeContextCurrent(s.window);
       int fb_w = 0, fb_h = 0;

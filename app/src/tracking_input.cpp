@@ -53,7 +53,7 @@ class TrackerInput final : public TrackingInput {
   }
   ~TrackerInput() override { tracker_.stop(); }
 
-  TrackingSnapshot poll(Timestamp display_time) override {
+  TrackingSnapshot poll(Timestamp now_s, Timestamp display_time) override {
     TrackingSnapshot s;
     const auto latest = tracker_.latest(head_);
     if (latest) {
@@ -72,7 +72,7 @@ class TrackerInput final : public TrackingInput {
     }
     s.status += fmt::format(", {} frame sets", tracker_.frames_processed());
     if (!tracker_.running()) s.status += " (tracker stopped)";
-    const auto cams = tracker_.camera_status(display_time);
+    const auto cams = tracker_.camera_status(now_s);
     for (std::size_t i = 0; i < cams.size(); ++i) {
       CameraView v;
       v.name = i < names_.size() ? names_[i] : fmt::format("cam{}", i);
@@ -81,7 +81,7 @@ class TrackerInput final : public TrackingInput {
       v.since_last_ms = cams[i].since_last_s >= 0 ? cams[i].since_last_s * 1e3 : -1;
       s.cameras.push_back(v);
     }
-    if (counters_) describe_recording(display_time, s);
+    if (counters_) describe_recording(now_s, s);
     return s;
   }
   Timestamp clock() const override { return now(); }

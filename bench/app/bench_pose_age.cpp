@@ -276,7 +276,7 @@ int run(int argc, char** argv) {
     const double woke_late = now() - next;
     const Timestamp t = mode == 1 ? inst.latch(now(), next + step) : now();
     const double cpu0 = thread_cpu_time();
-    const auto& f = inst.step(t);
+    const auto& f = inst.step(t, next + step);  // seen at the next tick, as a window's vsync
     const double step_lost = (now() - t) - (thread_cpu_time() - cpu0);
     inst.drawn(now() - t);  // no GL here: the frame's work is step()
     if (!measuring) {

@@ -249,6 +249,15 @@ TEST(Config, DemoFindsItsDataThroughTheOverride) {
   EXPECT_EQ(c.resolve(c.fighter.database), std::filesystem::path("/x/demo/fighter.kdb"));
 }
 
+TEST(Config, DisplayLatencyIsZeroUnlessMeasured) {
+  EXPECT_EQ(parse_installation_config(kBase, "base.toml").display_latency_ms, 0.0);
+  const auto lag = parse_installation_config("display_latency_ms = 35.5\n" + std::string(kBase), "lag.toml");
+  EXPECT_EQ(lag.display_latency_ms, 35.5);
+  EXPECT_EQ(parse_installation_config(to_toml(lag), "again.toml"), lag);
+  const auto msg = error_of("display_latency_ms = -3\n" + std::string(kBase));
+  EXPECT_NE(msg.find("bad.toml:1: display_latency_ms: must be in [0, 200] ms"), std::string::npos) << msg;
+}
+
 TEST(Config, LateLatchIsOnUnlessTurnedOff) {
   EXPECT_TRUE(parse_installation_config(kBase, "base.toml").late_latch);
   const auto off = parse_installation_config("late_latch = false\n" + std::string(kBase), "off.toml");

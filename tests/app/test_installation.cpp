@@ -48,7 +48,9 @@ class ScriptedTracking final : public TrackingInput {
   std::vector<TrackingSnapshot> snaps;
   std::size_t next = 0;
   kumite::Timestamp clock_now = 0;
-  TrackingSnapshot poll(kumite::Timestamp t) override {
+  kumite::Timestamp display_at = 0;  // the last poll's display time
+  TrackingSnapshot poll(kumite::Timestamp t, kumite::Timestamp display_time) override {
+    display_at = display_time;
     clock_now = t;
     const auto& s = snaps[std::min(next, snaps.size() - 1)];
     ++next;
@@ -87,6 +89,26 @@ bool has_problem(const ConsoleState& c, std::string_view what) {
 }
 
 }  // namespace
+
+TEST(Installation, TheHeadIsPredictedToWhenTheFrameIsSeen) {
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  cfg.display_latency_ms = 20;  // the projectors' input lag
+  auto tracking = std::make_unique<ScriptedTracking>();
+  auto* tr = tracking.get();
+  tr->snaps.push_back(tracked(99.995, 0.3, 1.6, 0.2));
+  Installation inst(cfg, std::move(tracking), {});
+  inst.start(100);
+  // Taken 4 ms into a frame whose vsync is at 100.0167 s: seen 20 ms after that.
+  const auto& f = inst.step(100.004, 100 + 1 / 60.0);
+  EXPECT_NEAR(tr->display_at, 100 + 1 / 60.0 + 0.020, 1e-9);
+  EXPECT_NEAR(f.predicted_ahead_ms, (1 / 60.0 - 0.004 + 0.020) * 1e3, 1e-6);
+  EXPECT_NEAR(f.pose_age_ms, 9.0, 1e-6) << "the age still counts to the moment the pose is taken";
+  // A frame seen at once (simulated time), or one already past its vsync: the latency only.
+  inst.step(100.1);
+  EXPECT_NEAR(tr->display_at, 100.12, 1e-9);
+  inst.step(100.2, 100.19);
+  EXPECT_NEAR(tr->display_at, 100.22, 1e-9);
+}
 
 TEST(Installation, TrackingLostMidRunKeepsTheLastGoodEyes) {
   auto cfg = parse_installation_config(kRoom, "room.toml");
@@ -240,7 +262,7 @@ class TimedTracking final : public TrackingInput {
   kumite::Timestamp newest_at = -1;  // camera time of the pose out at the start (-1: not given)
   bool known = true;
   int looks = 0;
-  TrackingSnapshot poll(kumite::Timestamp) override { return {}; }
+  TrackingSnapshot poll(kumite::Timestamp, kumite::Timestamp) override { return {}; }
   kumite::Timestamp clock() const override { return kumite::now(); }
   std::string describe() const override { return "timed"; }
   PoseTiming pose_timing(kumite::Timestamp) override {

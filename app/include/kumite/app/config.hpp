@@ -136,6 +136,9 @@ struct InstallationConfig {
   /// Take each frame's head pose as late as drawing allows, just after the tracker's next
   /// pose is out, instead of at the frame's start (lower pose age; see frame_pacer.hpp).
   bool late_latch = true;
+  /// ms from a frame's vsync to its light on the wall (the projectors' input lag, measured
+  /// per installation): the head pose is predicted that far past the vsync.
+  double display_latency_ms = 0.0;
   std::vector<WindowConfig> windows;
   std::vector<WallConfig> walls;
   StereoConfig stereo;

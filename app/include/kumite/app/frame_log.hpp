@@ -4,7 +4,8 @@
 // {name: {left|right: {view, projection}}} (16 numbers each, column-major, OpenGL
 // convention), fighter {state, character, character_name}, events [...], pose_age_ms,
 // tracking_latency_ms (its part from the frame set's camera time to the pose published),
-// console {...}. Written to a temporary file, renamed into place by close() (nothing
+// latch_ms, predicted_ahead_ms (the head predicted this far past the moment it was taken:
+// to the frame's vsync plus display_latency_ms), console {...}. Written to a temporary file, renamed into place by close() (nothing
 // half-written).
 #include <filesystem>
 #include <fstream>

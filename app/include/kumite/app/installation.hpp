@@ -47,7 +47,9 @@ struct TrackingSnapshot {
 class TrackingInput {
  public:
   virtual ~TrackingInput() = default;
-  virtual TrackingSnapshot poll(Timestamp display_time) = 0;
+  /// At time `now`: the newest head pose predicted to `display_time` (when the frame's
+  /// picture will be seen; >= now), camera status as of now.
+  virtual TrackingSnapshot poll(Timestamp now, Timestamp display_time) = 0;
   /// The clock the tracker's timestamps use, so pose age can be measured (s).
   virtual Timestamp clock() const = 0;
   virtual std::string describe() const = 0;
@@ -110,6 +112,9 @@ struct FrameData {
   double pose_age_ms = -1;    ///< ms, -1 when no pose
   double tracking_latency_ms = -1;  ///< ms, the tracking part of pose_age_ms (-1: unknown, not tracked)
   double latch_ms = 0;        ///< ms, the pose taken this long after the frame's start (late latching)
+  /// ms, how far past the moment it was taken the head is predicted: to the frame's vsync
+  /// plus the display latency (config display_latency_ms).
+  double predicted_ahead_ms = 0;
   bool has_fighter = false;
   std::string fighter_state;
   int character = 0;
@@ -142,8 +147,12 @@ class Installation {
   Timestamp latch(Timestamp start, Timestamp deadline);
   /// The last frame's drawing time (s): from its step() to its picture handed to the display.
   void drawn(double seconds) { pacer_.drawn(seconds); }
-  /// One frame at display time `now`: tracking, orders, fighter, eyes, views, console.
-  const FrameData& step(Timestamp now);
+  /// One frame that takes the head pose at `now` and is seen at `shown_at` (its vsync,
+  /// >= now): the head predicted to shown_at + display_latency_ms, then orders, fighter,
+  /// eyes, views, console, all at `now`.
+  const FrameData& step(Timestamp now, Timestamp shown_at);
+  /// A frame seen at once (simulated time, tests).
+  const FrameData& step(Timestamp now) { return step(now, now); }
 
   const FrameData& frame() const { return frame_; }
   const ConsoleState& console() const { return console_; }
@@ -155,7 +164,7 @@ class Installation {
   void request_quit() { quit_ = true; }
 
  private:
-  void update_head(Timestamp now);
+  void update_head(Timestamp now, Timestamp shown_at);
   void apply_orders(Timestamp now);
   void update_fighter(Timestamp now, double dt);
   void note(const FrameEvent& e);
