@@ -3,14 +3,15 @@
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
 
+#include <algorithm>
 #include <cstring>
 #include <string>
+#include <utility>
 
 #include <fmt/format.h>
 
-#define STB_IMAGE_WRITE_STATIC
-#define STB_IMAGE_WRITE_IMPLEMENTATION
-#include <stb/stb_image_write.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "gl.hpp"
 #include "kumite/common/atomic_file.hpp"
@@ -106,19 +107,89 @@ void OffscreenTarget::read(std::vector<std::uint8_t>& rgba) const {
 
 void write_png(const std::filesystem::path& path, int width, int height,
                const std::vector<std::uint8_t>& rgba) {
-  // Light compression: a 1080p frame encodes several times faster, files ~1.5x bigger.
-  stbi_write_png_compression_level = 2;
-  int size = 0;
-  unsigned char* png = stbi_write_png_to_mem(rgba.data(), width * 4, width, height, 4, &size);
-  if (!png) throw Error("io", "png", "cannot encode " + path.string());
-  try {
-    write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(png),
-                                                 static_cast<std::size_t>(size)));
-  } catch (...) {
-    STBIW_FREE(png);
-    throw;
+  if (width <= 0 || height <= 0 || rgba.size() != static_cast<std::size_t>(width) * height * 4)
+    throw Error("io", "png", fmt::format("{}: {}x{} image with {} bytes", path.string(), width, height, rgba.size()));
+  const cv::Mat in(height, width, CV_8UC4, const_cast<std::uint8_t*>(rgba.data()));
+  cv::Mat bgr;
+  cv::cvtColor(in, bgr, cv::COLOR_RGBA2BGR);
+  // libpng at level 1 with run-length filtering: a rendered 1080p frame (large flat areas)
+  // in about 0.1 s here, 3x faster than stb_image_write at its level 2, and smaller.
+  std::vector<uchar> png;
+  if (!cv::imencode(".png", bgr, png, {cv::IMWRITE_PNG_COMPRESSION, 1, cv::IMWRITE_PNG_STRATEGY,
+                                       cv::IMWRITE_PNG_STRATEGY_RLE}))
+    throw Error("io", "png", "cannot encode " + path.string());
+  write_file_atomically(path, std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
+}
+
+PngWriter::PngWriter(std::size_t queue_images, bool wait_when_full)
+    : capacity_(std::max<std::size_t>(1, queue_images)), wait_when_full_(wait_when_full), thread_([this] { run(); }) {}
+
+PngWriter::~PngWriter() {
+  {
+    std::lock_guard lock(mutex_);
+    stop_ = true;
   }
-  STBIW_FREE(png);
+  cv_.notify_all();
+  thread_.join();
+}
+
+bool PngWriter::push(std::filesystem::path path, int width, int height, std::vector<std::uint8_t> rgba) {
+  std::unique_lock lock(mutex_);
+  if (queue_.size() >= capacity_) {
+    if (!wait_when_full_) {
+      ++dropped_;
+      return false;
+    }
+    cv_.wait(lock, [&] { return queue_.size() < capacity_; });
+  }
+  queue_.push_back({std::move(path), width, height, std::move(rgba)});
+  lock.unlock();
+  cv_.notify_all();
+  return true;
+}
+
+void PngWriter::flush() {
+  std::unique_lock lock(mutex_);
+  cv_.wait(lock, [&] { return queue_.empty() && !busy_; });
+}
+
+std::uint64_t PngWriter::written() const {
+  std::lock_guard lock(mutex_);
+  return written_;
+}
+
+std::uint64_t PngWriter::dropped() const {
+  std::lock_guard lock(mutex_);
+  return dropped_;
+}
+
+std::vector<std::string> PngWriter::take_errors() {
+  std::lock_guard lock(mutex_);
+  return std::exchange(errors_, {});
+}
+
+void PngWriter::run() {
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
+    if (queue_.empty()) return;  // stopping, all written
+    Job job = std::move(queue_.front());
+    queue_.pop_front();
+    busy_ = true;
+    lock.unlock();
+    cv_.notify_all();  // room for a waiting push()
+    std::string error;
+    try {
+      write_png(job.path, job.width, job.height, job.rgba);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    lock.lock();
+    busy_ = false;
+    if (error.empty()) ++written_;
+    else errors_.push_back(std::move(error));
+    cv_.notify_all();  // flush()
+  }
 }
 
 }  // namespace kumite::app

@@ -31,11 +31,13 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   const bool stereo = cfg.stereo.mode != StereoMode::mono;
   const char* eye_names[2] = {stereo ? "left" : "mono", "right"};
   FrameLog log(opt.out / "frames.jsonl");
+  // Two frames' images may wait for the writer; in real time, more are dropped (and said).
+  PngWriter pngs(2 * targets.size() * (stereo ? 2 : 1), !opt.real_time);
   std::vector<std::uint8_t> pixels;
   const double step = 1.0 / cfg.display_rate_hz;
   const Timestamp t0 = now();
   inst.start(t0);
-  double render_s = 0, png_s = 0;
+  double render_s = 0;
   for (int i = 0; i < opt.frames && !inst.quit_requested(); ++i) {
     // Real time: wait for the frame's slot; when rendering is slower than the display rate,
     // the frame is late and takes the present time (the fighter and tracker move on in real
@@ -69,27 +71,36 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
           continue;
         }
         target.read(pixels);
-        const Timestamp r1 = now();
-        render_s += r1 - r0;
-        write_png(opt.out / fmt::format("{}_{}_{:05}.png", names[w], eye_names[e], i),
-                  target.width(), target.height(), pixels);
-        png_s += now() - r1;
+        render_s += now() - r0;
+        if (!pngs.push(opt.out / fmt::format("{}_{}_{:05}.png", names[w], eye_names[e], i), target.width(),
+                       target.height(), std::move(pixels)) &&
+            pngs.dropped() == 1)
+          spdlog::warn("headless: frame {}: the PNG writer is behind, images are being dropped", i);
+        pixels = {};
       }
     }
+    for (const auto& e : pngs.take_errors()) spdlog::warn("headless: {}", e);
     log.write(f, inst.console(), names, stereo);
     if (opt.real_time && cfg.late_latch) {
-      // The frame's whole work (GPU, PNGs, log) is what the latch must leave room for before
-      // the next tick: a frame that saves PNGs holds the budget up for the next 120 frames.
+      // The frame's whole work (GPU, reading PNG frames back, log) is what the latch must
+      // leave room for before the next tick: a frame that saves PNGs holds the budget up for
+      // the next 120 frames.
       glFinish();
       inst.drawn(now() - t);
     }
   }
   glFinish();
-  log.close();
   const double wall_s = now() - t0;
-  spdlog::info("headless: {} frames in {:.2f} s ({:.1f} ms/frame; GL {:.1f} ms, PNG {:.1f} ms per frame) -> {}",
-               opt.frames, wall_s, wall_s * 1e3 / opt.frames, render_s * 1e3 / opt.frames,
-               png_s * 1e3 / opt.frames, opt.out.string());
+  pngs.flush();
+  for (const auto& e : pngs.take_errors()) spdlog::warn("headless: {}", e);
+  log.close();
+  spdlog::info("headless: {} frames in {:.2f} s ({:.1f} ms/frame, GL {:.1f} ms of it); {} PNGs written -> {}",
+               opt.frames, wall_s, wall_s * 1e3 / opt.frames, render_s * 1e3 / opt.frames, pngs.written(),
+               opt.out.string());
+  if (pngs.dropped() > 0)
+    spdlog::warn("headless: {} PNGs not written: the writer was behind (real time never waits for it; "
+                 "--save-every larger, or --simulated-time, writes them all)",
+                 pngs.dropped());
   return 0;
 }
 

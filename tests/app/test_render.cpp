@@ -1,12 +1,16 @@
 // Headless rendering: a synthetic stick figure (test data made here, not a fighter: joints
 // placed by hand) drawn on the front wall must show up in the character's colour where its
-// projection says, and nowhere else; the target sphere shows in red.
+// projection says, and nowhere else; the target sphere shows in red. The PNG writer thread
+// writes what it is given, and in real time drops rather than waits.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
 
 #include <cstdlib>
+#include <filesystem>
 #include <string>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include "kumite/app/headless.hpp"
 #include "kumite/app/renderer.hpp"
@@ -146,4 +150,50 @@ TEST(Render, EmptyRoomHasNoFighterColour) {
   }
   EXPECT_EQ(coloured, 0);
   EXPECT_GT(lines, 100);
+}
+
+namespace {
+std::vector<std::uint8_t> frame_rgba(int w, int h, std::uint8_t shade) {
+  std::vector<std::uint8_t> rgba(static_cast<std::size_t>(w) * h * 4, shade);
+  for (std::size_t i = 0; i < rgba.size(); i += 4) rgba[i] = static_cast<std::uint8_t>(i / 4 % 251);  // red ramp
+  return rgba;
+}
+}  // namespace
+
+TEST(PngWriter, WritesEveryImageWhenItMayWaitAndSaysWhatFailed) {
+  const auto dir = std::filesystem::temp_directory_path() / ("kumite-pngs-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  {
+    PngWriter pngs(1, true);
+    for (int i = 0; i < 4; ++i) EXPECT_TRUE(pngs.push(dir / (std::to_string(i) + ".png"), 64, 32, frame_rgba(64, 32, 90)));
+    EXPECT_TRUE(pngs.push(dir / "no-such-folder" / "x.png", 64, 32, frame_rgba(64, 32, 90)));
+    pngs.flush();
+    EXPECT_EQ(pngs.written(), 4u);
+    EXPECT_EQ(pngs.dropped(), 0u);
+    const auto errors = pngs.take_errors();
+    ASSERT_EQ(errors.size(), 1u);
+    EXPECT_NE(errors[0].find("no-such-folder/x.png"), std::string::npos) << errors[0];
+  }
+  // What was written is the image: RGB, the red ramp and the shade where they were.
+  const cv::Mat back = cv::imread((dir / "3.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(back.type(), CV_8UC3);
+  ASSERT_EQ(back.cols, 64);
+  EXPECT_EQ(back.at<cv::Vec3b>(1, 5), cv::Vec3b(90, 90, (64 + 5) % 251));  // BGR
+  std::filesystem::remove_all(dir);
+}
+
+TEST(PngWriter, InRealTimeAFullQueueDropsInsteadOfWaiting) {
+  const auto dir = std::filesystem::temp_directory_path() / ("kumite-pngs-rt-" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  PngWriter pngs(1, false);
+  // 1080p images take the writer about 0.1 s each; three pushed at once cannot all fit.
+  int accepted = 0;
+  for (int i = 0; i < 3; ++i) accepted += pngs.push(dir / (std::to_string(i) + ".png"), 1920, 1080, frame_rgba(1920, 1080, 40));
+  EXPECT_LT(accepted, 3);
+  pngs.flush();
+  EXPECT_EQ(pngs.written(), static_cast<std::uint64_t>(accepted));
+  EXPECT_EQ(pngs.dropped(), static_cast<std::uint64_t>(3 - accepted));
+  std::filesystem::remove_all(dir);
 }
