@@ -67,8 +67,8 @@ FrameEvent to_frame_event(const content::FighterEvent& e, Timestamp start) {
   switch (e.kind) {
     case K::order_accepted: f.type = "order"; f.order = to_string(e.order); break;
     case K::order_ignored: f.type = "order_ignored"; f.order = to_string(e.order); break;
-    case K::hit: f.type = "hit"; break;
-    case K::miss: f.type = "miss"; break;
+    case K::hit: f.type = "hit"; f.order = to_string(e.order); break;    // the strike's order
+    case K::miss: f.type = "miss"; f.order = to_string(e.order); break;
     case K::character_changed: f.type = "character_changed"; f.order = to_string(e.order); break;
     case K::warning: f.type = "warning"; break;
   }
@@ -192,6 +192,8 @@ void Installation::note(const FrameEvent& e) {
     console_.last_order = e.order;
     console_.last_outcome = e.type == "order" ? "accepted" : "ignored: " + e.text;
   } else if (e.type == "hit" || e.type == "miss") {
+    // The strike's own order: an order ignored meanwhile must not take this outcome.
+    console_.last_order = e.order;
     console_.last_outcome = fmt::format("{} ({:.2f} m)", e.type, e.distance_m);
   }
   if (e.type == "warning" || e.type == "order_ignored")

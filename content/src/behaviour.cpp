@@ -496,8 +496,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     strike_.contact_update = updates_;
     const MotionSegment& seg = db_->segments[static_cast<std::size_t>(strike_.plan.segment)];
     emit(strike_.hit ? FighterEvent::Kind::hit : FighterEvent::Kind::miss, now, strike_.order,
-         fmt::format("{} {}: {} (frames {}->{}), hit point {:.1f} cm from the target{}", strike_.hit ? "hit" : "miss",
-                     to_string(strike_.order.kind), seg.name, strike_.plan.start_frame, strike_.plan.contact_frame,
+         fmt::format("{} (frames {}->{}), hit point {:.1f} cm from the target{}", seg.name,
+                     strike_.plan.start_frame, strike_.plan.contact_frame,
                      strike_.contact_distance_m * 100, report_.reached ? "" : " (target out of reach)"),
          strike_.contact_distance_m);
   }

@@ -134,11 +134,18 @@ TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
   // Every scripted order appears once, with an outcome.
   std::map<std::string, std::vector<nlohmann::json>> by_order;
   int hits_or_misses = 0;
+  std::string striking;  // the accepted strike order whose outcome is due
   for (const auto& f : frames)
     for (const auto& e : f["events"]) {
       if (e.contains("order")) by_order[e["order"].get<std::string>()].push_back(e);
+      if (e["type"] == "order" && e["order"].get<std::string>().rfind("character", 0) != 0) striking = e["order"];
       if (e["type"] == "hit" || e["type"] == "miss") {
         ++hits_or_misses;
+        // Each outcome names its strike's order, on the console too.
+        EXPECT_EQ(e.value("order", ""), striking) << e.dump();
+        EXPECT_EQ(f["console"]["last_order"], striking) << f["console"].dump();
+        EXPECT_EQ(f["console"]["last_outcome"].get<std::string>().rfind(e["type"].get<std::string>(), 0), 0u);
+        striking.clear();
         // The moment of contact is saved whatever --save-every says (frame 30k is anyway).
         const int frame = f["frame"].get<int>();
         for (const char* name : {"front_left", "front_right", "floor_left", "floor_right"})
