@@ -30,6 +30,7 @@ class FixedHeadInput final : public TrackingInput {
   }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return "none (" + why_ + ")"; }
+  bool has_tracker() const override { return false; }
 
  private:
   std::string why_;
@@ -162,6 +163,10 @@ void Installation::start(Timestamp t) {
   last_step_ = t;
   script_.restart(t);
   started_ = true;
+  script_waits_ = tracking_->has_tracker() && script_.remaining() > 0;
+  if (script_waits_)
+    spdlog::info("orders script: its times count from the first frame with the head tracked (at most {:.0f} s)",
+                 kScriptWaitForHead_s);
 }
 
 void Installation::order(const Order& o) { pending_.push_back(o); }
@@ -251,7 +256,19 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
 
 void Installation::apply_orders(Timestamp now) {
   due_.clear();
-  script_.due(now, due_);
+  if (script_waits_) {
+    const double waited = now - start_;
+    if (console_.head_live || waited >= kScriptWaitForHead_s) {
+      script_waits_ = false;
+      script_.restart(now);
+      spdlog::info("orders script: starts {:.2f} s into the run ({})", waited,
+                   console_.head_live ? "head tracked" : "the head is still not tracked");
+    } else {
+      console_.problems.push_back(fmt::format(
+          "orders script waits for the head to be tracked ({:.0f} s of at most {:.0f} s)", waited, kScriptWaitForHead_s));
+    }
+  }
+  if (!script_waits_) script_.due(now, due_);
   due_.insert(due_.end(), pending_.begin(), pending_.end());
   pending_.clear();
   for (const Order& o : due_) {

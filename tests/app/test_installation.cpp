@@ -182,6 +182,36 @@ TEST(Installation, EyePastAWallKeepsThatWallsLastView) {
   EXPECT_TRUE(has_problem(inst.console(), "behind 2 wall plane(s)"));
 }
 
+TEST(Installation, TheOrdersScriptStartsWhenTheHeadIsTracked) {
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  const auto script = std::filesystem::temp_directory_path() / "kumite_test_orders_wait.csv";
+  std::ofstream(script) << "time_s,order\n0.1,punch_left\n";
+  InstallationOptions opt;
+  opt.orders_script = script;
+  for (const bool ever_tracked : {true, false}) {
+    auto tracking = std::make_unique<ScriptedTracking>();
+    auto* tr = tracking.get();
+    for (int i = 0; i < 120; ++i) tr->snaps.push_back(lost());  // the tracker loading: 2 s
+    tr->snaps.push_back(ever_tracked ? tracked(52, 0.3, 1.6, 0.2) : lost());
+    Installation inst(cfg, std::move(tracking), opt);
+    inst.start(50);
+    std::vector<FrameEvent> events;
+    bool said_waiting = false;
+    for (int i = 0; i < 60 * 40; ++i) {
+      const auto& f = inst.step(50 + i / 60.0);
+      events.insert(events.end(), f.events.begin(), f.events.end());
+      said_waiting |= has_problem(inst.console(), "orders script waits for the head to be tracked");
+    }
+    EXPECT_TRUE(said_waiting);
+    ASSERT_EQ(events.size(), 1u);
+    EXPECT_EQ(events[0].order, "punch_left");
+    // 0.1 s after the first tracked frame (2 s in), or after the longest wait (30 s).
+    EXPECT_NEAR(events[0].time_s, (ever_tracked ? 2.0 : Installation::kScriptWaitForHead_s) + 0.1, 1.0 / 60 + 1e-9)
+        << ever_tracked;
+  }
+  std::filesystem::remove(script);
+}
+
 TEST(Installation, ScriptedAndKeyedOrdersAreLoggedWithOutcomes) {
   auto cfg = parse_installation_config(kRoom, "room.toml");
   const auto script = std::filesystem::temp_directory_path() / "kumite_test_orders.csv";

@@ -55,6 +55,8 @@ class TrackingInput {
   virtual std::string describe() const = 0;
   /// The newest head pose out now and when the next is expected (late latching; never blocks).
   virtual PoseTiming pose_timing(Timestamp /*t*/) { return {}; }
+  /// False when no tracker is behind it (the head stays at its default): nothing to wait for.
+  virtual bool has_tracker() const { return true; }
 };
 
 /// No tracking: the head stays at the configured default position (console usable alone).
@@ -135,8 +137,13 @@ class Installation {
                const InstallationOptions& options);
   ~Installation();
 
-  /// Starts the run's clock (orders script times count from here).
+  /// Starts the run's clock. The orders script's times count from here when there is no
+  /// tracker; with one, from the first frame with the head tracked (at most
+  /// kScriptWaitForHead_s later), so scripted strikes aim at the visitor, not at the
+  /// default head while the tracker starts (the demo's recording takes ~10 s to load).
   void start(Timestamp now);
+  /// s, the longest an orders script waits for the head to be tracked before it starts.
+  static constexpr double kScriptWaitForHead_s = 30.0;
   /// A supervisor order (keys), applied at the next step().
   void order(const Order& order);
   /// Late latching (config late_latch), for a frame loop whose frame runs from `start`
@@ -187,6 +194,7 @@ class Installation {
   HeadPose last_good_head_;
   Timestamp start_ = 0, last_step_ = 0;
   bool started_ = false, quit_ = false, mono_ = false;
+  bool script_waits_ = false;  ///< the orders script waits for the head to be tracked
   double dt_filtered_ = 0;  ///< s, smoothed frame interval
   std::uint64_t steps_ = 0;
 };
