@@ -359,6 +359,9 @@ void Reader::parse_tracking(const toml::table& root) {
 double norm(const Vec3& v) { return std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]); }
 Vec3 sub(const Vec3& a, const Vec3& b) { return {a[0] - b[0], a[1] - b[1], a[2] - b[2]}; }
 double dot(const Vec3& a, const Vec3& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+Vec3 cross(const Vec3& a, const Vec3& b) {
+  return {a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]};
+}
 
 toml::array to_array(const Vec3& v) { return toml::array{v[0], v[1], v[2]}; }
 template <std::size_t N>
@@ -535,6 +538,24 @@ void validate(const InstallationConfig& c) {
               "wall \"" + w.name + "\" names window \"" + w.window + "\", which is not defined");
     if (w.viewport && ((*w.viewport)[2] <= 0 || (*w.viewport)[3] <= 0))
       fail_at(c, "range", p + ".viewport", "wall \"" + w.name + "\": viewport size must be positive");
+    if (const int win = c.window_of(i); w.viewport && win >= 0 && win < static_cast<int>(c.windows.size())) {
+      const auto& v = *w.viewport;
+      const auto& size = c.windows[static_cast<std::size_t>(win)].size;
+      if (v[0] < 0 || v[1] < 0 || v[0] + v[2] > size[0] || v[1] + v[3] > size[1])
+        fail_at(c, "range", p + ".viewport",
+                fmt::format("wall \"{}\": viewport [{}, {}, {}, {}] does not fit window \"{}\" ({}x{})", w.name,
+                            v[0], v[1], v[2], v[3], c.windows[static_cast<std::size_t>(win)].name, size[0], size[1]));
+    }
+    // The corners as seen from inside the room: the wall's front (lower_left->lower_right x
+    // lower_left->upper_left) faces the visitor. Listed from outside, every eye is behind it.
+    const Vec3 normal = cross(sub(w.lower_right, w.lower_left), sub(w.upper_left, w.lower_left));
+    const double ahead = dot(sub(c.viewer.default_head_m, w.lower_left), normal) / norm(normal);
+    if (ahead < kMinEdgeM)
+      fail_at(c, "wall_geometry", p,
+              fmt::format("wall \"{}\" faces away from the default head [{}, {}, {}] ({:.2f} m behind its plane): "
+                          "give its corners as seen from inside the room (swap lower_left and lower_right)",
+                          w.name, c.viewer.default_head_m[0], c.viewer.default_head_m[1],
+                          c.viewer.default_head_m[2], -ahead));
   }
   if (c.stereo.fallback == StereoMode::quad_buffer)
     fail_at(c, "stereo_fallback", "stereo.fallback", "quad_buffer cannot be its own fallback");

@@ -348,11 +348,16 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   frame_.now = now;
   frame_.time_s = now - start_;
   update_head(now, shown_at);
-  if (const int kept = plan_views(walls_, frame_.eyes, config_.projection.near_m,
-                                  config_.projection.far_m, frame_.views);
-      kept > 0)
-    console_.problems.push_back(fmt::format(
-        "an eye is on or behind {} wall plane(s): those walls keep their last good view", kept));
+  if (plan_views(walls_, frame_.eyes, config_.projection.near_m, config_.projection.far_m, frame_.views) > 0) {
+    // Rare: name the walls (the eye went through them, or they face away from it).
+    std::vector<std::string> past;
+    for (std::size_t w = 0; w < walls_.size(); ++w)
+      if (!off_axis(walls_[w], frame_.eyes.left, config_.projection.near_m, config_.projection.far_m).valid ||
+          !off_axis(walls_[w], frame_.eyes.right, config_.projection.near_m, config_.projection.far_m).valid)
+        past.push_back(config_.walls[w].name);
+    console_.problems.push_back(fmt::format("an eye is on or behind the plane of wall(s) {}: drawn from their last good view",
+                                            fmt::join(past, ", ")));
+  }
   apply_orders(now);
   update_fighter(now, dt);
   console_.fighter_state = frame_.fighter_state;

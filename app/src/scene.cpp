@@ -31,6 +31,8 @@ glm::vec3 character_colour(int index) {
       {0.90f, 0.20f, 0.55f},  // magenta
       {0.95f, 0.85f, 0.15f},  // yellow
       {0.30f, 0.75f, 0.95f},  // sky blue
+      {0.40f, 0.90f, 0.30f},  // green
+      {0.62f, 0.42f, 0.95f},  // violet
   };
   const int n = static_cast<int>(std::size(palette));
   return palette[((index % n) + n) % n];

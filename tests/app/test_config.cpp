@@ -150,6 +150,22 @@ TEST(Config, SkewedWall) {
                              "upper_left = [-1.501, 2.4, -1.5]")), "");
 }
 
+TEST(Config, WallListedFromOutsideTheRoom) {
+  // lower_left and lower_right swapped: the wall's front faces away from the visitor.
+  const auto msg = error_of(replace(replace(kBase, "lower_left = [-1.5, 0.0, -1.5]", "lower_left = [1.5, 0.0, -1.5]"),
+                                    "lower_right = [1.5, 0.0, -1.5]\nupper_left = [-1.5, 2.4, -1.5]",
+                                    "lower_right = [-1.5, 0.0, -1.5]\nupper_left = [1.5, 2.4, -1.5]"));
+  EXPECT_NE(msg.find("walls[0]: wall \"front\" faces away from the default head [0, 1.7, 0] (1.50 m behind its plane)"),
+            std::string::npos) << msg;
+}
+
+TEST(Config, ViewportOutsideItsWindow) {
+  const auto msg = error_of(replace(kBase, "window = \"main\"\n", "window = \"main\"\nviewport = [640, 360, 960, 540]\n"));
+  EXPECT_NE(msg.find("walls[0].viewport: wall \"front\": viewport [640, 360, 960, 540] does not fit window \"main\" (1280x720)"),
+            std::string::npos) << msg;
+  EXPECT_EQ(error_of(replace(kBase, "window = \"main\"\n", "window = \"main\"\nviewport = [640, 360, 640, 360]\n")), "");
+}
+
 TEST(Config, NonRectangularWall) {
   const auto msg = error_of(replace(kBase, "resolution = [1920, 1080]",
                                     "upper_right = [1.5, 2.6, -1.5]\nresolution = [1920, 1080]"));

@@ -179,7 +179,7 @@ TEST(Installation, EyePastAWallKeepsThatWallsLastView) {
   const auto& after = inst.step(100 + 1 / 60.0);
   EXPECT_EQ(after.views[1][0].view, before.views[1][0].view);   // left wall: kept
   EXPECT_NE(after.views[0][0].view, before.views[0][0].view);   // front wall: follows
-  EXPECT_TRUE(has_problem(inst.console(), "behind 2 wall plane(s)"));
+  EXPECT_TRUE(has_problem(inst.console(), "an eye is on or behind the plane of wall(s) left: drawn from their last good view"));
 }
 
 TEST(Installation, TheOrdersScriptStartsWhenTheHeadIsTracked) {

@@ -197,3 +197,14 @@ TEST(PngWriter, InRealTimeAFullQueueDropsInsteadOfWaiting) {
   EXPECT_EQ(pngs.dropped(), static_cast<std::uint64_t>(3 - accepted));
   std::filesystem::remove_all(dir);
 }
+
+TEST(Scene, EachOfSixCharactersHasItsOwnColour) {
+  // As the pixel checks see colour: hue ratios (each channel over the brightest).
+  auto ratios = [](glm::vec3 c) { return c / std::max({c.r, c.g, c.b}); };
+  for (int i = 0; i < 6; ++i)
+    for (int j = i + 1; j < 6; ++j) {
+      const glm::vec3 d = glm::abs(ratios(character_colour(i)) - ratios(character_colour(j)));
+      EXPECT_GT(std::max({d.r, d.g, d.b}), 0.25f) << i << " and " << j;
+    }
+  EXPECT_EQ(character_colour(6), character_colour(0));  // then it cycles
+}

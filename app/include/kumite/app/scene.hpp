@@ -38,8 +38,8 @@ using WallViews = std::vector<std::array<EyeView, 2>>;
 int plan_views(std::span<const WallFrame> walls, const Eyes& eyes, double near_m, double far_m,
                WallViews& views);
 
-/// The colour of character `index` (0-based), cycling through a palette of warm, saturated
-/// colours that stand out on the dark room.
+/// The colour of character `index` (0-based), cycling through a palette of six saturated
+/// colours that stand out on the dark room (the demo's five characters each have their own).
 glm::vec3 character_colour(int index);
 /// The strike target's colour.
 inline constexpr glm::vec3 kTargetColour{0.95f, 0.1f, 0.1f};
