@@ -130,8 +130,8 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
           "(Xvfb and most consumer GPUs have none)",
           s.config.name);
       if (!cfg.stereo.allow_fallback)
-        throw Error("app", "no_stereo",
-                    why + "; set [stereo] allow_fallback = true or another stereo.mode");
+        throw file_error("app", "no_stereo", cfg.file.string(), cfg.line_of("stereo.mode"), "stereo.mode",
+                         why + "; set [stereo] allow_fallback = true or another mode");
       mode = cfg.stereo.fallback;
       spdlog::warn("{}: falling back to {} (stereo.allow_fallback)", why, to_string(mode));
       s.window = open_window(s.config, false, share);
@@ -144,7 +144,9 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
     if (mode == StereoMode::quad_buffer) {
       GLboolean stereo = GL_FALSE;
       glGetBooleanv(GL_STEREO, &stereo);
-      if (!stereo) throw Error("app", "no_stereo", "quad-buffer: the context has no stereo buffers");
+      if (!stereo)
+        throw file_error("app", "no_stereo", cfg.file.string(), cfg.line_of("stereo.mode"), "stereo.mode",
+                         fmt::format("quad-buffer: the context of window \"{}\" has no stereo buffers", s.config.name));
     }
     glfwSwapInterval(i == 0 ? 1 : 0);
     glfwSetWindowUserPointer(s.window, &keys);

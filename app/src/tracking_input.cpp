@@ -19,6 +19,17 @@ namespace kumite::app {
 
 namespace {
 
+/// Runs `open` (reading one of the tracker's files); an error it throws comes back located
+/// at the config key that named the file: "demo.toml:123: tracking.recording: ...".
+template <typename F>
+auto at_key(const InstallationConfig& c, const char* key, F&& open) {
+  try {
+    return open();
+  } catch (const Error& e) {
+    throw file_error("config", "tracking", c.file.string(), c.line_of(key), key, e.what());
+  }
+}
+
 class TrackerInput final : public TrackingInput {
  public:
   TrackerInput(const InstallationConfig& c, tracking::RigCalibration rig,
@@ -44,10 +55,12 @@ class TrackerInput final : public TrackingInput {
       o.decode_threads = c.tracking.decode_threads;
       o.preload_sets = static_cast<std::size_t>(c.tracking.recording_preload);
       o.counters = counters_;
-      tracker_.start(tracking::open_recording_source(c.resolve(c.tracking.recording), rig, tc, o));
+      tracker_.start(at_key(c, "tracking.recording", [&] {
+        return tracking::open_recording_source(c.resolve(c.tracking.recording), rig, tc, o);
+      }));
       what_ = "recording " + c.resolve(c.tracking.recording).string();
     } else {
-      tracker_.start(tracking::open_live_source(rig, tc));
+      tracker_.start(at_key(c, "tracking.source", [&] { return tracking::open_live_source(rig, tc); }));
       what_ = "live cameras";
     }
   }
@@ -153,8 +166,10 @@ class TrackerInput final : public TrackingInput {
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config) {
   if (config.tracking.source == TrackingSource::none)
     return make_fixed_head_input("tracking.source = \"none\"");
-  auto rig = tracking::read_calibration(config.resolve(config.tracking.calibration));
-  auto tc = tracking::read_tracking_config(config.resolve(config.tracking.tracking));
+  auto rig = at_key(config, "tracking.calibration",
+                    [&] { return tracking::read_calibration(config.resolve(config.tracking.calibration)); });
+  auto tc = at_key(config, "tracking.tracking",
+                   [&] { return tracking::read_tracking_config(config.resolve(config.tracking.tracking)); });
   return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), nullptr);
 }
 

@@ -9,6 +9,7 @@
 #include "kumite/app/frame_log.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/orders.hpp"
+#include "kumite/app/tracking_input.hpp"
 #include "kumite/common/error.hpp"
 
 using namespace kumite::app;
@@ -394,5 +395,27 @@ TEST(InstallationLatch, TakesThePoseAtOnceWhenOffOrTheTimingIsUnknown) {
   for (const auto& r : {latch_once({.late_latch = false, .out_after = {0.006}}),
                         latch_once({.known = false, .out_after = {0.006}})}) {
     EXPECT_EQ(r.looks, 1);  // looked once, did not wait
+  }
+}
+
+TEST(TrackingInput, AMissingTrackerFileIsNamedAtItsConfigKey) {
+  // The demo's file, so every key has its line; each file in turn points nowhere.
+  const auto demo = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  for (const char* key : {"tracking.calibration", "tracking.tracking", "tracking.recording"}) {
+    auto cfg = demo;
+    if (std::string(key) == "tracking.calibration") cfg.tracking.calibration = "/nonexistent/calibration.yaml";
+    if (std::string(key) == "tracking.tracking") cfg.tracking.tracking = "/nonexistent/tracking.toml";
+    if (std::string(key) == "tracking.recording") cfg.tracking.recording = "/nonexistent/recording";
+    try {
+      (void)make_tracking_input(cfg);
+      ADD_FAILURE() << key << ": no error";
+    } catch (const kumite::Error& e) {
+      const std::string msg = e.what();
+      EXPECT_GT(demo.line_of(key), 0) << key;
+      const std::string at = fmt::format("demo.toml:{}: {}: ", demo.line_of(key), key);
+      EXPECT_NE(msg.find(at), std::string::npos) << msg;
+      EXPECT_NE(msg.find("/nonexistent/"), std::string::npos) << msg;
+      EXPECT_EQ(msg.find('\n'), std::string::npos) << "one line: " << msg;
+    }
   }
 }
