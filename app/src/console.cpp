@@ -155,21 +155,22 @@ void Console::frame(Installation& inst, const FrameData& f) {
   ImGui::Text("head  [%.2f, %.2f, %.2f] m   markers %d", f.head.position.x, f.head.position.y,
               f.head.position.z, c.markers_seen);
   if (c.pose_age_ms >= 0 && c.tracking_latency_ms >= 0) {
-    ImGui::Text("latency (pose age at render) %.1f ms: tracking %.1f + waiting for the display %.1f", c.pose_age_ms,
-                c.tracking_latency_ms, c.pose_age_ms - c.tracking_latency_ms);
+    ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
+    ImGui::TextWrapped("  = tracking %.1f + waiting for the display %.1f ms", c.tracking_latency_ms,
+                       c.pose_age_ms - c.tracking_latency_ms);
   } else if (c.pose_age_ms >= 0) {
     ImGui::Text("latency (pose age at render) %.1f ms", c.pose_age_ms);
   } else {
     ImGui::Text("latency: no pose");
   }
   if (!c.late_latch)
-    ImGui::Text("late latch off: pose taken at the frame's start");
+    ImGui::TextWrapped("late latch off: pose taken at the frame's start");
   else if (c.draw_budget_ms < 0)
-    ImGui::Text("late latch: measuring the drawing time");
+    ImGui::TextWrapped("late latch: measuring the drawing time");
   else if (c.draw_budget_ms >= 1e3 / inst.config().display_rate_hz)
-    ImGui::Text("late latch: no room (drawing budget %.0f ms)", c.draw_budget_ms);
+    ImGui::TextWrapped("late latch: no room (drawing budget %.0f ms)", c.draw_budget_ms);
   else
-    ImGui::Text("late latch: pose taken %.1f ms in (drawing budget %.1f ms)", c.latch_ms, c.draw_budget_ms);
+    ImGui::TextWrapped("late latch: pose taken %.1f ms in (drawing budget %.1f ms)", c.latch_ms, c.draw_budget_ms);
   for (const auto& cam : c.cameras) {
     const std::string last = cam.since_last_ms >= 0 ? fmt::format("last frame {:.0f} ms ago", cam.since_last_ms)
                                                     : std::string("never a frame");
@@ -184,7 +185,9 @@ void Console::frame(Installation& inst, const FrameData& f) {
   ImGui::Text("outcome    %s", c.last_outcome.empty() ? "-" : c.last_outcome.c_str());
   ImGui::Columns(1);
   ImGui::Separator();
-  for (const auto& p : c.problems) ImGui::TextColored(kRed, "! %s", p.c_str());
+  ImGui::PushStyleColor(ImGuiCol_Text, kRed);  // long lines wrap rather than run off
+  for (const auto& p : c.problems) ImGui::TextWrapped("! %s", p.c_str());
+  ImGui::PopStyleColor();
   // The top view beside the recent events, so both stay on screen.
   ImGui::Columns(2, "view_and_events", false);  // its own id: the columns above keep their widths
   ImGui::SetColumnWidth(0, 280);

@@ -215,12 +215,11 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     }
     const auto eff = effector_of(o.kind);
     if (state_ == FighterState::striking || pending_) {
-      emit(FighterEvent::Kind::order_ignored, now, o,
-           fmt::format("ignored {}: mid-strike", to_string(o.kind)));
+      emit(FighterEvent::Kind::order_ignored, now, o, "mid-strike");  // the event names the order
       continue;
     }
     if (paused_) {
-      emit(FighterEvent::Kind::order_ignored, now, o, fmt::format("ignored {}: paused", to_string(o.kind)));
+      emit(FighterEvent::Kind::order_ignored, now, o, "paused");
       continue;
     }
     // Freeze the target now: the visitor's head (punches) or below it (kicks: the torso).
@@ -236,7 +235,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
     pending_ = {r.id, {o, target}};
     emit(FighterEvent::Kind::order_accepted, now, o,
-         fmt::format("{} at ({:.2f}, {:.2f}, {:.2f}) m", to_string(o.kind), target.x(), target.y(), target.z()));
+         fmt::format("target at ({:.2f}, {:.2f}, {:.2f}) m", target.x(), target.y(), target.z()));
     submit_(r);
   }
 }
