@@ -1,11 +1,13 @@
 // Headless rendering: a synthetic stick figure (test data made here, not a fighter: joints
 // placed by hand) drawn on the front wall must show up in the character's colour where its
-// projection says, and nowhere else; the target sphere shows in red. The PNG writer thread
-// writes what it is given, and in real time drops rather than waits.
+// projection says, and nowhere else; the target sphere shows in red. Each stereo mode puts
+// each eye's image where it says (quad-buffer needs a stereo context: none here). The PNG
+// writer thread writes what it is given, and in real time drops rather than waits.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
 
+#include <array>
 #include <cstdlib>
 #include <filesystem>
 #include <string>
@@ -15,6 +17,7 @@
 #include "kumite/app/headless.hpp"
 #include "kumite/app/renderer.hpp"
 #include "kumite/app/scene.hpp"
+#include "kumite/app/stereo.hpp"
 #include "kumite/content/fighter.hpp"
 
 // Mesa keeps some allocations for the life of the process; they are not ours.
@@ -207,4 +210,70 @@ TEST(Scene, EachOfSixCharactersHasItsOwnColour) {
       EXPECT_GT(std::max({d.r, d.g, d.b}), 0.25f) << i << " and " << j;
     }
   EXPECT_EQ(character_colour(6), character_colour(0));  // then it cycles
+}
+
+namespace {
+/// Pixels (RGBA, top row first) of `rgba` (row width `w`) in the block at column x0, row y0,
+/// `bw` x `bh`, compared with `ref` (bw x bh) on the channels in `mask`: how many differ.
+int differing(const std::vector<std::uint8_t>& rgba, int w, int x0, int y0, const std::vector<std::uint8_t>& ref,
+              int bw, int bh, std::array<bool, 3> mask) {
+  int n = 0;
+  for (int y = 0; y < bh; ++y)
+    for (int x = 0; x < bw; ++x) {
+      const std::uint8_t* a = &rgba[(static_cast<std::size_t>(y0 + y) * w + x0 + x) * 4];
+      const std::uint8_t* b = &ref[(static_cast<std::size_t>(y) * bw + x) * 4];
+      for (int c = 0; c < 3; ++c)
+        if (mask[static_cast<std::size_t>(c)] && std::abs(a[c] - b[c]) > 2) {
+          ++n;
+          break;
+        }
+    }
+  return n;
+}
+}  // namespace
+
+TEST(Stereo, EachModePutsEachEyeWhereItSays) {
+  HeadlessContext context;
+  const WallFrame front = wall_frame({-1.5, 0, -1.5}, {1.5, 0, -1.5}, {-1.5, 2.4, -1.5});
+  const WallFrame walls[] = {front};
+  Renderer renderer(walls);
+  std::vector<DrawItem> items;
+  plan_fighter(frame_of(stick_figure(0.3, -2.5)), character_colour(0), items);
+  // Eyes 0.4 m apart (exaggerated), the figure 1 m behind the wall: the two images differ.
+  const std::array<EyeView, 2> views = {off_axis(front, {-0.2, 1.67, 0.0}, 0.05, 100.0),
+                                        off_axis(front, {0.2, 1.67, 0.0}, 0.05, 100.0)};
+  const int w = 160, h = 128;
+  auto render = [&](StereoMode mode, int tw, int th) {
+    OffscreenTarget target(tw, th);
+    target.bind();
+    draw_wall_stereo(renderer, mode, {0, 0, tw, th}, views, items);
+    std::vector<std::uint8_t> rgba;
+    target.read(rgba);
+    return rgba;
+  };
+  // Each eye alone, at the size each mode gives it.
+  auto alone = [&](int e, int tw, int th) {
+    OffscreenTarget target(tw, th);
+    target.bind();
+    renderer.clear(0, 0, tw, th);
+    renderer.draw(views[static_cast<std::size_t>(e)], items);
+    std::vector<std::uint8_t> rgba;
+    target.read(rgba);
+    return rgba;
+  };
+  const auto left = alone(0, w, h), right = alone(1, w, h);
+  constexpr std::array<bool, 3> rgb{true, true, true};
+  ASSERT_GT(differing(left, w, 0, 0, right, w, h, rgb), 100) << "the eyes must see different images for this test";
+
+  EXPECT_EQ(differing(render(StereoMode::mono, w, h), w, 0, 0, left, w, h, rgb), 0);
+  const auto sbs = render(StereoMode::side_by_side, 2 * w, h);  // left eye on the left half
+  EXPECT_EQ(differing(sbs, 2 * w, 0, 0, left, w, h, rgb), 0);
+  EXPECT_EQ(differing(sbs, 2 * w, w, 0, right, w, h, rgb), 0);
+  const auto tb = render(StereoMode::top_bottom, w, 2 * h);  // left eye on top (rows come top first)
+  EXPECT_EQ(differing(tb, w, 0, 0, left, w, h, rgb), 0);
+  EXPECT_EQ(differing(tb, w, 0, h, right, w, h, rgb), 0);
+  const auto ana = render(StereoMode::anaglyph, w, h);  // red from the left eye, green and blue from the right
+  EXPECT_EQ(differing(ana, w, 0, 0, left, w, h, {true, false, false}), 0);
+  EXPECT_EQ(differing(ana, w, 0, 0, right, w, h, {false, true, true}), 0);
+  EXPECT_GT(differing(ana, w, 0, 0, left, w, h, rgb), 100) << "and not simply the left eye";
 }
