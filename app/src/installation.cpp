@@ -173,7 +173,8 @@ void Installation::order(const Order& o) { pending_.push_back(o); }
 
 Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
   const PoseTiming at_start = tracking_->pose_timing(start);
-  if (const auto w = pacer_.window(start, deadline, at_start)) {
+  last_window_ = pacer_.window(start, deadline, at_start);
+  if (const auto& w = last_window_) {
     // Until the pose looked for is out (poses may be skipped: any as new will do), or
     // drawing must begin.
     const std::uint64_t wanted = at_start.newest + static_cast<std::uint64_t>(w->poses);

@@ -287,10 +287,12 @@ int run(int argc, char** argv) {
     Samples& m = modes[mode];
     if (f.pose_age_ms >= 0) {
       m.ages.push_back(f.pose_age_ms);
-      // A latched frame that waited took its pose later than its tick anyway: only the core
-      // lost inside step() (before the pose is read) delays it.
-      const bool waited = mode == 1 && f.latch_ms > 0.05;
-      seen.push_back({mode, t, f.pose_age_ms, 1e3 * std::max(waited ? 0.0 : woke_late, step_lost)});
+      // A latched frame that waited is late by how far it woke past its window's end (its
+      // tick does not matter); either way, the core lost inside step() (before the pose is
+      // read) delays it.
+      const auto& w = inst.last_latch_window();
+      const double late = mode == 1 && w ? t - w->last : woke_late;
+      seen.push_back({mode, t, f.pose_age_ms, 1e3 * std::max(late, step_lost)});
     }
     if (f.pose_age_ms >= 0 && f.tracking_latency_ms >= 0) {
       m.latency.push_back(f.tracking_latency_ms);

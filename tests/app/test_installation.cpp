@@ -326,6 +326,7 @@ struct Latched {
   kumite::Timestamp start = 0, returned = 0, last = 0;
   int looks = 0;
   double latch_ms = 0;
+  std::optional<LatchWindow> window;  ///< the window it waited in
 };
 
 Latched latch_once(const Setup& setup) {
@@ -345,6 +346,7 @@ Latched latch_once(const Setup& setup) {
   r.last = r.start + kFrame - (kDraw * FramePacer::kDrawSafety + FramePacer::kDrawMargin_s);
   r.returned = inst.latch(r.start, r.start + kFrame);
   r.looks = tr->looks;
+  r.window = inst.last_latch_window();
   r.latch_ms = inst.step(r.returned).latch_ms;
   return r;
 }
@@ -387,6 +389,8 @@ TEST(InstallationLatch, NoLongerThanTheTrackingBudgetAfterTheAwaitedPoseIsDue) {
 TEST(InstallationLatch, NeverPastTheMomentDrawingMustStart) {
   const Latched r = latch_once({});  // the pose never comes (a camera gone)
   EXPECT_GE(r.returned, r.last);
+  ASSERT_TRUE(r.window);
+  EXPECT_NEAR(r.window->last, r.last, 1e-9);  // the window it reports is the one it waited in
   EXPECT_LT(r.returned, r.start + kFrame - 0.15);  // drawing still fits before the deadline
   EXPECT_GT(r.looks, 1);
 }
@@ -395,6 +399,7 @@ TEST(InstallationLatch, TakesThePoseAtOnceWhenOffOrTheTimingIsUnknown) {
   for (const auto& r : {latch_once({.late_latch = false, .out_after = {0.006}}),
                         latch_once({.known = false, .out_after = {0.006}})}) {
     EXPECT_EQ(r.looks, 1);  // looked once, did not wait
+    EXPECT_FALSE(r.window);
   }
 }
 

@@ -152,6 +152,9 @@ class Installation {
   /// fits before the deadline; returns at once when latching is off or the tracker's timing
   /// unknown. Returns the time to step() with (see frame_pacer.hpp).
   Timestamp latch(Timestamp start, Timestamp deadline);
+  /// The window the last latch() waited in (nullopt: it did not wait), for measuring how late
+  /// the waiting thread woke past its end.
+  const std::optional<LatchWindow>& last_latch_window() const { return last_window_; }
   /// The last frame's drawing time (s): from its step() to its picture handed to the display.
   void drawn(double seconds) { pacer_.drawn(seconds); }
   /// One frame that takes the head pose at `now` and is seen at `shown_at` (its vsync,
@@ -191,6 +194,7 @@ class Installation {
   ConsoleState console_;
   FramePacer pacer_;
   double latch_ms_ = 0;  ///< from the last latch(), for the next step()
+  std::optional<LatchWindow> last_window_;
   HeadPose last_good_head_;
   Timestamp start_ = 0, last_step_ = 0;
   bool started_ = false, quit_ = false, mono_ = false;
