@@ -507,8 +507,8 @@ std::string check_wall_geometry(const WallConfig& w) {
 void validate(const InstallationConfig& c) {
   if (!(c.display_rate_hz > 0 && c.display_rate_hz <= 1000))
     fail_at(c, "range", "display_rate_hz", "must be in (0, 1000] Hz");
-  if (!(c.display_latency_ms >= 0 && c.display_latency_ms <= 200))
-    fail_at(c, "range", "display_latency_ms", "must be in [0, 200] ms (the projectors' input lag)");
+  if (!(c.display_latency_ms >= 0 && c.display_latency_ms <= 100))
+    fail_at(c, "range", "display_latency_ms", "must be in [0, 100] ms (the projectors' input lag)");
   if (c.walls.empty()) fail_at(c, "missing_wall", "walls", "no [[walls]]: at least one wall is needed");
   std::set<std::string> names;
   for (std::size_t i = 0; i < c.windows.size(); ++i) {

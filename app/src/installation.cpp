@@ -222,6 +222,7 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
   // the head for rendering (the draw follows at once), tracked or not.
   const double age_s = snap.measured_at >= 0 ? tracking_->clock() - snap.measured_at : -1;
   frame_.pose_age_ms = age_s >= 0 ? age_s * 1e3 : -1;
+  frame_.pose_measured_at = snap.measured_at;
   // Split only while the head is tracked: a coasting pose's age also holds the sets that
   // missed it, which is neither tracking latency nor waiting for the display.
   const bool tracked_now = snap.head && snap.head->status == TrackingStatus::tracked;

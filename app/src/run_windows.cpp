@@ -84,6 +84,14 @@ Viewport wall_viewport(const WallConfig& wall, const WindowConfig& win, int fb_w
           static_cast<int>(v[3] * sy)};
 }
 
+/// A refused stereo mode, located where it was asked for: the config's stereo.mode line, or
+/// `kumite --stereo` (which drops that line).
+Error stereo_error(const InstallationConfig& cfg, const std::string& why) {
+  if (const int line = cfg.line_of("stereo.mode"); line > 0)
+    return file_error("app", "no_stereo", cfg.file.string(), line, "stereo.mode", why);
+  return Error("app", "no_stereo", fmt::format("--stereo {}: {}", to_string(cfg.stereo.mode), why));
+}
+
 /// s: a swap that returns this close before the next tick is taken to have waited for vsync.
 constexpr double kVsyncTolerance_s = 0.001;
 
@@ -129,9 +137,7 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
           "quad-buffer stereo: the display offers no stereo OpenGL context for window \"{}\" "
           "(Xvfb and most consumer GPUs have none)",
           s.config.name);
-      if (!cfg.stereo.allow_fallback)
-        throw file_error("app", "no_stereo", cfg.file.string(), cfg.line_of("stereo.mode"), "stereo.mode",
-                         why + "; set [stereo] allow_fallback = true or another mode");
+      if (!cfg.stereo.allow_fallback) throw stereo_error(cfg, why + "; set [stereo] allow_fallback = true or another mode");
       mode = cfg.stereo.fallback;
       spdlog::warn("{}: falling back to {} (stereo.allow_fallback)", why, to_string(mode));
       s.window = open_window(s.config, false, share);
@@ -145,8 +151,7 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
       GLboolean stereo = GL_FALSE;
       glGetBooleanv(GL_STEREO, &stereo);
       if (!stereo)
-        throw file_error("app", "no_stereo", cfg.file.string(), cfg.line_of("stereo.mode"), "stereo.mode",
-                         fmt::format("quad-buffer: the context of window \"{}\" has no stereo buffers", s.config.name));
+        throw stereo_error(cfg, fmt::format("quad-buffer: the context of window \"{}\" has no stereo buffers", s.config.name));
     }
     glfwSwapInterval(i == 0 ? 1 : 0);
     glfwSetWindowUserPointer(s.window, &keys);

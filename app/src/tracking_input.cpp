@@ -26,7 +26,7 @@ auto at_key(const InstallationConfig& c, const char* key, F&& open) {
   try {
     return open();
   } catch (const Error& e) {
-    throw file_error("config", "tracking", c.file.string(), c.line_of(key), key, e.what());
+    throw file_error(e.component(), e.code(), c.file.string(), c.line_of(key), key, e.what());
   }
 }
 
@@ -76,7 +76,13 @@ class TrackerInput final : public TrackingInput {
         last_measured_ = latest->timestamp;
         last_ready_ = latest->ready_at;
       }
+      // Tracked, coasting or lost as of now: the time to the display (vsync, projector lag)
+      // must not age a fresh pose into "lost". Extrapolated to the display time, unless that
+      // lies past the tracker's coasting time: then the pose as of now.
+      const BodyPose at_now = tracker_.predict(head_, now_s);
       s.head = tracker_.predict(head_, display_time);
+      if (s.head->status == TrackingStatus::lost) s.head = at_now;
+      s.head->status = at_now.status;
       s.measured_at = last_measured_;
       s.measured_ready_at = last_ready_;
       s.status = std::string(to_string(s.head->status));

@@ -61,6 +61,7 @@ int run(const Args& a) {
     const auto m = kumite::app::stereo_mode_from_string(a.stereo);
     if (!m) throw kumite::Error("cli", "stereo", "--stereo: unknown stereo mode \"" + a.stereo + "\"");
     config.stereo.mode = *m;
+    config.lines.erase("stereo.mode");  // errors about the mode then name --stereo, not the file's line
   }
   kumite::app::InstallationOptions io;
   if (!a.orders.empty()) io.orders_script = a.orders;

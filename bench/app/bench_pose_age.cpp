@@ -22,6 +22,8 @@
 // the display loop itself woke late. What no measured delay explains is counted apart: that
 // part is ours to fix. "tracking_latency_less_machine_ms" is the tracking latency with the
 // machine's delays taken out: the latency of our code on a machine that never took a core away.
+// Both hold for a recording played from memory: streamed from disk (preload 0), waiting for
+// the decoders counts as the machine's too.
 //   build/bin/kumite_app_pose_age [config/demo.toml] [frame sets to preload = 60] [seconds = 6]
 //                                 [decode threads = 1] [check: ms of CPU added per 30th set = 0]
 #include <algorithm>
@@ -154,6 +156,7 @@ class WatchedSource : public tracking::FrameSource {
 struct FrameSeen {
   int mode = 0;
   Timestamp sampled = 0;   ///< the time the frame took the pose (step's argument)
+  Timestamp used = 0;      ///< camera time of the measurement it used
   double age_ms = -1;
   double loop_late_ms = 0; ///< the display loop's wake-up past its tick, and step's lost core
 };
@@ -182,7 +185,7 @@ std::array<OverTarget, 2> attribute(const std::vector<FrameSeen>& frames, const 
     if (f.age_ms <= target_ms) continue;
     OverTarget& o = out[static_cast<std::size_t>(f.mode)];
     ++o.frames;
-    const Timestamp used = f.sampled - f.age_ms * 1e-3;
+    const Timestamp used = f.used;
     const Timestamp by = f.sampled - kStall_ms * 1e-3;
     auto it = std::upper_bound(sets.begin(), sets.end(), used + 0.5e-3,
                                [](Timestamp t, const SetSeen& s) { return t < s.due; });
@@ -292,7 +295,7 @@ int run(int argc, char** argv) {
       // read) delays it.
       const auto& w = inst.last_latch_window();
       const double late = mode == 1 && w ? t - w->last : woke_late;
-      seen.push_back({mode, t, f.pose_age_ms, 1e3 * std::max(late, step_lost)});
+      seen.push_back({mode, t, f.pose_measured_at, f.pose_age_ms, 1e3 * std::max(late, step_lost)});
     }
     if (f.pose_age_ms >= 0 && f.tracking_latency_ms >= 0) {
       m.latency.push_back(f.tracking_latency_ms);

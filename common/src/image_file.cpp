@@ -12,31 +12,38 @@ namespace {
 constexpr std::array<unsigned char, 8> kPngSignature = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
 /// The IEND chunk, as every whole PNG ends: length 0, type "IEND", its CRC.
 constexpr std::array<unsigned char, 12> kPngEnd = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xae, 0x42, 0x60, 0x82};
+/// bytes: how far from the end the IEND chunk is looked for.
+constexpr std::size_t kPngTail = 4096;
 
 template <std::size_t N>
 bool starts_with(const std::vector<unsigned char>& b, const std::array<unsigned char, N>& a) {
   return b.size() >= N && std::equal(a.begin(), a.end(), b.begin());
 }
-template <std::size_t N>
-bool ends_with(const std::vector<unsigned char>& b, const std::array<unsigned char, N>& a) {
-  return b.size() >= N && std::equal(a.begin(), a.end(), b.end() - static_cast<std::ptrdiff_t>(N));
-}
 }  // namespace
 
 std::vector<unsigned char> read_file_bytes(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary | std::ios::ate);
-  if (!in) throw Error("io", "open", path.string() + ": cannot open");
-  const std::streamoff size = in.tellg();
-  std::vector<unsigned char> bytes(static_cast<std::size_t>(std::max<std::streamoff>(0, size)));
-  in.seekg(0);
-  if (size < 0 || !in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size())))
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw Error("io", "open", path.string() + (std::filesystem::exists(path, ec) ? ": not a file" : ": cannot open"));
+  const auto size = std::filesystem::file_size(path, ec);
+  std::ifstream in(path, std::ios::binary);
+  if (ec || !in) throw Error("io", "open", path.string() + ": cannot open");
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(size));
+  if (!in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(bytes.size())))
     throw Error("io", "read", path.string() + ": cannot read");
   return bytes;
 }
 
 std::string incomplete_image(const std::vector<unsigned char>& bytes) {
   if (bytes.empty()) return "empty file";
-  if (starts_with(bytes, kPngSignature)) return ends_with(bytes, kPngEnd) ? "" : "PNG cut short (no IEND chunk at its end)";
+  if (starts_with(bytes, kPngSignature)) {
+    // IEND ends a whole PNG; some writers append bytes after it (libpng ignores them).
+    const std::size_t tail = std::min<std::size_t>(bytes.size(), kPngTail);
+    const auto from = bytes.end() - static_cast<std::ptrdiff_t>(tail);
+    return std::search(from, bytes.end(), kPngEnd.begin(), kPngEnd.end()) != bytes.end()
+               ? ""
+               : "PNG cut short (no IEND chunk at its end)";
+  }
   return "";
 }
 

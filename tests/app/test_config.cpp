@@ -271,7 +271,7 @@ TEST(Config, DisplayLatencyIsZeroUnlessMeasured) {
   EXPECT_EQ(lag.display_latency_ms, 35.5);
   EXPECT_EQ(parse_installation_config(to_toml(lag), "again.toml"), lag);
   const auto msg = error_of("display_latency_ms = -3\n" + std::string(kBase));
-  EXPECT_NE(msg.find("bad.toml:1: display_latency_ms: must be in [0, 200] ms"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("bad.toml:1: display_latency_ms: must be in [0, 100] ms"), std::string::npos) << msg;
 }
 
 TEST(Config, LateLatchIsOnUnlessTurnedOff) {

@@ -3,13 +3,18 @@
 // that do not exist, late latching. A scripted TrackingInput (a test double) stands in for the tracker.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <fstream>
+#include <thread>
 #include <vector>
 
 #include "kumite/app/frame_log.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/orders.hpp"
 #include "kumite/app/tracking_input.hpp"
+#include "kumite/common/time.hpp"
+#include "kumite/tracking/synth.hpp"
+#include "kumite/tracking/tracker.hpp"
 #include "kumite/common/error.hpp"
 
 using namespace kumite::app;
@@ -422,5 +427,53 @@ TEST(TrackingInput, AMissingTrackerFileIsNamedAtItsConfigKey) {
       EXPECT_NE(msg.find("/nonexistent/"), std::string::npos) << msg;
       EXPECT_EQ(msg.find('\n'), std::string::npos) << "one line: " << msg;
     }
+  }
+}
+
+namespace {
+/// SYNTHETIC frame sets of a visitor standing still, rendered for the shipped rig and handed
+/// over at 60 Hz on now()'s clock, as cameras would.
+class StandingVisitor final : public kumite::tracking::FrameSource {
+ public:
+  StandingVisitor(const kumite::tracking::RigCalibration& rig, const kumite::tracking::TrackingConfig& tc)
+      : renderer_(rig, tc.bodies.at(0), {}) {}
+  bool next(kumite::tracking::FrameSet& out, double) override {
+    if (n_ == 0) start_ = kumite::now();
+    const kumite::Timestamp due = start_ + static_cast<double>(n_) / 60.0;
+    kumite::sleep_until(due);
+    out = renderer_.render(n_, kumite::tracking::static_visitor(static_cast<double>(n_) / 60.0));
+    out.timestamp = due;
+    out.camera_times.assign(out.images.size(), due);
+    ++n_;
+    return true;
+  }
+  bool end_of_stream() const override { return false; }
+
+ private:
+  kumite::tracking::SyntheticRenderer renderer_;
+  std::uint64_t n_ = 0;
+  kumite::Timestamp start_ = 0;
+};
+}  // namespace
+
+TEST(TrackingInput, AProjectorLagDoesNotMakeAFreshPoseLost) {
+  const auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  const auto rig = kumite::tracking::read_calibration(cfg.resolve(cfg.tracking.calibration));
+  const auto tc = kumite::tracking::read_tracking_config(cfg.resolve(cfg.tracking.tracking));
+  auto input = make_tracking_input(cfg, std::make_unique<StandingVisitor>(rig, tc));
+  TrackingSnapshot s;
+  const kumite::Timestamp give_up = kumite::now() + 20;
+  do {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    s = input->poll(kumite::now(), kumite::now());
+  } while ((!s.head || s.head->status != kumite::TrackingStatus::tracked) && kumite::now() < give_up);
+  ASSERT_TRUE(s.head && s.head->status == kumite::TrackingStatus::tracked) << s.status;
+  // Seen 80 ms and 0.5 s from now (a slow projector; past the tracker's 0.1 s coasting time):
+  // still tracked, where the visitor stands.
+  for (const double ahead : {0.08, 0.5}) {
+    const auto later = input->poll(kumite::now(), kumite::now() + ahead);
+    ASSERT_TRUE(later.head);
+    EXPECT_EQ(later.head->status, kumite::TrackingStatus::tracked) << ahead;
+    EXPECT_NEAR(later.head->position[1], 1.65, 0.02) << ahead;
   }
 }

@@ -191,13 +191,17 @@ TEST(PngWriter, InRealTimeAFullQueueDropsInsteadOfWaiting) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   PngWriter pngs(1, false);
-  // 1080p images take the writer about 0.1 s each; three pushed at once cannot all fit.
+  // 1080p images take the writer about 0.1 s each: of ten pushed back to back (made first,
+  // so pushing is only moving them), room for one waiting and one being written.
+  std::vector<std::vector<std::uint8_t>> images;
+  for (int i = 0; i < 10; ++i) images.push_back(frame_rgba(1920, 1080, 40));
   int accepted = 0;
-  for (int i = 0; i < 3; ++i) accepted += pngs.push(dir / (std::to_string(i) + ".png"), 1920, 1080, frame_rgba(1920, 1080, 40));
-  EXPECT_LT(accepted, 3);
+  for (int i = 0; i < 10; ++i)
+    accepted += pngs.push(dir / (std::to_string(i) + ".png"), 1920, 1080, std::move(images[static_cast<std::size_t>(i)]));
+  EXPECT_LT(accepted, 10);
   pngs.flush();
   EXPECT_EQ(pngs.written(), static_cast<std::uint64_t>(accepted));
-  EXPECT_EQ(pngs.dropped(), static_cast<std::uint64_t>(3 - accepted));
+  EXPECT_EQ(pngs.dropped(), static_cast<std::uint64_t>(10 - accepted));
   std::filesystem::remove_all(dir);
 }
 

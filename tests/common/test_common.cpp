@@ -82,6 +82,9 @@ TEST(ImageFile, AWholePngPassesACutOneIsNamed) {
   EXPECT_EQ(incomplete_image(cut), "PNG cut short (no IEND chunk at its end)");
   EXPECT_EQ(incomplete_image({}), "empty file");
   EXPECT_EQ(incomplete_image({'n', 'o', 't'}), "");  // not a PNG: the decoder decides
+  std::vector<unsigned char> padded = png;
+  padded.insert(padded.end(), 100, 0);  // bytes after IEND, as some writers leave
+  EXPECT_EQ(incomplete_image(padded), "");
 
   const fs::path d = fresh_dir("image");
   write_file_atomically(d / "a.png", std::string_view(reinterpret_cast<const char*>(png.data()), png.size()));
@@ -91,6 +94,12 @@ TEST(ImageFile, AWholePngPassesACutOneIsNamed) {
     FAIL() << "expected an error";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("missing.png: cannot open"), std::string::npos) << e.what();
+  }
+  try {
+    (void)read_file_bytes(d);  // a folder where an image was expected
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(": not a file"), std::string::npos) << e.what();
   }
 }
 

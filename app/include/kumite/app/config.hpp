@@ -137,7 +137,7 @@ struct InstallationConfig {
   /// pose is out, instead of at the frame's start (lower pose age; see frame_pacer.hpp).
   bool late_latch = true;
   /// ms from a frame's vsync to its light on the wall (the projectors' input lag, measured
-  /// per installation): the head pose is predicted that far past the vsync.
+  /// per installation; 0..100): the head pose is predicted that far past the vsync.
   double display_latency_ms = 0.0;
   std::vector<WindowConfig> windows;
   std::vector<WallConfig> walls;

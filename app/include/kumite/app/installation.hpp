@@ -112,6 +112,7 @@ struct FrameData {
   std::vector<DrawItem> items;///< the fighter and its target
   std::vector<FrameEvent> events;
   double pose_age_ms = -1;    ///< ms, -1 when no pose
+  Timestamp pose_measured_at = -1;  ///< s, camera time of the measurement pose_age_ms counts from
   double tracking_latency_ms = -1;  ///< ms, the tracking part of pose_age_ms (-1: unknown, not tracked)
   double latch_ms = 0;        ///< ms, the pose taken this long after the frame's start (late latching)
   /// ms, how far past the moment it was taken the head is predicted: to the frame's vsync

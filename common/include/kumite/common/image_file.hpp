@@ -5,7 +5,7 @@
 // file ends early ("libpng error: Read Error"), before OpenCV returns an empty image and the
 // caller's one clear line names the file. A PNG cut short (a copy or a write that did not
 // finish, the usual damage) is therefore found here first, from its bytes: a whole PNG ends
-// with its IEND chunk. Damage inside a whole file, and other formats (libjpeg only warns
+// with its IEND chunk (found in its last 4 kB: some writers append bytes after it). Damage inside a whole file, and other formats (libjpeg only warns
 // and returns the image with its missing part grey), are left to the decoder.
 #include <filesystem>
 #include <string>
@@ -13,11 +13,12 @@
 
 namespace kumite {
 
-/// The file's bytes. Throws kumite::Error("io", ...) naming the path when it cannot be read.
+/// The file's bytes. Throws kumite::Error("io", ...) naming the path when it is missing, not
+/// a regular file (a folder) or cannot be read.
 std::vector<unsigned char> read_file_bytes(const std::filesystem::path& path);
 
 /// Why `bytes` cannot be a whole image file, as a few words for a message: an empty file, a
-/// PNG without its IEND chunk at the end. "" otherwise (the decoder decides).
+/// PNG without its IEND chunk in its last 4 kB. "" otherwise (the decoder decides).
 std::string incomplete_image(const std::vector<unsigned char>& bytes);
 
 }  // namespace kumite
