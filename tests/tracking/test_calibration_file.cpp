@@ -102,6 +102,11 @@ TEST(CalibrationFile, BadFieldsAreNamed) {
   write_text(p, "this is : : not yaml [\n");
   EXPECT_NE(error_of(p).find(p.string()), std::string::npos);
 
+  // Found by fuzzing: OpenCV 4.6's parser loops forever on this; refused before it.
+  write_text(p, "%YAML:1.0\n---L:0\n--\n-");
+  EXPECT_NE(error_of(p).find(p.string() + ":2: a document marker (---) stands alone on its line"), std::string::npos)
+      << error_of(p);
+
   // Not a rotation.
   RigCalibration rig = two_cameras();
   rig.cameras[1].rotation(0, 0) = 2.0;

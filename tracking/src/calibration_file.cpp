@@ -111,6 +111,11 @@ void check_yaml_text(const fs::path& path) {
     }
     if (line.rfind("---", 0) == 0 || line.rfind("...", 0) == 0) {
       if (!indents.empty()) throw file_error("calibration", "parse", path.string(), n, "", "one YAML document per file");
+      // OpenCV 4.6's parser can loop forever on content after a marker ("---L:0" found by
+      // fuzzing); our files write the marker alone.
+      if (line.find_first_not_of(" \r", 3) != std::string::npos)
+        throw file_error("calibration", "parse", path.string(), n, "",
+                         fmt::format("a document marker ({}) stands alone on its line", line.substr(0, 3)));
       continue;
     }
     if (indent == std::string::npos || line[indent] == '#' || line[indent] == '%') continue;
