@@ -146,6 +146,7 @@ Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingIn
     spdlog::error("{}", fighter_problem_);
   }
   frame_.views.resize(walls_.size());
+  kept_walls_.assign(walls_.size(), 0);
 }
 
 Installation::~Installation() = default;
@@ -350,13 +351,11 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   frame_.now = now;
   frame_.time_s = now - start_;
   update_head(now, shown_at);
-  if (plan_views(walls_, frame_.eyes, config_.projection.near_m, config_.projection.far_m, frame_.views) > 0) {
-    // Rare: name the walls (the eye went through them, or they face away from it).
-    std::vector<std::string> past;
+  if (plan_views(walls_, frame_.eyes, config_.projection.near_m, config_.projection.far_m, frame_.views,
+                 kept_walls_) > 0) {
+    std::vector<std::string> past;  // rare: the eye went through these walls
     for (std::size_t w = 0; w < walls_.size(); ++w)
-      if (!off_axis(walls_[w], frame_.eyes.left, config_.projection.near_m, config_.projection.far_m).valid ||
-          !off_axis(walls_[w], frame_.eyes.right, config_.projection.near_m, config_.projection.far_m).valid)
-        past.push_back(config_.walls[w].name);
+      if (kept_walls_[w]) past.push_back(config_.walls[w].name);
     console_.problems.push_back(fmt::format("an eye is on or behind the plane of wall(s) {}: drawn from their last good view",
                                             fmt::join(past, ", ")));
   }

@@ -11,15 +11,21 @@
 namespace kumite::app {
 
 int plan_views(std::span<const WallFrame> walls, const Eyes& eyes, double near_m, double far_m,
-               WallViews& views) {
+               WallViews& views, std::span<std::uint8_t> kept_walls) {
   views.resize(walls.size());
+  const bool mark = kept_walls.size() == walls.size();
   int kept = 0;
   for (std::size_t w = 0; w < walls.size(); ++w) {
     const glm::dvec3 e[2] = {eyes.left, eyes.right};
+    if (mark) kept_walls[w] = 0;
     for (int i = 0; i < 2; ++i) {
       const EyeView v = off_axis(walls[w], e[i], near_m, far_m);
-      if (v.valid) views[w][static_cast<std::size_t>(i)] = v;
-      else ++kept;
+      if (v.valid) {
+        views[w][static_cast<std::size_t>(i)] = v;
+      } else {
+        ++kept;
+        if (mark) kept_walls[w] = 1;
+      }
     }
   }
   return kept;

@@ -2,6 +2,7 @@
 // The installation's frame, CPU side: tracking in, orders in, the fighter advanced, eyes and
 // per-wall views computed, the console's state updated. Rendering (headless or windows)
 // happens elsewhere from FrameData. Nothing here waits on a camera, a file or retrieval.
+#include <cstdint>
 #include <deque>
 #include <memory>
 #include <optional>
@@ -182,6 +183,7 @@ class Installation {
 
   InstallationConfig config_;
   std::vector<WallFrame> walls_;
+  std::vector<std::uint8_t> kept_walls_;  ///< per wall, from plan_views: an eye view kept
   std::unique_ptr<TrackingInput> tracking_;
   std::unique_ptr<content::Fighter> fighter_;
   std::string fighter_problem_;

@@ -5,6 +5,7 @@
 // these lists, so the per-frame CPU cost is measurable on its own (bench/app).
 #include <array>
 #include <optional>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -34,9 +35,10 @@ using WallViews = std::vector<std::array<EyeView, 2>>;
 
 /// Fills `views` (resized to walls.size()) for `eyes`. A view that comes out invalid (an eye
 /// on or behind a wall's plane) keeps its previous value: walls keep drawing from the last
-/// good eye positions. Returns how many views were kept that way.
+/// good eye positions. Returns how many views were kept that way; `kept_walls`, when it has
+/// one entry per wall, gets 1 for each wall with a view kept, 0 for the others.
 int plan_views(std::span<const WallFrame> walls, const Eyes& eyes, double near_m, double far_m,
-               WallViews& views);
+               WallViews& views, std::span<std::uint8_t> kept_walls = {});
 
 /// The colour of character `index` (0-based), cycling through a palette of six saturated
 /// colours that stand out on the dark room (the demo's five characters each have their own).
