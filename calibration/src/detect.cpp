@@ -5,7 +5,6 @@
 
 #include <fmt/format.h>
 #include <opencv2/calib3d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <spdlog/spdlog.h>
 
@@ -17,7 +16,7 @@ extern "C" {
 
 #include "kumite/calibration/tag_quads.hpp"
 #include "kumite/common/error.hpp"
-#include "kumite/common/image_file.hpp"
+#include "kumite/tracking/recording.hpp"
 
 namespace kumite::calibration {
 
@@ -224,25 +223,11 @@ BoardDetection BoardDetector::detect(const cv::Mat& image) {
 }
 
 cv::Mat read_image_grey(const std::filesystem::path& path) {
-  cv::Mat img;
-  std::string why = "missing, truncated or not an image";
-  try {
-    const std::vector<unsigned char> bytes = read_file_bytes(path);
-    if (const std::string cut = incomplete_image(bytes); !cut.empty()) {
-      why = cut;
-    } else {
-      img = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<unsigned char*>(bytes.data())),
-                         cv::IMREAD_GRAYSCALE);
-    }
-  } catch (const Error&) {
-    why = "missing or unreadable";
-  } catch (const cv::Exception&) {
-    img.release();
-  }
-  if (img.empty()) {
+  std::string why;
+  cv::Mat img = tracking::read_grey_image(path, why);
+  if (img.empty())
     throw file_error("calibration", "image", path.string(), 0, "",
                      fmt::format("cannot read this image ({}): re-export or re-capture it", why));
-  }
   return img;
 }
 

@@ -203,9 +203,7 @@ Recording::Recording(const fs::path& dir, const RigCalibration& rig) : dir_(dir)
   }
 }
 
-namespace {
-/// The image in `file` as 8-bit grey, or an empty Mat and `why` (a few words).
-cv::Mat decode_grey(const fs::path& file, std::string& why) {
+cv::Mat read_grey_image(const fs::path& file, std::string& why) {
   try {
     const std::vector<unsigned char> bytes = read_file_bytes(file);
     why = incomplete_image(bytes);
@@ -221,7 +219,6 @@ cv::Mat decode_grey(const fs::path& file, std::string& why) {
   }
   return {};
 }
-}  // namespace
 
 FrameSet Recording::load(std::size_t i, std::vector<std::string>* skipped) const {
   const FrameRow& row = index_.rows.at(i);
@@ -236,7 +233,7 @@ FrameSet Recording::load(std::size_t i, std::vector<std::string>* skipped) const
     std::error_code ec;
     if (!fs::exists(file, ec)) continue;  // that camera delivered no image for this frame set
     std::string why;
-    cv::Mat img = decode_grey(file, why);
+    cv::Mat img = read_grey_image(file, why);
     if (img.empty()) {
       if (skipped) skipped->push_back(fmt::format("{}: {}: skipped", file.string(), why));
       continue;

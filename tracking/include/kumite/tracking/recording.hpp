@@ -102,4 +102,9 @@ void write_truth_csv(const std::filesystem::path& path, const std::vector<TruthR
 /// "000042.png"
 std::string frame_file_name(std::uint64_t frame);
 
+/// The image in `file` as 8-bit grey, or an empty Mat and `why` (a few words for a message:
+/// "cannot read the file", "cannot decode the image", "PNG cut short ..."). A PNG cut short is
+/// found before decoding, so libpng prints nothing of its own. Never throws.
+cv::Mat read_grey_image(const std::filesystem::path& file, std::string& why);
+
 }  // namespace kumite::tracking
