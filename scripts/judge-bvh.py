@@ -1,0 +1,207 @@
+#!/usr/bin/env python3
+"""Judge a BVH as a viewer would, by a path independent of Kumite's C++ code.
+
+Pure Python (no numpy): its own BVH parser and forward kinematics, then on the drawn joints:
+  - snaps: a joint faster than 20 m/s, or a one-frame step > 5 cm and > 3x both neighbouring steps
+  - flat feet: ankle and toe both within 1.5 cm of their own lowest level in the file
+  - support-foot slide: horizontal speed over ~33 ms while the foot stands flat (max per file)
+  - peak foot speed (any phase) and p99 joint speed
+Foot joints are found by name (CMU: lfoot/ltoes, MotionBuilder: LeftFoot/LeftToeBase, ...).
+
+  scripts/judge-bvh.py a.bvh [b.bvh ...] [--frames A:B] [--json]
+Prints one JSON line per file with --json, else a short table.
+"""
+import json
+import math
+import sys
+
+
+def parse_bvh(path):
+    with open(path) as f:
+        tokens = f.read().split()
+    i = 0
+    names, parents, offsets, channels = [], [], [], []
+    stack = []
+    end_site = False
+    while tokens[i] != "MOTION":
+        t = tokens[i]
+        if t in ("ROOT", "JOINT"):
+            names.append(tokens[i + 1])
+            parents.append(stack[-1] if stack else -1)
+            offsets.append((0.0, 0.0, 0.0))
+            channels.append([])
+            i += 2
+        elif t == "End":
+            end_site = True
+            i += 2
+        elif t == "{":
+            stack.append(-2 if end_site else len(names) - 1)
+            i += 1
+        elif t == "}":
+            stack.pop()
+            end_site = False
+            i += 1
+        elif t == "OFFSET":
+            if not end_site:
+                offsets[-1] = tuple(float(x) for x in tokens[i + 1:i + 4])
+            i += 4
+        elif t == "CHANNELS":
+            n = int(tokens[i + 1])
+            channels[-1] = tokens[i + 2:i + 2 + n]
+            i += 2 + n
+        else:
+            i += 1
+    # Skip -2 (end site) parents: end sites have no joints here.
+    i += 1
+    assert tokens[i] == "Frames:"
+    nframes = int(tokens[i + 1])
+    assert tokens[i + 2] == "Frame" and tokens[i + 3] == "Time:"
+    dt = float(tokens[i + 4])
+    i += 5
+    nch = sum(len(c) for c in channels)
+    frames = []
+    for _ in range(nframes):
+        frames.append([float(x) for x in tokens[i:i + nch]])
+        i += nch
+    return names, parents, offsets, channels, dt, frames
+
+
+def rot(axis, deg):
+    a = math.radians(deg)
+    c, s = math.cos(a), math.sin(a)
+    if axis == "X":
+        return ((1, 0, 0), (0, c, -s), (0, s, c))
+    if axis == "Y":
+        return ((c, 0, s), (0, 1, 0), (-s, 0, c))
+    return ((c, -s, 0), (s, c, 0), (0, 0, 1))
+
+
+def mul(a, b):
+    return tuple(tuple(sum(a[r][k] * b[k][c] for k in range(3)) for c in range(3)) for r in range(3))
+
+
+def apply(m, v):
+    return tuple(sum(m[r][k] * v[k] for k in range(3)) for r in range(3))
+
+
+def fk(names, parents, offsets, channels, frame):
+    pos, rotm = [], []
+    k = 0
+    for j in range(len(names)):
+        local_t = list(offsets[j])
+        r = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
+        for ch in channels[j]:
+            v = frame[k]
+            k += 1
+            if ch.endswith("position"):
+                local_t["XYZ".index(ch[0])] = v
+            else:
+                r = mul(r, rot(ch[0], v))
+        p = parents[j]
+        if p < 0:
+            pos.append(tuple(local_t))
+            rotm.append(r)
+        else:
+            o = apply(rotm[p], offsets[j])
+            pos.append(tuple(pos[p][a] + o[a] for a in range(3)))
+            rotm.append(mul(rotm[p], r))
+    return pos
+
+
+FOOT_NAMES = {
+    "left": (("lfoot", "LeftFoot", "LeftAnkle", "l_ankle"), ("ltoes", "LeftToeBase", "LeftToes", "LeftToe", "l_toe")),
+    "right": (("rfoot", "RightFoot", "RightAnkle", "r_ankle"), ("rtoes", "RightToeBase", "RightToes", "RightToe", "r_toe")),
+}
+
+
+def find(names, options):
+    for o in options:
+        if o in names:
+            return names.index(o)
+    return -1
+
+
+def guess_unit(pos0, names):
+    ys = [p[1] for p in pos0]
+    h = max(ys) - min(ys)
+    return 0.01 if h > 10 else 1.0  # centimetres for human-sized files above 10 units
+
+
+def dist(a, b):
+    return math.sqrt(sum((a[i] - b[i]) ** 2 for i in range(3)))
+
+
+def pct(v, p):
+    if not v:
+        return 0.0
+    s = sorted(v)
+    return s[min(len(s) - 1, int(p / 100 * (len(s) - 1)))]
+
+
+def judge(path, first=0, last=None):
+    names, parents, offsets, channels, dt, frames = parse_bvh(path)
+    frames = frames[first:last]
+    P = [fk(names, parents, offsets, channels, f) for f in frames]
+    unit = guess_unit(P[0], names)
+    P = [[tuple(c * unit for c in p) for p in fr] for fr in P]
+    n, J = len(P), len(names)
+    snaps = []
+    speeds = []
+    fastest = (0.0, "", 0)
+    for j in range(J):
+        steps = [dist(P[i + 1][j], P[i][j]) for i in range(n - 1)]
+        for i, s in enumerate(steps):
+            v = s / dt
+            speeds.append(v)
+            if v > fastest[0]:
+                fastest = (v, names[j], i + 1)
+            prev = steps[i - 1] if i > 0 else None
+            nxt = steps[i + 1] if i + 1 < len(steps) else None
+            jump = s > 0.05 and (prev is None or s > 3 * prev) and (nxt is None or s > 3 * nxt) and (prev is not None or nxt is not None)
+            if v > 20 or jump:
+                snaps.append((i + 1, names[j], round(s * 100, 1)))
+    out = {"file": path, "frames": n, "dt": dt, "p99_joint_speed_mps": round(pct(speeds, 99), 3),
+           "max_joint_speed_mps": round(fastest[0], 2), "fastest": f"{fastest[1]}@f{fastest[2]}",
+           "snaps": len(snaps), "snap_list": snaps[:8]}
+    w = max(1, round(0.033 / dt))
+    for side, (ank_names, toe_names) in FOOT_NAMES.items():
+        a, t = find(names, ank_names), find(names, toe_names)
+        if a < 0 or t < 0:
+            continue
+        amin = min(fr[a][1] for fr in P)
+        tmin = min(fr[t][1] for fr in P)
+        flat = [fr[a][1] < amin + 0.015 and fr[t][1] < tmin + 0.015 for fr in P]
+        slide, peak = 0.0, 0.0
+        for i in range(n - w):
+            h = math.hypot(P[i + w][a][0] - P[i][a][0], P[i + w][a][2] - P[i][a][2]) / (w * dt)
+            peak = max(peak, dist(P[i + w][a], P[i][a]) / (w * dt))
+            if all(flat[i:i + w + 1]):
+                slide = max(slide, h)
+        out[f"{side}_flat_frames"] = sum(flat)
+        out[f"{side}_support_slide_mps"] = round(slide, 3)
+        out[f"{side}_peak_foot_speed_mps"] = round(peak, 2)
+    return out
+
+
+def main():
+    args = sys.argv[1:]
+    as_json = "--json" in args
+    args = [a for a in args if a != "--json"]
+    first, last = 0, None
+    if "--frames" in args:
+        k = args.index("--frames")
+        a, b = args[k + 1].split(":")
+        first, last = int(a or 0), (int(b) if b else None)
+        del args[k:k + 2]
+    for p in args:
+        r = judge(p, first, last)
+        if as_json:
+            print(json.dumps(r))
+        else:
+            print(f"{p}: {r['frames']} frames, snaps {r['snaps']} {r['snap_list'][:3]}, p99 speed {r['p99_joint_speed_mps']} m/s, "
+                  f"max {r['max_joint_speed_mps']} ({r['fastest']}), support slide L {r.get('left_support_slide_mps')} "
+                  f"R {r.get('right_support_slide_mps')} m/s, foot peak L {r.get('left_peak_foot_speed_mps')} R {r.get('right_peak_foot_speed_mps')}")
+
+
+if __name__ == "__main__":
+    main()
