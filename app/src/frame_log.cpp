@@ -50,7 +50,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
     json ev = {{"type", e.type}, {"time_s", e.time_s}};
     if (!e.order.empty()) ev["order"] = e.order;
     if (!e.text.empty()) ev["text"] = e.text;
-    if (e.type == "hit" || e.type == "miss") ev["distance_m"] = e.distance_m;
+    if (is_strike_outcome(e.type)) ev["distance_m"] = e.distance_m;
     events.push_back(ev);
   }
   j["events"] = events;

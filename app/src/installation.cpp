@@ -69,6 +69,7 @@ FrameEvent to_frame_event(const content::FighterEvent& e, Timestamp start) {
     case K::order_accepted: f.type = "order"; f.order = to_string(e.order); break;
     case K::order_ignored: f.type = "order_ignored"; f.order = to_string(e.order); break;
     case K::hit: f.type = "hit"; f.order = to_string(e.order); break;    // the strike's order
+    case K::dodged: f.type = "dodged"; f.order = to_string(e.order); break;
     case K::miss: f.type = "miss"; f.order = to_string(e.order); break;
     case K::character_changed: f.type = "character_changed"; f.order = to_string(e.order); break;
     case K::warning: f.type = "warning"; break;
@@ -198,7 +199,7 @@ void Installation::note(const FrameEvent& e) {
   if (e.type == "order" || e.type == "order_ignored") {
     console_.last_order = e.order;
     console_.last_outcome = e.type == "order" ? "accepted" : "ignored: " + e.text;
-  } else if (e.type == "hit" || e.type == "miss") {
+  } else if (is_strike_outcome(e.type)) {
     // The strike's own order: an order ignored meanwhile must not take this outcome.
     console_.last_order = e.order;
     console_.last_outcome = fmt::format("{} ({:.2f} m)", e.type, e.distance_m);

@@ -56,7 +56,7 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
     // Every K-th frame, and each strike's moment of contact (a hit or a miss), which a
     // strike-long run would otherwise rarely catch.
     const bool contact = std::any_of(f.events.begin(), f.events.end(),
-                                     [](const FrameEvent& e) { return e.type == "hit" || e.type == "miss"; });
+                                     [](const FrameEvent& e) { return is_strike_outcome(e.type); });
     const bool save = opt.save_every > 0 && (i % opt.save_every == 0 || contact);
     for (std::size_t w = 0; w < targets.size(); ++w) {
       for (int e = 0; e < (stereo ? 2 : 1); ++e) {

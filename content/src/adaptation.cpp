@@ -71,6 +71,7 @@ struct TrunkDeltas {
   Quaterniond clavicle = Quaterniond::Identity();
   int clavicle_side = -1;
   bool fixed_goal = false;  // later passes keep the effector goal of pass 1 (it must not move with the trunk)
+  double pin = 1;           // how much of that goal they keep (the rest follows the lowered body)
   Vector3d goal{0, 0, 0};
   double root_drop_m = 0;   // m: pelvis lowered so held feet stay within the legs' reach
 };
@@ -80,6 +81,27 @@ struct PassOut {
   std::array<bool, 2> leg_reached{true, true};
   Vector3d effector_goal{0, 0, 0};
 };
+
+// The motion's own bend direction (elbow/knee) carried onto a goal that an offset or a held
+// foot has moved: the pole the swivel gives about the motion's own limb axis, re-projected onto
+// the new axis. Equal to the plain swivel pole when the goal is the motion's own. A swivel
+// angle taken about a strongly turned axis can point the knee anywhere (a folded leg whose goal
+// passes near the hip flipped its knee through the floor); the kept direction does not.
+Vector3d kept_pole(const Vector3d& motion_limb, const Vector3d& axis, const Vector3d& reference, double swivel_rad) {
+  const Vector3d plain = swivel_pole(axis, reference, swivel_rad);
+  const double len = motion_limb.norm();
+  if (len < 1e-9) return plain;
+  const Vector3d own = swivel_pole(motion_limb / len, reference, swivel_rad);
+  const Vector3d p = own - own.dot(axis) * axis;
+  const double n = p.norm();
+  // Where the kept direction degenerates (the goal turned toward where the joint pointed), ease
+  // back to the plain pole: full kept at n >= 0.5, plain at n <= 0.2.
+  const double w = std::clamp((n - 0.2) / 0.3, 0.0, 1.0);
+  if (w >= 1) return p / n;
+  Vector3d q = (1 - w) * plain;
+  if (n > 1e-9) q += w * (p / n);
+  return q.norm() > 1e-9 ? Vector3d(q.normalized()) : plain;
+}
 
 // One decode pass over the skeleton, parents first.
 void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
@@ -122,12 +144,15 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
       }
       case Role::shoulder: {
         Vector3d goal = pos + f.arm_n[s] * m.arm_length(s);
+        Quaterniond turn = Quaterniond::Identity();
         if (job.reach && !job.reach->effector.leg && job.reach->effector.side == s) {
-          goal = td.fixed_goal ? td.goal : Vector3d(goal + job.reach->offset_m);
+          turn = job.reach->turn;
+          goal = pos + job.reach->stretch * (turn * (goal - pos)) + job.reach->offset_m;
+          if (td.fixed_goal) goal = td.pin * td.goal + (1 - td.pin) * goal;
           out.effector_goal = goal;
         }
         const Vector3d axis = (goal - pos).normalized();
-        const Vector3d pole = swivel_pole(axis, chest_world * arm_swivel_reference(s), f.arm_swivel_rad[s]);
+        const Vector3d pole = kept_pole(turn * f.arm_n[s], axis, turn * (chest_world * arm_swivel_reference(s)), f.arm_swivel_rad[s]);
         const TwoBoneResult r = solve_two_bone(pos, goal, m.upper_arm_m[s], m.forearm_m[s], pole);
         wrist_goal[s] = r.end;
         out.arm_reached[s] = r.reached;
@@ -136,17 +161,25 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
       }
       case Role::elbow: rot = aim(wrist_goal[s] - pos); break;
       case Role::hip: {
+        // d(t) moves the motion's foot; a hold then pulls the result onto the held ankle (a
+        // kicking foot put down while d(t) is still being released stays where it is held).
         Vector3d goal = pos + f.leg_n[s] * m.limb_leg_length(s);
+        Quaterniond turn = Quaterniond::Identity();
+        const bool effector = job.reach && job.reach->effector.leg && job.reach->effector.side == s;
+        if (effector) {
+          turn = job.reach->turn;
+          goal = pos + job.reach->stretch * (turn * (goal - pos)) + job.reach->offset_m;
+        }
         if (job.feet && job.feet->weight[s] > 0) {
           const double w = std::clamp(job.feet->weight[s], 0.0, 1.0);
           goal = (1 - w) * goal + w * job.feet->ankle_m[s];
         }
-        if (job.reach && job.reach->effector.leg && job.reach->effector.side == s) {
-          goal = td.fixed_goal ? td.goal : Vector3d(goal + job.reach->offset_m);
+        if (effector) {
+          if (td.fixed_goal) goal = td.pin * td.goal + (1 - td.pin) * goal;
           out.effector_goal = goal;
         }
         const Vector3d axis = (goal - pos).normalized();
-        const Vector3d pole = swivel_pole(axis, f.pelvis * leg_swivel_reference(s), f.leg_swivel_rad[s]);
+        const Vector3d pole = kept_pole(turn * f.leg_n[s], axis, turn * (f.pelvis * leg_swivel_reference(s)), f.leg_swivel_rad[s]);
         const TwoBoneResult r = solve_two_bone(pos, goal, m.thigh_m[s], m.shin_m[s], pole);
         ankle_goal[s] = r.end;
         out.leg_reached[s] = r.reached;
@@ -240,20 +273,23 @@ bool AdaptJob::Run() const {
   decode_pass(*this, td, out);
   if (feet) {
     // Held feet the legs cannot reach: lower the pelvis just enough (a knee bend) rather
-    // than let the feet slide. Continuous in the inputs, so it never pops.
+    // than let the feet slide. Each foot asks for its drop times its hold weight, so the
+    // drop is continuous in the inputs (a foot being released lets the pelvis up smoothly).
     double drop = 0;
     for (int s = 0; s < 2; ++s) {
-      if (feet->weight[static_cast<std::size_t>(s)] < 1.0 || (reach && reach->effector.leg && reach->effector.side == s)) continue;
+      const double w = std::clamp(feet->weight[static_cast<std::size_t>(s)], 0.0, 1.0);
+      if (w <= 0) continue;
       const Vector3d hip = joint_pos(*this, s == kLeft ? CJ::l_hip : CJ::r_hip);
       const Vector3d d = feet->ankle_m[static_cast<std::size_t>(s)] - hip;
       const double l = rig->morphology.limb_leg_length(s) * (1 - 1e-6);
       const double h2 = d.x() * d.x() + d.z() * d.z();
       if (d.squaredNorm() <= l * l || h2 >= l * l) continue;
-      drop = std::max(drop, -d.y() - std::sqrt(l * l - h2));
+      drop = std::max(drop, w * (-d.y() - std::sqrt(l * l - h2)));
     }
     if (drop > 0) {
       td.root_drop_m = drop;
       td.fixed_goal = reach != nullptr;
+      td.pin = reach ? std::clamp(reach->pin, 0.0, 1.0) : 0.0;
       td.goal = out.effector_goal;
       out = PassOut{};
       decode_pass(*this, td, out);
@@ -285,8 +321,9 @@ bool AdaptJob::Run() const {
     if (slot[2] >= 0) { td.clavicle = deltas[slot[2]]; td.clavicle_side = s; }
     // The spine delta rotates about the spine joint, the chest delta about the chest: that
     // is what the decode pass does when it applies them to the aimed directions/frames.
-    if (!td.fixed_goal) {
+    if (!td.fixed_goal || td.pin < 1) {
       td.fixed_goal = true;
+      td.pin = 1;
       td.goal = out.effector_goal;
     }
     out = PassOut{};
@@ -296,6 +333,7 @@ bool AdaptJob::Run() const {
   if (report) {
     report->trunk_used = trunk_used;
     report->foot_reached = out.leg_reached;
+    report->root_drop_m = td.root_drop_m;
     if (reach) {
       report->effector_goal = out.effector_goal;
       report->effector_reached = joint_pos(*this, reach->effector.joint());

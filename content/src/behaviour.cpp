@@ -75,7 +75,7 @@ StrikePlan StrikePlanner::plan(const StrikeRequest& r) const {
 
 Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config,
                      BehaviourTunables tunables)
-    : db_(std::move(db)), characters_(std::move(characters)), config_(config), tun_(tunables) {
+    : db_(std::move(db)), characters_(std::move(characters)), config_(config), tun_(tunables), feet_(tunables.feet) {
   if (characters_.empty()) throw Error("fighter", "config", "no characters to show");
   if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
   character_ = std::clamp(config.initial_character, 0, character_count() - 1);
@@ -135,9 +135,7 @@ double Behaviour::stride_scale() const {
 
 GroundFrame Behaviour::ground() const { return ground_frame_of(pose_); }
 
-std::array<bool, 2> Behaviour::feet_locked() const {
-  return {feet_[0].weight > 0.99 && !feet_[0].stepping, feet_[1].weight > 0.99 && !feet_[1].stepping};
-}
+std::array<bool, 2> Behaviour::feet_locked() const { return {feet_.held(kLeft), feet_.held(kRight)}; }
 
 void Behaviour::sample(const Source& s, MkmFrame& out) const {
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
@@ -192,17 +190,24 @@ void Behaviour::select_character(int index, Timestamp now) {
     const Vector2d d_old = s->placement.origin_xz + rel * old_scale;
     s->placement.origin_xz += d_old - d_new;
   }
-  for (Foot& f : feet_) f = Foot{};  // re-plant on the new legs (the easing hides the change)
-  switch_elapsed_s_ = -1;            // marks "compute offsets after this update's solve"
-  if (strike_.active) compute_reach_error();
+  feet_.reset();           // re-plant on the new legs (the easing hides the change)
+  switch_elapsed_s_ = -1;  // marks "compute offsets after this update's solve"
+  if (strike_.active) compute_reach_error(strike_.contact_time_s);
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
        fmt::format("character {} ({})", index + 1, characters_[static_cast<std::size_t>(index)].name));
 }
 
 void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
+  // A strike ordered while the last one still hands its reach offset back (recovering) waits
+  // for that (at most release_time_s): starting now would drop the offset in one frame.
+  decltype(orders_) deferred;
   while (!orders_.empty()) {
     auto [o, explicit_target] = orders_.front();
     orders_.pop_front();
+    if (effector_of(o.kind) && state_ == FighterState::recovering && strike_.active) {
+      deferred.emplace_back(o, explicit_target);
+      continue;
+    }
     switch (o.kind) {
       case OrderKind::select_character: select_character(o.character, now); continue;
       case OrderKind::pause: paused_ = true; emit(FighterEvent::Kind::order_accepted, now, o, "paused"); continue;
@@ -233,11 +238,12 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     r.dt_s = last_dt_;
     r.target_local_m = ground().to_local(target);
     r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
-    pending_ = {r.id, {o, target}};
+    pending_ = PendingStrike{r.id, o, target};
     emit(FighterEvent::Kind::order_accepted, now, o,
          fmt::format("target at ({:.2f}, {:.2f}, {:.2f}) m", target.x(), target.y(), target.z()));
     submit_(r);
   }
+  orders_.swap(deferred);
 }
 
 void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
@@ -252,28 +258,30 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   current_.placement.origin_xz = g_char.origin_xz;
   current_.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   current_.anchor_xz_m = g_clip.origin_xz;
-  const Order order = pending_->second.first;
+  const Order order = pending_->order;
   strike_ = StrikeInfo{};
   strike_.active = true;
   strike_.order = order;
-  strike_.target_room_m = pending_->second.second;
+  strike_.target_room_m = pending_->target_room_m;
   strike_.plan = plan;
   strike_.effector = *seg.effector();
   strike_.start_time_s = plan.start_frame * seg.frame_time_s;
   strike_.contact_time_s = plan.contact_frame * seg.frame_time_s;
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
+  strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - config_.blend_time_s);
   state_ = FighterState::striking;
   following_ = false;
-  compute_reach_error();
+  compute_reach_error(strike_.contact_time_s);
   (void)now;
 }
 
-void Behaviour::compute_reach_error() {
-  // The pose at contact, composed exactly as update() will compose it then (same sources,
-  // same blend weight), decoded without the offset: d(t) must close exactly that gap.
+void Behaviour::compute_reach_error(double at_time_s) {
+  // The pose at segment time `at_time_s`, composed exactly as update() will compose it then
+  // (same sources, same blend weight), decoded without the offset: d(t) must close exactly
+  // that gap.
   const Source* strike_src = current_.segment == strike_.plan.segment && state_ == FighterState::striking ? &current_ : nullptr;
   if (!strike_src) return;
-  const double ahead = strike_.contact_time_s - current_.time_s;
+  const double ahead = at_time_s - current_.time_s;
   Source cur = current_, prev = previous_;
   cur.time_s += ahead;
   prev.time_s += ahead;
@@ -289,7 +297,20 @@ void Behaviour::compute_reach_error() {
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   CanonicalPose c;
   decode_canonical(rig, pose, c);
-  strike_.error_m = strike_.target_room_m - at(c, strike_.effector.joint());
+  const Vector3d effector = at(c, strike_.effector.joint());
+  strike_.error_m = strike_.target_room_m - effector;
+  // The correction turns and stretches the limb about its root (shoulder or hip) so that it
+  // points at the target: the whole limb aims, instead of the wrist alone being pushed.
+  const CJ root = strike_.effector.leg ? (strike_.effector.side == kLeft ? CJ::l_hip : CJ::r_hip)
+                                       : (strike_.effector.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+  const Vector3d from = effector - at(c, root), to = strike_.target_room_m - at(c, root);
+  if (from.norm() > 1e-6 && to.norm() > 1e-6) {
+    strike_.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
+    strike_.stretch = to.norm() / from.norm();
+  } else {
+    strike_.turn = Eigen::Quaterniond::Identity();
+    strike_.stretch = 1;
+  }
 }
 
 void Behaviour::update_follow(double dt, const Vector3d& head) {
@@ -326,58 +347,88 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   state_ = following_ ? FighterState::following : FighterState::resting;
 }
 
-void Behaviour::update_feet(double dt) {
-  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  const bool may_step = state_ == FighterState::resting || state_ == FighterState::following;
-  for (int s = 0; s < 2; ++s) {
-    Foot& f = feet_[static_cast<std::size_t>(s)];
-    const bool is_effector = strike_.active && strike_.effector.leg && strike_.effector.side == s &&
-                             state_ == FighterState::striking;
-    const bool planted = pose_.planted[static_cast<std::size_t>(s)] >= 0.5 && !is_effector;
-    const int ankle = rig.skeleton.index(s == kLeft ? CJ::l_ankle : CJ::r_ankle);
-    const int hip = rig.skeleton.index(s == kLeft ? CJ::l_hip : CJ::r_hip);
-    // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
-    const Vector3d free_ankle = rig_positions_[static_cast<std::size_t>(hip)] +
-                                pose_.leg_n[static_cast<std::size_t>(s)] * rig.morphology.limb_leg_length(s);
-    if (f.stepping) {
-      f.step_t += dt / tun_.step_time_s;
-      const double u = smoothstep(f.step_t);
-      f.lock = f.step_from + (f.step_to - f.step_from) * u +
-               Vector3d::UnitY() * tun_.step_height_m * std::sin(std::numbers::pi * std::min(1.0, f.step_t));
-      f.weight = 1;
-      if (f.step_t >= 1) {
-        f.stepping = false;
-        f.lock = f.step_to;
-      }
-    } else if (planted && have_pose_) {
-      if (!f.locked) {
-        f.locked = true;
-        f.lock = rig_positions_[static_cast<std::size_t>(ankle)];  // where it is drawn now
-      }
-      f.weight = 1;
-      const Foot& other = feet_[static_cast<std::size_t>(1 - s)];
-      // Land ahead of the body: half a step's worth of the root's current velocity.
-      Vector3d target = free_ankle + Vector3d(spot_velocity_.x(), 0, spot_velocity_.y()) * (0.5 * tun_.step_time_s);
-      target.y() = f.lock.y();
-      // Step when the foot lags behind, or at once when the leg can no longer reach it
-      // (a planted foot must never slide; lifting it is the honest alternative).
-      const bool lagging = !other.stepping && (target - f.lock).norm() > tun_.step_threshold_m;
-      const double stretch = (f.lock - rig_positions_[static_cast<std::size_t>(hip)]).norm() / rig.morphology.limb_leg_length(s);
-      if (may_step && (lagging || stretch > tun_.max_leg_stretch || !report_.foot_reached[static_cast<std::size_t>(s)])) {
-        f.stepping = true;
-        f.step_t = 0;
-        f.step_from = f.lock;
-        f.step_to = target;
-      }
-    } else {
-      f.locked = false;
-      f.weight = std::max(0.0, f.weight - dt / tun_.unlock_time_s);
-      if (f.weight > 0) continue;  // keep the last lock while fading out
-    }
+double Behaviour::swing_left_s(int side) const {
+  // Time until the motion now playing puts this foot down again.
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+  if (current_.loop) return 0;  // the rest motion: nothing to follow (the shortest swing applies)
+  const int n = seg.frame_count();
+  const int first = std::clamp(static_cast<int>(std::ceil(current_.time_s / seg.frame_time_s - 1e-9)), 0, n);
+  for (int k = first; k < n; ++k)
+    if (seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5) return k * seg.frame_time_s - current_.time_s;
+  return (n - 1) * seg.frame_time_s - current_.time_s + config_.blend_time_s;  // the rest motion after it
+}
+
+void Behaviour::update_feet(double dt, const ReachGoal* reach, const std::array<double, 2>& planted) {
+  if (!have_pose_) {
+    locks_ = FootLocks{};
+    return;
   }
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  std::array<FootSample, 2> in;
   for (int s = 0; s < 2; ++s) {
-    locks_.weight[static_cast<std::size_t>(s)] = feet_[static_cast<std::size_t>(s)].weight;
-    locks_.ankle_m[static_cast<std::size_t>(s)] = feet_[static_cast<std::size_t>(s)].lock;
+    const auto us = static_cast<std::size_t>(s);
+    const auto ankle = static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_ankle : CJ::r_ankle));
+    const auto hip = static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_hip : CJ::r_hip));
+    FootSample& f = in[us];
+    // Contacts of the motion being blended TO: a cross-fade moves feet the new motion has
+    // down elsewhere, and following the fade would slide them there along the floor.
+    f.planted = planted[us] >= 0.5;
+    f.swing_left_s = swing_left_s(s);
+    // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
+    f.free_ankle_m = rig_positions_[hip] + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
+    f.drawn_ankle_m = rig_positions_[ankle];
+    f.hip_m = rig_positions_[hip];
+    f.leg_length_m = rig.morphology.limb_leg_length(s);
+    f.standing_ankle_y_m = rig.rest_pose[static_cast<std::size_t>(s == kLeft ? CJ::l_ankle : CJ::r_ankle)].y() -
+                           std::min({rig.rest_pose[static_cast<std::size_t>(CJ::l_ankle)].y(), rig.rest_pose[static_cast<std::size_t>(CJ::l_toe)].y(),
+                                     rig.rest_pose[static_cast<std::size_t>(CJ::r_ankle)].y(), rig.rest_pose[static_cast<std::size_t>(CJ::r_toe)].y()});
+    f.reached = report_.foot_reached[us];
+    f.effector = reach && strike_.effector.leg && strike_.effector.side == s && state_ == FighterState::striking;
+  }
+  // Steps also while recovering: a strike that ends in a long stance steps back under the
+  // body instead of squatting into the rest motion's narrower one.
+  const bool may_step = state_ != FighterState::striking;
+  feet_.update(dt, in, may_step, spot_velocity_, locks_);
+}
+
+namespace {
+double distance_to_segment(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
+  const Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double u = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (p - (a + u * ab)).norm();
+}
+}  // namespace
+
+void Behaviour::judge_contact(Timestamp now, const Vector3d& head) {
+  // Judged against the visitor as tracked now, not the target frozen at the order: a visitor
+  // who ducked or stepped away since is not hit.
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const Vector3d hit_point = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()))];
+  strike_.contact_done = true;
+  strike_.contact_update = updates_;
+  strike_.contact_distance_m = (hit_point - strike_.target_room_m).norm();
+  strike_.contact_reached = report_.reached;
+  strike_.target_reached = strike_.contact_distance_m <= config_.hit_radius_m;
+  const Vector3d top = head - Vector3d::UnitY() * config_.visitor_neck_m;
+  const Vector3d bottom(head.x(), std::min(top.y(), config_.visitor_capsule_bottom_m), head.z());
+  const double gap = std::min((hit_point - head).norm() - config_.visitor_head_radius_m,
+                              distance_to_segment(hit_point, top, bottom) - config_.visitor_body_radius_m);
+  strike_.body_distance_m = gap;
+  strike_.hit = gap <= 0;
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(strike_.plan.segment)];
+  const std::string what = fmt::format("{} (frames {}->{})", seg.name, strike_.plan.start_frame, strike_.plan.contact_frame);
+  if (strike_.hit) {
+    emit(FighterEvent::Kind::hit, now, strike_.order,
+         fmt::format("{}: touched the visitor ({:.1f} cm from the target)", what, strike_.contact_distance_m * 100), 0);
+  } else if (strike_.target_reached) {
+    emit(FighterEvent::Kind::dodged, now, strike_.order,
+         fmt::format("{}: the visitor had moved, {:.1f} cm clear of the hit point", what, gap * 100), gap);
+  } else {
+    emit(FighterEvent::Kind::miss, now, strike_.order,
+         fmt::format("{}: {:.1f} cm short of the target{}, {:.1f} cm clear of the visitor", what,
+                     strike_.contact_distance_m * 100, report_.reached ? "" : " (out of reach)", gap * 100),
+         gap);
   }
 }
 
@@ -397,9 +448,9 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
 
   handle_orders(now, head);
   if (pending_) {
-    if (auto p = poll_(); p && p->id == pending_->first) {
+    if (auto p = poll_(); p && p->id == pending_->request) {
       if (p->segment < 0) {
-        emit(FighterEvent::Kind::warning, now, pending_->second.first, "no strike in the database for this order");
+        emit(FighterEvent::Kind::warning, now, pending_->order, "no strike in the database for this order");
       } else {
         start_strike(*p, now);
       }
@@ -407,23 +458,22 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     }
   }
 
-  // Advance the clocks; land exactly on the contact time once (a sub-frame hold).
-  double step = dt;
-  bool contact_now = false;
-  if (state_ == FighterState::striking && !strike_.contact_done && current_.time_s + dt >= strike_.contact_time_s) {
-    step = std::max(0.0, strike_.contact_time_s - current_.time_s);
-    contact_now = true;
-  }
-  current_.time_s += step;
-  previous_.time_s += step;
-  blend_elapsed_s_ += step;
+  // Advance the clocks by the whole frame: the contact frame is the first frame at or past the
+  // planned contact time, a real frame of motion (no sub-frame hold, no copy of the last).
+  current_.time_s += dt;
+  previous_.time_s += dt;
+  blend_elapsed_s_ += dt;
   if (switch_elapsed_s_ >= 0) switch_elapsed_s_ += dt;
+  const bool contact_now =
+      state_ == FighterState::striking && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
   if (state_ == FighterState::striking && strike_.contact_done &&
       current_.time_s >= strike_.end_time_s - config_.blend_time_s) {
     start_rest(now);
     state_ = FighterState::recovering;
   }
-  if (state_ == FighterState::recovering && blend_elapsed_s_ >= config_.blend_time_s) {
+  // Recovering lasts until the blend into rest is done and d(t) is back to zero.
+  if (state_ == FighterState::recovering && blend_elapsed_s_ >= config_.blend_time_s &&
+      previous_.time_s >= strike_.release_end_s) {
     state_ = FighterState::resting;
     strike_.active = false;
   }
@@ -442,32 +492,37 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   }
   if (!have_pose_) pose_before_ = pose_;
 
-  // d(t): zero at the strike start, the full error at contact, back to zero before the
-  // blend-out starts (so leaving the strike does not jump).
+  // d(t): zero at the strike start, the full error at contact, then back to zero over at least
+  // release_time_s, carrying on through the blend into rest (leaving the strike never jumps).
   ReachGoal goal;
   const ReachGoal* reach = nullptr;
+  double ramp = 0;
   if (strike_.active) {
     const Source& s = state_ == FighterState::striking ? current_ : previous_;
     const double t = s.time_s;
-    const double release = std::max(strike_.contact_time_s + 1e-3, strike_.end_time_s - config_.blend_time_s);
-    double ramp;
-    if (t <= strike_.contact_time_s) {
+    if (contact_now) {
+      // The error of this very frame, so the contact frame lands on the target.
+      compute_reach_error(current_.time_s);
+      strike_.contact_time_s = current_.time_s;
+      strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - config_.blend_time_s);
+      ramp = 1;
+    } else if (!strike_.contact_done) {
       ramp = smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s));
     } else {
-      ramp = 1 - smoothstep((t - strike_.contact_time_s) / (release - strike_.contact_time_s));
+      ramp = 1 - smoothstep((t - strike_.contact_time_s) / std::max(1e-6, strike_.release_end_s - strike_.contact_time_s));
     }
-    if (contact_now) ramp = 1;
     goal.effector = strike_.effector;
-    goal.offset_m = strike_.error_m * ramp;
+    goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, strike_.turn);
+    goal.stretch = 1 + ramp * (strike_.stretch - 1);
+    goal.pin = ramp;
     reach = &goal;
   }
-  update_feet(step);
-  if (reach && strike_.effector.leg) {
-    // The kicking foot leaves its lock on the same ramp as d(t): fully free at contact, so
-    // the goal there is exactly decoded + d (what compute_reach_error assumed).
-    const double ramp = goal.offset_m.norm() > 0 ? goal.offset_m.norm() / std::max(1e-12, strike_.error_m.norm()) : 0.0;
+  update_feet(dt, reach, cur.planted);
+  if (reach && strike_.effector.leg && !feet_.held(strike_.effector.side)) {
+    // The kicking foot leaves its hold on the same ramp as d(t): fully free at contact, so the
+    // goal there is exactly the motion's own foot turned by d(t) (what compute_reach_error
+    // assumed), and back under the hold as d(t) is released. Once put down it is held.
     locks_.weight[static_cast<std::size_t>(strike_.effector.side)] *= std::clamp(1 - ramp, 0.0, 1.0);
-    if (contact_now) locks_.weight[static_cast<std::size_t>(strike_.effector.side)] = 0;
   }
 
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
@@ -486,20 +541,10 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   have_pose_ = true;
   last_dt_ = dt > 0 ? dt : last_dt_;
 
-  if (contact_now) {
-    const Vector3d hit_point = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()))];
-    strike_.contact_done = true;
-    strike_.contact_distance_m = (hit_point - strike_.target_room_m).norm();
-    strike_.contact_reached = report_.reached;
-    strike_.hit = strike_.contact_distance_m <= config_.hit_radius_m;
-    strike_.contact_update = updates_;
-    const MotionSegment& seg = db_->segments[static_cast<std::size_t>(strike_.plan.segment)];
-    emit(strike_.hit ? FighterEvent::Kind::hit : FighterEvent::Kind::miss, now, strike_.order,
-         fmt::format("{} (frames {}->{}), hit point {:.1f} cm from the target{}", seg.name,
-                     strike_.plan.start_frame, strike_.plan.contact_frame,
-                     strike_.contact_distance_m * 100, report_.reached ? "" : " (target out of reach)"),
-         strike_.contact_distance_m);
-  }
+  if (contact_now) judge_contact(now, head);
+
+
+
 
   // Character switch easing: offsets from the old drawn pose, fading over blend_time.
   if (switch_elapsed_s_ < 0) {
@@ -538,7 +583,7 @@ FighterFrame Behaviour::frame() const {
   f.joints = std::span<const Vector3d>(positions_).first(n);
   f.parents = rig.skeleton.parents;
   f.joint_radii_m = rig.joint_radii_m;
-  if (strike_.active || pending_) f.target = pending_ ? pending_->second.second : strike_.target_room_m;
+  if (strike_.active || pending_) f.target = pending_ ? pending_->target_room_m : strike_.target_room_m;
   f.root = Vector3d(pose_.root_xz_m.x(), 0, pose_.root_xz_m.y());
   f.heading_rad = facing_rad_;
   return f;
@@ -564,7 +609,10 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
   rec.motion.name = "strike";
   rec.motion.skeleton = rig.skeleton;
   rec.motion.unit_m = character.unit_m;
-  const Vector3d head(0, 1.7, config.strike_distance_m);  // straight ahead: no following
+  // The visitor stands where the target is (a kick's target lies kick_target_drop_m below the
+  // head), so the contact is judged against a visitor who did not move.
+  Vector3d head = target;
+  if (const auto e = effector_of(order); e && e->leg) head.y() += BehaviourTunables{}.kick_target_drop_m;
   double dt = 1.0 / 120, t = 0;
   const int ankles[2] = {rig.skeleton.index(CJ::l_ankle), rig.skeleton.index(CJ::r_ankle)};
   auto record = [&] {

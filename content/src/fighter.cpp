@@ -27,6 +27,7 @@ std::string_view to_string(FighterEvent::Kind k) {
     case FighterEvent::Kind::order_accepted: return "order_accepted";
     case FighterEvent::Kind::order_ignored: return "order_ignored";
     case FighterEvent::Kind::hit: return "hit";
+    case FighterEvent::Kind::dodged: return "dodged";
     case FighterEvent::Kind::miss: return "miss";
     case FighterEvent::Kind::character_changed: return "character_changed";
     case FighterEvent::Kind::warning: return "warning";

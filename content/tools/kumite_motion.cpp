@@ -254,6 +254,8 @@ int run_strike(const StrikeArgs& a) {
   j["reachable"] = rec.strike.contact_reached;
   j["reach_error_m"] = rec.strike.contact_distance_m;
   j["hit"] = rec.strike.hit;
+  j["target_reached"] = rec.strike.target_reached;
+  j["body_distance_m"] = rec.strike.body_distance_m;
   j["hit_radius_m"] = FighterConfig{}.hit_radius_m;
   j["retrieval_us"] = rec.retrieval_us;
   j["retrieval_cost"] = rec.strike.plan.choice.cost;

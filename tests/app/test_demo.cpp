@@ -139,7 +139,7 @@ TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
     for (const auto& e : f["events"]) {
       if (e.contains("order")) by_order[e["order"].get<std::string>()].push_back(e);
       if (e["type"] == "order" && e["order"].get<std::string>().rfind("character", 0) != 0) striking = e["order"];
-      if (e["type"] == "hit" || e["type"] == "miss") {
+      if (e["type"] == "hit" || e["type"] == "dodged" || e["type"] == "miss") {
         ++hits_or_misses;
         // Each outcome names its strike's order, on the console too.
         EXPECT_EQ(e.value("order", ""), striking) << e.dump();

@@ -128,7 +128,9 @@ TEST(Adapt, ReachOffsetLandsTheWristExactlyUsingTheTrunkWhenNeeded) {
   for (double dx : {-0.1, 0.0, 0.1}) {
     for (double dy : {-0.1, 0.0, 0.1}) {
       for (double dz : {-0.1, 0.0, 0.1, 0.2}) {
-        ReachGoal goal{{kRight, false}, Vector3d(dx, dy, dz)};
+        ReachGoal goal;
+        goal.effector = {kRight, false};
+        goal.offset_m = Vector3d(dx, dy, dz);
         AdaptReport rep;
         AdaptJob job = b.job(rig, f);
         job.reach = &goal;

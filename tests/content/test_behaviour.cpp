@@ -1,6 +1,8 @@
 // Behaviour driven by a scripted head, no window: strikes reach, orders are ignored
 // mid-strike, hit/miss, feet stay planted, character switches do not jump.
 // Data: SYNTHETIC clips and characters (fighter_fixtures.hpp).
+#include <algorithm>
+
 #include <gtest/gtest.h>
 
 #include "fighter_fixtures.hpp"
@@ -99,11 +101,12 @@ TEST(Behaviour, StrikesLandOnReachableTargetsForEveryCharacterWithinOneMillimetr
         if (b.strike().contact_reached) {
           ++reached;
           EXPECT_LT(b.strike().contact_distance_m, 1e-3) << rig.name << " " << dx << " " << dy;
-          EXPECT_TRUE(b.strike().hit);
+          EXPECT_TRUE(b.strike().target_reached);
         }
         run.until_rest(b);
         EXPECT_EQ(b.state(), FighterState::resting);
-        EXPECT_EQ(run.count(FighterEvent::Kind::hit) + run.count(FighterEvent::Kind::miss), 1);
+        EXPECT_EQ(run.count(FighterEvent::Kind::hit) + run.count(FighterEvent::Kind::dodged) +
+                      run.count(FighterEvent::Kind::miss), 1);
       }
     }
     EXPECT_GE(reached, total - 1) << "character " << c;
@@ -137,7 +140,9 @@ TEST(Behaviour, FarTargetIsAMissReportedOutOfReach) {
   Behaviour b = make_behaviour();
   Script run;
   run.step(b, 10);
-  b.order_strike(order_of(OrderKind::punch_right), b.ground().to_world(Vector3d(0, 1.4, 3.0)));
+  const Vector3d target = b.ground().to_world(Vector3d(0, 1.4, 3.0));
+  run.head = target;  // the visitor stands there, out of reach (a visitor in between would be hit)
+  b.order_strike(order_of(OrderKind::punch_right), target);
   run.until_contact(b);
   ASSERT_TRUE(b.strike().contact_done);
   EXPECT_FALSE(b.strike().contact_reached);
@@ -202,7 +207,8 @@ TEST(Behaviour, SwitchingCharacterMidStrikeDoesNotJump) {
   EXPECT_LT(worst, motion_bound + 0.005) << "jump at the switch itself";
   EXPECT_LT(run.max_jump_m, motion_bound + 0.019) << "jump while easing";
   EXPECT_EQ(run.count(FighterEvent::Kind::character_changed), 3);
-  EXPECT_EQ(run.count(FighterEvent::Kind::hit) + run.count(FighterEvent::Kind::miss), 1);
+  EXPECT_EQ(run.count(FighterEvent::Kind::hit) + run.count(FighterEvent::Kind::dodged) +
+                run.count(FighterEvent::Kind::miss), 1);
 }
 
 TEST(Behaviour, FollowsTheVisitorWithPlantedFeetThatDoNotSlide) {
@@ -220,4 +226,91 @@ TEST(Behaviour, FollowsTheVisitorWithPlantedFeetThatDoNotSlide) {
   const double dist = Eigen::Vector2d(run.head.x() - root.x(), run.head.z() - root.z()).norm();
   EXPECT_NEAR(dist, test_config().strike_distance_m, 0.3);
   EXPECT_LT(run.max_slide_m, 0.002);  // 2 mm per update for held feet
+}
+
+namespace {
+// A visitor standing where a right punch of character 0 can reach: the head itself is the
+// target (local: shoulder height, 0.75 arm length + 10 cm ahead).
+Vector3d reachable_head(const Behaviour& b) {
+  const Rig& rig = b.character(b.current_character());
+  const double sh = rig.rest_pose[static_cast<std::size_t>(CJ::r_shoulder)].y() - rig.rest_pose[static_cast<std::size_t>(CJ::r_ankle)].y();
+  return b.ground().to_world(Vector3d(0, sh, 0.75 * rig.morphology.arm_length(kRight) + 0.1));
+}
+}  // namespace
+
+// Issue 12 item 6: the strike is judged against the visitor as tracked at contact. SYNTHETIC
+// visitor: stands still (hit), ducks 0.5 m or steps 0.45 m aside right after the order
+// (dodged: the fist still reaches the frozen target, but nobody is there).
+TEST(Behaviour, AVisitorWhoDucksOrStepsAsideIsNotHit) {
+  const Vector3d moves[3] = {Vector3d::Zero(), Vector3d(0, -0.5, 0), Vector3d(0.45, 0, 0)};
+  for (int m = 0; m < 3; ++m) {
+    Behaviour b = make_behaviour(0);
+    Script run;
+    run.head = Vector3d(0, 1.2, 0.8);
+    run.step(b, 2);
+    run.head = reachable_head(b);
+    run.step(b, 30);
+    run.head = reachable_head(b);
+    b.order(order_of(OrderKind::punch_right));
+    run.step(b);
+    run.head += moves[m];  // the visitor reacts right after the order
+    run.until_contact(b);
+    ASSERT_TRUE(b.strike().contact_done) << m;
+    EXPECT_TRUE(b.strike().target_reached) << m;
+    run.until_rest(b);
+    if (m == 0) {
+      EXPECT_TRUE(b.strike().hit);
+      EXPECT_EQ(run.count(FighterEvent::Kind::hit), 1);
+    } else {
+      EXPECT_FALSE(b.strike().hit) << m;
+      ASSERT_EQ(run.count(FighterEvent::Kind::dodged), 1) << m;
+      const auto e = std::find_if(run.events.begin(), run.events.end(),
+                                  [](const FighterEvent& x) { return x.kind == FighterEvent::Kind::dodged; });
+      EXPECT_GT(e->distance_m, 0.05) << m;  // clear of the visitor's body, and says by how much
+      EXPECT_NE(e->text.find("clear of the hit point"), std::string::npos) << e->text;
+    }
+  }
+}
+
+// Issue 12 item 2: a strike segment that ends at its hit frame still hands its reach offset
+// back smoothly (over release_time_s, through the blend into rest), and the contact frame is a
+// real frame of motion. SYNTHETIC clips cut at the hit frame; targets 12 cm off the clip's path.
+TEST(Behaviour, ReachOffsetLeavesSmoothlyWhenTheSegmentEndsAtContact) {
+  static const auto db = [] {
+    const auto& set = kumite::content::testing::synthetic_database();
+    std::vector<SegmentSource> src;
+    src.push_back({&set.clips[0], "rest", 0, set.clips[0].frame_count - 1, SegmentKind::rest, std::nullopt, -1});
+    for (std::size_t i = 1; i < set.clips.size(); ++i) {
+      const Clip& c = set.clips[i];
+      const int hit = static_cast<int>((0.45 + 0.05 * ((i - 1) % 3)) * (c.frame_count - 1));
+      src.push_back({&c, c.name, 0, hit, SegmentKind::strike, Effector{kRight, false}, hit});
+    }
+    return std::make_shared<const Database>(build_database(src, {}));
+  }();
+  FighterConfig c = test_config();
+  Behaviour b(db, kumite::content::testing::synthetic_characters(), c);
+  Script run;
+  run.step(b, 30);
+  const Rig& rig = b.character(0);
+  const double sh = rig.rest_pose[static_cast<std::size_t>(CJ::r_shoulder)].y() - rig.rest_pose[static_cast<std::size_t>(CJ::r_ankle)].y();
+  b.order_strike(order_of(OrderKind::punch_right), b.ground().to_world(Vector3d(0.12, sh + 0.05, 0.7 * rig.morphology.arm_length(kRight))));
+  run.step(b);
+  run.until_contact(b);
+  ASSERT_TRUE(b.strike().contact_done);
+  const double before_contact = run.max_jump_m;
+  const double error = b.strike().error_m.norm();
+  ASSERT_GT(error, 0.03) << "the target must be off the clip's own path";
+  const auto wrist = static_cast<std::size_t>(rig.skeleton.index(CJ::r_wrist));
+  Vector3d last = b.joint_positions()[wrist];
+  double worst_wrist = 0;
+  int updates = 0;
+  for (; updates < 240 && b.state() != FighterState::resting; ++updates) {
+    run.step(b);
+    worst_wrist = std::max(worst_wrist, (b.joint_positions()[wrist] - last).norm());
+    last = b.joint_positions()[wrist];
+  }
+  EXPECT_EQ(b.state(), FighterState::resting);
+  // Over >= 0.25 s by smoothstep, the offset moves the wrist at most 1.5 * error / 0.25 s.
+  EXPECT_LT(worst_wrist, before_contact + 1.5 * error / 0.25 * kDt + 1e-3) << "error " << error;
+  EXPECT_GE(updates * kDt, 0.25 - 1e-9) << "d(t) released in fewer updates than release_time_s";
 }

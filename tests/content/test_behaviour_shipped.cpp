@@ -40,7 +40,7 @@ Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) 
   }
   o.contact = b.strike().contact_done;
   o.reached = b.strike().contact_reached;
-  o.hit = b.strike().hit;
+  o.hit = b.strike().target_reached;  // the visitor stands elsewhere: reaching the target is what counts here
   o.distance_m = b.strike().contact_distance_m;
   return o;
 }

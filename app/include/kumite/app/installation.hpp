@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "kumite/app/config.hpp"
@@ -65,12 +66,15 @@ std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why);
 
 /// One event of a frame, ready for the log and the console.
 struct FrameEvent {
-  std::string type;      ///< "order", "order_ignored", "hit", "miss", "character_changed", "warning"
+  std::string type;      ///< "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning"
   std::string order;     ///< the order concerned, text form ("" if none)
   std::string text;      ///< one line for people
-  double distance_m = 0; ///< hit / miss
+  double distance_m = 0; ///< hit / dodged / miss: m from the hit point to the visitor's body (0: touching)
   double time_s = 0;     ///< s since the start of the run
 };
+/// A strike's outcome at contact: "hit" (touched the visitor), "dodged" (reached its target,
+/// the visitor had moved away) or "miss" (short of its target).
+inline bool is_strike_outcome(std::string_view type) { return type == "hit" || type == "dodged" || type == "miss"; }
 
 /// The console's state: computed every frame, drawn by ImGui in windows, logged headless.
 struct ConsoleState {

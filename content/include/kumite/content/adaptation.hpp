@@ -54,10 +54,18 @@ struct Effector {
   CanonicalJoint joint() const;
 };
 
-/// d(t): the offset (m, room frame) added to the effector's decoded position this frame.
+/// d(t): how the effector's limb is moved toward a target this frame. The limb vector (limb
+/// root -> decoded effector) is turned by `turn` and scaled by `stretch` about the limb's root
+/// (the whole limb aims, a folded limb stays folded), then `offset_m` is added.
 struct ReachGoal {
   Effector effector;
-  Eigen::Vector3d offset_m{0, 0, 0};
+  Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< room frame
+  double stretch = 1;                ///< limb vector length factor
+  Eigen::Vector3d offset_m{0, 0, 0};  ///< m, room frame
+  /// 0..1: how firmly the goal stays put when held feet lower the pelvis. 1 (contact): the
+  /// effector keeps its goal; 0: it moves down with the body like every other joint. The
+  /// fighter sets d(t)'s ramp here, so the effector rejoins the body as d(t) is released.
+  double pin = 1;
 };
 
 /// Planted feet: per side a weight in [0, 1] pulling the decoded ankle onto `ankle_m`.
@@ -74,6 +82,7 @@ struct AdaptReport {
   bool reached = true;                        ///< goal within the limb's reach (after CCD)
   bool trunk_used = false;                    ///< the CCD fallback bent the trunk
   std::array<bool, 2> foot_reached{true, true};  ///< locked ankle within the leg's reach
+  double root_drop_m = 0;                     ///< m the pelvis was lowered for held feet
 };
 
 /// Tunables of the trunk fallback (rad). Larger limits reach further but look contorted.

@@ -21,6 +21,7 @@
 #include "kumite/content/adaptation.hpp"
 #include "kumite/content/database.hpp"
 #include "kumite/content/fighter.hpp"
+#include "kumite/content/foot_planting.hpp"
 #include "kumite/content/retrieval.hpp"
 
 namespace kumite::content {
@@ -65,13 +66,10 @@ struct BehaviourTunables {
   double arrive_tolerance_m = 0.05;   ///< m: stop following this close to the spot
   double walk_speed_mps = 0.7;        ///< m/s of the root while following
   double turn_speed_rad_s = 2.5;      ///< rad/s while turning to face the visitor
-  double step_threshold_m = 0.12;     ///< m: a planted foot steps when its free place is this far
-  double max_leg_stretch = 0.97;      ///< hip->held ankle / leg length beyond which the foot steps
-                                      ///< (before the leg runs out of reach and the foot slides)
-  double step_time_s = 0.30;          ///< s per procedural step
-  double step_height_m = 0.06;        ///< m: foot lift at mid-step
-  double unlock_time_s = 0.10;        ///< s: a released foot blends back to the motion
   double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
+  double release_time_s = 0.25;       ///< s: the shortest time d(t) takes to return to zero after
+                                      ///< contact (it carries on through the blend into rest)
+  FootPlantingTunables feet;          ///< foot holding, swings and procedural steps
 };
 
 /// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
@@ -107,7 +105,7 @@ class Behaviour {
   /// Raw positions without the character-switch easing (what the current rig really does).
   std::span<const Eigen::Vector3d> rig_positions() const { return rig_positions_; }
   const AdaptReport& last_report() const { return report_; }
-  /// Feet held this update (weight > 0.99) [side].
+  /// Feet held still this update [side] (not lifted by the motion, not stepping).
   std::array<bool, 2> feet_locked() const;
 
   /// The strike in progress or the last one (for reports).
@@ -118,13 +116,18 @@ class Behaviour {
     StrikePlan plan;
     Effector effector;
     double start_time_s = 0;       ///< segment time at the start (s)
-    double contact_time_s = 0;     ///< segment time of contact (s)
+    double contact_time_s = 0;     ///< segment time of contact (s): planned, then the contact frame's
     double end_time_s = 0;         ///< segment time of the last frame (s)
-    Eigen::Vector3d error_m{0, 0, 0};  ///< full reach offset at contact
+    double release_end_s = 0;      ///< segment time at which d(t) is back to zero (s)
+    Eigen::Vector3d error_m{0, 0, 0};  ///< m: target - effector at contact, before d(t)
+    Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t): limb turn at contact
+    double stretch = 1;                ///< full d(t): limb length factor at contact
     bool contact_done = false;
     double contact_distance_m = -1;
     bool contact_reached = true;   ///< the limb (after the trunk fallback) could reach
-    bool hit = false;
+    bool hit = false;              ///< the hit point touched the visitor's body as tracked at contact
+    bool target_reached = false;   ///< the hit point ended within hit_radius_m of the frozen target
+    double body_distance_m = -1;   ///< m, hit point to the tracked body's surface at contact (<= 0: touching)
     int contact_update = -1;       ///< update counter at contact
   };
   const StrikeInfo& strike() const { return strike_; }
@@ -147,8 +150,10 @@ class Behaviour {
   double stride_scale() const;
   void start_rest(Timestamp now);
   void update_follow(double dt, const Eigen::Vector3d& head);
-  void update_feet(double dt);
-  void compute_reach_error();
+  void update_feet(double dt, const ReachGoal* reach, const std::array<double, 2>& planted);
+  void compute_reach_error(double at_time_s);
+  double swing_left_s(int side) const;
+  void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   void emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance = 0);
 
   std::shared_ptr<const Database> db_;
@@ -174,7 +179,13 @@ class Behaviour {
 
   std::deque<std::pair<Order, std::optional<Eigen::Vector3d>>> orders_;
   std::uint64_t next_request_ = 1;
-  std::optional<std::pair<std::uint64_t, std::pair<Order, Eigen::Vector3d>>> pending_;
+  /// A strike order sent to the planner, waiting for its plan.
+  struct PendingStrike {
+    std::uint64_t request = 0;               ///< StrikeRequest::id
+    Order order{};
+    Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
+  };
+  std::optional<PendingStrike> pending_;
   StrikeInfo strike_;
 
   MkmFrame pose_, pose_before_;  ///< blended, placed pose this and the previous update
@@ -182,15 +193,7 @@ class Behaviour {
   double last_dt_ = 1.0 / 60;
 
   // Feet.
-  struct Foot {
-    bool locked = false;
-    double weight = 0;
-    Eigen::Vector3d lock{0, 0, 0};
-    bool stepping = false;
-    double step_t = 0;
-    Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
-  };
-  std::array<Foot, 2> feet_{};
+  FootPlanter feet_;
   FootLocks locks_;
 
   // Switch easing: per joint of the current rig, an offset fading to zero.

@@ -28,7 +28,16 @@ struct FighterConfig {
   double strike_distance_m = 0.9;        ///< preferred horizontal distance root -> head
   double min_x_m = -1.4, max_x_m = 1.4;  ///< m, lateral limits of where it may walk
   double min_z_m = -4.0, max_z_m = -1.7; ///< m, depth limits (stays behind the front wall)
-  double hit_radius_m = 0.10;            ///< hit when the hit point ends this close to target
+  double hit_radius_m = 0.10;            ///< m: the strike reached its frozen target when the hit
+                                         ///< point ends this close to it
+  /// The visitor's body as tracked at contact: a sphere round the head and a capsule below it
+  /// (shoulders to shins). A strike hits when its hit point is inside either (the fist or foot
+  /// touches the visitor), whatever the frozen target was: a visitor who ducks or steps away
+  /// is missed (dodged).
+  double visitor_head_radius_m = 0.12;   ///< m, sphere round the tracked head point
+  double visitor_body_radius_m = 0.20;   ///< m, radius of the torso/legs capsule
+  double visitor_neck_m = 0.25;          ///< m, head point down to the capsule's top
+  double visitor_capsule_bottom_m = 0.25;  ///< m above the floor: the capsule's bottom
   double blend_time_s = 0.2;             ///< s, cross-fade into a new motion
 };
 
@@ -36,11 +45,14 @@ enum class FighterState { resting, following, striking, recovering };
 std::string_view to_string(FighterState s);
 
 struct FighterEvent {
-  enum class Kind { order_accepted, order_ignored, hit, miss, character_changed, warning };
+  /// hit: touched the visitor; dodged: reached its target, but the visitor had moved away;
+  /// miss: fell short of its target (out of reach) and did not touch the visitor.
+  enum class Kind { order_accepted, order_ignored, hit, dodged, miss, character_changed, warning };
   Timestamp time = 0;
   Kind kind = Kind::warning;
   Order order{};              ///< the order concerned (accepted / ignored)
-  double distance_m = 0;      ///< hit / miss: hit point to frozen target at contact
+  double distance_m = 0;      ///< hit / dodged / miss: m from the hit point to the visitor's
+                              ///< body surface at contact (0 when touching)
   std::string text;           ///< one line for the console ("ignored: mid-strike", ...)
 };
 std::string_view to_string(FighterEvent::Kind k);

@@ -1,0 +1,71 @@
+#pragma once
+// Foot planting for the fighter: where each ankle is held this update (FootLocks for
+// AdaptJob). A foot the motion has in contact stays exactly where it was put down; when the
+// motion lifts it, the foot carries its offset from the motion's own foot through the swing
+// and sheds it by the time the motion puts the foot down again, so a foot moves only where
+// the source steps it, at (about) the source's pace. While resting or following, a held foot
+// that lags behind the body or that the leg can no longer reach takes a procedural step.
+//
+// Single-threaded; no allocation. Lengths in metres (room frame), times in seconds.
+#include <array>
+#include <cstdint>
+#include <limits>
+
+#include <Eigen/Core>
+
+#include "kumite/content/adaptation.hpp"
+
+namespace kumite::content {
+
+struct FootPlantingTunables {
+  double step_threshold_m = 0.12;  ///< m: a held foot steps when its free place is this far
+  double max_leg_stretch = 0.97;   ///< hip->held ankle / leg length beyond which the foot steps
+  double step_time_s = 0.30;       ///< s per procedural step
+  double step_height_m = 0.06;     ///< m: foot lift at mid-step
+  double min_swing_s = 0.15;       ///< s: the shortest time over which a lifted foot sheds its offset
+  double landing_height_m = 0.04;  ///< m: a lifted foot is put down only this close to its standing height
+};
+
+/// What the motion says of one foot this update.
+struct FootSample {
+  bool planted = false;            ///< the source motion has this foot in contact now
+  double swing_left_s = std::numeric_limits<double>::infinity();  ///< s until the source plants it again
+  Eigen::Vector3d free_ankle_m{0, 0, 0};   ///< m, room: where the motion alone puts the ankle now
+  Eigen::Vector3d drawn_ankle_m{0, 0, 0};  ///< m, room: where the ankle was drawn at the last update
+  Eigen::Vector3d hip_m{0, 0, 0};          ///< m, room: the hip drawn at the last update
+  double leg_length_m = 1;         ///< m, thigh + shin
+  double standing_ankle_y_m = 0.08;  ///< m, the ankle's height above the floor when standing
+  bool reached = true;             ///< the held ankle was within the leg's reach at the last solve
+  bool effector = false;           ///< the kicking foot while d(t) acts on it: never held down anew
+};
+
+class FootPlanter {
+ public:
+  enum class Phase : std::uint8_t { free, held, swinging, stepping };
+
+  explicit FootPlanter(FootPlantingTunables tunables = {}) : tun_(tunables) {}
+  /// Forget every foot (a new body: character switch, first frame).
+  void reset() { feet_ = {}; }
+  /// `may_step`: steps for a lagging or over-stretched foot allowed (resting, following); a foot
+  /// the leg cannot reach steps in any case. `body_velocity_xz` (m/s) is
+  /// where the body is going, so a step lands ahead of it.
+  void update(double dt, const std::array<FootSample, 2>& samples, bool may_step,
+              const Eigen::Vector2d& body_velocity_xz, FootLocks& out);
+  Phase phase(int side) const { return feet_[static_cast<std::size_t>(side)].phase; }
+  /// The ankle is held still this update (held, not lifted or stepping).
+  bool held(int side) const { return phase(side) == Phase::held; }
+  const FootPlantingTunables& tunables() const { return tun_; }
+
+ private:
+  struct Foot {
+    Phase phase = Phase::free;
+    Eigen::Vector3d lock{0, 0, 0};    ///< m, room: where the ankle is held
+    Eigen::Vector3d offset{0, 0, 0};  ///< m: swinging: lock - free ankle, shed over the swing
+    double step_t = 0;                ///< stepping: 0..1
+    Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
+  };
+  FootPlantingTunables tun_;
+  std::array<Foot, 2> feet_{};
+};
+
+}  // namespace kumite::content
