@@ -67,11 +67,14 @@ int run(const Args& a) {
   if (!a.orders.empty()) io.orders_script = a.orders;
   io.mono_eyes = config.stereo.mode == kumite::app::StereoMode::mono;
   // A tracker that cannot start (missing recording, calibration, cameras) is not a stop: the
-  // walls draw from the default head and the console says why.
+  // walls draw from the default head and the console says why. A tracking.toml that is there
+  // but wrong (a bad value, nan or inf, a TOML error) is bad config like the installation
+  // file's, and stops start-up with its file, line and key.
   std::unique_ptr<kumite::app::TrackingInput> tracking;
   try {
     tracking = kumite::app::make_tracking_input(config);
   } catch (const kumite::Error& e) {
+    if (e.component() == "config" && e.code() != "missing") throw;
     spdlog::error("tracking unavailable: {}", e.what());
     tracking = kumite::app::make_fixed_head_input(std::string("tracking unavailable: ") + e.what());
   }

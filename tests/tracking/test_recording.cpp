@@ -181,6 +181,36 @@ TEST(Config, ErrorsNameFileLineAndKey) {
   expect_error(body + "[[cameras]]\nname = \"cam0\"\ndevice = \"/dev/video0\"\npixel_format = \"RGB\"\n", "pixel_format");
 }
 
+// toml++ reads nan, inf, +inf and -nan as numbers: every number of the file is refused with
+// its line and key, before any range check.
+TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
+  const std::string body = "[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n";
+  const auto error_of = [](const std::string& text) {
+    try {
+      parse_tracking_config(text, "t.toml");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  for (const std::string v : {"nan", "inf", "+inf", "-inf", "-nan", "+nan"}) {
+    EXPECT_EQ(error_of("coasting_s = " + v + "\n" + body), "t.toml:1: coasting_s: must be a finite number");
+    EXPECT_EQ(error_of("frame_tolerance_s = " + v + "\n" + body), "t.toml:1: frame_tolerance_s: must be a finite number");
+    EXPECT_EQ(error_of("camera_timeout_s = " + v + "\n" + body), "t.toml:1: camera_timeout_s: must be a finite number");
+    EXPECT_EQ(error_of(body + "[filter]\nbeta = " + v + "\n"), "t.toml:5: filter.beta: must be a finite number");
+    EXPECT_EQ(error_of(body + "[blobs]\nmin_roundness = " + v + "\n"), "t.toml:5: blobs.min_roundness: must be a finite number");
+    EXPECT_EQ(error_of(body + "[matching]\nmin_depth_m = " + v + "\n"), "t.toml:5: matching.min_depth_m: must be a finite number");
+    EXPECT_EQ(error_of(body + "[static_mask]\nlearn_s = " + v + "\n"), "t.toml:5: static_mask.learn_s: must be a finite number");
+    EXPECT_EQ(error_of("[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],\n  [0.1," + v + ",0],[0,0.07,0]]\n"),
+              "t.toml:4: bodies[0].markers: must be a finite number");
+    EXPECT_EQ(error_of(body + "[[bodies]]\nname = \"b\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\ndistance_tolerance_m = " +
+                       v + "\n"),
+              "t.toml:7: bodies[1].distance_tolerance_m: must be a finite number");
+    EXPECT_EQ(error_of(body + "[[cameras]]\nname = \"c\"\ndevice = \"/dev/video0\"\nfps = " + v + "\n"),
+              "t.toml:7: cameras[0].fps: must be a finite number");
+  }
+}
+
 TEST(Tracker, RunsARecordingInTheBackgroundAndPublishes) {
   SynthOptions o;
   o.dead_camera = 3;
