@@ -122,6 +122,44 @@ TEST(Recording, MissingFolderFilesCorruptAndWrongSizeImages) {
   fs::remove_all(dir);
 }
 
+// A camera whose every PNG is cut short: one line naming it and its first file, then counts
+// (a line per camera every few seconds, and at the end of a recording played once), not a
+// warning per frame set (60 lines a second in a live installation).
+TEST(Recording, ACameraThatGivesNoImagesIsSaidOnceThenCounted) {
+  const int sets = 30;
+  const fs::path dir = small_recording("cut", sets);
+  for (const auto& e : fs::directory_iterator(dir / "cam1")) {
+    std::ostringstream whole;
+    whole << std::ifstream(e.path(), std::ios::binary).rdbuf();
+    write_text(e.path(), whole.str().substr(0, whole.str().size() / 2));
+  }
+  const auto rig = corner_rig();
+  auto source = open_recording_source(dir, rig, ktest::shipped_config());
+  std::vector<std::string> said;
+  FrameSet set;
+  int got = 0;
+  while (source->next(set, 1.0)) {
+    ++got;
+    EXPECT_TRUE(set.images[1].empty());
+    EXPECT_FALSE(set.images[0].empty());
+    for (auto& m : source->take_messages()) said.push_back(m);
+  }
+  for (auto& m : source->take_messages()) said.push_back(m);
+  EXPECT_EQ(got, sets);
+  std::string all;
+  for (const auto& m : said) all += m + "\n";
+  ASSERT_EQ(said.size(), 2U) << all;
+  EXPECT_NE(said[0].find("cam1/000000.png: PNG cut short (no IEND chunk at its end): skipped (camera cam1: more "
+                         "images it cannot give are counted, a line every 5 s)"),
+            std::string::npos)
+      << said[0];
+  EXPECT_NE(said[1].find(fmt::format("recording: camera cam1: {} more images skipped in the last", sets - 1)),
+            std::string::npos)
+      << said[1];
+  EXPECT_NE(said[1].find(fmt::format("cam1/{:06d}.png: PNG cut short", sets - 1)), std::string::npos) << said[1];
+  fs::remove_all(dir);
+}
+
 TEST(Recording, UnusableRecordingsAreOneLineErrors) {
   const auto rig = corner_rig();
   const fs::path dir = temp_dir("empty");
