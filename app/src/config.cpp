@@ -100,11 +100,19 @@ class Reader {
     return true;
   }
 
+  /// Every floating-point value of the file comes through here: toml++ reads nan and inf
+  /// (also +inf, -nan) as numbers, which no key of the installation means.
+  double finite(const toml::node& n, int at, const std::string& full) const {
+    const double v = n.value<double>().value();
+    if (!std::isfinite(v)) fail("not_finite", at, full, "must be a finite number");
+    return v;
+  }
+
   bool number(const toml::table& t, std::string_view key, const std::string& path, double& out,
               bool required = false) {
     return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
       if (!n.is_number()) fail("type", line(n), full, "expected a number");
-      out = n.value<double>().value();
+      out = finite(n, line(n), full);
     });
   }
 
@@ -155,7 +163,7 @@ class Reader {
           out[i] = static_cast<T>(e.value<std::int64_t>().value());
         } else {
           if (!e.is_number()) fail("type", line(n), full, fmt::format("expected {} numbers", N));
-          out[i] = e.value<double>().value();
+          out[i] = finite(e, line(e), full);
         }
       }
     });

@@ -1,8 +1,15 @@
 #include "kumite/app/frame_log.hpp"
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <utility>
+
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 
 namespace kumite::app {
@@ -75,29 +82,46 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
   return j.dump();
 }
 
-FrameLog::FrameLog(std::filesystem::path path)
-    : path_(std::move(path)), tmp_(temporary_path_beside(path_)), out_(tmp_) {
-  if (!out_) throw Error("io", "open", "cannot write " + tmp_.string());
+FrameLog::FrameLog(std::filesystem::path path) : path_(std::move(path)) {
+  fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw Error("io", "open", fmt::format("{}: cannot write ({})", path_.string(), std::strerror(errno)));
 }
 
 FrameLog::~FrameLog() {
-  if (!closed_) {
-    out_.close();
-    std::error_code ec;
-    std::filesystem::remove(tmp_, ec);
-  }
+  if (fd_ >= 0) ::close(fd_);
 }
 
 void FrameLog::write(const FrameData& f, const ConsoleState& c,
                      const std::vector<std::string>& wall_names, bool stereo) {
-  out_ << frame_json(f, c, wall_names, stereo) << '\n';
+  write_line(frame_json(f, c, wall_names, stereo));
+}
+
+void FrameLog::write_line(std::string line) {
+  if (fd_ < 0) throw Error("io", "write", path_.string() + ": written after close()");
+  line += '\n';
+  // One write(2) for the whole line (a regular file takes it whole; the loop is for the
+  // rare short write and EINTR): a process killed between frames leaves complete lines.
+  const char* p = line.data();
+  std::size_t left = line.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd_, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0)
+      throw Error("io", "write", fmt::format("{}: cannot write ({})", path_.string(),
+                                             n < 0 ? std::strerror(errno) : "no progress"));
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
 }
 
 void FrameLog::close() {
-  out_.close();
-  if (!out_) throw Error("io", "write", "cannot write " + tmp_.string());
-  commit_temporary(tmp_, path_);
-  closed_ = true;
+  if (fd_ < 0) return;
+  const int fd = std::exchange(fd_, -1);
+  const bool synced = ::fsync(fd) == 0;
+  const int sync_errno = errno;
+  if (::close(fd) != 0 || !synced)
+    throw Error("io", "write", fmt::format("{}: cannot write ({})", path_.string(),
+                                           std::strerror(synced ? errno : sync_errno)));
 }
 
 }  // namespace kumite::app

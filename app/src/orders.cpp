@@ -31,7 +31,10 @@ std::vector<Order> parse_orders_script(std::string_view text, std::string_view f
     if (t == "time_s" && o == "order" && out.empty()) continue;  // header
     double time = 0;
     const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), time);
-    if (ec != std::errc() || end != t.data() + t.size() || !std::isfinite(time) || time < 0)
+    if (ec == std::errc() && end == t.data() + t.size() && !std::isfinite(time))
+      throw file_error("orders", "not_finite", file, line_no, "time_s",
+                       fmt::format("must be a finite number (found \"{}\")", t));
+    if (ec != std::errc() || end != t.data() + t.size() || time < 0)
       throw file_error("orders", "parse", file, line_no, "time_s",
                        fmt::format("\"{}\" is not a time in seconds >= 0", t));
     if (time < last)

@@ -17,7 +17,7 @@ namespace kumite::app {
 
 int run_headless(Installation& inst, const HeadlessOptions& opt) {
   const auto& cfg = inst.config();
-  std::filesystem::create_directories(opt.out);
+  make_output_folder(opt.out, "headless output folder");
   HeadlessContext context;
   spdlog::info("headless: {}", gl_description());
   Renderer renderer(inst.walls());
@@ -38,7 +38,9 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   const Timestamp t0 = now();
   inst.start(t0);
   double render_s = 0;
-  for (int i = 0; i < opt.frames && !inst.quit_requested(); ++i) {
+  const auto stopping = [&] { return opt.stop && opt.stop->load() != 0; };
+  int frames = 0;  // rendered and logged
+  for (int i = 0; i < opt.frames && !inst.quit_requested() && !stopping(); ++i) {
     // Real time: wait for the frame's slot; when rendering is slower than the display rate,
     // the frame is late and takes the present time (the fighter and tracker move on in real
     // time). Simulated: exact steps of 1/rate, as fast as rendering goes.
@@ -81,6 +83,7 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
     }
     for (const auto& e : pngs.take_errors()) spdlog::warn("headless: {}", e);
     log.write(f, inst.console(), names, stereo);
+    frames = i + 1;
     if (opt.real_time && cfg.late_latch) {
       // The frame's whole work (GPU, reading PNG frames back, log) is what the latch must
       // leave room for before the next tick: a frame that saves PNGs holds the budget up for
@@ -91,11 +94,14 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   }
   glFinish();
   const double wall_s = now() - t0;
+  if (stopping())
+    spdlog::info("headless: stopped (signal {}) after {} of {} frames; writing the PNGs queued", opt.stop->load(),
+                 frames, opt.frames);
   pngs.flush();
   for (const auto& e : pngs.take_errors()) spdlog::warn("headless: {}", e);
   log.close();
   spdlog::info("headless: {} frames in {:.2f} s ({:.1f} ms/frame, GL {:.1f} ms of it); {} PNGs written -> {}",
-               opt.frames, wall_s, wall_s * 1e3 / opt.frames, render_s * 1e3 / opt.frames, pngs.written(),
+               frames, wall_s, wall_s * 1e3 / std::max(frames, 1), render_s * 1e3 / std::max(frames, 1), pngs.written(),
                opt.out.string());
   if (pngs.dropped() > 0)
     spdlog::warn("headless: {} PNGs not written: the writer was behind (real time never waits for it; "

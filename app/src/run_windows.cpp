@@ -203,7 +203,8 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
       if (cfg.late_latch) glFinish();
     }
     inst.drawn(now() - t);
-    const bool last = inst.quit_requested() || (opt.seconds && t - t0 >= *opt.seconds);
+    const bool stopped = opt.stop && opt.stop->load() != 0;  // SIGINT/SIGTERM: as a quit
+    const bool last = inst.quit_requested() || stopped || (opt.seconds && t - t0 >= *opt.seconds);
     if (last && opt.screenshot) {
       glfwMakeContextCurrent(slots[0].window);
       screenshot(slots[0].window, *opt.screenshot);
@@ -238,6 +239,7 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
     sleep_until(slot);
   }
   if (log) log->close();
+  if (opt.stop && opt.stop->load() != 0) spdlog::info("windows: stopped (signal {})", opt.stop->load());
   console.reset();
   for (auto& s : slots) {
     glfwMakeContextCurrent(s.window);

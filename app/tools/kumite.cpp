@@ -6,6 +6,8 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <atomic>
+#include <csignal>
 #include <iostream>
 
 
@@ -53,9 +55,27 @@ void lower_render_priority(int n) {
   if (const auto nice = kumite::lower_this_thread_priority(n)) spdlog::debug("render thread: nice {}", *nice);
 }
 
-int run(const Args& a) {
+/// The folder a file option writes into ("" for the current one).
+std::filesystem::path folder_of(const std::string& file) {
+  return std::filesystem::path(file).parent_path();
+}
+
+int run(const Args& a, const std::atomic<int>& stop) {
   auto config = kumite::app::load_installation_config(
       a.config, a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
+  // Output folders are made (or refused, in one line) before anything starts, not found
+  // missing at the end of a run.
+  const bool headless = a.headless || !kumite::app::display_available();
+  if (headless) {
+    kumite::app::make_output_folder(a.out, "--out " + a.out);
+  } else {
+    for (const auto& [option, file] : {std::pair{"--log", a.log}, std::pair{"--screenshot", a.screenshot}}) {
+      if (file.empty()) continue;
+      const std::string what = std::string(option) + " " + file;
+      if (std::filesystem::is_directory(file)) throw kumite::Error("io", "folder", what + ": is a folder, not a file");
+      kumite::app::make_output_folder(folder_of(file).empty() ? "." : folder_of(file), what);
+    }
+  }
   if (!config.data_root().empty()) spdlog::info("data folder ${{data_dir}}: {}", config.data_root().string());
   if (!a.stereo.empty()) {
     const auto m = kumite::app::stereo_mode_from_string(a.stereo);
@@ -67,11 +87,14 @@ int run(const Args& a) {
   if (!a.orders.empty()) io.orders_script = a.orders;
   io.mono_eyes = config.stereo.mode == kumite::app::StereoMode::mono;
   // A tracker that cannot start (missing recording, calibration, cameras) is not a stop: the
-  // walls draw from the default head and the console says why.
+  // walls draw from the default head and the console says why. A tracking.toml that is there
+  // but wrong (a bad value, nan or inf, a TOML error) is bad config like the installation
+  // file's, and stops start-up with its file, line and key.
   std::unique_ptr<kumite::app::TrackingInput> tracking;
   try {
     tracking = kumite::app::make_tracking_input(config);
   } catch (const kumite::Error& e) {
+    if (e.component() == "config" && e.code() != "missing") throw;
     spdlog::error("tracking unavailable: {}", e.what());
     tracking = kumite::app::make_fixed_head_input(std::string("tracking unavailable: ") + e.what());
   }
@@ -79,7 +102,6 @@ int run(const Args& a) {
   // The tracker's threads are running (at the process's priority); the render thread and the
   // GL driver's threads it starts from here on (llvmpipe) yield to them when the cores are short.
   lower_render_priority(a.render_nice);
-  const bool headless = a.headless || !kumite::app::display_available();
   if (headless) {
     if (!a.headless) spdlog::info("no display ($DISPLAY unset): rendering headless into {}", a.out);
     kumite::app::HeadlessOptions ho;
@@ -88,6 +110,7 @@ int run(const Args& a) {
     ho.save_every = a.save_every;
     ho.resolution = parse_resolution(a.resolution);
     ho.real_time = !a.simulated;
+    ho.stop = &stop;
     return kumite::app::run_headless(inst, ho);
   }
   kumite::app::WindowOptions wo;
@@ -95,6 +118,7 @@ int run(const Args& a) {
   wo.console = !a.no_console;
   if (!a.screenshot.empty()) wo.screenshot = a.screenshot;
   if (!a.log.empty()) wo.log = a.log;
+  wo.stop = &stop;
   return kumite::app::run_windows(inst, wo);
 }
 
@@ -126,8 +150,18 @@ int main(int argc, char** argv) {
   app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   kumite::init_logging(a.verbosity);
+  // SIGINT (Ctrl-C) and SIGTERM end the run at its next frame with its outputs complete; the
+  // exit status then says which: 128 + the signal's number (130, 143), as a shell reports a
+  // process the signal killed. A second one kills at once.
+  const std::atomic<int>& stop = kumite::app::stop_on_signals();
   try {
-    return run(a);
+    const int rc = run(a, stop);
+    if (const int sig = stop.load(); sig != 0) {
+      spdlog::info("stopped by {}: outputs complete, exit status {}", sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal",
+                   128 + sig);
+      return rc != 0 ? rc : 128 + sig;
+    }
+    return rc;
   } catch (const kumite::Error& e) {
     std::cerr << "kumite: " << e.what() << "\n";
     return 1;

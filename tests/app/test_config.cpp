@@ -1,7 +1,9 @@
 // The installation file: round trips and every bad-config case, each naming file, line, key.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
+#include <vector>
 
 #include "kumite/app/config.hpp"
 #include "kumite/common/error.hpp"
@@ -281,4 +283,51 @@ TEST(Config, LateLatchIsOnUnlessTurnedOff) {
   EXPECT_EQ(parse_installation_config(to_toml(off), "again.toml"), off);
   const auto msg = error_of("late_latch = \"yes\"\n" + std::string(kBase));
   EXPECT_NE(msg.find("bad.toml:1: late_latch: expected true or false"), std::string::npos) << msg;
+}
+
+// toml++ reads nan, inf, +inf and -nan as floating-point numbers: every number of the file,
+// scalar or in an array, is refused with its line and key (they made null matrices in
+// frames.jsonl and a 0.0 cm contact logged as a miss).
+TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
+  const int base_lines = static_cast<int>(std::count(kBase.begin(), kBase.end(), '\n'));
+  struct Case {
+    std::string from, to;  // a line of kBase replaced ("" = `to` appended as a new table)
+    int line;
+    std::string key;
+  };
+  const int app = base_lines + 2;  // the key's line in an appended "[table]\nkey = ..."
+  const std::vector<Case> cases = {
+      {"display_rate_hz = 60.0", "display_rate_hz = {}", 1, "display_rate_hz"},
+      {"display_rate_hz = 60.0", "display_latency_ms = {}", 1, "display_latency_ms"},
+      {"lower_left = [-1.5, 0.0, -1.5]", "lower_left = [-1.5, {}, -1.5]", 8, "walls[0].lower_left"},
+      {"lower_right = [1.5, 0.0, -1.5]", "lower_right = [{}, 0.0, -1.5]", 9, "walls[0].lower_right"},
+      {"upper_left = [-1.5, 2.4, -1.5]", "upper_left = [-1.5, 2.4, {}]", 10, "walls[0].upper_left"},
+      {"resolution = [1920, 1080]", "upper_right = [1.5, 2.4, {}]", 11, "walls[0].upper_right"},
+      {"", "[viewer]\ninterpupillary_distance_m = {}", app, "viewer.interpupillary_distance_m"},
+      {"", "[viewer]\neye_offset_m = [0, {}, 0]", app, "viewer.eye_offset_m"},
+      {"", "[viewer]\ndefault_head_m = [{}, 1.7, 0]", app, "viewer.default_head_m"},
+      {"", "[projection]\nnear_m = {}", app, "projection.near_m"},
+      {"", "[projection]\nfar_m = {}", app, "projection.far_m"},
+      {"", "[fighter]\nhome_m = [0, 0, {}]", app, "fighter.home_m"},
+      {"", "[fighter]\nstrike_distance_m = {}", app, "fighter.strike_distance_m"},
+      {"", "[fighter]\nhit_radius_m = {}", app, "fighter.hit_radius_m"},
+      {"", "[fighter]\nx_limits_m = [{}, 1]", app, "fighter.x_limits_m"},
+      {"", "[fighter]\nz_limits_m = [-4, {}]", app, "fighter.z_limits_m"},
+      {"", "[tracking]\nlost_after_s = {}", app, "tracking.lost_after_s"},
+  };
+  for (const char* value : {"nan", "inf", "+inf", "-inf", "-nan", "+nan"}) {
+    for (const auto& c : cases) {
+      std::string to = c.to;
+      to.replace(to.find("{}"), 2, value);
+      const std::string text = c.from.empty() ? kBase + to + "\n" : replace(kBase, c.from, to);
+      std::string code;
+      EXPECT_EQ(error_of(text, &code),
+                "bad.toml:" + std::to_string(c.line) + ": " + c.key + ": must be a finite number")
+          << to;
+      EXPECT_EQ(code, "not_finite") << to;
+    }
+  }
+  // An element on a line of its own is named by its line.
+  EXPECT_EQ(error_of(kBase + "[viewer]\ndefault_head_m = [\n  0,\n  nan,\n  0]\n"),
+            "bad.toml:" + std::to_string(base_lines + 4) + ": viewer.default_head_m: must be a finite number");
 }

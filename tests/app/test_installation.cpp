@@ -273,6 +273,10 @@ TEST(Orders, BadRowsNameFileAndLine) {
   EXPECT_EQ(msg("0.5 punch_right\n"), "o.csv:1: expected `time_s,order`");
   EXPECT_EQ(msg("1.0,pause\nsoon,resume\n"), "o.csv:2: time_s: \"soon\" is not a time in seconds >= 0");
   EXPECT_EQ(msg("2.0,pause\n1.0,resume\n"), "o.csv:2: time_s: 1 s comes before the previous row (2 s)");
+  // from_chars reads nan, inf and infinity (either sign) as numbers: refused by name.
+  for (const char* t : {"nan", "-nan", "inf", "-inf", "infinity", "NaN"})
+    EXPECT_EQ(msg(("0.5,pause\n" + std::string(t) + ",resume\n").c_str()),
+              "o.csv:2: time_s: must be a finite number (found \"" + std::string(t) + "\")");
   EXPECT_NO_THROW(load_orders_script(KUMITE_SOURCE_DIR "/config/orders-demo.csv"));
 }
 

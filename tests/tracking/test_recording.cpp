@@ -122,6 +122,44 @@ TEST(Recording, MissingFolderFilesCorruptAndWrongSizeImages) {
   fs::remove_all(dir);
 }
 
+// A camera whose every PNG is cut short: one line naming it and its first file, then counts
+// (a line per camera every few seconds, and at the end of a recording played once), not a
+// warning per frame set (60 lines a second in a live installation).
+TEST(Recording, ACameraThatGivesNoImagesIsSaidOnceThenCounted) {
+  const int sets = 30;
+  const fs::path dir = small_recording("cut", sets);
+  for (const auto& e : fs::directory_iterator(dir / "cam1")) {
+    std::ostringstream whole;
+    whole << std::ifstream(e.path(), std::ios::binary).rdbuf();
+    write_text(e.path(), whole.str().substr(0, whole.str().size() / 2));
+  }
+  const auto rig = corner_rig();
+  auto source = open_recording_source(dir, rig, ktest::shipped_config());
+  std::vector<std::string> said;
+  FrameSet set;
+  int got = 0;
+  while (source->next(set, 1.0)) {
+    ++got;
+    EXPECT_TRUE(set.images[1].empty());
+    EXPECT_FALSE(set.images[0].empty());
+    for (auto& m : source->take_messages()) said.push_back(m);
+  }
+  for (auto& m : source->take_messages()) said.push_back(m);
+  EXPECT_EQ(got, sets);
+  std::string all;
+  for (const auto& m : said) all += m + "\n";
+  ASSERT_EQ(said.size(), 2U) << all;
+  EXPECT_NE(said[0].find("cam1/000000.png: PNG cut short (no IEND chunk at its end): skipped (camera cam1: more "
+                         "images it cannot give are counted, a line every 5 s)"),
+            std::string::npos)
+      << said[0];
+  EXPECT_NE(said[1].find(fmt::format("recording: camera cam1: {} more images skipped in the last", sets - 1)),
+            std::string::npos)
+      << said[1];
+  EXPECT_NE(said[1].find(fmt::format("cam1/{:06d}.png: PNG cut short", sets - 1)), std::string::npos) << said[1];
+  fs::remove_all(dir);
+}
+
 TEST(Recording, UnusableRecordingsAreOneLineErrors) {
   const auto rig = corner_rig();
   const fs::path dir = temp_dir("empty");
@@ -179,6 +217,36 @@ TEST(Config, ErrorsNameFileLineAndKey) {
   expect_error(body + "[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n", "duplicate body name");
   expect_error("x = [", "t.toml:1");
   expect_error(body + "[[cameras]]\nname = \"cam0\"\ndevice = \"/dev/video0\"\npixel_format = \"RGB\"\n", "pixel_format");
+}
+
+// toml++ reads nan, inf, +inf and -nan as numbers: every number of the file is refused with
+// its line and key, before any range check.
+TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
+  const std::string body = "[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n";
+  const auto error_of = [](const std::string& text) {
+    try {
+      parse_tracking_config(text, "t.toml");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  for (const std::string v : {"nan", "inf", "+inf", "-inf", "-nan", "+nan"}) {
+    EXPECT_EQ(error_of("coasting_s = " + v + "\n" + body), "t.toml:1: coasting_s: must be a finite number");
+    EXPECT_EQ(error_of("frame_tolerance_s = " + v + "\n" + body), "t.toml:1: frame_tolerance_s: must be a finite number");
+    EXPECT_EQ(error_of("camera_timeout_s = " + v + "\n" + body), "t.toml:1: camera_timeout_s: must be a finite number");
+    EXPECT_EQ(error_of(body + "[filter]\nbeta = " + v + "\n"), "t.toml:5: filter.beta: must be a finite number");
+    EXPECT_EQ(error_of(body + "[blobs]\nmin_roundness = " + v + "\n"), "t.toml:5: blobs.min_roundness: must be a finite number");
+    EXPECT_EQ(error_of(body + "[matching]\nmin_depth_m = " + v + "\n"), "t.toml:5: matching.min_depth_m: must be a finite number");
+    EXPECT_EQ(error_of(body + "[static_mask]\nlearn_s = " + v + "\n"), "t.toml:5: static_mask.learn_s: must be a finite number");
+    EXPECT_EQ(error_of("[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],\n  [0.1," + v + ",0],[0,0.07,0]]\n"),
+              "t.toml:4: bodies[0].markers: must be a finite number");
+    EXPECT_EQ(error_of(body + "[[bodies]]\nname = \"b\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\ndistance_tolerance_m = " +
+                       v + "\n"),
+              "t.toml:7: bodies[1].distance_tolerance_m: must be a finite number");
+    EXPECT_EQ(error_of(body + "[[cameras]]\nname = \"c\"\ndevice = \"/dev/video0\"\nfps = " + v + "\n"),
+              "t.toml:7: cameras[0].fps: must be a finite number");
+  }
 }
 
 TEST(Tracker, RunsARecordingInTheBackgroundAndPublishes) {

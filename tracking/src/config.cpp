@@ -35,16 +35,24 @@ class Reader {
     return where.empty() ? std::string(key) : std::string(where) + "." + std::string(key);
   }
 
+  /// Every number of the file comes through here: toml++ reads nan and inf (also +inf,
+  /// -nan) as numbers, which no key means.
+  double finite(const toml::node* n, const std::string& key) const {
+    const auto v = n->value<double>();
+    if (!v || !(n->is_integer() || n->is_floating_point())) fail(n, key, "must be a number");
+    if (!std::isfinite(*v)) fail(n, key, "must be a finite number");
+    return *v;
+  }
+
   void number(const toml::table& t, std::string_view where, std::string_view key, double& out,
               double min, double max) const {
     const toml::node* n = t.get(key);
     if (!n) return;
-    auto v = n->value<double>();
-    if (!v || !(n->is_integer() || n->is_floating_point())) fail(n, join(where, key), "must be a number");
-    if (!std::isfinite(*v) || *v < min || *v > max) {
-      fail(n, join(where, key), fmt::format("must be in [{}, {}], found {}", min, max, *v));
+    const double v = finite(n, join(where, key));
+    if (v < min || v > max) {
+      fail(n, join(where, key), fmt::format("must be in [{}, {}], found {}", min, max, v));
     }
-    out = *v;
+    out = v;
   }
 
   void integer(const toml::table& t, std::string_view where, std::string_view key, int& out,
@@ -99,11 +107,11 @@ BodyConfig read_body(const Reader& r, const toml::table& t, const toml::node* no
     if (!xyz || xyz->size() != 3) r.fail(&p, where + ".markers", "each marker must be [x, y, z] (m)");
     Eigen::Vector3d v;
     for (int k = 0; k < 3; ++k) {
-      auto c = (*xyz)[k].value<double>();
-      if (!c || !std::isfinite(*c) || std::abs(*c) > 10) {
-        r.fail(&p, where + ".markers", "marker coordinates must be numbers in metres (|v| <= 10)");
-      }
-      v[k] = *c;
+      const toml::node& e = (*xyz)[k];
+      if (!e.is_number()) r.fail(&e, where + ".markers", "marker coordinates must be numbers in metres (|v| <= 10)");
+      const double c = r.finite(&e, where + ".markers");
+      if (std::abs(c) > 10) r.fail(&e, where + ".markers", "marker coordinates must be numbers in metres (|v| <= 10)");
+      v[k] = c;
     }
     b.markers.push_back(v);
   }

@@ -220,7 +220,8 @@ cv::Mat read_grey_image(const fs::path& file, std::string& why) {
   return {};
 }
 
-FrameSet Recording::load(std::size_t i, std::vector<std::string>* skipped) const {
+FrameSet Recording::load(std::size_t i, std::vector<std::string>* skipped,
+                         std::vector<std::size_t>* skipped_cameras) const {
   const FrameRow& row = index_.rows.at(i);
   FrameSet set;
   set.frame = row.frame;
@@ -236,6 +237,7 @@ FrameSet Recording::load(std::size_t i, std::vector<std::string>* skipped) const
     cv::Mat img = read_grey_image(file, why);
     if (img.empty()) {
       if (skipped) skipped->push_back(fmt::format("{}: {}: skipped", file.string(), why));
+      if (skipped_cameras) skipped_cameras->push_back(c);
       continue;
     }
     if (img.size() != sizes_[c]) {
@@ -243,6 +245,7 @@ FrameSet Recording::load(std::size_t i, std::vector<std::string>* skipped) const
         skipped->push_back(fmt::format("{}: {}x{} image, the calibration says {}x{}: skipped", file.string(),
                                        img.cols, img.rows, sizes_[c].width, sizes_[c].height));
       }
+      if (skipped_cameras) skipped_cameras->push_back(c);
       continue;
     }
     set.images[c] = std::move(img);

@@ -46,6 +46,62 @@ constexpr double kReportEvery_s = 5.0;
 /// hand-overs by 3-8 ms. The buffers hold 50 ms of sets, so the lag costs nothing.
 constexpr double kWorkerLag_s = 0.002;
 
+/// Images a recording's cameras could not give (a PNG cut short, the wrong size): the first
+/// of each camera is said in full, the rest are counted and said in one line per camera
+/// every kReportEvery_s (a camera whose every PNG is truncated would otherwise put 60
+/// warnings a second on the log).
+class SkippedImages {
+ public:
+  explicit SkippedImages(std::vector<std::string> cameras)
+      : cameras_(std::move(cameras)), count_(cameras_.size(), 0), said_(cameras_.size(), false),
+        last_(cameras_.size()) {}
+
+  /// `lines` and `cameras` as Recording::load gives them; what is to be said goes to `out`.
+  void add(std::vector<std::string>& lines, const std::vector<std::size_t>& cameras, Timestamp t,
+           std::vector<std::string>& out) {
+    if (since_ < 0) since_ = t;
+    for (std::size_t k = 0; k < lines.size(); ++k) {
+      const std::size_t c = k < cameras.size() && cameras[k] < cameras_.size() ? cameras[k] : cameras_.size();
+      if (c == cameras_.size()) {  // not a camera's (cannot happen): said as it is
+        out.push_back(std::move(lines[k]));
+      } else if (!said_[c]) {
+        said_[c] = true;
+        out.push_back(fmt::format("{} (camera {}: more images it cannot give are counted, a line every {:.0f} s)",
+                                  lines[k], cameras_[c], kReportEvery_s));
+      } else {
+        ++count_[c];
+        last_[c] = std::move(lines[k]);
+      }
+    }
+    lines.clear();
+  }
+
+  /// The counts, once kReportEvery_s has passed since the last ones (or now if `all`).
+  void report(Timestamp t, bool all, std::vector<std::string>& out) {
+    if (since_ < 0 || (!all && t - since_ < kReportEvery_s)) return;
+    for (std::size_t c = 0; c < cameras_.size(); ++c) {
+      if (count_[c] == 0) continue;
+      out.push_back(fmt::format("recording: camera {}: {} more images skipped in the last {:.1f} s (the last: {})",
+                                cameras_[c], count_[c], t - since_, last_[c]));
+      count_[c] = 0;
+    }
+    since_ = t;
+  }
+
+ private:
+  std::vector<std::string> cameras_;
+  std::vector<std::uint64_t> count_;
+  std::vector<bool> said_;
+  std::vector<std::string> last_;
+  Timestamp since_ = -1;
+};
+
+std::vector<std::string> camera_names(const RigCalibration& rig) {
+  std::vector<std::string> names;
+  for (const auto& c : rig.cameras) names.push_back(c.name);
+  return names;
+}
+
 /// A preloaded frame set: its images packed losslessly (see packed_image.hpp), so a whole
 /// recording fits in memory and a set expands far faster than its PNGs decode. Frame number
 /// and times are not kept: stamp() gives every handed-over set its own.
@@ -64,7 +120,7 @@ struct PackedSet {
 class RecordingSource final : public FrameSource {
  public:
   RecordingSource(const std::filesystem::path& dir, const RigCalibration& rig, RecordingOptions options)
-      : recording_(dir, rig), options_(std::move(options)) {
+      : recording_(dir, rig), options_(std::move(options)), skipped_images_(camera_names(rig)) {
     for (const auto& w : recording_.warnings()) messages_.push_back(w);
     for (const auto& s : recording_.index().skipped) messages_.push_back(s);
     if (recording_.size() == 0) {
@@ -97,6 +153,10 @@ class RecordingSource final : public FrameSource {
   }
   std::vector<std::string> take_messages() override {
     std::lock_guard lock(mutex_);
+    // At the end of a recording played once, the counts so far; else every few seconds.
+    const bool finished = !options_.loop && (options_.realtime ? start_ >= 0 && next_decode_ >= end_seq_ && in_flight_ == 0
+                                                               : next_ >= recording_.size());
+    skipped_images_.report(kumite::now(), finished || closed_, messages_);
     return std::exchange(messages_, {});
   }
 
@@ -110,12 +170,13 @@ class RecordingSource final : public FrameSource {
       ++loops_;
     }
     std::vector<std::string> skipped;
-    out = recording_.load(next_, &skipped);
+    std::vector<std::size_t> skipped_cameras;
+    out = recording_.load(next_, &skipped, &skipped_cameras);
     out.frame += loops_ * (recording_.index().rows.back().frame + 1);
     ++next_;
     options_.counters->delivered.fetch_add(1);
     std::lock_guard lock(mutex_);
-    for (auto& m : skipped) messages_.push_back(std::move(m));
+    skipped_images_.add(skipped, skipped_cameras, kumite::now(), messages_);
     return true;
   }
 
@@ -140,9 +201,9 @@ class RecordingSource final : public FrameSource {
     return start_ + rel_[n % playable_] + static_cast<double>(n / playable_) * period_;
   }
 
-  FrameSet load(std::size_t i, std::vector<std::string>& skipped) const {
+  FrameSet load(std::size_t i, std::vector<std::string>& skipped, std::vector<std::size_t>& skipped_cameras) const {
     if (from_memory_) return memory_[i].unpack();
-    return recording_.load(i, &skipped);
+    return recording_.load(i, &skipped, &skipped_cameras);
   }
 
   /// Before the clock starts: decode the preloaded sets (or only the first one, so the
@@ -159,12 +220,13 @@ class RecordingSource final : public FrameSource {
       const std::size_t i = next_preload_++;
       lock.unlock();
       std::vector<std::string> skipped;
+      std::vector<std::size_t> skipped_cameras;
       const Timestamp t0 = kumite::now();
-      FrameSet set = recording_.load(i, &skipped);
+      FrameSet set = recording_.load(i, &skipped, &skipped_cameras);
       const double took = kumite::now() - t0;
       PackedSet packed = from_memory_ ? PackedSet(set) : PackedSet();
       lock.lock();
-      for (auto& m : skipped) messages_.push_back(std::move(m));
+      skipped_images_.add(skipped, skipped_cameras, kumite::now(), messages_);
       if (from_memory_) memory_[i] = std::move(packed);
       else first_ = std::move(set);
       decode_s_ = decode_s_ <= 0 ? took : 0.8 * decode_s_ + 0.2 * took;
@@ -228,8 +290,9 @@ class RecordingSource final : public FrameSource {
       ++in_flight_;
       lock.unlock();
       std::vector<std::string> skipped;
+      std::vector<std::size_t> skipped_cameras;
       const Timestamp t0 = kumite::now();
-      FrameSet set = load(static_cast<std::size_t>(n % playable_), skipped);
+      FrameSet set = load(static_cast<std::size_t>(n % playable_), skipped, skipped_cameras);
       const double took = kumite::now() - t0;
       lock.lock();
       --in_flight_;
@@ -237,7 +300,7 @@ class RecordingSource final : public FrameSource {
         decode_s_ = 0.8 * decode_s_ + 0.2 * took;
         options_.counters->decode_ms.store(decode_s_ * 1e3);
       }
-      for (auto& m : skipped) messages_.push_back(std::move(m));
+      skipped_images_.add(skipped, skipped_cameras, kumite::now(), messages_);
       if (handed_any_ && n <= last_handed_) {  // another worker's newer set went first
         options_.counters->dropped_stale.fetch_add(1);
         continue;
@@ -313,6 +376,7 @@ class RecordingSource final : public FrameSource {
   std::condition_variable cv_;
   bool closed_ = false;
   std::vector<std::string> messages_;
+  SkippedImages skipped_images_;  // under mutex_
   // as fast as possible
   std::size_t next_ = 0;
   std::uint64_t loops_ = 0;

@@ -5,10 +5,15 @@
 // convention), fighter {state, character, character_name}, events [...], pose_age_ms,
 // tracking_latency_ms (its part from the frame set's camera time to the pose published),
 // latch_ms, predicted_ahead_ms (the head predicted this far past the moment it was taken:
-// to the frame's vsync plus display_latency_ms), console {...}. Written to a temporary file, renamed into place by close() (nothing
-// half-written).
+// to the frame's vsync plus display_latency_ms), console {...}.
+//
+// A log, not a document: it is written under its final name from the first frame on, one
+// write(2) per line, so at any moment (`tail -f`, a run stopped by SIGINT/SIGTERM, or one
+// killed with SIGKILL) the file holds every frame logged so far as complete lines. A line is
+// handed to the kernel whole at the end of its frame; only a power cut or a full disk can
+// leave the last line short (close() syncs to disk and reports a failed write). A previous
+// run's file of the same name is replaced when the log opens.
 #include <filesystem>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -18,18 +23,23 @@ namespace kumite::app {
 
 class FrameLog {
  public:
+  /// Creates (or empties) `path`. Throws kumite::Error("io", "open") naming it.
   explicit FrameLog(std::filesystem::path path);
-  ~FrameLog();  ///< without close(): the temporary file is removed
+  ~FrameLog();  ///< without close(): the lines written stay (an error is not reported)
   FrameLog(const FrameLog&) = delete;
   FrameLog& operator=(const FrameLog&) = delete;
+  /// Appends the frame's line. Throws kumite::Error("io", "write") naming the file.
   void write(const FrameData& frame, const ConsoleState& console,
              const std::vector<std::string>& wall_names, bool stereo);
+  /// Appends one line (a newline is added).
+  void write_line(std::string line);
+  /// Syncs and closes the file. Throws kumite::Error("io", "write") naming the file.
   void close();
+  const std::filesystem::path& path() const { return path_; }
 
  private:
-  std::filesystem::path path_, tmp_;
-  std::ofstream out_;
-  bool closed_ = false;
+  std::filesystem::path path_;
+  int fd_ = -1;
 };
 
 /// The JSON line for one frame (exposed for tests).

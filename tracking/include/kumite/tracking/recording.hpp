@@ -78,8 +78,10 @@ class Recording {
   const FramesIndex& index() const { return index_; }
   const std::optional<TruthTable>& truth() const { return truth_; }
   std::size_t size() const { return index_.rows.size(); }
-  /// Loads frame set `i` (0-based row). Problems with single images go to `skipped`.
-  FrameSet load(std::size_t i, std::vector<std::string>* skipped = nullptr) const;
+  /// Loads frame set `i` (0-based row). Problems with single images go to `skipped`, one
+  /// line each; `skipped_cameras`, if given, gets the camera index of each line.
+  FrameSet load(std::size_t i, std::vector<std::string>* skipped = nullptr,
+                std::vector<std::size_t>* skipped_cameras = nullptr) const;
   const std::vector<std::string>& warnings() const { return warnings_; }
   /// True when README.txt says the recording is synthetic.
   bool synthetic() const { return synthetic_; }
