@@ -257,10 +257,14 @@ LimbAtContact limb_at_contact(const JointTrack& track, const Effector& e, int fr
   return out;
 }
 
-std::vector<LimbFlip> find_limb_flips(const JointTrack& track, FrameRange range, const FlipOptions& o) {
+namespace {
+// Calls visit(frame, side, leg, worst turn in the window) for every frame where the limb has
+// a bend plane and an earlier frame within the window has one too.
+template <class Visit>
+void scan_limb_turns(const JointTrack& track, FrameRange range, const FlipOptions& o, Visit visit) {
   range = clamp_range(track, range);
-  std::vector<LimbFlip> out;
   const double min_sin = std::sin(o.min_bend_deg * std::numbers::pi / 180);
+  const int back = std::max(1, static_cast<int>(std::lround(o.window_s / track.frame_time_s)));
   for (int leg = 0; leg < 2; ++leg) {
     for (int side = 0; side < 2; ++side) {
       const Limb l = limb_of(side, leg != 0);
@@ -278,21 +282,35 @@ std::vector<LimbFlip> find_limb_flips(const JointTrack& track, FrameRange range,
         const Vector3d nf = normal(f);
         if (!nf.allFinite()) continue;
         double worst = -1;
-        for (int k = 1; k <= o.frames && f - k >= range.first; ++k) {
+        for (int k = 1; k <= back && f - k >= range.first; ++k) {
           const Vector3d nk = normal(f - k);
           if (!nk.allFinite()) continue;
           worst = std::max(worst, std::acos(std::clamp(nf.dot(nk), -1.0, 1.0)) * 180 / std::numbers::pi);
         }
-        if (worst > o.max_turn_deg) {
-          // One flip per event: skip if the previous frame already reported this limb.
-          if (!out.empty() && out.back().side == side && out.back().leg == (leg != 0) && out.back().frame >= f - o.frames)
-            continue;
-          out.push_back({f, side, leg != 0, worst});
-        }
+        if (worst >= 0) visit(f, side, leg != 0, worst, back);
       }
     }
   }
-  std::sort(out.begin(), out.end(), [](const LimbFlip& a, const LimbFlip& b) { return a.frame < b.frame; });
+}
+}  // namespace
+
+std::vector<LimbFlip> find_limb_flips(const JointTrack& track, FrameRange range, const FlipOptions& o) {
+  std::vector<LimbFlip> out;
+  scan_limb_turns(track, range, o, [&](int f, int side, bool leg, double worst, int back) {
+    if (worst <= o.max_turn_deg) return;
+    // One flip per event: skip when this limb was reported within the window.
+    if (!out.empty() && out.back().side == side && out.back().leg == leg && out.back().frame >= f - back) return;
+    out.push_back({f, side, leg, worst});
+  });
+  std::stable_sort(out.begin(), out.end(), [](const LimbFlip& a, const LimbFlip& b) { return a.frame < b.frame; });
+  return out;
+}
+
+std::array<double, 2> max_limb_turn_deg(const JointTrack& track, FrameRange range, const FlipOptions& o) {
+  std::array<double, 2> out{0, 0};
+  scan_limb_turns(track, range, o, [&](int, int, bool leg, double worst, int) {
+    out[leg ? 1 : 0] = std::max(out[leg ? 1 : 0], worst);
+  });
   return out;
 }
 
@@ -318,6 +336,7 @@ TrackFigures track_figures(const JointTrack& track, FrameRange range, const Foot
                                          : FootFigure{kNaN, -1, 0, kNaN, kNaN};
   }
   t.flips = find_limb_flips(track, range, o.flips);
+  t.max_turn_deg = max_limb_turn_deg(track, range, o.flips);
   return t;
 }
 
@@ -376,6 +395,10 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
   FigureOptions o = options;
   if (in.effector.leg) o.stepping_feet[static_cast<std::size_t>(in.effector.side)] = false;
   q.output = track_figures(out, q.output_range, mapped, 1, o);
+  const FootContacts own = detect_foot_contacts(out);
+  q.whole = track_figures(out, {0, out.frame_count - 1}, own, 1, o);
+  q.tail_range = {q.output_range.last + 1, out.frame_count - 1};
+  if (q.tail_range.count() > 0) q.tail = track_figures(out, q.tail_range, own, 1, o);
   q.source = track_figures(src, q.source_range, src_contacts, in.speed_scale, o);
   const int h = speed_half_window(out.frame_time_s, o.window_s);
   q.output_contact = limb_at_contact(out, in.effector, in.contact_frame, in.target_m, h);

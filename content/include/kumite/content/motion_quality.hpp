@@ -34,9 +34,10 @@
 //   approach elevation = atan2(vy, |vxz|) of the end joint's velocity over the window ending
 //   at contact (a fist hooking upward has a large positive elevation).
 // - limb flip: bend-plane normal n = (middle - root) x (end - middle), unit; a flip at frame f
-//   when the angle between n(f) and n(f-k), k = 1..FlipOptions::frames, exceeds max_turn_deg
-//   (90 deg) while the limb is bent at least min_bend_deg (20 deg) in both frames (a straight
-//   limb has no bend plane).
+//   when the angle between n(f) and n(f-k), k = 1..K (K = max(1, round(window_s / frame
+//   time)), window_s = 1/30 s: "within a frame or two" of a 60 Hz display), exceeds
+//   max_turn_deg (90 deg) while the limb is bent at least min_bend_deg (20 deg) in both frames
+//   (a straight limb has no bend plane). One flip per limb is reported per K frames.
 #include <array>
 #include <cstdint>
 #include <filesystem>
@@ -150,7 +151,7 @@ LimbAtContact limb_at_contact(const JointTrack& track, const Effector& effector,
 
 struct FlipOptions {
   double max_turn_deg = 90;
-  int frames = 2;
+  double window_s = 1.0 / 30;  ///< compare with the frames up to this far back (4 at 120 Hz, 2 at 60 Hz)
   double min_bend_deg = 20;
 };
 struct LimbFlip {
@@ -160,6 +161,9 @@ struct LimbFlip {
   double turn_deg = 0;
 };
 std::vector<LimbFlip> find_limb_flips(const JointTrack& track, FrameRange range, const FlipOptions& options = {});
+/// The largest bend-plane turn within the window (deg) over `range`: [0] elbows, [1] knees
+/// (0 when a limb is never bent enough to have a plane).
+std::array<double, 2> max_limb_turn_deg(const JointTrack& track, FrameRange range, const FlipOptions& options = {});
 
 /// Every figure above for one range of one track (contacts given per frame and side).
 struct TrackFigures {
@@ -167,6 +171,7 @@ struct TrackFigures {
   std::vector<Snap> snaps;
   std::array<FootFigure, 2> slide{}, stepping{};  ///< [side]
   std::vector<LimbFlip> flips;
+  std::array<double, 2> max_turn_deg{0, 0};  ///< [0] elbows, [1] knees (max_limb_turn_deg)
   int knee_flips() const;
   int elbow_flips() const;
   double max_slide_mps() const;     ///< max over both feet (NaN when neither qualified)
@@ -213,13 +218,20 @@ struct StrikeComparisonInput {
   double speed_scale = 1;                 ///< output leg length / source leg length
 };
 struct StrikeQuality {
-  TrackFigures output, source;  ///< source speeds scaled by speed_scale
+  TrackFigures output, source;  ///< compared frames; source speeds scaled by speed_scale
+  /// The whole output clip [0, frames - 1] (rest frames, strike, and the tail after it) with
+  /// the output's own geometric contacts: what a viewer of the whole BVH sees.
+  TrackFigures whole;
+  /// The output frames after the compared ones (record_strike keeps going until the fighter
+  /// rests: recovery, then following back to its spot with procedural steps), geometric
+  /// contacts. Empty range (and default figures) when there is none.
+  TrackFigures tail;
   LimbAtContact output_contact, source_contact;
-  FrameRange output_range, source_range;
+  FrameRange output_range, source_range, tail_range;
   double speed_scale = 1;
 };
-/// Support and stepping feet are judged from the SOURCE clip's geometric contacts (detected
-/// over the whole source clip) mapped onto the output frames; the effector leg of a kick does
+/// Support and stepping feet are judged from the SOURCE clip's geometric contacts (floor levels
+/// over the compared source frames) mapped onto the output frames; the effector leg of a kick does
 /// not count as a stepping foot. Source contact limb: at the source frame of contact, toward
 /// the source's own hit point direction (its end joint's position there: folded is judged
 /// against where the source actually struck).
