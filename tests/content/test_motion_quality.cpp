@@ -238,6 +238,49 @@ TEST(MotionQuality, SyntheticElbowFlipIsDetectedSlowSwivelAndStraightLimbAreNot)
   EXPECT_TRUE(find_limb_flips(straight.track(), {0, 99}).empty());
 }
 
+TEST(MotionQuality, SyntheticCompareStrikeJudgesOutputFeetBySourceContactsOnMappedFrames) {
+  // SYNTHETIC source: 100 frames standing, the left wrist moving at 2 m/s, the right foot
+  // lifted at 1.2 m/s to 10 cm and back over source frames 38..60 (a step in place; out of
+  // contact, above 1.5 cm, over source frames 40..58).
+  Sequence src(100);
+  for (int f = 0; f < 100; ++f) src.at(f, CJ::l_wrist) += Vector3d(0, 0, 2.0 * f * kDt);
+  for (int f = 38; f <= 60; ++f) src.move_foot(f, 1, Vector3d(0, 0.01 * std::clamp(std::min(f - 38, 60 - f), 0, 10), 0));
+  // SYNTHETIC output: 60 frames; frame k shows source frame 19 + k (output_first 1 <-> 20).
+  // Its left foot slides flat at 1 m/s throughout; its right foot moves at 5 m/s (flat)
+  // over output frames 22..39, i.e. only while the source's right foot is in the air.
+  Sequence out(60);
+  for (int f = 0; f < 60; ++f) {
+    out.move_foot(f, 0, Vector3d(1.0 * f * kDt, 0, 0));
+    out.move_foot(f, 1, Vector3d(0, 0, 5.0 * (std::clamp(f, 22, 39) - 22) * kDt));
+  }
+  const JointTrack st = src.track(), ot = out.track();
+  StrikeComparisonInput in;
+  in.output = &ot;
+  in.source = &st;
+  in.output_first = 1;
+  in.output_last = 59;
+  in.source_first = 20;
+  in.contact_frame = 30;
+  in.effector = Effector{kLeft, false};
+  in.target_m = Vector3d(0.2, 1.6, 0.7);
+  in.speed_scale = 1.25;
+  const StrikeQuality q = compare_strike(in);
+  EXPECT_EQ(q.output_range.first, 1);
+  EXPECT_EQ(q.output_range.last, 59);
+  EXPECT_EQ(q.source_range.first, 20);
+  EXPECT_EQ(q.source_range.last, 78);
+  // Left foot: in contact in the source, sliding at 1 m/s in the output.
+  EXPECT_NEAR(q.output.slide[0].max_mps, 1.0, 1e-9);
+  EXPECT_NEAR(q.source.slide[0].max_mps, 0.0, 1e-12);
+  // Right foot: its 5 m/s travel happens while the source foot is lifted (source frames
+  // 40..58 = output frames 21..39): stepping, not sliding.
+  EXPECT_NEAR(q.output.slide[1].max_mps, 0.0, 1e-12);
+  EXPECT_NEAR(q.output.stepping[1].max_mps, 5.0, 1e-9);
+  // Source speeds are scaled (2 m/s wrist x 1.25).
+  EXPECT_NEAR(q.source.speed.max_mps, 2.5, 1e-9);
+  EXPECT_TRUE(q.source.snaps.empty());
+}
+
 TEST(MotionQuality, GridPutsPunchesAtHeadHeightKicksAtTheTorsoInFront) {
   const auto rigs = kumite::content::testing::shipped_characters();
   const auto grid = quality_grid(std::span<const Rig>(rigs).first(2), 12);
@@ -287,6 +330,8 @@ TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) 
     EXPECT_TRUE(std::isfinite(q.output_contact.extension) && q.output_contact.extension > 0);
     EXPECT_TRUE(std::isfinite(q.source_contact.extension) && q.source_contact.extension > 0);
     EXPECT_TRUE(std::isfinite(q.output_contact.approach_elevation_deg));
+    EXPECT_TRUE(std::isfinite(q.whole.speed.p99_mps) && q.whole.speed.max_mps >= q.output.speed.max_mps);
+    EXPECT_EQ(q.tail_range.first, q.output_range.last + 1);
     // Sanity of the metric on real motion: the raw CMU mocap over these frames has no snaps,
     // and its support foot does not skate (CMU 135 standing feet: well under 2 m/s).
     EXPECT_TRUE(q.source.snaps.empty()) << rec.source_clip << " f" << q.source_range.first << ": "
