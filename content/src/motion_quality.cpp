@@ -66,11 +66,13 @@ SpeedStats joint_speeds(const JointTrack& track, FrameRange range, double scale)
   SpeedStats out;
   std::vector<double> v;
   const int n = track.joint_count();
+  out.joint_max_mps.assign(static_cast<std::size_t>(n), 0.0);
   for (int f = range.first + 1; f <= range.last; ++f) {
     for (int j = 0; j < n; ++j) {
       if (track.skeleton->end_site[static_cast<std::size_t>(j)]) continue;
       const double s = (track.at(f, j) - track.at(f - 1, j)).norm() / track.frame_time_s * scale;
       v.push_back(s);
+      out.joint_max_mps[static_cast<std::size_t>(j)] = std::max(out.joint_max_mps[static_cast<std::size_t>(j)], s);
       if (s > out.max_mps || out.max_joint < 0) {
         out.max_mps = s;
         out.max_joint = j;
@@ -252,6 +254,14 @@ LimbAtContact limb_at_contact(const JointTrack& track, const Effector& e, int fr
   if (back < frame) {
     const Vector3d v = (pe - track.at(back, en)) / ((frame - back) * track.frame_time_s);
     out.approach_elevation_deg = std::atan2(v.y(), Eigen::Vector2d(v.x(), v.z()).norm()) * 180 / std::numbers::pi;
+  }
+  const int lookback = static_cast<int>(std::lround(0.1 / track.frame_time_s));
+  for (int f = std::max(1, frame - lookback); f <= frame; ++f) {
+    const int b0 = std::max(0, f - h);
+    const Vector3d v = (track.at(f, en) - track.at(b0, en)) / ((f - b0) * track.frame_time_s);
+    if (v.norm() <= 1.0) continue;
+    out.approach_max_elevation_deg = std::max(
+        out.approach_max_elevation_deg, std::atan2(v.y(), Eigen::Vector2d(v.x(), v.z()).norm()) * 180 / std::numbers::pi);
   }
   out.end_to_target_m = (pe - target).norm();
   return out;

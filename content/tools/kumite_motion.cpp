@@ -344,8 +344,18 @@ nlohmann::json figures_json(const TrackFigures& f, const Skeleton& s, double fra
     return nlohmann::json{{"max_mps", num(ff.max_mps)}, {"p50_mps", num(ff.p50_mps)}, {"p95_mps", num(ff.p95_mps)},
                           {"frame", ff.frame}, {"frames", ff.frames}};
   };
+  // The five fastest joints (max speed over the range).
+  std::vector<int> order(f.speed.joint_max_mps.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(), [&](int x, int y) {
+    return f.speed.joint_max_mps[static_cast<std::size_t>(x)] > f.speed.joint_max_mps[static_cast<std::size_t>(y)];
+  });
+  nlohmann::json fastest = nlohmann::json::array();
+  for (std::size_t i = 0; i < order.size() && i < 5; ++i)
+    fastest.push_back({{"joint", joint_label(s, order[i])}, {"max_mps", f.speed.joint_max_mps[static_cast<std::size_t>(order[i])]}});
   return {{"joint_speed", {{"p50_mps", f.speed.p50_mps}, {"p99_mps", f.speed.p99_mps}, {"max_mps", f.speed.max_mps},
-                           {"max_joint", joint_label(s, f.speed.max_joint)}, {"max_frame", f.speed.max_frame}}},
+                           {"max_joint", joint_label(s, f.speed.max_joint)}, {"max_frame", f.speed.max_frame},
+                           {"fastest_joints", fastest}}},
           {"snaps", f.snaps.size()}, {"snap_list", snaps},
           {"support_slide", {{"left", foot(f.slide[0])}, {"right", foot(f.slide[1])}}},
           {"stepping_peak", {{"left", foot(f.stepping[0])}, {"right", foot(f.stepping[1])}}},
@@ -356,6 +366,7 @@ nlohmann::json figures_json(const TrackFigures& f, const Skeleton& s, double fra
 nlohmann::json limb_json(const LimbAtContact& l) {
   return {{"extension", l.extension}, {"end_ahead_m", l.end_ahead_m}, {"folded", l.folded},
           {"elbow_above_head", l.elbow_above_head}, {"approach_elevation_deg", l.approach_elevation_deg},
+          {"approach_max_elevation_deg", l.approach_max_elevation_deg},
           {"end_to_target_m", l.end_to_target_m}};
 }
 
@@ -369,7 +380,7 @@ struct QualityTotals {
   int reachable = 0, hits = 0;
   std::vector<double> p99_ratio, p99_out, p99_src, max_out, max_src, slide_out, slide_src, step_out, step_src,
       step_ratio, reach_m, elev_out, elev_src, ext_out, ext_src, whole_slide, tail_slide, whole_step, tail_step,
-      knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src;
+      knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src, hook_out, hook_src;
 
   void add(const StrikeQuality& q, bool kick, bool reached, bool hit, double reach) {
     ++strikes;
@@ -398,6 +409,8 @@ struct QualityTotals {
       elbow_above_head_src += q.source_contact.elbow_above_head;
       elev_out.push_back(q.output_contact.approach_elevation_deg);
       elev_src.push_back(q.source_contact.approach_elevation_deg);
+      hook_out.push_back(q.output_contact.approach_max_elevation_deg);
+      hook_src.push_back(q.source_contact.approach_max_elevation_deg);
     }
     knee_flip_out += q.output.knee_flips() > 0;
     knee_flip_src += q.source.knee_flips() > 0;
@@ -441,6 +454,8 @@ struct QualityTotals {
             {"strikes_with_elbow_flip", elbow_flip_out}, {"source_strikes_with_elbow_flip", elbow_flip_src},
             {"punch_approach_elevation_deg", dist_json(elev_out)},
             {"source_punch_approach_elevation_deg", dist_json(elev_src)},
+            {"punch_approach_max_elevation_deg", dist_json(hook_out)},
+            {"source_punch_approach_max_elevation_deg", dist_json(hook_src)},
             {"punch_extension_at_contact", dist_json(ext_out)}, {"source_punch_extension_at_contact", dist_json(ext_src)},
             {"kick_extension_at_contact", dist_json(kick_ext_out)},
             {"source_kick_extension_at_contact", dist_json(kick_ext_src)},
@@ -485,7 +500,12 @@ struct QualityTotals {
                knee_flip_out, knee_flip_src, elbow_flip_out, elbow_flip_src, d("max_knee_turn_deg", "p50"),
                d("max_knee_turn_deg", "max"), d("source_max_knee_turn_deg", "max"), d("max_elbow_turn_deg", "p50"),
                d("max_elbow_turn_deg", "max"), d("source_max_elbow_turn_deg", "max"));
-    fmt::print("punch approach elevation: p50 {:.0f} p95 {:.0f} deg (source p50 {:.0f} p95 {:.0f}); limb extension at "
+    fmt::print("punch approach, largest elevation in the last 0.1 s: p50 {:.0f} p95 {:.0f} max {:.0f} deg (source p50 {:.0f} "
+               "p95 {:.0f} max {:.0f})\n",
+               d("punch_approach_max_elevation_deg", "p50"), d("punch_approach_max_elevation_deg", "p95"),
+               d("punch_approach_max_elevation_deg", "max"), d("source_punch_approach_max_elevation_deg", "p50"),
+               d("source_punch_approach_max_elevation_deg", "p95"), d("source_punch_approach_max_elevation_deg", "max"));
+    fmt::print("punch approach elevation (last 33 ms): p50 {:.0f} p95 {:.0f} deg (source p50 {:.0f} p95 {:.0f}); limb extension at "
                "contact p50: punches {:.2f} (source {:.2f}), kicks {:.2f} (source {:.2f})\n",
                d("punch_approach_elevation_deg", "p50"), d("punch_approach_elevation_deg", "p95"),
                d("source_punch_approach_elevation_deg", "p50"), d("source_punch_approach_elevation_deg", "p95"),

@@ -208,6 +208,16 @@ TEST(MotionQuality, SyntheticFistHookingUpwardHasALargeApproachElevation) {
   for (int f = 0; f < 10; ++f) s.at(f, CJ::l_wrist) = Vector3d(0.2, 1.0 + 0.03 * f, 0.3 + 0.01 * f);  // 3x up vs forward
   const LimbAtContact l = limb_at_contact(s.track(), Effector{kLeft, false}, 9, Vector3d(0.2, 1.3, 0.5), 2);
   EXPECT_NEAR(l.approach_elevation_deg, std::atan2(3.0, 1.0) * 180 / 3.14159265358979323846, 1e-9);
+  // A hook: rising 4x faster than it advances until 80 ms before contact, then level.
+  Sequence hook(30);
+  Vector3d w(0.2, 1.0, 0.2);
+  for (int f = 0; f < 30; ++f) {
+    w += f < 20 ? Vector3d(0, 0.02, 0.005) : Vector3d(0, 0, 0.03);  // 2.4 m/s up, then 3.6 m/s level
+    hook.at(f, CJ::l_wrist) = w;
+  }
+  const LimbAtContact hk = limb_at_contact(hook.track(), Effector{kLeft, false}, 29, w + Vector3d(0, 0, 0.05), 2);
+  EXPECT_NEAR(hk.approach_elevation_deg, 0, 1e-9);  // the last 33 ms are level...
+  EXPECT_NEAR(hk.approach_max_elevation_deg, std::atan2(0.02, 0.005) * 180 / 3.14159265358979323846, 1e-9);  // ...the hook is not
 }
 
 TEST(MotionQuality, SyntheticElbowFlipIsDetectedSlowSwivelAndStraightLimbAreNot) {

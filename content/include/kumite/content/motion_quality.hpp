@@ -83,6 +83,7 @@ struct SpeedStats {
   int max_joint = -1;                            ///< skeleton joint of the max
   int max_frame = -1;                            ///< frame f of the step f-1 -> f
   int samples = 0;
+  std::vector<double> joint_max_mps;             ///< per skeleton joint (0 for end sites)
 };
 /// Joint speeds over the steps inside `range` (f in [first+1, last]), multiplied by `scale`
 /// (1, or character leg / actor leg to compare a source clip with a character).
@@ -142,6 +143,10 @@ struct LimbAtContact {
   bool folded = false;          ///< end_ahead_m < 0, or (arms) elbow above the head
   bool elbow_above_head = false;
   double approach_elevation_deg = 0;  ///< of the end joint's velocity over the window before contact
+  /// Largest elevation of the end joint's velocity (over the speed window) at any frame of
+  /// the 0.1 s before contact while it moves faster than 1 m/s: a hook shows here even when
+  /// the last window is level. 0 when it never moves that fast.
+  double approach_max_elevation_deg = 0;
   double end_to_target_m = 0;   ///< |end joint - target|
 };
 /// The limb of `effector` at `frame` toward `target_m` (room frame). half_window frames back
