@@ -664,7 +664,7 @@ struct BoutResult {
 BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vector<Rig> rigs, double seconds,
                              const std::string& out_bvh) {
   const FighterConfig config;
-  Behaviour b(db, rigs, config);
+  Behaviour b(db, rigs, config);  // rigs stay ours: the run skeletons come from them
   const double dt = 1.0 / 60;
   struct Contact {
     int frame;
@@ -702,8 +702,11 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
       b.order(kumite::Order{t, o.kind, o.character});
     }
     b.update(t, dt, head);
+    // Public API only: frame(), current_character(), local_rotations(), root_position(),
+    // take_events().
+    const FighterFrame frame = b.frame();
     const int c = b.current_character();
-    const Rig& rig = b.character(c);
+    const Rig& rig = rigs[static_cast<std::size_t>(c)];
     if (runs.empty() || runs.back().character != c) {
       Run r;
       r.character = c;
@@ -721,13 +724,13 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
                                     b.local_rotations().begin() + static_cast<std::ptrdiff_t>(n));
     ++run.clip.frame_count;
     CanonicalPose cp;
-    canonical_positions(rig.skeleton, b.joint_positions().first(n), cp);
+    canonical_positions(rig.skeleton, frame.joints.first(n), cp);  // what is drawn (switch easing included)
     drawn.insert(drawn.end(), cp.begin(), cp.end());
-    ++state_frames[std::string(to_string(b.state()))];
+    ++state_frames[std::string(to_string(frame.state))];
     for (const auto& e : b.take_events()) {
       events.push_back(fmt::format("{:.3f} s: {}: {}", t, to_string(e.kind), e.text));
-      if (e.kind == FighterEvent::Kind::hit || e.kind == FighterEvent::Kind::miss)
-        run.contacts.push_back({run.clip.frame_count - 1, b.strike().effector, b.strike().target_room_m,
+      if ((e.kind == FighterEvent::Kind::hit || e.kind == FighterEvent::Kind::miss) && frame.target)
+        run.contacts.push_back({run.clip.frame_count - 1, effector_of_order(e.order.kind), *frame.target,
                                 e.kind == FighterEvent::Kind::hit});
     }
   }
@@ -772,7 +775,7 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
       slide_p50.push_back(f.slide[static_cast<std::size_t>(s)].p50_mps);
       step_max.push_back(f.stepping[static_cast<std::size_t>(s)].max_mps);
     }
-    nlohmann::json j{{"character", b.character(run.character).name}, {"first_frame", run.first_frame},
+    nlohmann::json j{{"character", rigs[static_cast<std::size_t>(run.character)].name}, {"first_frame", run.first_frame},
                      {"frames", back.frame_count}, {"figures", figures_json(f, back.skeleton, back.frame_time_s)},
                      {"low_fast_frames", {contacts.low_fast_frames[0], contacts.low_fast_frames[1]}},
                      {"contacts", jc}};
