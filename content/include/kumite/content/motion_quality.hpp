@@ -16,7 +16,7 @@
 //         ways (cosine < -0.5), each above ratio x the steps f-1 and f+2.
 // - foot contact (geometric): a foot (ankle + toe canonical joints) is in contact at frame f
 //   when the ankle and the toe are both within height_tolerance_m (1.5 cm) of their own lowest
-//   level over the whole track, and the foot point's horizontal speed (below) is under
+//   level (over the whole track unless a level range is given), and the foot point's horizontal speed (below) is under
 //   ContactOptions::max_speed_mps (2 m/s: a foot sweeping low across the floor in a step is
 //   not standing; a standing foot that slides faster than 2 m/s is counted in
 //   low_fast_frames so it is never hidden).
