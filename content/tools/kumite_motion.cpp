@@ -7,10 +7,18 @@
 //   strike --db fighter.kdb --character <name|file.bvh> --order punch_right --target X,Y,Z
 //          --out strike.bvh --report strike.json
 //                                            one adapted strike, written as BVH + JSON report
-//   bench [--db fighter.kdb]                 retrieval and adaptation timings as JSON
+//   bench [--db fighter.kdb]                 retrieval and adaptation timings as JSON (+ motion quality)
+//   quality --db fighter.kdb --out quality.json [--characters a,b] [--targets 12] [--bvh-dir DIR]
+//                                            what the eye sees: the strike grid, each strike's
+//                                            BVH read back, figures beside the source clip's
+//   bout --db fighter.kdb --out bout.bvh --report bout.json [--seconds 20]
+//                                            a scripted bout with a SYNTHETIC visitor, one BVH
+//                                            per character run, figures over the whole bout
 // Errors: one line on stderr, exit 1.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <map>
 #include <cstdio>
 #include <random>
 #include <filesystem>
@@ -31,6 +39,7 @@
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
 #include "kumite/content/character.hpp"
+#include "kumite/content/motion_quality.hpp"
 #include "kumite/content/proportions.hpp"
 
 namespace fs = std::filesystem;
@@ -274,6 +283,558 @@ int run_strike(const StrikeArgs& a) {
   return 0;
 }
 
+// ---- motion quality ------------------------------------------------------------------------
+// What the eye sees: every figure is computed from joint positions of a BVH read back with
+// read_bvh (the independent path), beside the same figure on the source clip (motion_quality.hpp).
+
+const std::vector<std::string>& all_character_names() {
+  static const std::vector<std::string> names{"aiko", "bruno", "kenji", "mei", "viktor"};
+  return names;
+}
+
+nlohmann::json num(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+/// n, p50, p95, max of the finite values.
+nlohmann::json dist_json(std::vector<double> v) {
+  v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
+  return {{"n", v.size()}, {"p50", percentile(v, 50)}, {"p95", percentile(v, 95)}, {"max", percentile(v, 100)}};
+}
+
+std::string joint_label(const Skeleton& s, int j) {
+  if (j < 0) return "";
+  for (std::size_t c = 0; c < kCanonicalJointCount; ++c)
+    if (s.canonical[c] == j)
+      return fmt::format("{} ({})", s.names[static_cast<std::size_t>(j)], to_string(static_cast<CanonicalJoint>(c)));
+  return s.names[static_cast<std::size_t>(j)];
+}
+
+/// The database's source clips, read from content/motions/<clip>.bvh (mirrored when asked),
+/// with their joint positions and leg length (m, hip -> ankle along the bones).
+class SourceClips {
+ public:
+  struct Entry {
+    Clip clip;
+    std::vector<Eigen::Vector3d> positions;
+    double leg_m = 1;
+    JointTrack track() const { return {&clip.skeleton, positions, clip.frame_count, clip.frame_time_s}; }
+  };
+  const Entry& get(const std::string& name, bool mirrored) {
+    const std::string key = name + (mirrored ? "#mirror" : "");
+    if (auto it = cache_.find(key); it != cache_.end()) return it->second;
+    Entry e;
+    e.clip = load_source_clip(name, mirrored, default_content_dir() / "motions");
+    e.positions = all_joint_positions(e.clip);
+    e.leg_m = measure_proportions(e.clip.skeleton).leg_m;
+    return cache_.emplace(key, std::move(e)).first->second;
+  }
+
+ private:
+  std::map<std::string, Entry> cache_;
+};
+
+nlohmann::json figures_json(const TrackFigures& f, const Skeleton& s, double frame_time_s) {
+  nlohmann::json snaps = nlohmann::json::array();
+  for (std::size_t i = 0; i < f.snaps.size() && i < 12; ++i)
+    snaps.push_back({{"frame", f.snaps[i].frame}, {"joint", joint_label(s, f.snaps[i].joint)},
+                     {"step_mm", f.snaps[i].step_m * 1000}, {"speed_mps", f.snaps[i].step_m / frame_time_s},
+                     {"rule", std::string(1, f.snaps[i].rule)}});
+  nlohmann::json flips = nlohmann::json::array();
+  for (const auto& x : f.flips)
+    flips.push_back({{"frame", x.frame}, {"limb", fmt::format("{} {}", x.side == kLeft ? "left" : "right", x.leg ? "knee" : "elbow")},
+                     {"turn_deg", x.turn_deg}});
+  auto foot = [](const FootFigure& ff) {
+    return nlohmann::json{{"max_mps", num(ff.max_mps)}, {"p50_mps", num(ff.p50_mps)}, {"p95_mps", num(ff.p95_mps)},
+                          {"frame", ff.frame}, {"frames", ff.frames}};
+  };
+  // The five fastest joints (max speed over the range).
+  std::vector<int> order(f.speed.joint_max_mps.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::sort(order.begin(), order.end(), [&](int x, int y) {
+    return f.speed.joint_max_mps[static_cast<std::size_t>(x)] > f.speed.joint_max_mps[static_cast<std::size_t>(y)];
+  });
+  nlohmann::json fastest = nlohmann::json::array();
+  for (std::size_t i = 0; i < order.size() && i < 5; ++i)
+    fastest.push_back({{"joint", joint_label(s, order[i])}, {"max_mps", f.speed.joint_max_mps[static_cast<std::size_t>(order[i])]}});
+  return {{"joint_speed", {{"p50_mps", f.speed.p50_mps}, {"p99_mps", f.speed.p99_mps}, {"max_mps", f.speed.max_mps},
+                           {"max_joint", joint_label(s, f.speed.max_joint)}, {"max_frame", f.speed.max_frame},
+                           {"fastest_joints", fastest}}},
+          {"snaps", f.snaps.size()}, {"snap_list", snaps},
+          {"support_slide", {{"left", foot(f.slide[0])}, {"right", foot(f.slide[1])}}},
+          {"stepping_peak", {{"left", foot(f.stepping[0])}, {"right", foot(f.stepping[1])}}},
+          {"knee_flips", f.knee_flips()}, {"elbow_flips", f.elbow_flips()}, {"flip_list", flips},
+          {"max_elbow_turn_deg", f.max_turn_deg[0]}, {"max_knee_turn_deg", f.max_turn_deg[1]}};
+}
+
+nlohmann::json limb_json(const LimbAtContact& l) {
+  return {{"extension", l.extension}, {"end_ahead_m", l.end_ahead_m}, {"folded", l.folded},
+          {"elbow_above_head", l.elbow_above_head}, {"approach_elevation_deg", l.approach_elevation_deg},
+          {"approach_max_elevation_deg", l.approach_max_elevation_deg},
+          {"end_to_target_m", l.end_to_target_m}};
+}
+
+/// Aggregates over the strike grid (figures per strike: see motion_quality.hpp).
+struct QualityTotals {
+  int strikes = 0, no_strike = 0, punches = 0, kicks = 0;
+  int snaps_out = 0, snaps_src = 0, snaps_whole = 0, snaps_tail = 0;
+  int folded_punch_out = 0, folded_punch_src = 0, folded_kick_out = 0, folded_kick_src = 0;
+  int elbow_above_head_out = 0, elbow_above_head_src = 0;
+  int knee_flip_out = 0, knee_flip_src = 0, elbow_flip_out = 0, elbow_flip_src = 0;
+  int reachable = 0, hits = 0;
+  std::vector<double> p99_ratio, p99_out, p99_src, max_out, max_src, slide_out, slide_src, step_out, step_src,
+      step_ratio, reach_m, elev_out, elev_src, ext_out, ext_src, whole_slide, tail_slide, whole_step, tail_step,
+      knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src, hook_out, hook_src;
+
+  void add(const StrikeQuality& q, bool kick, bool reached, bool hit, double reach) {
+    ++strikes;
+    (kick ? kicks : punches)++;
+    snaps_out += !q.output.snaps.empty();
+    snaps_src += !q.source.snaps.empty();
+    snaps_whole += !q.whole.snaps.empty();
+    snaps_tail += !q.tail.snaps.empty();
+    whole_slide.push_back(q.whole.max_slide_mps());
+    whole_step.push_back(q.whole.max_stepping_mps());
+    if (q.tail_range.count() > 0) {
+      tail_slide.push_back(q.tail.max_slide_mps());
+      tail_step.push_back(q.tail.max_stepping_mps());
+    }
+    knee_turn_out.push_back(q.output.max_turn_deg[1]);
+    knee_turn_src.push_back(q.source.max_turn_deg[1]);
+    elbow_turn_out.push_back(q.output.max_turn_deg[0]);
+    elbow_turn_src.push_back(q.source.max_turn_deg[0]);
+    if (kick) {
+      folded_kick_out += q.output_contact.folded;
+      folded_kick_src += q.source_contact.folded;
+    } else {
+      folded_punch_out += q.output_contact.folded;
+      folded_punch_src += q.source_contact.folded;
+      elbow_above_head_out += q.output_contact.elbow_above_head;
+      elbow_above_head_src += q.source_contact.elbow_above_head;
+      elev_out.push_back(q.output_contact.approach_elevation_deg);
+      elev_src.push_back(q.source_contact.approach_elevation_deg);
+      hook_out.push_back(q.output_contact.approach_max_elevation_deg);
+      hook_src.push_back(q.source_contact.approach_max_elevation_deg);
+    }
+    knee_flip_out += q.output.knee_flips() > 0;
+    knee_flip_src += q.source.knee_flips() > 0;
+    elbow_flip_out += q.output.elbow_flips() > 0;
+    elbow_flip_src += q.source.elbow_flips() > 0;
+    p99_out.push_back(q.output.speed.p99_mps);
+    p99_src.push_back(q.source.speed.p99_mps);
+    p99_ratio.push_back(q.output.speed.p99_mps / std::max(1e-9, q.source.speed.p99_mps));
+    max_out.push_back(q.output.speed.max_mps);
+    max_src.push_back(q.source.speed.max_mps);
+    slide_out.push_back(q.output.max_slide_mps());
+    slide_src.push_back(q.source.max_slide_mps());
+    step_out.push_back(q.output.max_stepping_mps());
+    step_src.push_back(q.source.max_stepping_mps());
+    step_ratio.push_back(q.output.max_stepping_mps() / q.source.max_stepping_mps());
+    (kick ? kick_ext_out : ext_out).push_back(q.output_contact.extension);
+    (kick ? kick_ext_src : ext_src).push_back(q.source_contact.extension);
+    reach_m.push_back(reach);
+    reachable += reached;
+    hits += hit;
+  }
+
+  nlohmann::json json() const {
+    return {{"strikes", strikes}, {"no_strike", no_strike}, {"punches", punches}, {"kicks", kicks},
+            {"strikes_with_snaps", snaps_out}, {"source_strikes_with_snaps", snaps_src},
+            {"strikes_with_snaps_whole_bvh", snaps_whole}, {"strikes_with_snaps_in_tail", snaps_tail},
+            {"whole_bvh_support_slide_mps", dist_json(whole_slide)}, {"tail_support_slide_mps", dist_json(tail_slide)},
+            {"whole_bvh_stepping_peak_mps", dist_json(whole_step)}, {"tail_stepping_peak_mps", dist_json(tail_step)},
+            {"max_knee_turn_deg", dist_json(knee_turn_out)}, {"source_max_knee_turn_deg", dist_json(knee_turn_src)},
+            {"max_elbow_turn_deg", dist_json(elbow_turn_out)}, {"source_max_elbow_turn_deg", dist_json(elbow_turn_src)},
+            {"joint_speed_p99_mps", dist_json(p99_out)}, {"source_joint_speed_p99_mps", dist_json(p99_src)},
+            {"joint_speed_p99_ratio", dist_json(p99_ratio)},
+            {"joint_speed_max_mps", dist_json(max_out)}, {"source_joint_speed_max_mps", dist_json(max_src)},
+            {"support_slide_mps", dist_json(slide_out)}, {"source_support_slide_mps", dist_json(slide_src)},
+            {"stepping_peak_mps", dist_json(step_out)}, {"source_stepping_peak_mps", dist_json(step_src)},
+            {"stepping_peak_ratio", dist_json(step_ratio)},
+            {"folded_punches", folded_punch_out}, {"source_folded_punches", folded_punch_src},
+            {"elbow_above_head", elbow_above_head_out}, {"source_elbow_above_head", elbow_above_head_src},
+            {"folded_kicks", folded_kick_out}, {"source_folded_kicks", folded_kick_src},
+            {"strikes_with_knee_flip", knee_flip_out}, {"source_strikes_with_knee_flip", knee_flip_src},
+            {"strikes_with_elbow_flip", elbow_flip_out}, {"source_strikes_with_elbow_flip", elbow_flip_src},
+            {"punch_approach_elevation_deg", dist_json(elev_out)},
+            {"source_punch_approach_elevation_deg", dist_json(elev_src)},
+            {"punch_approach_max_elevation_deg", dist_json(hook_out)},
+            {"source_punch_approach_max_elevation_deg", dist_json(hook_src)},
+            {"punch_extension_at_contact", dist_json(ext_out)}, {"source_punch_extension_at_contact", dist_json(ext_src)},
+            {"kick_extension_at_contact", dist_json(kick_ext_out)},
+            {"source_kick_extension_at_contact", dist_json(kick_ext_src)},
+            {"reach_m", dist_json(reach_m)},
+            {"reachable_pct", strikes ? 100.0 * reachable / strikes : 0.0},
+            {"hit_pct", strikes ? 100.0 * hits / strikes : 0.0}};
+  }
+
+  void print() const {
+    const nlohmann::json j = json();
+    auto d = [&](const char* k, const char* f) { return j[k][f].get<double>(); };
+    fmt::print("strikes: {} ({} punches, {} kicks), {} orders found no strike\n", strikes, punches, kicks, no_strike);
+    fmt::print("strikes with a one-frame snap: {} of {} over the compared frames (source clips, same frames: {}); "
+               "{} over the whole BVH, {} in the tail after the strike\n",
+               snaps_out, strikes, snaps_src, snaps_whole, snaps_tail);
+    fmt::print("joint speed p99 output/source: p50 {:.2f} p95 {:.2f} max {:.2f}; max joint speed p50 {:.1f} max {:.1f} m/s "
+               "(source p50 {:.1f} max {:.1f})\n",
+               d("joint_speed_p99_ratio", "p50"), d("joint_speed_p99_ratio", "p95"), d("joint_speed_p99_ratio", "max"),
+               d("joint_speed_max_mps", "p50"), d("joint_speed_max_mps", "max"), d("source_joint_speed_max_mps", "p50"),
+               d("source_joint_speed_max_mps", "max"));
+    fmt::print("support-foot slide (source contacts): p50 {:.2f} p95 {:.2f} max {:.2f} m/s; source p50 {:.2f} p95 {:.2f} "
+               "max {:.2f} m/s\n",
+               d("support_slide_mps", "p50"), d("support_slide_mps", "p95"), d("support_slide_mps", "max"),
+               d("source_support_slide_mps", "p50"), d("source_support_slide_mps", "p95"),
+               d("source_support_slide_mps", "max"));
+    fmt::print("whole BVH, geometric contacts: support-foot slide p50 {:.2f} p95 {:.2f} max {:.2f} m/s, stepping-foot peak "
+               "p50 {:.2f} max {:.2f} m/s; tail only: slide p95 {:.2f}, stepping max {:.2f} m/s ({} strikes with a tail)\n",
+               d("whole_bvh_support_slide_mps", "p50"), d("whole_bvh_support_slide_mps", "p95"),
+               d("whole_bvh_support_slide_mps", "max"), d("whole_bvh_stepping_peak_mps", "p50"),
+               d("whole_bvh_stepping_peak_mps", "max"), d("tail_support_slide_mps", "p95"),
+               d("tail_stepping_peak_mps", "max"), j["tail_support_slide_mps"]["n"].get<int>());
+    fmt::print("stepping-foot peak: p50 {:.2f} max {:.2f} m/s; source p50 {:.2f} max {:.2f} m/s; ratio p50 {:.2f} max {:.2f}\n",
+               d("stepping_peak_mps", "p50"), d("stepping_peak_mps", "max"), d("source_stepping_peak_mps", "p50"),
+               d("source_stepping_peak_mps", "max"), d("stepping_peak_ratio", "p50"), d("stepping_peak_ratio", "max"));
+    fmt::print("folded at contact: punches {} of {} (elbow above head {}), kicks {} of {}; source: punches {} (elbow above "
+               "head {}), kicks {}\n",
+               folded_punch_out, punches, elbow_above_head_out, folded_kick_out, kicks, folded_punch_src,
+               elbow_above_head_src, folded_kick_src);
+    fmt::print("limb flips (> 90 deg in 33 ms, bent >= 20 deg): strikes with a knee flip {} (source {}), with an elbow flip "
+               "{} (source {}); largest bend-plane turn in 33 ms: knee p50 {:.0f} max {:.0f} deg (source max {:.0f}), "
+               "elbow p50 {:.0f} max {:.0f} deg (source max {:.0f})\n",
+               knee_flip_out, knee_flip_src, elbow_flip_out, elbow_flip_src, d("max_knee_turn_deg", "p50"),
+               d("max_knee_turn_deg", "max"), d("source_max_knee_turn_deg", "max"), d("max_elbow_turn_deg", "p50"),
+               d("max_elbow_turn_deg", "max"), d("source_max_elbow_turn_deg", "max"));
+    fmt::print("punch approach, largest elevation in the last 0.1 s: p50 {:.0f} p95 {:.0f} max {:.0f} deg (source p50 {:.0f} "
+               "p95 {:.0f} max {:.0f})\n",
+               d("punch_approach_max_elevation_deg", "p50"), d("punch_approach_max_elevation_deg", "p95"),
+               d("punch_approach_max_elevation_deg", "max"), d("source_punch_approach_max_elevation_deg", "p50"),
+               d("source_punch_approach_max_elevation_deg", "p95"), d("source_punch_approach_max_elevation_deg", "max"));
+    fmt::print("punch approach elevation (last 33 ms): p50 {:.0f} p95 {:.0f} deg (source p50 {:.0f} p95 {:.0f}); limb extension at "
+               "contact p50: punches {:.2f} (source {:.2f}), kicks {:.2f} (source {:.2f})\n",
+               d("punch_approach_elevation_deg", "p50"), d("punch_approach_elevation_deg", "p95"),
+               d("source_punch_approach_elevation_deg", "p50"), d("source_punch_approach_elevation_deg", "p95"),
+               d("punch_extension_at_contact", "p50"), d("source_punch_extension_at_contact", "p50"),
+               d("kick_extension_at_contact", "p50"), d("source_kick_extension_at_contact", "p50"));
+    fmt::print("reach (hit point to target, read back): p50 {:.1f} mm, max {:.1f} mm; reachable {:.1f} % (solver), hits "
+               "{:.1f} %\n",
+               d("reach_m", "p50") * 1000, d("reach_m", "max") * 1000, j["reachable_pct"].get<double>(),
+               j["hit_pct"].get<double>());
+  }
+};
+
+/// Runs the quality grid: record_strike, write (or format) the BVH, read it back, compare
+/// with the source clip. Returns one JSON object per strike.
+nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std::vector<Rig>& rigs, int targets,
+                            const std::string& bvh_dir, QualityTotals& totals) {
+  nlohmann::json out = nlohmann::json::array();
+  SourceClips sources;
+  const auto grid = quality_grid(rigs, targets);
+  if (!bvh_dir.empty()) fs::create_directories(bvh_dir);
+  for (std::size_t i = 0; i < grid.size(); ++i) {
+    const StrikeCase& sc = grid[i];
+    const Rig& rig = rigs[static_cast<std::size_t>(sc.character)];
+    const bool kick = sc.order == kumite::OrderKind::kick_left || sc.order == kumite::OrderKind::kick_right;
+    nlohmann::json js{{"character", rig.name}, {"order", std::string(kumite::to_string(sc.order))},
+                      {"target", {sc.target_m.x(), sc.target_m.y(), sc.target_m.z()}}};
+    const StrikeRecording rec = record_strike(db, rig, sc.order, sc.target_m);
+    if (rec.contact_frame < 0) {
+      ++totals.no_strike;
+      js["struck"] = false;
+      out.push_back(js);
+      continue;
+    }
+    Clip motion = rec.motion;
+    motion.name = fmt::format("{:03}-{}-{}", i, rig.name, kumite::to_string(sc.order));
+    Clip back;
+    if (!bvh_dir.empty()) {
+      const fs::path path = fs::path(bvh_dir) / (motion.name + ".bvh");
+      write_bvh(path, motion);
+      back = read_bvh(path);
+      js["bvh"] = path.string();
+    } else {
+      back = parse_bvh(format_bvh(motion), motion.name + ".bvh");
+    }
+    const std::vector<Eigen::Vector3d> positions = all_joint_positions(back);
+    const JointTrack track{&back.skeleton, positions, back.frame_count, back.frame_time_s};
+    const SourceClips::Entry& src = sources.get(rec.source_clip, rec.mirrored);
+    const JointTrack src_track = src.track();
+    const StrikeComparisonInput in = strike_comparison_input(
+        *db, rec, sc.order, track, src_track, measure_proportions(back.skeleton).leg_m, src.leg_m);
+    const StrikeQuality q = compare_strike(in);
+    totals.add(q, kick, rec.strike.contact_reached, rec.strike.hit, q.output_contact.end_to_target_m);
+    js["struck"] = true;
+    js["segment"] = rec.segment_name;
+    js["clip"] = rec.source_clip;
+    js["mirrored"] = rec.mirrored;
+    js["frames"] = back.frame_count;
+    js["contact_frame"] = rec.contact_frame;
+    js["output_frames"] = {q.output_range.first, q.output_range.last};
+    js["source_frames"] = {q.source_range.first, q.source_range.last};
+    js["speed_scale"] = q.speed_scale;
+    js["reachable"] = rec.strike.contact_reached;
+    js["hit"] = rec.strike.hit;
+    js["solver_reach_error_m"] = rec.strike.contact_distance_m;
+    js["reach_m"] = q.output_contact.end_to_target_m;
+    js["output"] = figures_json(q.output, back.skeleton, back.frame_time_s);
+    js["source"] = figures_json(q.source, src.clip.skeleton, src.clip.frame_time_s);
+    js["whole"] = figures_json(q.whole, back.skeleton, back.frame_time_s);
+    js["tail_frames"] = {q.tail_range.first, q.tail_range.last};
+    if (q.tail_range.count() > 0) js["tail"] = figures_json(q.tail, back.skeleton, back.frame_time_s);
+    js["output_contact"] = limb_json(q.output_contact);
+    js["source_contact"] = limb_json(q.source_contact);
+    out.push_back(js);
+  }
+  return out;
+}
+
+std::vector<Rig> load_rigs(const std::vector<std::string>& names) {
+  std::vector<Rig> rigs;
+  for (const auto& n : names) rigs.push_back(load_character_rig(n));
+  return rigs;
+}
+
+struct QualityArgs {
+  std::string db, out, bvh_dir;
+  std::vector<std::string> characters = all_character_names();
+  int targets = 12;
+};
+
+void add_quality(CLI::App& app, QualityArgs& a) {
+  auto* cmd = app.add_subcommand("quality", "Strike grid (characters x 4 orders x targets): each strike's BVH read back, "
+                                            "figures a viewer sees beside the source clip's; prints a summary, writes JSON");
+  cmd->add_option("--db", a.db, "fighter.kdb")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--out", a.out, "quality.json")->required();
+  cmd->add_option("--characters", a.characters, "character names or BVH files")->delimiter(',')->capture_default_str();
+  cmd->add_option("--targets", a.targets, "targets per character and order")->capture_default_str()->check(CLI::Range(1, 1000));
+  cmd->add_option("--bvh-dir", a.bvh_dir, "also write each strike's BVH here (read back from the file)");
+}
+
+int run_quality(const QualityArgs& a) {
+  const double t0 = now_s();
+  auto db = std::make_shared<const Database>(load_database(a.db));
+  const std::vector<Rig> rigs = load_rigs(a.characters);
+  QualityTotals totals;
+  nlohmann::json strikes = measure_grid(db, rigs, a.targets, a.bvh_dir, totals);
+  nlohmann::json j;
+  j["database"] = a.db;
+  j["characters"] = a.characters;
+  j["targets_per_order"] = a.targets;
+  j["summary"] = totals.json();
+  j["strikes"] = std::move(strikes);
+  j["seconds"] = now_s() - t0;
+  kumite::write_file_atomically(a.out, j.dump(2) + "\n");
+  totals.print();
+  fmt::print("wrote {} ({:.1f} s)\n", a.out, now_s() - t0);
+  return 0;
+}
+
+// ---- bout ------------------------------------------------------------------------------------
+// A scripted bout: Behaviour driven at 60 Hz by a SYNTHETIC visitor head (walking side to side,
+// stepping closer and farther, a crouch, a dodge) and a list of orders (strikes, character
+// switches). Writes one BVH per run of one character and the figures over the whole bout.
+
+Eigen::Vector3d synthetic_head(double t, const FighterConfig& config) {
+  auto bump = [](double time, double a, double b, double ramp) {  // 0 -> 1 -> 0, smooth edges
+    auto s = [](double x) { x = std::clamp(x, 0.0, 1.0); return x * x * (3 - 2 * x); };
+    return s((time - a) / ramp) * (1 - s((time - (b - ramp)) / ramp));
+  };
+  const double pi = 3.14159265358979323846;
+  double x = 0.7 * std::sin(2 * pi * t / 9);
+  const double z = config.home.z() + 1.4 + 0.35 * std::sin(2 * pi * t / 13);
+  const double y = 1.70 - 0.40 * bump(t, 8.0, 10.5, 0.5);  // crouch
+  x += 0.45 * bump(t, 13.5, 14.3, 0.25);                    // dodge sideways
+  return {x, y, z};
+}
+
+struct BoutOrder {
+  double t;
+  kumite::OrderKind kind;
+  int character = -1;
+};
+std::vector<BoutOrder> bout_orders() {
+  using K = kumite::OrderKind;
+  return {{1.5, K::punch_right}, {3.0, K::kick_left}, {4.5, K::punch_left}, {6.0, K::select_character, 1},
+          {7.0, K::kick_right}, {8.8, K::punch_right}, {10.8, K::select_character, 3}, {11.6, K::punch_left},
+          {13.7, K::punch_right}, {15.0, K::kick_right}, {15.25, K::select_character, 4}, {17.0, K::kick_left},
+          {18.4, K::punch_left}, {19.3, K::punch_right}};
+}
+
+struct BoutResult {
+  nlohmann::json report;
+  std::vector<Clip> runs;
+};
+
+/// Plays the bout. `out_bvh` empty: the runs' BVH are formatted and parsed back in memory.
+BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vector<Rig> rigs, double seconds,
+                             const std::string& out_bvh) {
+  const FighterConfig config;
+  Behaviour b(db, rigs, config);  // rigs stay ours: the run skeletons come from them
+  const double dt = 1.0 / 60;
+  struct Contact {
+    int frame;
+    Effector effector;
+    Eigen::Vector3d target;
+    bool hit;
+  };
+  struct Run {
+    int character;
+    Clip clip;
+    int first_frame;
+    std::vector<Contact> contacts;
+  };
+  std::vector<Run> runs;
+  // The drawn canonical joints over the whole bout (switch easing included).
+  Skeleton canon;
+  for (std::size_t c = 0; c < kCanonicalJointCount; ++c) {
+    canon.names.emplace_back(to_string(static_cast<CanonicalJoint>(c)));
+    canon.parents.push_back(-1);
+    canon.offsets.emplace_back(0, 0, 0);
+    canon.end_site.push_back(false);
+    canon.canonical[c] = static_cast<int>(c);
+  }
+  std::vector<Eigen::Vector3d> drawn;
+  std::vector<std::string> events;
+  std::map<std::string, int> state_frames;
+  auto orders = bout_orders();
+  std::size_t next_order = 0;
+  const int frames = static_cast<int>(std::lround(seconds / dt));
+  for (int i = 0; i < frames; ++i) {
+    const double t = i * dt;
+    const Eigen::Vector3d head = synthetic_head(t, config);
+    while (next_order < orders.size() && orders[next_order].t <= t) {
+      const BoutOrder& o = orders[next_order++];
+      b.order(kumite::Order{t, o.kind, o.character});
+    }
+    b.update(t, dt, head);
+    // Public API only: frame(), current_character(), local_rotations(), root_position(),
+    // take_events().
+    const FighterFrame frame = b.frame();
+    const int c = b.current_character();
+    const Rig& rig = rigs[static_cast<std::size_t>(c)];
+    if (runs.empty() || runs.back().character != c) {
+      Run r;
+      r.character = c;
+      r.first_frame = i;
+      r.clip.name = fmt::format("{:02}-{}", runs.size() + 1, rig.name);
+      r.clip.skeleton = rig.skeleton;
+      r.clip.unit_m = rig.unit_m;
+      r.clip.frame_time_s = dt;
+      runs.push_back(std::move(r));
+    }
+    Run& run = runs.back();
+    const auto n = static_cast<std::size_t>(rig.joint_count());
+    run.clip.root_positions.push_back(b.root_position());
+    run.clip.local_rotations.insert(run.clip.local_rotations.end(), b.local_rotations().begin(),
+                                    b.local_rotations().begin() + static_cast<std::ptrdiff_t>(n));
+    ++run.clip.frame_count;
+    CanonicalPose cp;
+    canonical_positions(rig.skeleton, frame.joints.first(n), cp);  // what is drawn (switch easing included)
+    drawn.insert(drawn.end(), cp.begin(), cp.end());
+    ++state_frames[std::string(to_string(frame.state))];
+    for (const auto& e : b.take_events()) {
+      events.push_back(fmt::format("{:.3f} s: {}: {}", t, to_string(e.kind), e.text));
+      if ((e.kind == FighterEvent::Kind::hit || e.kind == FighterEvent::Kind::miss) && frame.target)
+        run.contacts.push_back({run.clip.frame_count - 1, effector_of_order(e.order.kind), *frame.target,
+                                e.kind == FighterEvent::Kind::hit});
+    }
+  }
+  BoutResult result;
+  nlohmann::json jr = nlohmann::json::array();
+  std::vector<double> slide_max, slide_p95, slide_p50, step_max;
+  int snaps = 0, knee_flips = 0, elbow_flips = 0, folded = 0, strikes = 0, hits = 0;
+  for (Run& run : runs) {
+    Clip back;
+    std::string file;
+    if (!out_bvh.empty()) {
+      const fs::path p(out_bvh);
+      file = (p.parent_path() / fmt::format("{}.{}{}", p.stem().string(), run.clip.name, p.extension().string())).string();
+      write_bvh(file, run.clip);
+      back = read_bvh(file);
+    } else {
+      back = parse_bvh(format_bvh(run.clip), run.clip.name + ".bvh");
+    }
+    const std::vector<Eigen::Vector3d> positions = all_joint_positions(back);
+    const JointTrack track{&back.skeleton, positions, back.frame_count, back.frame_time_s};
+    const FootContacts contacts = detect_foot_contacts(track);
+    const TrackFigures f = track_figures(track, {0, back.frame_count - 1}, contacts, 1);
+    nlohmann::json jc = nlohmann::json::array();
+    const int h = speed_half_window(back.frame_time_s);
+    for (const Contact& c : run.contacts) {
+      const LimbAtContact l = limb_at_contact(track, c.effector, c.frame, c.target, h);
+      folded += l.folded;
+      ++strikes;
+      hits += c.hit;
+      nlohmann::json x = limb_json(l);
+      x["frame"] = c.frame;
+      x["hit"] = c.hit;
+      x["limb"] = fmt::format("{} {}", c.effector.side == kLeft ? "left" : "right", c.effector.leg ? "leg" : "arm");
+      jc.push_back(x);
+    }
+    snaps += static_cast<int>(f.snaps.size());
+    knee_flips += f.knee_flips();
+    elbow_flips += f.elbow_flips();
+    for (int s = 0; s < 2; ++s) {
+      slide_max.push_back(f.slide[static_cast<std::size_t>(s)].max_mps);
+      slide_p95.push_back(f.slide[static_cast<std::size_t>(s)].p95_mps);
+      slide_p50.push_back(f.slide[static_cast<std::size_t>(s)].p50_mps);
+      step_max.push_back(f.stepping[static_cast<std::size_t>(s)].max_mps);
+    }
+    nlohmann::json j{{"character", rigs[static_cast<std::size_t>(run.character)].name}, {"first_frame", run.first_frame},
+                     {"frames", back.frame_count}, {"figures", figures_json(f, back.skeleton, back.frame_time_s)},
+                     {"low_fast_frames", {contacts.low_fast_frames[0], contacts.low_fast_frames[1]}},
+                     {"contacts", jc}};
+    if (!file.empty()) j["bvh"] = file;
+    jr.push_back(j);
+    result.runs.push_back(std::move(back));
+  }
+  const JointTrack drawn_track{&canon, drawn, frames, dt};
+  const auto drawn_snaps = find_snaps(drawn_track, {0, frames - 1});
+  const SpeedStats drawn_speed = joint_speeds(drawn_track, {0, frames - 1});
+  nlohmann::json ds = nlohmann::json::array();
+  for (std::size_t i = 0; i < drawn_snaps.size() && i < 20; ++i)
+    ds.push_back({{"frame", drawn_snaps[i].frame}, {"joint", canon.names[static_cast<std::size_t>(drawn_snaps[i].joint)]},
+                  {"step_mm", drawn_snaps[i].step_m * 1000}, {"rule", std::string(1, drawn_snaps[i].rule)}});
+  auto mx = [](const std::vector<double>& v) { return num(dist_json(v)["max"].get<double>()); };
+  result.report = {
+      {"visitor", "SYNTHETIC head trajectory (synthetic_head in kumite_motion.cpp): side to side, closer/farther, a "
+                  "crouch at 8-10.5 s, a dodge at 13.5-14.3 s"},
+      {"seconds", seconds}, {"frame_time_s", dt}, {"frames", frames}, {"state_frames", state_frames},
+      {"summary",
+       {{"runs", runs.size()}, {"strikes", strikes}, {"hits", hits}, {"snaps_in_bvh_runs", snaps},
+        {"drawn_snaps_whole_bout", drawn_snaps.size()}, {"drawn_joint_speed_p99_mps", drawn_speed.p99_mps},
+        {"drawn_joint_speed_max_mps", drawn_speed.max_mps},
+        {"drawn_joint_speed_max_joint", canon.names[static_cast<std::size_t>(std::max(0, drawn_speed.max_joint))]},
+        {"drawn_joint_speed_max_frame", drawn_speed.max_frame},
+        {"support_slide_max_mps", mx(slide_max)}, {"support_slide_p95_mps_worst_run", mx(slide_p95)},
+        {"support_slide_p50_mps_worst_run", mx(slide_p50)}, {"stepping_peak_max_mps", mx(step_max)},
+        {"knee_flips", knee_flips}, {"elbow_flips", elbow_flips}, {"folded_at_contact", folded}}},
+      {"drawn_snap_list", ds}, {"runs", jr}, {"events", events}};
+  return result;
+}
+
+struct BoutArgs {
+  std::string db, out, report;
+  double seconds = 20;
+  std::vector<std::string> characters = all_character_names();
+};
+
+void add_bout(CLI::App& app, BoutArgs& a) {
+  auto* cmd = app.add_subcommand("bout", "A scripted bout (SYNTHETIC visitor, strikes, character switches) at 60 Hz: "
+                                         "one BVH per character run (<out stem>.NN-name.bvh) and the figures as JSON");
+  cmd->add_option("--db", a.db, "fighter.kdb")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--out", a.out, "bout.bvh: runs are written as bout.01-<character>.bvh, ...")->required();
+  cmd->add_option("--report", a.report, "bout.json")->required();
+  cmd->add_option("--seconds", a.seconds, "length of the bout (s)")->capture_default_str()->check(CLI::Range(1.0, 600.0));
+  cmd->add_option("--characters", a.characters, "character names or BVH files (order = select_character index)")
+      ->delimiter(',')->capture_default_str();
+}
+
+int run_bout(const BoutArgs& a) {
+  auto db = std::make_shared<const Database>(load_database(a.db));
+  const BoutResult r = run_bout_scenario(db, load_rigs(a.characters), a.seconds, a.out);
+  kumite::write_file_atomically(a.report, r.report.dump(2) + "\n");
+  fmt::print("{}\nwrote {} and {} character runs beside {}\n", r.report["summary"].dump(2), a.report, r.runs.size(), a.out);
+  return 0;
+}
+
 // ---- bench ---------------------------------------------------------------------------------
 
 struct BenchArgs {
@@ -284,6 +845,8 @@ struct BenchArgs {
   double feature_noise = 0.02;   ///< feature units (positions / leg length): ~2 cm on a 1 m leg
   double window_noise_m = 0.02;  ///< m, hit window shift per replica
   bool skip_adaptation = false;
+  int quality_targets = 12;  ///< motion-quality grid targets per character and order (0: skip)
+  double bout_seconds = 20;  ///< scripted bout length (0: skip)
 };
 
 void add_bench(CLI::App& app, BenchArgs& a) {
@@ -296,6 +859,10 @@ void add_bench(CLI::App& app, BenchArgs& a) {
   cmd->add_option("--feature-noise", a.feature_noise, "replica pose-feature noise (feature units)")->capture_default_str();
   cmd->add_option("--window-noise", a.window_noise_m, "replica hit-window noise (m)")->capture_default_str();
   cmd->add_flag("--skip-adaptation", a.skip_adaptation, "time retrieval only");
+  cmd->add_option("--quality-targets", a.quality_targets, "motion-quality grid: targets per character and order (0: skip)")
+      ->capture_default_str()->check(CLI::Range(0, 1000));
+  cmd->add_option("--bout-seconds", a.bout_seconds, "scripted bout for motion_quality.bout (0: skip)")
+      ->capture_default_str()->check(CLI::Range(0.0, 600.0));
 }
 
 // Realistic queries: the fighter's pose at rest (each character), targets around head height.
@@ -424,6 +991,23 @@ int run_bench(const BenchArgs& a) {
   }
   j["adaptation_us_per_frame"] = stats_json(adapt_us);
   j["adaptation_strikes"] = strikes;
+
+  // 4. Motion quality (what the eye sees; `kumite-motion quality` for the per-strike detail).
+  if (a.quality_targets > 0) {
+    t0 = now_s();
+    QualityTotals totals;
+    measure_grid(db, rigs, a.quality_targets, "", totals);
+    j["motion_quality"] = totals.json();
+    j["motion_quality"]["targets_per_order"] = a.quality_targets;
+    j["motion_quality"]["seconds"] = now_s() - t0;
+  }
+  if (a.bout_seconds > 0) {
+    t0 = now_s();
+    const BoutResult bout = run_bout_scenario(db, rigs, a.bout_seconds, "");
+    j["motion_quality"]["bout"] = bout.report["summary"];
+    j["motion_quality"]["bout"]["seconds_simulated"] = a.bout_seconds;
+    j["motion_quality"]["bout"]["seconds"] = now_s() - t0;
+  }
   fmt::print("{}\n", j.dump(2));
   return 0;
 }
@@ -443,6 +1027,10 @@ int main(int argc, char** argv) {
   add_strike(app, strike_args);
   BenchArgs bench_args;
   add_bench(app, bench_args);
+  QualityArgs quality_args;
+  add_quality(app, quality_args);
+  BoutArgs bout_args;
+  add_bout(app, bout_args);
   CLI11_PARSE(app, argc, argv);
   try {
     if (app.got_subcommand("annotate")) return run_annotate(annotate_args);
@@ -450,6 +1038,8 @@ int main(int argc, char** argv) {
     if (app.got_subcommand("build")) return run_build(build_args);
     if (app.got_subcommand("strike")) return run_strike(strike_args);
     if (app.got_subcommand("bench")) return run_bench(bench_args);
+    if (app.got_subcommand("quality")) return run_quality(quality_args);
+    if (app.got_subcommand("bout")) return run_bout(bout_args);
   } catch (const kumite::Error& e) {
     std::fprintf(stderr, "kumite-motion: %s\n", e.what());
     return 1;

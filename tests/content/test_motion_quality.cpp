@@ -1,0 +1,363 @@
+// Motion-quality figures (motion_quality.hpp): each metric on SYNTHETIC joint sequences
+// whose ground truth is known by construction (a joint teleported 10 cm, a foot sliding at
+// 1 m/s, a folded arm, an elbow flipping sides), then a small run of the real pipeline on the
+// SHIPPED database (record_strike -> BVH text -> parse_bvh -> figures beside the source clip).
+// The shipped run checks that the figures are finite and that the raw mocap has no snaps; it
+// prints the figures and asserts no quality thresholds (the motion is being fixed elsewhere).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "fighter_fixtures.hpp"
+#include "kumite/content/bvh.hpp"
+#include "kumite/content/canonical.hpp"
+#include "kumite/content/motion_quality.hpp"
+#include "kumite/content/proportions.hpp"
+
+using namespace kumite;
+using namespace kumite::content;
+using CJ = CanonicalJoint;
+using Eigen::Vector3d;
+
+namespace {
+
+constexpr double kDt = 1.0 / 120;
+
+/// A skeleton whose joints ARE the canonical joints (index = canonical index). The figures
+/// only use the canonical map and the end-site flags, never offsets or parents.
+Skeleton canonical_skeleton() {
+  Skeleton s;
+  for (std::size_t c = 0; c < kCanonicalJointCount; ++c) {
+    s.names.emplace_back(to_string(static_cast<CJ>(c)));
+    s.parents.push_back(static_cast<int>(c) - 1);
+    s.offsets.emplace_back(0, 0.1, 0);
+    s.end_site.push_back(false);
+    s.canonical[c] = static_cast<int>(c);
+  }
+  return s;
+}
+
+int idx(CJ j) { return static_cast<int>(j); }
+
+/// SYNTHETIC: a person standing still facing +Z, feet flat (ankle 8 cm, toe 2 cm up), arms
+/// hanging bent; `frames` identical frames.
+struct Sequence {
+  Skeleton skeleton = canonical_skeleton();
+  std::vector<Vector3d> p;
+  int frames = 0;
+  explicit Sequence(int n) : frames(n) {
+    std::array<Vector3d, kCanonicalJointCount> pose;
+    pose[idx(CJ::pelvis)] = {0, 0.95, 0};
+    pose[idx(CJ::spine)] = {0, 1.10, 0};
+    pose[idx(CJ::chest)] = {0, 1.30, 0};
+    pose[idx(CJ::neck)] = {0, 1.50, 0};
+    pose[idx(CJ::head)] = {0, 1.62, 0};
+    for (int side = 0; side < 2; ++side) {
+      const double x = side == 0 ? 1 : -1;  // left = +X when facing +Z
+      const int o = side == 0 ? 0 : 4;
+      pose[static_cast<std::size_t>(idx(CJ::l_clavicle) + o)] = {0.05 * x, 1.45, 0};
+      pose[static_cast<std::size_t>(idx(CJ::l_shoulder) + o)] = {0.18 * x, 1.42, 0};
+      pose[static_cast<std::size_t>(idx(CJ::l_elbow) + o)] = {0.20 * x, 1.14, 0.02};
+      pose[static_cast<std::size_t>(idx(CJ::l_wrist) + o)] = {0.20 * x, 1.00, 0.24};
+      const int lo = side == 0 ? 0 : 4;
+      pose[static_cast<std::size_t>(idx(CJ::l_hip) + lo)] = {0.10 * x, 0.90, 0};
+      pose[static_cast<std::size_t>(idx(CJ::l_knee) + lo)] = {0.10 * x, 0.50, 0.02};
+      pose[static_cast<std::size_t>(idx(CJ::l_ankle) + lo)] = {0.10 * x, 0.08, 0};
+      pose[static_cast<std::size_t>(idx(CJ::l_toe) + lo)] = {0.10 * x, 0.02, 0.14};
+    }
+    for (int f = 0; f < n; ++f) p.insert(p.end(), pose.begin(), pose.end());
+  }
+  Vector3d& at(int f, CJ j) { return p[static_cast<std::size_t>(f) * kCanonicalJointCount + static_cast<std::size_t>(idx(j))]; }
+  JointTrack track() const { return {&skeleton, p, frames, kDt}; }
+  void move_foot(int f, int side, const Vector3d& d) {
+    at(f, side == 0 ? CJ::l_ankle : CJ::r_ankle) += d;
+    at(f, side == 0 ? CJ::l_toe : CJ::r_toe) += d;
+  }
+};
+
+TEST(MotionQuality, SyntheticTeleportedJointIsOneSnapAtItsFrame) {
+  Sequence s(60);
+  for (int f = 30; f < 60; ++f) s.at(f, CJ::l_wrist) += Vector3d(0.10, 0, 0);  // jumps 10 cm at f30, stays
+  const auto snaps = find_snaps(s.track(), {0, 59});
+  ASSERT_EQ(snaps.size(), 1u);
+  EXPECT_EQ(snaps[0].frame, 30);
+  EXPECT_EQ(snaps[0].joint, idx(CJ::l_wrist));
+  EXPECT_NEAR(snaps[0].step_m, 0.10, 1e-12);
+  EXPECT_EQ(snaps[0].rule, 'b');
+}
+
+TEST(MotionQuality, SyntheticSmoothFastMotionIsNoSnapButSpikesAndTooFastStepsAre) {
+  Sequence s(80);
+  // Smooth: the whole body moves at 3 m/s (2.5 cm per frame): fast, but no snap.
+  for (int f = 0; f < 80; ++f)
+    for (std::size_t j = 0; j < kCanonicalJointCount; ++j) s.p[static_cast<std::size_t>(f) * kCanonicalJointCount + j].x() += 3.0 * f * kDt;
+  EXPECT_TRUE(find_snaps(s.track(), {0, 79}).empty());
+  const SpeedStats sp = joint_speeds(s.track(), {0, 79});
+  EXPECT_NEAR(sp.max_mps, 3.0, 1e-9);
+  EXPECT_NEAR(sp.p50_mps, 3.0, 1e-9);
+  // A one-frame spike there and back (8 cm at f40, back at f41): rule c at f40.
+  s.at(40, CJ::head) += Vector3d(0, 0, 0.08);
+  // A step at 25 m/s (> 20 m/s) on the right knee at f60, staying.
+  for (int f = 60; f < 80; ++f) s.at(f, CJ::r_knee) += Vector3d(0, 0, 25 * kDt);
+  const auto snaps = find_snaps(s.track(), {0, 79});
+  ASSERT_EQ(snaps.size(), 2u);
+  EXPECT_EQ(snaps[0].frame, 40);
+  EXPECT_EQ(snaps[0].joint, idx(CJ::head));
+  EXPECT_EQ(snaps[0].rule, 'c');
+  EXPECT_EQ(snaps[1].frame, 60);
+  EXPECT_EQ(snaps[1].joint, idx(CJ::r_knee));
+  EXPECT_EQ(snaps[1].rule, 'a');
+  // Outside the range it is not counted.
+  EXPECT_TRUE(find_snaps(s.track(), {0, 39}).empty());
+}
+
+TEST(MotionQuality, SyntheticFlatFootSlidingAt1MpsGives1MpsStillFootZero) {
+  Sequence s(120);
+  for (int f = 0; f < 120; ++f) s.move_foot(f, 0, Vector3d(0, 0, 1.0 * f * kDt));  // left foot flat, 1 m/s forward
+  const JointTrack t = s.track();
+  const FootContacts c = detect_foot_contacts(t);
+  for (int f = 0; f < 120; ++f) {
+    EXPECT_TRUE(c.contact[0][static_cast<std::size_t>(f)]) << f;
+    EXPECT_TRUE(c.contact[1][static_cast<std::size_t>(f)]) << f;
+  }
+  const int h = speed_half_window(kDt);
+  EXPECT_EQ(h, 2);
+  const FootFigure left = support_foot_slide(t, 0, c.contact[0], {0, 119}, h);
+  const FootFigure right = support_foot_slide(t, 1, c.contact[1], {0, 119}, h);
+  EXPECT_NEAR(left.max_mps, 1.0, 1e-9);
+  EXPECT_NEAR(left.p50_mps, 1.0, 1e-9);
+  EXPECT_EQ(left.frames, 116);
+  EXPECT_NEAR(right.max_mps, 0.0, 1e-12);
+  // A scale (character / actor legs) multiplies it.
+  EXPECT_NEAR(support_foot_slide(t, 0, c.contact[0], {0, 119}, h, 1.5).max_mps, 1.5, 1e-9);
+}
+
+TEST(MotionQuality, SyntheticFastSkatingFootIsCountedNotHidden) {
+  Sequence s(60);
+  for (int f = 0; f < 60; ++f) s.move_foot(f, 1, Vector3d(3.0 * f * kDt, 0, 0));  // right foot flat at 3 m/s
+  const JointTrack t = s.track();
+  const FootContacts c = detect_foot_contacts(t);
+  EXPECT_EQ(c.low_fast_frames[1], 60);  // above the 2 m/s gate: not a standing foot...
+  EXPECT_EQ(c.low_fast_frames[0], 0);
+  // ...but with contact flags from elsewhere (the source clip) the slide is 3 m/s.
+  const std::vector<std::uint8_t> all(60, 1);
+  EXPECT_NEAR(support_foot_slide(t, 1, all, {0, 59}, 2).max_mps, 3.0, 1e-9);
+}
+
+TEST(MotionQuality, SyntheticLiftedFootIsNotInContactAndItsStepPeakIsMeasured) {
+  Sequence s(90);
+  // The left foot lifts 10 cm over frames 30..59 while moving forward at 4 m/s, then lands.
+  for (int f = 30; f < 90; ++f) {
+    const double travel = 4.0 * (std::min(f, 59) - 30) * kDt;
+    s.move_foot(f, 0, Vector3d(0, f < 60 ? 0.10 : 0.0, travel));
+  }
+  const JointTrack t = s.track();
+  const FootContacts c = detect_foot_contacts(t);
+  EXPECT_TRUE(c.contact[0][20]);
+  EXPECT_FALSE(c.contact[0][45]);
+  EXPECT_TRUE(c.contact[0][80]);
+  const FootFigure step = stepping_foot_peak(t, 0, c.contact[0], {0, 89}, 2);
+  // 3-D speed of the foot point mid-step (the max is higher: the 10 cm lift is instantaneous).
+  EXPECT_NEAR(step.p50_mps, 4.0, 1e-9);
+  EXPECT_GE(step.max_mps, 4.0);
+  const FootFigure slide = support_foot_slide(t, 0, c.contact[0], {0, 89}, 2);
+  EXPECT_NEAR(slide.max_mps, 0.0, 1e-12);  // standing before and after: no slide
+}
+
+TEST(MotionQuality, SyntheticFoldedArmIsFlaggedStraightArmIsNot) {
+  Sequence s(10);
+  const Vector3d target(-0.18, 1.62, 0.70);  // right fist toward head height ahead
+  // Straight right arm toward the target.
+  const Vector3d sh = s.at(5, CJ::r_shoulder);
+  const Vector3d u = (target - sh).normalized();
+  for (int f = 0; f < 10; ++f) {
+    s.at(f, CJ::r_elbow) = sh + u * 0.28;
+    s.at(f, CJ::r_wrist) = sh + u * (0.28 + 0.26 - 0.002 * (9 - f));  // still extending
+  }
+  const Effector right_arm{kRight, false};
+  const LimbAtContact ok = limb_at_contact(s.track(), right_arm, 9, target, 2);
+  EXPECT_GT(ok.extension, 0.99);
+  EXPECT_GT(ok.end_ahead_m, 0.25);
+  EXPECT_FALSE(ok.folded);
+  EXPECT_FALSE(ok.elbow_above_head);
+  // Folded: the elbow pointing at the target, the wrist back beside the shoulder.
+  Sequence fold(10);
+  for (int f = 0; f < 10; ++f) {
+    fold.at(f, CJ::r_elbow) = sh + u * 0.28;
+    fold.at(f, CJ::r_wrist) = sh + Vector3d(0, 0.05, 0.05);
+  }
+  const LimbAtContact bad = limb_at_contact(fold.track(), right_arm, 9, target, 2);
+  EXPECT_LT(bad.end_ahead_m, 0);
+  EXPECT_TRUE(bad.folded);
+  EXPECT_LT(bad.extension, 0.3);
+  // Elbow above the head (wrist still ahead of it): flagged too.
+  Sequence high(10);
+  for (int f = 0; f < 10; ++f) {
+    high.at(f, CJ::r_elbow) = Vector3d(-0.25, 1.70, 0.15);
+    high.at(f, CJ::r_wrist) = Vector3d(-0.20, 1.66, 0.40);
+  }
+  const LimbAtContact up = limb_at_contact(high.track(), right_arm, 9, target, 2);
+  EXPECT_GT(up.end_ahead_m, 0);
+  EXPECT_TRUE(up.elbow_above_head);
+  EXPECT_TRUE(up.folded);
+}
+
+TEST(MotionQuality, SyntheticFistHookingUpwardHasALargeApproachElevation) {
+  Sequence s(10);
+  for (int f = 0; f < 10; ++f) s.at(f, CJ::l_wrist) = Vector3d(0.2, 1.0 + 0.03 * f, 0.3 + 0.01 * f);  // 3x up vs forward
+  const LimbAtContact l = limb_at_contact(s.track(), Effector{kLeft, false}, 9, Vector3d(0.2, 1.3, 0.5), 2);
+  EXPECT_NEAR(l.approach_elevation_deg, std::atan2(3.0, 1.0) * 180 / 3.14159265358979323846, 1e-9);
+  // A hook: rising 4x faster than it advances until 80 ms before contact, then level.
+  Sequence hook(30);
+  Vector3d w(0.2, 1.0, 0.2);
+  for (int f = 0; f < 30; ++f) {
+    w += f < 20 ? Vector3d(0, 0.02, 0.005) : Vector3d(0, 0, 0.03);  // 2.4 m/s up, then 3.6 m/s level
+    hook.at(f, CJ::l_wrist) = w;
+  }
+  const LimbAtContact hk = limb_at_contact(hook.track(), Effector{kLeft, false}, 29, w + Vector3d(0, 0, 0.05), 2);
+  EXPECT_NEAR(hk.approach_elevation_deg, 0, 1e-9);  // the last 33 ms are level...
+  EXPECT_NEAR(hk.approach_max_elevation_deg, std::atan2(0.02, 0.005) * 180 / 3.14159265358979323846, 1e-9);  // ...the hook is not
+}
+
+TEST(MotionQuality, SyntheticElbowFlipIsDetectedSlowSwivelAndStraightLimbAreNot) {
+  // The left arm bent 90 deg; its elbow swivels about the shoulder -> wrist axis (+Z).
+  auto arm = [](double swivel_rad, Sequence& s, int f) {
+    const Vector3d sh(0.18, 1.42, 0), wr(0.18, 1.42, 0.40);
+    s.at(f, CJ::l_shoulder) = sh;
+    s.at(f, CJ::l_wrist) = wr;
+    s.at(f, CJ::l_elbow) = Vector3d(0.18 + 0.2 * std::cos(swivel_rad), 1.42 + 0.2 * std::sin(swivel_rad), 0.20);
+  };
+  Sequence slow(100);
+  for (int f = 0; f < 100; ++f) arm(f * 1.0 * 3.14159265358979 / 180, slow, f);  // 1 deg per frame
+  EXPECT_TRUE(find_limb_flips(slow.track(), {0, 99}).empty());
+  Sequence flip(100);
+  for (int f = 0; f < 100; ++f) arm(f < 50 ? -1.5707963 : 1.5707963, flip, f);  // elbow down -> up at f50
+  const auto flips = find_limb_flips(flip.track(), {0, 99});
+  ASSERT_EQ(flips.size(), 1u);
+  EXPECT_EQ(flips[0].frame, 50);
+  EXPECT_EQ(flips[0].side, kLeft);
+  EXPECT_FALSE(flips[0].leg);
+  EXPECT_NEAR(flips[0].turn_deg, 180, 1e-3);
+  // A straight arm has no bend plane: the same jump of a nearly straight elbow is no flip.
+  Sequence straight(100);
+  for (int f = 0; f < 100; ++f) {
+    arm(0, straight, f);
+    straight.at(f, CJ::l_elbow) = Vector3d(0.18 + (f < 50 ? -0.005 : 0.005), 1.42, 0.20);
+  }
+  EXPECT_TRUE(find_limb_flips(straight.track(), {0, 99}).empty());
+}
+
+TEST(MotionQuality, SyntheticCompareStrikeJudgesOutputFeetBySourceContactsOnMappedFrames) {
+  // SYNTHETIC source: 100 frames standing, the left wrist moving at 2 m/s, the right foot
+  // lifted at 1.2 m/s to 10 cm and back over source frames 38..60 (a step in place; out of
+  // contact, above 1.5 cm, over source frames 40..58).
+  Sequence src(100);
+  for (int f = 0; f < 100; ++f) src.at(f, CJ::l_wrist) += Vector3d(0, 0, 2.0 * f * kDt);
+  for (int f = 38; f <= 60; ++f) src.move_foot(f, 1, Vector3d(0, 0.01 * std::clamp(std::min(f - 38, 60 - f), 0, 10), 0));
+  // SYNTHETIC output: 60 frames; frame k shows source frame 19 + k (output_first 1 <-> 20).
+  // Its left foot slides flat at 1 m/s throughout; its right foot moves at 5 m/s (flat)
+  // over output frames 22..39, i.e. only while the source's right foot is in the air.
+  Sequence out(60);
+  for (int f = 0; f < 60; ++f) {
+    out.move_foot(f, 0, Vector3d(1.0 * f * kDt, 0, 0));
+    out.move_foot(f, 1, Vector3d(0, 0, 5.0 * (std::clamp(f, 22, 39) - 22) * kDt));
+  }
+  const JointTrack st = src.track(), ot = out.track();
+  StrikeComparisonInput in;
+  in.output = &ot;
+  in.source = &st;
+  in.output_first = 1;
+  in.output_last = 59;
+  in.source_first = 20;
+  in.contact_frame = 30;
+  in.effector = Effector{kLeft, false};
+  in.target_m = Vector3d(0.2, 1.6, 0.7);
+  in.speed_scale = 1.25;
+  const StrikeQuality q = compare_strike(in);
+  EXPECT_EQ(q.output_range.first, 1);
+  EXPECT_EQ(q.output_range.last, 59);
+  EXPECT_EQ(q.source_range.first, 20);
+  EXPECT_EQ(q.source_range.last, 78);
+  // Left foot: in contact in the source, sliding at 1 m/s in the output.
+  EXPECT_NEAR(q.output.slide[0].max_mps, 1.0, 1e-9);
+  EXPECT_NEAR(q.source.slide[0].max_mps, 0.0, 1e-12);
+  // Right foot: its 5 m/s travel happens while the source foot is lifted (source frames
+  // 40..58 = output frames 21..39): stepping, not sliding.
+  EXPECT_NEAR(q.output.slide[1].max_mps, 0.0, 1e-12);
+  EXPECT_NEAR(q.output.stepping[1].max_mps, 5.0, 1e-9);
+  // Source speeds are scaled (2 m/s wrist x 1.25).
+  EXPECT_NEAR(q.source.speed.max_mps, 2.5, 1e-9);
+  EXPECT_TRUE(q.source.snaps.empty());
+}
+
+TEST(MotionQuality, GridPutsPunchesAtHeadHeightKicksAtTheTorsoInFront) {
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const auto grid = quality_grid(std::span<const Rig>(rigs).first(2), 12);
+  ASSERT_EQ(grid.size(), 2u * 4 * 12);
+  for (const StrikeCase& c : grid) {
+    const Rig& r = rigs[static_cast<std::size_t>(c.character)];
+    const double head = at(r.rest_pose, CJ::head).y();
+    const bool kick = c.order == OrderKind::kick_left || c.order == OrderKind::kick_right;
+    EXPECT_NEAR(c.target_m.y(), kick ? head - 0.45 : head, 1e-12);
+    EXPECT_GE(c.target_m.z(), 0.45 * r.morphology.height_m - 1e-12);
+    EXPECT_LE(c.target_m.z(), 0.65 * r.morphology.height_m + 1e-12);
+    EXPECT_LE(std::abs(c.target_m.x()), 0.10 * r.morphology.height_m + 1e-12);
+  }
+}
+
+TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const std::vector<Rig> two{rigs[2], rigs[3]};  // kenji, mei
+  const auto grid = quality_grid(two, 2);
+  ASSERT_EQ(grid.size(), 16u);
+  int measured = 0;
+  for (const StrikeCase& sc : grid) {
+    const Rig& rig = two[static_cast<std::size_t>(sc.character)];
+    const StrikeRecording rec = record_strike(set.db, rig, sc.order, sc.target_m);
+    ASSERT_GE(rec.contact_frame, 0) << rig.name << " " << to_string(sc.order);
+    // The independent path: the BVH text read back.
+    Clip motion = rec.motion;
+    const Clip back = parse_bvh(format_bvh(motion), rig.name + ".bvh");
+    const std::vector<Vector3d> pos = all_joint_positions(back);
+    const JointTrack out{&back.skeleton, pos, back.frame_count, back.frame_time_s};
+    const Clip src = load_source_clip(rec.source_clip, rec.mirrored, default_content_dir() / "motions");
+    const std::vector<Vector3d> spos = all_joint_positions(src);
+    const JointTrack st{&src.skeleton, spos, src.frame_count, src.frame_time_s};
+    const StrikeComparisonInput in = strike_comparison_input(*set.db, rec, sc.order, out, st,
+                                                             measure_proportions(back.skeleton).leg_m,
+                                                             measure_proportions(src.skeleton).leg_m);
+    // The mapping: the strike source starts on the update after the request (frame 1).
+    EXPECT_EQ(in.output_first, 1);
+    const StrikeQuality q = compare_strike(in);
+    EXPECT_GT(q.output_range.count(), 30);
+    EXPECT_EQ(q.output_range.count(), q.source_range.count());
+    for (const TrackFigures* f : {&q.output, &q.source}) {
+      EXPECT_TRUE(std::isfinite(f->speed.p99_mps) && f->speed.p99_mps > 0);
+      EXPECT_TRUE(std::isfinite(f->speed.max_mps));
+    }
+    EXPECT_TRUE(std::isfinite(q.output_contact.extension) && q.output_contact.extension > 0);
+    EXPECT_TRUE(std::isfinite(q.source_contact.extension) && q.source_contact.extension > 0);
+    EXPECT_TRUE(std::isfinite(q.output_contact.approach_elevation_deg));
+    EXPECT_TRUE(std::isfinite(q.whole.speed.p99_mps) && q.whole.speed.max_mps >= q.output.speed.max_mps);
+    EXPECT_EQ(q.tail_range.first, q.output_range.last + 1);
+    // Sanity of the metric on real motion: the raw CMU mocap over these frames has no snaps,
+    // and its support foot does not skate (CMU 135 standing feet: well under 2 m/s).
+    EXPECT_TRUE(q.source.snaps.empty()) << rec.source_clip << " f" << q.source_range.first << ": "
+                                        << (q.source.snaps.empty() ? 0 : q.source.snaps[0].frame);
+    EXPECT_TRUE(std::isnan(q.source.max_slide_mps()) || q.source.max_slide_mps() < 2.0);
+    std::printf("%-6s %-11s %s%s: snaps %zu (source %zu), p99 %.2f m/s (source %.2f), slide %.2f m/s (source %.2f), "
+                "[%d/%d frames] stepping %.2f (source %.2f), knee flips %d (source %d), fold %d (source %d), reach %.1f mm\n",
+                rig.name.c_str(), std::string(to_string(sc.order)).c_str(), rec.source_clip.c_str(),
+                rec.mirrored ? "m" : "", q.output.snaps.size(), q.source.snaps.size(), q.output.speed.p99_mps,
+                q.source.speed.p99_mps, q.output.max_slide_mps(), q.source.max_slide_mps(),
+                q.output.slide[0].frames, q.output.slide[1].frames, q.output.max_stepping_mps(),
+                q.source.max_stepping_mps(), q.output.knee_flips(), q.source.knee_flips(), q.output_contact.folded,
+                q.source_contact.folded, q.output_contact.end_to_target_m * 1000);
+    ++measured;
+  }
+  EXPECT_EQ(measured, 16);
+}
+
+}  // namespace
