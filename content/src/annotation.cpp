@@ -19,7 +19,24 @@ namespace kumite::content {
 namespace {
 constexpr std::array<std::string_view, 6> kSemantics = {"punch", "kick", "block", "walk", "rest", "other"};
 constexpr std::array<std::string_view, 4> kSegments = {"left_hand", "right_hand", "left_foot", "right_foot"};
+constexpr std::array<std::string_view, 3> kHeights = {"low", "mid", "high"};
 }  // namespace
+
+std::string_view to_string(StrikeHeight h) { return kHeights[static_cast<std::size_t>(h)]; }
+std::optional<StrikeHeight> strike_height_from_string(std::string_view s) {
+  for (std::size_t i = 0; i < kHeights.size(); ++i) {
+    if (kHeights[i] == s) return static_cast<StrikeHeight>(i);
+  }
+  return std::nullopt;
+}
+
+StrikeHeight classify_strike_height(double hit_height_m, double stature_m, const StrikeHeightThresholds& t) {
+  if (!(stature_m > 0)) throw Error("annotation", "stature", fmt::format("stature {} m must be > 0", stature_m));
+  const double r = hit_height_m / stature_m;
+  if (r < t.low_below) return StrikeHeight::low;
+  if (r >= t.high_from) return StrikeHeight::high;
+  return StrikeHeight::mid;
+}
 
 std::string_view to_string(Semantics s) { return kSemantics[static_cast<std::size_t>(s)]; }
 std::string_view to_string(HitSegment s) { return kSegments[static_cast<std::size_t>(s)]; }
@@ -97,6 +114,8 @@ std::string format_annotations(const AnnotationSet& set) {
   out += "# frames = [first, last]: 0-based BVH motion frames, inclusive. hit_frame: contact frame.\n";
   out += "# semantics: punch | kick | block | walk | rest | other; hit_segment (strikes only):\n";
   out += "# left_hand | right_hand | left_foot | right_foot (hit point = wrist / ankle joint).\n";
+  out += "# height (strikes, optional): low | mid | high, the hit point above the floor at hit_frame\n";
+  out += "# relative to the actor's stature (low < 0.55, high >= 0.81; content/README.md).\n";
   out += "# peak_speed_mps (m/s) and extension (1 = limb straight) are informational.\n";
   out += fmt::format("version = {}\n", set.version);
   for (const ClipAnnotation& c : set.clips) {
@@ -111,6 +130,7 @@ std::string format_annotations(const AnnotationSet& set) {
       out += fmt::format("frames = [{}, {}]\n", m.first_frame, m.last_frame);
       if (m.hit_segment) out += fmt::format("hit_segment = \"{}\"\n", to_string(*m.hit_segment));
       if (m.hit_frame) out += fmt::format("hit_frame = {}\n", *m.hit_frame);
+      if (m.height) out += fmt::format("height = \"{}\"\n", to_string(*m.height));
       if (!m.note.empty()) out += fmt::format("note = {}\n", toml_string(m.note));
       if (m.peak_speed_mps > 0) out += fmt::format("peak_speed_mps = {:.2f}\n", m.peak_speed_mps);
       if (m.extension > 0) out += fmt::format("extension = {:.3f}\n", m.extension);
@@ -166,6 +186,11 @@ std::vector<Clip> load_annotated_clips(const AnnotationSet& set) {
     Clip clip = read_bvh(path);
     clip.name = set.clips[i].name;
     if (clip.skeleton.dialect.empty()) map_canonical(clip.skeleton, path.string());
+    if (const BvhUnitCheck u = check_bvh_unit(clip, path.string()); !u.plausible) {
+      // The database needs true metres: a clip at the wrong scale would retrieve wrong reaches.
+      throw file_error("annotation", "unit", set.source.string(), set.clips[i].line, fmt::format("clip[{}].file", i),
+                       "refused: " + u.warning);
+    }
     validate_annotations(set, i, clip);
     clips.push_back(std::move(clip));
   }
@@ -308,30 +333,53 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
   }
   std::vector<Found> strikes;
 
-  // Kicks: the ankle high above the floor at a local maximum, reached fast.
+  // Kicks: the ankle high above the floor at a local maximum, reached fast, the leg extended.
   for (HitSegment seg : {HitSegment::left_foot, HitSegment::right_foot}) {
     const Track ankle = track(hit_joint(seg));
     const Track hip = track(limb_root(seg));
-    std::vector<double> height(static_cast<std::size_t>(frames));
-    for (int f = 0; f < frames; ++f) height[static_cast<std::size_t>(f)] = ankle.p[static_cast<std::size_t>(f)].y() - floor_y;
-    for (int f : peaks(height, cfg.kick_min_height * body.stature_m, W)) {
+    std::vector<double> height(static_cast<std::size_t>(frames)), ext(static_cast<std::size_t>(frames));
+    for (int f = 0; f < frames; ++f) {
+      const auto fi = static_cast<std::size_t>(f);
+      height[fi] = ankle.p[fi].y() - floor_y;
+      ext[fi] = (ankle.p[fi] - hip.p[fi]).norm() / body.leg_m;
+    }
+    std::vector<int> kick_frames;
+    auto consider = [&](int f, bool arrival) {
+      const auto fi = static_cast<std::size_t>(f);
       const double vmax = max_in(ankle.speed, f - A, f);
-      const double extension =
-          (ankle.p[static_cast<std::size_t>(f)] - hip.p[static_cast<std::size_t>(f)]).norm() / body.leg_m;
-      if (vmax < cfg.kick_min_speed || extension < cfg.kick_min_extension) continue;
+      if (vmax < cfg.kick_min_speed || ext[fi] < cfg.kick_min_extension) return;
+      if (height[fi] < cfg.kick_min_height * body.stature_m) return;
       const auto span = bounds(ankle.speed, f, A, H, cfg.bound_speed_fraction);
-      const int first = span.first, last = span.second;
       Found k;
       k.kind = is_left(seg) ? "kick_left" : "kick_right";
       k.m.semantics = Semantics::kick;
       k.m.hit_segment = seg;
       k.m.hit_frame = f;
-      k.m.first_frame = first;
-      k.m.last_frame = last;
+      k.m.first_frame = span.first;
+      k.m.last_frame = span.second;
       k.m.peak_speed_mps = vmax;
-      k.m.extension = extension;
-      k.m.note = fmt::format("proposed: ankle {:.0f} cm above the floor at the hit", 100 * height[static_cast<std::size_t>(f)]);
+      k.m.extension = ext[fi];
+      k.m.height = classify_strike_height(height[fi], body.stature_m, cfg.height);
+      k.m.note = fmt::format("proposed: {}ankle {:.0f} cm above the floor at the hit ({:.2f} of stature)",
+                             arrival ? "chambered kick (knee raised first, leg straight below the knee's apex): " : "",
+                             100 * height[fi], height[fi] / body.stature_m);
       strikes.push_back(k);
+      kick_frames.push_back(f);
+    };
+    for (int f : peaks(height, cfg.kick_min_height * body.stature_m, W)) consider(f, false);
+    // Extension-driven candidates: a chambered kick raises the knee first (the ankle's
+    // highest point has a bent leg) and hits lower, where the leg arrives straight.
+    for (int f = 1; f < frames; ++f) {
+      if (!(ext[static_cast<std::size_t>(f - 1)] < cfg.kick_arrival_extension &&
+            ext[static_cast<std::size_t>(f)] >= cfg.kick_arrival_extension)) {
+        continue;
+      }
+      int top = f;
+      const double e = max_in(ext, f, f + W, &top);
+      int hit = top;
+      while (hit > f && ext[static_cast<std::size_t>(hit - 1)] >= e - 0.01) --hit;
+      const bool near_kick = std::any_of(kick_frames.begin(), kick_frames.end(), [&](int k) { return std::abs(k - hit) <= W; });
+      if (!near_kick) consider(hit, true);
     }
   }
   const std::vector<Found> kicks = strikes;
@@ -357,30 +405,52 @@ ClipAnnotation propose_annotations(const Clip& clip, std::string file, const Pro
           b > a ? (ext[static_cast<std::size_t>(b)] - ext[static_cast<std::size_t>(a)]) * body.arm_m / ((b - a) * dt) : 0;
     }
     std::vector<int> punch_frames;
-    for (int f : peaks(ext, cfg.punch_min_extension, W)) {
+    // A candidate at frame f: a punch straightens the arm fast (punch_min_*); a jab or a punch
+    // without a lunge may move the wrist slower but ends with the arm fully straight, reached
+    // as fast (jab_min_*). Returns whether it was taken.
+    auto consider = [&](int f, bool only_jab) {
       const std::size_t fi = static_cast<std::size_t>(f);
       const double vmax = max_in(wrist.speed, f - A, f);
       const double rmax = max_in(radial, f - A, f);
       const Eigen::Vector3d d = wrist.p[fi] - shoulder.p[fi];
       const double drop_deg = -std::asin(std::clamp(d.y() / d.norm(), -1.0, 1.0)) * 180 / std::numbers::pi;
-      if (vmax < cfg.punch_min_speed || rmax < cfg.punch_min_radial_speed || drop_deg > cfg.punch_max_drop_deg) {
-        continue;
+      const bool punch = !only_jab && vmax >= cfg.punch_min_speed && rmax >= cfg.punch_min_radial_speed;
+      const bool jab = ext[fi] >= cfg.jab_min_extension && vmax >= cfg.jab_min_speed && rmax >= cfg.jab_min_radial_speed;
+      if (!(punch || jab) || drop_deg > cfg.punch_max_drop_deg) return false;
+      if (inside_kick(f, f)) return false;  // arms swing for balance during kicks
+      if (!punch) {
+        // The arm may stay out (and creep straighter) after a jab: the hit is where it
+        // arrived, the first frame within 0.01 of the held extension.
+        while (f > 0 && f > static_cast<int>(fi) - W && ext[static_cast<std::size_t>(f - 1)] >= ext[fi] - 0.01) --f;
       }
+      const std::size_t hi = static_cast<std::size_t>(f);
       const auto span = bounds(wrist.speed, f, A, H, cfg.bound_speed_fraction);
-      const int first = span.first, last = span.second;
-      if (inside_kick(f, f)) continue;  // arms swing for balance during kicks
       Found p;
       p.kind = is_left(seg) ? "punch_left" : "punch_right";
       p.m.semantics = Semantics::punch;
       p.m.hit_segment = seg;
       p.m.hit_frame = f;
-      p.m.first_frame = first;
-      p.m.last_frame = last;
+      p.m.first_frame = span.first;
+      p.m.last_frame = span.second;
       p.m.peak_speed_mps = vmax;
-      p.m.extension = ext[fi];
-      p.m.note = fmt::format("proposed: wrist {:.0f} cm above the floor at the hit", 100 * (wrist.p[fi].y() - floor_y));
+      p.m.extension = ext[hi];
+      const double h = wrist.p[hi].y() - floor_y;
+      p.m.height = classify_strike_height(h, body.stature_m, cfg.height);
+      p.m.note = fmt::format("proposed: {}wrist {:.0f} cm above the floor at the hit ({:.2f} of stature)",
+                             punch ? "" : "jab (slower wrist, arm fully straight): ", 100 * h, h / body.stature_m);
       strikes.push_back(p);
       punch_frames.push_back(f);
+      return true;
+    };
+    for (int f : peaks(ext, cfg.punch_min_extension, W)) consider(f, false);
+    // Extension-driven candidates: where the arm arrives at full extension. A held arm that
+    // creeps straighter has its extension peak later, away from the speeds of the jab.
+    for (int f = 1; f < frames; ++f) {
+      if (!(ext[static_cast<std::size_t>(f - 1)] < cfg.jab_min_extension && ext[static_cast<std::size_t>(f)] >= cfg.jab_min_extension)) continue;
+      int top = f;
+      max_in(ext, f, f + W, &top);
+      const bool near_punch = std::any_of(punch_frames.begin(), punch_frames.end(), [&](int p) { return std::abs(p - top) <= W; });
+      if (!near_punch) consider(top, true);
     }
     // Blocks: fast hands that are no punch (and not balance swings during kicks).
     for (int f : peaks(wrist.speed, cfg.block_min_speed, W)) {

@@ -314,6 +314,31 @@ double guess_bvh_unit_m(double extent, bool humanoid) {
   return 0.001;
 }
 
+BvhUnitCheck check_bvh_unit(const Clip& clip, std::string_view source) {
+  BvhUnitCheck out;
+  if (clip.skeleton.dialect.empty() || !(clip.unit_m > 0)) return out;  // not a recognised humanoid
+  const double extent_m = rest_extent(clip.skeleton);                // offsets are metres past the reader
+  const double extent_units = extent_m / clip.unit_m;
+  if (extent_m < kHumanRestExtentM[0] || extent_m > kHumanRestExtentM[1]) {
+    out.plausible = false;
+    out.warning = fmt::format(
+        "{}: unit_m: rest height {:.4g} file units is not a human's in any unit the reader knows (cm, m, mm, inch, "
+        "CMU ASF units); the guess {:.4g} m per unit gives {:.2f} m, outside {:.1f}..{:.1f} m: lengths and speeds "
+        "of this clip would be distorted",
+        source, extent_units, clip.unit_m, extent_m, kHumanRestExtentM[0], kHumanRestExtentM[1]);
+    return out;
+  }
+  const bool metric = clip.unit_m == 0.01 || clip.unit_m == 1.0 || clip.unit_m == 0.001;
+  if (!metric) {
+    out.warning = fmt::format(
+        "{}: unit_m: rest height {:.4g} file units is a human's in no metric unit; guessed {} ({:.4g} m per unit, "
+        "{:.2f} m tall): check the clip is not scaled",
+        source, extent_units, std::abs(clip.unit_m - 0.0254) < 1e-12 ? "inches" : "CMU ASF units", clip.unit_m,
+        extent_m);
+  }
+  return out;
+}
+
 Clip parse_bvh(std::string_view text, std::string_view source, const BvhReadOptions& options) {
   Lexer lx(text, source);
   RawSkeleton raw = read_hierarchy(lx);

@@ -168,7 +168,8 @@ namespace {
 MotionAnnotation parse_motion(const toml::table& t, std::string_view source, const std::string& prefix,
                               std::set<std::string>& names) {
   const Table m(t, source, prefix, "annotation");
-  m.only({"name", "semantics", "frames", "hit_segment", "hit_frame", "note", "peak_speed_mps", "extension"});
+  m.only({"name", "semantics", "frames", "hit_segment", "hit_frame", "height", "note", "peak_speed_mps",
+          "extension"});
   MotionAnnotation a;
   a.line = m.line();
   a.name = m.string("name");
@@ -200,6 +201,11 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
     }
     a.hit_frame = static_cast<int>(*hf);
   }
+  if (auto h = m.opt_string("height")) {
+    const auto height = strike_height_from_string(*h);
+    if (!height) m.fail("value", "height", fmt::format("unknown height '{}' (low, mid, high)", *h));
+    a.height = *height;
+  }
   if (is_strike(a.semantics)) {
     if (!a.hit_segment) m.fail("missing_key", "hit_segment", t.source(), fmt::format("is required for a {}", sem));
     if (!a.hit_frame) m.fail("missing_key", "hit_frame", t.source(), fmt::format("is required for a {}", sem));
@@ -208,6 +214,7 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
   } else {
     if (a.hit_segment) m.fail("value", "hit_segment", fmt::format("only strikes (punch, kick) have one, not {}", sem));
     if (a.hit_frame) m.fail("value", "hit_frame", fmt::format("only strikes (punch, kick) have one, not {}", sem));
+    if (a.height) m.fail("value", "height", fmt::format("only strikes (punch, kick) have one, not {}", sem));
   }
   a.note = m.opt_string("note").value_or("");
   a.peak_speed_mps = m.opt_number("peak_speed_mps").value_or(0);

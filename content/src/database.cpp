@@ -314,6 +314,7 @@ std::vector<SegmentSource> segment_sources(const AnnotationSet& set, const std::
           s.kind = SegmentKind::strike;
           if (m.hit_segment) s.effector = Effector{is_left(*m.hit_segment) ? kLeft : kRight, !is_hand(*m.hit_segment)};
           s.hit_frame = m.hit_frame.value_or(-1);
+          s.height = m.height;
           break;
         case Semantics::rest: s.kind = SegmentKind::rest; break;
         case Semantics::walk: s.kind = SegmentKind::walk; break;

@@ -69,6 +69,9 @@ int run_annotate(const AnnotateArgs& a) {
   for (const auto& file : a.clips) {
     Clip clip = read_bvh(file);
     if (clip.skeleton.dialect.empty()) map_canonical(clip.skeleton, file);
+    if (const BvhUnitCheck u = check_bvh_unit(clip, file); !u.warning.empty()) {
+      fmt::print(stderr, "kumite-motion: warning: {}\n", u.warning);
+    }
     std::string rel = fs::relative(fs::absolute(file), out.parent_path()).generic_string();
     ClipAnnotation c = propose_annotations(clip, rel);
     c.mirror = !a.no_mirror;
@@ -77,8 +80,10 @@ int run_annotate(const AnnotateArgs& a) {
     for (const auto& m : c.motions) {
       fmt::print("  {:<28} {:<6} [{:5}, {:5}]", m.name, to_string(m.semantics), m.first_frame, m.last_frame);
       if (m.hit_frame) {
-        fmt::print("  {} hit f{} ({:.2f} s), peak {:.1f} m/s, extension {:.2f}", to_string(*m.hit_segment),
-                   *m.hit_frame, *m.hit_frame * clip.frame_time_s, m.peak_speed_mps, m.extension);
+        fmt::print("  {} hit f{} ({:.2f} s), peak {:.1f} m/s, extension {:.2f}, {}", to_string(*m.hit_segment),
+                   *m.hit_frame, *m.hit_frame * clip.frame_time_s, m.peak_speed_mps, m.extension,
+                   m.height ? to_string(*m.height) : "?");
+        if (!m.note.empty()) fmt::print("  ({})", m.note);
       }
       fmt::print("\n");
     }

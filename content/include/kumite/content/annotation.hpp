@@ -17,6 +17,8 @@
 //   frames = [330, 410]          # first, last (inclusive)
 //   hit_segment = "right_foot"   # strikes (punch, kick) only: left_hand | right_hand | left_foot | right_foot
 //   hit_frame = 374              # strikes only: contact frame, inside `frames`
+//   height = "mid"               # strikes only, optional: low | mid | high, where the hit
+//                                # point is at hit_frame (classify_strike_height)
 //   note = "..."                 # optional, free text
 //   peak_speed_mps = 9.9         # optional, informational: hit point's peak speed (m/s)
 //   extension = 0.97             # optional, informational: limb extension at hit_frame (1 = straight)
@@ -36,11 +38,30 @@ namespace kumite::content {
 
 enum class Semantics : std::uint8_t { punch, kick, block, walk, rest, other };
 enum class HitSegment : std::uint8_t { left_hand, right_hand, left_foot, right_foot };
+/// Where a strike lands, from the hit point's height above the floor at the hit frame
+/// relative to the actor's stature (see StrikeHeightThresholds).
+enum class StrikeHeight : std::uint8_t { low, mid, high };
 
 std::string_view to_string(Semantics s);
 std::string_view to_string(HitSegment s);
 std::optional<Semantics> semantics_from_string(std::string_view s);
 std::optional<HitSegment> hit_segment_from_string(std::string_view s);
+std::string_view to_string(StrikeHeight h);
+std::optional<StrikeHeight> strike_height_from_string(std::string_view s);
+
+/// Bounds of the strike heights, as fractions of the actor's stature (rest-pose height,
+/// Proportions::stature_m) for the hit point (wrist / ankle joint) above the floor at the hit
+/// frame. Chosen from the development mocap (content/README.md, "Strike heights"): CMU 135's
+/// shoulders are at 0.83 of its stature. Its middle-level (chudan) punches put the wrist at
+/// 0.72..0.80 (just under the shoulder), its front kicks the ankle at 0.73..0.77; the boxer's
+/// head punches reach 0.82..0.95 and the head-level roundhouse kicks 0.87..0.88. Ankles at
+/// 0.53 (HDM05 bk: front kicks to the groin) are below the belt.
+struct StrikeHeightThresholds {
+  double low_below = 0.55;  ///< 1: below this fraction of stature: low (below the belt)
+  double high_from = 0.81;  ///< 1: from this fraction on: high (shoulders, neck, head)
+};
+/// The height class of a hit point `hit_height_m` above the floor for an actor `stature_m` tall.
+StrikeHeight classify_strike_height(double hit_height_m, double stature_m, const StrikeHeightThresholds& t = {});
 /// Strikes carry a hit segment and a hit frame.
 inline bool is_strike(Semantics s) { return s == Semantics::punch || s == Semantics::kick; }
 /// The canonical joint whose position is the hit point: wrists for hands, ankles for feet
@@ -58,6 +79,7 @@ struct MotionAnnotation {
   int last_frame = 0;                     ///< last frame (inclusive)
   std::optional<HitSegment> hit_segment;  ///< strikes only
   std::optional<int> hit_frame;           ///< strikes only: contact frame in [first, last]
+  std::optional<StrikeHeight> height;     ///< strikes only, optional: where the strike lands
   std::string note;                       ///< free text for people
   double peak_speed_mps = 0;              ///< m/s, informational: hit point's peak speed (0 = unknown)
   double extension = 0;                   ///< 1, informational: limb length fraction at the hit (0 = unknown)
@@ -115,6 +137,10 @@ struct ProposerSettings {
   double kick_min_height = 0.22;       ///< 1, ankle above the floor / stature at the peak
   double kick_min_extension = 0.80;    ///< 1, |ankle - hip| / leg length at the peak (running strides bend the knee)
   double kick_min_speed = 4.0;         ///< m/s, ankle speed in the approach
+  /// 1, chambered kicks (knee raised first, the leg straightens below the ankle's apex): the
+  /// hit is where |ankle - hip| / leg length arrives at this (HDM05 bk: 0.97..0.99), ankle
+  /// still above kick_min_height
+  double kick_arrival_extension = 0.93;
   // Segment bounds: where the hit point's speed falls below this fraction of its peak.
   double bound_speed_fraction = 0.15;  ///< 1
   double max_half_window_s = 0.8;      ///< s, bounds at most this far from the hit frame
@@ -126,6 +152,13 @@ struct ProposerSettings {
   double walk_min_s = 1.0;             ///< s
   // Blocks: fast hands (>= this) that are not punches and not inside kicks.
   double block_min_speed = 4.0;        ///< m/s
+  // Jabs / punches in place: a fully straight arm, straightened as fast as a punch's, but
+  // without the lunge the wrist's speed stays under punch_min_speed (CMU 135_09 after f1500:
+  // 2.7..3.0 m/s, radial 2.6..3.2 m/s; arm swings, turns and guards straighten at < 0.6 m/s).
+  double jab_min_extension = 0.95;     ///< 1, |wrist - shoulder| / arm length at the peak
+  double jab_min_speed = 2.0;          ///< m/s, wrist speed in the approach
+  double jab_min_radial_speed = 2.0;   ///< m/s, how fast the arm straightened in the approach
+  StrikeHeightThresholds height;       ///< strike height classes
 };
 
 /// Proposes the annotations of one clip (canonical joints must be mapped). `file` is stored

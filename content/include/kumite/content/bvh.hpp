@@ -48,4 +48,22 @@ void write_bvh(const std::filesystem::path& path, const Clip& clip);
 /// else: below 5 units metres, below 500 centimetres, else millimetres.
 double guess_bvh_unit_m(double extent, bool humanoid = false);
 
+/// Rest-pose largest extent (m) a human actor's skeleton has: from a child to a tall adult,
+/// arm span or height (CMU 135 rest pose: 1.63 m, HDM05 actors 1.6..1.8 m).
+inline constexpr double kHumanRestExtentM[2] = {1.0, 2.4};
+
+/// Whether a clip's unit is believable, for clips read with a guessed unit
+/// (BvhReadOptions::unit_m unset) of a recognised humanoid (canonical joints mapped; others
+/// pass). A rest pose shorter or taller than kHumanRestExtentM in the guessed unit was in no
+/// unit the reader knows and its motion would be silently scaled: plausible = false and a
+/// one-line warning "<source>: unit_m: rest height X file units is not a human's ..." naming
+/// the rest height the guess saw. A human only in inches or CMU ASF units stays plausible
+/// with a warning too. The proposer (kumite-motion annotate) prints it; load_annotated_clips
+/// refuses implausible clips.
+struct BvhUnitCheck {
+  bool plausible = true;
+  std::string warning;  ///< "" = nothing to say
+};
+BvhUnitCheck check_bvh_unit(const Clip& clip, std::string_view source);
+
 }  // namespace kumite::content

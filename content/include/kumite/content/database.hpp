@@ -28,6 +28,8 @@ inline constexpr std::uint32_t kDatabaseVersion = 1;
 enum class SegmentKind : std::uint8_t { rest = 0, walk = 1, strike = 2, other = 3 };
 std::string_view to_string(SegmentKind k);
 
+enum class StrikeHeight : std::uint8_t;  // annotation.hpp: low | mid | high
+
 /// One annotated piece of a clip (build input; the annotation reader fills these).
 struct SegmentSource {
   const Clip* clip = nullptr;
@@ -37,6 +39,7 @@ struct SegmentSource {
   SegmentKind kind = SegmentKind::other;
   std::optional<Effector> effector;  ///< strikes: the limb whose end hits
   int hit_frame = -1;            ///< strikes: clip frame of the hit
+  std::optional<StrikeHeight> height = std::nullopt;  ///< strikes: where it lands (motions.toml `height`), when annotated
   bool mirror = true;            ///< also add the left/right mirrored copy (BuildOptions::mirror too)
 };
 
