@@ -322,13 +322,19 @@ void Reader::parse_fighter(const toml::table& root) {
   const auto* f = table(root, "fighter", "", false);
   if (!f) return;
   only_keys(*f, "fighter", {"database", "initial_character", "home_m", "strike_distance_m",
-                            "hit_radius_m", "x_limits_m", "z_limits_m"});
+                            "hit_radius_m", "visitor_head_radius_m", "visitor_body_radius_m", "x_limits_m",
+                            "z_limits_m"});
   auto& s = cfg_.fighter;
   path(*f, "database", "fighter", s.database);
   if (integer(*f, "initial_character", "fighter", s.initial_character)) s.initial_character -= 1;
   numbers(*f, "home_m", "fighter", s.home_m);
   number(*f, "strike_distance_m", "fighter", s.strike_distance_m);
   number(*f, "hit_radius_m", "fighter", s.hit_radius_m);
+  for (const auto& [key, value] : {std::pair{"visitor_head_radius_m", &s.visitor_head_radius_m},
+                                   std::pair{"visitor_body_radius_m", &s.visitor_body_radius_m}}) {
+    if (number(*f, key, "fighter", *value) && (*value <= 0 || *value > 1))
+      fail("range", cfg_.line_of(std::string("fighter.") + key), std::string("fighter.") + key, "must be in (0, 1] m");
+  }
   numbers(*f, "x_limits_m", "fighter", s.x_limits_m);
   numbers(*f, "z_limits_m", "fighter", s.z_limits_m);
 }
@@ -727,6 +733,8 @@ std::string to_toml(const InstallationConfig& c) {
                       {"home_m", to_array(f.home_m)},
                       {"strike_distance_m", f.strike_distance_m},
                       {"hit_radius_m", f.hit_radius_m},
+                      {"visitor_head_radius_m", f.visitor_head_radius_m},
+                      {"visitor_body_radius_m", f.visitor_body_radius_m},
                       {"x_limits_m", to_array(f.x_limits_m)},
                       {"z_limits_m", to_array(f.z_limits_m)}};
   if (!f.database.empty()) fighter.insert("database", f.database.generic_string());

@@ -52,6 +52,8 @@ content::FighterConfig fighter_config(const InstallationConfig& c, const std::ve
   f.home = {c.fighter.home_m[0], c.fighter.home_m[1], c.fighter.home_m[2]};
   f.strike_distance_m = c.fighter.strike_distance_m;
   f.hit_radius_m = c.fighter.hit_radius_m;
+  f.visitor_head_radius_m = c.fighter.visitor_head_radius_m;
+  f.visitor_body_radius_m = c.fighter.visitor_body_radius_m;
   f.min_x_m = c.fighter.x_limits_m[0];
   f.max_x_m = c.fighter.x_limits_m[1];
   f.min_z_m = c.fighter.z_limits_m[0];

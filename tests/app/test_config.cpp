@@ -288,6 +288,17 @@ TEST(Config, LateLatchIsOnUnlessTurnedOff) {
 // toml++ reads nan, inf, +inf and -nan as floating-point numbers: every number of the file,
 // scalar or in an array, is refused with its line and key (they made null matrices in
 // frames.jsonl and a 0.0 cm contact logged as a miss).
+TEST(Config, VisitorBodyRadiiInRange) {
+  const int base_lines = static_cast<int>(std::count(kBase.begin(), kBase.end(), '\n'));
+  for (const char* bad : {"0", "-0.1", "1.5"}) {
+    std::string code;
+    EXPECT_EQ(error_of(kBase + "[fighter]\nvisitor_body_radius_m = " + bad + "\n", &code),
+              "bad.toml:" + std::to_string(base_lines + 2) + ": fighter.visitor_body_radius_m: must be in (0, 1] m")
+        << bad;
+    EXPECT_EQ(code, "range");
+  }
+}
+
 TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
   const int base_lines = static_cast<int>(std::count(kBase.begin(), kBase.end(), '\n'));
   struct Case {
@@ -311,6 +322,8 @@ TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
       {"", "[fighter]\nhome_m = [0, 0, {}]", app, "fighter.home_m"},
       {"", "[fighter]\nstrike_distance_m = {}", app, "fighter.strike_distance_m"},
       {"", "[fighter]\nhit_radius_m = {}", app, "fighter.hit_radius_m"},
+      {"", "[fighter]\nvisitor_head_radius_m = {}", app, "fighter.visitor_head_radius_m"},
+      {"", "[fighter]\nvisitor_body_radius_m = {}", app, "fighter.visitor_body_radius_m"},
       {"", "[fighter]\nx_limits_m = [{}, 1]", app, "fighter.x_limits_m"},
       {"", "[fighter]\nz_limits_m = [-4, {}]", app, "fighter.z_limits_m"},
       {"", "[tracking]\nlost_after_s = {}", app, "tracking.lost_after_s"},

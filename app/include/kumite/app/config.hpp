@@ -91,7 +91,9 @@ struct FighterSection {
   int initial_character = 0;       ///< 0-based
   Vec3 home_m{0.0, 0.0, -2.5};     ///< m, room frame, on the floor
   double strike_distance_m = 0.9;  ///< m, horizontal root -> head when striking
-  double hit_radius_m = 0.10;      ///< m
+  double hit_radius_m = 0.10;      ///< m: the strike reached its frozen target this close
+  double visitor_head_radius_m = 0.12;  ///< m: a strike hits when its fist/foot is this close to the tracked head
+  double visitor_body_radius_m = 0.20;  ///< m: ... or this close to the body axis below the head
   std::array<double, 2> x_limits_m{-1.4, 1.4};   ///< m, where it may walk (room x)
   std::array<double, 2> z_limits_m{-4.0, -1.7};  ///< m, where it may walk (room z)
   bool operator==(const FighterSection&) const = default;
