@@ -246,6 +246,44 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   orders_.swap(deferred);
 }
 
+void Behaviour::align_to_support_foot(Source& s) const {
+  // The clip is placed by its pelvis; shift it on the floor so that its support foot (planted
+  // at the start and staying down longest) lands where that foot is held now: the motion then
+  // swings its other foot and moves its body around a foot that does not have to move, as in
+  // the mocap, instead of dragging a held foot the clip has elsewhere out of the leg's reach.
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  const int first = std::clamp(static_cast<int>(std::lround(s.time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
+  int best = -1, best_run = 0;
+  for (int side = 0; side < 2; ++side) {
+    if (!feet_.held(side)) continue;
+    int run = 0;
+    for (int k = first; k < seg.frame_count() && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5; ++k) ++run;
+    if (run > best_run) { best = side; best_run = run; }
+  }
+  if (best < 0) return;
+  MkmFrame placed;
+  sample(s, placed);
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  CanonicalPose c;
+  decode_canonical(rig, placed, c);
+  const CJ ankle = best == kLeft ? CJ::l_ankle : CJ::r_ankle;
+  const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
+  Vector2d shift(held.x() - at(c, ankle).x(), held.z() - at(c, ankle).z());
+  // Never back away from the target for it: a shift backwards is dropped (the held foot then
+  // steps up to where the clip has it, rather than the whole strike landing short).
+  if (strike_target_) {
+    Vector2d to_target(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
+    if (to_target.norm() > 1e-6) {
+      to_target.normalize();
+      const double along = shift.dot(to_target);
+      if (along < 0) shift -= along * to_target;
+    }
+  }
+  const double limit = tun_.max_support_shift_m;
+  if (shift.norm() > limit) shift *= limit / shift.norm();
+  s.placement.origin_xz += shift;
+}
+
 void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   const GroundFrame g_char = ground_frame_of(pose_);
@@ -258,6 +296,8 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   current_.placement.origin_xz = g_char.origin_xz;
   current_.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   current_.anchor_xz_m = g_clip.origin_xz;
+  strike_target_ = pending_->target_room_m;
+  align_to_support_foot(current_);
   const Order order = pending_->order;
   strike_ = StrikeInfo{};
   strike_.active = true;

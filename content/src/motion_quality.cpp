@@ -358,7 +358,9 @@ std::vector<StrikeCase> quality_grid(std::span<const Rig> characters, int target
   for (std::size_t c = 0; c < characters.size(); ++c) {
     const Rig& rig = characters[c];
     const double stature = rig.morphology.height_m;
-    const double head_y = at(rig.rest_pose, CJ::head).y();  // rest pose: feet on y = 0
+    // The rest pose is decoded with the root at the origin: heights count from its lowest foot
+    // joint (morphology.height_m is the head above it).
+    const double head_y = rig.morphology.height_m;
     for (OrderKind order : orders) {
       const bool kick = order == OrderKind::kick_left || order == OrderKind::kick_right;
       for (int i = 0; i < targets_per_order; ++i) {

@@ -69,6 +69,8 @@ struct BehaviourTunables {
   double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
   double release_time_s = 0.25;       ///< s: the shortest time d(t) takes to return to zero after
                                       ///< contact (it carries on through the blend into rest)
+  double max_support_shift_m = 0.30;  ///< m: a strike clip is shifted at most this far on the floor
+                                      ///< so that its support foot starts where that foot is held
   FootPlantingTunables feet;          ///< foot holding, swings and procedural steps
 };
 
@@ -152,6 +154,7 @@ class Behaviour {
   void update_follow(double dt, const Eigen::Vector3d& head);
   void update_feet(double dt, const ReachGoal* reach, const std::array<double, 2>& planted);
   void compute_reach_error(double at_time_s);
+  void align_to_support_foot(Source& s) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   void emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance = 0);
@@ -186,6 +189,7 @@ class Behaviour {
     Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
   };
   std::optional<PendingStrike> pending_;
+  std::optional<Eigen::Vector3d> strike_target_;  ///< m, room: the target of the strike being started
   StrikeInfo strike_;
 
   MkmFrame pose_, pose_before_;  ///< blended, placed pose this and the previous update
