@@ -297,7 +297,11 @@ TEST(MotionQuality, GridPutsPunchesAtHeadHeightKicksAtTheTorsoInFront) {
   ASSERT_EQ(grid.size(), 2u * 4 * 12);
   for (const StrikeCase& c : grid) {
     const Rig& r = rigs[static_cast<std::size_t>(c.character)];
-    const double head = at(r.rest_pose, CJ::head).y();
+    // Heights count from the floor under the feet (the rest pose is decoded about the pelvis).
+    double floor = at(r.rest_pose, CJ::head).y();
+    for (CJ j : {CJ::l_ankle, CJ::r_ankle, CJ::l_toe, CJ::r_toe}) floor = std::min(floor, at(r.rest_pose, j).y());
+    const double head = at(r.rest_pose, CJ::head).y() - floor;
+    EXPECT_GT(head, 1.2) << r.name << ": a head this low is not head height";
     const bool kick = c.order == OrderKind::kick_left || c.order == OrderKind::kick_right;
     EXPECT_NEAR(c.target_m.y(), kick ? head - 0.45 : head, 1e-12);
     EXPECT_GE(c.target_m.z(), 0.45 * r.morphology.height_m - 1e-12);
