@@ -163,7 +163,9 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
       case Role::hip: {
         // d(t) moves the motion's foot; a hold then pulls the result onto the held ankle (a
         // kicking foot put down while d(t) is still being released stays where it is held).
-        Vector3d goal = pos + f.leg_n[s] * m.limb_leg_length(s);
+        // A pelvis lowered for held feet is a knee bend: a foot in the air keeps its height
+        // above the floor (lowered with the pelvis, a stepping foot skimmed the floor).
+        Vector3d goal = pos + f.leg_n[s] * m.limb_leg_length(s) + Vector3d::UnitY() * td.root_drop_m;
         Quaterniond turn = Quaterniond::Identity();
         const bool effector = job.reach && job.reach->effector.leg && job.reach->effector.side == s;
         if (effector) {
