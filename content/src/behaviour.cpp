@@ -246,7 +246,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   orders_.swap(deferred);
 }
 
-void Behaviour::align_to_support_foot(Source& s) const {
+void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
   // The clip is placed by its pelvis; shift it on the floor so that its support foot (planted
   // at the start and staying down longest) lands where that foot is held now: the motion then
   // swings its other foot and moves its body around a foot that does not have to move, as in
@@ -269,14 +269,22 @@ void Behaviour::align_to_support_foot(Source& s) const {
   const CJ ankle = best == kLeft ? CJ::l_ankle : CJ::r_ankle;
   const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
   Vector2d shift(held.x() - at(c, ankle).x(), held.z() - at(c, ankle).z());
-  // Never back away from the target for it: a shift backwards is dropped (the held foot then
-  // steps up to where the clip has it, rather than the whole strike landing short).
+  // Along the line to the target: never back away for it (the held foot then steps up to where
+  // the clip has it, rather than the whole strike landing short), and never so far forward
+  // that the body ends up in the visitor at contact (a lunge travels): the pelvis stays at
+  // least min_contact_distance_m short of the target then, moving the clip back if need be.
   if (strike_target_) {
-    Vector2d to_target(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
-    if (to_target.norm() > 1e-6) {
-      to_target.normalize();
-      const double along = shift.dot(to_target);
-      if (along < 0) shift -= along * to_target;
+    Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
+    if (dir.norm() > 1e-6) {
+      dir.normalize();
+      Source at_contact = s;
+      at_contact.time_s = contact_time_s;
+      MkmFrame contact_pose;
+      sample(at_contact, contact_pose);
+      const double ahead = (Vector2d(strike_target_->x(), strike_target_->z()) - contact_pose.root_xz_m).dot(dir);
+      const double along = shift.dot(dir);
+      const double wanted = std::min(std::max(along, 0.0), ahead - tun_.min_contact_distance_m);
+      shift += (wanted - along) * dir;
     }
   }
   const double limit = tun_.max_support_shift_m;
@@ -297,7 +305,7 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   current_.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   current_.anchor_xz_m = g_clip.origin_xz;
   strike_target_ = pending_->target_room_m;
-  align_to_support_foot(current_);
+  align_to_support_foot(current_, plan.contact_frame * seg.frame_time_s);
   const Order order = pending_->order;
   strike_ = StrikeInfo{};
   strike_.active = true;
@@ -343,7 +351,12 @@ void Behaviour::compute_reach_error(double at_time_s) {
   // points at the target: the whole limb aims, instead of the wrist alone being pushed.
   const CJ root = strike_.effector.leg ? (strike_.effector.side == kLeft ? CJ::l_hip : CJ::r_hip)
                                        : (strike_.effector.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
-  const Vector3d from = effector - at(c, root), to = strike_.target_room_m - at(c, root);
+  // The limb vector as AdaptJob turns it: the motion's own (root -> root + limb_n * length),
+  // not the decoded end, which IK clamps where the motion over-extends the limb by a hair.
+  const int side = strike_.effector.side;
+  const Vector3d from = strike_.effector.leg ? Vector3d(pose.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side))
+                                             : Vector3d(pose.arm_n[static_cast<std::size_t>(side)] * rig.morphology.arm_length(side));
+  const Vector3d to = strike_.target_room_m - at(c, root);
   if (from.norm() > 1e-6 && to.norm() > 1e-6) {
     strike_.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
     strike_.stretch = to.norm() / from.norm();

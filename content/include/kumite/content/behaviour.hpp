@@ -71,6 +71,8 @@ struct BehaviourTunables {
                                       ///< contact (it carries on through the blend into rest)
   double max_support_shift_m = 0.30;  ///< m: a strike clip is shifted at most this far on the floor
                                       ///< so that its support foot starts where that foot is held
+  double min_contact_distance_m = 0.45;  ///< m: at contact the pelvis stays this far short of the
+                                         ///< target (horizontally) when the clip is placed
   FootPlantingTunables feet;          ///< foot holding, swings and procedural steps
 };
 
@@ -154,7 +156,7 @@ class Behaviour {
   void update_follow(double dt, const Eigen::Vector3d& head);
   void update_feet(double dt, const ReachGoal* reach, const std::array<double, 2>& planted);
   void compute_reach_error(double at_time_s);
-  void align_to_support_foot(Source& s) const;
+  void align_to_support_foot(Source& s, double contact_time_s) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   void emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance = 0);
