@@ -1,0 +1,200 @@
+// The dual-buffer recogniser (see recognition.hpp).
+#include <algorithm>
+#include <cmath>
+
+#include "kumite/common/error.hpp"
+#include "kumite/recognition/recognition.hpp"
+
+namespace kumite::recognition {
+
+Recogniser::Recogniser(Model model) : model_(std::move(model)), frontend_(model_.settings.frontend) {
+  if (model_.templates.empty()) throw Error("recognition", "model", "model has no templates");
+  for (auto& l : limbs_) l.buffer.reserve(static_cast<std::size_t>(model_.settings.max_frames + 1));
+  frames_.reserve(16);
+}
+
+void Recogniser::push(const PoseSample& s, std::vector<Event>& out) {
+  frames_.clear();
+  frontend_.push(s, frames_);
+  for (const Frame& f : frames_) {
+    if (timing_) {
+      const double t0 = thread_cpu_time();
+      loop(f, out);
+      const double dt = thread_cpu_time() - t0;
+      loop_cpu_s_ += dt;
+      loop_times_.push_back(dt);
+    } else {
+      loop(f, out);
+    }
+    ++loops_;
+  }
+}
+
+void Recogniser::finish(Timestamp t, std::vector<Event>& out) {
+  for (int l = 0; l < kLimbCount; ++l) {
+    LimbState& st = limbs_[static_cast<std::size_t>(l)];
+    if (st.state == State::active) {
+      Event e;
+      e.t = t;
+      e.type = EventType::cancel;
+      e.limb = static_cast<Role>(l + 1);
+      e.action = model_.templates[static_cast<std::size_t>(st.current)].action;
+      e.progress = st.progress;
+      e.confidence = st.confidence;
+      e.impact = st.impact;
+      out.push_back(e);
+    }
+    st = LimbState{};
+  }
+}
+
+void Recogniser::loop(const Frame& f, std::vector<Event>& out) {
+  last_frame_ = f;
+  for (int l = 0; l < kLimbCount; ++l) limb_loop(f, l, out);
+}
+
+Recogniser::Best Recogniser::classify(int limb, int exclude) {
+  Best best;
+  const LimbKind kind = limb_kind(static_cast<Role>(limb + 1));
+  const auto& buf = limbs_[static_cast<std::size_t>(limb)].buffer;
+  for (std::size_t i = 0; i < model_.templates.size(); ++i) {
+    const Template& t = model_.templates[i];
+    if (t.kind != kind || static_cast<int>(i) == exclude) continue;
+    const DtwMatch m = dtw_open_end(buf, t.frames, scratch_);
+    if (m.distance < t.threshold && m.distance / t.threshold < best.distance) {
+      best.index = static_cast<int>(i);
+      best.distance = m.distance / t.threshold;  // relative: 1 = at the threshold
+      best.end = m.template_end;
+    }
+  }
+  return best;
+}
+
+Event Recogniser::make_event(const Frame& f, int limb, EventType type, int templ, const DtwMatch& m) {
+  const Template& t = model_.templates[static_cast<std::size_t>(templ)];
+  const Role role = static_cast<Role>(limb + 1);
+  Event e;
+  e.t = f.t;
+  e.type = type;
+  e.limb = role;
+  e.action = t.action;
+  e.progress = std::clamp(static_cast<double>(m.template_end) / std::max(1, t.hit), 0.0, 1.0);
+  e.confidence = std::clamp(1.0 - m.distance / t.threshold, 0.0, 1.0);
+  const Feature& a = t.frames[static_cast<std::size_t>(std::max(m.template_end, 0))];
+  const Feature& b = t.frames[static_cast<std::size_t>(t.hit)];
+  // Where the limb will be at full extension: the template's remaining way, in the room.
+  const std::array<float, 3> rest{b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+  const Vec3 d = m.template_end >= t.hit ? Vec3{0, 0, 0} : to_room_displacement(f, rest, is_left(role));
+  const Vec3& p = f.limbs[static_cast<std::size_t>(limb)].room;
+  e.impact = {p[0] + d[0], p[1] + d[1], p[2] + d[2]};
+  LimbState& st = limbs_[static_cast<std::size_t>(limb)];
+  st.progress = e.progress;
+  st.confidence = e.confidence;
+  st.impact = e.impact;
+  return e;
+}
+
+void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
+  const RecogniserSettings& s = model_.settings;
+  LimbState& st = limbs_[static_cast<std::size_t>(l)];
+  const LimbFrame& lf = f.limbs[static_cast<std::size_t>(l)];
+  if (!lf.valid) {
+    if (st.state == State::active) {
+      Event e;
+      e.t = f.t;
+      e.type = EventType::cancel;
+      e.limb = static_cast<Role>(l + 1);
+      e.action = model_.templates[static_cast<std::size_t>(st.current)].action;
+      e.progress = st.progress;
+      e.confidence = st.confidence;
+      e.impact = st.impact;
+      out.push_back(e);
+    }
+    st.state = State::idle;
+    st.buffer.clear();
+    st.null_run = 0;
+    return;
+  }
+  st.null_run = lf.speed < s.null_speed ? st.null_run + 1 : 0;
+  const bool null_signal = st.null_run >= s.null_frames;
+  switch (st.state) {
+    case State::idle:
+      if (lf.speed > s.onset_speed) {
+        st.buffer.assign(1, lf.feature);
+        st.state = State::collecting;
+      }
+      return;
+    case State::discard:
+      if (null_signal || ++st.discard_count >= s.discard_frames) st.state = State::idle;
+      return;
+    case State::collecting: {
+      st.buffer.push_back(lf.feature);
+      if (null_signal) {
+        st.state = State::idle;
+        return;
+      }
+      const int n = static_cast<int>(st.buffer.size());
+      if (n >= s.main_frames) {
+        const Best b = classify(l);
+        if (b.index >= 0) {
+          const Template& t = model_.templates[static_cast<std::size_t>(b.index)];
+          // A late begin (supplementary buffer) only before full extension.
+          if (n == s.main_frames || b.end < t.hit) {
+            st.current = b.index;
+            out.push_back(make_event(f, l, EventType::begin, b.index,
+                                     DtwMatch{b.distance * t.threshold, b.end}));
+            st.state = State::active;
+            return;
+          }
+        }
+      }
+      if (n >= s.max_frames) {
+        st.state = State::discard;
+        st.discard_count = 0;
+      }
+      return;
+    }
+    case State::active: {
+      st.buffer.push_back(lf.feature);
+      const Template& cur = model_.templates[static_cast<std::size_t>(st.current)];
+      const DtwMatch cm = dtw_open_end(st.buffer, cur.frames, scratch_);
+      if (null_signal) {
+        out.push_back(make_event(f, l, EventType::end, st.current, cm));
+        st.state = State::idle;
+        return;
+      }
+      const Best other = classify(l, st.current);
+      const double cur_rel = cm.distance / cur.threshold;
+      if (other.index >= 0 && (cur_rel >= 1 || other.distance < s.switch_margin * cur_rel)) {
+        const Template& t = model_.templates[static_cast<std::size_t>(other.index)];
+        st.current = other.index;
+        out.push_back(make_event(f, l, EventType::switch_, other.index,
+                                 DtwMatch{other.distance * t.threshold, other.end}));
+      } else if (cur_rel >= 1) {
+        out.push_back(make_event(f, l, EventType::cancel, st.current, cm));
+        st.state = State::discard;
+        st.discard_count = 0;
+        return;
+      } else {
+        make_event(f, l, EventType::begin, st.current, cm);  // updates progress / impact only
+      }
+      if (static_cast<int>(st.buffer.size()) >= s.max_frames) {
+        out.push_back(make_event(f, l, EventType::end, st.current,
+                                 dtw_open_end(st.buffer, model_.templates[static_cast<std::size_t>(st.current)].frames, scratch_)));
+        st.state = State::discard;
+        st.discard_count = 0;
+      }
+      return;
+    }
+  }
+}
+
+std::vector<Event> recognise(const Model& model, std::span<const PoseSample> samples) {
+  Recogniser r(model);
+  std::vector<Event> out;
+  for (const PoseSample& s : samples) r.push(s, out);
+  r.finish(samples.empty() ? 0 : samples.back().t, out);
+  return out;
+}
+
+}  // namespace kumite::recognition
