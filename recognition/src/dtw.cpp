@@ -135,6 +135,22 @@ std::vector<Template> build_templates(std::span<const Trial> trials, const Recog
   std::vector<Template> out;
   std::vector<double> scratch;
   for (const auto& [key, group] : groups) {
+    if (key.second == kNoneAction) {
+      // Kept one by one (non-strikes have no common shape), evenly thinned.
+      const std::size_t keep = std::min<std::size_t>(group.size(), static_cast<std::size_t>(std::max(0, s.max_none_templates)));
+      for (std::size_t i = 0; i < keep; ++i) {
+        const Trial* tr = group[i * group.size() / keep];
+        Template t;
+        t.kind = key.first;
+        t.action = std::string(kNoneAction);
+        t.frames.assign(tr->frames.begin(), tr->frames.begin() + std::min<std::ptrdiff_t>(static_cast<std::ptrdiff_t>(tr->frames.size()), s.none_frames));
+        t.hit = static_cast<int>(t.frames.size()) - 1;
+        t.threshold = 1e6;
+        t.trials = 1;
+        out.push_back(std::move(t));
+      }
+      continue;
+    }
     const std::size_t k = group.size();
     // Medoid: the trial with the smallest summed DTW distance to the others.
     std::size_t medoid = 0;
@@ -173,17 +189,67 @@ std::vector<Template> build_templates(std::span<const Trial> trials, const Recog
           t.frames[i][static_cast<std::size_t>(d)] =
               static_cast<float>(sum[i][static_cast<std::size_t>(d)] / std::max(1, count[i]));
     }
-    // Threshold: the worst prefix distance of a training trial, times the factor.
-    double worst = 0;
+    // Thresholds: the worst prefix distance of a training trial per buffer length, times the
+    // factor, non-decreasing in the length (a trial shorter than n keeps its last distance).
+    std::vector<double> worst(static_cast<std::size_t>(rs.max_frames), 0.0);
     for (const Trial* tr : group) {
-      const int len = std::min(static_cast<int>(tr->frames.size()), rs.max_frames);
-      for (int nq = rs.main_frames; nq <= len; ++nq) {
-        const DtwMatch mt = dtw_open_end(std::span(tr->frames).first(static_cast<std::size_t>(nq)), t.frames, scratch);
-        worst = std::max(worst, mt.distance);
+      double last = 0;
+      for (int nq = 1; nq <= rs.max_frames; ++nq) {
+        if (nq <= static_cast<int>(tr->frames.size()))
+          last = dtw_open_end(std::span(tr->frames).first(static_cast<std::size_t>(nq)), t.frames, scratch).distance;
+        worst[static_cast<std::size_t>(nq - 1)] = std::max(worst[static_cast<std::size_t>(nq - 1)], last);
       }
     }
-    t.threshold = s.threshold_factor * std::max(worst, 1e-3);
+    double run = 1e-3;
+    t.thresholds.resize(worst.size());
+    for (std::size_t i = 0; i < worst.size(); ++i) {
+      run = std::max(run, worst[i]);
+      t.thresholds[i] = s.threshold_factor * run;
+    }
+    t.threshold = t.thresholds.back();
     out.push_back(std::move(t));
+  }
+  return out;
+}
+
+std::vector<Trial> none_trials(std::span<const Frame> frames, Role limb, int frames_per_trial,
+                               const RecogniserSettings& s) {
+  std::vector<Trial> out;
+  if (limb == Role::head) return out;
+  const auto l = static_cast<std::size_t>(static_cast<int>(limb) - 1);
+  bool collecting = false;
+  int slow = 0, nulls = 0;
+  Float3 origin{};
+  Trial cur;
+  for (const Frame& f : frames) {
+    const LimbFrame& lf = f.limbs[l];
+    if (!lf.valid) {
+      collecting = false;
+      continue;
+    }
+    nulls = lf.speed < s.null_speed ? nulls + 1 : 0;
+    slow = lf.speed < s.onset_speed ? slow + 1 : 0;
+    if (!collecting) {
+      if (lf.speed > s.onset_speed) {
+        collecting = true;
+        cur = Trial{};
+        cur.action = std::string(kNoneAction);
+        cur.kind = limb_kind(limb);
+        origin = lf.pos;
+        cur.frames.assign(1, make_feature(lf, origin, s.absolute_weight));
+      }
+      continue;
+    }
+    cur.frames.push_back(make_feature(lf, origin, s.absolute_weight));
+    const int n = static_cast<int>(cur.frames.size());
+    const bool stop = nulls >= s.null_frames || (n > s.main_frames && slow >= s.rearm_frames);
+    if (n >= frames_per_trial || stop) {
+      if (n >= s.main_frames) {
+        cur.hit = n - 1;
+        out.push_back(cur);
+      }
+      collecting = false;
+    }
   }
   return out;
 }
@@ -216,7 +282,8 @@ std::optional<Trial> cut_trial(std::span<const Frame> frames, Role limb, Timesta
   if (!found) return std::nullopt;
   Trial t;
   t.kind = limb_kind(limb);
-  for (std::size_t i = onset; i <= last; ++i) t.frames.push_back(frames[i].limbs[l].feature);
+  const Float3 origin = frames[onset].limbs[l].pos;
+  for (std::size_t i = onset; i <= last; ++i) t.frames.push_back(make_feature(frames[i].limbs[l], origin, s.absolute_weight));
   t.hit = static_cast<int>(hit - onset);
   return t;
 }

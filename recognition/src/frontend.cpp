@@ -164,9 +164,9 @@ Frame Frontend::make_frame(Timestamp t) {
     const double mirror = is_left(static_cast<Role>(l + 1)) ? -1.0 : 1.0;
     const double inv = 1.0 / head_height_;
     const double w = s_.velocity_weight * inv;
-    lf.feature = {static_cast<float>(mirror * local[0] * inv), static_cast<float>(local[1] * inv),
-                  static_cast<float>(local[2] * inv),    static_cast<float>(mirror * vel[0] * w),
-                  static_cast<float>(vel[1] * w),        static_cast<float>(vel[2] * w)};
+    lf.pos = {static_cast<float>(mirror * local[0] * inv), static_cast<float>(local[1] * inv),
+              static_cast<float>(local[2] * inv)};
+    lf.vel = {static_cast<float>(mirror * vel[0] * w), static_cast<float>(vel[1] * w), static_cast<float>(vel[2] * w)};
   }
   return f;
 }

@@ -5,7 +5,8 @@
 //   note <one line>
 //   setting <name> <value>                   (every RecogniserSettings field)
 //   template <action> <hand|foot> frames <n> hit <h> threshold <d> trials <k>
-//   <6 numbers>                              (n lines)
+//   thresholds <m> <m numbers>               (per buffer length 1..m; m = 0: `threshold`)
+//   <9 numbers>                              (n lines: a Feature)
 //   end
 #include <algorithm>
 #include <charconv>
@@ -15,6 +16,7 @@
 #include <sstream>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
@@ -52,6 +54,8 @@ const std::vector<SettingField>& setting_fields() {
       {"onset_speed", [](RecogniserSettings& s) -> double& { return s.onset_speed; }, 0, 20, false},
       {"null_speed", [](RecogniserSettings& s) -> double& { return s.null_speed; }, 0, 20, false},
       {"switch_margin", [](RecogniserSettings& s) -> double& { return s.switch_margin; }, 0, 1, false},
+    {"absolute_weight", [](RecogniserSettings& s) -> double& { return s.absolute_weight; }, 0, 10, false},
+    {"none_margin", [](RecogniserSettings& s) -> double& { return s.none_margin; }, 0, 10, false},
   };
   return f;
 }
@@ -65,6 +69,7 @@ constexpr IntField kIntFields[] = {
     {"main_frames", &RecogniserSettings::main_frames, 1, 1000},
     {"max_frames", &RecogniserSettings::max_frames, 1, 10000},
     {"discard_frames", &RecogniserSettings::discard_frames, 0, 10000},
+    {"rearm_frames", &RecogniserSettings::rearm_frames, 1, 10000},
 };
 
 bool valid_name(std::string_view s) {
@@ -97,8 +102,11 @@ std::string format_model(const Model& m) {
   for (const Template& t : m.templates) {
     body += fmt::format("template {} {} frames {} hit {} threshold {:.17g} trials {}\n", t.action,
                         to_string(t.kind), t.frames.size(), t.hit, t.threshold, t.trials);
+    body += fmt::format("thresholds {}", t.thresholds.size());
+    for (double v : t.thresholds) body += fmt::format(" {:.17g}", v);
+    body += "\n";
     for (const Feature& f : t.frames)
-      body += fmt::format("{:.9g} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g}\n", f[0], f[1], f[2], f[3], f[4], f[5]);
+      body += fmt::format("{:.9g}\n", fmt::join(f, " "));
   }
   body += "end\n";
   return fmt::format("{} {}\nchecksum fnv1a64 {:016x}\n", kMagic, Model::kVersion, fnv1a64(body)) + body;
@@ -189,6 +197,16 @@ Model parse_model(std::string_view text, std::string_view source) {
       t.hit = integer(w[6], line, "hit", 0, n - 1);
       t.threshold = number(w[8], line, "threshold", 1e-9, 1e6);
       t.trials = integer(w[10], line, "trials", 1, 1000000);
+      {
+        ++li;
+        const int tl = static_cast<int>(li + 1);
+        if (li >= lines.size()) throw fail(tl, "thresholds", "missing after the template line");
+        const auto v = split(trim_blanks(lines[li]));
+        if (v.size() < 2 || v[0] != "thresholds") throw fail(tl, "thresholds", "expected \"thresholds <m> <m numbers>\"");
+        const int k = integer(v[1], tl, "thresholds", 0, 10000);
+        if (static_cast<int>(v.size()) != k + 2) throw fail(tl, "thresholds", fmt::format("{} numbers announced, {} given", k, v.size() - 2));
+        for (int i = 0; i < k; ++i) t.thresholds.push_back(number(v[static_cast<std::size_t>(i + 2)], tl, "thresholds", 1e-9, 1e6));
+      }
       for (int i = 0; i < n; ++i) {
         ++li;
         if (li >= lines.size()) throw fail(static_cast<int>(li), "frames", fmt::format("template {} ends after {} of {} frames", t.action, i, n));
@@ -201,7 +219,7 @@ Model parse_model(std::string_view text, std::string_view source) {
         t.frames.push_back(f);
       }
       for (const Template& o : m.templates)
-        if (o.action == t.action && o.kind == t.kind) throw fail(line, "template", fmt::format("{} {} appears twice", t.action, to_string(t.kind)));
+        if (t.action != kNoneAction && o.action == t.action && o.kind == t.kind) throw fail(line, "template", fmt::format("{} {} appears twice", t.action, to_string(t.kind)));
       m.templates.push_back(std::move(t));
     } else if (w[0] == "end") {
       ended = true;
@@ -213,7 +231,8 @@ Model parse_model(std::string_view text, std::string_view source) {
   for (std::size_t i = 0; i < seen_setting.size(); ++i)
     if (!seen_setting[i])
       throw fail(0, i < setting_fields().size() ? setting_fields()[i].name : kIntFields[i - setting_fields().size()].name, "setting missing");
-  if (m.templates.empty()) throw fail(0, "template", "the model has no templates");
+  if (std::none_of(m.templates.begin(), m.templates.end(), [](const Template& t) { return t.action != kNoneAction; }))
+    throw fail(0, "template", "the model has no strike templates");
   if (m.settings.main_frames > m.settings.max_frames) throw fail(0, "main_frames", "larger than max_frames");
   return m;
 }

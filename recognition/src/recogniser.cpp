@@ -16,6 +16,7 @@ Recogniser::Recogniser(Model model) : model_(std::move(model)), frontend_(model_
 void Recogniser::push(const PoseSample& s, std::vector<Event>& out) {
   frames_.clear();
   frontend_.push(s, frames_);
+  now_ = s.t;
   for (const Frame& f : frames_) {
     if (timing_) {
       const double t0 = thread_cpu_time();
@@ -59,27 +60,48 @@ Recogniser::Best Recogniser::classify(int limb, int exclude) {
   const auto& buf = limbs_[static_cast<std::size_t>(limb)].buffer;
   for (std::size_t i = 0; i < model_.templates.size(); ++i) {
     const Template& t = model_.templates[i];
-    if (t.kind != kind || static_cast<int>(i) == exclude) continue;
+    if (t.kind != kind || static_cast<int>(i) == exclude || t.action == kNoneAction) continue;
     const DtwMatch m = dtw_open_end(buf, t.frames, scratch_);
-    if (m.distance < t.threshold && m.distance / t.threshold < best.distance) {
+    const double thr = t.threshold_at(static_cast<int>(buf.size()));
+    if (m.distance < thr && m.distance / thr < best.distance) {
       best.index = static_cast<int>(i);
-      best.distance = m.distance / t.threshold;  // relative: 1 = at the threshold
+      best.distance = m.distance / thr;  // relative: 1 = at the threshold
       best.end = m.template_end;
     }
   }
   return best;
 }
 
+bool Recogniser::closer_to_none(int limb, int strike) {
+  const LimbKind kind = limb_kind(static_cast<Role>(limb + 1));
+  const auto& buf = limbs_[static_cast<std::size_t>(limb)].buffer;
+  const Template& st = model_.templates[static_cast<std::size_t>(strike)];
+  // Compare the buffer's start (the length the "none" templates hold) with both.
+  std::size_t longest = 0;
+  for (const Template& t : model_.templates)
+    if (t.kind == kind && t.action == kNoneAction) longest = std::max(longest, t.frames.size());
+  if (longest == 0) return false;
+  const std::size_t n = std::min(buf.size(), longest);
+  const std::span<const Feature> head(buf.data(), n);
+  const double ds = dtw_open_end(head, st.frames, scratch_).distance;
+  for (const Template& t : model_.templates) {
+    if (t.kind != kind || t.action != kNoneAction) continue;
+    if (dtw_open_end(head, t.frames, scratch_).distance * model_.settings.none_margin < ds) return true;
+  }
+  return false;
+}
+
 Event Recogniser::make_event(const Frame& f, int limb, EventType type, int templ, const DtwMatch& m) {
   const Template& t = model_.templates[static_cast<std::size_t>(templ)];
   const Role role = static_cast<Role>(limb + 1);
   Event e;
-  e.t = f.t;
+  e.t = std::max(f.t, now_);
   e.type = type;
   e.limb = role;
   e.action = t.action;
   e.progress = std::clamp(static_cast<double>(m.template_end) / std::max(1, t.hit), 0.0, 1.0);
-  e.confidence = std::clamp(1.0 - m.distance / t.threshold, 0.0, 1.0);
+  const int n = static_cast<int>(limbs_[static_cast<std::size_t>(limb)].buffer.size());
+  e.confidence = std::clamp(1.0 - m.distance / t.threshold_at(n), 0.0, 1.0);
   const Feature& a = t.frames[static_cast<std::size_t>(std::max(m.template_end, 0))];
   const Feature& b = t.frames[static_cast<std::size_t>(t.hit)];
   // Where the limb will be at full extension: the template's remaining way, in the room.
@@ -101,7 +123,7 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
   if (!lf.valid) {
     if (st.state == State::active) {
       Event e;
-      e.t = f.t;
+      e.t = std::max(f.t, now_);
       e.type = EventType::cancel;
       e.limb = static_cast<Role>(l + 1);
       e.action = model_.templates[static_cast<std::size_t>(st.current)].action;
@@ -120,29 +142,33 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
   switch (st.state) {
     case State::idle:
       if (lf.speed > s.onset_speed) {
-        st.buffer.assign(1, lf.feature);
+        st.origin = lf.pos;
+        st.buffer.assign(1, make_feature(lf, st.origin, s.absolute_weight));
         st.state = State::collecting;
+        st.slow_run = 0;
       }
       return;
     case State::discard:
       if (null_signal || ++st.discard_count >= s.discard_frames) st.state = State::idle;
       return;
     case State::collecting: {
-      st.buffer.push_back(lf.feature);
-      if (null_signal) {
+      st.buffer.push_back(make_feature(lf, st.origin, s.absolute_weight));
+      st.slow_run = lf.speed < s.onset_speed ? st.slow_run + 1 : 0;
+      if (null_signal || (static_cast<int>(st.buffer.size()) > s.main_frames && st.slow_run >= s.rearm_frames)) {
+        // Nothing matched and the limb slowed down: the next movement starts a new buffer.
         st.state = State::idle;
         return;
       }
       const int n = static_cast<int>(st.buffer.size());
       if (n >= s.main_frames) {
         const Best b = classify(l);
-        if (b.index >= 0) {
+        if (b.index >= 0 && !closer_to_none(l, b.index)) {
           const Template& t = model_.templates[static_cast<std::size_t>(b.index)];
           // A late begin (supplementary buffer) only before full extension.
           if (n == s.main_frames || b.end < t.hit) {
             st.current = b.index;
             out.push_back(make_event(f, l, EventType::begin, b.index,
-                                     DtwMatch{b.distance * t.threshold, b.end}));
+                                     DtwMatch{b.distance * t.threshold_at(n), b.end}));
             st.state = State::active;
             return;
           }
@@ -155,7 +181,7 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
       return;
     }
     case State::active: {
-      st.buffer.push_back(lf.feature);
+      st.buffer.push_back(make_feature(lf, st.origin, s.absolute_weight));
       const Template& cur = model_.templates[static_cast<std::size_t>(st.current)];
       const DtwMatch cm = dtw_open_end(st.buffer, cur.frames, scratch_);
       if (null_signal) {
@@ -164,12 +190,12 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
         return;
       }
       const Best other = classify(l, st.current);
-      const double cur_rel = cm.distance / cur.threshold;
+      const double cur_rel = cm.distance / cur.threshold_at(static_cast<int>(st.buffer.size()));
       if (other.index >= 0 && (cur_rel >= 1 || other.distance < s.switch_margin * cur_rel)) {
         const Template& t = model_.templates[static_cast<std::size_t>(other.index)];
         st.current = other.index;
         out.push_back(make_event(f, l, EventType::switch_, other.index,
-                                 DtwMatch{other.distance * t.threshold, other.end}));
+                                 DtwMatch{other.distance * t.threshold_at(static_cast<int>(st.buffer.size())), other.end}));
       } else if (cur_rel >= 1) {
         out.push_back(make_event(f, l, EventType::cancel, st.current, cm));
         st.state = State::discard;

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <map>
 
 #include <CLI/CLI.hpp>
 #include <fmt/format.h>
@@ -50,6 +51,15 @@ int main(int argc, char** argv) {
   eval->add_option("--out", report_out, "report (JSON)")->required();
   eval->add_option("--threshold-factor", threshold_factor, "template threshold / worst training distance")
       ->check(CLI::Range(1.0, 10.0));
+  RecogniserSettings rs;
+  for (auto* sc : {train, eval}) {
+    sc->add_option("--velocity-weight", rs.frontend.velocity_weight, "feature weight of velocity")->check(CLI::Range(0.0, 10.0));
+    sc->add_option("--absolute-weight", rs.absolute_weight, "feature weight of the head-relative position")->check(CLI::Range(0.0, 10.0));
+    sc->add_option("--none-margin", rs.none_margin, "begin only when closer than margin x the nearest none")->check(CLI::Range(0.0, 10.0));
+    sc->add_option("--onset-speed", rs.onset_speed, "m/s, a limb faster than this starts a motion")->check(CLI::Range(0.1, 20.0));
+    sc->add_option("--null-speed", rs.null_speed, "m/s, the null signal's speed")->check(CLI::Range(0.0, 20.0));
+    sc->add_option("--smoothing-tau", rs.frontend.smoothing_tau_s, "s, position smoothing")->check(CLI::Range(1e-4, 1.0));
+  }
 
   auto* pz = app.add_subcommand("poses", "a BVH clip as a mocap visitor's poses.csv (head, wrists, ankles)");
   fs::path bvh, poses_out;
@@ -60,20 +70,32 @@ int main(int argc, char** argv) {
 
   CLI11_PARSE(app, argc, argv);
   try {
-    RecogniserSettings rs;
     TrainSettings ts;
     ts.threshold_factor = threshold_factor;
     if (train->parsed()) {
       const auto recs = offline::load_motions(motions);
       std::vector<const offline::Recording*> p;
       for (const auto& r : recs)
-        if (!r.strikes.empty()) p.push_back(&r);
-      const Model m = offline::train(p, rs, ts, fmt::format("trained on {} ({} recordings with strikes)", motions.filename().string(), p.size()));
+        if (!r.strikes.empty() || r.negative) p.push_back(&r);
+      int strikes = 0, negatives = 0;
+      for (const auto* r : p) (r->negative ? negatives : strikes)++;
+      const Model m = offline::train(
+          p, rs, ts,
+          fmt::format("trained on {}: {} recordings with strikes, {} without (none templates); templates derived from "
+                      "CMU mocap (CMU terms, acknowledgement requested) and HDM05 (CC BY-SA 3.0, Mueller et al. 2007)",
+                      motions.filename().string(), strikes, negatives));
       write_model(out_model, m);
       nlohmann::json j = nlohmann::json::array();
-      for (const auto& t : m.templates)
-        j.push_back({{"action", t.action}, {"kind", to_string(t.kind)}, {"trials", t.trials}, {"frames", t.frames.size()}, {"threshold", t.threshold}});
-      std::cout << nlohmann::json{{"model", out_model.string()}, {"templates", j}}.dump() << "\n";
+      std::map<std::string, int> nones;
+      for (const auto& t : m.templates) {
+        if (t.action == kNoneAction) {
+          ++nones[std::string(to_string(t.kind))];
+          continue;
+        }
+        j.push_back({{"action", t.action}, {"kind", to_string(t.kind)}, {"trials", t.trials}, {"frames", t.frames.size()},
+                     {"hit", t.hit}, {"threshold_main_buffer", t.threshold_at(rs.main_frames)}, {"threshold_full", t.threshold}});
+      }
+      std::cout << nlohmann::json{{"model", out_model.string()}, {"templates", j}, {"none_templates", nones}}.dump() << "\n";
     } else if (run->parsed()) {
       const Model m = read_model(model_path);
       const offline::PosesFile pf = offline::read_poses_csv(poses);

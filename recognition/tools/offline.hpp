@@ -62,8 +62,10 @@ std::vector<Recording> load_external(const std::filesystem::path& mocap_dir);
 /// Frontend frames of a recording.
 std::vector<Frame> frontend_frames(const Recording& r, const FrontendSettings& s);
 
-/// Trials of the recordings' strikes (actions "" skipped).
-std::vector<Trial> trials_of(const std::vector<const Recording*>& recs, const RecogniserSettings& s);
+/// Trials of the recordings' strikes (actions "" skipped) and "none" trials of the negative
+/// recordings (every movement start of every limb).
+std::vector<Trial> trials_of(const std::vector<const Recording*>& recs, const RecogniserSettings& s,
+                             const TrainSettings& ts);
 
 /// A model trained on `recs`.
 Model train(const std::vector<const Recording*>& recs, const RecogniserSettings& rs,

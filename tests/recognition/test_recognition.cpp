@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <set>
 
 #include "kumite/common/error.hpp"
 #include "kumite/recognition/recognition.hpp"
@@ -218,4 +219,25 @@ TEST(RecognitionPoses, MalformedLinesNameFileAndLine) {
   const std::string empty = error_of([&] { offline::parse_poses_csv("", "p.csv"); });
   EXPECT_EQ(empty.rfind("p.csv:", 0), 0u) << empty;
   EXPECT_NE(empty.find("header: no header line"), std::string::npos) << empty;
+}
+
+TEST(RecognitionModel, ShippedModelLoadsWithTheDefaultSettings) {
+  const Model m = read_model(fs::path(KUMITE_SOURCE_DIR) / "recognition" / "models" / "strikes.krec");
+  std::set<std::string> actions;
+  int nones = 0;
+  for (const auto& t : m.templates) {
+    if (t.action == kNoneAction) ++nones;
+    else actions.insert(t.action);
+  }
+  EXPECT_EQ(actions, (std::set<std::string>{"straight_punch", "front_kick", "side_kick", "roundhouse_kick"}));
+  EXPECT_GT(nones, 0);
+  // Retrain it (kumite-recognise train --out recognition/models/strikes.krec) when a default changes.
+  const RecogniserSettings d;
+  EXPECT_EQ(m.settings.onset_speed, d.onset_speed);
+  EXPECT_EQ(m.settings.absolute_weight, d.absolute_weight);
+  EXPECT_EQ(m.settings.none_margin, d.none_margin);
+  EXPECT_EQ(m.settings.main_frames, d.main_frames);
+  EXPECT_EQ(m.settings.max_frames, d.max_frames);
+  EXPECT_EQ(m.settings.frontend.velocity_weight, d.frontend.velocity_weight);
+  EXPECT_EQ(m.settings.frontend.smoothing_tau_s, d.frontend.smoothing_tau_s);
 }

@@ -66,7 +66,9 @@ enum class EventType : std::uint8_t { begin, switch_, end, cancel };
 std::string_view to_string(EventType t);  ///< "begin" | "switch" | "end" | "cancel"
 
 struct Event {
-  Timestamp t = 0;  ///< s, the loop's time (sample clock)
+  /// s (sample clock): when the event could be known, i.e. the time of the sample whose
+  /// arrival ran the loop (a loop for tick T runs once a sample later than T arrives)
+  Timestamp t = 0;
   EventType type = EventType::begin;
   Role limb = Role::right_hand;
   std::string action;     ///< e.g. "straight_punch", "front_kick"
@@ -81,9 +83,12 @@ std::string to_json(const Event& e);
 
 // ---- Frontend ---------------------------------------------------------------------------------
 
-/// Features of one limb in one loop, in the head frame (see top), lengths / head height.
-inline constexpr int kFeatureDim = 6;
-using Feature = std::array<float, kFeatureDim>;  ///< position (3), velocity * velocity_weight (3)
+/// What DTW compares, per loop of a buffered movement (head frame, lengths / head height,
+/// left limbs mirrored): displacement since the movement's first loop (3), position x
+/// absolute_weight (3), velocity x velocity_weight (3). See make_feature().
+inline constexpr int kFeatureDim = 9;
+using Feature = std::array<float, kFeatureDim>;
+using Float3 = std::array<float, 3>;
 
 struct FrontendSettings {
   double loop_hz = 60;           ///< Hz, recognition loop rate
@@ -97,7 +102,8 @@ struct FrontendSettings {
 /// A loop's view of one limb.
 struct LimbFrame {
   bool valid = false;     ///< the limb and the head are tracked
-  Feature feature{};      ///< mirrored for left limbs
+  Float3 pos{};           ///< head frame / head height, mirrored for left limbs
+  Float3 vel{};           ///< 1/s: head frame / head height x velocity_weight, mirrored
   double speed = 0;       ///< m/s, limb speed relative to the head (not normalised)
   Vec3 room{0, 0, 0};     ///< m, smoothed room position
 };
@@ -113,6 +119,13 @@ struct Frame {
 
 /// Head-frame vector (normalised, mirrored when `left`) back to a room-frame displacement (m).
 Vec3 to_room_displacement(const Frame& f, const std::array<float, 3>& local, bool left);
+
+/// The DTW feature of a loop of a movement that started at `origin` (the first loop's pos).
+inline Feature make_feature(const LimbFrame& lf, const Float3& origin, double absolute_weight) {
+  const auto w = static_cast<float>(absolute_weight);
+  return {lf.pos[0] - origin[0], lf.pos[1] - origin[1], lf.pos[2] - origin[2], w * lf.pos[0], w * lf.pos[1],
+          w * lf.pos[2], lf.vel[0], lf.vel[1], lf.vel[2]};
+}
 
 class Frontend {
  public:
@@ -144,24 +157,37 @@ class Frontend {
 // ---- Model --------------------------------------------------------------------------------
 
 /// A per-action mean template (trials aligned by DTW and averaged), from onset to the end of
-/// the annotated window; `hit` = the frame of full extension.
+/// the annotated window; `hit` = the frame of full extension. Action "none": the start of a
+/// movement that is no strike (a step, a block, a turn), kept as it was (not averaged); a
+/// buffer closer to a "none" template than to every strike's gives no `begin`.
 struct Template {
   std::string action;  ///< "straight_punch", "front_kick", "side_kick", "roundhouse_kick", ...
   LimbKind kind = LimbKind::hand;
   std::vector<Feature> frames;  ///< at loop_hz
   int hit = 0;                  ///< index into frames
   double threshold = 0;         ///< DTW distance (per path step) above which it does not match
+  /// Per buffer length n (index n - 1, n = 1..max_frames): the threshold for an n-frame
+  /// buffer (early buffers match closely, long ones less so); empty = `threshold` for all.
+  std::vector<double> thresholds;
   int trials = 0;               ///< how many trials were averaged
+
+  double threshold_at(int n) const {
+    if (thresholds.empty() || n < 1) return threshold;
+    return thresholds[static_cast<std::size_t>(std::min<int>(n, static_cast<int>(thresholds.size())) - 1)];
+  }
 };
 
 struct RecogniserSettings {
   FrontendSettings frontend;
-  double onset_speed = 1.2;  ///< m/s, a limb faster than this (relative to the head) starts a motion
+  double absolute_weight = 0.3;  ///< feature weight of the head-relative position beside the displacement
+  double onset_speed = 1.0;  ///< m/s, a limb faster than this (relative to the head) starts a motion
   double null_speed = 0.5;   ///< m/s, below this for `null_frames` loops: the null signal
   int null_frames = 6;       ///< beta
   int main_frames = 6;       ///< main buffer
   int max_frames = 60;       ///< supplementary buffer
   int discard_frames = 20;   ///< input discarded after a full buffer until null or this many
+  int rearm_frames = 2;      ///< a buffer that matched nothing restarts after this many loops below onset_speed
+  double none_margin = 1.0;  ///< begin only when strike distance < margin x the nearest "none" distance
   double switch_margin = 0.9;///< switch when another action's distance < margin x current one's
 };
 
@@ -206,16 +232,27 @@ struct Trial {
   std::string source;  ///< e.g. "135_04_kick_right_1"
 };
 
+inline constexpr std::string_view kNoneAction = "none";
+
 struct TrainSettings {
   int averaging_iterations = 3;  ///< DTW barycentre averaging passes
-  double threshold_factor = 1.6; ///< threshold = factor x the largest training-trial distance
+  int none_frames = 12;          ///< "none" templates: the first frames of a non-strike movement
+  int max_none_templates = 48;   ///< per limb kind (evenly thinned; bounds the per-loop cost)
+  /// threshold(n) = factor x the largest distance of a training trial's n-frame prefix to the
+  /// template (n = main buffer .. supplementary buffer; made non-decreasing in n)
+  double threshold_factor = 1.3;
 };
 
 /// Mean templates per (kind, action): the medoid trial refined by DTW barycentre averaging;
-/// threshold = factor x the largest open-end distance of any training trial's prefix (main
-/// buffer .. supplementary buffer) to its template. Sorted by (kind, action).
+/// thresholds per buffer length from the training trials' prefixes (TrainSettings). Sorted by
+/// (kind, action).
 std::vector<Template> build_templates(std::span<const Trial> trials, const RecogniserSettings& rs,
                                       const TrainSettings& s = {});
+
+/// "none" trials: every movement start (as the recogniser would buffer it) of `limb` in the
+/// frames, its first `frames` loops (movements shorter than the main buffer are left out).
+std::vector<Trial> none_trials(std::span<const Frame> frames, Role limb, int frames_per_trial,
+                               const RecogniserSettings& s);
 
 /// Cuts a trial out of a frontend's frames for `limb`: the onset is where the recogniser would
 /// start its buffer: searching back from the loop nearest `hit_t`, the first loop of the run of
@@ -248,7 +285,9 @@ class Recogniser {
   struct LimbState {
     State state = State::idle;
     std::vector<Feature> buffer;
+    Float3 origin{};
     int null_run = 0;
+    int slow_run = 0;  ///< loops below onset_speed while collecting
     int discard_count = 0;
     int current = -1;  ///< template index of the active action
     double progress = 0, confidence = 0;
@@ -258,6 +297,7 @@ class Recogniser {
   void limb_loop(const Frame& f, int limb, std::vector<Event>& out);
   struct Best { int index = -1; double distance = 1e30; int end = 0; };
   Best classify(int limb, int exclude = -1);
+  bool closer_to_none(int limb, int strike);
   Event make_event(const Frame& f, int limb, EventType type, int templ, const DtwMatch& m);
 
   Model model_;
@@ -266,6 +306,7 @@ class Recogniser {
   std::vector<Frame> frames_;
   std::vector<double> scratch_;
   Frame last_frame_{};
+  Timestamp now_ = 0;  ///< time of the sample being pushed
   double loop_cpu_s_ = 0;
   long loops_ = 0;
   bool timing_ = false;
