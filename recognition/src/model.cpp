@@ -99,6 +99,7 @@ std::string format_model(const Model& m) {
   RecogniserSettings s = m.settings;
   for (const auto& f : setting_fields()) body += fmt::format("setting {} {:.17g}\n", f.name, f.ref(s));
   for (const auto& f : kIntFields) body += fmt::format("setting {} {}\n", f.name, s.*(f.ptr));
+  body += fmt::format("setting one_at_a_time {}\n", s.one_at_a_time ? 1 : 0);
   for (const Template& t : m.templates) {
     body += fmt::format("template {} {} frames {} hit {} threshold {:.17g} trials {}\n", t.action,
                         to_string(t.kind), t.frames.size(), t.hit, t.threshold, t.trials);
@@ -182,6 +183,10 @@ Model parse_model(std::string_view text, std::string_view source) {
         if (f.name != w[1]) continue;
         m.settings.*(f.ptr) = integer(w[2], line, f.name, f.lo, f.hi);
         seen_setting[setting_fields().size() + i] = known = true;
+      }
+      if (w[1] == "one_at_a_time") {
+        m.settings.one_at_a_time = integer(w[2], line, "one_at_a_time", 0, 1) == 1;
+        known = true;
       }
       if (!known) throw fail(line, w[1], "unknown setting");
     } else if (w[0] == "template") {

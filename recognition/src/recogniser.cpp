@@ -72,6 +72,12 @@ Recogniser::Best Recogniser::classify(int limb, int exclude) {
   return best;
 }
 
+bool Recogniser::another_active(int limb) const {
+  for (int o = 0; o < kLimbCount; ++o)
+    if (o != limb && limbs_[static_cast<std::size_t>(o)].state == State::active) return true;
+  return false;
+}
+
 bool Recogniser::closer_to_none(int limb, int strike) {
   const LimbKind kind = limb_kind(static_cast<Role>(limb + 1));
   const auto& buf = limbs_[static_cast<std::size_t>(limb)].buffer;
@@ -110,6 +116,8 @@ Event Recogniser::make_event(const Frame& f, int limb, EventType type, int templ
   const Vec3& p = f.limbs[static_cast<std::size_t>(limb)].room;
   e.impact = {p[0] + d[0], p[1] + d[1], p[2] + d[2]};
   LimbState& st = limbs_[static_cast<std::size_t>(limb)];
+  // Past full extension the impact point stays where the limb was when it got there.
+  if (m.template_end >= t.hit && st.state == State::active && st.current == templ && st.progress >= 1) e.impact = st.impact;
   st.progress = e.progress;
   st.confidence = e.confidence;
   st.impact = e.impact;
@@ -162,7 +170,7 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
       const int n = static_cast<int>(st.buffer.size());
       if (n >= s.main_frames) {
         const Best b = classify(l);
-        if (b.index >= 0 && !closer_to_none(l, b.index)) {
+        if (b.index >= 0 && !(s.one_at_a_time && another_active(l)) && !closer_to_none(l, b.index)) {
           const Template& t = model_.templates[static_cast<std::size_t>(b.index)];
           // A late begin (supplementary buffer) only before full extension.
           if (n == s.main_frames || b.end < t.hit) {

@@ -188,6 +188,9 @@ struct RecogniserSettings {
   int discard_frames = 20;   ///< input discarded after a full buffer until null or this many
   int rearm_frames = 2;      ///< a buffer that matched nothing restarts after this many loops below onset_speed
   double none_margin = 1.0;  ///< begin only when strike distance < margin x the nearest "none" distance
+  /// One strike at a time: no `begin` on a limb while another limb's strike is active (a
+  /// kick swings the arms, a lunge punch steps)
+  bool one_at_a_time = false;
   double switch_margin = 0.9;///< switch when another action's distance < margin x current one's
 };
 
@@ -298,6 +301,7 @@ class Recogniser {
   struct Best { int index = -1; double distance = 1e30; int end = 0; };
   Best classify(int limb, int exclude = -1);
   bool closer_to_none(int limb, int strike);
+  bool another_active(int limb) const;
   Event make_event(const Frame& f, int limb, EventType type, int templ, const DtwMatch& m);
 
   Model model_;
