@@ -220,11 +220,14 @@ std::vector<Trial> none_trials(std::span<const Frame> frames, Role limb, int fra
   bool collecting = false;
   int slow = 0, nulls = 0;
   Float3 origin{};
+  LimbFrame prev{};
+  bool prev_valid = false;
   Trial cur;
   for (const Frame& f : frames) {
     const LimbFrame& lf = f.limbs[l];
     if (!lf.valid) {
       collecting = false;
+      prev_valid = false;
       continue;
     }
     nulls = lf.speed < s.null_speed ? nulls + 1 : 0;
@@ -235,11 +238,18 @@ std::vector<Trial> none_trials(std::span<const Frame> frames, Role limb, int fra
         cur = Trial{};
         cur.action = std::string(kNoneAction);
         cur.kind = limb_kind(limb);
-        origin = lf.pos;
-        cur.frames.assign(1, make_feature(lf, origin, s.absolute_weight));
+        const bool lead = s.lead_frames > 0 && prev_valid;
+        origin = lead ? prev.pos : lf.pos;
+        cur.frames.clear();
+        if (lead) cur.frames.push_back(make_feature(prev, origin, s.absolute_weight));
+        cur.frames.push_back(make_feature(lf, origin, s.absolute_weight));
       }
+      prev = lf;
+      prev_valid = true;
       continue;
     }
+    prev = lf;
+    prev_valid = true;
     cur.frames.push_back(make_feature(lf, origin, s.absolute_weight));
     const int n = static_cast<int>(cur.frames.size());
     const bool stop = nulls >= s.null_frames || (n > s.main_frames && slow >= s.rearm_frames);
@@ -282,6 +292,7 @@ std::optional<Trial> cut_trial(std::span<const Frame> frames, Role limb, Timesta
   if (!found) return std::nullopt;
   Trial t;
   t.kind = limb_kind(limb);
+  if (s.lead_frames > 0 && onset > first) onset -= 1;
   const Float3 origin = frames[onset].limbs[l].pos;
   for (std::size_t i = onset; i <= last; ++i) t.frames.push_back(make_feature(frames[i].limbs[l], origin, s.absolute_weight));
   t.hit = static_cast<int>(hit - onset);

@@ -70,6 +70,7 @@ constexpr IntField kIntFields[] = {
     {"max_frames", &RecogniserSettings::max_frames, 1, 10000},
     {"discard_frames", &RecogniserSettings::discard_frames, 0, 10000},
     {"rearm_frames", &RecogniserSettings::rearm_frames, 1, 10000},
+    {"lead_frames", &RecogniserSettings::lead_frames, 0, 1},
 };
 
 bool valid_name(std::string_view s) {

@@ -51,7 +51,12 @@ void Recogniser::finish(Timestamp t, std::vector<Event>& out) {
 
 void Recogniser::loop(const Frame& f, std::vector<Event>& out) {
   last_frame_ = f;
-  for (int l = 0; l < kLimbCount; ++l) limb_loop(f, l, out);
+  for (int l = 0; l < kLimbCount; ++l) {
+    limb_loop(f, l, out);
+    LimbState& st = limbs_[static_cast<std::size_t>(l)];
+    st.prev = f.limbs[static_cast<std::size_t>(l)];
+    st.prev_valid = st.prev.valid;
+  }
 }
 
 Recogniser::Best Recogniser::classify(int limb, int exclude) {
@@ -150,12 +155,16 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
   switch (st.state) {
     case State::idle:
       if (lf.speed > s.onset_speed) {
-        st.origin = lf.pos;
-        st.buffer.assign(1, make_feature(lf, st.origin, s.absolute_weight));
+        // The buffer starts a loop early (lead_frames = 1): the loop before the onset.
+        const bool lead = s.lead_frames > 0 && st.prev_valid;
+        st.origin = lead ? st.prev.pos : lf.pos;
+        st.buffer.clear();
+        if (lead) st.buffer.push_back(make_feature(st.prev, st.origin, s.absolute_weight));
+        st.buffer.push_back(make_feature(lf, st.origin, s.absolute_weight));
         st.state = State::collecting;
         st.slow_run = 0;
       }
-      return;
+      break;
     case State::discard:
       if (null_signal || ++st.discard_count >= s.discard_frames) st.state = State::idle;
       return;

@@ -57,6 +57,7 @@ int main(int argc, char** argv) {
     sc->add_option("--absolute-weight", rs.absolute_weight, "feature weight of the head-relative position")->check(CLI::Range(0.0, 10.0));
     sc->add_option("--none-margin", rs.none_margin, "begin only when closer than margin x the nearest none")->check(CLI::Range(0.0, 10.0));
     sc->add_option("--one-at-a-time", rs.one_at_a_time, "no begin while another limb's strike is active (0/1)");
+    sc->add_option("--lead-frames", rs.lead_frames, "0 or 1: the buffer also holds the loop before the onset")->check(CLI::Range(0, 1));
     sc->add_option("--onset-speed", rs.onset_speed, "m/s, a limb faster than this starts a motion")->check(CLI::Range(0.1, 20.0));
     sc->add_option("--null-speed", rs.null_speed, "m/s, the null signal's speed")->check(CLI::Range(0.0, 20.0));
     sc->add_option("--smoothing-tau", rs.frontend.smoothing_tau_s, "s, position smoothing")->check(CLI::Range(1e-4, 1.0));

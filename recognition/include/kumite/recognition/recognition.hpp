@@ -184,6 +184,7 @@ struct RecogniserSettings {
   double null_speed = 0.5;   ///< m/s, below this for `null_frames` loops: the null signal
   int null_frames = 6;       ///< beta
   int main_frames = 6;       ///< main buffer
+  int lead_frames = 1;       ///< 0 or 1: the buffer also holds the loop before the onset
   int max_frames = 60;       ///< supplementary buffer
   int discard_frames = 20;   ///< input discarded after a full buffer until null or this many
   int rearm_frames = 2;      ///< a buffer that matched nothing restarts after this many loops below onset_speed
@@ -289,6 +290,8 @@ class Recogniser {
     State state = State::idle;
     std::vector<Feature> buffer;
     Float3 origin{};
+    LimbFrame prev{};  ///< the previous loop's view of the limb
+    bool prev_valid = false;
     int null_run = 0;
     int slow_run = 0;  ///< loops below onset_speed while collecting
     int discard_count = 0;
