@@ -72,12 +72,15 @@ void Frontend::push(const PoseSample& s, std::vector<Frame>& out) {
   // Loops strictly before this sample: every sample with an earlier time has been applied.
   if (s.t - next_tick_ > 1.0) {  // a jump in time: one loop (everything goes stale), then resync
     out.push_back(make_frame(next_tick_));
-    next_tick_ += std::floor((s.t - next_tick_) / period) * period;
+    next_tick_ = s.t;
   }
-  while (next_tick_ < s.t) {
+  // At most ~loop_hz loops here; the bound also stops times so large that adding a period
+  // no longer changes them.
+  for (int n = 0; next_tick_ < s.t && n <= static_cast<int>(s_.loop_hz) + 1; ++n) {
     out.push_back(make_frame(next_tick_));
     next_tick_ += period;
   }
+  if (next_tick_ < s.t) next_tick_ = s.t;
   RoleState& r = roles_[static_cast<std::size_t>(s.role)];
   if (r.have && s.t < r.last_t) return;  // out of order: ignored
   const bool ok = s.tracked && finite3(s.position) &&

@@ -241,3 +241,16 @@ TEST(RecognitionModel, ShippedModelLoadsWithTheDefaultSettings) {
   EXPECT_EQ(m.settings.frontend.velocity_weight, d.frontend.velocity_weight);
   EXPECT_EQ(m.settings.frontend.smoothing_tau_s, d.frontend.smoothing_tau_s);
 }
+
+TEST(RecognitionFrontend, TimeJumpsAndHugeTimesDoNotStall) {
+  Frontend fe;
+  std::vector<Frame> frames;
+  PoseSample s;
+  s.position = {0, 1.6, 0};
+  for (double t : {0.0, 0.01, 5.0, 5.02, 1e15, 1e15 + 1, 2e15}) {
+    s.t = t;
+    fe.push(s, frames);
+  }
+  EXPECT_LT(frames.size(), 400u);
+  EXPECT_GT(frames.size(), 2u);
+}
