@@ -521,6 +521,14 @@ nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vect
                    {"hit", t.hit}, {"threshold", t.threshold}});
   report["templates_all_actors"] = tpl;
   report["not_in_the_data"] = "hooks and uppercuts (no recordings): not recognised, not measured";
+  report["settings"] = {{"loop_hz", rs.frontend.loop_hz}, {"smoothing_tau_s", rs.frontend.smoothing_tau_s},
+                        {"heading_tau_s", rs.frontend.heading_tau_s}, {"velocity_weight", rs.frontend.velocity_weight},
+                        {"absolute_weight", rs.absolute_weight}, {"onset_speed", rs.onset_speed},
+                        {"null_speed", rs.null_speed}, {"null_frames", rs.null_frames}, {"main_frames", rs.main_frames},
+                        {"lead_frames", rs.lead_frames}, {"max_frames", rs.max_frames},
+                        {"discard_frames", rs.discard_frames}, {"none_margin", rs.none_margin},
+                        {"one_at_a_time", rs.one_at_a_time}, {"threshold_factor", ts.threshold_factor},
+                        {"max_none_templates", ts.max_none_templates}};
   return report;
 }
 
