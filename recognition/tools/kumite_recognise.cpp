@@ -1,0 +1,148 @@
+// kumite-recognise: train the strike recogniser, run it over a poses.csv, evaluate it across
+// actors, and turn a BVH clip into a mocap visitor's poses.csv. See recognition/README.md.
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+#include <map>
+
+#include <CLI/CLI.hpp>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include "kumite/common/atomic_file.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/content/bvh.hpp"
+#include "kumite/recognition/recognition.hpp"
+#include "offline.hpp"
+
+namespace fs = std::filesystem;
+using namespace kumite;
+using namespace kumite::recognition;
+
+namespace {
+fs::path source_dir() { return KUMITE_SOURCE_DIR; }
+fs::path default_motions() { return source_dir() / "content" / "motions" / "motions.toml"; }
+fs::path default_model() { return source_dir() / "recognition" / "models" / "strikes.krec"; }
+fs::path default_mocap() { return source_dir() / ".." / "shared" / "data" / "mocap"; }
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"kumite-recognise: the visitor's strikes from tracked poses (dual-buffer DTW)"};
+  app.require_subcommand(1);
+
+  auto* train = app.add_subcommand("train", "build mean templates from annotated mocap -> a model file");
+  fs::path motions = default_motions(), out_model;
+  double threshold_factor = TrainSettings{}.threshold_factor;
+  train->add_option("--motions", motions, "annotations (motions.toml)")->check(CLI::ExistingFile);
+  train->add_option("--out", out_model, "model file to write (.krec)")->required();
+  train->add_option("--threshold-factor", threshold_factor, "template threshold / worst training distance")
+      ->check(CLI::Range(1.0, 10.0));
+
+  auto* run = app.add_subcommand("run", "recognise strikes in a poses.csv -> events (JSON lines)");
+  fs::path poses, events_out, model_path = default_model();
+  run->add_option("--poses", poses, "poses.csv")->required();
+  run->add_option("--out", events_out, "events.jsonl")->required();
+  run->add_option("--model", model_path, "model file (default: the shipped recognition/models/strikes.krec)");
+
+  auto* eval = app.add_subcommand("eval", "cross-actor evaluation -> JSON report");
+  fs::path mocap = default_mocap(), report_out;
+  eval->add_option("--motions", motions, "annotations (motions.toml)")->check(CLI::ExistingFile);
+  eval->add_option("--mocap", mocap, "development mocap folder (boxer, Sony, walks); skipped when absent");
+  eval->add_option("--out", report_out, "report (JSON)")->required();
+  eval->add_option("--threshold-factor", threshold_factor, "template threshold / worst training distance")
+      ->check(CLI::Range(1.0, 10.0));
+  RecogniserSettings rs;
+  for (auto* sc : {train, eval}) {
+    sc->add_option("--velocity-weight", rs.frontend.velocity_weight, "feature weight of velocity")->check(CLI::Range(0.0, 10.0));
+    sc->add_option("--absolute-weight", rs.absolute_weight, "feature weight of the head-relative position")->check(CLI::Range(0.0, 10.0));
+    sc->add_option("--none-margin", rs.none_margin, "begin only when closer than margin x the nearest none")->check(CLI::Range(0.0, 10.0));
+    sc->add_option("--one-at-a-time", rs.one_at_a_time, "no begin while another limb's strike is active (0/1)");
+    sc->add_option("--lead-frames", rs.lead_frames, "0 or 1: the buffer also holds the loop before the onset")->check(CLI::Range(0, 1));
+    sc->add_option("--onset-speed", rs.onset_speed, "m/s, a limb faster than this starts a motion")->check(CLI::Range(0.1, 20.0));
+    sc->add_option("--null-speed", rs.null_speed, "m/s, the null signal's speed")->check(CLI::Range(0.0, 20.0));
+    sc->add_option("--smoothing-tau", rs.frontend.smoothing_tau_s, "s, position smoothing")->check(CLI::Range(1e-4, 1.0));
+  }
+
+  auto* pz = app.add_subcommand("poses", "a BVH clip as a mocap visitor's poses.csv (head, wrists, ankles)");
+  fs::path bvh, poses_out;
+  pz->add_option("--bvh", bvh, "BVH clip")->required()->check(CLI::ExistingFile);
+  pz->add_option("--out", poses_out, "poses.csv")->required();
+  double stop_at = -1;
+  pz->add_option("--stop-at", stop_at, "s: cut the recording here (a stream that stops mid-strike)");
+
+  CLI11_PARSE(app, argc, argv);
+  try {
+    TrainSettings ts;
+    ts.threshold_factor = threshold_factor;
+    if (train->parsed()) {
+      const auto recs = offline::load_motions(motions);
+      std::vector<const offline::Recording*> p;
+      for (const auto& r : recs)
+        if (!r.strikes.empty() || r.negative) p.push_back(&r);
+      int strikes = 0, negatives = 0;
+      for (const auto* r : p) (r->negative ? negatives : strikes)++;
+      const Model m = offline::train(
+          p, rs, ts,
+          fmt::format("trained on {}: {} recordings with strikes, {} without (none templates); templates derived from "
+                      "CMU mocap (CMU terms, acknowledgement requested) and HDM05 (CC BY-SA 3.0, Mueller et al. 2007)",
+                      motions.filename().string(), strikes, negatives));
+      write_model(out_model, m);
+      nlohmann::json j = nlohmann::json::array();
+      std::map<std::string, int> nones;
+      for (const auto& t : m.templates) {
+        if (t.action == kNoneAction) {
+          ++nones[std::string(to_string(t.kind))];
+          continue;
+        }
+        j.push_back({{"action", t.action}, {"kind", to_string(t.kind)}, {"trials", t.trials}, {"frames", t.frames.size()},
+                     {"hit", t.hit}, {"threshold_main_buffer", t.threshold_at(rs.main_frames)}, {"threshold_full", t.threshold}});
+      }
+      std::cout << nlohmann::json{{"model", out_model.string()}, {"templates", j}, {"none_templates", nones}}.dump() << "\n";
+    } else if (run->parsed()) {
+      const Model m = read_model(model_path);
+      const offline::PosesFile pf = offline::read_poses_csv(poses);
+      Recogniser rec(m);
+      std::vector<Event> ev;
+      for (const PoseSample& s : pf.samples) rec.push(s, ev);
+      rec.finish(pf.samples.empty() ? 0 : pf.samples.back().t, ev);
+      std::string text;
+      for (const Event& e : ev) text += to_json(e) + "\n";
+      write_file_atomically(events_out, text);
+      std::cout << nlohmann::json{{"events", ev.size()}, {"samples", pf.samples.size()}, {"ignored_rows", pf.ignored_rows},
+                                  {"loops", rec.loops()}, {"out", events_out.string()}}
+                       .dump()
+                << "\n";
+    } else if (eval->parsed()) {
+      const auto trainable = offline::load_motions(motions);
+      std::vector<offline::Recording> external;
+      if (fs::exists(mocap)) external = offline::load_external(mocap);
+      else std::cerr << "eval: no development mocap at " << mocap.string() << ": boxer, Sony and walks left out\n";
+      nlohmann::json report = offline::evaluate(trainable, external, rs, ts);
+      report["motions"] = motions.string();
+      report["mocap"] = fs::exists(mocap) ? mocap.string() : "";
+      write_file_atomically(report_out, report.dump(2) + "\n");
+      const auto& h = report["held_out_total"];
+      std::cout << nlohmann::json{{"report", report_out.string()}, {"held_out_strikes", h["strikes"]},
+                                  {"right_limb_pct", h["right_limb_pct"]}, {"right_kind_pct", h["right_kind_pct"]},
+                                  {"latency_p50_ms", h["latency_from_onset_ms"]["p50"]},
+                                  {"false_triggers_per_idle_minute", report["false_triggers"]["per_idle_minute"]},
+                                  {"loop_cpu_us_p99", report["loop_cpu_us"]["p99"]}}
+                       .dump()
+                << "\n";
+    } else if (pz->parsed()) {
+      const auto clip = content::read_bvh(bvh);
+      auto r = offline::recording_from_clip(clip);
+      if (stop_at >= 0)
+        std::erase_if(r.samples, [&](const PoseSample& s) { return s.t > stop_at; });
+      write_file_atomically(poses_out, offline::format_poses_csv(r.samples));
+      std::cout << nlohmann::json{{"out", poses_out.string()}, {"samples", r.samples.size()}}.dump() << "\n";
+    }
+  } catch (const kumite::Error& e) {
+    std::fprintf(stderr, "%s\n", e.what());
+    return 1;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "kumite-recognise: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}

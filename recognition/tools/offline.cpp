@@ -1,0 +1,753 @@
+// Offline side of recognition: mocap -> pose streams and labelled strikes, training, the
+// cross-actor evaluation, SYNTHETIC visitors. See offline.hpp.
+#include "offline.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <map>
+#include <numbers>
+#include <set>
+
+#include <fmt/format.h>
+
+#include "kumite/common/error.hpp"
+#include "kumite/content/annotation.hpp"
+#include "kumite/content/bvh.hpp"
+
+namespace kumite::recognition::offline {
+
+namespace {
+using content::CanonicalJoint;
+using Eigen::Vector3d;
+
+Vec3 v3(const Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+/// Horizontal forward of a body whose left side points along `left` (Y up).
+Vector3d forward_of(const Vector3d& left) {
+  Vector3d f(-left.z(), 0, left.x());
+  const double n = f.norm();
+  return n > 1e-9 ? Vector3d(f / n) : Vector3d(0, 0, -1);
+}
+
+std::optional<Role> role_of(content::HitSegment s) {
+  switch (s) {
+    case content::HitSegment::left_hand: return Role::left_hand;
+    case content::HitSegment::right_hand: return Role::right_hand;
+    case content::HitSegment::left_foot: return Role::left_foot;
+    case content::HitSegment::right_foot: return Role::right_foot;
+  }
+  return std::nullopt;
+}
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const double idx = p * static_cast<double>(v.size() - 1);
+  const auto lo = static_cast<std::size_t>(std::floor(idx));
+  const auto hi = std::min(v.size() - 1, lo + 1);
+  return v[lo] + (v[hi] - v[lo]) * (idx - static_cast<double>(lo));
+}
+
+nlohmann::json num_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+}  // namespace
+
+Recording recording_from_clip(const content::Clip& clip) {
+  const auto& sk = clip.skeleton;
+  const CanonicalJoint need[] = {CanonicalJoint::head,    CanonicalJoint::l_wrist, CanonicalJoint::r_wrist,
+                                 CanonicalJoint::l_ankle, CanonicalJoint::r_ankle, CanonicalJoint::l_hip,
+                                 CanonicalJoint::r_hip,   CanonicalJoint::l_shoulder, CanonicalJoint::r_shoulder,
+                                 CanonicalJoint::pelvis};
+  for (auto j : need)
+    if (sk.index(j) < 0)
+      throw Error("recognition", "canonical", fmt::format("{}: joint {} not mapped", clip.name, content::to_string(j)));
+  const auto P = content::all_joint_positions(clip);
+  const int J = sk.joint_count();
+  auto at = [&](int f, CanonicalJoint j) { return P[static_cast<std::size_t>(f * J + sk.index(j))]; };
+  // Face -Z at the first frame, pelvis over the origin.
+  const Vector3d fwd0 = forward_of(at(0, CanonicalJoint::l_hip) - at(0, CanonicalJoint::r_hip));
+  const double phi = std::atan2(fwd0.x(), fwd0.z());
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(std::numbers::pi - phi, Vector3d::UnitY()).toRotationMatrix();
+  const Vector3d p0 = at(0, CanonicalJoint::pelvis);
+  const Vector3d origin(p0.x(), 0, p0.z());
+  auto room = [&](const Vector3d& p) { return Vector3d(R * (p - origin)); };
+
+  Recording r;
+  r.name = clip.name;
+  r.actor = actor_of_clip(clip.name);
+  r.fps = clip.frame_rate_hz();
+  r.frames = clip.frame_count;
+  r.samples.reserve(static_cast<std::size_t>(clip.frame_count) * kRoleCount);
+  r.limb_positions.resize(static_cast<std::size_t>(clip.frame_count));
+  const CanonicalJoint limb_joint[kLimbCount] = {CanonicalJoint::l_wrist, CanonicalJoint::r_wrist,
+                                                 CanonicalJoint::l_ankle, CanonicalJoint::r_ankle};
+  for (int f = 0; f < clip.frame_count; ++f) {
+    const double t = f * clip.frame_time_s;
+    const Vector3d fwd = forward_of(room(at(f, CanonicalJoint::l_shoulder)) - room(at(f, CanonicalJoint::r_shoulder)));
+    const double yaw = std::atan2(fwd.x(), fwd.z()) - std::numbers::pi;  // rotates -Z onto fwd
+    PoseSample h;
+    h.t = t;
+    h.role = Role::head;
+    h.position = v3(room(at(f, CanonicalJoint::head)));
+    h.orientation = {std::cos(yaw / 2), 0, std::sin(yaw / 2), 0};
+    r.samples.push_back(h);
+    for (int l = 0; l < kLimbCount; ++l) {
+      PoseSample s;
+      s.t = t;
+      s.role = static_cast<Role>(l + 1);
+      s.position = v3(room(at(f, limb_joint[l])));
+      r.samples.push_back(s);
+      r.limb_positions[static_cast<std::size_t>(f)][static_cast<std::size_t>(l)] = s.position;
+    }
+  }
+  return r;
+}
+
+std::string action_of_clip(const std::string& clip_name, bool hand) {
+  if (hand) {
+    if (clip_name == "135_09" || clip_name == "135_06") return "straight_punch";
+    return "";
+  }
+  if (clip_name == "135_04") return "front_kick";
+  if (clip_name == "135_07") return "roundhouse_kick";
+  if (clip_name == "135_11") return "side_kick";
+  if (clip_name.starts_with("HDM_") && clip_name.find("kickLFront") != std::string::npos) return "front_kick";
+  return "";
+}
+
+std::string actor_of_clip(const std::string& clip_name) {
+  if (clip_name.starts_with("135_")) return "135";
+  if (clip_name.starts_with("HDM_") && clip_name.size() > 6) return clip_name.substr(4, 2);
+  return clip_name;
+}
+
+std::vector<Recording> load_motions(const std::filesystem::path& motions_toml) {
+  const content::AnnotationSet set = content::read_annotations(motions_toml);
+  std::vector<Recording> out;
+  for (std::size_t ci = 0; ci < set.clips.size(); ++ci) {
+    const auto& ca = set.clips[ci];
+    content::Clip clip = content::read_bvh(set.resolve(ca));
+    clip.name = ca.name;
+    content::validate_annotations(set, ci, clip);
+    Recording r = recording_from_clip(clip);
+    r.source = fmt::format("{} ({})", set.resolve(ca).string(), "content/motions: shippable");
+    r.trainable = true;
+    bool any_motion = false;
+    for (const auto& m : ca.motions) {
+      if (m.semantics == content::Semantics::other) any_motion = true;
+      if (!content::is_strike(m.semantics) || !m.hit_segment || !m.hit_frame) continue;
+      any_motion = true;
+      Strike s;
+      s.name = m.name;
+      s.limb = *role_of(*m.hit_segment);
+      s.action = action_of_clip(ca.name, content::is_hand(*m.hit_segment));
+      s.first = m.first_frame;
+      s.hit = *m.hit_frame;
+      s.last = m.last_frame;
+      r.strikes.push_back(s);
+    }
+    r.negative = !any_motion;
+    out.push_back(std::move(r));
+  }
+  return out;
+}
+
+std::vector<Recording> load_external(const std::filesystem::path& mocap_dir) {
+  std::vector<Recording> out;
+  auto load = [&](const std::string& rel) -> std::optional<Recording> {
+    const auto path = mocap_dir / rel;
+    if (!std::filesystem::exists(path)) return std::nullopt;
+    content::Clip clip = content::read_bvh(path);
+    if (clip.skeleton.index(CanonicalJoint::head) < 0 && clip.skeleton.find("neck") >= 0) {
+      // DeepMimic humanoid3d (Sony): no head joint; the neck's end site is the head's top.
+      auto& sk = clip.skeleton;
+      auto set = [&](CanonicalJoint j, int i) { sk.canonical[static_cast<std::size_t>(j)] = i; };
+      const int neck = sk.find("neck");
+      for (int i = 0; i < sk.joint_count(); ++i)
+        if (sk.parents[static_cast<std::size_t>(i)] == neck && sk.end_site[static_cast<std::size_t>(i)]) set(CanonicalJoint::head, i);
+      set(CanonicalJoint::pelvis, sk.find("root"));
+      for (auto [j, n] : {std::pair{CanonicalJoint::l_wrist, "left_wrist"}, {CanonicalJoint::r_wrist, "right_wrist"},
+                          {CanonicalJoint::l_ankle, "left_ankle"}, {CanonicalJoint::r_ankle, "right_ankle"},
+                          {CanonicalJoint::l_hip, "left_hip"}, {CanonicalJoint::r_hip, "right_hip"},
+                          {CanonicalJoint::l_shoulder, "left_shoulder"}, {CanonicalJoint::r_shoulder, "right_shoulder"}})
+        set(j, sk.find(n));
+    }
+    if (clip.skeleton.index(CanonicalJoint::head) < 0) return std::nullopt;
+    try {
+      Recording r = recording_from_clip(clip);
+      r.source = path.string() + " (development only: never shipped)";
+      return r;
+    } catch (const Error&) {
+      return std::nullopt;
+    }
+  };
+  // Hit frame inside a listed window: where the wrist is farthest from the head.
+  auto hit_in = [](const Recording& r, Role limb, int first, int last) {
+    int best = first;
+    double bd = -1;
+    const int l = static_cast<int>(limb) - 1;
+    for (int f = first; f <= last && f < r.frames; ++f) {
+      const Vec3& p = r.limb_positions[static_cast<std::size_t>(f)][static_cast<std::size_t>(l)];
+      const Vec3& h = r.samples[static_cast<std::size_t>(f * kRoleCount)].position;
+      const double d = std::hypot(p[0] - h[0], p[2] - h[2]);
+      if (d > bd) {
+        bd = d;
+        best = f;
+      }
+    }
+    return best;
+  };
+  if (auto r = load("assimp/Boxing_Toes.bvh")) {
+    r->actor = "boxer";
+    struct W { Role limb; int first, last; };
+    const W w[] = {{Role::left_hand, 555, 617},  {Role::left_hand, 905, 963},   {Role::right_hand, 349, 394},
+                   {Role::right_hand, 533, 574}, {Role::right_hand, 627, 683},  {Role::right_hand, 974, 1026},
+                   {Role::right_hand, 1207, 1292}, {Role::right_hand, 1392, 1459}};
+    int n = 0;
+    for (const W& x : w) {
+      Strike s;
+      s.name = fmt::format("boxer_{}_{}", to_string(x.limb), ++n);
+      s.action = "straight_punch";
+      s.limb = x.limb;
+      s.first = x.first;
+      s.last = x.last;
+      s.hit = hit_in(*r, x.limb, x.first, x.last);
+      r->strikes.push_back(s);
+    }
+    out.push_back(std::move(*r));
+  }
+  const std::pair<const char*, int> sony[] = {{"sie_humanoid3d_punch_forward00", 107},
+                                              {"sie_humanoid3d_punch_forward01", 146},
+                                              {"sie_humanoid3d_punch_forward02", 68},
+                                              {"sie_humanoid3d_punch_left00", 92}};
+  for (const auto& [name, peak] : sony) {
+    auto r = load(std::string("sony-deepmimic/") + name + ".bvh");
+    if (!r) continue;
+    r->actor = "sony";
+    Strike s;
+    s.name = name;
+    s.action = "straight_punch";
+    s.limb = Role::right_hand;
+    s.first = std::max(0, peak - 40);
+    s.last = std::min(r->frames - 1, peak + 40);
+    s.hit = hit_in(*r, Role::right_hand, s.first, s.last);
+    r->strikes.push_back(s);
+    out.push_back(std::move(*r));
+  }
+  for (const char* neg : {"cmu/07_05.bvh", "cmu/09_06.bvh"}) {
+    auto r = load(neg);
+    if (!r) continue;
+    r->negative = true;
+    out.push_back(std::move(*r));
+  }
+  return out;
+}
+
+std::vector<Frame> frontend_frames(const Recording& r, const FrontendSettings& s) {
+  Frontend fe(s);
+  std::vector<Frame> frames;
+  for (const PoseSample& p : r.samples) fe.push(p, frames);
+  return frames;
+}
+
+std::vector<Trial> trials_of(const std::vector<const Recording*>& recs, const RecogniserSettings& s,
+                             const TrainSettings& ts) {
+  std::vector<Trial> out;
+  for (const Recording* r : recs) {
+    if (r->negative) {
+      const auto frames = frontend_frames(*r, s.frontend);
+      for (int l = 1; l <= kLimbCount; ++l)
+        for (auto& t : none_trials(frames, static_cast<Role>(l), ts.none_frames, s)) {
+          t.source = r->name;
+          out.push_back(std::move(t));
+        }
+      continue;
+    }
+    if (r->strikes.empty()) continue;
+    const auto frames = frontend_frames(*r, s.frontend);
+    for (const Strike& st : r->strikes) {
+      if (st.action.empty()) continue;
+      auto t = cut_trial(frames, st.limb, st.first / r->fps, st.hit / r->fps, st.last / r->fps, s);
+      if (!t) continue;
+      t->action = st.action;
+      t->source = st.name;
+      out.push_back(std::move(*t));
+    }
+  }
+  return out;
+}
+
+Model train(const std::vector<const Recording*>& recs, const RecogniserSettings& rs, const TrainSettings& ts,
+            const std::string& note) {
+  Model m;
+  m.settings = rs;
+  m.note = note;
+  const auto trials = trials_of(recs, rs, ts);
+  if (trials.empty()) throw Error("recognition", "train", "no strike trials to train on");
+  m.templates = build_templates(trials, rs, ts);
+  return m;
+}
+
+// ---- Evaluation -----------------------------------------------------------------------------
+
+namespace {
+
+struct StrikeOutcome {
+  std::string name, actor, action, limb, predicted = "none";
+  bool right_limb = false, right_kind = false;
+  double latency_s = std::nan(""), impact_error_m = std::nan("");
+  int other_limb_begins = 0;
+  std::array<int, 5> correct_at{};  ///< progress 0, .25, .5, .75, 1
+};
+constexpr double kProgressPoints[5] = {0, 0.25, 0.5, 0.75, 1.0};
+
+/// The action a limb is doing at time t ("none" when idle), from the event list.
+std::string active_at(const std::vector<Event>& ev, Role limb, double t) {
+  std::string cur = "none";
+  for (const Event& e : ev) {
+    if (e.t > t + 1e-9) break;
+    if (e.limb != limb) continue;
+    if (e.type == EventType::begin || e.type == EventType::switch_) cur = e.action;
+    else cur = "none";
+  }
+  return cur;
+}
+
+std::vector<StrikeOutcome> score(const Recording& r, const std::vector<Event>& ev, const std::set<std::string>& known) {
+  std::vector<StrikeOutcome> out;
+  for (const Strike& s : r.strikes) {
+    if (s.action.empty() || !known.count(s.action)) continue;
+    StrikeOutcome o;
+    o.name = s.name;
+    o.actor = r.actor;
+    o.action = s.action;
+    o.limb = std::string(to_string(s.limb));
+    const auto l = static_cast<std::size_t>(static_cast<int>(s.limb) - 1);
+    // Onset: the first frame of the window whose hit-joint speed exceeds 15 % of its peak.
+    std::vector<double> speed(static_cast<std::size_t>(r.frames), 0.0);
+    double peak = 0;
+    for (int f = std::max(1, s.first); f <= s.last && f + 1 < r.frames; ++f) {
+      const Vec3& a = r.limb_positions[static_cast<std::size_t>(f - 1)][l];
+      const Vec3& b = r.limb_positions[static_cast<std::size_t>(f + 1)][l];
+      speed[static_cast<std::size_t>(f)] = std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]) * r.fps / 2;
+      peak = std::max(peak, speed[static_cast<std::size_t>(f)]);
+    }
+    int onset = s.first;
+    for (int f = s.first; f <= s.hit; ++f)
+      if (speed[static_cast<std::size_t>(f)] > 0.15 * peak) {
+        onset = f;
+        break;
+      }
+    const double t_first = s.first / r.fps, t_hit = s.hit / r.fps, t_last = s.last / r.fps, t_on = onset / r.fps;
+    const Event* begin = nullptr;
+    for (const Event& e : ev) {
+      if (e.type != EventType::begin || e.t < t_first - 0.05 || e.t > t_last) continue;
+      if (e.limb != s.limb) {
+        ++o.other_limb_begins;
+        continue;
+      }
+      if (!begin && e.t <= t_hit + 0.1) begin = &e;
+    }
+    if (begin) {
+      o.right_limb = true;
+      o.latency_s = begin->t - t_on;
+      const Vec3& hp = r.limb_positions[static_cast<std::size_t>(s.hit)][l];
+      o.impact_error_m = std::hypot(begin->impact[0] - hp[0], begin->impact[1] - hp[1], begin->impact[2] - hp[2]);
+      o.predicted = active_at(ev, s.limb, std::max(t_hit, begin->t));
+      if (o.predicted == "none") o.predicted = begin->action;  // ended before the hit: its last word
+      o.right_kind = o.predicted == s.action;
+    }
+    for (int k = 0; k < 5; ++k)
+      o.correct_at[static_cast<std::size_t>(k)] = active_at(ev, s.limb, t_on + kProgressPoints[k] * (t_hit - t_on)) == s.action;
+    out.push_back(o);
+  }
+  return out;
+}
+
+nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
+  nlohmann::json j;
+  j["strikes"] = v.size();
+  if (v.empty()) return j;
+  int limb = 0, kind = 0, other = 0;
+  std::vector<double> lat, imp;
+  std::array<int, 5> at{};
+  std::map<std::string, std::map<std::string, int>> confusion;
+  for (const auto& o : v) {
+    limb += o.right_limb;
+    kind += o.right_kind;
+    other += o.other_limb_begins;
+    if (std::isfinite(o.latency_s)) lat.push_back(o.latency_s * 1000);
+    if (std::isfinite(o.impact_error_m)) imp.push_back(o.impact_error_m);
+    for (int k = 0; k < 5; ++k) at[static_cast<std::size_t>(k)] += o.correct_at[static_cast<std::size_t>(k)];
+    ++confusion[o.action][o.predicted];
+  }
+  const double n = static_cast<double>(v.size());
+  j["right_limb_pct"] = 100.0 * limb / n;
+  j["right_kind_pct"] = 100.0 * kind / n;
+  j["latency_from_onset_ms"] = {{"p50", num_or_null(percentile(lat, 0.5))}, {"p90", num_or_null(percentile(lat, 0.9))},
+                                {"n", lat.size()}};
+  j["impact_error_m"] = {{"p50", num_or_null(percentile(imp, 0.5))}, {"p90", num_or_null(percentile(imp, 0.9))}};
+  j["other_limb_begins"] = other;
+  nlohmann::json acc = nlohmann::json::object();
+  for (int k = 0; k < 5; ++k) acc[fmt::format("{:.2f}", kProgressPoints[k])] = 100.0 * at[static_cast<std::size_t>(k)] / n;
+  j["correct_pct_at_progress"] = acc;
+  j["confusion"] = confusion;
+  return j;
+}
+
+nlohmann::json outcome_json(const StrikeOutcome& o) {
+  return {{"name", o.name}, {"actor", o.actor}, {"action", o.action}, {"limb", o.limb}, {"predicted", o.predicted},
+          {"right_limb", o.right_limb}, {"right_kind", o.right_kind}, {"latency_ms", num_or_null(o.latency_s * 1000)},
+          {"impact_error_m", num_or_null(o.impact_error_m)}, {"other_limb_begins", o.other_limb_begins}};
+}
+
+std::set<std::string> actions_of(const Model& m) {
+  std::set<std::string> s;
+  for (const auto& t : m.templates) s.insert(t.action);
+  return s;
+}
+}  // namespace
+
+nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
+                        const RecogniserSettings& rs, const TrainSettings& ts) {
+  nlohmann::json report;
+  report["what"] =
+      "dual-buffer DTW strike recogniser, cross-actor: every figure is on actors the model was not trained on "
+      "(leave-one-actor-out over the annotated actors of content/motions; the development-only boxer and Sony "
+      "recordings against a model of all annotated actors)";
+  std::set<std::string> actors;
+  for (const auto& r : trainable)
+    if (!r.strikes.empty()) actors.insert(r.actor);
+  std::vector<StrikeOutcome> all;
+  std::vector<double> loop_us;
+  auto run = [&](const Model& m, const Recording& r, std::vector<Event>& ev) {
+    Recogniser rec(m);
+    rec.set_timing(true);
+    for (const PoseSample& s : r.samples) rec.push(s, ev);
+    rec.finish(r.samples.empty() ? 0 : r.samples.back().t, ev);
+    for (double t : rec.loop_times()) loop_us.push_back(t * 1e6);
+  };
+  nlohmann::json folds = nlohmann::json::array();
+  for (const std::string& held : actors) {
+    std::vector<const Recording*> tr;
+    for (const auto& r : trainable)
+      if (r.actor != held && (!r.strikes.empty() || r.negative)) tr.push_back(&r);
+    if (tr.empty()) continue;
+    const Model m = train(tr, rs, ts, "fold without " + held);
+    const auto known = actions_of(m);
+    std::vector<StrikeOutcome> fold;
+    int untestable = 0;
+    for (const auto& r : trainable) {
+      if (r.actor != held || r.strikes.empty()) continue;
+      std::vector<Event> ev;
+      run(m, r, ev);
+      for (const auto& o : score(r, ev, known)) fold.push_back(o);
+      for (const auto& s : r.strikes) untestable += !known.count(s.action);
+    }
+    nlohmann::json f = summarise(fold);
+    f["held_out_actor"] = held;
+    std::set<std::string> tr_actors;
+    for (const auto* r : tr)
+      if (!r->strikes.empty()) tr_actors.insert(r->actor);
+    f["trained_on_actors"] = tr_actors;
+    f["templates"] = known;
+    f["untestable_strikes"] = untestable;  // their action has no template without this actor
+    nlohmann::json per = nlohmann::json::array();
+    for (const auto& o : fold) per.push_back(outcome_json(o));
+    f["per_strike"] = per;
+    folds.push_back(f);
+    all.insert(all.end(), fold.begin(), fold.end());
+  }
+  report["leave_one_actor_out"] = folds;
+
+  std::vector<const Recording*> everything;
+  for (const auto& r : trainable)
+    if (!r.strikes.empty() || r.negative) everything.push_back(&r);
+  const Model full = train(everything, rs, ts, "all annotated actors");
+  {
+    std::vector<StrikeOutcome> ext;
+    for (const auto& r : external) {
+      if (r.strikes.empty()) continue;
+      std::vector<Event> ev;
+      run(full, r, ev);
+      for (const auto& o : score(r, ev, actions_of(full))) ext.push_back(o);
+    }
+    nlohmann::json e = summarise(ext);
+    e["trained_on"] = "all annotated actors of content/motions";
+    nlohmann::json per = nlohmann::json::array();
+    for (const auto& o : ext) per.push_back(outcome_json(o));
+    e["per_strike"] = per;
+    report["external_actors"] = e;
+    all.insert(all.end(), ext.begin(), ext.end());
+  }
+  // False triggers: begins per minute on recordings without strikes (the full model).
+  {
+    nlohmann::json per = nlohmann::json::array();
+    double minutes = 0;
+    int begins = 0;
+    for (const auto* list : {&trainable, &external})
+      for (const auto& r : *list) {
+        if (!r.negative) continue;
+        // The "none" templates never come from the recording being scored.
+        std::vector<const Recording*> without;
+        for (const Recording* o : everything)
+          if (o != &r) without.push_back(o);
+        const Model m = r.trainable ? train(without, rs, ts, "all but " + r.name) : full;
+        std::vector<Event> ev;
+        run(m, r, ev);
+        int b = 0;
+        for (const Event& e : ev) b += e.type == EventType::begin;
+        const double min = r.frames / r.fps / 60;
+        minutes += min;
+        begins += b;
+        per.push_back({{"recording", r.name}, {"actor", r.actor}, {"minutes", min}, {"begins", b},
+                       {"same_actor_as_training", r.trainable}});
+      }
+    report["false_triggers"] = {{"per_idle_minute", minutes > 0 ? begins / minutes : 0.0},
+                                {"begins", begins}, {"minutes", minutes}, {"recordings", per},
+                                {"note", "recordings with no strike: walks, runs, blocks, stance steps and turns, idle; "
+                                         "scored by a model whose none templates exclude that recording"}};
+  }
+  report["held_out_total"] = summarise(all);
+  report["loop_cpu_us"] = {{"p50", num_or_null(percentile(loop_us, 0.5))}, {"p99", num_or_null(percentile(loop_us, 0.99))},
+                           {"max", num_or_null(percentile(loop_us, 1.0))}, {"loops", loop_us.size()},
+                           {"note", "thread CPU time per 60 Hz loop (all limbs) during this evaluation; see the benchmark"}};
+  nlohmann::json tpl = nlohmann::json::array();
+  for (const auto& t : full.templates)
+    tpl.push_back({{"action", t.action}, {"kind", to_string(t.kind)}, {"trials", t.trials}, {"frames", t.frames.size()},
+                   {"hit", t.hit}, {"threshold", t.threshold}});
+  report["templates_all_actors"] = tpl;
+  report["not_in_the_data"] = "hooks and uppercuts (no recordings): not recognised, not measured";
+  report["settings"] = {{"loop_hz", rs.frontend.loop_hz}, {"smoothing_tau_s", rs.frontend.smoothing_tau_s},
+                        {"heading_tau_s", rs.frontend.heading_tau_s}, {"velocity_weight", rs.frontend.velocity_weight},
+                        {"absolute_weight", rs.absolute_weight}, {"onset_speed", rs.onset_speed},
+                        {"null_speed", rs.null_speed}, {"null_frames", rs.null_frames}, {"main_frames", rs.main_frames},
+                        {"lead_frames", rs.lead_frames}, {"max_frames", rs.max_frames},
+                        {"discard_frames", rs.discard_frames}, {"none_margin", rs.none_margin},
+                        {"one_at_a_time", rs.one_at_a_time}, {"threshold_factor", ts.threshold_factor},
+                        {"max_none_templates", ts.max_none_templates}};
+  return report;
+}
+
+// ---- poses.csv ------------------------------------------------------------------------------
+
+PosesFile parse_poses_csv(std::string_view text, std::string_view source) {
+  PosesFile out;
+  bool header = false;
+  double last_t = -std::numeric_limits<double>::infinity();
+  int line = 0;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t e = text.find('\n', pos);
+    if (e == std::string_view::npos) e = text.size();
+    std::string_view l = text.substr(pos, e - pos);
+    pos = e + 1;
+    ++line;
+    while (!l.empty() && (l.back() == '\r' || l.back() == ' ' || l.back() == '\t')) l.remove_suffix(1);
+    while (!l.empty() && (l.front() == ' ' || l.front() == '\t')) l.remove_prefix(1);
+    if (l.empty() || l.front() == '#') continue;
+    auto fail = [&](std::string_view key, const std::string& msg) {
+      return file_error("recognition", "poses", source, line, key, msg);
+    };
+    if (!header) {
+      if (l != kPosesHeader) throw fail("header", fmt::format("expected the header \"{}\"", kPosesHeader));
+      header = true;
+      continue;
+    }
+    std::vector<std::string_view> f;
+    std::size_t i = 0;
+    while (true) {
+      const std::size_t c = l.find(',', i);
+      f.push_back(l.substr(i, c == std::string_view::npos ? std::string_view::npos : c - i));
+      if (c == std::string_view::npos) break;
+      i = c + 1;
+    }
+    if (f.size() != 14) throw fail("row", fmt::format("{} columns, expected 14 ({})", f.size(), kPosesHeader));
+    static const char* names[14] = {"frame", "timestamp_s", "body", "status", "x", "y", "z", "qw", "qx", "qy", "qz",
+                                    "markers", "cameras", "latency_ms"};
+    auto num = [&](int k, double lo, double hi) {
+      double v = 0;
+      const std::string_view tok = f[static_cast<std::size_t>(k)];
+      const auto [p, ec] = std::from_chars(tok.data(), tok.data() + tok.size(), v);
+      if (tok.empty() || ec != std::errc() || p != tok.data() + tok.size())
+        throw fail(names[k], fmt::format("'{}' is not a number", tok));
+      if (!std::isfinite(v) || v < lo || v > hi) throw fail(names[k], fmt::format("{} is outside [{}, {}]", tok, lo, hi));
+      return v;
+    };
+    num(0, 0, 1e15);
+    const double t = num(1, -1e9, 1e12);
+    if (t < last_t) throw fail("timestamp_s", fmt::format("{} goes back in time (previous row {})", t, last_t));
+    last_t = t;
+    const std::string_view status = f[3];
+    if (status != "tracked" && status != "coasting" && status != "lost")
+      throw fail("status", fmt::format("'{}' is not tracked, coasting or lost", status));
+    PoseSample s;
+    s.t = t;
+    s.tracked = status != "lost";
+    for (int k = 0; k < 3; ++k) s.position[static_cast<std::size_t>(k)] = num(4 + k, -100, 100);
+    for (int k = 0; k < 4; ++k) s.orientation[static_cast<std::size_t>(k)] = num(7 + k, -1.01, 1.01);
+    const double qn = std::sqrt(s.orientation[0] * s.orientation[0] + s.orientation[1] * s.orientation[1] +
+                                s.orientation[2] * s.orientation[2] + s.orientation[3] * s.orientation[3]);
+    if (s.tracked && std::abs(qn - 1) > 0.01) throw fail("qw", fmt::format("orientation norm {:.4f} is not 1", qn));
+    num(11, 0, 1e6);
+    num(12, 0, 1e6);
+    num(13, -1, 1e6);
+    const auto role = role_from_string(f[2]);
+    if (!role) {
+      ++out.ignored_rows;
+      continue;
+    }
+    s.role = *role;
+    out.samples.push_back(s);
+  }
+  if (!header) throw file_error("recognition", "poses", source, line, "header", "no header line: empty poses file");
+  return out;
+}
+
+PosesFile read_poses_csv(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw file_error("recognition", "io", path.string(), 0, "", "cannot open the poses file");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return parse_poses_csv(ss.str(), path.string());
+}
+
+std::string format_poses_csv(const std::vector<PoseSample>& samples) {
+  std::string out = std::string(kPosesHeader) + "\n";
+  long frame = -1;
+  double last = std::nan("");
+  for (const PoseSample& s : samples) {
+    if (!(s.t == last)) {
+      ++frame;
+      last = s.t;
+    }
+    out += fmt::format("{},{:.6f},{},{},{:.5f},{:.5f},{:.5f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{}\n", frame, s.t,
+                       to_string(s.role), s.tracked ? "tracked" : "lost", s.position[0], s.position[1], s.position[2],
+                       s.orientation[0], s.orientation[1], s.orientation[2], s.orientation[3], s.tracked ? 4 : 0,
+                       s.tracked ? 4 : 0, 0);
+  }
+  return out;
+}
+
+// ---- SYNTHETIC visitors ---------------------------------------------------------------------
+
+namespace {
+double minjerk(double u) {
+  u = std::clamp(u, 0.0, 1.0);
+  return u * u * u * (10 - 15 * u + 6 * u * u);
+}
+}  // namespace
+
+SynthRecording synthesise(const std::vector<SynthSegment>& segments, double rate_hz, double scale) {
+  SynthRecording out;
+  const double s = scale;
+  // Stance (visitor at the origin facing -Z): head, left/right hand guard, left/right foot.
+  const Vec3 head0{0, 1.62 * s, 0};
+  const Vec3 guard[2] = {{-0.18 * s, 1.30 * s, -0.25 * s}, {0.18 * s, 1.30 * s, -0.25 * s}};
+  const Vec3 foot[2] = {{-0.15 * s, 0.08, -0.05 * s}, {0.15 * s, 0.08, 0.05 * s}};
+  double t0 = 0, body_z = 0;
+  long frame = 0;
+  for (const SynthSegment& seg : segments) {
+    const long n = std::lround(seg.duration_s * rate_hz);
+    const int side = is_left(seg.limb) ? 0 : 1;
+    const double sign = side == 0 ? -1 : 1;
+    const double out_s = (seg.move == SynthMove::front_kick ? 0.30 : 0.15) / seg.speed;
+    const double hold_s = 0.05 / seg.speed;
+    const double back_s = (seg.move == SynthMove::front_kick ? 0.35 : 0.30) / seg.speed;
+    if (seg.move == SynthMove::straight_punch || seg.move == SynthMove::front_kick) {
+      Strike st;
+      st.name = seg.move == SynthMove::front_kick ? "synthetic_front_kick" : "synthetic_straight_punch";
+      st.action = seg.move == SynthMove::front_kick ? "front_kick" : "straight_punch";
+      st.limb = seg.limb;
+      st.first = static_cast<int>(frame);
+      st.hit = static_cast<int>(frame + std::lround(out_s * rate_hz));
+      st.last = static_cast<int>(frame + std::lround((out_s + hold_s + back_s) * rate_hz));
+      out.strikes.push_back(st);
+    }
+    for (long k = 0; k < n; ++k, ++frame) {
+      const double u = k / rate_hz;  // time in the segment
+      const double t = t0 + u;
+      Vec3 head = head0, hand[2] = {guard[0], guard[1]}, ft[2] = {foot[0], foot[1]};
+      head[0] += 0.01 * s * std::sin(2 * std::numbers::pi * 0.3 * t);  // idle sway
+      double dz = body_z;
+      auto strike_amount = [&]() {
+        if (u < out_s) return minjerk(u / out_s);
+        if (u < out_s + hold_s) return 1.0;
+        return 1 - minjerk((u - out_s - hold_s) / back_s);
+      };
+      if (seg.move == SynthMove::straight_punch) {
+        const double a = strike_amount();
+        const Vec3 target{sign * 0.05 * s, 1.45 * s, -0.72 * s};
+        for (int i = 0; i < 3; ++i) hand[side][i] += a * (target[i] - guard[side][i]);
+      } else if (seg.move == SynthMove::front_kick) {
+        const double a = strike_amount();
+        const Vec3 target{sign * 0.12 * s, 1.0 * s, -0.65 * s};
+        for (int i = 0; i < 3; ++i) ft[side][i] += a * (target[i] - foot[side][i]);
+        // Knee lifts first: the foot rises before it goes forward.
+        ft[side][1] += 0.15 * s * std::sin(std::numbers::pi * a) * (u < out_s ? 1 : 0);
+        hand[0][2] += 0.05 * s * a;
+        hand[1][2] += 0.05 * s * a;
+      } else if (seg.move == SynthMove::walk) {
+        const double v = 1.3 * s;  // m/s, one stride (2 steps) a second
+        dz = body_z - v * u;
+        head[1] += 0.02 * s * std::sin(4 * std::numbers::pi * u);
+        for (int h = 0; h < 2; ++h) hand[h][2] += (h == 0 ? 1 : -1) * 0.12 * s * std::sin(2 * std::numbers::pi * u);
+        for (int f = 0; f < 2; ++f) {
+          // Each foot: planted for half a stride, then swung a stride forward (left half a
+          // stride later); both end a whole number of strides on, beside each other.
+          const double phase = f == 0 ? 0.5 : 0.0;
+          auto travelled = [](double tau) {
+            const double c = std::floor(tau), w = tau - c;
+            return c + (w < 0.5 ? 0 : minjerk((w - 0.5) / 0.5));
+          };
+          const double tau = u + phase, w = tau - std::floor(tau);
+          ft[f][2] = foot[f][2] + body_z - v * (travelled(tau) - travelled(phase));
+          if (w >= 0.5) ft[f][1] = 0.08 + 0.1 * s * std::sin(std::numbers::pi * (w - 0.5) / 0.5);
+        }
+      }
+      if (seg.move != SynthMove::walk) {
+        for (int f = 0; f < 2; ++f) ft[f][2] += body_z;
+      }
+      head[2] += dz;
+      hand[0][2] += dz;
+      hand[1][2] += dz;
+      const Vec3 pos[kRoleCount] = {head, hand[0], hand[1], ft[0], ft[1]};
+      for (int r = 0; r < kRoleCount; ++r) {
+        PoseSample p;
+        p.t = t;
+        p.role = static_cast<Role>(r);
+        p.position = pos[r];
+        out.samples.push_back(p);
+      }
+    }
+    if (seg.move == SynthMove::walk) body_z -= 1.3 * s * std::round(seg.duration_s);
+    t0 += n / rate_hz;
+  }
+  return out;
+}
+
+Model synthetic_model(const RecogniserSettings& rs) {
+  std::vector<Recording> recs;
+  for (double speed : {0.8, 1.0, 1.25})
+    for (double scale : {0.92, 1.0, 1.08})
+      for (SynthMove mv : {SynthMove::straight_punch, SynthMove::front_kick}) {
+        const Role limb = mv == SynthMove::front_kick ? Role::right_foot : Role::right_hand;
+        const auto syn = synthesise({{SynthMove::idle, limb, 0.5, 1}, {mv, limb, 1.2, speed}, {SynthMove::idle, limb, 0.5, 1}},
+                                    120, scale);
+        Recording r;
+        r.name = "synthetic";
+        r.fps = 120;
+        r.frames = static_cast<int>(syn.samples.size() / kRoleCount);
+        r.samples = syn.samples;
+        r.strikes = syn.strikes;
+        recs.push_back(std::move(r));
+      }
+  std::vector<const Recording*> p;
+  for (const auto& r : recs) p.push_back(&r);
+  return train(p, rs, {}, "SYNTHETIC: minimum-jerk punches and front kicks (tests only)");
+}
+
+}  // namespace kumite::recognition::offline

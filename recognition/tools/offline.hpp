@@ -1,0 +1,117 @@
+#pragma once
+// The offline side of recognition (not the runtime library): development mocap turned into
+// visitor pose streams and labelled strikes, training, the cross-actor evaluation, and
+// SYNTHETIC visitors (labelled as such) for tests and benchmarks. Uses content's BVH reader.
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "kumite/content/skeleton.hpp"
+#include "kumite/recognition/recognition.hpp"
+
+namespace kumite::recognition::offline {
+
+/// One labelled strike in a recording (0-based frames of the recording, inclusive).
+struct Strike {
+  std::string name;
+  std::string action;  ///< straight_punch | front_kick | side_kick | roundhouse_kick
+  Role limb = Role::right_hand;
+  int first = 0, hit = 0, last = 0;
+};
+
+/// A mocap clip as a visitor's pose stream (room frame: the actor turned to face -Z at the
+/// first frame, pelvis over the origin), with what the evaluation needs.
+struct Recording {
+  std::string name;   ///< "135_04", "HDM_bd_kickLFront1Reps_001_120", "Boxing_Toes", ...
+  std::string actor;  ///< "135", "bd", ..., "07", "09", "boxer", "sony"
+  std::string source; ///< where it came from and its licence note
+  double fps = 120;
+  int frames = 0;
+  std::vector<PoseSample> samples;  ///< 5 per frame (head, hands, feet), time order
+  /// m, room frame: the hit joints (wrists, ankles) per frame: [frame][limb].
+  std::vector<std::array<Vec3, kLimbCount>> limb_positions;
+  std::vector<Strike> strikes;
+  bool negative = false;    ///< holds no strike at all (walks, blocks, turns, idle)
+  bool trainable = false;   ///< may be used to train a shipped model (from content/motions)
+};
+
+/// A clip as a pose stream. Head = the head joint, hands = wrists, feet = ankles (the joints
+/// the annotations measure; real gloves sit ~9 cm further). The head's orientation is the
+/// yaw of the shoulder line (mocap heads have no glasses): heading only.
+Recording recording_from_clip(const content::Clip& clip);
+
+/// Action kind of an annotated strike, from its clip (the annotations say punch/kick only):
+/// 135_04 front, 135_07 roundhouse, 135_11 side kicks; 135_06 / 135_09 lunge punches
+/// (oi-zuki, "straight_punch"); HDM05 kickLFront front kicks. "" = unknown.
+std::string action_of_clip(const std::string& clip_name, bool hand);
+/// "135" for CMU 135_*, "bd".."tr" for HDM05, else the clip name.
+std::string actor_of_clip(const std::string& clip_name);
+
+/// Every clip of a motions.toml (shippable data): strikes from its punch/kick annotations;
+/// clips with no strike annotation become negatives.
+std::vector<Recording> load_motions(const std::filesystem::path& motions_toml);
+
+/// Development-only recordings from ../shared/data/mocap (never shipped, never trained on by
+/// the shipped model): the assimp boxer's 8 straights (PROVENANCE windows), the Sony crosses
+/// (windows around the listed wrist peaks: -40..+40 frames), CMU 07_05 walk and 09_06 run
+/// (negatives). Missing files are skipped.
+std::vector<Recording> load_external(const std::filesystem::path& mocap_dir);
+
+/// Frontend frames of a recording.
+std::vector<Frame> frontend_frames(const Recording& r, const FrontendSettings& s);
+
+/// Trials of the recordings' strikes (actions "" skipped) and "none" trials of the negative
+/// recordings (every movement start of every limb).
+std::vector<Trial> trials_of(const std::vector<const Recording*>& recs, const RecogniserSettings& s,
+                             const TrainSettings& ts);
+
+/// A model trained on `recs`.
+Model train(const std::vector<const Recording*>& recs, const RecogniserSettings& rs,
+            const TrainSettings& ts, const std::string& note);
+
+/// The cross-actor evaluation (see recognition/README.md): leave-one-actor-out over the
+/// trainable actors, the external recordings tested on a model of all trainable data,
+/// false triggers on the negatives. JSON.
+nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
+                        const RecogniserSettings& rs, const TrainSettings& ts);
+
+// ---- poses.csv ------------------------------------------------------------------------------
+
+/// The columns of poses.csv (kumite-track --out, issue 14): one row per body per frame set.
+inline constexpr const char* kPosesHeader =
+    "frame,timestamp_s,body,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms";
+struct PosesFile {
+  std::vector<PoseSample> samples;  ///< known roles only, file order
+  int ignored_rows = 0;             ///< rows of bodies that are no role (ignored)
+};
+/// Parses poses.csv: the header line first ('#' lines and blank lines skipped), then rows.
+/// body = its name (head, left_hand, ...; other names are ignored); status tracked | coasting
+/// | lost (lost = no pose); every number checked finite and in range, timestamps never going
+/// back. Throws kumite::Error "file:line: column: message".
+PosesFile parse_poses_csv(std::string_view text, std::string_view source);
+PosesFile read_poses_csv(const std::filesystem::path& path);
+/// The samples as poses.csv (frame = index of the sample's timestamp among distinct ones).
+std::string format_poses_csv(const std::vector<PoseSample>& samples);
+
+// ---- SYNTHETIC visitors (tests and benchmarks only) -----------------------------------------
+
+enum class SynthMove { idle, straight_punch, front_kick, walk };
+struct SynthSegment {
+  SynthMove move = SynthMove::idle;
+  Role limb = Role::right_hand;  ///< for strikes
+  double duration_s = 1.0;       ///< whole segment (a strike happens at its start)
+  double speed = 1.0;            ///< 1 = nominal (punch 0.15 s out, kick 0.3 s up)
+};
+struct SynthRecording {
+  std::vector<PoseSample> samples;
+  std::vector<Strike> strikes;  ///< frames = sample frame index (rate_hz)
+};
+/// A SYNTHETIC visitor (stature `scale` x 1.75 m) facing -Z doing `segments` one after the
+/// other, sampled at `rate_hz`.
+SynthRecording synthesise(const std::vector<SynthSegment>& segments, double rate_hz = 120, double scale = 1.0);
+/// A model trained on SYNTHETIC punches and front kicks (several speeds and statures).
+Model synthetic_model(const RecogniserSettings& rs = {});
+
+}  // namespace kumite::recognition::offline
