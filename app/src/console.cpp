@@ -96,12 +96,12 @@ void top_view(const Installation& inst, const FrameData& f) {
   const ImU32 visitor = inst.console().head_live ? IM_COL32(90, 230, 120, 255) : IM_COL32(230, 180, 60, 255);
   dl->AddCircleFilled(at(mid.x, mid.z), 7, visitor);
   dl->AddLine(at(mid.x, mid.z), at(mid.x + ahead.x, mid.z + ahead.z), visitor, 2.0f);
-  if (f.fighter_root) {
-    const auto& r = *f.fighter_root;
-    const ImU32 c = colour(character_colour(f.character));
+  if (f.fighter.present) {
+    const auto& r = f.fighter.root;
+    const ImU32 c = colour(character_colour(f.fighter.character));
     dl->AddCircleFilled(at(r.x, r.z), 9, c);
     // heading 0 faces +Z (the visitor).
-    const double hx = std::sin(f.fighter_heading_rad) * 0.4, hz = std::cos(f.fighter_heading_rad) * 0.4;
+    const double hx = std::sin(f.fighter.heading_rad) * 0.4, hz = std::cos(f.fighter.heading_rad) * 0.4;
     dl->AddLine(at(r.x, r.z), at(r.x + hx, r.z + hz), c, 2.0f);
   }
   for (const auto& item : f.items)

@@ -1,5 +1,7 @@
 #include "kumite/app/installation.hpp"
 
+#include "kumite/app/run.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -144,6 +146,7 @@ Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingIn
       fighter_of_config_[static_cast<std::size_t>(loaded[k])] = static_cast<int>(k);
       config_of_fighter_.push_back(loaded[k]);
     }
+    skeletons_.resize(loaded.size());
   } catch (const std::exception& e) {
     fighter_problem_ = std::string("no fighter: ") + e.what();
     spdlog::error("{}", fighter_problem_);
@@ -315,11 +318,14 @@ void Installation::apply_orders(Timestamp now) {
 
 void Installation::update_fighter(Timestamp now, double dt) {
   frame_.items.clear();
-  frame_.has_fighter = static_cast<bool>(fighter_);
+  FighterPose& pose = frame_.fighter;
+  pose.present = static_cast<bool>(fighter_);
   if (!fighter_) {
     console_.problems.push_back(fighter_problem_);
-    frame_.fighter_state = "none";
-    frame_.fighter_root.reset();
+    pose.joints.clear();
+    pose.local_rotations.clear();
+    pose.skeleton.reset();
+    pose.target.reset();
     return;
   }
   const glm::dvec3 mid = (frame_.eyes.left + frame_.eyes.right) * 0.5;
@@ -327,10 +333,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
   const content::FighterFrame f = fighter_->frame();
   const int character = config_of_fighter_.at(static_cast<std::size_t>(f.character));
   plan_fighter(f, character_colour(character), frame_.items);
-  frame_.fighter_state = std::string(content::to_string(f.state));
-  frame_.character = character;
-  frame_.fighter_root = glm::dvec3(f.root.x(), f.root.y(), f.root.z());
-  frame_.fighter_heading_rad = f.heading_rad;
+  copy_pose(f, character, pose);
   for (auto e : fighter_->take_events()) {
     if (e.order.kind == OrderKind::select_character && e.order.character >= 0 &&
         e.order.character < static_cast<int>(config_of_fighter_.size())) {  // back to config numbering
@@ -341,6 +344,56 @@ void Installation::update_fighter(Timestamp now, double dt) {
     note(to_frame_event(e, start_));
   }
   for (const auto& m : missing_characters_) console_.problems.push_back(m);
+}
+
+void Installation::copy_pose(const content::FighterFrame& f, int character, FighterPose& pose) {
+  auto& skeleton = skeletons_.at(static_cast<std::size_t>(f.character));
+  if (!skeleton) {  // once per character
+    auto s = std::make_shared<FighterSkeleton>();
+    s->character = character;
+    s->character_name = character_name(character);
+    s->joint_names.assign(f.joint_names.begin(), f.joint_names.end());
+    // The log keys joints by name: a name a skeleton repeats gets "#<index>" added.
+    for (std::size_t j = 0; j < s->joint_names.size(); ++j)
+      if (std::count(s->joint_names.begin(), s->joint_names.end(), s->joint_names[j]) > 1)
+        s->joint_names[j] += fmt::format("#{}", j);
+    s->parents.assign(f.parents.begin(), f.parents.end());
+    skeleton = std::move(s);
+  }
+  if (pose.skeleton != skeleton) {  // a switch: room for the largest character once
+    pose.skeleton = skeleton;
+    std::size_t most = 0;
+    for (const auto& s : skeletons_) most = std::max(most, s ? s->joint_names.size() : 0);
+    pose.joints.reserve(std::max(most, f.joints.size()));
+    pose.local_rotations.reserve(std::max(most, f.joints.size()));
+  }
+  pose.state = f.state;
+  pose.character = character;
+  pose.joints.resize(f.joints.size());
+  for (std::size_t j = 0; j < f.joints.size(); ++j) pose.joints[j] = {f.joints[j].x(), f.joints[j].y(), f.joints[j].z()};
+  pose.local_rotations.resize(f.local_rotations.size());
+  for (std::size_t j = 0; j < f.local_rotations.size(); ++j) {
+    const auto& q = f.local_rotations[j];
+    pose.local_rotations[j] = glm::dquat(q.w(), q.x(), q.y(), q.z());
+  }
+  pose.root_joint = {f.root_joint.x(), f.root_joint.y(), f.root_joint.z()};
+  if (f.target)
+    pose.target = glm::dvec3(f.target->x(), f.target->y(), f.target->z());
+  else
+    pose.target.reset();
+  pose.root = glm::dvec3(f.root.x(), f.root.y(), f.root.z());
+  pose.heading_rad = f.heading_rad;
+}
+
+void log_retrieval_timing(const Installation& inst) {
+  const content::RetrievalTiming t = inst.retrieval_timing();
+  spdlog::info("fighter: {} strike plan(s), each applied {} update(s) after its order; {} update(s) waited for the "
+               "retrieval worker (longest {:.3f} ms, {:.3f} ms in all)",
+               t.requests, content::kRetrievalDelayUpdates, t.waits, t.wait_max_ms, t.wait_total_ms);
+}
+
+content::RetrievalTiming Installation::retrieval_timing() const {
+  return fighter_ ? fighter_->retrieval_timing() : content::RetrievalTiming{};
 }
 
 const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
@@ -364,9 +417,9 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   }
   apply_orders(now);
   update_fighter(now, dt);
-  console_.fighter_state = frame_.fighter_state;
-  console_.character = frame_.character;
-  console_.character_name = character_name(frame_.character);
+  console_.fighter_state = frame_.fighter.present ? std::string(content::to_string(frame_.fighter.state)) : "none";
+  console_.character = frame_.fighter.character;
+  console_.character_name = character_name(frame_.fighter.character);
   // Frame rate from the smoothed frame time (the first step after start() has no interval).
   if (frame_.frame > 0 && dt > 0)
     dt_filtered_ = dt_filtered_ == 0 ? dt : 0.9 * dt_filtered_ + 0.1 * dt;

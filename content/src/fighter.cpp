@@ -144,7 +144,14 @@ class FighterImpl final : public Fighter {
     behaviour_.update(now, dt, head);
   }
   RetrievalTiming retrieval_timing() const override { return worker_->stats(); }
-  FighterFrame frame() const override { return behaviour_.frame(); }
+  FighterFrame frame() const override {
+    FighterFrame f = behaviour_.frame();
+    const Rig& rig = behaviour_.character(f.character);
+    f.joint_names = rig.skeleton.names;
+    f.local_rotations = behaviour_.local_rotations().first(f.joints.size());
+    f.root_joint = behaviour_.root_position();
+    return f;
+  }
   std::vector<FighterEvent> take_events() override { return behaviour_.take_events(); }
   int character_count() const override { return behaviour_.character_count(); }
   std::string character_name(int index) const override {

@@ -18,6 +18,7 @@
 #include <stb/stb_image.h>
 
 #include "kumite/app/config.hpp"
+#include "kumite/app/frame_log.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
 #include "kumite/app/scene.hpp"
@@ -210,8 +211,8 @@ TEST(Demo, AMissingCharacterFileLeavesTheOthersAndKeepsTheKeyNumbers) {
     const auto& f = inst.step(1000.0 + i / 60.0);
     events.insert(events.end(), f.events.begin(), f.events.end());
   }
-  ASSERT_TRUE(inst.frame().has_fighter) << "the other four characters still make a fighter";
-  EXPECT_EQ(inst.frame().character, 2) << "character 3 (Bruno), in the config's numbering";
+  ASSERT_TRUE(inst.frame().fighter.present) << "the other four characters still make a fighter";
+  EXPECT_EQ(inst.frame().fighter.character, 2) << "character 3 (Bruno), in the config's numbering";
   bool said_missing = false;
   for (const auto& p : inst.console().problems) said_missing |= p.find("kenji.bvh does not exist") != std::string::npos;
   EXPECT_TRUE(said_missing);
@@ -223,4 +224,59 @@ TEST(Demo, AMissingCharacterFileLeavesTheOthersAndKeepsTheKeyNumbers) {
   EXPECT_TRUE(ignored_1);
   EXPECT_TRUE(changed_3);
   fs::remove_all(dir);
+}
+
+// Issue 13: the fighter in FrameData is plain copyable data (no spans into the fighter),
+// filled without allocating after warm-up, and the log carries its joints by name.
+TEST(Demo, TheFighterIsPlainDataInTheFrameAndInTheLog) {
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = demo_database();
+  cfg.tracking.source = TrackingSource::none;
+  const fs::path out = fs::temp_directory_path() / ("kumite_app_test_pose_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const fs::path script = out / "orders.csv";
+  std::ofstream(script) << "time_s,order\n0.2,punch_right\n1.2,character 2\n1.6,kick_right\n";
+  InstallationOptions io;
+  io.orders_script = script;
+  Installation inst(cfg, make_fixed_head_input("test"), io);
+  std::vector<FrameData> copies;  // FrameData copies whole: nothing points into the fighter
+  const glm::dvec3* joints_at = nullptr;
+  int moved = 0;
+  for (int i = 0; i < 150; ++i) {
+    const FrameData& f = inst.step(1000.0 + i / 60.0);
+    const FighterPose& p = f.fighter;
+    ASSERT_TRUE(p.present);
+    ASSERT_TRUE(p.skeleton);
+    ASSERT_EQ(p.joints.size(), p.skeleton->joint_names.size());
+    ASSERT_EQ(p.local_rotations.size(), p.joints.size());
+    ASSERT_EQ(p.skeleton->character, p.character);
+    if (i > 0 && p.joints.data() != joints_at) ++moved;
+    joints_at = p.joints.data();
+    copies.push_back(f);
+  }
+  // The joints' storage moved at most once: at the switch to a character with more joints.
+  EXPECT_LE(moved, 1);
+  EXPECT_EQ(copies[30].fighter.character, 0);
+  EXPECT_EQ(copies[140].fighter.character, 1);
+  EXPECT_NE(copies[30].fighter.skeleton, copies[140].fighter.skeleton);
+  // The copies kept their own joints: a strike moved them between frames 20 and 40.
+  double moved_m = 0;
+  for (std::size_t j = 0; j < copies[20].fighter.joints.size(); ++j)
+    moved_m = std::max(moved_m, glm::length(copies[40].fighter.joints[j] - copies[20].fighter.joints[j]));
+  EXPECT_GT(moved_m, 0.05);
+
+  // The log line: joints keyed by joint name, as in FrameData (rounded to 1e-5 m).
+  const auto line = nlohmann::json::parse(frame_json(copies[40], inst.console(), {}, true));
+  const auto& fj = line["fighter"];
+  ASSERT_TRUE(fj.contains("joints"));
+  const auto& names = copies[40].fighter.skeleton->joint_names;
+  ASSERT_EQ(fj["joints"].size(), names.size());
+  ASSERT_EQ(fj["local_rotations"].size(), names.size());
+  for (std::size_t j = 0; j < names.size(); ++j) {
+    const auto& a = fj["joints"][names[j]];
+    const glm::dvec3 logged(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+    EXPECT_LT(glm::length(logged - copies[40].fighter.joints[j]), 1e-5) << names[j];
+  }
+  fs::remove_all(out);
 }

@@ -116,13 +116,16 @@ TEST(Fighter, SameInputsGiveTheSameFramesWhateverTheWorkersTiming) {
   cfg.database = tmp.path / "fighter.kdb";
   save_database(*kumite::content::testing::synthetic_database().db, cfg.database);
   cfg.characters = {write_character(tmp.path, "small", synthetic::make_skeleton({.scale = 0.86}))};
+  const Skeleton skeleton = read_bvh(cfg.characters[0]).skeleton;
   struct Run {
     std::vector<std::vector<Eigen::Vector3d>> joints;
     std::vector<FighterState> states;
     std::vector<int> strike_starts;  // updates whose frame first shows striking
     RetrievalTiming stats;
+    bool names_match = true;
+    double fk_error_m = 0;  // m, largest |FK(local rotations) - drawn joint|
   };
-  auto run = [&](unsigned seed) {
+  auto run = [&](unsigned seed) -> Run {
     FighterOptions opt;
     auto rng = std::make_shared<std::uint32_t>(seed);
     opt.plan = [rng](const StrikePlanner& p, const StrikeRequest& r) {
@@ -142,6 +145,21 @@ TEST(Fighter, SameInputsGiveTheSameFramesWhateverTheWorkersTiming) {
       if (i == 20 || i == 30 || i == 150 || i == 300) fighter->order(Order{t, i == 150 ? OrderKind::punch_left : OrderKind::punch_right});
       fighter->update(t, 1.0 / 60, head);
       const FighterFrame f = fighter->frame();
+      // The plain pose: forward kinematics of the local rotations from the root joint on the
+      // character's skeleton is the drawn pose (no character switch here).
+      EXPECT_EQ(f.local_rotations.size(), f.joints.size());
+      EXPECT_EQ(f.joint_names.size(), f.joints.size());
+      if (f.local_rotations.size() != f.joints.size() || f.joint_names.size() != f.joints.size()) return out;
+      std::vector<Eigen::Quaterniond> global(f.joints.size());
+      for (std::size_t j = 0; j < f.joints.size(); ++j) {
+        const int p = skeleton.parents[j];
+        out.names_match &= f.joint_names[j] == skeleton.names[j];
+        global[j] = p < 0 ? f.local_rotations[j] : global[static_cast<std::size_t>(p)] * f.local_rotations[j];
+        const Eigen::Vector3d pos = p < 0 ? f.root_joint
+                                          : Eigen::Vector3d(f.joints[static_cast<std::size_t>(p)] +
+                                                            global[static_cast<std::size_t>(p)] * skeleton.offsets[j]);
+        out.fk_error_m = std::max(out.fk_error_m, (pos - f.joints[j]).norm());
+      }
       out.joints.emplace_back(f.joints.begin(), f.joints.end());
       out.states.push_back(f.state);
       if (f.state == FighterState::striking && last != FighterState::striking) out.strike_starts.push_back(i);
@@ -153,6 +171,8 @@ TEST(Fighter, SameInputsGiveTheSameFramesWhateverTheWorkersTiming) {
     return out;
   };
   const Run a = run(1), b = run(2);
+  EXPECT_TRUE(a.names_match);
+  EXPECT_LT(a.fk_error_m, 1e-9);
   ASSERT_GE(a.strike_starts.size(), 2u);
   // Each strike starts exactly kRetrievalDelayUpdates after its order.
   EXPECT_EQ(a.strike_starts.front(), 20 + kRetrievalDelayUpdates);

@@ -15,10 +15,7 @@
 #include "kumite/app/orders.hpp"
 #include "kumite/app/scene.hpp"
 #include "kumite/common/wire.hpp"
-
-namespace kumite::content {
-class Fighter;
-}
+#include "kumite/content/fighter.hpp"
 
 namespace kumite::app {
 
@@ -106,6 +103,33 @@ struct ConsoleState {
   std::deque<std::string> recent;     ///< recent events, newest last
 };
 
+/// The fighter's skeleton, made once per character: what a FighterPose's arrays are indexed by.
+struct FighterSkeleton {
+  int character = 0;                     ///< 0-based, the config's numbering
+  std::string character_name;
+  std::vector<std::string> joint_names;  ///< one per joint, in skeleton order
+  std::vector<int> parents;              ///< parent index per joint (-1: the root)
+};
+
+/// The fighter in one frame as plain, copyable data (no spans into the fighter's memory):
+/// what the log, a recording and later a render node get. Room frame, metres. The vectors
+/// are reserved once per character, so filling it each frame allocates nothing after warm-up.
+struct FighterPose {
+  bool present = false;                  ///< false: no fighter (database or characters missing)
+  content::FighterState state = content::FighterState::resting;
+  int character = 0;                     ///< 0-based, the config's numbering
+  std::shared_ptr<const FighterSkeleton> skeleton;  ///< the character's (shared, never changes)
+  std::vector<glm::dvec3> joints;        ///< m, room frame: the joints as drawn, one per skeleton joint
+  /// Per joint, its rotation relative to its parent (the root's: to the room) on the
+  /// character's skeleton; forward kinematics from root_joint gives `joints` (except while a
+  /// character switch eases the drawn joints, blend_time_s).
+  std::vector<glm::dquat> local_rotations;
+  glm::dvec3 root_joint{0, 0, 0};        ///< m, room frame: the skeleton's root joint (BVH root)
+  std::optional<glm::dvec3> target;      ///< m, room frame: the frozen strike target
+  glm::dvec3 root{0, 0, 0};              ///< m, room frame, on the floor under the pelvis (top view)
+  double heading_rad = 0;                ///< rotation about +Y; 0 = facing +Z (the visitor)
+};
+
 /// Everything a renderer and the log need about one frame.
 struct FrameData {
   std::uint64_t frame = 0;
@@ -123,11 +147,7 @@ struct FrameData {
   /// ms, how far past the moment it was taken the head is predicted: to the frame's vsync
   /// plus the display latency (config display_latency_ms).
   double predicted_ahead_ms = 0;
-  bool has_fighter = false;
-  std::string fighter_state;
-  int character = 0;
-  std::optional<glm::dvec3> fighter_root;  ///< m, room frame (top view)
-  double fighter_heading_rad = 0;
+  FighterPose fighter;        ///< the fighter as plain data
 };
 
 struct InstallationOptions {
@@ -177,12 +197,16 @@ class Installation {
   int character_count() const;
   std::string character_name(int index) const;
   bool quit_requested() const { return quit_; }
+  /// How the fighter's retrieval worker kept to the updates its plans were due on (zeros
+  /// without a fighter).
+  content::RetrievalTiming retrieval_timing() const;
   void request_quit() { quit_ = true; }
 
  private:
   void update_head(Timestamp now, Timestamp shown_at);
   void apply_orders(Timestamp now);
   void update_fighter(Timestamp now, double dt);
+  void copy_pose(const content::FighterFrame& f, int character, FighterPose& pose);
   void note(const FrameEvent& e);
 
   InstallationConfig config_;
@@ -194,6 +218,8 @@ class Installation {
   std::vector<std::string> missing_characters_;  // one line each (left out of the fighter)
   std::vector<int> fighter_of_config_;  // config character -> the fighter's (-1: not loaded)
   std::vector<int> config_of_fighter_;
+  /// Per fighter character, its skeleton for FighterPose (made at the first frame it is drawn).
+  std::vector<std::shared_ptr<const FighterSkeleton>> skeletons_;
   OrderScript script_;
   std::vector<Order> pending_;
   std::vector<Order> due_;

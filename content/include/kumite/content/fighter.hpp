@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
@@ -67,6 +68,13 @@ struct FighterFrame {
   std::span<const Eigen::Vector3d> joints;   ///< m, room frame, one per skeleton joint
   std::span<const int> parents;              ///< parent index per joint (-1 root)
   std::span<const float> joint_radii_m;      ///< suggested capsule radius per bone (to parent)
+  std::span<const std::string> joint_names;  ///< the character's skeleton joint names
+  /// Per joint, its rotation relative to its parent (the root's: to the room), on the
+  /// character's skeleton (BVH offsets, identity = the offsets' pose). Forward kinematics of
+  /// these from `root_joint` gives `joints` exactly, except while a character switch eases
+  /// the drawn joints from the old character's pose (blend_time_s after the switch).
+  std::span<const Eigen::Quaterniond> local_rotations;
+  Eigen::Vector3d root_joint{0, 0, 0};       ///< m, room frame: the skeleton's root joint (BVH root)
   std::optional<Eigen::Vector3d> target;     ///< m, room frame: frozen strike target
   Eigen::Vector3d root{0, 0, 0};             ///< m, room frame, on the floor under the pelvis
   double heading_rad = 0;                    ///< rotation about +Y; 0 = facing +Z (the visitor)
