@@ -12,6 +12,7 @@
 
 
 #include "kumite/app/config.hpp"
+#include "kumite/app/export.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
 #include "kumite/app/tracking_input.hpp"
@@ -38,7 +39,12 @@ struct Args {
   std::string data_dir;
   int render_nice = 5;
   int verbosity = 1;
+  // kumite export
+  std::string export_log, export_bvh, export_head_csv;
+  double export_from = 0, export_to = 1e300;
 };
+
+
 
 std::optional<std::array<int, 2>> parse_resolution(const std::string& s) {
   if (s.empty()) return std::nullopt;
@@ -58,6 +64,28 @@ void lower_render_priority(int n) {
 /// The folder a file option writes into ("" for the current one).
 std::filesystem::path folder_of(const std::string& file) {
   return std::filesystem::path(file).parent_path();
+}
+
+int run_export(const Args& a) {
+  auto config = kumite::app::load_installation_config(
+      a.config, a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
+  kumite::app::ExportOptions eo;
+  eo.log = a.export_log;
+  eo.from_s = a.export_from;
+  eo.to_s = a.export_to;
+  if (!a.export_bvh.empty()) eo.bvh = a.export_bvh;
+  if (!a.export_head_csv.empty()) eo.head_csv = a.export_head_csv;
+  if (!eo.bvh && !eo.head_csv) throw kumite::Error("cli", "export", "export: nothing to write (--out FILE.bvh and/or --head-csv FILE)");
+  for (const auto& f : {a.export_bvh, a.export_head_csv})
+    if (!f.empty()) kumite::app::make_output_folder(folder_of(f).empty() ? "." : folder_of(f), f);
+  const auto rep = kumite::app::export_log(config, eo);
+  spdlog::info("export: frames {}..{} ({:.3f}..{:.3f} s, {} frames){}", rep.first_frame, rep.last_frame, rep.first_time_s,
+               rep.last_time_s, rep.frames, rep.truncated_last_line ? "; the log's last line was cut short" : "");
+  if (eo.bvh)
+    spdlog::info("export: {} (character {} \"{}\", frame time {:.6f} s)", eo.bvh->string(), rep.character + 1,
+                 rep.character_name, rep.frame_time_s);
+  if (eo.head_csv) spdlog::info("export: {} (head poses)", eo.head_csv->string());
+  return 0;
 }
 
 int run(const Args& a, const std::atomic<int>& stop) {
@@ -148,6 +176,15 @@ int main(int argc, char** argv) {
                  "nice value added to the render thread (and GL threads it starts), so tracking wins the cores; 0 = off")
       ->capture_default_str();
   app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->capture_default_str();
+  CLI::App* exp = app.add_subcommand(
+      "export", "from a frames.jsonl: the fighter's performance as BVH on its character's skeleton, the head poses as CSV");
+  exp->add_option("--log", a.export_log, "frames.jsonl of a run")->required();
+  exp->add_option("--from", a.export_from, "s, first time_s taken (default: the start)");
+  exp->add_option("--to", a.export_to, "s, last time_s taken (default: the end)");
+  exp->add_option("--out", a.export_bvh, "BVH file of the fighter (characters from --config)");
+  exp->add_option("--head-csv", a.export_head_csv, "CSV of the head poses: frame,time_s,x_m,y_m,z_m,qw,qx,qy,qz,live");
+  exp->add_option("--config", a.config, "installation file the run used (its characters)");
+  exp->add_option("--data-dir", a.data_dir, "as for the run");
   CLI11_PARSE(app, argc, argv);
   kumite::init_logging(a.verbosity);
   // SIGINT (Ctrl-C) and SIGTERM end the run at its next frame with its outputs complete; the
@@ -155,6 +192,7 @@ int main(int argc, char** argv) {
   // process the signal killed. A second one kills at once.
   const std::atomic<int>& stop = kumite::app::stop_on_signals();
   try {
+    if (exp->parsed()) return run_export(a);
     const int rc = run(a, stop);
     if (const int sig = stop.load(); sig != 0) {
       spdlog::info("stopped by {}: outputs complete, exit status {}", sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal",
