@@ -80,7 +80,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
   }
   json events = json::array();
   for (const auto& e : f.events) {
-    json ev = {{"type", e.type}, {"time_s", e.time_s}};
+    json ev = {{"type", to_string(e.type)}, {"time_s", e.time_s}};
     if (!e.order.empty()) ev["order"] = e.order;
     if (!e.text.empty()) ev["text"] = e.text;
     if (is_strike_outcome(e.type)) ev["distance_m"] = e.distance_m;

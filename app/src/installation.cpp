@@ -70,13 +70,13 @@ FrameEvent to_frame_event(const content::FighterEvent& e, Timestamp start) {
   f.text = e.text;
   f.distance_m = e.distance_m;
   switch (e.kind) {
-    case K::order_accepted: f.type = "order"; f.order = to_string(e.order); break;
-    case K::order_ignored: f.type = "order_ignored"; f.order = to_string(e.order); break;
-    case K::hit: f.type = "hit"; f.order = to_string(e.order); break;    // the strike's order
-    case K::dodged: f.type = "dodged"; f.order = to_string(e.order); break;
-    case K::miss: f.type = "miss"; f.order = to_string(e.order); break;
-    case K::character_changed: f.type = "character_changed"; f.order = to_string(e.order); break;
-    case K::warning: f.type = "warning"; break;
+    case K::order_accepted: f.type = EventType::order; f.order = to_string(e.order); break;
+    case K::order_ignored: f.type = EventType::order_ignored; f.order = to_string(e.order); break;
+    case K::hit: f.type = EventType::hit; f.order = to_string(e.order); break;    // the strike's order
+    case K::dodged: f.type = EventType::dodged; f.order = to_string(e.order); break;
+    case K::miss: f.type = EventType::miss; f.order = to_string(e.order); break;
+    case K::character_changed: f.type = EventType::character_changed; f.order = to_string(e.order); break;
+    case K::warning: f.type = EventType::warning; break;
   }
   return f;
 }
@@ -118,6 +118,26 @@ std::vector<std::string> check_fighter_files(const InstallationConfig& c, std::v
 }
 
 }  // namespace
+
+std::string_view to_string(EventType type) {
+  switch (type) {
+    case EventType::order: return "order";
+    case EventType::order_ignored: return "order_ignored";
+    case EventType::hit: return "hit";
+    case EventType::dodged: return "dodged";
+    case EventType::miss: return "miss";
+    case EventType::character_changed: return "character_changed";
+    case EventType::warning: return "warning";
+  }
+  return "?";
+}
+
+std::optional<EventType> parse_event_type(std::string_view text) {
+  for (const EventType t : {EventType::order, EventType::order_ignored, EventType::hit, EventType::dodged, EventType::miss,
+                            EventType::character_changed, EventType::warning})
+    if (to_string(t) == text) return t;
+  return std::nullopt;
+}
 
 std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why) {
   return std::make_unique<FixedHeadInput>(std::move(why));
@@ -196,20 +216,20 @@ Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
 
 void Installation::note(const FrameEvent& e) {
   frame_.events.push_back(e);
-  std::string line = fmt::format("{:7.2f} s  {}", e.time_s, e.type);
+  std::string line = fmt::format("{:7.2f} s  {}", e.time_s, to_string(e.type));
   if (!e.order.empty()) line += " " + e.order;
   if (!e.text.empty()) line += ": " + e.text;
   console_.recent.push_back(line);
   while (console_.recent.size() > kRecentEvents) console_.recent.pop_front();
-  if (e.type == "order" || e.type == "order_ignored") {
+  if (e.type == EventType::order || e.type == EventType::order_ignored) {
     console_.last_order = e.order;
-    console_.last_outcome = e.type == "order" ? "accepted" : "ignored: " + e.text;
+    console_.last_outcome = e.type == EventType::order ? "accepted" : "ignored: " + e.text;
   } else if (is_strike_outcome(e.type)) {
     // The strike's own order: an order ignored meanwhile must not take this outcome.
     console_.last_order = e.order;
-    console_.last_outcome = fmt::format("{} ({:.2f} m)", e.type, e.distance_m);
+    console_.last_outcome = fmt::format("{} ({:.2f} m)", to_string(e.type), e.distance_m);
   }
-  if (e.type == "warning" || e.type == "order_ignored")
+  if (e.type == EventType::warning || e.type == EventType::order_ignored)
     spdlog::warn("{}", line);
   else
     spdlog::info("{}", line);
@@ -287,14 +307,14 @@ void Installation::apply_orders(Timestamp now) {
     if (o.kind == OrderKind::pause) console_.paused = true;
     if (o.kind == OrderKind::resume) console_.paused = false;
     if (!fighter_) {
-      e.type = "order_ignored";
+      e.type = EventType::order_ignored;
       e.text = fighter_problem_;
       note(e);
       continue;
     }
     if (o.kind == OrderKind::select_character &&
         (o.character < 0 || o.character >= character_count())) {
-      e.type = "order_ignored";
+      e.type = EventType::order_ignored;
       e.text = fmt::format("character {} does not exist ({} characters)", o.character + 1,
                            character_count());
       note(e);
@@ -305,7 +325,7 @@ void Installation::apply_orders(Timestamp now) {
     if (o.kind == OrderKind::select_character) {  // config numbering -> the fighter's
       timed.character = fighter_of_config_[static_cast<std::size_t>(o.character)];
       if (timed.character < 0) {
-        e.type = "order_ignored";
+        e.type = EventType::order_ignored;
         e.text = fmt::format("character {} \"{}\" is not loaded (its file is missing)", o.character + 1,
                              character_name(o.character));
         note(e);

@@ -222,8 +222,8 @@ TEST(Demo, AMissingCharacterFileLeavesTheOthersAndKeepsTheKeyNumbers) {
   EXPECT_TRUE(said_missing);
   bool ignored_1 = false, changed_3 = false;
   for (const auto& e : events) {
-    if (e.type == "order_ignored" && e.order == "character 1") ignored_1 = e.text.find("not loaded") != std::string::npos;
-    if (e.type == "character_changed") changed_3 = e.text == "character 3 (Bruno)" && e.order == "character 3";
+    if (e.type == EventType::order_ignored && e.order == "character 1") ignored_1 = e.text.find("not loaded") != std::string::npos;
+    if (e.type == EventType::character_changed) changed_3 = e.text == "character 3 (Bruno)" && e.order == "character 3";
   }
   EXPECT_TRUE(ignored_1);
   EXPECT_TRUE(changed_3);

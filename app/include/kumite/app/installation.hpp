@@ -61,9 +61,16 @@ class TrackingInput {
 /// No tracking: the head stays at the configured default position (console usable alone).
 std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why);
 
+/// What a FrameEvent is. Text ("order", "hit", ...) only at the log and console (to_string).
+enum class EventType : std::uint8_t { order, order_ignored, hit, dodged, miss, character_changed, warning };
+/// "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning".
+std::string_view to_string(EventType type);
+/// The text form back (reading logs); std::nullopt when it is none of them.
+std::optional<EventType> parse_event_type(std::string_view text);
+
 /// One event of a frame, ready for the log and the console.
 struct FrameEvent {
-  std::string type;      ///< "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning"
+  EventType type = EventType::warning;
   std::string order;     ///< the order concerned, text form ("" if none)
   std::string text;      ///< one line for people
   double distance_m = 0; ///< hit / dodged / miss: m from the hit point to the visitor's body (0: touching)
@@ -71,7 +78,9 @@ struct FrameEvent {
 };
 /// A strike's outcome at contact: "hit" (touched the visitor), "dodged" (reached its target,
 /// the visitor had moved away) or "miss" (short of its target).
-inline bool is_strike_outcome(std::string_view type) { return type == "hit" || type == "dodged" || type == "miss"; }
+inline bool is_strike_outcome(EventType type) {
+  return type == EventType::hit || type == EventType::dodged || type == EventType::miss;
+}
 
 /// The console's state: computed every frame, drawn by ImGui in windows, logged headless.
 struct ConsoleState {
