@@ -1,6 +1,7 @@
 #include "kumite/app/installation.hpp"
 
 #include "kumite/app/run.hpp"
+#include "kumite/app/session.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -188,6 +189,7 @@ std::string Installation::character_name(int index) const {
 void Installation::start(Timestamp t) {
   start_ = t;
   last_step_ = t;
+  if (recorder_) recorder_->started(t, tracking_->has_tracker());
   script_.restart(t);
   started_ = true;
   script_waits_ = tracking_->has_tracker() && script_.remaining() > 0;
@@ -240,14 +242,21 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
   // the projectors take to show it.
   const Timestamp seen_at = std::max(now, shown_at) + config_.display_latency_ms * 1e-3;
   frame_.predicted_ahead_ms = (seen_at - now) * 1e3;
-  const TrackingSnapshot snap = tracking_->poll(now, seen_at);
+  if (replaying_) {
+    input_.tracking = replaying_->tracking;
+    input_.tracking_clock = replaying_->tracking_clock;
+  } else {
+    input_.tracking = tracking_->poll(now, seen_at);
+  }
+  const TrackingSnapshot& snap = input_.tracking;
   console_.cameras = snap.cameras;
   console_.tracking = snap.status;
   console_.tracking_source = snap.source;
   for (const auto& p : snap.problems) console_.problems.push_back(p);
   // Pose age: the newest head measurement's camera time to now, the moment this frame takes
   // the head for rendering (the draw follows at once), tracked or not.
-  const double age_s = snap.measured_at >= 0 ? tracking_->clock() - snap.measured_at : -1;
+  if (!replaying_) input_.tracking_clock = snap.measured_at >= 0 ? tracking_->clock() : -1;
+  const double age_s = snap.measured_at >= 0 ? input_.tracking_clock - snap.measured_at : -1;
   frame_.pose_age_ms = age_s >= 0 ? age_s * 1e3 : -1;
   frame_.pose_measured_at = snap.measured_at;
   // Split only while the head is tracked: a coasting pose's age also holds the sets that
@@ -422,6 +431,9 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   last_step_ = now;
   const Timestamp cpu0 = kumite::now();
   frame_.frame = steps_++;
+  input_.now = now;
+  input_.shown_at = shown_at;
+  input_.keyed.assign(pending_.begin(), pending_.end());
   frame_.events.clear();
   console_.problems.clear();
   frame_.now = now;
@@ -451,7 +463,23 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   const auto budget = pacer_.draw_budget_s();
   console_.draw_budget_ms = budget ? *budget * 1e3 : -1;
   console_.frame_cpu_ms = (kumite::now() - cpu0) * 1e3;
+  if (recorder_) recorder_->push(frame_.frame, input_, state_hashes(frame_));
   return frame_;
 }
+
+const FrameData& Installation::replay(const FrameInput& input) {
+  pending_ = input.keyed;
+  replaying_ = &input;
+  try {
+    step(input.now, input.shown_at);
+  } catch (...) {
+    replaying_ = nullptr;
+    throw;
+  }
+  replaying_ = nullptr;
+  return frame_;
+}
+
+bool Installation::has_tracker() const { return tracking_->has_tracker(); }
 
 }  // namespace kumite::app

@@ -159,6 +159,19 @@ struct FrameData {
   FighterPose fighter;        ///< the fighter as plain data
 };
 
+/// What one frame took from outside (issue 13): with the same config, orders script and
+/// fighter data, the same FrameInputs give the same frames (Installation::replay). Orders of
+/// the script are not in it: they follow from the times.
+struct FrameInput {
+  Timestamp now = 0;        ///< s, the frame loop's clock: the moment the frame takes the head
+  Timestamp shown_at = 0;   ///< s, its vsync
+  std::vector<Order> keyed; ///< orders from keys / the console taken by this frame
+  TrackingSnapshot tracking;///< as the tracker gave it
+  Timestamp tracking_clock = -1;  ///< s, the tracker's clock() the pose age was measured with
+};
+
+class SessionRecorder;
+
 struct InstallationOptions {
   std::optional<std::filesystem::path> orders_script;  ///< overrides the config's
   bool mono_eyes = false;  ///< mono stereo: both eyes at the midpoint
@@ -198,6 +211,16 @@ class Installation {
   const FrameData& step(Timestamp now, Timestamp shown_at);
   /// A frame seen at once (simulated time, tests).
   const FrameData& step(Timestamp now) { return step(now, now); }
+  /// The frame again from a recorded input: the tracker is not asked, `input.keyed` are the
+  /// orders given before it. Deterministic: the same inputs give bit-identical FrameData.
+  const FrameData& replay(const FrameInput& input);
+  /// What the last step() took from outside.
+  const FrameInput& input() const { return input_; }
+  /// Every step from now on hands its input and its state's hashes to `recorder` (never
+  /// waiting on it); nullptr stops. The recorder must outlive the steps.
+  void record_to(SessionRecorder* recorder) { recorder_ = recorder; }
+  Timestamp start_time() const { return start_; }
+  bool has_tracker() const;
 
   const FrameData& frame() const { return frame_; }
   const ConsoleState& console() const { return console_; }
@@ -243,6 +266,9 @@ class Installation {
   bool script_waits_ = false;  ///< the orders script waits for the head to be tracked
   double dt_filtered_ = 0;  ///< s, smoothed frame interval
   std::uint64_t steps_ = 0;
+  FrameInput input_;
+  const FrameInput* replaying_ = nullptr;
+  SessionRecorder* recorder_ = nullptr;
 };
 
 }  // namespace kumite::app
