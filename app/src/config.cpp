@@ -19,6 +19,18 @@
 
 namespace kumite::app {
 
+std::optional<KeyAction> parse_key_action(std::string_view text) {
+  if (text == "quit") return KeyAction{KeyAction::Kind::quit, OrderKind::punch_right, -1};
+  const auto o = parse_order(text);
+  if (!o) return std::nullopt;
+  return KeyAction{KeyAction::Kind::order, o->kind, o->character};
+}
+
+std::string to_string(const KeyAction& a) {
+  return a.kind == KeyAction::Kind::quit ? "quit" : to_string(a.to_order(0));
+}
+
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -304,7 +316,11 @@ void Reader::parse_keys(const toml::table& root) {
     // "character_2" in the file is the action "character 2".
     std::string act = action;
     if (act.rfind("character_", 0) == 0) act = "character " + act.substr(10);
-    cfg_.keys.push_back({act, name, *code});
+    const auto parsed = parse_key_action(act);
+    if (!parsed)
+      fail("unknown_action", line(node), full,
+           "unknown action (punch_left, punch_right, kick_left, kick_right, pause, resume, recentre, character_N, quit)");
+    cfg_.keys.push_back({*parsed, name, *code});
   }
 }
 
@@ -584,19 +600,14 @@ void validate(const InstallationConfig& c) {
   // Keys: known actions, no key bound twice, characters that exist.
   std::map<int, std::string> used;
   for (const auto& k : c.keys) {
-    const std::string key = "keys." + (k.action.rfind("character ", 0) == 0
-                                           ? "character_" + k.action.substr(10)
-                                           : k.action);
-    if (k.action != "quit" && !parse_order(k.action))
-      fail_at(c, "unknown_action", key,
-              "unknown action (punch_left, punch_right, kick_left, kick_right, pause, resume, "
-              "recentre, character_N, quit)");
-    if (auto o = parse_order(k.action); o && o->kind == OrderKind::select_character &&
-                                        o->character >= static_cast<int>(c.characters.size()))
+    const std::string action = to_string(k.action);
+    const std::string key = "keys." + (action.rfind("character ", 0) == 0 ? "character_" + action.substr(10) : action);
+    if (k.action.kind == KeyAction::Kind::order && k.action.order == OrderKind::select_character &&
+        (k.action.character < 0 || k.action.character >= static_cast<int>(c.characters.size())))
       fail_at(c, "unknown_character", key,
-              fmt::format("character {} does not exist ({} characters defined)", o->character + 1,
+              fmt::format("character {} does not exist ({} characters defined)", k.action.character + 1,
                           c.characters.size()));
-    if (auto [it, fresh] = used.emplace(k.code, k.action); !fresh)
+    if (auto [it, fresh] = used.emplace(k.code, action); !fresh)
       fail_at(c, "duplicate_key", key,
               "key \"" + k.key + "\" is already bound to \"" + it->second + "\"");
   }
@@ -719,7 +730,7 @@ std::string to_toml(const InstallationConfig& c) {
               toml::table{{"near_m", c.projection.near_m}, {"far_m", c.projection.far_m}});
   toml::table keys;
   for (const auto& k : c.keys) {
-    std::string action = k.action;
+    std::string action = to_string(k.action);
     if (action.rfind("character ", 0) == 0) action = "character_" + action.substr(10);
     keys.insert(action, k.key);
   }

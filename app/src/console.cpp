@@ -17,11 +17,11 @@ namespace kumite::app {
 void handle_key(Installation& inst, int key) {
   for (const auto& k : inst.config().keys) {
     if (k.code != key) continue;
-    if (k.action == "quit") {
+    if (k.action.kind == KeyAction::Kind::quit) {
       inst.request_quit();
       return;
     }
-    if (auto o = parse_order(k.action, now())) inst.order(*o);
+    inst.order(k.action.to_order(now()));
     return;
   }
 }
@@ -51,17 +51,17 @@ const ImVec4 kRed(1.0f, 0.35f, 0.3f, 1.0f);
 const ImVec4 kGreen(0.4f, 0.9f, 0.4f, 1.0f);
 const ImVec4 kAmber(1.0f, 0.75f, 0.25f, 1.0f);
 
-std::string key_for(const Installation& inst, const std::string& action) {
+std::string key_for(const Installation& inst, const KeyAction& action) {
   for (const auto& k : inst.config().keys)
     if (k.action == action) return k.key;
   return "";
 }
 
-void order_button(Installation& inst, const char* label, const std::string& action) {
+void order_button(Installation& inst, const char* label, OrderKind order, int character = -1) {
+  const KeyAction action{KeyAction::Kind::order, order, character};
   const std::string key = key_for(inst, action);
   const std::string text = key.empty() ? std::string(label) : fmt::format("{} [{}]", label, key);
-  if (ImGui::Button(text.c_str(), ImVec2(170, 0)))
-    if (auto o = parse_order(action, now())) inst.order(*o);
+  if (ImGui::Button(text.c_str(), ImVec2(170, 0))) inst.order(action.to_order(now()));
 }
 
 ImU32 colour(glm::vec3 c) {
@@ -96,12 +96,12 @@ void top_view(const Installation& inst, const FrameData& f) {
   const ImU32 visitor = inst.console().head_live ? IM_COL32(90, 230, 120, 255) : IM_COL32(230, 180, 60, 255);
   dl->AddCircleFilled(at(mid.x, mid.z), 7, visitor);
   dl->AddLine(at(mid.x, mid.z), at(mid.x + ahead.x, mid.z + ahead.z), visitor, 2.0f);
-  if (f.fighter_root) {
-    const auto& r = *f.fighter_root;
-    const ImU32 c = colour(character_colour(f.character));
+  if (f.fighter.present) {
+    const auto& r = f.fighter.root;
+    const ImU32 c = colour(character_colour(f.fighter.character));
     dl->AddCircleFilled(at(r.x, r.z), 9, c);
     // heading 0 faces +Z (the visitor).
-    const double hx = std::sin(f.fighter_heading_rad) * 0.4, hz = std::cos(f.fighter_heading_rad) * 0.4;
+    const double hx = std::sin(f.fighter.heading_rad) * 0.4, hz = std::cos(f.fighter.heading_rad) * 0.4;
     dl->AddLine(at(r.x, r.z), at(r.x + hx, r.z + hz), c, 2.0f);
   }
   for (const auto& item : f.items)
@@ -130,23 +130,23 @@ void Console::frame(Installation& inst, const FrameData& f) {
   ImGui::Columns(2, nullptr, false);
   // Left column: orders and the key map.
   ImGui::TextColored(kAmber, "Orders");
-  order_button(inst, "Punch left", "punch_left");
+  order_button(inst, "Punch left", OrderKind::punch_left);
   ImGui::SameLine();
-  order_button(inst, "Punch right", "punch_right");
-  order_button(inst, "Kick left", "kick_left");
+  order_button(inst, "Punch right", OrderKind::punch_right);
+  order_button(inst, "Kick left", OrderKind::kick_left);
   ImGui::SameLine();
-  order_button(inst, "Kick right", "kick_right");
+  order_button(inst, "Kick right", OrderKind::kick_right);
   for (int i = 0; i < inst.character_count(); ++i) {
     const std::string label = fmt::format("{} {}", i + 1, inst.character_name(i));
-    order_button(inst, label.c_str(), fmt::format("character {}", i + 1));
+    order_button(inst, label.c_str(), OrderKind::select_character, i);
     if (i % 2 == 0 && i + 1 < inst.character_count()) ImGui::SameLine();
   }
-  order_button(inst, c.paused ? "Resume" : "Pause", c.paused ? "resume" : "pause");
+  order_button(inst, c.paused ? "Resume" : "Pause", c.paused ? OrderKind::resume : OrderKind::pause);
   ImGui::SameLine();
-  order_button(inst, "Recentre", "recentre");
+  order_button(inst, "Recentre", OrderKind::recentre);
   ImGui::Separator();
   ImGui::TextColored(kAmber, "Key map");
-  for (const auto& k : inst.config().keys) ImGui::Text("%-10s %s", k.key.c_str(), k.action.c_str());
+  for (const auto& k : inst.config().keys) ImGui::Text("%-10s %s", k.key.c_str(), to_string(k.action).c_str());
   ImGui::NextColumn();
   // Right column: status.
   ImGui::TextColored(kAmber, "Tracking");

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <utility>
 
@@ -24,6 +25,10 @@ json mat(const glm::dmat4& m) {
   return a;
 }
 json vec(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
+double round_to(double x, double per_unit) { return std::round(x * per_unit) / per_unit; }
+json rounded(const glm::dvec3& v, double per_unit) {
+  return json::array({round_to(v.x, per_unit), round_to(v.y, per_unit), round_to(v.z, per_unit)});
+}
 }  // namespace
 
 std::string frame_json(const FrameData& f, const ConsoleState& c,
@@ -47,14 +52,35 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
     walls[wall_names[w]] = per;
   }
   j["walls"] = walls;
-  j["fighter"] = {{"present", f.has_fighter},
-                  {"state", f.fighter_state},
-                  {"character", f.character + 1},
+  j["fighter"] = {{"present", f.fighter.present},
+                  {"state", f.fighter.present ? std::string(content::to_string(f.fighter.state)) : "none"},
+                  {"character", f.fighter.character + 1},
                   {"character_name", c.character_name}};
-  if (f.fighter_root) j["fighter"]["root"] = vec(*f.fighter_root);
+  if (f.fighter.present) {
+    const FighterPose& p = f.fighter;
+    json& fj = j["fighter"];
+    fj["root"] = vec(p.root);
+    fj["heading_rad"] = p.heading_rad;
+    fj["target"] = p.target ? vec(*p.target) : json(nullptr);
+    // Joints keyed by name (room frame, m, rounded to 1e-5 m), the root joint and the local
+    // rotations (w, x, y, z, rounded to 1e-7): enough to rebuild the pose on the character's
+    // skeleton (kumite export).
+    json joints = json::object(), rotations = json::object();
+    const auto* sk = p.skeleton.get();
+    for (std::size_t i = 0; sk && i < p.joints.size() && i < sk->joint_names.size(); ++i) {
+      joints[sk->joint_names[i]] = rounded(p.joints[i], 1e5);
+      if (i < p.local_rotations.size()) {
+        const glm::dquat& q = p.local_rotations[i];
+        rotations[sk->joint_names[i]] = json::array({round_to(q.w, 1e7), round_to(q.x, 1e7), round_to(q.y, 1e7), round_to(q.z, 1e7)});
+      }
+    }
+    fj["root_joint"] = rounded(p.root_joint, 1e5);
+    fj["joints"] = std::move(joints);
+    fj["local_rotations"] = std::move(rotations);
+  }
   json events = json::array();
   for (const auto& e : f.events) {
-    json ev = {{"type", e.type}, {"time_s", e.time_s}};
+    json ev = {{"type", to_string(e.type)}, {"time_s", e.time_s}};
     if (!e.order.empty()) ev["order"] = e.order;
     if (!e.text.empty()) ev["text"] = e.text;
     if (is_strike_outcome(e.type)) ev["distance_m"] = e.distance_m;

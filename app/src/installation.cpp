@@ -1,5 +1,8 @@
 #include "kumite/app/installation.hpp"
 
+#include "kumite/app/run.hpp"
+#include "kumite/app/session.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -68,13 +71,13 @@ FrameEvent to_frame_event(const content::FighterEvent& e, Timestamp start) {
   f.text = e.text;
   f.distance_m = e.distance_m;
   switch (e.kind) {
-    case K::order_accepted: f.type = "order"; f.order = to_string(e.order); break;
-    case K::order_ignored: f.type = "order_ignored"; f.order = to_string(e.order); break;
-    case K::hit: f.type = "hit"; f.order = to_string(e.order); break;    // the strike's order
-    case K::dodged: f.type = "dodged"; f.order = to_string(e.order); break;
-    case K::miss: f.type = "miss"; f.order = to_string(e.order); break;
-    case K::character_changed: f.type = "character_changed"; f.order = to_string(e.order); break;
-    case K::warning: f.type = "warning"; break;
+    case K::order_accepted: f.type = EventType::order; f.order = to_string(e.order); break;
+    case K::order_ignored: f.type = EventType::order_ignored; f.order = to_string(e.order); break;
+    case K::hit: f.type = EventType::hit; f.order = to_string(e.order); break;    // the strike's order
+    case K::dodged: f.type = EventType::dodged; f.order = to_string(e.order); break;
+    case K::miss: f.type = EventType::miss; f.order = to_string(e.order); break;
+    case K::character_changed: f.type = EventType::character_changed; f.order = to_string(e.order); break;
+    case K::warning: f.type = EventType::warning; break;
   }
   return f;
 }
@@ -117,6 +120,26 @@ std::vector<std::string> check_fighter_files(const InstallationConfig& c, std::v
 
 }  // namespace
 
+std::string_view to_string(EventType type) {
+  switch (type) {
+    case EventType::order: return "order";
+    case EventType::order_ignored: return "order_ignored";
+    case EventType::hit: return "hit";
+    case EventType::dodged: return "dodged";
+    case EventType::miss: return "miss";
+    case EventType::character_changed: return "character_changed";
+    case EventType::warning: return "warning";
+  }
+  return "?";
+}
+
+std::optional<EventType> parse_event_type(std::string_view text) {
+  for (const EventType t : {EventType::order, EventType::order_ignored, EventType::hit, EventType::dodged, EventType::miss,
+                            EventType::character_changed, EventType::warning})
+    if (to_string(t) == text) return t;
+  return std::nullopt;
+}
+
 std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why) {
   return std::make_unique<FixedHeadInput>(std::move(why));
 }
@@ -144,6 +167,7 @@ Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingIn
       fighter_of_config_[static_cast<std::size_t>(loaded[k])] = static_cast<int>(k);
       config_of_fighter_.push_back(loaded[k]);
     }
+    skeletons_.resize(loaded.size());
   } catch (const std::exception& e) {
     fighter_problem_ = std::string("no fighter: ") + e.what();
     spdlog::error("{}", fighter_problem_);
@@ -165,6 +189,7 @@ std::string Installation::character_name(int index) const {
 void Installation::start(Timestamp t) {
   start_ = t;
   last_step_ = t;
+  if (recorder_) recorder_->started(t, tracking_->has_tracker());
   script_.restart(t);
   started_ = true;
   script_waits_ = tracking_->has_tracker() && script_.remaining() > 0;
@@ -193,20 +218,20 @@ Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
 
 void Installation::note(const FrameEvent& e) {
   frame_.events.push_back(e);
-  std::string line = fmt::format("{:7.2f} s  {}", e.time_s, e.type);
+  std::string line = fmt::format("{:7.2f} s  {}", e.time_s, to_string(e.type));
   if (!e.order.empty()) line += " " + e.order;
   if (!e.text.empty()) line += ": " + e.text;
   console_.recent.push_back(line);
   while (console_.recent.size() > kRecentEvents) console_.recent.pop_front();
-  if (e.type == "order" || e.type == "order_ignored") {
+  if (e.type == EventType::order || e.type == EventType::order_ignored) {
     console_.last_order = e.order;
-    console_.last_outcome = e.type == "order" ? "accepted" : "ignored: " + e.text;
+    console_.last_outcome = e.type == EventType::order ? "accepted" : "ignored: " + e.text;
   } else if (is_strike_outcome(e.type)) {
     // The strike's own order: an order ignored meanwhile must not take this outcome.
     console_.last_order = e.order;
-    console_.last_outcome = fmt::format("{} ({:.2f} m)", e.type, e.distance_m);
+    console_.last_outcome = fmt::format("{} ({:.2f} m)", to_string(e.type), e.distance_m);
   }
-  if (e.type == "warning" || e.type == "order_ignored")
+  if (e.type == EventType::warning || e.type == EventType::order_ignored)
     spdlog::warn("{}", line);
   else
     spdlog::info("{}", line);
@@ -217,14 +242,21 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
   // the projectors take to show it.
   const Timestamp seen_at = std::max(now, shown_at) + config_.display_latency_ms * 1e-3;
   frame_.predicted_ahead_ms = (seen_at - now) * 1e3;
-  const TrackingSnapshot snap = tracking_->poll(now, seen_at);
+  if (replaying_) {
+    input_.tracking = replaying_->tracking;
+    input_.tracking_clock = replaying_->tracking_clock;
+  } else {
+    input_.tracking = tracking_->poll(now, seen_at);
+  }
+  const TrackingSnapshot& snap = input_.tracking;
   console_.cameras = snap.cameras;
   console_.tracking = snap.status;
   console_.tracking_source = snap.source;
   for (const auto& p : snap.problems) console_.problems.push_back(p);
   // Pose age: the newest head measurement's camera time to now, the moment this frame takes
   // the head for rendering (the draw follows at once), tracked or not.
-  const double age_s = snap.measured_at >= 0 ? tracking_->clock() - snap.measured_at : -1;
+  if (!replaying_) input_.tracking_clock = snap.measured_at >= 0 ? tracking_->clock() : -1;
+  const double age_s = snap.measured_at >= 0 ? input_.tracking_clock - snap.measured_at : -1;
   frame_.pose_age_ms = age_s >= 0 ? age_s * 1e3 : -1;
   frame_.pose_measured_at = snap.measured_at;
   // Split only while the head is tracked: a coasting pose's age also holds the sets that
@@ -284,14 +316,14 @@ void Installation::apply_orders(Timestamp now) {
     if (o.kind == OrderKind::pause) console_.paused = true;
     if (o.kind == OrderKind::resume) console_.paused = false;
     if (!fighter_) {
-      e.type = "order_ignored";
+      e.type = EventType::order_ignored;
       e.text = fighter_problem_;
       note(e);
       continue;
     }
     if (o.kind == OrderKind::select_character &&
         (o.character < 0 || o.character >= character_count())) {
-      e.type = "order_ignored";
+      e.type = EventType::order_ignored;
       e.text = fmt::format("character {} does not exist ({} characters)", o.character + 1,
                            character_count());
       note(e);
@@ -302,7 +334,7 @@ void Installation::apply_orders(Timestamp now) {
     if (o.kind == OrderKind::select_character) {  // config numbering -> the fighter's
       timed.character = fighter_of_config_[static_cast<std::size_t>(o.character)];
       if (timed.character < 0) {
-        e.type = "order_ignored";
+        e.type = EventType::order_ignored;
         e.text = fmt::format("character {} \"{}\" is not loaded (its file is missing)", o.character + 1,
                              character_name(o.character));
         note(e);
@@ -315,11 +347,14 @@ void Installation::apply_orders(Timestamp now) {
 
 void Installation::update_fighter(Timestamp now, double dt) {
   frame_.items.clear();
-  frame_.has_fighter = static_cast<bool>(fighter_);
+  FighterPose& pose = frame_.fighter;
+  pose.present = static_cast<bool>(fighter_);
   if (!fighter_) {
     console_.problems.push_back(fighter_problem_);
-    frame_.fighter_state = "none";
-    frame_.fighter_root.reset();
+    pose.joints.clear();
+    pose.local_rotations.clear();
+    pose.skeleton.reset();
+    pose.target.reset();
     return;
   }
   const glm::dvec3 mid = (frame_.eyes.left + frame_.eyes.right) * 0.5;
@@ -327,10 +362,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
   const content::FighterFrame f = fighter_->frame();
   const int character = config_of_fighter_.at(static_cast<std::size_t>(f.character));
   plan_fighter(f, character_colour(character), frame_.items);
-  frame_.fighter_state = std::string(content::to_string(f.state));
-  frame_.character = character;
-  frame_.fighter_root = glm::dvec3(f.root.x(), f.root.y(), f.root.z());
-  frame_.fighter_heading_rad = f.heading_rad;
+  copy_pose(f, character, pose);
   for (auto e : fighter_->take_events()) {
     if (e.order.kind == OrderKind::select_character && e.order.character >= 0 &&
         e.order.character < static_cast<int>(config_of_fighter_.size())) {  // back to config numbering
@@ -343,12 +375,65 @@ void Installation::update_fighter(Timestamp now, double dt) {
   for (const auto& m : missing_characters_) console_.problems.push_back(m);
 }
 
+void Installation::copy_pose(const content::FighterFrame& f, int character, FighterPose& pose) {
+  auto& skeleton = skeletons_.at(static_cast<std::size_t>(f.character));
+  if (!skeleton) {  // once per character
+    auto s = std::make_shared<FighterSkeleton>();
+    s->character = character;
+    s->character_name = character_name(character);
+    s->joint_names.assign(f.joint_names.begin(), f.joint_names.end());
+    // The log keys joints by name: a name a skeleton repeats gets "#<index>" added.
+    for (std::size_t j = 0; j < s->joint_names.size(); ++j)
+      if (std::count(s->joint_names.begin(), s->joint_names.end(), s->joint_names[j]) > 1)
+        s->joint_names[j] += fmt::format("#{}", j);
+    s->parents.assign(f.parents.begin(), f.parents.end());
+    skeleton = std::move(s);
+  }
+  if (pose.skeleton != skeleton) {  // a switch: room for the largest character once
+    pose.skeleton = skeleton;
+    std::size_t most = 0;
+    for (const auto& s : skeletons_) most = std::max(most, s ? s->joint_names.size() : 0);
+    pose.joints.reserve(std::max(most, f.joints.size()));
+    pose.local_rotations.reserve(std::max(most, f.joints.size()));
+  }
+  pose.state = f.state;
+  pose.character = character;
+  pose.joints.resize(f.joints.size());
+  for (std::size_t j = 0; j < f.joints.size(); ++j) pose.joints[j] = {f.joints[j].x(), f.joints[j].y(), f.joints[j].z()};
+  pose.local_rotations.resize(f.local_rotations.size());
+  for (std::size_t j = 0; j < f.local_rotations.size(); ++j) {
+    const auto& q = f.local_rotations[j];
+    pose.local_rotations[j] = glm::dquat(q.w(), q.x(), q.y(), q.z());
+  }
+  pose.root_joint = {f.root_joint.x(), f.root_joint.y(), f.root_joint.z()};
+  if (f.target)
+    pose.target = glm::dvec3(f.target->x(), f.target->y(), f.target->z());
+  else
+    pose.target.reset();
+  pose.root = glm::dvec3(f.root.x(), f.root.y(), f.root.z());
+  pose.heading_rad = f.heading_rad;
+}
+
+void log_retrieval_timing(const Installation& inst) {
+  const content::RetrievalTiming t = inst.retrieval_timing();
+  spdlog::info("fighter: {} strike plan(s), each applied {} update(s) after its order; {} update(s) waited for the "
+               "retrieval worker (longest {:.3f} ms, {:.3f} ms in all)",
+               t.requests, content::kRetrievalDelayUpdates, t.waits, t.wait_max_ms, t.wait_total_ms);
+}
+
+content::RetrievalTiming Installation::retrieval_timing() const {
+  return fighter_ ? fighter_->retrieval_timing() : content::RetrievalTiming{};
+}
+
 const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   if (!started_) start(now);
   const double dt = std::max(0.0, now - last_step_);
   last_step_ = now;
   const Timestamp cpu0 = kumite::now();
   frame_.frame = steps_++;
+  input_.now = now;
+  input_.shown_at = shown_at;
+  input_.keyed.assign(pending_.begin(), pending_.end());
   frame_.events.clear();
   console_.problems.clear();
   frame_.now = now;
@@ -364,9 +449,9 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   }
   apply_orders(now);
   update_fighter(now, dt);
-  console_.fighter_state = frame_.fighter_state;
-  console_.character = frame_.character;
-  console_.character_name = character_name(frame_.character);
+  console_.fighter_state = frame_.fighter.present ? std::string(content::to_string(frame_.fighter.state)) : "none";
+  console_.character = frame_.fighter.character;
+  console_.character_name = character_name(frame_.fighter.character);
   // Frame rate from the smoothed frame time (the first step after start() has no interval).
   if (frame_.frame > 0 && dt > 0)
     dt_filtered_ = dt_filtered_ == 0 ? dt : 0.9 * dt_filtered_ + 0.1 * dt;
@@ -378,7 +463,23 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   const auto budget = pacer_.draw_budget_s();
   console_.draw_budget_ms = budget ? *budget * 1e3 : -1;
   console_.frame_cpu_ms = (kumite::now() - cpu0) * 1e3;
+  if (recorder_) recorder_->push(frame_.frame, input_, state_hashes(frame_));
   return frame_;
 }
+
+const FrameData& Installation::replay(const FrameInput& input) {
+  pending_ = input.keyed;
+  replaying_ = &input;
+  try {
+    step(input.now, input.shown_at);
+  } catch (...) {
+    replaying_ = nullptr;
+    throw;
+  }
+  replaying_ = nullptr;
+  return frame_;
+}
+
+bool Installation::has_tracker() const { return tracking_->has_tracker(); }
 
 }  // namespace kumite::app

@@ -103,6 +103,7 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   spdlog::info("headless: {} frames in {:.2f} s ({:.1f} ms/frame, GL {:.1f} ms of it); {} PNGs written -> {}",
                frames, wall_s, wall_s * 1e3 / std::max(frames, 1), render_s * 1e3 / std::max(frames, 1), pngs.written(),
                opt.out.string());
+  log_retrieval_timing(inst);
   if (pngs.dropped() > 0)
     spdlog::warn("headless: {} PNGs not written: the writer was behind (real time never waits for it; "
                  "--save-every larger, or --simulated-time, writes them all)",

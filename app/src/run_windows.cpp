@@ -240,6 +240,7 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
   }
   if (log) log->close();
   if (opt.stop && opt.stop->load() != 0) spdlog::info("windows: stopped (signal {})", opt.stop->load());
+  log_retrieval_timing(inst);
   console.reset();
   for (auto& s : slots) {
     glfwMakeContextCurrent(s.window);

@@ -12,8 +12,10 @@
 
 
 #include "kumite/app/config.hpp"
+#include "kumite/app/export.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
+#include "kumite/app/session.hpp"
 #include "kumite/app/tracking_input.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/log.hpp"
@@ -38,7 +40,14 @@ struct Args {
   std::string data_dir;
   int render_nice = 5;
   int verbosity = 1;
+  std::string record, replay;
+  bool config_given = false;
+  // kumite export
+  std::string export_log, export_bvh, export_head_csv;
+  double export_from = 0, export_to = 1e300;
 };
+
+
 
 std::optional<std::array<int, 2>> parse_resolution(const std::string& s) {
   if (s.empty()) return std::nullopt;
@@ -58,6 +67,28 @@ void lower_render_priority(int n) {
 /// The folder a file option writes into ("" for the current one).
 std::filesystem::path folder_of(const std::string& file) {
   return std::filesystem::path(file).parent_path();
+}
+
+int run_export(const Args& a) {
+  auto config = kumite::app::load_installation_config(
+      a.config, a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
+  kumite::app::ExportOptions eo;
+  eo.log = a.export_log;
+  eo.from_s = a.export_from;
+  eo.to_s = a.export_to;
+  if (!a.export_bvh.empty()) eo.bvh = a.export_bvh;
+  if (!a.export_head_csv.empty()) eo.head_csv = a.export_head_csv;
+  if (!eo.bvh && !eo.head_csv) throw kumite::Error("cli", "export", "export: nothing to write (--out FILE.bvh and/or --head-csv FILE)");
+  for (const auto& f : {a.export_bvh, a.export_head_csv})
+    if (!f.empty()) kumite::app::make_output_folder(folder_of(f).empty() ? "." : folder_of(f), f);
+  const auto rep = kumite::app::export_log(config, eo);
+  spdlog::info("export: frames {}..{} ({:.3f}..{:.3f} s, {} frames){}", rep.first_frame, rep.last_frame, rep.first_time_s,
+               rep.last_time_s, rep.frames, rep.truncated_last_line ? "; the log's last line was cut short" : "");
+  if (eo.bvh)
+    spdlog::info("export: {} (character {} \"{}\", frame time {:.6f} s)", eo.bvh->string(), rep.character + 1,
+                 rep.character_name, rep.frame_time_s);
+  if (eo.head_csv) spdlog::info("export: {} (head poses)", eo.head_csv->string());
+  return 0;
 }
 
 int run(const Args& a, const std::atomic<int>& stop) {
@@ -99,6 +130,26 @@ int run(const Args& a, const std::atomic<int>& stop) {
     tracking = kumite::app::make_fixed_head_input(std::string("tracking unavailable: ") + e.what());
   }
   kumite::app::Installation inst(config, std::move(tracking), io);
+  std::unique_ptr<kumite::app::SessionRecorder> recorder;
+  if (!a.record.empty()) {
+    kumite::app::SessionInfo info;
+    info.config = std::filesystem::absolute(a.config);
+    if (io.orders_script)
+      info.orders_script = std::filesystem::absolute(*io.orders_script);
+    else if (config.orders_script)
+      info.orders_script = std::filesystem::absolute(config.resolve(*config.orders_script));
+    info.mono_eyes = io.mono_eyes;
+    recorder = std::make_unique<kumite::app::SessionRecorder>(a.record, info);
+    inst.record_to(recorder.get());
+    spdlog::info("record: every frame's inputs and state hashes -> {}", a.record);
+  }
+  const auto finish = [&](int rc) {
+    if (recorder) {
+      inst.record_to(nullptr);
+      recorder->close();
+    }
+    return rc;
+  };
   // The tracker's threads are running (at the process's priority); the render thread and the
   // GL driver's threads it starts from here on (llvmpipe) yield to them when the cores are short.
   lower_render_priority(a.render_nice);
@@ -111,7 +162,7 @@ int run(const Args& a, const std::atomic<int>& stop) {
     ho.resolution = parse_resolution(a.resolution);
     ho.real_time = !a.simulated;
     ho.stop = &stop;
-    return kumite::app::run_headless(inst, ho);
+    return finish(kumite::app::run_headless(inst, ho));
   }
   kumite::app::WindowOptions wo;
   if (a.seconds > 0) wo.seconds = a.seconds;
@@ -119,7 +170,25 @@ int run(const Args& a, const std::atomic<int>& stop) {
   if (!a.screenshot.empty()) wo.screenshot = a.screenshot;
   if (!a.log.empty()) wo.log = a.log;
   wo.stop = &stop;
-  return kumite::app::run_windows(inst, wo);
+  return finish(kumite::app::run_windows(inst, wo));
+}
+
+int run_replay(const Args& a) {
+  const auto rep = kumite::app::replay_session(
+      a.replay, a.config_given ? std::optional<std::filesystem::path>(a.config) : std::nullopt,
+      a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
+  for (const auto& n : rep.notes) spdlog::warn("replay: {}", n);
+  const double speed = rep.wall_s > 0 ? rep.session_s / rep.wall_s : 0;
+  if (!rep.identical) {
+    std::cerr << fmt::format("kumite: {}: frame {}: {} differs from the recording (frames before it identical)\n",
+                             (std::filesystem::path(a.replay) / "session.jsonl").string(), *rep.first_difference_frame,
+                             rep.first_difference_field);
+    return 1;
+  }
+  spdlog::info("replay: {} of {} recorded frames replayed, every state identical to the recording ({:.2f} s of session "
+               "in {:.2f} s: {:.0f}x real time)",
+               rep.frames_replayed, rep.frames_recorded, rep.session_s, rep.wall_s, speed);
+  return rep.notes.empty() ? 0 : 2;
 }
 
 }  // namespace
@@ -148,6 +217,18 @@ int main(int argc, char** argv) {
                  "nice value added to the render thread (and GL threads it starts), so tracking wins the cores; 0 = off")
       ->capture_default_str();
   app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->capture_default_str();
+  app.add_option("--record", a.record,
+                 "record the session into this folder: every frame's inputs and state hashes (kumite --replay)");
+  app.add_option("--replay", a.replay, "re-run a recorded session from its inputs and check every frame against it");
+  CLI::App* exp = app.add_subcommand(
+      "export", "from a frames.jsonl: the fighter's performance as BVH on its character's skeleton, the head poses as CSV");
+  exp->add_option("--log", a.export_log, "frames.jsonl of a run")->required();
+  exp->add_option("--from", a.export_from, "s, first time_s taken (default: the start)");
+  exp->add_option("--to", a.export_to, "s, last time_s taken (default: the end)");
+  exp->add_option("--out", a.export_bvh, "BVH file of the fighter (characters from --config)");
+  exp->add_option("--head-csv", a.export_head_csv, "CSV of the head poses: frame,time_s,x_m,y_m,z_m,qw,qx,qy,qz,live");
+  exp->add_option("--config", a.config, "installation file the run used (its characters)");
+  exp->add_option("--data-dir", a.data_dir, "as for the run");
   CLI11_PARSE(app, argc, argv);
   kumite::init_logging(a.verbosity);
   // SIGINT (Ctrl-C) and SIGTERM end the run at its next frame with its outputs complete; the
@@ -155,6 +236,9 @@ int main(int argc, char** argv) {
   // process the signal killed. A second one kills at once.
   const std::atomic<int>& stop = kumite::app::stop_on_signals();
   try {
+    if (exp->parsed()) return run_export(a);
+    a.config_given = app.count("--config") > 0;
+    if (!a.replay.empty()) return run_replay(a);
     const int rc = run(a, stop);
     if (const int sig = stop.load(); sig != 0) {
       spdlog::info("stopped by {}: outputs complete, exit status {}", sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal",

@@ -326,7 +326,7 @@ int run(int argc, char** argv) {
       static_cast<double>(counters->not_decoded.load() - counts0[1]) / measured_s,
       static_cast<double>(counters->dropped_stale.load() - counts0[2]) / measured_s, counters->decode_ms.load(),
       counters->max_handover_late_ms.load(), target_ms, cfg.walls.size(),
-      inst.frame().has_fighter ? "true" : "false", spin_ms, modes[0].json().c_str(), modes[1].json().c_str(),
+      inst.frame().fighter.present ? "true" : "false", spin_ms, modes[0].json().c_str(), modes[1].json().c_str(),
       over[0].json().c_str(), over[1].json().c_str(), percentile(ours, 0.5), percentile(ours, 0.99),
       percentile(ours, 1.0), percentile(wake, 0.5), percentile(wake, 0.99), percentile(wake, 0.999), percentile(wake, 1.0));
   return 0;

@@ -1,8 +1,12 @@
-// The Fighter facade: Behaviour (single-threaded) + a retrieval worker thread. The update
-// never waits for the worker: requests go into a one-slot mailbox, results are taken with
-// try_lock, and the behaviour keeps animating rest / blends meanwhile.
+// The Fighter facade: Behaviour (single-threaded) + a retrieval worker thread. A request
+// goes into a one-slot mailbox at update N; its plan is taken at update N + delay exactly
+// (kRetrievalDelayUpdates), waiting for the worker only if it is late, so the frame a strike
+// starts on depends on the inputs, never on thread timing. The behaviour keeps animating
+// rest / blends meanwhile.
 #include "kumite/content/fighter.hpp"
 
+#include <algorithm>
+#include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
@@ -37,34 +41,55 @@ std::string_view to_string(FighterEvent::Kind k) {
 
 namespace {
 
+/// Plans strikes on its own thread. A request submitted at update N is handed back at update
+/// N + delay exactly: poll() returns nothing before, and at N + delay waits for the plan if the
+/// worker is not done yet (retrieval takes ~20 µs; a frame is ~16 ms). One request at a time:
+/// Behaviour waits for a plan before it asks for the next.
 class RetrievalWorker {
  public:
-  explicit RetrievalWorker(std::shared_ptr<const StrikePlanner> planner)
-      : planner_(std::move(planner)), thread_([this] { run(); }) {}
+  using PlanFn = std::function<StrikePlan(const StrikeRequest&)>;
+  RetrievalWorker(PlanFn plan, int delay_updates)
+      : plan_(std::move(plan)), delay_(delay_updates), thread_([this] { run(); }) {}
   ~RetrievalWorker() {
     {
       std::lock_guard lock(mutex_);
       stop_ = true;
     }
-    cv_.notify_one();
+    cv_.notify_all();
     thread_.join();
   }
-  // Called from the update thread: a short critical section (copy a request), no waiting on
-  // the search itself.
+  /// The update counter of the behaviour's thread (called before each update).
+  void set_update(std::uint64_t update) { update_ = update; }
+  // Called from the update thread: a short critical section (copy a request).
   void submit(const StrikeRequest& r) {
     {
       std::lock_guard lock(mutex_);
       request_ = r;
+      result_.reset();
     }
-    cv_.notify_one();
+    outstanding_ = r.id;
+    due_ = update_ + static_cast<std::uint64_t>(delay_);
+    ++stats_.requests;
+    cv_.notify_all();
   }
   std::optional<StrikePlan> poll() {
-    std::unique_lock lock(mutex_, std::try_to_lock);
-    if (!lock.owns_lock() || !result_) return std::nullopt;
-    auto r = result_;
+    if (!outstanding_ || update_ < due_) return std::nullopt;
+    std::unique_lock lock(mutex_);
+    const auto ready = [&] { return result_ && result_->id == *outstanding_; };
+    if (!ready()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      done_.wait(lock, ready);
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      ++stats_.waits;
+      stats_.wait_total_ms += ms;
+      stats_.wait_max_ms = std::max(stats_.wait_max_ms, ms);
+    }
+    auto r = std::move(result_);
     result_.reset();
+    outstanding_.reset();
     return r;
   }
+  const RetrievalTiming& stats() const { return stats_; }
 
  private:
   void run() {
@@ -77,31 +102,56 @@ class RetrievalWorker {
         r = *request_;
         request_.reset();
       }
-      StrikePlan p = planner_->plan(r);
-      std::lock_guard lock(mutex_);
-      result_ = p;
+      StrikePlan p = plan_(r);
+      {
+        std::lock_guard lock(mutex_);
+        result_ = std::move(p);
+      }
+      done_.notify_all();
     }
   }
-  std::shared_ptr<const StrikePlanner> planner_;
+  PlanFn plan_;
+  int delay_;
   std::mutex mutex_;
-  std::condition_variable cv_;
-  std::optional<StrikeRequest> request_;
-  std::optional<StrikePlan> result_;
-  bool stop_ = false;
-  std::thread thread_;
+  std::condition_variable cv_, done_;
+  std::optional<StrikeRequest> request_;  // guarded by mutex_
+  std::optional<StrikePlan> result_;      // guarded by mutex_
+  bool stop_ = false;                     // guarded by mutex_
+  // The update thread's own.
+  std::uint64_t update_ = 0, due_ = 0;
+  std::optional<std::uint64_t> outstanding_;
+  RetrievalTiming stats_;
+  std::thread thread_;  // last: starts after the members above exist
 };
 
 class FighterImpl final : public Fighter {
  public:
-  FighterImpl(std::shared_ptr<const Database> db, std::vector<Rig> rigs, const FighterConfig& config)
-      : behaviour_(db, std::move(rigs), config),
-        worker_(std::make_unique<RetrievalWorker>(std::make_shared<StrikePlanner>(db))) {
+  FighterImpl(std::shared_ptr<const Database> db, std::vector<Rig> rigs, const FighterConfig& config,
+              FighterOptions options)
+      : behaviour_(db, std::move(rigs), config), planner_(std::make_shared<StrikePlanner>(db)) {
+    if (options.retrieval_delay_updates < 0)
+      throw Error("fighter", "config", "fighter: retrieval_delay_updates must be >= 0");
+    RetrievalWorker::PlanFn plan = [planner = planner_, hook = std::move(options.plan)](const StrikeRequest& r) {
+      return hook ? hook(*planner, r) : planner->plan(r);
+    };
+    worker_ = std::make_unique<RetrievalWorker>(std::move(plan), options.retrieval_delay_updates);
     behaviour_.set_planner([this](const StrikeRequest& r) { worker_->submit(r); },
                            [this] { return worker_->poll(); });
   }
   void order(const Order& order) override { behaviour_.order(order); }
-  void update(Timestamp now, double dt, const Eigen::Vector3d& head) override { behaviour_.update(now, dt, head); }
-  FighterFrame frame() const override { return behaviour_.frame(); }
+  void update(Timestamp now, double dt, const Eigen::Vector3d& head) override {
+    worker_->set_update(++updates_);
+    behaviour_.update(now, dt, head);
+  }
+  RetrievalTiming retrieval_timing() const override { return worker_->stats(); }
+  FighterFrame frame() const override {
+    FighterFrame f = behaviour_.frame();
+    const Rig& rig = behaviour_.character(f.character);
+    f.joint_names = rig.skeleton.names;
+    f.local_rotations = behaviour_.local_rotations().first(f.joints.size());
+    f.root_joint = behaviour_.root_position();
+    return f;
+  }
   std::vector<FighterEvent> take_events() override { return behaviour_.take_events(); }
   int character_count() const override { return behaviour_.character_count(); }
   std::string character_name(int index) const override {
@@ -111,16 +161,18 @@ class FighterImpl final : public Fighter {
 
  private:
   Behaviour behaviour_;
+  std::shared_ptr<const StrikePlanner> planner_;
+  std::uint64_t updates_ = 0;
   std::unique_ptr<RetrievalWorker> worker_;  // declared last: joins first on destruction
 };
 
 }  // namespace
 
-std::unique_ptr<Fighter> Fighter::create(const FighterConfig& config) {
+std::unique_ptr<Fighter> Fighter::create(const FighterConfig& config, FighterOptions options) {
   auto db = std::make_shared<const Database>(load_database(config.database));
   auto rigs = load_character_rigs(config);
   if (rigs.empty()) throw Error("fighter", "config", "fighter: no characters configured");
-  return std::make_unique<FighterImpl>(std::move(db), std::move(rigs), config);
+  return std::make_unique<FighterImpl>(std::move(db), std::move(rigs), config, std::move(options));
 }
 
 }  // namespace kumite::content

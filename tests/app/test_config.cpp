@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "kumite/app/config.hpp"
+#include "kumite/app/installation.hpp"
 #include "kumite/common/error.hpp"
 
 using namespace kumite::app;
@@ -65,8 +66,8 @@ TEST(Config, BaseParses) {
   EXPECT_EQ(c.stereo.mode, StereoMode::side_by_side);
   ASSERT_EQ(c.keys.size(), 2u);
   // toml++ keeps keys sorted: "character_1" comes first.
-  EXPECT_EQ(c.keys[0].action, "character 1");
-  EXPECT_EQ(c.keys[1].action, "punch_left");
+  EXPECT_EQ(to_string(c.keys[0].action), "character 1");
+  EXPECT_EQ(to_string(c.keys[1].action), "punch_left");
   EXPECT_EQ(c.window_of(0), 0);
   EXPECT_EQ(c.line_of("walls[0].lower_left"), 8);
 }
@@ -343,4 +344,26 @@ TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
   // An element on a line of its own is named by its line.
   EXPECT_EQ(error_of(kBase + "[viewer]\ndefault_head_m = [\n  0,\n  nan,\n  0]\n"),
             "bad.toml:" + std::to_string(base_lines + 4) + ": viewer.default_head_m: must be a finite number");
+}
+
+// Issue 13: key actions and event types are enums parsed once; text only at the edges.
+TEST(Config, KeyActionsAndEventTypesRoundTripThroughTheirText) {
+  for (const char* t : {"punch_left", "punch_right", "kick_left", "kick_right", "pause", "resume", "recentre",
+                        "character 3", "quit"}) {
+    const auto a = parse_key_action(t);
+    ASSERT_TRUE(a) << t;
+    EXPECT_EQ(to_string(*a), t);
+  }
+  EXPECT_EQ(parse_key_action("character 3")->character, 2);
+  EXPECT_EQ(parse_key_action("quit")->kind, KeyAction::Kind::quit);
+  EXPECT_FALSE(parse_key_action("uppercut"));
+  EXPECT_FALSE(parse_key_action(""));
+  for (const char* t : {"order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning"}) {
+    const auto e = parse_event_type(t);
+    ASSERT_TRUE(e) << t;
+    EXPECT_EQ(to_string(*e), t);
+  }
+  EXPECT_FALSE(parse_event_type("Hit"));
+  EXPECT_TRUE(is_strike_outcome(EventType::dodged));
+  EXPECT_FALSE(is_strike_outcome(EventType::order));
 }

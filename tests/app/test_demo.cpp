@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <iostream>
 #include <map>
 
 #include <fmt/format.h>
@@ -18,10 +19,14 @@
 #include <stb/stb_image.h>
 
 #include "kumite/app/config.hpp"
+#include "kumite/app/export.hpp"
+#include "kumite/app/frame_log.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
 #include "kumite/app/scene.hpp"
 #include "kumite/content/annotation.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/content/bvh.hpp"
 #include "kumite/content/database.hpp"
 
 using namespace kumite::app;
@@ -210,17 +215,180 @@ TEST(Demo, AMissingCharacterFileLeavesTheOthersAndKeepsTheKeyNumbers) {
     const auto& f = inst.step(1000.0 + i / 60.0);
     events.insert(events.end(), f.events.begin(), f.events.end());
   }
-  ASSERT_TRUE(inst.frame().has_fighter) << "the other four characters still make a fighter";
-  EXPECT_EQ(inst.frame().character, 2) << "character 3 (Bruno), in the config's numbering";
+  ASSERT_TRUE(inst.frame().fighter.present) << "the other four characters still make a fighter";
+  EXPECT_EQ(inst.frame().fighter.character, 2) << "character 3 (Bruno), in the config's numbering";
   bool said_missing = false;
   for (const auto& p : inst.console().problems) said_missing |= p.find("kenji.bvh does not exist") != std::string::npos;
   EXPECT_TRUE(said_missing);
   bool ignored_1 = false, changed_3 = false;
   for (const auto& e : events) {
-    if (e.type == "order_ignored" && e.order == "character 1") ignored_1 = e.text.find("not loaded") != std::string::npos;
-    if (e.type == "character_changed") changed_3 = e.text == "character 3 (Bruno)" && e.order == "character 3";
+    if (e.type == EventType::order_ignored && e.order == "character 1") ignored_1 = e.text.find("not loaded") != std::string::npos;
+    if (e.type == EventType::character_changed) changed_3 = e.text == "character 3 (Bruno)" && e.order == "character 3";
   }
   EXPECT_TRUE(ignored_1);
   EXPECT_TRUE(changed_3);
   fs::remove_all(dir);
+}
+
+// Issue 13: the fighter in FrameData is plain copyable data (no spans into the fighter),
+// filled without allocating after warm-up, and the log carries its joints by name.
+TEST(Demo, TheFighterIsPlainDataInTheFrameAndInTheLog) {
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = demo_database();
+  cfg.tracking.source = TrackingSource::none;
+  const fs::path out = fs::temp_directory_path() / ("kumite_app_test_pose_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const fs::path script = out / "orders.csv";
+  std::ofstream(script) << "time_s,order\n0.2,punch_right\n1.2,character 2\n1.6,kick_right\n";
+  InstallationOptions io;
+  io.orders_script = script;
+  Installation inst(cfg, make_fixed_head_input("test"), io);
+  std::vector<FrameData> copies;  // FrameData copies whole: nothing points into the fighter
+  const glm::dvec3* joints_at = nullptr;
+  int moved = 0;
+  for (int i = 0; i < 150; ++i) {
+    const FrameData& f = inst.step(1000.0 + i / 60.0);
+    const FighterPose& p = f.fighter;
+    ASSERT_TRUE(p.present);
+    ASSERT_TRUE(p.skeleton);
+    ASSERT_EQ(p.joints.size(), p.skeleton->joint_names.size());
+    ASSERT_EQ(p.local_rotations.size(), p.joints.size());
+    ASSERT_EQ(p.skeleton->character, p.character);
+    if (i > 0 && p.joints.data() != joints_at) ++moved;
+    joints_at = p.joints.data();
+    copies.push_back(f);
+  }
+  // The joints' storage moved at most once: at the switch to a character with more joints.
+  EXPECT_LE(moved, 1);
+  EXPECT_EQ(copies[30].fighter.character, 0);
+  EXPECT_EQ(copies[140].fighter.character, 1);
+  EXPECT_NE(copies[30].fighter.skeleton, copies[140].fighter.skeleton);
+  // The copies kept their own joints: a strike moved them between frames 20 and 40.
+  double moved_m = 0;
+  for (std::size_t j = 0; j < copies[20].fighter.joints.size(); ++j)
+    moved_m = std::max(moved_m, glm::length(copies[40].fighter.joints[j] - copies[20].fighter.joints[j]));
+  EXPECT_GT(moved_m, 0.05);
+
+  // The log line: joints keyed by joint name, as in FrameData (rounded to 1e-5 m).
+  const auto line = nlohmann::json::parse(frame_json(copies[40], inst.console(), {}, true));
+  const auto& fj = line["fighter"];
+  ASSERT_TRUE(fj.contains("joints"));
+  const auto& names = copies[40].fighter.skeleton->joint_names;
+  ASSERT_EQ(fj["joints"].size(), names.size());
+  ASSERT_EQ(fj["local_rotations"].size(), names.size());
+  for (std::size_t j = 0; j < names.size(); ++j) {
+    const auto& a = fj["joints"][names[j]];
+    const glm::dvec3 logged(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+    EXPECT_LT(glm::length(logged - copies[40].fighter.joints[j]), 1e-5) << names[j];
+  }
+  fs::remove_all(out);
+}
+
+// Issue 13: a run judged from its log alone. A short headless run with a strike, exported
+// from frames.jsonl as BVH on the character's skeleton, re-read with content::read_bvh:
+// its forward kinematics gives the logged joints (the pose as drawn) within 1 mm.
+TEST(Demo, ExportFromTheLogReproducesTheLoggedJoints) {
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = demo_database();
+  cfg.tracking.source = TrackingSource::none;
+  const fs::path out = fs::temp_directory_path() / ("kumite_app_test_export_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const fs::path script = out / "orders.csv";
+  std::ofstream(script) << "time_s,order\n0.2,punch_right\n1.0,kick_left\n";
+  InstallationOptions io;
+  io.orders_script = script;
+  Installation inst(cfg, make_fixed_head_input("test"), io);
+  HeadlessOptions ho;
+  ho.frames = 120;
+  ho.out = out;
+  ho.save_every = 0;
+  ho.resolution = std::array<int, 2>{64, 36};
+  ho.real_time = false;
+  ASSERT_EQ(run_headless(inst, ho), 0);
+
+  ExportOptions eo;
+  eo.log = out / "frames.jsonl";
+  eo.from_s = 0.095;  // between frames: time_s is a sum of steps, not exact
+  eo.to_s = 1.905;
+  eo.bvh = out / "fighter.bvh";
+  eo.head_csv = out / "head.csv";
+  const ExportReport rep = export_log(cfg, eo);
+  EXPECT_EQ(rep.character, 0);
+  EXPECT_EQ(rep.first_frame, 6);
+  EXPECT_EQ(rep.last_frame, 114);
+  EXPECT_EQ(rep.frames, 109);
+  EXPECT_NEAR(rep.frame_time_s, 1.0 / 60, 1e-9);
+
+  const kumite::content::Clip clip = kumite::content::read_bvh(out / "fighter.bvh");
+  ASSERT_EQ(clip.frame_count, rep.frames);
+  EXPECT_NEAR(clip.frame_time_s, 1.0 / 60, 1e-6);
+  std::vector<nlohmann::json> frames;
+  std::ifstream in(out / "frames.jsonl");
+  for (std::string line; std::getline(in, line);) frames.push_back(nlohmann::json::parse(line));
+  const auto n = static_cast<std::size_t>(clip.skeleton.joint_count());
+  std::vector<Eigen::Vector3d> pos(n);
+  std::vector<Eigen::Quaterniond> rot(n);
+  double worst_m = 0, travel_m = 0;
+  bool striking = false;
+  for (int k = 0; k < clip.frame_count; ++k) {
+    const auto& f = frames[static_cast<std::size_t>(rep.first_frame + k)];
+    striking |= f["fighter"]["state"] == "striking";
+    kumite::content::forward_kinematics(clip, k, pos, rot);
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto& a = f["fighter"]["joints"][clip.skeleton.names[j]];
+      const Eigen::Vector3d logged(a[0].get<double>(), a[1].get<double>(), a[2].get<double>());
+      worst_m = std::max(worst_m, (pos[j] - logged).norm());
+      if (k > 0) {
+        const auto& b = frames[static_cast<std::size_t>(rep.first_frame)]["fighter"]["joints"][clip.skeleton.names[j]];
+        travel_m = std::max(travel_m, (logged - Eigen::Vector3d(b[0].get<double>(), b[1].get<double>(), b[2].get<double>())).norm());
+      }
+    }
+  }
+  EXPECT_TRUE(striking) << "the interval holds a strike";
+  EXPECT_GT(travel_m, 0.2) << "the fighter moved (a strike)";
+  EXPECT_LT(worst_m, 1e-3) << "m, BVH joints vs the logged joints";
+  std::cout << "export: worst joint difference " << worst_m * 1e3 << " mm over " << clip.frame_count << " frames\n";
+
+  // The head as CSV: one row per frame of the interval.
+  std::ifstream csv(out / "head.csv");
+  int rows = 0;
+  for (std::string line; std::getline(csv, line);) ++rows;
+  EXPECT_EQ(rows, rep.frames + 1);
+
+  // A log cut short mid-line (a run killed while writing) exports what is complete.
+  {
+    std::ifstream whole(out / "frames.jsonl");
+    std::string all((std::istreambuf_iterator<char>(whole)), std::istreambuf_iterator<char>());
+    std::ofstream(out / "cut.jsonl") << all.substr(0, all.size() - 100);
+  }
+  eo.log = out / "cut.jsonl";
+  eo.to_s = 1e9;
+  const ExportReport cut = export_log(cfg, eo);
+  EXPECT_TRUE(cut.truncated_last_line);
+  EXPECT_EQ(cut.last_frame, 118);
+  // An interval with no frames is an error.
+  eo.log = out / "frames.jsonl";
+  eo.from_s = 50;
+  eo.to_s = 60;
+  EXPECT_THROW(export_log(cfg, eo), kumite::Error);
+  // A bad number names file, line and key.
+  {
+    std::ifstream whole(out / "frames.jsonl");
+    std::string first;
+    std::getline(whole, first);
+    const auto at = first.find("\"time_s\":");
+    ASSERT_NE(at, std::string::npos);
+    std::ofstream(out / "bad.jsonl") << first.substr(0, at) << "\"time_s\":\"soon\"," << first.substr(first.find(',', at) + 1) << "\n";
+  }
+  eo.log = out / "bad.jsonl";
+  eo.from_s = 0;
+  try {
+    export_log(cfg, eo);
+    ADD_FAILURE() << "a bad time_s was taken";
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.jsonl:1: time_s: not a number"), std::string::npos) << e.what();
+  }
+  fs::remove_all(out);
 }

@@ -239,7 +239,7 @@ TEST(Installation, ScriptedAndKeyedOrdersAreLoggedWithOutcomes) {
   EXPECT_EQ(events[2].order, "kick_right");
   // No fighter here (missing database): each is ignored, saying why.
   for (const auto& e : events) {
-    EXPECT_EQ(e.type, "order_ignored");
+    EXPECT_EQ(e.type, EventType::order_ignored);
     EXPECT_NE(e.text.find("no fighter"), std::string::npos) << e.text;
   }
   EXPECT_EQ(inst.console().last_order, "kick_right");

@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <thread>
 
 #include "fighter_fixtures.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/content/behaviour.hpp"
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/fighter.hpp"
 
@@ -101,4 +103,99 @@ TEST(Fighter, MissingDatabaseOrCharacterIsAnErrorNamingTheFile) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("nobody"), std::string::npos);
   }
+}
+
+// Issue 13: the frame a strike starts on is named by the inputs (the order's update plus
+// kRetrievalDelayUpdates), never by the worker's timing. A planner that sleeps a varying
+// time (0..6 ms: sometimes done before the deadline, sometimes after) and updates as fast
+// as the test goes would start strikes on different frames with a worker that is polled
+// (try_lock); here two runs of the same scripted inputs agree on every joint of every frame.
+TEST(Fighter, SameInputsGiveTheSameFramesWhateverTheWorkersTiming) {
+  TempDir tmp;
+  FighterConfig cfg;
+  cfg.database = tmp.path / "fighter.kdb";
+  save_database(*kumite::content::testing::synthetic_database().db, cfg.database);
+  cfg.characters = {write_character(tmp.path, "small", synthetic::make_skeleton({.scale = 0.86}))};
+  const Skeleton skeleton = read_bvh(cfg.characters[0]).skeleton;
+  struct Run {
+    std::vector<std::vector<Eigen::Vector3d>> joints;
+    std::vector<FighterState> states;
+    std::vector<int> strike_starts;  // updates whose frame first shows striking
+    RetrievalTiming stats;
+    bool names_match = true;
+    double fk_error_m = 0;  // m, largest |FK(local rotations) - drawn joint|
+  };
+  auto run = [&](unsigned seed) -> Run {
+    FighterOptions opt;
+    auto rng = std::make_shared<std::uint32_t>(seed);
+    opt.plan = [rng](const StrikePlanner& p, const StrikeRequest& r) {
+      *rng = *rng * 1664525u + 1013904223u;  // the worker's own sequence (one worker thread)
+      std::this_thread::sleep_for(std::chrono::microseconds((*rng >> 8) % 6000));
+      return p.plan(r);
+    };
+    auto fighter = Fighter::create(cfg, opt);
+    Run out;
+    double t = 0;
+    Eigen::Vector3d head(0, 1.6, cfg.home.z() + cfg.strike_distance_m);
+    FighterState last = FighterState::resting;
+    for (int i = 1; i <= 420; ++i) {
+      t += 1.0 / 60;
+      head.x() = 0.2 * std::sin(i * 0.03);
+      // Orders at fixed updates: strikes, one given mid-strike, another after recovery.
+      if (i == 20 || i == 30 || i == 150 || i == 300) fighter->order(Order{t, i == 150 ? OrderKind::punch_left : OrderKind::punch_right});
+      fighter->update(t, 1.0 / 60, head);
+      const FighterFrame f = fighter->frame();
+      // The plain pose: forward kinematics of the local rotations from the root joint on the
+      // character's skeleton is the drawn pose (no character switch here).
+      EXPECT_EQ(f.local_rotations.size(), f.joints.size());
+      EXPECT_EQ(f.joint_names.size(), f.joints.size());
+      if (f.local_rotations.size() != f.joints.size() || f.joint_names.size() != f.joints.size()) return out;
+      std::vector<Eigen::Quaterniond> global(f.joints.size());
+      for (std::size_t j = 0; j < f.joints.size(); ++j) {
+        const int p = skeleton.parents[j];
+        out.names_match &= f.joint_names[j] == skeleton.names[j];
+        global[j] = p < 0 ? f.local_rotations[j] : global[static_cast<std::size_t>(p)] * f.local_rotations[j];
+        const Eigen::Vector3d pos = p < 0 ? f.root_joint
+                                          : Eigen::Vector3d(f.joints[static_cast<std::size_t>(p)] +
+                                                            global[static_cast<std::size_t>(p)] * skeleton.offsets[j]);
+        out.fk_error_m = std::max(out.fk_error_m, (pos - f.joints[j]).norm());
+      }
+      out.joints.emplace_back(f.joints.begin(), f.joints.end());
+      out.states.push_back(f.state);
+      if (f.state == FighterState::striking && last != FighterState::striking) out.strike_starts.push_back(i);
+      last = f.state;
+      fighter->take_events();
+      if (i % 7 == 0) std::this_thread::sleep_for(std::chrono::microseconds(300));  // uneven update pace
+    }
+    out.stats = fighter->retrieval_timing();
+    return out;
+  };
+  const Run a = run(1), b = run(2);
+  EXPECT_TRUE(a.names_match);
+  EXPECT_LT(a.fk_error_m, 1e-9);
+  ASSERT_GE(a.strike_starts.size(), 2u);
+  // Each strike starts exactly kRetrievalDelayUpdates after its order.
+  EXPECT_EQ(a.strike_starts.front(), 20 + kRetrievalDelayUpdates);
+  EXPECT_EQ(a.strike_starts, b.strike_starts);
+  // The slow planner was late at least once (the waits were exercised).
+  EXPECT_GE(a.stats.waits + b.stats.waits, 1u);
+  EXPECT_EQ(a.stats.requests, b.stats.requests);
+  ASSERT_EQ(a.joints.size(), b.joints.size());
+  for (std::size_t i = 0; i < a.joints.size(); ++i) {
+    ASSERT_EQ(a.states[i], b.states[i]) << "update " << i + 1;
+    ASSERT_EQ(a.joints[i].size(), b.joints[i].size());
+    for (std::size_t j = 0; j < a.joints[i].size(); ++j)
+      ASSERT_EQ(a.joints[i][j], b.joints[i][j]) << "update " << i + 1 << " joint " << j;  // bit for bit
+  }
+}
+
+TEST(Fighter, NegativeRetrievalDelayIsRefused) {
+  TempDir tmp;
+  FighterConfig cfg;
+  cfg.database = tmp.path / "fighter.kdb";
+  save_database(*kumite::content::testing::synthetic_database().db, cfg.database);
+  cfg.characters = {write_character(tmp.path, "small", synthetic::make_skeleton({.scale = 0.86}))};
+  FighterOptions opt;
+  opt.retrieval_delay_updates = -1;
+  EXPECT_THROW(Fighter::create(cfg, opt), Error);
 }

@@ -17,6 +17,8 @@
 #include <string_view>
 #include <vector>
 
+#include "kumite/common/wire.hpp"
+
 namespace kumite::app {
 
 using Vec3 = std::array<double, 3>;
@@ -71,10 +73,24 @@ struct ProjectionConfig {
   bool operator==(const ProjectionConfig&) const = default;
 };
 
-/// One key of the supervisor console. action: "punch_left", "punch_right", "kick_left",
-/// "kick_right", "pause", "resume", "recentre", "character N" (1-based), "quit".
+/// What a key of the supervisor console does, parsed once when the file is read: an order
+/// to the fighter, or quit. Text form (the file, the console): "punch_left", "punch_right",
+/// "kick_left", "kick_right", "pause", "resume", "recentre", "character N" (1-based), "quit".
+struct KeyAction {
+  enum class Kind : std::uint8_t { order, quit };
+  Kind kind = Kind::order;
+  OrderKind order = OrderKind::punch_right;  ///< kind == order
+  int character = -1;                        ///< 0-based, for OrderKind::select_character
+  bool operator==(const KeyAction&) const = default;
+  /// The order it gives at `time` (kind == order).
+  Order to_order(Timestamp time) const { return Order{time, order, character}; }
+};
+std::optional<KeyAction> parse_key_action(std::string_view text);
+std::string to_string(const KeyAction& action);
+
+/// One key of the supervisor console.
 struct KeyBinding {
-  std::string action;
+  KeyAction action;
   std::string key;  ///< key name as written ("J", "SPACE", "F1", "KP_1", ...)
   int code = 0;     ///< GLFW key code
   bool operator==(const KeyBinding&) const = default;

@@ -15,10 +15,7 @@
 #include "kumite/app/orders.hpp"
 #include "kumite/app/scene.hpp"
 #include "kumite/common/wire.hpp"
-
-namespace kumite::content {
-class Fighter;
-}
+#include "kumite/content/fighter.hpp"
 
 namespace kumite::app {
 
@@ -64,9 +61,16 @@ class TrackingInput {
 /// No tracking: the head stays at the configured default position (console usable alone).
 std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why);
 
+/// What a FrameEvent is. Text ("order", "hit", ...) only at the log and console (to_string).
+enum class EventType : std::uint8_t { order, order_ignored, hit, dodged, miss, character_changed, warning };
+/// "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning".
+std::string_view to_string(EventType type);
+/// The text form back (reading logs); std::nullopt when it is none of them.
+std::optional<EventType> parse_event_type(std::string_view text);
+
 /// One event of a frame, ready for the log and the console.
 struct FrameEvent {
-  std::string type;      ///< "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning"
+  EventType type = EventType::warning;
   std::string order;     ///< the order concerned, text form ("" if none)
   std::string text;      ///< one line for people
   double distance_m = 0; ///< hit / dodged / miss: m from the hit point to the visitor's body (0: touching)
@@ -74,7 +78,9 @@ struct FrameEvent {
 };
 /// A strike's outcome at contact: "hit" (touched the visitor), "dodged" (reached its target,
 /// the visitor had moved away) or "miss" (short of its target).
-inline bool is_strike_outcome(std::string_view type) { return type == "hit" || type == "dodged" || type == "miss"; }
+inline bool is_strike_outcome(EventType type) {
+  return type == EventType::hit || type == EventType::dodged || type == EventType::miss;
+}
 
 /// The console's state: computed every frame, drawn by ImGui in windows, logged headless.
 struct ConsoleState {
@@ -106,6 +112,33 @@ struct ConsoleState {
   std::deque<std::string> recent;     ///< recent events, newest last
 };
 
+/// The fighter's skeleton, made once per character: what a FighterPose's arrays are indexed by.
+struct FighterSkeleton {
+  int character = 0;                     ///< 0-based, the config's numbering
+  std::string character_name;
+  std::vector<std::string> joint_names;  ///< one per joint, in skeleton order
+  std::vector<int> parents;              ///< parent index per joint (-1: the root)
+};
+
+/// The fighter in one frame as plain, copyable data (no spans into the fighter's memory):
+/// what the log, a recording and later a render node get. Room frame, metres. The vectors
+/// are reserved once per character, so filling it each frame allocates nothing after warm-up.
+struct FighterPose {
+  bool present = false;                  ///< false: no fighter (database or characters missing)
+  content::FighterState state = content::FighterState::resting;
+  int character = 0;                     ///< 0-based, the config's numbering
+  std::shared_ptr<const FighterSkeleton> skeleton;  ///< the character's (shared, never changes)
+  std::vector<glm::dvec3> joints;        ///< m, room frame: the joints as drawn, one per skeleton joint
+  /// Per joint, its rotation relative to its parent (the root's: to the room) on the
+  /// character's skeleton; forward kinematics from root_joint gives `joints` (except while a
+  /// character switch eases the drawn joints, blend_time_s).
+  std::vector<glm::dquat> local_rotations;
+  glm::dvec3 root_joint{0, 0, 0};        ///< m, room frame: the skeleton's root joint (BVH root)
+  std::optional<glm::dvec3> target;      ///< m, room frame: the frozen strike target
+  glm::dvec3 root{0, 0, 0};              ///< m, room frame, on the floor under the pelvis (top view)
+  double heading_rad = 0;                ///< rotation about +Y; 0 = facing +Z (the visitor)
+};
+
 /// Everything a renderer and the log need about one frame.
 struct FrameData {
   std::uint64_t frame = 0;
@@ -123,12 +156,21 @@ struct FrameData {
   /// ms, how far past the moment it was taken the head is predicted: to the frame's vsync
   /// plus the display latency (config display_latency_ms).
   double predicted_ahead_ms = 0;
-  bool has_fighter = false;
-  std::string fighter_state;
-  int character = 0;
-  std::optional<glm::dvec3> fighter_root;  ///< m, room frame (top view)
-  double fighter_heading_rad = 0;
+  FighterPose fighter;        ///< the fighter as plain data
 };
+
+/// What one frame took from outside (issue 13): with the same config, orders script and
+/// fighter data, the same FrameInputs give the same frames (Installation::replay). Orders of
+/// the script are not in it: they follow from the times.
+struct FrameInput {
+  Timestamp now = 0;        ///< s, the frame loop's clock: the moment the frame takes the head
+  Timestamp shown_at = 0;   ///< s, its vsync
+  std::vector<Order> keyed; ///< orders from keys / the console taken by this frame
+  TrackingSnapshot tracking;///< as the tracker gave it
+  Timestamp tracking_clock = -1;  ///< s, the tracker's clock() the pose age was measured with
+};
+
+class SessionRecorder;
 
 struct InstallationOptions {
   std::optional<std::filesystem::path> orders_script;  ///< overrides the config's
@@ -169,6 +211,16 @@ class Installation {
   const FrameData& step(Timestamp now, Timestamp shown_at);
   /// A frame seen at once (simulated time, tests).
   const FrameData& step(Timestamp now) { return step(now, now); }
+  /// The frame again from a recorded input: the tracker is not asked, `input.keyed` are the
+  /// orders given before it. Deterministic: the same inputs give bit-identical FrameData.
+  const FrameData& replay(const FrameInput& input);
+  /// What the last step() took from outside.
+  const FrameInput& input() const { return input_; }
+  /// Every step from now on hands its input and its state's hashes to `recorder` (never
+  /// waiting on it); nullptr stops. The recorder must outlive the steps.
+  void record_to(SessionRecorder* recorder) { recorder_ = recorder; }
+  Timestamp start_time() const { return start_; }
+  bool has_tracker() const;
 
   const FrameData& frame() const { return frame_; }
   const ConsoleState& console() const { return console_; }
@@ -177,12 +229,16 @@ class Installation {
   int character_count() const;
   std::string character_name(int index) const;
   bool quit_requested() const { return quit_; }
+  /// How the fighter's retrieval worker kept to the updates its plans were due on (zeros
+  /// without a fighter).
+  content::RetrievalTiming retrieval_timing() const;
   void request_quit() { quit_ = true; }
 
  private:
   void update_head(Timestamp now, Timestamp shown_at);
   void apply_orders(Timestamp now);
   void update_fighter(Timestamp now, double dt);
+  void copy_pose(const content::FighterFrame& f, int character, FighterPose& pose);
   void note(const FrameEvent& e);
 
   InstallationConfig config_;
@@ -194,6 +250,8 @@ class Installation {
   std::vector<std::string> missing_characters_;  // one line each (left out of the fighter)
   std::vector<int> fighter_of_config_;  // config character -> the fighter's (-1: not loaded)
   std::vector<int> config_of_fighter_;
+  /// Per fighter character, its skeleton for FighterPose (made at the first frame it is drawn).
+  std::vector<std::shared_ptr<const FighterSkeleton>> skeletons_;
   OrderScript script_;
   std::vector<Order> pending_;
   std::vector<Order> due_;
@@ -208,6 +266,9 @@ class Installation {
   bool script_waits_ = false;  ///< the orders script waits for the head to be tracked
   double dt_filtered_ = 0;  ///< s, smoothed frame interval
   std::uint64_t steps_ = 0;
+  FrameInput input_;
+  const FrameInput* replaying_ = nullptr;
+  SessionRecorder* recorder_ = nullptr;
 };
 
 }  // namespace kumite::app

@@ -5,7 +5,9 @@
 //
 // CONTRACT (agreed between content/ and app/; the content module implements it). Room frame:
 // metres, +Y up, floor y = 0, front wall toward -Z. Times: kumite::Timestamp seconds.
+#include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <span>
@@ -13,6 +15,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
@@ -65,27 +68,62 @@ struct FighterFrame {
   std::span<const Eigen::Vector3d> joints;   ///< m, room frame, one per skeleton joint
   std::span<const int> parents;              ///< parent index per joint (-1 root)
   std::span<const float> joint_radii_m;      ///< suggested capsule radius per bone (to parent)
+  std::span<const std::string> joint_names;  ///< the character's skeleton joint names
+  /// Per joint, its rotation relative to its parent (the root's: to the room), on the
+  /// character's skeleton (BVH offsets, identity = the offsets' pose). Forward kinematics of
+  /// these from `root_joint` gives `joints` exactly, except while a character switch eases
+  /// the drawn joints from the old character's pose (blend_time_s after the switch).
+  std::span<const Eigen::Quaterniond> local_rotations;
+  Eigen::Vector3d root_joint{0, 0, 0};       ///< m, room frame: the skeleton's root joint (BVH root)
   std::optional<Eigen::Vector3d> target;     ///< m, room frame: frozen strike target
   Eigen::Vector3d root{0, 0, 0};             ///< m, room frame, on the floor under the pelvis
   double heading_rad = 0;                    ///< rotation about +Y; 0 = facing +Z (the visitor)
 };
 
+struct StrikeRequest;  // behaviour.hpp
+struct StrikePlan;
+class StrikePlanner;
+
+/// Updates between a strike's order and the update its plan is applied on: an order taken
+/// at update N starts its strike at update N + kRetrievalDelayUpdates (at 60 Hz: 16.7 ms
+/// later), whatever the worker thread's timing. Retrieval takes ~20 µs, so the worker is
+/// done long before; if it is not, that update waits for it (counted in RetrievalTiming).
+/// The same orders at the same updates therefore always give the same frames.
+constexpr int kRetrievalDelayUpdates = 1;
+
+/// How the fighter's retrieval worker kept to its deadline (the update each plan is due on).
+struct RetrievalTiming {
+  std::uint64_t requests = 0;  ///< strike plans asked for
+  std::uint64_t waits = 0;     ///< updates that had to wait for the worker (plan not ready on time)
+  double wait_max_ms = 0;      ///< ms, the longest such wait
+  double wait_total_ms = 0;    ///< ms, all waits together
+};
+
+struct FighterOptions {
+  int retrieval_delay_updates = kRetrievalDelayUpdates;  ///< >= 0 (0: plan applied on the order's update)
+  /// Runs a plan on the worker thread instead of planner.plan(request) (tests: a slow planner).
+  std::function<StrikePlan(const StrikePlanner& planner, const StrikeRequest& request)> plan;
+};
+
 class Fighter {
  public:
   /// Loads the database and characters. Throws kumite::Error naming the file at fault.
-  static std::unique_ptr<Fighter> create(const FighterConfig& config);
+  static std::unique_ptr<Fighter> create(const FighterConfig& config, FighterOptions options = {});
   virtual ~Fighter() = default;
 
   /// Queue an order (any thread that owns the fighter; not thread-safe by itself).
   virtual void order(const Order& order) = 0;
   /// Advance to `now` (dt = seconds since the last update) toward the visitor's head
-  /// (room frame). Never blocks: retrieval results are picked up when ready.
+  /// (room frame). Retrieval runs on a worker thread; its plan is applied exactly
+  /// retrieval_delay_updates updates after the order (waiting for the worker only if it is
+  /// late), so the frames depend on the inputs alone, not on thread timing.
   virtual void update(Timestamp now, double dt, const Eigen::Vector3d& head) = 0;
   virtual FighterFrame frame() const = 0;
   /// Events since the last call (orders accepted/ignored, hit/miss, warnings).
   virtual std::vector<FighterEvent> take_events() = 0;
   virtual int character_count() const = 0;
   virtual std::string character_name(int index) const = 0;
+  virtual RetrievalTiming retrieval_timing() const = 0;
 };
 
 }  // namespace kumite::content
