@@ -352,7 +352,7 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
   if (!mf) throw Error("replay", "missing", fmt::format("{}: cannot read (not a recorded session)", manifest_path.string()));
   const json m = json::parse(mf, nullptr, false);
   LineReader mr{manifest_path.string(), 0};
-  if (m.is_discarded() || !m.is_object()) mr.fail("", "not a JSON object");
+  if (m.is_discarded() || !m.is_object()) mr.fail("", "not valid JSON (or not an object)");
   const double version = mr.num(mr.at(m, "version", "version"), "version");
   if (version > kSessionVersion)
     mr.fail("version", fmt::format("session version {} is newer than this kumite reads ({})", version, kSessionVersion));
@@ -391,7 +391,7 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
     }
     const json j = json::parse(std::string_view(all).substr(pos, end - pos), nullptr, false);
     pos = end + 1;
-    if (j.is_discarded() || !j.is_object()) r.fail("", "not a JSON object");
+    if (j.is_discarded() || !j.is_object()) r.fail("", "not valid JSON (or not an object)");
     if (!inst) {
       const double start = r.num(r.at(j, "start", "start"), "start");
       inst = std::make_unique<Installation>(config, std::make_unique<ReplayTracking>(j.value("has_tracker", false)), io);
