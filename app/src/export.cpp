@@ -74,7 +74,7 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
         spdlog::warn("{}:{}: the last line is cut short (a run killed while writing it): left out", r.file, r.line);
         break;
       }
-      r.fail("", "not a JSON object");
+      r.fail("", "not valid JSON (or not an object)");
     }
     const double t = r.number(r.at(j, "time_s", "time_s"), "time_s");
     if (t < opt.from_s) continue;

@@ -15,12 +15,18 @@
 #include "kumite/app/run.hpp"
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/common/realtime.hpp"
 
 namespace kumite::app {
 
 namespace {
 using nlohmann::json;
 
+/// nice added to the writer thread (the render thread itself runs at +5 by default).
+constexpr int kWriterNice = 15;
+/// ms the writer sleeps when it has written everything queued (the queue holds 512 frames:
+/// 8.5 s at 60 Hz).
+constexpr int kWriterPeriodMs = 5;
 constexpr std::uint64_t kFnvOffset = 14695981039346656037ull;
 constexpr std::uint64_t kFnvPrime = 1099511628211ull;
 
@@ -196,7 +202,7 @@ std::uint64_t file_checksum(const std::filesystem::path& path) {
 }
 
 SessionRecorder::SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames)
-    : dir_(std::move(dir)), info_(std::move(info)), capacity_(std::max<std::size_t>(queue_frames, 1)) {
+    : dir_(std::move(dir)), info_(std::move(info)), slots_(std::max<std::size_t>(queue_frames, 2)) {
   make_output_folder(dir_, "--record " + dir_.string());
   created_unix_s_ = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
   const auto path = dir_ / "session.jsonl";
@@ -215,36 +221,48 @@ SessionRecorder::~SessionRecorder() {
 }
 
 void SessionRecorder::started(Timestamp start, bool has_tracker) {
-  std::lock_guard lock(mutex_);
-  Item item;
+  const std::uint64_t h = head_.load(std::memory_order_relaxed);
+  if (h - tail_.load(std::memory_order_acquire) >= slots_.size()) {  // cannot happen before the first frame
+    dropped_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  Item& item = slots_[h % slots_.size()];
   item.start = std::pair{start, has_tracker};
-  queue_.push_back(std::move(item));  // the first line: never dropped
-  cv_.notify_one();
+  head_.store(h + 1, std::memory_order_release);
 }
 
 void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes) {
-  {
-    std::lock_guard lock(mutex_);  // held only to append: the writer swaps the queue out
-    ++pushed_;
-    if (queue_.size() >= capacity_) {
-      ++dropped_;
-      return;
-    }
-    queue_.push_back(Item{frame, input, hashes, std::nullopt});
+  pushed_.fetch_add(1, std::memory_order_relaxed);
+  const std::uint64_t h = head_.load(std::memory_order_relaxed);
+  if (h - tail_.load(std::memory_order_acquire) >= slots_.size()) {
+    dropped_.fetch_add(1, std::memory_order_relaxed);
+    return;
   }
-  cv_.notify_one();
+  Item& item = slots_[h % slots_.size()];
+  item.frame = frame;
+  item.input.now = input.now;
+  item.input.shown_at = input.shown_at;
+  item.input.keyed.assign(input.keyed.begin(), input.keyed.end());
+  item.input.tracking.head = input.tracking.head;
+  item.input.tracking.measured_at = input.tracking.measured_at;
+  item.input.tracking.measured_ready_at = input.tracking.measured_ready_at;
+  item.input.tracking.status.assign(input.tracking.status);
+  item.input.tracking_clock = input.tracking_clock;
+  item.hashes = hashes;
+  item.start.reset();
+  head_.store(h + 1, std::memory_order_release);
 }
 
 void SessionRecorder::run() {
-  std::deque<Item> batch;
+  // Below the frame loop and the tracker: the disk can wait, a frame cannot.
+  lower_this_thread_priority(kWriterNice);
+  std::string text;
   for (;;) {
-    {
-      std::unique_lock lock(mutex_);
-      cv_.wait(lock, [&] { return stop_ || !queue_.empty(); });
-      if (queue_.empty() && stop_) return;
-      batch.swap(queue_);
-    }
-    for (const Item& item : batch) {
+    const bool stopping = stop_.load(std::memory_order_acquire);
+    const std::uint64_t h = head_.load(std::memory_order_acquire);
+    std::uint64_t t = tail_.load(std::memory_order_relaxed);
+    for (; t < h; ++t) {
+      const Item& item = slots_[t % slots_.size()];
       json j;
       if (item.start) {
         j = {{"start", item.start->first}, {"has_tracker", item.start->second}};
@@ -254,14 +272,17 @@ void SessionRecorder::run() {
           hashes[std::string(StateHashes::kFields[k])] = hex(item.hashes.value[k]);
         j = {{"frame", item.frame}, {"input", input_json(item.input)}, {"hash", hashes}};
       }
+      tail_.store(t + 1, std::memory_order_release);  // the slot is read: the frame loop may reuse it
+      text = j.dump();
+      text += '\n';
       try {
-        write_line(j.dump() + "\n");
+        if (error_.empty()) write_line(text);
       } catch (const std::exception& e) {
-        std::lock_guard lock(mutex_);
-        if (error_.empty()) error_ = e.what();
+        error_ = e.what();  // said at close(); later frames are not written (the file would have a hole)
       }
     }
-    batch.clear();
+    if (stopping) return;  // everything pushed before stop was written
+    std::this_thread::sleep_for(std::chrono::milliseconds(kWriterPeriodMs));
   }
 }
 
@@ -279,9 +300,8 @@ void SessionRecorder::write_line(const std::string& line) {
   }
   Fnv f{checksum_};
   f.bytes(line.data(), line.size());
-  std::lock_guard lock(mutex_);
   checksum_ = f.h;
-  if (line.rfind("{\"frame\"", 0) == 0) ++written_;
+  if (line.rfind("{\"frame\"", 0) == 0) written_.fetch_add(1, std::memory_order_relaxed);
 }
 
 void SessionRecorder::write_manifest(bool complete) {
@@ -297,11 +317,10 @@ void SessionRecorder::write_manifest(bool complete) {
   m["mono_eyes"] = info_.mono_eyes;
   m["state_fields"] = StateHashes::kFields;
   if (complete) {
-    std::lock_guard lock(mutex_);
     m["closed_unix_s"] = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
-    m["frames"] = written_;
-    m["frames_offered"] = pushed_;
-    m["dropped"] = dropped_;
+    m["frames"] = written_.load();
+    m["frames_offered"] = pushed_.load();
+    m["dropped"] = dropped_.load();
     m["session_fnv"] = hex(checksum_);
   }
   write_file_atomically(dir_ / "manifest.json", m.dump(2) + "\n");
@@ -309,11 +328,7 @@ void SessionRecorder::write_manifest(bool complete) {
 
 void SessionRecorder::close() {
   if (fd_ < 0) return;
-  {
-    std::lock_guard lock(mutex_);
-    stop_ = true;
-  }
-  cv_.notify_one();
+  stop_.store(true, std::memory_order_release);
   if (thread_.joinable()) thread_.join();
   const int fd = std::exchange(fd_, -1);
   const bool synced = ::fsync(fd) == 0;
@@ -322,18 +337,12 @@ void SessionRecorder::close() {
   if (!error_.empty()) throw Error("io", "write", error_);
   if (!synced) throw Error("io", "write", fmt::format("{}: cannot sync", (dir_ / "session.jsonl").string()));
   if (dropped_ > 0)
-    spdlog::warn("record: {} frame(s) dropped (the writer was behind): a replay stops at the first", dropped_);
-  spdlog::info("record: {} frames -> {}", written_, dir_.string());
+    spdlog::warn("record: {} frame(s) dropped (the writer was behind): a replay stops at the first", dropped_.load());
+  spdlog::info("record: {} frames -> {}", written_.load(), dir_.string());
 }
 
-std::uint64_t SessionRecorder::frames_written() const {
-  std::lock_guard lock(mutex_);
-  return written_;
-}
-std::uint64_t SessionRecorder::dropped() const {
-  std::lock_guard lock(mutex_);
-  return dropped_;
-}
+std::uint64_t SessionRecorder::frames_written() const { return written_.load(); }
+std::uint64_t SessionRecorder::dropped() const { return dropped_.load(); }
 
 ReplayReport replay_session(const std::filesystem::path& dir, const std::optional<std::filesystem::path>& config_override,
                             const std::optional<std::filesystem::path>& data_dir) {
@@ -343,7 +352,7 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
   if (!mf) throw Error("replay", "missing", fmt::format("{}: cannot read (not a recorded session)", manifest_path.string()));
   const json m = json::parse(mf, nullptr, false);
   LineReader mr{manifest_path.string(), 0};
-  if (m.is_discarded() || !m.is_object()) mr.fail("", "not a JSON object");
+  if (m.is_discarded() || !m.is_object()) mr.fail("", "not valid JSON (or not an object)");
   const double version = mr.num(mr.at(m, "version", "version"), "version");
   if (version > kSessionVersion)
     mr.fail("version", fmt::format("session version {} is newer than this kumite reads ({})", version, kSessionVersion));
@@ -382,7 +391,7 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
     }
     const json j = json::parse(std::string_view(all).substr(pos, end - pos), nullptr, false);
     pos = end + 1;
-    if (j.is_discarded() || !j.is_object()) r.fail("", "not a JSON object");
+    if (j.is_discarded() || !j.is_object()) r.fail("", "not valid JSON (or not an object)");
     if (!inst) {
       const double start = r.num(r.at(j, "start", "start"), "start");
       inst = std::make_unique<Installation>(config, std::make_unique<ReplayTracking>(j.value("has_tracker", false)), io);

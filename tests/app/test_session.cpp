@@ -184,3 +184,22 @@ TEST(Session, ANewerOrMissingManifestIsRefusedInOneLine) {
         << e.what();
   }
 }
+
+TEST(Session, AFullQueueDropsFramesAndCountsThemNeverWaiting) {
+  Tmp tmp;
+  SessionRecorder rec(tmp.path / "s", SessionInfo{tmp.path / "none.toml", std::nullopt, false}, 2);
+  rec.started(1.0, false);
+  FrameInput in;
+  in.tracking.status = "no tracking";
+  for (int i = 0; i < 5000; ++i) {
+    in.now = 1.0 + i / 60.0;
+    rec.push(static_cast<std::uint64_t>(i), in, StateHashes{});
+  }
+  rec.close();
+  EXPECT_GT(rec.dropped(), 0u) << "5000 frames pushed at once into 2 slots";
+  EXPECT_EQ(rec.frames_written() + rec.dropped(), 5000u);
+  const auto m = nlohmann::json::parse(read(tmp.path / "s/manifest.json"));
+  EXPECT_EQ(m["dropped"].get<std::uint64_t>(), rec.dropped());
+  EXPECT_EQ(m["frames_offered"], 5000);
+  EXPECT_EQ(m["session_fnv"].get<std::string>(), fmt::format("{:016x}", file_checksum(tmp.path / "s/session.jsonl")));
+}

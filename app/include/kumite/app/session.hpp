@@ -16,11 +16,9 @@
 // checks every frame's hashes against the recording: the first difference is reported with
 // its frame and field.
 #include <array>
-#include <condition_variable>
+#include <atomic>
 #include <cstdint>
-#include <deque>
 #include <filesystem>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -83,15 +81,17 @@ class SessionRecorder {
 
   std::filesystem::path dir_;
   SessionInfo info_;
-  std::size_t capacity_;
   int fd_ = -1;
-  mutable std::mutex mutex_;
-  std::condition_variable cv_;
-  std::deque<Item> queue_;
-  bool stop_ = false;
-  std::uint64_t written_ = 0, dropped_ = 0, pushed_ = 0;
-  std::uint64_t checksum_ = 14695981039346656037ull;
-  std::string error_;
+  // A single-producer (the frame loop) single-consumer (the writer) ring of preallocated
+  // items: the frame loop never takes a lock the writer holds (the writer runs at a low
+  // priority; a lock it held while descheduled would stall the frame) and, once the slots'
+  // vectors and strings have grown, never allocates.
+  std::vector<Item> slots_;
+  std::atomic<std::uint64_t> head_{0}, tail_{0};
+  std::atomic<bool> stop_{false};
+  std::atomic<std::uint64_t> written_{0}, dropped_{0}, pushed_{0};
+  std::uint64_t checksum_ = 14695981039346656037ull;  // the writer's (read after join)
+  std::string error_;                                 // the writer's (read after join)
   double created_unix_s_ = 0;
   std::thread thread_;
 };
