@@ -354,12 +354,11 @@ TEST(AnnotationMocap, ChamberedKicksAndHeights) {
     EXPECT_EQ(kicks[0]->height, StrikeHeight::low) << rel;
   }
   // Roundhouse kicks at head height are high, front kicks to the chest mid.
-  for (const auto* k : strikes_of(propose_annotations(mocap_clip("cmu/135_07"), "x"), Semantics::kick)) {
-    EXPECT_EQ(k->height, StrikeHeight::high) << *k->hit_frame;
-  }
-  for (const auto* k : strikes_of(propose_annotations(mocap_clip("cmu/135_04"), "x"), Semantics::kick)) {
-    EXPECT_EQ(k->height, StrikeHeight::mid) << *k->hit_frame;
-  }
+  // (The annotations must outlive the pointers strikes_of returns into them.)
+  const ClipAnnotation roundhouse = propose_annotations(mocap_clip("cmu/135_07"), "x");
+  for (const auto* k : strikes_of(roundhouse, Semantics::kick)) EXPECT_EQ(k->height, StrikeHeight::high) << *k->hit_frame;
+  const ClipAnnotation front = propose_annotations(mocap_clip("cmu/135_04"), "x");
+  for (const auto* k : strikes_of(front, Semantics::kick)) EXPECT_EQ(k->height, StrikeHeight::mid) << *k->hit_frame;
 }
 
 TEST(AnnotationMocap, BlocksAreNotPunches) {
