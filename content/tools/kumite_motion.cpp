@@ -147,6 +147,17 @@ int run_make_characters(const MakeCharactersArgs& a) {
 
 // ---- shared helpers ------------------------------------------------------------------------
 
+/// The folder an output file goes to exists (made if missing) before any work starts, or the
+/// run is refused at once with one line (not after minutes of work).
+void prepare_output(const std::string& option, const std::string& path) {
+  const fs::path parent = fs::absolute(path).parent_path();
+  std::error_code ec;
+  fs::create_directories(parent, ec);
+  if (ec || !fs::is_directory(parent))
+    throw kumite::Error("output", "folder", fmt::format("{} {}: cannot create the folder {}{}", option, path, parent.string(),
+                                                        ec ? ": " + ec.message() : ""));
+}
+
 double percentile(std::vector<double> v, double p) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -238,6 +249,8 @@ int run_strike(const StrikeArgs& a) {
   if (!order || order->kind == kumite::OrderKind::select_character || order->kind > kumite::OrderKind::kick_right)
     throw kumite::Error("strike", "argument", fmt::format("--order: '{}' is not punch_right, punch_left, kick_right or kick_left", a.order));
   const Eigen::Vector3d target = parse_target(a.target);
+  prepare_output("--out", a.out);
+  prepare_output("--report", a.report);
   auto db = std::make_shared<const Database>(load_database(a.db));
   const Rig rig = load_character_rig(a.character);
   const StrikeRecording rec = record_strike(db, rig, order->kind, target);
@@ -613,6 +626,7 @@ void add_quality(CLI::App& app, QualityArgs& a) {
 }
 
 int run_quality(const QualityArgs& a) {
+  prepare_output("--out", a.out);
   const double t0 = now_s();
   auto db = std::make_shared<const Database>(load_database(a.db));
   const std::vector<Rig> rigs = load_rigs(a.characters);
@@ -833,6 +847,8 @@ void add_bout(CLI::App& app, BoutArgs& a) {
 }
 
 int run_bout(const BoutArgs& a) {
+  prepare_output("--out", a.out);
+  prepare_output("--report", a.report);
   auto db = std::make_shared<const Database>(load_database(a.db));
   const BoutResult r = run_bout_scenario(db, load_rigs(a.characters), a.seconds, a.out);
   kumite::write_file_atomically(a.report, r.report.dump(2) + "\n");
