@@ -107,6 +107,11 @@ TEST(CalibrationFile, BadFieldsAreNamed) {
   EXPECT_NE(error_of(p).find(p.string() + ":2: a document marker (---) stands alone on its line"), std::string::npos)
       << error_of(p);
 
+  // Found by fuzzing (CI, 2026-11-23): an indented marker hangs the same parser.
+  write_text(p, "%YAML:1.0\n   ---\n# Kumite rig\n cameras:\n   - name: cam2\n");
+  EXPECT_NE(error_of(p).find(p.string() + ":2: a document marker (---) starts its line"), std::string::npos)
+      << error_of(p);
+
   // Not a rotation.
   RigCalibration rig = two_cameras();
   rig.cameras[1].rotation(0, 0) = 2.0;

@@ -109,6 +109,13 @@ void check_yaml_text(const fs::path& path) {
     if (line.find('%') != std::string::npos && n > 1) {
       throw file_error("calibration", "parse", path.string(), n, "", "'%' only in the first line's directive");
     }
+    // An indented marker ("   ---") is no marker to YAML, but OpenCV 4.6's parser loops forever
+    // on one (found by fuzzing): refuse it.
+    if (indent != std::string::npos && indent > 0 &&
+        (line.compare(indent, 3, "---") == 0 || line.compare(indent, 3, "...") == 0)) {
+      throw file_error("calibration", "parse", path.string(), n, "",
+                       fmt::format("a document marker ({}) starts its line", line.substr(indent, 3)));
+    }
     if (line.rfind("---", 0) == 0 || line.rfind("...", 0) == 0) {
       if (!indents.empty()) throw file_error("calibration", "parse", path.string(), n, "", "one YAML document per file");
       // OpenCV 4.6's parser can loop forever on content after a marker ("---L:0" found by
