@@ -11,6 +11,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 
 namespace kumite::app {
@@ -127,17 +128,7 @@ void FrameLog::write_line(std::string line) {
   line += '\n';
   // One write(2) for the whole line (a regular file takes it whole; the loop is for the
   // rare short write and EINTR): a process killed between frames leaves complete lines.
-  const char* p = line.data();
-  std::size_t left = line.size();
-  while (left > 0) {
-    const ssize_t n = ::write(fd_, p, left);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0)
-      throw Error("io", "write", fmt::format("{}: cannot write ({})", path_.string(),
-                                             n < 0 ? std::strerror(errno) : "no progress"));
-    p += n;
-    left -= static_cast<std::size_t>(n);
-  }
+  write_all(fd_, line, path_);
 }
 
 void FrameLog::close() {

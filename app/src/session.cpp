@@ -287,17 +287,7 @@ void SessionRecorder::run() {
 }
 
 void SessionRecorder::write_line(const std::string& line) {
-  const char* p = line.data();
-  std::size_t left = line.size();
-  while (left > 0) {
-    const ssize_t n = ::write(fd_, p, left);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0)
-      throw Error("io", "write", fmt::format("{}: cannot write ({})", (dir_ / "session.jsonl").string(),
-                                             n < 0 ? std::strerror(errno) : "no progress"));
-    p += n;
-    left -= static_cast<std::size_t>(n);
-  }
+  write_all(fd_, line, dir_ / "session.jsonl");
   Fnv f{checksum_};
   f.bytes(line.data(), line.size());
   checksum_ = f.h;

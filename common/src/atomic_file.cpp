@@ -80,4 +80,17 @@ fs::path keep_previous_version(const fs::path& path) {
   return backup;
 }
 
+void write_all(int fd, std::string_view bytes, const std::filesystem::path& path) {
+  const char* p = bytes.data();
+  std::size_t left = bytes.size();
+  while (left > 0) {
+    const ssize_t n = ::write(fd, p, left);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0)
+      throw Error("io", "write", fmt::format("{}: cannot write ({})", path.string(), n < 0 ? std::strerror(errno) : "no progress"));
+    p += n;
+    left -= static_cast<std::size_t>(n);
+  }
+}
+
 }  // namespace kumite

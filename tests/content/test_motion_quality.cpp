@@ -362,7 +362,9 @@ TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) 
     ++measured;
     snapped += !q.output.snaps.empty();
     knee_flips += q.output.knee_flips();
-    if (rec.strike.contact_reached) EXPECT_LT(q.output_contact.end_to_target_m, 2e-3) << rig.name << " " << to_string(sc.order);
+    if (rec.strike.contact_reached) {
+      EXPECT_LT(q.output_contact.end_to_target_m, 2e-3) << rig.name << " " << to_string(sc.order);
+    }
   }
   EXPECT_EQ(measured, 16);
   // Regression guards on what the fighter reaches today (issue 12 asks for 0 snaps; before

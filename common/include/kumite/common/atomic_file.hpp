@@ -27,4 +27,9 @@ void commit_temporary(const std::filesystem::path& tmp, const std::filesystem::p
 /// returns that backup path; returns an empty path when there was nothing to keep.
 std::filesystem::path keep_previous_version(const std::filesystem::path& path);
 
+/// Appends `bytes` to the open file descriptor `fd` in as few write(2) calls as it takes (one
+/// for a regular file; retried on EINTR and short writes), so a process killed between two
+/// calls leaves whole records. Throws kumite::Error("io", "write", "<path>: cannot write (...)").
+void write_all(int fd, std::string_view bytes, const std::filesystem::path& path);
+
 }  // namespace kumite
