@@ -185,53 +185,49 @@ FootContacts detect_foot_contacts(const JointTrack& track, const ContactOptions&
 }
 
 namespace {
-void finish(FootFigure& out, std::vector<double>& v) {
-  std::sort(v.begin(), v.end());
-  out.p50_mps = v.empty() ? kNaN : percentile_sorted(v, 50);
-  out.p95_mps = v.empty() ? kNaN : percentile_sorted(v, 95);
+/// Foot speed over the frames `take(f)` selects (whole window of `h` frames either side inside
+/// `range`): the fastest (and where), p50, p95 and the count.
+template <typename Take>
+FootFigure foot_figure(const JointTrack& track, int side, FrameRange range, int h, double scale, bool horizontal,
+                       Take take) {
+  range = clamp_range(track, range);
+  FootFigure out{kNaN, -1, 0, kNaN, kNaN};
+  std::vector<double> all_v;
+  for (int f = range.first + h; f <= range.last - h; ++f) {
+    if (!take(f)) continue;
+    const double v = foot_speed(track, side, f, h, horizontal) * scale;
+    if (std::isnan(v)) continue;
+    ++out.frames;
+    all_v.push_back(v);
+    if (std::isnan(out.max_mps) || v > out.max_mps) {
+      out.max_mps = v;
+      out.frame = f;
+    }
+  }
+  std::sort(all_v.begin(), all_v.end());
+  out.p50_mps = all_v.empty() ? kNaN : percentile_sorted(all_v, 50);
+  out.p95_mps = all_v.empty() ? kNaN : percentile_sorted(all_v, 95);
+  return out;
+}
+bool in_contact(std::span<const std::uint8_t> contact, int f) {
+  return f >= 0 && static_cast<std::size_t>(f) < contact.size() && contact[static_cast<std::size_t>(f)];
 }
 }  // namespace
 
 FootFigure support_foot_slide(const JointTrack& track, int side, std::span<const std::uint8_t> contact,
                               FrameRange range, int h, double scale) {
-  range = clamp_range(track, range);
-  FootFigure out{kNaN, -1, 0, kNaN, kNaN};
-  std::vector<double> all_v;
-  for (int f = range.first + h; f <= range.last - h; ++f) {
-    bool all = true;
-    for (int k = f - h; k <= f + h && all; ++k) all = static_cast<std::size_t>(k) < contact.size() && contact[static_cast<std::size_t>(k)];
-    if (!all) continue;
-    const double v = foot_speed(track, side, f, h, true) * scale;
-    if (std::isnan(v)) continue;
-    ++out.frames;
-    all_v.push_back(v);
-    if (std::isnan(out.max_mps) || v > out.max_mps) {
-      out.max_mps = v;
-      out.frame = f;
-    }
-  }
-  finish(out, all_v);
-  return out;
+  // Horizontal speed over frames whose whole window is in contact.
+  return foot_figure(track, side, range, h, scale, true, [&](int f) {
+    for (int k = f - h; k <= f + h; ++k)
+      if (!in_contact(contact, k)) return false;
+    return true;
+  });
 }
 
 FootFigure stepping_foot_peak(const JointTrack& track, int side, std::span<const std::uint8_t> contact,
                               FrameRange range, int h, double scale) {
-  range = clamp_range(track, range);
-  FootFigure out{kNaN, -1, 0, kNaN, kNaN};
-  std::vector<double> all_v;
-  for (int f = range.first + h; f <= range.last - h; ++f) {
-    if (static_cast<std::size_t>(f) < contact.size() && contact[static_cast<std::size_t>(f)]) continue;
-    const double v = foot_speed(track, side, f, h, false) * scale;
-    if (std::isnan(v)) continue;
-    ++out.frames;
-    all_v.push_back(v);
-    if (std::isnan(out.max_mps) || v > out.max_mps) {
-      out.max_mps = v;
-      out.frame = f;
-    }
-  }
-  finish(out, all_v);
-  return out;
+  // 3-D speed over frames not in contact.
+  return foot_figure(track, side, range, h, scale, false, [&](int f) { return !in_contact(contact, f); });
 }
 
 LimbAtContact limb_at_contact(const JointTrack& track, const Effector& e, int frame, const Vector3d& target,

@@ -34,17 +34,7 @@ void Recogniser::push(const PoseSample& s, std::vector<Event>& out) {
 void Recogniser::finish(Timestamp t, std::vector<Event>& out) {
   for (int l = 0; l < kLimbCount; ++l) {
     LimbState& st = limbs_[static_cast<std::size_t>(l)];
-    if (st.state == State::active) {
-      Event e;
-      e.t = t;
-      e.type = EventType::cancel;
-      e.limb = static_cast<Role>(l + 1);
-      e.action = model_.templates[static_cast<std::size_t>(st.current)].action;
-      e.progress = st.progress;
-      e.confidence = st.confidence;
-      e.impact = st.impact;
-      out.push_back(e);
-    }
+    if (st.state == State::active) out.push_back(cancel_event(l, st, t));
     st = LimbState{};
   }
 }
@@ -102,6 +92,18 @@ bool Recogniser::closer_to_none(int limb, int strike) {
   return false;
 }
 
+Event Recogniser::cancel_event(int limb, const LimbState& st, Timestamp t) const {
+  Event e;
+  e.t = t;
+  e.type = EventType::cancel;
+  e.limb = static_cast<Role>(limb + 1);
+  e.action = model_.templates[static_cast<std::size_t>(st.current)].action;
+  e.progress = st.progress;
+  e.confidence = st.confidence;
+  e.impact = st.impact;
+  return e;
+}
+
 Event Recogniser::make_event(const Frame& f, int limb, EventType type, int templ, const DtwMatch& m) {
   const Template& t = model_.templates[static_cast<std::size_t>(templ)];
   const Role role = static_cast<Role>(limb + 1);
@@ -134,17 +136,7 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
   LimbState& st = limbs_[static_cast<std::size_t>(l)];
   const LimbFrame& lf = f.limbs[static_cast<std::size_t>(l)];
   if (!lf.valid) {
-    if (st.state == State::active) {
-      Event e;
-      e.t = std::max(f.t, now_);
-      e.type = EventType::cancel;
-      e.limb = static_cast<Role>(l + 1);
-      e.action = model_.templates[static_cast<std::size_t>(st.current)].action;
-      e.progress = st.progress;
-      e.confidence = st.confidence;
-      e.impact = st.impact;
-      out.push_back(e);
-    }
+    if (st.state == State::active) out.push_back(cancel_event(l, st, std::max(f.t, now_)));
     st.state = State::idle;
     st.buffer.clear();
     st.null_run = 0;

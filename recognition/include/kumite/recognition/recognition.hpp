@@ -306,6 +306,8 @@ class Recogniser {
   bool closer_to_none(int limb, int strike);
   bool another_active(int limb) const;
   Event make_event(const Frame& f, int limb, EventType type, int templ, const DtwMatch& m);
+  /// The cancel event of an active limb's action, as of time t.
+  Event cancel_event(int limb, const LimbState& st, Timestamp t) const;
 
   Model model_;
   Frontend frontend_;
