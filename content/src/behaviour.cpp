@@ -411,12 +411,30 @@ double Behaviour::swing_left_s(int side) const {
   return (n - 1) * seg.frame_time_s - current_.time_s + config_.blend_time_s;  // the rest motion after it
 }
 
-void Behaviour::update_feet(double dt, const ReachGoal* reach, const std::array<double, 2>& planted) {
+namespace {
+/// Where a placed MKM frame puts an ankle (m, room) on a rig, without decoding the whole pose:
+/// pelvis, the rest pose's hip offset turned with the pelvis frame, the leg vector.
+Vector3d mkm_ankle(const Rig& rig, const MkmFrame& f, int side) {
+  const Vector3d pelvis(f.root_xz_m.x(), f.root_height_n * rig.morphology.leg_length_m, f.root_xz_m.y());
+  const CanonicalPose& rest = rig.rest_pose;
+  const Vector3d hip_local = pelvis_frame(rest).conjugate() * (at(rest, side == kLeft ? CJ::l_hip : CJ::r_hip) - at(rest, CJ::pelvis));
+  return pelvis + f.pelvis * hip_local + f.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side);
+}
+}  // namespace
+
+void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur) {
   if (!have_pose_) {
     locks_ = FootLocks{};
     return;
   }
+  const std::array<double, 2>& planted = cur.planted;
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  // The motion being played, one update earlier: how far it moved each foot since.
+  MkmFrame before;
+  Source earlier = current_;
+  earlier.time_s -= dt;
+  sample(earlier, before);
+
   std::array<FootSample, 2> in;
   for (int s = 0; s < 2; ++s) {
     const auto us = static_cast<std::size_t>(s);
@@ -429,6 +447,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const std::array<
     f.swing_left_s = swing_left_s(s);
     // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
     f.free_ankle_m = rig_positions_[hip] + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
+    f.source_step_m = mkm_ankle(rig, cur, s) - mkm_ankle(rig, before, s);
     f.drawn_ankle_m = rig_positions_[ankle];
     f.hip_m = rig_positions_[hip];
     f.leg_length_m = rig.morphology.limb_leg_length(s);
@@ -440,7 +459,8 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const std::array<
   }
   // Steps also while recovering: a strike that ends in a long stance steps back under the
   // body instead of squatting into the rest motion's narrower one.
-  const bool may_step = state_ != FighterState::striking;
+  // Not while d(t) still acts: the strike holds its stance until it has been taken back.
+  const bool may_step = state_ != FighterState::striking && ramp_ <= 0;
   feet_.update(dt, in, may_step, spot_velocity_, locks_);
 }
 
@@ -570,7 +590,9 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     goal.pin = ramp;
     reach = &goal;
   }
-  update_feet(dt, reach, cur.planted);
+  ramp_ = ramp;
+  motion_planted_ = cur.planted;
+  update_feet(dt, reach, cur);
   if (reach && strike_.effector.leg && !feet_.held(strike_.effector.side)) {
     // The kicking foot leaves its hold on the same ramp as d(t): fully free at contact, so the
     // goal there is exactly the motion's own foot turned by d(t) (what compute_reach_error
@@ -580,6 +602,11 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
 
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   const auto n = static_cast<std::size_t>(rig.joint_count());
+  // The pelvis drop for held feet changes at a bounded rate: a foot lifted or put down never
+  // moves the whole body in one frame.
+  const double last_drop = have_pose_ ? report_.root_drop_m : 0.0;
+  locks_.min_root_drop_m = std::max(0.0, last_drop - tun_.max_drop_rate_mps * dt);
+  locks_.max_root_drop_m = std::min(tun_.max_root_drop_m, last_drop + tun_.max_drop_rate_mps * dt);
   AdaptJob job;
   job.rig = &rig;
   job.pose = &pose_;
@@ -669,6 +696,19 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
   double dt = 1.0 / 120, t = 0;
   const int ankles[2] = {rig.skeleton.index(CJ::l_ankle), rig.skeleton.index(CJ::r_ankle)};
   auto record = [&] {
+    StrikeRecording::TraceRow row;
+    row.state = b.state();
+    row.ramp = b.reach_ramp();
+    for (int s = 0; s < 2; ++s) {
+      const auto us = static_cast<std::size_t>(s);
+      row.phase[us] = b.foot_planter().phase(s);
+      row.planted[us] = b.motion_planted()[us];
+      row.lock_weight[us] = b.foot_locks().weight[us];
+      row.lock_m[us] = b.foot_locks().ankle_m[us];
+      row.ankle_m[us] = b.rig_positions()[static_cast<std::size_t>(ankles[s])];
+    }
+    row.root_drop_m = b.last_report().root_drop_m;
+    rec.trace.push_back(row);
     rec.motion.root_positions.push_back(b.root_position());
     rec.motion.local_rotations.insert(rec.motion.local_rotations.end(), b.local_rotations().begin(),
                                       b.local_rotations().begin() + static_cast<std::ptrdiff_t>(n));

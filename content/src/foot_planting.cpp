@@ -20,6 +20,15 @@ constexpr double kShedPerTravel = 0.5;
 
 void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bool may_step,
                          const Eigen::Vector2d& body_velocity_xz, FootLocks& out) {
+  // A foot the motion has down but that is still in the air drops vertically: at least at
+  // landing_speed_mps, as fast as the motion lowers it if that is faster, and never faster
+  // than max_landing_speed_mps (the last centimetres are not a jump).
+  const auto come_down = [&](Foot& f, const FootSample& in, double step_dt) {
+    const double motion_fall = -in.source_step_m.y();
+    const double fall = std::clamp(motion_fall, tun_.landing_speed_mps * step_dt, tun_.max_landing_speed_mps * step_dt);
+    f.lock.y() = std::max(in.standing_ankle_y_m, f.lock.y() - fall);
+    f.offset = f.lock - in.free_ankle_m;
+  };
   for (int s = 0; s < 2; ++s) {
     Foot& f = feet_[static_cast<std::size_t>(s)];
     const FootSample& in = samples[static_cast<std::size_t>(s)];
@@ -27,6 +36,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     // The motion's contact counts only for a foot that is down: a cross-fade from a kick into
     // a standing motion says "planted" while the foot is still in the air.
     const auto down = [&](const Vector3d& ankle) { return ankle.y() <= in.standing_ankle_y_m + tun_.landing_height_m; };
+    const auto near_floor = [&](const Vector3d& ankle) { return ankle.y() <= in.standing_ankle_y_m + tun_.landing_window_m; };
     switch (f.phase) {
       case Phase::free:
         if (in.planted && !in.effector && down(in.drawn_ankle_m)) {
@@ -59,21 +69,64 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
       case Phase::swinging: {
         // Shed the offset by the time the motion plants the foot again, but never faster than
         // a share of the motion's own foot travel (a foot the motion barely moves stays put).
-        const double left = std::max(in.swing_left_s, tun_.min_swing_s);
-        const double travel = (in.free_ankle_m - (f.lock - f.offset)).norm();
-        const double norm = f.offset.norm();
-        const double shed = std::min(norm * std::min(1.0, dt / left), kShedPerTravel * travel);
-        if (norm > 1e-12) f.offset *= (norm - shed) / norm;
-        f.lock = in.free_ankle_m + f.offset;
         if (in.planted && !in.effector && down(in.drawn_ankle_m)) {
           f.phase = Phase::held;  // down where it is drawn (a kicking foot was drawn off its lock)
           f.lock = in.drawn_ankle_m;
+          break;
+        }
+        if (in.planted && !in.effector && near_floor(f.lock)) {
+          // The motion has put the foot down (or is fading into a motion that has it down)
+          // while it is still a little above the floor: it comes straight down where it is.
+          // Following the fade instead would carry it across the floor to where the new
+          // motion stands; a foot left out of place is fixed by a real step once held.
+          f.phase = Phase::landing;
+          come_down(f, in, dt);
+          break;
+        }
+        // The foot moves as the source moves it, and closes its gap to where the composed
+        // motion has it by the time the source plants it again, never faster than a share of
+        // the source's own travel (a foot the source barely moves stays put).
+        const double left = std::max(in.swing_left_s, tun_.min_swing_s);
+        if (in.effector) {
+          // The kicking foot goes where the composed motion and d(t) send it; only the gap it
+          // had when it left its hold is carried and shed.
+          const double norm = f.offset.norm();
+          const double travel = (in.free_ankle_m - (f.lock - f.offset)).norm();
+          const double shed = std::min(norm * std::min(1.0, dt / left), kShedPerTravel * travel);
+          if (norm > 1e-12) f.offset *= (norm - shed) / norm;
+          f.lock = in.free_ankle_m + f.offset;
+          break;
+        }
+        const double travel = in.source_step_m.norm();
+        f.lock += in.source_step_m;
+        Vector3d gap = in.free_ankle_m - f.lock;
+        const double norm = gap.norm();
+        const double shed = std::min(norm * std::min(1.0, dt / left), kShedPerTravel * travel);
+        if (norm > 1e-12) f.lock += gap * (shed / norm);
+        // The source may lift this foot from a height ours is not at (a strike starting
+        // mid-step): never through the floor.
+        f.lock.y() = std::max(f.lock.y(), std::min(in.standing_ankle_y_m, in.free_ankle_m.y()));
+        f.offset = f.lock - in.free_ankle_m;
+        break;
+      }
+      case Phase::landing: {
+        if (!in.planted || in.effector) {  // lifted again before it touched down
+          f.phase = Phase::swinging;
+          f.offset = f.lock - in.free_ankle_m;
+          break;
+        }
+        come_down(f, in, dt);
+        if (f.lock.y() <= in.standing_ankle_y_m + 1e-9 || down(in.drawn_ankle_m)) {
+          f.phase = Phase::held;
+          f.lock.y() = std::min(f.lock.y(), in.drawn_ankle_m.y());
         }
         break;
       }
       case Phase::stepping:
         f.step_t += dt / tun_.step_time_s;
-        f.lock = f.step_from + (f.step_to - f.step_from) * smoothstep(f.step_t) +
+        // The foot leaves the floor before it travels and is down before it stops: a step,
+        // not a slide (travel over the middle 70 % of the step, lift over all of it).
+        f.lock = f.step_from + (f.step_to - f.step_from) * smoothstep((f.step_t - 0.15) / 0.7) +
                  Vector3d::UnitY() * tun_.step_height_m * std::sin(std::numbers::pi * std::min(1.0, f.step_t));
         if (f.step_t >= 1) {
           f.phase = Phase::held;
@@ -81,8 +134,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         }
         break;
     }
-    if (f.phase == Phase::swinging) f.lock = in.free_ankle_m + f.offset;  // also on the update it lifts
     out.weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : 1.0;
+    out.supporting[static_cast<std::size_t>(s)] = f.phase == Phase::held || f.phase == Phase::landing;
     out.ankle_m[static_cast<std::size_t>(s)] = f.lock;
   }
 }

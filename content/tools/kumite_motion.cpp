@@ -222,7 +222,7 @@ int run_build(const BuildArgs& a) {
 // ---- strike --------------------------------------------------------------------------------
 
 struct StrikeArgs {
-  std::string db, character, order, target, out, report;
+  std::string db, character, order, target, out, report, trace;
 };
 
 void add_strike(CLI::App& app, StrikeArgs& a) {
@@ -234,6 +234,9 @@ void add_strike(CLI::App& app, StrikeArgs& a) {
       ->required();
   cmd->add_option("--out", a.out, "strike.bvh (the adapted motion, character skeleton, source units)")->required();
   cmd->add_option("--report", a.report, "strike.json")->required();
+  cmd->add_option("--trace", a.trace,
+                  "trace.csv: per frame the fighter state, d(t) weight, and per foot the planting phase, the "
+                  "motion's contact, the hold (weight, m) and the drawn ankle (m)");
 }
 
 Eigen::Vector3d parse_target(const std::string& text) {
@@ -251,6 +254,7 @@ int run_strike(const StrikeArgs& a) {
   const Eigen::Vector3d target = parse_target(a.target);
   prepare_output("--out", a.out);
   prepare_output("--report", a.report);
+  if (!a.trace.empty()) prepare_output("--trace", a.trace);
   auto db = std::make_shared<const Database>(load_database(a.db));
   const Rig rig = load_character_rig(a.character);
   const StrikeRecording rec = record_strike(db, rig, order->kind, target);
@@ -293,6 +297,24 @@ int run_strike(const StrikeArgs& a) {
   j["bvh_unit_m"] = motion.unit_m;
   j["events"] = rec.events;
   kumite::write_file_atomically(a.report, j.dump(2) + "\n");
+  if (!a.trace.empty()) {
+    std::string csv = "frame,state,ramp,root_drop_m";
+    for (const char* side : {"l", "r"})
+      csv += fmt::format(",{0}_phase,{0}_planted,{0}_lock_w,{0}_lock_x,{0}_lock_y,{0}_lock_z,{0}_ankle_x,{0}_ankle_y,{0}_ankle_z", side);
+    csv += "\n";
+    for (std::size_t f = 0; f < rec.trace.size(); ++f) {
+      const auto& r = rec.trace[f];
+      csv += fmt::format("{},{},{:.4f},{:.4f}", f, kumite::content::to_string(r.state), r.ramp, r.root_drop_m);
+      for (std::size_t s = 0; s < 2; ++s) {
+        static constexpr const char* kPhase[] = {"free", "held", "swinging", "stepping", "landing"};
+        csv += fmt::format(",{},{:.2f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}", kPhase[static_cast<int>(r.phase[s])],
+                           r.planted[s], r.lock_weight[s], r.lock_m[s].x(), r.lock_m[s].y(), r.lock_m[s].z(),
+                           r.ankle_m[s].x(), r.ankle_m[s].y(), r.ankle_m[s].z());
+      }
+      csv += "\n";
+    }
+    kumite::write_file_atomically(a.trace, csv);
+  }
   fmt::print("{} {} on {}: {} from {} f{}{}, contact at frame {} of {}: {} (reach error {:.2f} mm{}); wrote {} and {}\n",
              a.order, a.target, rig.name, rec.segment_name, rec.source_clip, rec.source_start_frame,
              rec.mirrored ? " (mirrored)" : "", rec.contact_frame, motion.frame_count, rec.strike.hit ? "hit" : "miss",

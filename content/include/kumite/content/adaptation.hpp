@@ -72,6 +72,15 @@ struct ReachGoal {
 struct FootLocks {
   std::array<double, 2> weight{0, 0};
   std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< m, room
+  /// m: the range the pelvis drop is kept in. The drop asked for (held feet within the legs'
+  /// reach) is clamped into it: the caller keeps it a knee bend (max) and makes it change at
+  /// a bounded rate from frame to frame (both ends around the last frame's drop). A foot still
+  /// out of reach then is reported (AdaptReport::foot_reached).
+  double min_root_drop_m = 0;
+  double max_root_drop_m = 0.20;
+  /// [side] the foot bears weight (held on the floor): only such feet lower the pelvis; a
+  /// foot in the air goes as far toward its goal as the leg reaches.
+  std::array<bool, 2> supporting{true, true};
 };
 
 /// What one Run() did (optional output).

@@ -67,6 +67,8 @@ struct BehaviourTunables {
   double walk_speed_mps = 0.7;        ///< m/s of the root while following
   double turn_speed_rad_s = 2.5;      ///< rad/s while turning to face the visitor
   double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
+  double max_root_drop_m = 0.30;      ///< m: the most the pelvis is lowered for held feet (a knee bend)
+  double max_drop_rate_mps = 2.0;     ///< m/s: how fast that drop may change
   double release_time_s = 0.25;       ///< s: the shortest time d(t) takes to return to zero after
                                       ///< contact (it carries on through the blend into rest)
   double max_support_shift_m = 0.30;  ///< m: a strike clip is shifted at most this far on the floor
@@ -111,6 +113,13 @@ class Behaviour {
   const AdaptReport& last_report() const { return report_; }
   /// Feet held still this update [side] (not lifted by the motion, not stepping).
   std::array<bool, 2> feet_locked() const;
+  /// Foot planting as of the last update (for tools/tests).
+  const FootPlanter& foot_planter() const { return feet_; }
+  const FootLocks& foot_locks() const { return locks_; }
+  /// d(t)'s weight at the last update: 0 none, 1 the full correction (contact).
+  double reach_ramp() const { return ramp_; }
+  /// The source motion's contacts at the last update [side] (the motion being blended to).
+  const std::array<double, 2>& motion_planted() const { return motion_planted_; }
 
   /// The strike in progress or the last one (for reports).
   struct StrikeInfo {
@@ -154,7 +163,7 @@ class Behaviour {
   double stride_scale() const;
   void start_rest(Timestamp now);
   void update_follow(double dt, const Eigen::Vector3d& head);
-  void update_feet(double dt, const ReachGoal* reach, const std::array<double, 2>& planted);
+  void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
   void compute_reach_error(double at_time_s);
   void align_to_support_foot(Source& s, double contact_time_s) const;
   double swing_left_s(int side) const;
@@ -213,6 +222,8 @@ class Behaviour {
   std::vector<FighterEvent> events_;
   Timestamp time_ = 0;
   int updates_ = 0;
+  double ramp_ = 0;
+  std::array<double, 2> motion_planted_{0, 0};
 };
 
 /// One strike played from rest on one character, frame by frame at the strike clip's frame
@@ -231,6 +242,18 @@ struct StrikeRecording {
   std::vector<double> update_us;         ///< µs per frame: blend + retarget + reach + feet
   double max_foot_slide_m = 0;           ///< m per frame, held ankles
   std::vector<std::string> events;       ///< event texts in order
+  /// One row per recorded frame: what drove it (for `kumite-motion strike --trace`).
+  struct TraceRow {
+    FighterState state = FighterState::resting;
+    double ramp = 0;                                  ///< d(t) weight
+    std::array<FootPlanter::Phase, 2> phase{};        ///< foot planting phase [side]
+    std::array<double, 2> planted{0, 0};              ///< the motion's contact [side]
+    std::array<double, 2> lock_weight{0, 0};          ///< the hold's weight in AdaptJob [side]
+    std::array<Eigen::Vector3d, 2> lock_m{};          ///< m, room: the hold [side]
+    std::array<Eigen::Vector3d, 2> ankle_m{};         ///< m, room: the drawn ankle [side]
+    double root_drop_m = 0;                           ///< m, pelvis lowered by the solver
+  };
+  std::vector<TraceRow> trace;
 };
 StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& character, OrderKind order,
                               const Eigen::Vector3d& target_ground_m, const FighterConfig& config = {});

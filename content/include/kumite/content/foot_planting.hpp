@@ -24,6 +24,10 @@ struct FootPlantingTunables {
   double step_height_m = 0.06;     ///< m: foot lift at mid-step
   double min_swing_s = 0.15;       ///< s: the shortest time over which a lifted foot sheds its offset
   double landing_height_m = 0.04;  ///< m: a lifted foot is put down only this close to its standing height
+  double landing_window_m = 0.08;  ///< m above standing height: a foot the motion puts down this low
+                                   ///< comes straight down where it is (higher: it follows the motion)
+  double landing_speed_mps = 0.6;  ///< m/s: the least speed at which such a foot comes down
+  double max_landing_speed_mps = 2.0;  ///< m/s: the most
 };
 
 /// What the motion says of one foot this update.
@@ -31,6 +35,10 @@ struct FootSample {
   bool planted = false;            ///< the source motion has this foot in contact now
   double swing_left_s = std::numeric_limits<double>::infinity();  ///< s until the source plants it again
   Eigen::Vector3d free_ankle_m{0, 0, 0};   ///< m, room: where the motion alone puts the ankle now
+  /// m, room: how far the motion being played (not the cross-fade) moved this ankle since the
+  /// last update. A lifted foot travels this much (plus a share shed toward free_ankle_m), so
+  /// it moves at the source's pace even while one motion fades into another.
+  Eigen::Vector3d source_step_m{0, 0, 0};
   Eigen::Vector3d drawn_ankle_m{0, 0, 0};  ///< m, room: where the ankle was drawn at the last update
   Eigen::Vector3d hip_m{0, 0, 0};          ///< m, room: the hip drawn at the last update
   double leg_length_m = 1;         ///< m, thigh + shin
@@ -41,7 +49,10 @@ struct FootSample {
 
 class FootPlanter {
  public:
-  enum class Phase : std::uint8_t { free, held, swinging, stepping };
+  /// free: not held (no hold yet); held: still where it was put down; swinging: lifted by the
+  /// motion, carrying its offset; landing: the motion has it down but it is still in the air,
+  /// coming straight down where it is; stepping: a procedural step.
+  enum class Phase : std::uint8_t { free, held, swinging, stepping, landing };
 
   explicit FootPlanter(FootPlantingTunables tunables = {}) : tun_(tunables) {}
   /// Forget every foot (a new body: character switch, first frame).
