@@ -82,7 +82,7 @@ def main():
         m = np.array([[conf[t].get(p, 0) for p in pred] for t in truth])
         a.imshow(m, cmap="Blues")
         for (r, q), v in np.ndenumerate(m):
-            a.text(q, r, str(v), ha="center", va="center", color="black")
+            a.text(q, r, str(v), ha="center", va="center", color="white" if v > m.max() / 2 else "black")
         a.set_xticks(range(len(pred)), pred, rotation=30, ha="right")
         a.set_yticks(range(len(truth)), truth)
         a.set_xlabel("predicted")

@@ -161,7 +161,8 @@ def chunks(seqs, length=64):
             torch.tensor(np.array(ps), dtype=torch.float32))
 
 
-CLASS_WEIGHT = "sqrt"
+CLASS_WEIGHT = "none"
+BEGIN_PROBABILITY = 0.8
 
 
 def train_net(seqs, naug, classes, seed, epochs, log):
@@ -268,7 +269,7 @@ def settings_of(ds):
     return {"loop_hz": float(ds["loop_hz"]), "smoothing_tau_s": float(fe["smoothing_tau_s"]),
             "heading_tau_s": float(fe["heading_tau_s"]), "height_tau_s": float(fe["height_tau_s"]),
             "velocity_weight": float(ds["velocity_weight"]), "max_gap_s": float(fe["max_gap_s"]),
-            "begin_probability": 0.5, "begin_progress": 0.0, "end_frames": 3.0, "confirm_frames": 1.0,
+            "begin_probability": BEGIN_PROBABILITY, "begin_progress": 0.0, "end_frames": 3.0, "confirm_frames": 1.0,
             "min_speed": 0.0}
 
 
@@ -300,13 +301,16 @@ def main():
     ap.add_argument("--fixture", help="write the C++ inference fixture (SYNTHETIC weights) here")
     ap.add_argument("--seed", type=int, default=14)
     ap.add_argument("--epochs", type=int, default=12)
-    ap.add_argument("--class-weight", choices=["sqrt", "none"], default="sqrt",
-                    help="strike classes weighted by sqrt(none loops / class loops), or all 1")
+    ap.add_argument("--class-weight", choices=["sqrt", "none"], default="none",
+                    help="strike classes weighted by sqrt(none loops / class loops), or all 1 (default: fewer false triggers)")
+    ap.add_argument("--begin-probability", type=float, default=0.8,
+                    help="the model's begin threshold on a strike class's probability (kumite-recognise eval can override it)")
     a = ap.parse_args()
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
-    global CLASS_WEIGHT
+    global CLASS_WEIGHT, BEGIN_PROBABILITY
     CLASS_WEIGHT = a.class_weight
+    BEGIN_PROBABILITY = a.begin_probability
     if a.fixture:
         return write_fixture(a.fixture, a.seed)
     if not a.dataset or not (a.out or a.eval_dir):
