@@ -1,5 +1,6 @@
-// kumite-recognise: train the strike recogniser, run it over a poses.csv, evaluate it across
-// actors, and turn a BVH clip into a mocap visitor's poses.csv. See recognition/README.md.
+// kumite-recognise: train the DTW strike recogniser, export the learned recogniser's training set,
+// run either over a poses.csv, evaluate both side by side across actors, and turn a BVH clip
+// into a mocap visitor's poses.csv. See recognition/README.md.
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -30,7 +31,7 @@ fs::path default_mocap() { return source_dir() / ".." / "shared" / "data" / "moc
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"kumite-recognise: the visitor's strikes from tracked poses (dual-buffer DTW)"};
+  CLI::App app{"kumite-recognise: the visitor's strikes from tracked poses (dual-buffer DTW, or the learned recogniser)"};
   app.require_subcommand(1);
 
   auto* train = app.add_subcommand("train", "build mean templates from annotated mocap -> a model file");
