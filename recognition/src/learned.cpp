@@ -396,7 +396,10 @@ void LearnedRecogniser::loop(const Frame& f, std::vector<Event>& out) {
     const bool none_wins = p[0] >= p[static_cast<std::size_t>(best)];
     st.none_run = none_wins ? st.none_run + 1 : 0;
     if (st.none_run >= s.end_frames) {
-      out.push_back(event(f, l, EventType::end, *net, st.current));
+      // The strike as it last was (progress, confidence, impact): "none" has won since.
+      Event e = cancel_event(l, st, std::max(f.t, now_));
+      e.type = EventType::end;
+      out.push_back(e);
       st.active = false;
     } else if (strike && best != st.current) {
       st.current = best;
