@@ -301,6 +301,7 @@ struct StrikeOutcome {
   std::string name, actor, action, limb, predicted = "none";
   bool right_limb = false, right_kind = false;
   double latency_s = std::nan(""), impact_error_m = std::nan("");
+  double progress_error = std::nan("");  ///< |begin's progress - the truth at its time| (onset 0, hit 1)
   int other_limb_begins = 0;
   std::array<int, 5> correct_at{};  ///< progress 0, .25, .5, .75, 1
 };
@@ -363,6 +364,7 @@ std::vector<StrikeOutcome> score(const Recording& r, const std::vector<Event>& e
       o.latency_s = begin->t - t_on;
       const Vec3& hp = r.limb_positions[static_cast<std::size_t>(s.hit)][l];
       o.impact_error_m = std::hypot(begin->impact[0] - hp[0], begin->impact[1] - hp[1], begin->impact[2] - hp[2]);
+      o.progress_error = std::abs(begin->progress - std::clamp((begin->t - t_on) / std::max(1e-6, t_hit - t_on), 0.0, 1.0));
       o.predicted = active_at(ev, s.limb, std::max(t_hit, begin->t));
       if (o.predicted == "none") o.predicted = begin->action;  // ended before the hit: its last word
       o.right_kind = o.predicted == s.action;
@@ -379,7 +381,7 @@ nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
   j["strikes"] = v.size();
   if (v.empty()) return j;
   int limb = 0, kind = 0, other = 0;
-  std::vector<double> lat, imp;
+  std::vector<double> lat, imp, prog;
   std::array<int, 5> at{};
   std::map<std::string, std::map<std::string, int>> confusion;
   for (const auto& o : v) {
@@ -388,6 +390,7 @@ nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
     other += o.other_limb_begins;
     if (std::isfinite(o.latency_s)) lat.push_back(o.latency_s * 1000);
     if (std::isfinite(o.impact_error_m)) imp.push_back(o.impact_error_m);
+    if (std::isfinite(o.progress_error)) prog.push_back(o.progress_error);
     for (int k = 0; k < 5; ++k) at[static_cast<std::size_t>(k)] += o.correct_at[static_cast<std::size_t>(k)];
     ++confusion[o.action][o.predicted];
   }
@@ -397,6 +400,11 @@ nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
   j["latency_from_onset_ms"] = {{"p50", num_or_null(percentile(lat, 0.5))}, {"p90", num_or_null(percentile(lat, 0.9))},
                                 {"n", lat.size()}};
   j["impact_error_m"] = {{"p50", num_or_null(percentile(imp, 0.5))}, {"p90", num_or_null(percentile(imp, 0.9))}};
+  j["progress_error_at_begin"] = {{"p50", num_or_null(percentile(prog, 0.5))}, {"p90", num_or_null(percentile(prog, 0.9))},
+                                  {"within_0.2_pct", prog.empty() ? nlohmann::json(nullptr)
+                                                                  : nlohmann::json(100.0 * static_cast<double>(std::count_if(
+                                                                        prog.begin(), prog.end(), [](double e) { return e <= 0.2; })) /
+                                                                    static_cast<double>(prog.size()))}};
   j["other_limb_begins"] = other;
   nlohmann::json acc = nlohmann::json::object();
   for (int k = 0; k < 5; ++k) acc[fmt::format("{:.2f}", kProgressPoints[k])] = 100.0 * at[static_cast<std::size_t>(k)] / n;
@@ -408,7 +416,8 @@ nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
 nlohmann::json outcome_json(const StrikeOutcome& o) {
   return {{"name", o.name}, {"actor", o.actor}, {"action", o.action}, {"limb", o.limb}, {"predicted", o.predicted},
           {"right_limb", o.right_limb}, {"right_kind", o.right_kind}, {"latency_ms", num_or_null(o.latency_s * 1000)},
-          {"impact_error_m", num_or_null(o.impact_error_m)}, {"other_limb_begins", o.other_limb_begins}};
+          {"impact_error_m", num_or_null(o.impact_error_m)}, {"progress_error", num_or_null(o.progress_error)},
+          {"other_limb_begins", o.other_limb_begins}};
 }
 
 std::set<std::string> actions_of(const Model& m) {
