@@ -523,12 +523,17 @@ nlohmann::json evaluate_with(const std::vector<Recording>& trainable, const std:
         if (r.trainable) make("without", r.name, without).run(r, ev, loop_us);
         else full.run(r, ev, loop_us);
         int b = 0;
-        for (const Event& e : ev) b += e.type == EventType::begin;
+        std::map<std::string, int> by_limb;
+        for (const Event& e : ev)
+          if (e.type == EventType::begin) {
+            ++b;
+            ++by_limb[fmt::format("{} {}", to_string(e.limb), e.action)];
+          }
         const double min = r.frames / r.fps / 60;
         minutes += min;
         begins += b;
         per.push_back({{"recording", r.name}, {"actor", r.actor}, {"minutes", min}, {"begins", b},
-                       {"same_actor_as_training", r.trainable}});
+                       {"begins_by_limb_and_action", by_limb}, {"same_actor_as_training", r.trainable}});
       }
     report["false_triggers"] = {{"per_idle_minute", minutes > 0 ? begins / minutes : 0.0},
                                 {"begins", begins}, {"minutes", minutes}, {"recordings", per},
