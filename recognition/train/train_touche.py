@@ -163,6 +163,7 @@ def chunks(seqs, length=64):
 
 CLASS_WEIGHT = "none"
 BEGIN_PROBABILITY = 0.8
+NONE_THINNING = 3
 
 
 def train_net(seqs, naug, classes, seed, epochs, log):
@@ -171,7 +172,7 @@ def train_net(seqs, naug, classes, seed, epochs, log):
     torch.manual_seed(seed)
     x, y, p = chunks(seqs[:len(seqs) - naug])
     xa, ya, pa = chunks(seqs[len(seqs) - naug:])
-    keep = (ya > 0).any(1) | (torch.arange(len(ya)) % 3 == 0)
+    keep = (ya > 0).any(1) | (torch.arange(len(ya)) % NONE_THINNING == 0)
     x, y, p = torch.cat([x, xa[keep]]), torch.cat([y, ya[keep]]), torch.cat([p, pa[keep]])
     net = Net(len(classes))
     flat = torch.cat([s[0] for s in [(torch.tensor(q[0], dtype=torch.float32),) for q in seqs]])
@@ -303,12 +304,15 @@ def main():
     ap.add_argument("--epochs", type=int, default=12)
     ap.add_argument("--class-weight", choices=["sqrt", "none"], default="none",
                     help="strike classes weighted by sqrt(none loops / class loops), or all 1 (default: fewer false triggers)")
+    ap.add_argument("--none-thinning", type=int, default=3,
+                    help="keep one in N augmented chunks that hold no strike loop (1 = all)")
     ap.add_argument("--begin-probability", type=float, default=0.8,
                     help="the model's begin threshold on a strike class's probability (kumite-recognise eval can override it)")
     a = ap.parse_args()
     torch.set_num_threads(1)
     torch.use_deterministic_algorithms(True)
-    global CLASS_WEIGHT, BEGIN_PROBABILITY
+    global CLASS_WEIGHT, BEGIN_PROBABILITY, NONE_THINNING
+    NONE_THINNING = a.none_thinning
     CLASS_WEIGHT = a.class_weight
     BEGIN_PROBABILITY = a.begin_probability
     if a.fixture:
