@@ -25,6 +25,8 @@ PACKAGES=(
   libzmq3-dev cppzmq-dev liblo-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # offline training and plots of the learned strike recogniser (recognition/train; not needed to build)
+  python3-torch python3-numpy python3-matplotlib
 )
 
 if [[ "${SKIP_APT:-0}" != 1 ]]; then

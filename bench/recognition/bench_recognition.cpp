@@ -1,5 +1,6 @@
 // Recognition benchmark (a `bench` command printing JSON): compute per 60 Hz loop (all four
-// limbs) of the dual-buffer DTW recogniser with the shipped model, in CPU time of this
+// limbs) of the dual-buffer DTW recogniser and of the learned (Touché) one with the shipped
+// models (the learned one's cost does not depend on the motion: one network pass per limb), in CPU time of this
 // thread (a shared machine's preemption excluded), pinned to one core, on SYNTHETIC streams:
 //   - "strikes_and_walk": a synthetic visitor punching, kicking, walking and standing;
 //   - "worst_case": every limb shaking faster than the onset speed without a null signal, so
@@ -8,6 +9,7 @@
 // Target (issue 14): <= 0.5 ms per loop.
 //
 //   build/bin/kumite_recognition_bench [seconds=60] [model=recognition/models/strikes.krec]
+//                                      [learned=recognition/models/strikes.klearn]
 #include <sched.h>
 
 #include <algorithm>
@@ -21,6 +23,7 @@
 
 #include <fmt/format.h>
 
+#include "kumite/recognition/learned.hpp"
 #include "kumite/recognition/recognition.hpp"
 #include "offline.hpp"
 
@@ -34,8 +37,9 @@ double pct(std::vector<double> v, double p) {
   return v[static_cast<std::size_t>(p * static_cast<double>(v.size() - 1))];
 }
 
-std::string run(const char* name, const Model& m, const std::vector<PoseSample>& samples) {
-  Recogniser r(m);
+template <class Rec, class M>
+std::string run(const char* name, const M& m, const std::vector<PoseSample>& samples) {
+  Rec r(m);
   r.set_timing(true);
   std::vector<Event> ev;
   for (const auto& s : samples) r.push(s, ev);
@@ -53,6 +57,8 @@ int main(int argc, char** argv) {
   const double seconds = argc > 1 ? std::atof(argv[1]) : 60;
   const std::filesystem::path model_path =
       argc > 2 ? std::filesystem::path(argv[2]) : std::filesystem::path(KUMITE_SOURCE_DIR) / "recognition/models/strikes.krec";
+  const std::filesystem::path learned_path =
+      argc > 3 ? std::filesystem::path(argv[3]) : std::filesystem::path(KUMITE_SOURCE_DIR) / "recognition/models/strikes.klearn";
   if (!(seconds > 0 && seconds < 3600)) {
     std::fprintf(stderr, "kumite_recognition_bench: seconds must be in (0, 3600)\n");
     return 1;
@@ -63,6 +69,7 @@ int main(int argc, char** argv) {
   const bool pinned = sched_setaffinity(0, sizeof(set), &set) == 0;
   try {
     const Model m = read_model(model_path);
+    const LearnedModel lm = read_learned_model(learned_path);
     // SYNTHETIC visitor: punches, kicks, a walk, standing; repeated to `seconds`.
     std::vector<offline::SynthSegment> segs;
     for (double t = 0; t < seconds; t += 8) {
@@ -92,10 +99,14 @@ int main(int argc, char** argv) {
         shake.push_back(s);
       }
     }
-    std::printf("{\"what\": \"recognition per-loop compute, SYNTHETIC streams, shipped model\", \"model\": \"%s\", "
-                "\"pinned_to_cpu0\": %s, \"seconds\": %.0f, \"target_loop_us\": 500,\n %s,\n %s}\n",
-                model_path.string().c_str(), pinned ? "true" : "false", seconds, run("strikes_and_walk", m, mixed).c_str(),
-                run("worst_case", m, shake).c_str());
+    std::printf("{\"what\": \"recognition per-loop compute (all four limbs), SYNTHETIC streams, shipped models\", "
+                "\"pinned_to_cpu0\": %s, \"seconds\": %.0f, \"target_loop_us\": 500,\n"
+                " \"dtw\": {\"model\": \"%s\",\n  %s,\n  %s},\n"
+                " \"learned\": {\"model\": \"%s\",\n  %s,\n  %s}}\n",
+                pinned ? "true" : "false", seconds, model_path.string().c_str(),
+                run<Recogniser>("strikes_and_walk", m, mixed).c_str(), run<Recogniser>("worst_case", m, shake).c_str(),
+                learned_path.string().c_str(), run<LearnedRecogniser>("strikes_and_walk", lm, mixed).c_str(),
+                run<LearnedRecogniser>("worst_case", lm, shake).c_str());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "%s\n", e.what());
     return 1;

@@ -22,20 +22,14 @@
 #include "kumite/common/error.hpp"
 #include "kumite/common/text.hpp"
 #include "kumite/recognition/recognition.hpp"
+#include "model_text.hpp"
 
 namespace kumite::recognition {
 
 namespace {
+using detail::fnv1a64;
+using detail::split;
 constexpr std::string_view kMagic = "kumite-recognition-model";
-
-std::uint64_t fnv1a64(std::string_view s) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ULL;
-  }
-  return h;
-}
 
 struct SettingField {
   std::string_view name;
@@ -78,18 +72,6 @@ bool valid_name(std::string_view s) {
          std::all_of(s.begin(), s.end(), [](char c) { return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_'; });
 }
 
-std::vector<std::string_view> split(std::string_view s) {
-  std::vector<std::string_view> out;
-  std::size_t i = 0;
-  while (i < s.size()) {
-    while (i < s.size() && (s[i] == ' ' || s[i] == '\t')) ++i;
-    std::size_t j = i;
-    while (j < s.size() && s[j] != ' ' && s[j] != '\t') ++j;
-    if (j > i) out.push_back(s.substr(i, j - i));
-    i = j;
-  }
-  return out;
-}
 }  // namespace
 
 std::string format_model(const Model& m) {
@@ -118,16 +100,7 @@ Model parse_model(std::string_view text, std::string_view source) {
   auto fail = [&](int line, std::string_view key, std::string_view msg) {
     return file_error("recognition", "model", source, line, key, msg);
   };
-  std::vector<std::string_view> lines;
-  {
-    std::size_t i = 0;
-    while (i < text.size()) {
-      std::size_t j = text.find('\n', i);
-      if (j == std::string_view::npos) j = text.size();
-      lines.push_back(text.substr(i, j - i));
-      i = j + 1;
-    }
-  }
+  const std::vector<std::string_view> lines = detail::lines_of(text);
   if (lines.empty()) throw fail(1, "format", "empty file: not a kumite recognition model");
   {
     const auto w = split(trim_blanks(lines[0]));

@@ -1,5 +1,6 @@
-// kumite-recognise: train the strike recogniser, run it over a poses.csv, evaluate it across
-// actors, and turn a BVH clip into a mocap visitor's poses.csv. See recognition/README.md.
+// kumite-recognise: train the DTW strike recogniser, export the learned recogniser's training set,
+// run either over a poses.csv, evaluate both side by side across actors, and turn a BVH clip
+// into a mocap visitor's poses.csv. See recognition/README.md.
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -12,6 +13,7 @@
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/content/bvh.hpp"
+#include "kumite/recognition/learned.hpp"
 #include "kumite/recognition/recognition.hpp"
 #include "offline.hpp"
 
@@ -23,11 +25,13 @@ namespace {
 fs::path source_dir() { return KUMITE_SOURCE_DIR; }
 fs::path default_motions() { return source_dir() / "content" / "motions" / "motions.toml"; }
 fs::path default_model() { return source_dir() / "recognition" / "models" / "strikes.krec"; }
+fs::path default_learned_model() { return source_dir() / "recognition" / "models" / "strikes.klearn"; }
+fs::path default_learned_folds() { return source_dir() / "build" / "touche"; }
 fs::path default_mocap() { return source_dir() / ".." / "shared" / "data" / "mocap"; }
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"kumite-recognise: the visitor's strikes from tracked poses (dual-buffer DTW)"};
+  CLI::App app{"kumite-recognise: the visitor's strikes from tracked poses (dual-buffer DTW, or the learned recogniser)"};
   app.require_subcommand(1);
 
   auto* train = app.add_subcommand("train", "build mean templates from annotated mocap -> a model file");
@@ -42,13 +46,31 @@ int main(int argc, char** argv) {
   fs::path poses, events_out, model_path = default_model();
   run->add_option("--poses", poses, "poses.csv")->required();
   run->add_option("--out", events_out, "events.jsonl")->required();
-  run->add_option("--model", model_path, "model file (default: the shipped recognition/models/strikes.krec)");
+  std::string recogniser = "dtw";
+  run->add_option("--recogniser", recogniser, "dtw (dual-buffer DTW) or learned (Touche network)")
+      ->check(CLI::IsMember({"dtw", "learned"}));
+  fs::path given_model;
+  run->add_option("--model", given_model,
+                  "model file (default: the shipped recognition/models/strikes.krec, or strikes.klearn for learned)");
 
   auto* eval = app.add_subcommand("eval", "cross-actor evaluation -> JSON report");
   fs::path mocap = default_mocap(), report_out;
   eval->add_option("--motions", motions, "annotations (motions.toml)")->check(CLI::ExistingFile);
   eval->add_option("--mocap", mocap, "development mocap folder (boxer, Sony, walks); skipped when absent");
   eval->add_option("--out", report_out, "report (JSON)")->required();
+  fs::path learned_folds = default_learned_folds();
+  eval->add_option("--learned", learned_folds, "the learned recogniser's fold models (train_touche.py --eval-dir); "
+                   "the learned side is left out when absent");
+  offline::LearnedOverrides lov;
+  eval->add_option("--begin-probability", lov.begin_probability, "learned: class probability that begins a strike")
+      ->check(CLI::Range(0.01, 1.0));
+  eval->add_option("--begin-progress", lov.begin_progress, "learned: predicted progress that begins a strike")
+      ->check(CLI::Range(0.0, 1.0));
+  eval->add_option("--end-frames", lov.end_frames, "learned: loops of none that end a strike")->check(CLI::Range(1, 1000));
+  eval->add_option("--confirm-frames", lov.confirm_frames, "learned: loops of the same strike class before begin")
+      ->check(CLI::Range(1, 1000));
+  eval->add_option("--min-speed", lov.min_speed, "learned: m/s, begin only while the limb moves this fast")
+      ->check(CLI::Range(0.0, 20.0));
   eval->add_option("--threshold-factor", threshold_factor, "template threshold / worst training distance")
       ->check(CLI::Range(1.0, 10.0));
   RecogniserSettings rs;
@@ -62,6 +84,11 @@ int main(int argc, char** argv) {
     sc->add_option("--null-speed", rs.null_speed, "m/s, the null signal's speed")->check(CLI::Range(0.0, 20.0));
     sc->add_option("--smoothing-tau", rs.frontend.smoothing_tau_s, "s, position smoothing")->check(CLI::Range(1e-4, 1.0));
   }
+
+  auto* ds = app.add_subcommand("dataset", "the learned recogniser's training set (JSON) for recognition/train/train_touche.py");
+  fs::path dataset_out;
+  ds->add_option("--motions", motions, "annotations (motions.toml)")->check(CLI::ExistingFile);
+  ds->add_option("--out", dataset_out, "dataset (JSON)")->required();
 
   auto* pz = app.add_subcommand("poses", "a BVH clip as a mocap visitor's poses.csv (head, wrists, ankles)");
   fs::path bvh, poses_out;
@@ -99,17 +126,29 @@ int main(int argc, char** argv) {
       }
       std::cout << nlohmann::json{{"model", out_model.string()}, {"templates", j}, {"none_templates", nones}}.dump() << "\n";
     } else if (run->parsed()) {
-      const Model m = read_model(model_path);
+      const bool learned = recogniser == "learned";
+      if (given_model.empty()) given_model = learned ? default_learned_model() : model_path;
       const offline::PosesFile pf = offline::read_poses_csv(poses);
-      Recogniser rec(m);
       std::vector<Event> ev;
-      for (const PoseSample& s : pf.samples) rec.push(s, ev);
-      rec.finish(pf.samples.empty() ? 0 : pf.samples.back().t, ev);
+      long loops = 0;
+      auto feed = [&](auto& rec) {
+        for (const PoseSample& s : pf.samples) rec.push(s, ev);
+        rec.finish(pf.samples.empty() ? 0 : pf.samples.back().t, ev);
+        loops = rec.loops();
+      };
+      if (learned) {
+        LearnedRecogniser rec(read_learned_model(given_model));
+        feed(rec);
+      } else {
+        Recogniser rec(read_model(given_model));
+        feed(rec);
+      }
       std::string text;
       for (const Event& e : ev) text += to_json(e) + "\n";
       write_file_atomically(events_out, text);
       std::cout << nlohmann::json{{"events", ev.size()}, {"samples", pf.samples.size()}, {"ignored_rows", pf.ignored_rows},
-                                  {"loops", rec.loops()}, {"out", events_out.string()}}
+                                  {"loops", loops}, {"recogniser", recogniser}, {"model", given_model.string()},
+                                  {"out", events_out.string()}}
                        .dump()
                 << "\n";
     } else if (eval->parsed()) {
@@ -117,17 +156,39 @@ int main(int argc, char** argv) {
       std::vector<offline::Recording> external;
       if (fs::exists(mocap)) external = offline::load_external(mocap);
       else std::cerr << "eval: no development mocap at " << mocap.string() << ": boxer, Sony and walks left out\n";
-      nlohmann::json report = offline::evaluate(trainable, external, rs, ts);
+      nlohmann::json report;
+      report["what"] = "the two strike recognisers side by side, on the same held-out actors (see recognition/README.md)";
+      report["dtw"] = offline::evaluate(trainable, external, rs, ts);
+      if (fs::exists(learned_folds / "all.klearn")) report["learned"] = offline::evaluate_learned(trainable, external, learned_folds, lov);
+      else std::cerr << "eval: no learned fold models in " << learned_folds.string()
+                     << " (recognition/train/train_touche.py --eval-dir): the learned side is left out\n";
       report["motions"] = motions.string();
       report["mocap"] = fs::exists(mocap) ? mocap.string() : "";
+      nlohmann::json summary;
+      for (const char* k : {"dtw", "learned"}) {
+        if (!report.contains(k)) continue;
+        const auto& r = report[k];
+        const auto& h = r["held_out_total"];
+        summary[k] = {{"held_out_strikes", h["strikes"]}, {"right_limb_pct", h["right_limb_pct"]},
+                      {"right_kind_pct", h["right_kind_pct"]}, {"latency_p50_ms", h["latency_from_onset_ms"]["p50"]},
+                      {"latency_p90_ms", h["latency_from_onset_ms"]["p90"]},
+                      {"false_triggers_per_idle_minute", r["false_triggers"]["per_idle_minute"]},
+                      {"correct_pct_at_progress", h["correct_pct_at_progress"]},
+                      {"loop_cpu_us_p50", r["loop_cpu_us"]["p50"]}, {"loop_cpu_us_p99", r["loop_cpu_us"]["p99"]}};
+      }
+      report["side_by_side"] = summary;
       write_file_atomically(report_out, report.dump(2) + "\n");
-      const auto& h = report["held_out_total"];
-      std::cout << nlohmann::json{{"report", report_out.string()}, {"held_out_strikes", h["strikes"]},
-                                  {"right_limb_pct", h["right_limb_pct"]}, {"right_kind_pct", h["right_kind_pct"]},
-                                  {"latency_p50_ms", h["latency_from_onset_ms"]["p50"]},
-                                  {"false_triggers_per_idle_minute", report["false_triggers"]["per_idle_minute"]},
-                                  {"loop_cpu_us_p99", report["loop_cpu_us"]["p99"]}}
-                       .dump()
+      std::cout << nlohmann::json{{"report", report_out.string()}, {"side_by_side", summary}}.dump() << "\n";
+    } else if (ds->parsed()) {
+      // Shippable data only (content/motions): the development-only recordings are never trained on.
+      const auto recs = offline::load_motions(motions);
+      std::vector<offline::Recording> used;
+      for (const auto& r : recs)
+        if (!r.strikes.empty() || r.negative) used.push_back(r);
+      nlohmann::json j = offline::learned_dataset(used, rs.frontend);
+      j["motions"] = motions.string();
+      write_file_atomically(dataset_out, j.dump() + "\n");
+      std::cout << nlohmann::json{{"out", dataset_out.string()}, {"recordings", used.size()}, {"classes", j["classes"]}}.dump()
                 << "\n";
     } else if (pz->parsed()) {
       const auto clip = content::read_bvh(bvh);

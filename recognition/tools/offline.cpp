@@ -13,6 +13,8 @@
 #include <set>
 
 #include <fmt/format.h>
+#include <functional>
+#include <memory>
 
 #include "kumite/common/error.hpp"
 #include "kumite/content/annotation.hpp"
@@ -299,6 +301,7 @@ struct StrikeOutcome {
   std::string name, actor, action, limb, predicted = "none";
   bool right_limb = false, right_kind = false;
   double latency_s = std::nan(""), impact_error_m = std::nan("");
+  double progress_error = std::nan("");  ///< |begin's progress - the truth at its time| (onset 0, hit 1)
   int other_limb_begins = 0;
   std::array<int, 5> correct_at{};  ///< progress 0, .25, .5, .75, 1
 };
@@ -316,6 +319,25 @@ std::string active_at(const std::vector<Event>& ev, Role limb, double t) {
   return cur;
 }
 
+}  // namespace
+
+int onset_frame(const Recording& r, const Strike& s) {
+  const auto l = static_cast<std::size_t>(static_cast<int>(s.limb) - 1);
+  // The first frame of the window whose hit-joint speed exceeds 15 % of its peak.
+  std::vector<double> speed(static_cast<std::size_t>(r.frames), 0.0);
+  double peak = 0;
+  for (int f = std::max(1, s.first); f <= s.last && f + 1 < r.frames; ++f) {
+    const Vec3& a = r.limb_positions[static_cast<std::size_t>(f - 1)][l];
+    const Vec3& b = r.limb_positions[static_cast<std::size_t>(f + 1)][l];
+    speed[static_cast<std::size_t>(f)] = std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]) * r.fps / 2;
+    peak = std::max(peak, speed[static_cast<std::size_t>(f)]);
+  }
+  for (int f = s.first; f <= s.hit && f < r.frames; ++f)
+    if (speed[static_cast<std::size_t>(f)] > 0.15 * peak) return f;
+  return s.first;
+}
+
+namespace {
 std::vector<StrikeOutcome> score(const Recording& r, const std::vector<Event>& ev, const std::set<std::string>& known) {
   std::vector<StrikeOutcome> out;
   for (const Strike& s : r.strikes) {
@@ -326,21 +348,7 @@ std::vector<StrikeOutcome> score(const Recording& r, const std::vector<Event>& e
     o.action = s.action;
     o.limb = std::string(to_string(s.limb));
     const auto l = static_cast<std::size_t>(static_cast<int>(s.limb) - 1);
-    // Onset: the first frame of the window whose hit-joint speed exceeds 15 % of its peak.
-    std::vector<double> speed(static_cast<std::size_t>(r.frames), 0.0);
-    double peak = 0;
-    for (int f = std::max(1, s.first); f <= s.last && f + 1 < r.frames; ++f) {
-      const Vec3& a = r.limb_positions[static_cast<std::size_t>(f - 1)][l];
-      const Vec3& b = r.limb_positions[static_cast<std::size_t>(f + 1)][l];
-      speed[static_cast<std::size_t>(f)] = std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]) * r.fps / 2;
-      peak = std::max(peak, speed[static_cast<std::size_t>(f)]);
-    }
-    int onset = s.first;
-    for (int f = s.first; f <= s.hit; ++f)
-      if (speed[static_cast<std::size_t>(f)] > 0.15 * peak) {
-        onset = f;
-        break;
-      }
+    const int onset = onset_frame(r, s);
     const double t_first = s.first / r.fps, t_hit = s.hit / r.fps, t_last = s.last / r.fps, t_on = onset / r.fps;
     const Event* begin = nullptr;
     for (const Event& e : ev) {
@@ -356,6 +364,7 @@ std::vector<StrikeOutcome> score(const Recording& r, const std::vector<Event>& e
       o.latency_s = begin->t - t_on;
       const Vec3& hp = r.limb_positions[static_cast<std::size_t>(s.hit)][l];
       o.impact_error_m = std::hypot(begin->impact[0] - hp[0], begin->impact[1] - hp[1], begin->impact[2] - hp[2]);
+      o.progress_error = std::abs(begin->progress - std::clamp((begin->t - t_on) / std::max(1e-6, t_hit - t_on), 0.0, 1.0));
       o.predicted = active_at(ev, s.limb, std::max(t_hit, begin->t));
       if (o.predicted == "none") o.predicted = begin->action;  // ended before the hit: its last word
       o.right_kind = o.predicted == s.action;
@@ -372,7 +381,7 @@ nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
   j["strikes"] = v.size();
   if (v.empty()) return j;
   int limb = 0, kind = 0, other = 0;
-  std::vector<double> lat, imp;
+  std::vector<double> lat, imp, prog;
   std::array<int, 5> at{};
   std::map<std::string, std::map<std::string, int>> confusion;
   for (const auto& o : v) {
@@ -381,6 +390,7 @@ nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
     other += o.other_limb_begins;
     if (std::isfinite(o.latency_s)) lat.push_back(o.latency_s * 1000);
     if (std::isfinite(o.impact_error_m)) imp.push_back(o.impact_error_m);
+    if (std::isfinite(o.progress_error)) prog.push_back(o.progress_error);
     for (int k = 0; k < 5; ++k) at[static_cast<std::size_t>(k)] += o.correct_at[static_cast<std::size_t>(k)];
     ++confusion[o.action][o.predicted];
   }
@@ -390,6 +400,11 @@ nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
   j["latency_from_onset_ms"] = {{"p50", num_or_null(percentile(lat, 0.5))}, {"p90", num_or_null(percentile(lat, 0.9))},
                                 {"n", lat.size()}};
   j["impact_error_m"] = {{"p50", num_or_null(percentile(imp, 0.5))}, {"p90", num_or_null(percentile(imp, 0.9))}};
+  j["progress_error_at_begin"] = {{"p50", num_or_null(percentile(prog, 0.5))}, {"p90", num_or_null(percentile(prog, 0.9))},
+                                  {"within_0.2_pct", prog.empty() ? nlohmann::json(nullptr)
+                                                                  : nlohmann::json(100.0 * static_cast<double>(std::count_if(
+                                                                        prog.begin(), prog.end(), [](double e) { return e <= 0.2; })) /
+                                                                    static_cast<double>(prog.size()))}};
   j["other_limb_begins"] = other;
   nlohmann::json acc = nlohmann::json::object();
   for (int k = 0; k < 5; ++k) acc[fmt::format("{:.2f}", kProgressPoints[k])] = 100.0 * at[static_cast<std::size_t>(k)] / n;
@@ -401,7 +416,8 @@ nlohmann::json summarise(const std::vector<StrikeOutcome>& v) {
 nlohmann::json outcome_json(const StrikeOutcome& o) {
   return {{"name", o.name}, {"actor", o.actor}, {"action", o.action}, {"limb", o.limb}, {"predicted", o.predicted},
           {"right_limb", o.right_limb}, {"right_kind", o.right_kind}, {"latency_ms", num_or_null(o.latency_s * 1000)},
-          {"impact_error_m", num_or_null(o.impact_error_m)}, {"other_limb_begins", o.other_limb_begins}};
+          {"impact_error_m", num_or_null(o.impact_error_m)}, {"progress_error", num_or_null(o.progress_error)},
+          {"other_limb_begins", o.other_limb_begins}};
 }
 
 std::set<std::string> actions_of(const Model& m) {
@@ -411,39 +427,47 @@ std::set<std::string> actions_of(const Model& m) {
 }
 }  // namespace
 
-nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
-                        const RecogniserSettings& rs, const TrainSettings& ts) {
+namespace {
+/// A recogniser under evaluation, for one training set.
+struct Runner {
+  std::set<std::string> known;  ///< the actions it can recognise (others are not scored)
+  std::function<void(const Recording&, std::vector<Event>&, std::vector<double>& loop_us)> run;
+};
+/// Which training set: "fold" (key = the held-out actor; trained on the other actors), "without"
+/// (key = a strike-free recording left out; all others), "all" (every trainable recording).
+using RunnerFactory =
+    std::function<Runner(const std::string& set, const std::string& key, const std::vector<const Recording*>& train)>;
+
+template <class R>
+void run_recogniser(R& rec, const Recording& r, std::vector<Event>& ev, std::vector<double>& loop_us) {
+  rec.set_timing(true);
+  for (const PoseSample& s : r.samples) rec.push(s, ev);
+  rec.finish(r.samples.empty() ? 0 : r.samples.back().t, ev);
+  for (double t : rec.loop_times()) loop_us.push_back(t * 1e6);
+}
+
+nlohmann::json evaluate_with(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
+                             const RunnerFactory& make) {
   nlohmann::json report;
-  report["what"] =
-      "dual-buffer DTW strike recogniser, cross-actor: every figure is on actors the model was not trained on "
-      "(leave-one-actor-out over the annotated actors of content/motions; the development-only boxer and Sony "
-      "recordings against a model of all annotated actors)";
   std::set<std::string> actors;
   for (const auto& r : trainable)
     if (!r.strikes.empty()) actors.insert(r.actor);
   std::vector<StrikeOutcome> all;
   std::vector<double> loop_us;
-  auto run = [&](const Model& m, const Recording& r, std::vector<Event>& ev) {
-    Recogniser rec(m);
-    rec.set_timing(true);
-    for (const PoseSample& s : r.samples) rec.push(s, ev);
-    rec.finish(r.samples.empty() ? 0 : r.samples.back().t, ev);
-    for (double t : rec.loop_times()) loop_us.push_back(t * 1e6);
-  };
   nlohmann::json folds = nlohmann::json::array();
   for (const std::string& held : actors) {
     std::vector<const Recording*> tr;
     for (const auto& r : trainable)
       if (r.actor != held && (!r.strikes.empty() || r.negative)) tr.push_back(&r);
     if (tr.empty()) continue;
-    const Model m = train(tr, rs, ts, "fold without " + held);
-    const auto known = actions_of(m);
+    const Runner m = make("fold", held, tr);
+    const auto& known = m.known;
     std::vector<StrikeOutcome> fold;
     int untestable = 0;
     for (const auto& r : trainable) {
       if (r.actor != held || r.strikes.empty()) continue;
       std::vector<Event> ev;
-      run(m, r, ev);
+      m.run(r, ev, loop_us);
       for (const auto& o : score(r, ev, known)) fold.push_back(o);
       for (const auto& s : r.strikes) untestable += !known.count(s.action);
     }
@@ -453,8 +477,8 @@ nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vect
     for (const auto* r : tr)
       if (!r->strikes.empty()) tr_actors.insert(r->actor);
     f["trained_on_actors"] = tr_actors;
-    f["templates"] = known;
-    f["untestable_strikes"] = untestable;  // their action has no template without this actor
+    f["actions"] = known;
+    f["untestable_strikes"] = untestable;  // their action has no training data without this actor
     nlohmann::json per = nlohmann::json::array();
     for (const auto& o : fold) per.push_back(outcome_json(o));
     f["per_strike"] = per;
@@ -466,14 +490,14 @@ nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vect
   std::vector<const Recording*> everything;
   for (const auto& r : trainable)
     if (!r.strikes.empty() || r.negative) everything.push_back(&r);
-  const Model full = train(everything, rs, ts, "all annotated actors");
+  const Runner full = make("all", "", everything);
   {
     std::vector<StrikeOutcome> ext;
     for (const auto& r : external) {
       if (r.strikes.empty()) continue;
       std::vector<Event> ev;
-      run(full, r, ev);
-      for (const auto& o : score(r, ev, actions_of(full))) ext.push_back(o);
+      full.run(r, ev, loop_us);
+      for (const auto& o : score(r, ev, full.known)) ext.push_back(o);
     }
     nlohmann::json e = summarise(ext);
     e["trained_on"] = "all annotated actors of content/motions";
@@ -483,7 +507,7 @@ nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vect
     report["external_actors"] = e;
     all.insert(all.end(), ext.begin(), ext.end());
   }
-  // False triggers: begins per minute on recordings without strikes (the full model).
+  // False triggers: begins per minute on recordings without strikes.
   {
     nlohmann::json per = nlohmann::json::array();
     double minutes = 0;
@@ -491,36 +515,67 @@ nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vect
     for (const auto* list : {&trainable, &external})
       for (const auto& r : *list) {
         if (!r.negative) continue;
-        // The "none" templates never come from the recording being scored.
+        // The model never saw the recording being scored.
         std::vector<const Recording*> without;
         for (const Recording* o : everything)
           if (o != &r) without.push_back(o);
-        const Model m = r.trainable ? train(without, rs, ts, "all but " + r.name) : full;
         std::vector<Event> ev;
-        run(m, r, ev);
+        if (r.trainable) make("without", r.name, without).run(r, ev, loop_us);
+        else full.run(r, ev, loop_us);
         int b = 0;
-        for (const Event& e : ev) b += e.type == EventType::begin;
+        std::map<std::string, int> by_limb;
+        for (const Event& e : ev)
+          if (e.type == EventType::begin) {
+            ++b;
+            ++by_limb[fmt::format("{} {}", to_string(e.limb), e.action)];
+          }
         const double min = r.frames / r.fps / 60;
         minutes += min;
         begins += b;
         per.push_back({{"recording", r.name}, {"actor", r.actor}, {"minutes", min}, {"begins", b},
-                       {"same_actor_as_training", r.trainable}});
+                       {"begins_by_limb_and_action", by_limb}, {"same_actor_as_training", r.trainable}});
       }
     report["false_triggers"] = {{"per_idle_minute", minutes > 0 ? begins / minutes : 0.0},
                                 {"begins", begins}, {"minutes", minutes}, {"recordings", per},
                                 {"note", "recordings with no strike: walks, runs, blocks, stance steps and turns, idle; "
-                                         "scored by a model whose none templates exclude that recording"}};
+                                         "scored by a model that was not trained on that recording"}};
   }
   report["held_out_total"] = summarise(all);
   report["loop_cpu_us"] = {{"p50", num_or_null(percentile(loop_us, 0.5))}, {"p99", num_or_null(percentile(loop_us, 0.99))},
                            {"max", num_or_null(percentile(loop_us, 1.0))}, {"loops", loop_us.size()},
                            {"note", "thread CPU time per 60 Hz loop (all limbs) during this evaluation; see the benchmark"}};
+  report["not_in_the_data"] = "hooks and uppercuts (no recordings): not recognised, not measured";
+  return report;
+}
+}  // namespace
+
+nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
+                        const RecogniserSettings& rs, const TrainSettings& ts) {
+  const RunnerFactory dtw = [&](const std::string& set, const std::string& key, const std::vector<const Recording*>& tr) {
+    auto m = std::make_shared<Model>(train(tr, rs, ts, set + " " + key));
+    Runner r;
+    r.known = actions_of(*m);
+    r.known.erase(std::string(kNoneAction));
+    r.run = [m](const Recording& rec, std::vector<Event>& ev, std::vector<double>& loop_us) {
+      Recogniser x(*m);
+      run_recogniser(x, rec, ev, loop_us);
+    };
+    return r;
+  };
+  nlohmann::json report = evaluate_with(trainable, external, dtw);
+  report["what"] =
+      "dual-buffer DTW strike recogniser, cross-actor: every figure is on actors the model was not trained on "
+      "(leave-one-actor-out over the annotated actors of content/motions; the development-only boxer and Sony "
+      "recordings against a model of all annotated actors)";
+  std::vector<const Recording*> everything;
+  for (const auto& r : trainable)
+    if (!r.strikes.empty() || r.negative) everything.push_back(&r);
+  const Model full = train(everything, rs, ts, "all annotated actors");
   nlohmann::json tpl = nlohmann::json::array();
   for (const auto& t : full.templates)
     tpl.push_back({{"action", t.action}, {"kind", to_string(t.kind)}, {"trials", t.trials}, {"frames", t.frames.size()},
                    {"hit", t.hit}, {"threshold", t.threshold}});
   report["templates_all_actors"] = tpl;
-  report["not_in_the_data"] = "hooks and uppercuts (no recordings): not recognised, not measured";
   report["settings"] = {{"loop_hz", rs.frontend.loop_hz}, {"smoothing_tau_s", rs.frontend.smoothing_tau_s},
                         {"heading_tau_s", rs.frontend.heading_tau_s}, {"velocity_weight", rs.frontend.velocity_weight},
                         {"absolute_weight", rs.absolute_weight}, {"onset_speed", rs.onset_speed},
@@ -530,6 +585,115 @@ nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vect
                         {"one_at_a_time", rs.one_at_a_time}, {"threshold_factor", ts.threshold_factor},
                         {"max_none_templates", ts.max_none_templates}};
   return report;
+}
+
+nlohmann::json evaluate_learned(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
+                                const std::filesystem::path& dir, const LearnedOverrides& ov) {
+  const RunnerFactory learned = [&](const std::string& set, const std::string& key,
+                                    const std::vector<const Recording*>& tr) {
+    const std::string file = set == "fold" ? "fold-" + key + ".klearn" : set == "without" ? "without-" + key + ".klearn"
+                                                                                           : "all.klearn";
+    const auto path = dir / file;
+    if (!std::filesystem::exists(path))
+      throw file_error("recognition", "eval", path.string(), 0, "learned",
+                       "no learned fold model: run recognition/train/train_touche.py --eval-dir (see recognition/README.md)");
+    auto m = std::make_shared<LearnedModel>(read_learned_model(path));
+    if (ov.begin_probability) m->settings.begin_probability = *ov.begin_probability;
+    if (ov.begin_progress) m->settings.begin_progress = *ov.begin_progress;
+    if (ov.end_frames) m->settings.end_frames = *ov.end_frames;
+    if (ov.confirm_frames) m->settings.confirm_frames = *ov.confirm_frames;
+    if (ov.min_speed) m->settings.min_speed = *ov.min_speed;
+    Runner r;
+    // The actions it can recognise: those of the strikes it was trained on.
+    for (const Recording* x : tr)
+      for (const Strike& s : x->strikes)
+        if (!s.action.empty()) r.known.insert(s.action);
+    r.run = [m](const Recording& rec, std::vector<Event>& ev, std::vector<double>& loop_us) {
+      LearnedRecogniser x(*m);
+      run_recogniser(x, rec, ev, loop_us);
+    };
+    return r;
+  };
+  nlohmann::json report = evaluate_with(trainable, external, learned);
+  report["what"] =
+      "learned (Touche) strike recogniser, cross-actor: fold models trained by train_touche.py --eval-dir on the "
+      "same splits as the DTW side (never on the held-out actor, never on the scored strike-free recording)";
+  report["models"] = dir.string();
+  const LearnedModel any = read_learned_model(dir / "all.klearn");
+  report["settings"] = {{"begin_probability", ov.begin_probability.value_or(any.settings.begin_probability)},
+                        {"begin_progress", ov.begin_progress.value_or(any.settings.begin_progress)},
+                        {"end_frames", ov.end_frames.value_or(any.settings.end_frames)},
+                        {"confirm_frames", ov.confirm_frames.value_or(any.settings.confirm_frames)},
+                        {"min_speed", ov.min_speed.value_or(any.settings.min_speed)}};
+  return report;
+}
+
+// ---- The learned recogniser's training data ------------------------------------------------
+
+std::array<float, 6> learned_input(const LimbFrame& lf) {
+  return {lf.pos[0], lf.pos[1], lf.pos[2], lf.vel[0], lf.vel[1], lf.vel[2]};
+}
+
+nlohmann::json learned_dataset(const std::vector<Recording>& recs, const FrontendSettings& fs) {
+  // Classes per limb kind: "none" first, then the actions the data has (sorted).
+  std::map<LimbKind, std::set<std::string>> actions;
+  for (const auto& r : recs)
+    for (const auto& s : r.strikes)
+      if (!s.action.empty()) actions[limb_kind(s.limb)].insert(s.action);
+  nlohmann::json classes;
+  std::map<LimbKind, std::vector<std::string>> cls;
+  for (LimbKind k : {LimbKind::hand, LimbKind::foot}) {
+    cls[k] = {std::string(kNoneAction)};
+    for (const auto& a : actions[k]) cls[k].push_back(a);
+    classes[std::string(to_string(k))] = cls[k];
+  }
+  nlohmann::json out_recs = nlohmann::json::array();
+  for (const auto& r : recs) {
+    const auto frames = frontend_frames(r, fs);
+    const std::size_t n = frames.size();
+    std::array<std::vector<int>, kLimbCount> label;
+    std::array<std::vector<double>, kLimbCount> progress;
+    for (int l = 0; l < kLimbCount; ++l) {
+      label[static_cast<std::size_t>(l)].assign(n, 0);
+      progress[static_cast<std::size_t>(l)].assign(n, -1.0);
+    }
+    for (const Strike& s : r.strikes) {
+      const auto l = static_cast<std::size_t>(static_cast<int>(s.limb) - 1);
+      const auto& names = cls[limb_kind(s.limb)];
+      const auto it = std::find(names.begin(), names.end(), s.action);
+      const int c = s.action.empty() || it == names.end() ? -1 : static_cast<int>(it - names.begin());
+      const double t_on = onset_frame(r, s) / r.fps, t_hit = s.hit / r.fps;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double t = frames[i].t;
+        if (t < t_on - 1e-9 || t > t_hit + 1e-9) continue;
+        label[l][i] = c;
+        progress[l][i] = c < 0 ? -1.0 : std::clamp((t - t_on) / std::max(1e-6, t_hit - t_on), 0.0, 1.0);
+      }
+    }
+    nlohmann::json x = nlohmann::json::array(), y = nlohmann::json::array(), p = nlohmann::json::array();
+    for (std::size_t i = 0; i < n; ++i) {
+      nlohmann::json xi = nlohmann::json::array(), yi = nlohmann::json::array(), pi = nlohmann::json::array();
+      for (int l = 0; l < kLimbCount; ++l) {
+        const LimbFrame& lf = frames[i].limbs[static_cast<std::size_t>(l)];
+        if (lf.valid) xi.push_back(learned_input(lf));
+        else xi.push_back(nullptr);
+        yi.push_back(label[static_cast<std::size_t>(l)][i]);
+        pi.push_back(progress[static_cast<std::size_t>(l)][i]);
+      }
+      x.push_back(std::move(xi));
+      y.push_back(std::move(yi));
+      p.push_back(std::move(pi));
+    }
+    out_recs.push_back({{"name", r.name}, {"actor", r.actor}, {"negative", r.negative}, {"strikes", r.strikes.size()},
+                        {"trainable", r.trainable}, {"x", std::move(x)}, {"class", std::move(y)},
+                        {"progress", std::move(p)}});
+  }
+  return {{"what", "the learned recogniser's training set: per recording, per 60 Hz loop and limb (left_hand, "
+                   "right_hand, left_foot, right_foot) the input [pos x,y,z, vel x,y,z] (head frame / head "
+                   "height, left limbs mirrored; null = not valid), the class index (0 = none, -1 = unknown "
+                   "kind: ignored) and progress (0 at the onset, 1 at the hit, -1 for none)"},
+          {"loop_hz", fs.loop_hz}, {"velocity_weight", fs.velocity_weight}, {"frontend", {{"smoothing_tau_s", fs.smoothing_tau_s}, {"heading_tau_s", fs.heading_tau_s}, {"height_tau_s", fs.height_tau_s}, {"max_gap_s", fs.max_gap_s}}},
+          {"classes", classes}, {"recordings", std::move(out_recs)}};
 }
 
 // ---- poses.csv ------------------------------------------------------------------------------

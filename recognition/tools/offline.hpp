@@ -3,12 +3,14 @@
 // visitor pose streams and labelled strikes, training, the cross-actor evaluation, and
 // SYNTHETIC visitors (labelled as such) for tests and benchmarks. Uses content's BVH reader.
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "kumite/content/skeleton.hpp"
+#include "kumite/recognition/learned.hpp"
 #include "kumite/recognition/recognition.hpp"
 
 namespace kumite::recognition::offline {
@@ -76,6 +78,34 @@ Model train(const std::vector<const Recording*>& recs, const RecogniserSettings&
 /// false triggers on the negatives. JSON.
 nlohmann::json evaluate(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
                         const RecogniserSettings& rs, const TrainSettings& ts);
+
+/// The first frame of a strike's window whose hit-joint speed exceeds 15 % of
+/// its peak (the onset that latency is measured from, and the learned recogniser's progress 0).
+int onset_frame(const Recording& r, const Strike& s);
+
+// ---- The learned recogniser's training data (Touché) -----------------------------------------
+
+/// Per-limb input of the learned recogniser at one loop: head-relative position (3) and
+/// velocity (3) as the frontend gives them (LimbFrame::pos, LimbFrame::vel; left mirrored).
+std::array<float, 6> learned_input(const LimbFrame& lf);
+
+/// The training set of `train_touche.py` (JSON): per recording its actor, whether it holds no
+/// strike, and per 60 Hz loop and limb the input (6 numbers, null when the limb is not valid)
+/// and the label: class index (0 = none; -1 = a strike whose kind is unknown: ignored) and
+/// progress (0 at the onset, 1 at the hit; -1 when the class is none). Strike frames run from
+/// the onset (onset_frame) to the hit; the retraction after the hit is "none".
+nlohmann::json learned_dataset(const std::vector<Recording>& recs, const FrontendSettings& fs);
+
+/// Event settings of the learned models overridden for an evaluation (unset: the model's).
+struct LearnedOverrides {
+  std::optional<double> begin_probability, begin_progress, min_speed;
+  std::optional<int> end_frames, confirm_frames;
+};
+
+/// The same cross-actor evaluation of the learned recogniser: the fold models in `dir`
+/// (fold-<actor>.klearn, without-<recording>.klearn, all.klearn: train_touche.py --eval-dir).
+nlohmann::json evaluate_learned(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
+                                const std::filesystem::path& dir, const LearnedOverrides& ov = {});
 
 // ---- poses.csv ------------------------------------------------------------------------------
 
