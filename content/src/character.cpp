@@ -8,6 +8,7 @@
 #include "kumite/common/error.hpp"
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
+#include "toml_string.hpp"
 
 namespace kumite::content {
 
@@ -194,14 +195,7 @@ std::string format_characters(const CharacterCatalog& catalog) {
   out += "# make-characters` built it from the CMU 135 skeleton: stature_m in metres, dialect\n";
   out += "# (cmu | motionbuilder), per-segment scale factors (1 = base skeleton).\n";
   out += fmt::format("version = {}\n", kCharacterCatalogVersion);
-  auto str = [](std::string_view s) {
-    std::string o = "\"";
-    for (char c : s) {
-      if (c == '"' || c == '\\') o += '\\';
-      o += c;
-    }
-    return o + "\"";
-  };
+  const auto str = [](std::string_view s) { return toml_string(s); };
   for (const auto& c : catalog.characters) {
     out += "\n[[character]]\n";
     out += fmt::format("name = {}\ndisplay_name = {}\nfile = {}\nnotes = {}\n", str(c.name), str(c.display_name),
