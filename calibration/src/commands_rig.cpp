@@ -135,6 +135,12 @@ void run_extrinsics(const ExtrinsicsCommand& cmd) {
     const std::string line = fmt::format("{}: position ({:.4f}, {:.4f}, {:.4f}) m in {}'s frame, {:.4f} m from {}; RMS {:.3f} px",
                                          r.cameras[c].name, p[0], p[1], p[2], r.cameras[0].name, cv::norm(p - p0),
                                          r.cameras[0].name, r.rms_px[c]);
+    if (c < check.cameras.size()) {
+      const CameraCheck& k = check.cameras[c];
+      spdlog::debug("{}: against the other cameras' board {:.3f} px over {} views; best split: jump {:.2f} px, spread "
+                    "{:.2f} px, explains {:.0f} %",
+                    r.cameras[c].name, k.rms_all_px, k.views, k.jump_px, k.spread_px, 100 * k.explained);
+    }
     if (c < check.cameras.size() && check.cameras[c].blamed) {
       spdlog::warn("{}: {}", line, describe_check(r.cameras[c].name, check.cameras[c], check, images.frames));
       blamed.push_back(r.cameras[c].name);

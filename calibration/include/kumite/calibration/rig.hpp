@@ -73,7 +73,9 @@ struct CameraCheck {
   /// jump_px (>= kMoveMinPx and well outside the spread within each cluster): the last frame
   /// before and the first after (indices into the frame list).
   std::optional<std::pair<int, int>> moved_between;
-  double jump_px = 0;
+  double jump_px = 0;    ///< px: the best split's jump in the mean residual (also when not a move)
+  double spread_px = 0;  ///< px: RMS spread of the mean residuals around their run's mean
+  double explained = 0;  ///< fraction of the mean residuals' variance the split explains
   /// Per frame: true for the views of the cluster that disagrees more with the calibration.
   std::vector<bool> flagged;
 };
