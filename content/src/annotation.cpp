@@ -105,6 +105,12 @@ std::string toml_string(std::string_view s) {
   return out + "\"";
 }
 
+std::string toml_number(double v) {
+  std::string s = fmt::format("{}", v);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
+
 std::string format_annotations(const AnnotationSet& set) {
   std::string out;
   out += "# Kumite motion annotations (see content/include/kumite/content/annotation.hpp).\n";

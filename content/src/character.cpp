@@ -203,10 +203,10 @@ std::string format_characters(const CharacterCatalog& catalog) {
     if (c.generate) {
       const auto& g = *c.generate;
       out += "[character.generate]\n";
-      out += fmt::format("stature_m = {:.3f}\ndialect = {}\n", g.stature_m, str(g.dialect));
+      out += fmt::format("stature_m = {}\ndialect = {}\n", toml_number(g.stature_m), str(g.dialect));
       for (std::size_t i = 0; i < kSegmentNames.size(); ++i) {
         const double v = scale_of(g.scales, static_cast<Segment>(i));
-        if (v != 1.0) out += fmt::format("{} = {:.3f}\n", kSegmentNames[i], v);
+        if (v != 1.0) out += fmt::format("{} = {}\n", kSegmentNames[i], toml_number(v));
       }
     }
   }

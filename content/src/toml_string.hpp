@@ -8,4 +8,8 @@
 
 namespace kumite::content {
 std::string toml_string(std::string_view s);
+/// A TOML float that reads back to the same double (shortest round-trip digits, always with a
+/// decimal point: 1.84, 1.0001, 2.0); fuzz_characters found scales written with 3 decimals
+/// (1.0001 -> "1.000"), which then read back as another value.
+std::string toml_number(double v);
 }  // namespace kumite::content

@@ -40,3 +40,18 @@ TEST(FuzzRegressions, AnnotationNotesWithDelAreWrittenBackReadable) {
   EXPECT_EQ(back.clips[0].motions[0].note, "x\x7fy\nz");
   EXPECT_EQ(format_annotations(back), out);
 }
+
+// fuzz_characters (regression-scale-precision.toml): shoulder_width = 1.0001 was written as
+// "1.000" (3 decimals), which reads back as 1.0 and is then left out: numbers are written with
+// the digits that read back to the same value.
+TEST(FuzzRegressions, CharacterScalesAreWrittenBackToTheSameValue) {
+  const std::string text =
+      "version = 1\n[[character]]\nname = \"k\"\ndisplay_name = \"K\"\nfile = \"k.bvh\"\nnotes = \"\"\n"
+      "[character.generate]\nstature_m = 1.84\ndialect = \"motionbuilder\"\nshoulder_width = 1.0001\nforearm = 2\n";
+  const CharacterCatalog c = parse_characters(text, "characters.toml");
+  const std::string out = format_characters(c);
+  EXPECT_NE(out.find("shoulder_width = 1.0001\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("forearm = 2.0\n"), std::string::npos) << out;
+  EXPECT_NE(out.find("stature_m = 1.84\n"), std::string::npos) << out;
+  EXPECT_EQ(format_characters(parse_characters(out, "characters-out.toml")), out);
+}
