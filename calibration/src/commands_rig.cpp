@@ -125,6 +125,15 @@ void run_extrinsics(const ExtrinsicsCommand& cmd) {
   opt.progress = [](const std::string& s) { spdlog::info("{}", s); };
   const ExtrinsicsResult r = solve_extrinsics(cams, dets, opt);
 
+  // Tens of pixels after the adjustment is not a rig to write: the board file does not
+  // describe the print (tags found by id, but at the wrong size or spacing).
+  constexpr double kImplausibleRmsPx = 20.0;
+  if (!(r.rms_px_all <= kImplausibleRmsPx)) {
+    throw file_error("calibration", "rms", cmd.board_file.string(), 0, "",
+                     fmt::format("the adjustment ends at RMS {:.1f} px over all cameras: the board file does not describe "
+                                 "the printed board (type, rows, cols, tag_size_m, gap_m, first_id)? nothing written",
+                                 r.rms_px_all));
+  }
   // Each camera against the board as the others see it: a camera that moved during the
   // capture (or whose views disagree with the rest) is named, at warning level.
   const RigCheck check = check_rig(r.cameras, dets);
