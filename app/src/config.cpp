@@ -683,6 +683,10 @@ InstallationConfig parse_installation_config(std::string_view text,
 
 InstallationConfig load_installation_config(const std::filesystem::path& file,
                                             std::optional<std::filesystem::path> data_dir) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec)) {
+    throw file_error("config", "open", file.string(), 0, "", "is a folder, not a file: give the installation's .toml file");
+  }
   std::ifstream in(file, std::ios::binary);
   if (!in) throw file_error("config", "open", file.string(), 0, "", "cannot open the file");
   std::stringstream ss;

@@ -151,7 +151,10 @@ Board parse_board(std::string_view text, const std::string& source) {
       return def;
     }
     if (!n->is_number()) fail(source, line_of(*n), key, "must be a number (metres)");
-    return *n->value<double>();
+    const double v = *n->value<double>();
+    if (!std::isfinite(v)) fail(source, line_of(*n), key, "must be a finite number (metres)");
+    // -0 is 0 (found by fuzz_board: "gap_m = -0.0" was written back as "-0", read as 0).
+    return v + 0.0;
   };
   const std::string type = *get_string("type", true);
   if (type == "apriltag_grid") {
@@ -179,6 +182,8 @@ Board parse_board(std::string_view text, const std::string& source) {
 }
 
 Board read_board(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) fail(path.string(), 0, "", "is a folder, not a file: give the board's .toml file");
   std::ifstream in(path, std::ios::binary);
   if (!in) fail(path.string(), 0, "", "cannot open the board file");
   std::stringstream ss;

@@ -36,10 +36,40 @@ std::vector<CameraViews> detect_rig(const Board& board, const RigImages& rig, co
   return out;
 }
 
+namespace {
+/// Before the full scan (~60 ms a view per camera: a minute for a few hundred views): a few
+/// views of each camera, spread over the capture. When none of them shows the board, the
+/// board file or the folder is wrong: say so at once instead of after the whole scan.
+void check_board_is_seen(const Board& board, const fs::path& board_file, const RigImages& rig,
+                         const DetectorOptions& det) {
+  constexpr std::size_t kPerCamera = 8;
+  BoardDetector detector(board, det);
+  std::size_t tried = 0;
+  for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+    std::vector<fs::path> present;
+    for (const auto& p : rig.paths[c]) {
+      if (!p.empty()) present.push_back(p);
+    }
+    const std::size_t n = std::min(kPerCamera, present.size());
+    for (std::size_t k = 0; k < n; ++k) {
+      const fs::path& p = present[k * present.size() / n];
+      ++tried;
+      if (!detector.detect(read_image_grey(p)).empty()) return;
+    }
+  }
+  throw file_error("calibration", "not_seen", board_file.string(), 0, "",
+                   fmt::format("this board is in none of {} views sampled across the {} cameras (up to {} each, spread "
+                               "over the capture): check that the board file describes the printed board (type, family, "
+                               "rows, cols, first_id) and that the images show it",
+                               tried, rig.cameras.size(), kPerCamera));
+}
+}  // namespace
+
 void run_extrinsics(const ExtrinsicsCommand& cmd) {
   const Board board = read_board(cmd.board_file);
   const RigImages images = scan_rig_images(cmd.images_dir);
   const DetectorOptions& det = cmd.detector;
+  check_board_is_seen(board, cmd.board_file, images, det);
   const std::vector<CameraViews> views = detect_rig(board, images, det);
 
   std::vector<tracking::CameraCalibration> cams;
@@ -95,11 +125,46 @@ void run_extrinsics(const ExtrinsicsCommand& cmd) {
   opt.progress = [](const std::string& s) { spdlog::info("{}", s); };
   const ExtrinsicsResult r = solve_extrinsics(cams, dets, opt);
 
+  // Tens of pixels after the adjustment is not a rig to write: the board file does not
+  // describe the print (tags found by id, but at the wrong size or spacing).
+  constexpr double kImplausibleRmsPx = 20.0;
+  if (!(r.rms_px_all <= kImplausibleRmsPx)) {
+    throw file_error("calibration", "rms", cmd.board_file.string(), 0, "",
+                     fmt::format("the adjustment ends at RMS {:.1f} px over all cameras: the board file does not describe "
+                                 "the printed board (type, rows, cols, tag_size_m, gap_m, first_id)? nothing written",
+                                 r.rms_px_all));
+  }
+  // Each camera against the board as the others see it: a camera that moved during the
+  // capture (or whose views disagree with the rest) is named, at warning level.
+  const RigCheck check = check_rig(r.cameras, dets);
+  std::vector<std::string> blamed;
   for (std::size_t c = 0; c < r.cameras.size(); ++c) {
     const cv::Vec3d p = r.cameras[c].position();
     const cv::Vec3d p0 = r.cameras[0].position();
-    spdlog::info("{}: position ({:.4f}, {:.4f}, {:.4f}) m in {}'s frame, {:.4f} m from {}; RMS {:.3f} px", r.cameras[c].name,
-                 p[0], p[1], p[2], r.cameras[0].name, cv::norm(p - p0), r.cameras[0].name, r.rms_px[c]);
+    const std::string line = fmt::format("{}: position ({:.4f}, {:.4f}, {:.4f}) m in {}'s frame, {:.4f} m from {}; RMS {:.3f} px",
+                                         r.cameras[c].name, p[0], p[1], p[2], r.cameras[0].name, cv::norm(p - p0),
+                                         r.cameras[0].name, r.rms_px[c]);
+    if (c < check.cameras.size()) {
+      const CameraCheck& k = check.cameras[c];
+      spdlog::debug("{}: against the other cameras' board {:.3f} px over {} views; best split: jump {:.2f} px, spread "
+                    "{:.2f} px, explains {:.0f} %",
+                    r.cameras[c].name, k.rms_all_px, k.views, k.jump_px, k.spread_px, 100 * k.explained);
+    }
+    if (c < check.cameras.size() && check.cameras[c].blamed) {
+      spdlog::warn("{}: {}", line, describe_check(r.cameras[c].name, check.cameras[c], check, images.frames));
+      blamed.push_back(r.cameras[c].name);
+    } else {
+      spdlog::info("{}", line);
+    }
+  }
+  if (!blamed.empty()) {
+    spdlog::warn("{} disagree(s) with the rest of the rig (RMS {:.2f} px over all cameras): check that it is fixed, "
+                 "then capture its views again or leave out the flagged ones; `report` shows which",
+                 fmt::join(blamed, ", "), r.rms_px_all);
+  } else if (r.rms_px_all > kBlameFloorPx) {
+    spdlog::warn("RMS {:.2f} px over all cameras, no one camera to blame: check focus, motion blur, that the board "
+                 "is flat and that the cameras capture at the same moments",
+                 r.rms_px_all);
   }
   tracking::RigCalibration out;
   out.cameras = r.cameras;

@@ -1,8 +1,14 @@
 // report sub-command: what a technician reads (the one nlohmann/json translation unit).
 // Per camera: RMS, per-view errors (bar chart), a coverage heat map of where board corners
 // fell in the image; for the rig: a top view (cameras, frusta, tracked area, walls).
+#include <fcntl.h>
+#include <signal.h>
+#include <stdio.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdlib>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -196,13 +202,87 @@ cv::Mat top_view(const tracking::RigCalibration& rig, double area_w, double area
   return img;
 }
 
-std::string advice(double rms, double coverage, int views) {
+/// `rms`: the camera's RMS; `high_is_its_own`: false when another camera is to blame for the
+/// rig's errors (the file's per-camera RMS then carries that camera's misfit: not advice here).
+/// `rig_problem`: what the rig check says of this camera ("" = nothing).
+std::string advice(double rms, double coverage, int views, bool high_is_its_own, const std::string& rig_problem) {
   std::vector<std::string> a;
+  if (!rig_problem.empty()) a.push_back(rig_problem);
   if (views < 10) a.push_back("capture more views (15+)");
   if (coverage < kGoodCoverage) a.push_back("move the board into the empty (dark) parts of the image, especially corners and edges");
-  if (rms > kGoodRmsPx) a.push_back("errors are high: check focus, motion blur and that the board is flat; retake the red views");
+  if (rig_problem.empty() && high_is_its_own && rms > kGoodRmsPx) {
+    a.push_back("errors are high: check focus, motion blur and that the board is flat; retake the red views");
+  }
   return a.empty() ? "good" : fmt::format("needs attention: {}", fmt::join(a, "; "));
 }
+
+/// The report is written as a unit: into a hidden sibling folder, which then takes the
+/// report folder's place (one rename, or an atomic exchange with the previous report), so a
+/// killed run leaves the old report whole, never old and new PNGs mixed.
+class ReportFolder {
+ public:
+  explicit ReportFolder(fs::path out) : out_(std::move(out)) {
+    if (out_.filename().empty()) out_ = out_.parent_path();  // "report/"
+    const fs::path parent = out_.has_parent_path() ? out_.parent_path() : fs::path(".");
+    std::error_code ec;
+    fs::create_directories(parent, ec);
+    if (ec) throw file_error("calibration", "io", parent.string(), 0, "", "cannot create the folder: " + ec.message());
+    if (fs::exists(out_, ec) && !fs::is_directory(out_, ec)) {
+      throw file_error("calibration", "io", out_.string(), 0, "", "is a file, not a folder");
+    }
+    if (fs::is_directory(out_, ec)) {
+      // Only a previous report is replaced: refuse a folder holding anything else.
+      for (const auto& e : fs::directory_iterator(out_, ec)) {
+        const std::string n = e.path().filename().string();
+        const bool ours = e.is_regular_file() && (n == "report.json" || e.path().extension() == ".png");
+        if (!ours) {
+          throw file_error("calibration", "io", out_.string(), 0, "",
+                           fmt::format("holds {}, which is not part of a report: give an empty or new folder", n));
+        }
+      }
+    }
+    // Hidden folders left by killed runs (their process gone) are removed.
+    const std::string prefix = "." + out_.filename().string() + ".tmp-";
+    for (const auto& e : fs::directory_iterator(parent, ec)) {
+      const std::string n = e.path().filename().string();
+      if (n.rfind(prefix, 0) != 0) continue;
+      const long pid = std::strtol(n.c_str() + prefix.size(), nullptr, 10);
+      if (pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) fs::remove_all(e.path(), ec);
+    }
+    tmp_ = parent / (prefix + std::to_string(::getpid()));
+    fs::remove_all(tmp_, ec);
+    fs::create_directory(tmp_, ec);
+    if (ec) throw file_error("calibration", "io", tmp_.string(), 0, "", "cannot create the folder: " + ec.message());
+  }
+  ~ReportFolder() {
+    std::error_code ec;
+    if (!tmp_.empty()) fs::remove_all(tmp_, ec);  // not committed: the old report stays
+  }
+  ReportFolder(const ReportFolder&) = delete;
+  ReportFolder& operator=(const ReportFolder&) = delete;
+  /// Where the files go until commit().
+  const fs::path& dir() const { return tmp_; }
+  /// Puts the new report in place of the old one.
+  void commit() {
+    std::error_code ec;
+    if (fs::is_directory(out_, ec)) {
+      if (::renameat2(AT_FDCWD, tmp_.c_str(), AT_FDCWD, out_.c_str(), RENAME_EXCHANGE) == 0) {
+        fs::remove_all(tmp_, ec);  // now the old report
+        tmp_.clear();
+        return;
+      }
+      // No atomic exchange on this file system: the old report goes first (a killed run
+      // here leaves no report folder, the new one complete beside it, never a mix).
+      fs::remove_all(out_, ec);
+    }
+    fs::rename(tmp_, out_, ec);
+    if (ec) throw file_error("calibration", "io", out_.string(), 0, "", "cannot move the report into place: " + ec.message());
+    tmp_.clear();
+  }
+
+ private:
+  fs::path out_, tmp_;
+};
 
 }  // namespace
 
@@ -210,9 +290,8 @@ void run_report(const ReportCommand& cmd) {
   const tracking::RigCalibration rig = tracking::read_calibration(cmd.calibration);
   const Board board = read_board(cmd.board_file);
   const RigImages images = scan_rig_images(cmd.images_dir);
-  std::error_code ec;
-  fs::create_directories(cmd.out_dir, ec);
-  if (ec) throw file_error("calibration", "io", cmd.out_dir.string(), 0, "", "cannot create the report folder: " + ec.message());
+  ReportFolder folder(cmd.out_dir);
+  const fs::path& out_dir = folder.dir();
   const DetectorOptions& det = cmd.detector;
   const std::vector<CameraViews> views = detect_rig(board, images, det);
 
@@ -221,6 +300,29 @@ void run_report(const ReportCommand& cmd) {
   report["board"] = cmd.board_file.string();
   report["images"] = cmd.images_dir.string();
   report["thresholds"] = {{"good_rms_px", kGoodRmsPx}, {"good_coverage", kGoodCoverage}, {"outlier_factor", 3.0}};
+  // Each camera against the board as the other cameras see it (a camera that moved during
+  // the capture, or one whose views disagree with the rest): over the cameras with images.
+  std::vector<tracking::CameraCalibration> checked;
+  std::vector<std::vector<BoardDetection>> checked_views;
+  for (const auto& c : rig.cameras) {
+    const auto it = std::find(images.cameras.begin(), images.cameras.end(), c.name);
+    if (it == images.cameras.end()) continue;
+    checked.push_back(c);
+    checked_views.push_back(views[static_cast<std::size_t>(it - images.cameras.begin())].detections);
+  }
+  const RigCheck check = check_rig(checked, checked_views);
+  const auto check_of = [&](const std::string& name) -> const CameraCheck* {
+    for (std::size_t i = 0; i < checked.size(); ++i) {
+      if (checked[i].name == name && i < check.cameras.size()) return &check.cameras[i];
+    }
+    return nullptr;
+  };
+  std::vector<std::string> rig_problems;
+  for (std::size_t i = 0; i < checked.size() && i < check.cameras.size(); ++i) {
+    if (const std::string s = describe_check(checked[i].name, check.cameras[i], check, images.frames); !s.empty()) {
+      rig_problems.push_back(s);
+    }
+  }
   json cams = json::array();
   for (const auto& c : rig.cameras) {
     json jc;
@@ -247,6 +349,7 @@ void run_report(const ReportCommand& cmd) {
                        fmt::format("images are {}x{} px but {} was calibrated at {}x{} px", cv_views.image_size.width,
                                    cv_views.image_size.height, c.name, c.image_width, c.image_height));
     }
+    const CameraCheck* ck = check_of(c.name);
     json jv = json::array();
     std::vector<std::string> labels;
     std::vector<double> errs;
@@ -267,15 +370,22 @@ void run_report(const ReportCommand& cmd) {
       }
       labels.push_back(cv_views.images[f].stem().string());
       errs.push_back(e);
-      jv.push_back({{"image", cv_views.images[f].filename().string()},
-                    {"corners", d.size()},
-                    {"rms_px", std::isfinite(e) ? json(e) : json(nullptr)}});
+      json view{{"image", cv_views.images[f].filename().string()},
+                {"corners", d.size()},
+                {"rms_px", std::isfinite(e) ? json(e) : json(nullptr)}};
+      if (ck && f < ck->rms_px.size()) {
+        const double r = ck->rms_px[f];
+        view["rig_rms_px"] = std::isfinite(r) ? json(r) : json(nullptr);
+        view["rig_mean_residual_px"] = std::isfinite(r) ? json({ck->mean_px[f][0], ck->mean_px[f][1]}) : json(nullptr);
+        if (ck->blamed && ck->flagged[f]) view["flagged"] = true;
+      }
+      jv.push_back(view);
     }
     const double rms = n ? std::sqrt(sum2 / static_cast<double>(n)) : 0.0;
     double coverage = 0;
     const cv::Mat heat = coverage_map(seen, cv_views.image_size, coverage);
-    const fs::path heat_png = cmd.out_dir / (c.name + "_coverage.png");
-    const fs::path err_png = cmd.out_dir / (c.name + "_view_errors.png");
+    const fs::path heat_png = out_dir / (c.name + "_coverage.png");
+    const fs::path err_png = out_dir / (c.name + "_view_errors.png");
     cv::Mat heat_annotated = heat.clone();
     text(heat_annotated, fmt::format("{}: board corners over the image, {:.0f} % of cells covered", c.name, std::floor(coverage * 100)),
          {10, 22}, 0.55);
@@ -287,23 +397,50 @@ void run_report(const ReportCommand& cmd) {
     jc["coverage_fraction"] = coverage;
     jc["coverage_png"] = heat_png.filename().string();
     jc["view_errors_png"] = err_png.filename().string();
-    jc["verdict"] = advice(c.rms_px.value_or(rms), coverage, static_cast<int>(seen.size()));
+    if (ck) {
+      jc["rig_check"] = {{"rms_px", std::isfinite(ck->rms_all_px) ? json(ck->rms_all_px) : json(nullptr)},
+                         {"views", ck->views},
+                         {"blamed", ck->blamed},
+                         {"moved_between", ck->moved_between ? json({images.frames[static_cast<std::size_t>(ck->moved_between->first)],
+                                                                     images.frames[static_cast<std::size_t>(ck->moved_between->second)]})
+                                                             : json(nullptr)},
+                         {"jump_px", ck->jump_px}};
+    }
+    const std::string rig_problem = ck ? describe_check(c.name, *ck, check, images.frames) : std::string();
+    jc["verdict"] = advice(c.rms_px.value_or(rms), coverage, static_cast<int>(seen.size()), rig_problems.empty(), rig_problem);
     // Percentages rounded down, so that "60 %" is never a "needs attention" below the 60 % mark.
-    spdlog::info("{}: {} views with the board, RMS {:.3f} px, coverage {:.0f} %: {}", c.name, seen.size(), rms,
-                 std::floor(coverage * 100), jc["verdict"].get<std::string>());
+    spdlog::log(rig_problem.empty() ? spdlog::level::info : spdlog::level::warn,
+     "{}: {} views with the board, RMS {:.3f} px, coverage {:.0f} %: {}", c.name, seen.size(), rms,
+     std::floor(coverage * 100), jc["verdict"].get<std::string>());
     cams.push_back(jc);
   }
   report["cameras"] = cams;
-  const fs::path top_png = cmd.out_dir / "rig_top_view.png";
+  const fs::path top_png = out_dir / "rig_top_view.png";
   write_png_atomically(top_png, top_view(rig, cmd.area_width_m, cmd.area_depth_m));
   report["rig_top_view_png"] = top_png.filename().string();
   report["aligned_to_room"] = is_aligned(rig);
   if (!is_aligned(rig)) spdlog::warn("the rig is not aligned to the room yet (run `align`): the top view shows it in {}'s frame",
                                      rig.cameras.empty() ? std::string("the first camera") : rig.cameras[0].name);
   report["tracked_area_m"] = {cmd.area_width_m, cmd.area_depth_m};
-  const fs::path json_path = cmd.out_dir / "report.json";
-  write_file_atomically(json_path, report.dump(2) + "\n");
-  spdlog::info("wrote {} and the PNGs beside it", json_path.string());
+  // The rig as a whole: good, or which camera to fix first.
+  std::string rig_verdict = "good";
+  if (!rig_problems.empty()) {
+    rig_verdict = fmt::format("needs attention: {}", fmt::join(rig_problems, "; "));
+  } else {
+    for (const auto& jc : cams) {
+      if (jc.value("verdict", std::string("good")) != "good") {
+        rig_verdict = "needs attention: see the cameras' verdicts";
+        break;
+      }
+    }
+  }
+  if (!is_aligned(rig)) rig_verdict += rig_verdict == "good" ? " (not aligned to the room yet)" : "; not aligned to the room yet";
+  report["rig_verdict"] = rig_verdict;
+  report["rig_check_median_rms_px"] = check.median_rms_px;
+  (rig_problems.empty() ? spdlog::info("rig: {}", rig_verdict) : spdlog::warn("rig: {}", rig_verdict));
+  write_file_atomically(out_dir / "report.json", report.dump(2) + "\n");
+  folder.commit();
+  spdlog::info("wrote {} and the PNGs beside it", (cmd.out_dir / "report.json").string());
 }
 
 namespace {

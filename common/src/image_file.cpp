@@ -14,6 +14,10 @@ constexpr std::array<unsigned char, 8> kPngSignature = {0x89, 'P', 'N', 'G', '\r
 constexpr std::array<unsigned char, 12> kPngEnd = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xae, 0x42, 0x60, 0x82};
 /// bytes: how far from the end the IEND chunk is looked for.
 constexpr std::size_t kPngTail = 4096;
+/// JPEG: SOI at the start, EOI (FF D9) ends a whole file (found in its last 4 kB: some cameras
+/// pad after it). libjpeg decodes a JPEG cut short with only a warning, its missing part grey.
+constexpr std::array<unsigned char, 2> kJpegStart = {0xff, 0xd8};
+constexpr std::array<unsigned char, 2> kJpegEnd = {0xff, 0xd9};
 
 template <std::size_t N>
 bool starts_with(const std::vector<unsigned char>& b, const std::array<unsigned char, N>& a) {
@@ -43,6 +47,13 @@ std::string incomplete_image(const std::vector<unsigned char>& bytes) {
     return std::search(from, bytes.end(), kPngEnd.begin(), kPngEnd.end()) != bytes.end()
                ? ""
                : "PNG cut short (no IEND chunk at its end)";
+  }
+  if (starts_with(bytes, kJpegStart)) {
+    const std::size_t tail = std::min<std::size_t>(bytes.size() - kJpegStart.size(), kPngTail);
+    const auto from = bytes.end() - static_cast<std::ptrdiff_t>(tail);
+    return std::search(from, bytes.end(), kJpegEnd.begin(), kJpegEnd.end()) != bytes.end()
+               ? ""
+               : "JPEG cut short (no end-of-image marker at its end)";
   }
   return "";
 }

@@ -13,6 +13,7 @@
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
 #include "kumite/content/proportions.hpp"
+#include "toml_string.hpp"
 
 namespace kumite::content {
 
@@ -87,8 +88,6 @@ std::filesystem::path AnnotationSet::resolve(const ClipAnnotation& clip) const {
 
 // ---- Writing -------------------------------------------------------------------------------
 
-namespace {
-
 std::string toml_string(std::string_view s) {
   std::string out = "\"";
   for (char c : s) {
@@ -97,7 +96,7 @@ std::string toml_string(std::string_view s) {
       out += c;
     } else if (c == '\n') {
       out += "\\n";
-    } else if (static_cast<unsigned char>(c) < 0x20) {
+    } else if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) {  // TOML refuses them raw
       out += fmt::format("\\u{:04x}", static_cast<int>(c));
     } else {
       out += c;
@@ -106,7 +105,11 @@ std::string toml_string(std::string_view s) {
   return out + "\"";
 }
 
-}  // namespace
+std::string toml_number(double v) {
+  std::string s = fmt::format("{}", v);
+  if (s.find_first_of(".eEn") == std::string::npos) s += ".0";
+  return s;
+}
 
 std::string format_annotations(const AnnotationSet& set) {
   std::string out;

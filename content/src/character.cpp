@@ -8,6 +8,7 @@
 #include "kumite/common/error.hpp"
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
+#include "toml_string.hpp"
 
 namespace kumite::content {
 
@@ -194,14 +195,7 @@ std::string format_characters(const CharacterCatalog& catalog) {
   out += "# make-characters` built it from the CMU 135 skeleton: stature_m in metres, dialect\n";
   out += "# (cmu | motionbuilder), per-segment scale factors (1 = base skeleton).\n";
   out += fmt::format("version = {}\n", kCharacterCatalogVersion);
-  auto str = [](std::string_view s) {
-    std::string o = "\"";
-    for (char c : s) {
-      if (c == '"' || c == '\\') o += '\\';
-      o += c;
-    }
-    return o + "\"";
-  };
+  const auto str = [](std::string_view s) { return toml_string(s); };
   for (const auto& c : catalog.characters) {
     out += "\n[[character]]\n";
     out += fmt::format("name = {}\ndisplay_name = {}\nfile = {}\nnotes = {}\n", str(c.name), str(c.display_name),
@@ -209,10 +203,10 @@ std::string format_characters(const CharacterCatalog& catalog) {
     if (c.generate) {
       const auto& g = *c.generate;
       out += "[character.generate]\n";
-      out += fmt::format("stature_m = {:.3f}\ndialect = {}\n", g.stature_m, str(g.dialect));
+      out += fmt::format("stature_m = {}\ndialect = {}\n", toml_number(g.stature_m), str(g.dialect));
       for (std::size_t i = 0; i < kSegmentNames.size(); ++i) {
         const double v = scale_of(g.scales, static_cast<Segment>(i));
-        if (v != 1.0) out += fmt::format("{} = {:.3f}\n", kSegmentNames[i], v);
+        if (v != 1.0) out += fmt::format("{} = {}\n", kSegmentNames[i], toml_number(v));
       }
     }
   }

@@ -94,6 +94,35 @@ TEST(Extrinsics, StereoSamplesAgreeWithStereoCalibrate) {
   EXPECT_NE(text.find("\"verdict\""), std::string::npos);
   EXPECT_NE(text.find("\"coverage_fraction\""), std::string::npos);
   EXPECT_NE(text.find("\"image\": \"02.jpg\""), std::string::npos);
+  EXPECT_NE(text.find("\"rig_verdict\""), std::string::npos);
+  EXPECT_NE(text.find("\"rig_check\""), std::string::npos);
+  // The report is written as a unit (a hidden folder renamed into place): a second run
+  // replaces the first whole, and leaves no hidden folder behind; a stale one of a killed
+  // run (its process gone) is cleaned up. (Beside the images now: a report folder inside
+  // them would be scanned as a camera.)
+  fs::remove_all(rep.out_dir);
+  const fs::path side = dir.parent_path() / (dir.filename().string() + "-out");
+  fs::remove_all(side);
+  rep.out_dir = side / "report";
+  run_report(rep);
+  fs::create_directories(side / ".report.tmp-999999999");
+  std::ofstream(rep.out_dir / "left_coverage.png") << "old";
+  run_report(rep);
+  EXPECT_GT(fs::file_size(rep.out_dir / "left_coverage.png"), 3U);
+  for (const auto& e : fs::directory_iterator(side)) {
+    EXPECT_EQ(e.path().filename().string().rfind(".report.tmp-", 0), std::string::npos) << e.path();
+  }
+  // A folder holding anything but a report is not replaced.
+  std::ofstream(rep.out_dir / "notes.txt") << "mine";
+  try {
+    run_report(rep);
+    ADD_FAILURE() << "a folder with other files was replaced";
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("notes.txt"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(fs::exists(rep.out_dir / "notes.txt"));
+  EXPECT_TRUE(fs::exists(rep.out_dir / "report.json"));
+  fs::remove_all(side);
   fs::remove_all(dir);
 }
 

@@ -170,11 +170,12 @@ TrackingConfig parse_tracking_config(std::string_view text, std::string_view sou
                      std::string(e.description()));
   }
   r.check_keys(root, "", {"bodies", "blobs", "static_mask", "matching", "filter", "cameras",
-                          "frame_tolerance_s", "coasting_s", "camera_timeout_s"});
+                          "frame_tolerance_s", "coasting_s", "camera_timeout_s", "camera_blind_s"});
   TrackingConfig c;
   r.number(root, "", "frame_tolerance_s", c.frame_tolerance_s, 0, 1);
   r.number(root, "", "coasting_s", c.coasting_s, 0, 10);
   r.number(root, "", "camera_timeout_s", c.camera_timeout_s, 0.01, 60);
+  r.number(root, "", "camera_blind_s", c.camera_blind_s, 0.1, 600);
 
   if (const auto* t = r.table(root, "blobs")) {
     r.check_keys(*t, "blobs", {"threshold", "seed_row_step", "min_area", "max_area", "min_roundness", "max_blobs"});
@@ -237,6 +238,10 @@ TrackingConfig parse_tracking_config(std::string_view text, std::string_view sou
 }
 
 TrackingConfig read_tracking_config(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) {
+    throw Error("config", "missing", fmt::format("{}: is a folder, not a file: give the tracking .toml file", path.string()));
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("config", "missing", fmt::format("{}: cannot open tracking config", path.string()));
   std::stringstream ss;

@@ -1,5 +1,6 @@
 #include "kumite/tracking/pipeline.hpp"
 
+#include <algorithm>
 #include <chrono>
 
 #include <fmt/format.h>
@@ -66,6 +67,8 @@ struct Pipeline::Impl {
     result.blobs.resize(cameras.size());
     result.masked.resize(cameras.size());
     result.has_image.resize(cameras.size());
+    result.head_images.resize(cameras.size());
+    result.head_in_view.resize(cameras.size());
   }
 
   void detect(const FrameSet& frames) {
@@ -87,6 +90,22 @@ struct Pipeline::Impl {
       result.blobs[c] = detectors[c].detect(img);
       if (config.static_mask) result.masked[c] = masks[c].apply(result.blobs[c]);
       cameras[c].observe(result.blobs[c], observations[c]);
+    }
+  }
+
+  /// head_images / head_in_view for a tracked body 0.
+  void note_head(const BodyFit& fit, const Eigen::Vector3d& centre) {
+    for (int i : fit.marker_of) {
+      if (i < 0) continue;
+      for (std::size_t c = 0; c < cameras.size(); ++c) {
+        if (result.markers[i].blob[c] >= 0) ++result.head_images[c];
+      }
+    }
+    for (std::size_t c = 0; c < cameras.size(); ++c) {
+      Eigen::Vector2d px;
+      const auto& cal = rig.cameras[c];
+      result.head_in_view[c] = cameras[c].project(centre, px) && px.x() >= 0 && px.y() >= 0 &&
+                               px.x() < cal.image_width && px.y() < cal.image_height;
     }
   }
 
@@ -120,6 +139,7 @@ struct Pipeline::Impl {
       tr.last = fit->pose;
       tr.last_time = t;
       const Eigen::Vector3d centre = fit->pose.apply(model.centroid());
+      if (b == 0) note_head(*fit, centre);
       raw = to_pose(centre, fit->pose.rotation);
       raw.status = TrackingStatus::tracked;
       raw.markers = fit->matched;
@@ -182,6 +202,8 @@ const FrameResult& Pipeline::process(const FrameSet& frames) {
   r.markers = m.triangulator->run(m.observations);
   m.taken.assign(r.markers.size(), 0);
   for (std::size_t c = 0; c < m.cameras.size(); ++c) m.used[c].assign(r.blobs[c].size(), 0);
+  std::fill(r.head_images.begin(), r.head_images.end(), 0);
+  std::fill(r.head_in_view.begin(), r.head_in_view.end(), 0);
   r.raw.resize(m.bodies.size());
   r.filtered.resize(m.bodies.size());
   r.states.resize(m.bodies.size());

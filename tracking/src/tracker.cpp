@@ -24,6 +24,7 @@ std::string_view to_string(CameraState s) {
     case CameraState::ok: return "ok";
     case CameraState::no_frames: return "no frames";
     case CameraState::reconnecting: return "reconnecting";
+    case CameraState::blind: return "sees no markers while others see the head";
   }
   return "?";
 }
@@ -476,9 +477,56 @@ void use_realtime_priority(int priority) {
 }
 }  // namespace
 
+namespace {
+/// Per camera: how long it has seen none of the head's markers while it should have (the
+/// head tracked by >= 2 other cameras, its centre inside this camera's image). Frame sets
+/// where that does not hold (head lost, out of its view, no image) neither count nor reset.
+class BlindWatch {
+ public:
+  BlindWatch(std::size_t cameras, double after_s) : since_(cameras, -1), count_(cameras, 0), last_(cameras, -1), after_s_(after_s) {}
+  void update(const FrameResult& r) {
+    const bool head = !r.raw.empty() && r.raw[0].status == TrackingStatus::tracked;
+    for (std::size_t c = 0; c < since_.size() && c < r.has_image.size(); ++c) {
+      if (!r.has_image[c]) continue;
+      if (r.head_images[c] > 0) {
+        since_[c] = -1, count_[c] = 0;
+      } else if (head && r.head_in_view[c] && r.raw[0].cameras >= 2) {
+        if (since_[c] < 0) since_[c] = r.timestamp;
+        ++count_[c];
+        last_[c] = r.timestamp;
+      }
+    }
+  }
+  /// s from the first frame set it missed the head to the last (0 while it sees it).
+  double unseen_s(std::size_t c) const { return since_[c] < 0 ? 0.0 : last_[c] - since_[c]; }
+  /// Blind: unseen for after_s, over at least kMinSets frame sets (not one odd frame).
+  bool blind(std::size_t c) const { return since_[c] >= 0 && count_[c] >= kMinSets && unseen_s(c) >= after_s_; }
+
+ private:
+  static constexpr int kMinSets = 10;
+  std::vector<Timestamp> since_;
+  std::vector<int> count_;
+  std::vector<Timestamp> last_;
+  double after_s_;
+};
+}  // namespace
+
+std::string describe(const CameraStatus& s) {
+  switch (s.state) {
+    case CameraState::ok: return "";
+    case CameraState::blind: return fmt::format("{} ({:.1f} s)", to_string(s.state), s.blind_s);
+    case CameraState::no_frames:
+      if (s.last_frame < 0) return "no frames (never a frame)";
+      return fmt::format("no frames ({:.1f} s since the last frame)", s.since_last_s);
+    case CameraState::reconnecting: return "reconnecting";
+  }
+  return "?";
+}
+
 void Tracker::run() {
   use_realtime_priority(realtime_priority_);
   std::vector<Timestamp> last_frame(rig_.cameras.size(), -1);
+  BlindWatch blind(rig_.cameras.size(), config_.camera_blind_s);
   bool first = true;
   try {
     while (!stop_.load()) {
@@ -519,6 +567,7 @@ void Tracker::run() {
         snapshots_[b]->value.publish(s);
         poses_[b]->publish(s.pose);
       }
+      blind.update(r);
       for (std::size_t c = 0; c < cameras_.size(); ++c) {
         const bool has = c < frames.images.size() && !frames.images[c].empty();
         if (has) last_frame[c] = c < frames.camera_times.size() ? frames.camera_times[c] : frames.timestamp;
@@ -526,7 +575,10 @@ void Tracker::run() {
         st.last_frame = last_frame[c];
         st.blobs = has ? static_cast<std::int32_t>(r.blobs[c].size()) : 0;
         st.masked = has ? r.masked[c] : 0;
-        st.state = source_->reconnecting(c) ? CameraState::reconnecting : CameraState::ok;
+        st.blind_s = blind.unseen_s(c);
+        st.state = source_->reconnecting(c) ? CameraState::reconnecting
+                   : blind.blind(c)         ? CameraState::blind
+                                            : CameraState::ok;
         cameras_[c]->value.publish(st);
       }
       last_source_time_.store(frames.timestamp, std::memory_order_release);
@@ -585,7 +637,9 @@ std::vector<CameraStatus> Tracker::camera_status(std::optional<Timestamp> now_s)
     CameraStatus st = slot->value.read().value_or(CameraStatus{});
     if (st.last_frame >= 0) {
       st.since_last_s = std::max(0.0, now - st.last_frame);
-      if (st.state == CameraState::ok && st.since_last_s > config_.camera_timeout_s) st.state = CameraState::no_frames;
+      if (st.state != CameraState::reconnecting && st.since_last_s > config_.camera_timeout_s) {
+        st.state = CameraState::no_frames;
+      }
     } else if (st.state == CameraState::ok) {
       st.state = CameraState::no_frames;
     }

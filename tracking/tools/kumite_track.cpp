@@ -142,7 +142,8 @@ class Collector {
     return last_time_;
   }
 
-  void summary(std::size_t skipped) {
+  /// `problems`: per camera, what the console said was wrong with it ("" = nothing).
+  void summary(std::size_t skipped, const std::vector<std::string>& problems) {
     std::lock_guard lock(mutex_);
     std::printf("frame sets: %d (tracked %d, coasting %d, lost %d); warnings: %zu\n", frames_, status_[1],
                 status_[2], status_[0], skipped);
@@ -170,6 +171,7 @@ class Collector {
         line += fmt::format(", the last at {:.3f} s ({:.3f} s before the end)", last_image_[c] - first_time_,
                             last_time_ - last_image_[c]);
       }
+      if (c < problems.size() && !problems[c].empty()) line += "; PROBLEM: " + problems[c];
       std::printf("%s\n", line.c_str());
     }
     std::printf("latency per frame set (ms): p50 %.3f, p90 %.3f, p99 %.3f, max %.3f\n", percentile(latency_, 0.5),
@@ -264,6 +266,7 @@ int run_tracker(const RunOptions& o) {
   // Camera states as the console shows them: every change (a camera that stops, comes back or
   // reconnects), and for live cameras a reminder every 2 s while one is not ok.
   std::vector<CameraState> shown(rig.cameras.size(), CameraState::ok);
+  std::vector<std::string> problems(rig.cameras.size());  // for the summary
   const auto report_cameras = [&](bool remind) {
     if (tracker.frames_processed() == 0) return;
     // Live: against now (all cameras may have stopped). A recording: against its latest frame
@@ -277,6 +280,12 @@ int run_tracker(const RunOptions& o) {
       if (cams[c].since_last_s < 0 && collector.elapsed_s() <= config.camera_timeout_s) continue;
       if (cams[c].state == CameraState::ok) {
         spdlog::info("camera {}: ok again", rig.cameras[c].name);
+      } else if (cams[c].state == CameraState::blind) {
+        // A camera that delivers images but not the head the others see (covered, dark,
+        // knocked out of place): a problem, said once when it starts and in the summary.
+        spdlog::warn("camera {}: {}", rig.cameras[c].name, describe(cams[c]));
+        const double from = collector.elapsed_s() - cams[c].blind_s;
+        problems[c] = fmt::format("{} (from {:.1f} s)", to_string(cams[c].state), std::max(0.0, from));
       } else if (cams[c].since_last_s < 0) {
         spdlog::warn("camera {}: {} (no frame yet)", rig.cameras[c].name, to_string(cams[c].state));
       } else {
@@ -297,7 +306,7 @@ int run_tracker(const RunOptions& o) {
   tracker.stop();
   skipped = sink_count->load();
   collector.write(o.out);
-  collector.summary(skipped.load());
+  collector.summary(skipped.load(), problems);
   if (o.realtime) {
     std::printf("real-time playback: %llu frame sets delivered, %llu skipped (not decoded in time: try "
                 "--decode-threads), %llu dropped (the tracker was behind)\n",

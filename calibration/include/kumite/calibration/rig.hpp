@@ -5,6 +5,7 @@
 // jointly (intrinsics fixed or refined) under a robust (Huber) loss.
 // The rig frame is the reference camera's (camera 0) until `align` fixes the room frame.
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -54,6 +55,46 @@ ExtrinsicsResult solve_extrinsics(const std::vector<tracking::CameraCalibration>
 
 /// Board pose in a camera from one view (IPPE then Levenberg-Marquardt).
 std::optional<RigidPose> board_pose_in_camera(const BoardDetection& view, const tracking::CameraCalibration& cam);
+
+/// Does each camera agree with the rest of the rig, view by view? For camera c at frame f:
+/// the board pose as each OTHER camera sees it (its own view, solvePnP, through its
+/// calibrated pose) is projected into c, and c's detected corners are compared with that;
+/// the other camera that agrees best counts (so one bad camera does not make the others look
+/// bad). A camera knocked out of place during the capture shows as a jump in the mean
+/// residual over view order (time): two clusters of views.
+struct CameraCheck {
+  std::vector<double> rms_px;        ///< per frame: RMS of c's corners against the others' board (NaN: no pair)
+  std::vector<cv::Vec2d> mean_px;    ///< per frame: mean residual (detected - predicted), px
+  double rms_all_px = std::numeric_limits<double>::quiet_NaN();  ///< over every paired view
+  int views = 0;                     ///< frames with a pair
+  /// Its residuals are really high: above kBlameFloorPx and kBlameFactor x the rig's median.
+  bool blamed = false;
+  /// Moved: the residuals split at a frame into two clusters whose mean residuals differ by
+  /// jump_px (>= kMoveMinPx and well outside the spread within each cluster): the last frame
+  /// before and the first after (indices into the frame list).
+  std::optional<std::pair<int, int>> moved_between;
+  double jump_px = 0;    ///< px: the best split's jump in the mean residual (also when not a move)
+  double spread_px = 0;  ///< px: RMS spread of the mean residuals around their run's mean
+  double explained = 0;  ///< fraction of the mean residuals' variance the split explains
+  /// Per frame: true for the views of the cluster that disagrees more with the calibration.
+  std::vector<bool> flagged;
+};
+struct RigCheck {
+  std::vector<CameraCheck> cameras;  ///< in the order given
+  double median_rms_px = 0;          ///< median over the cameras' rms_all_px
+};
+inline constexpr double kBlameFloorPx = 1.0;  ///< px: below this no camera is blamed
+inline constexpr double kBlameFactor = 3.0;   ///< x the median camera
+inline constexpr double kMoveMinPx = 3.0;     ///< px: smallest jump called a move
+/// `cameras`: calibrated (intrinsics and R/t in one frame); `views[c][f]` as solve_extrinsics.
+RigCheck check_rig(const std::vector<tracking::CameraCalibration>& cameras,
+                   const std::vector<std::vector<BoardDetection>>& views);
+/// One line about a camera's check for people, naming frames by `frame_names` (file stems):
+/// "" when it is not blamed, e.g. "cam2 moved between views 000039 and 000040 (its residuals
+/// jump by 12.1 px; 20 of 40 views flagged)" or "cam2: residuals 4.2 px against the other
+/// cameras' view of the board (the rig's median 0.3 px)".
+std::string describe_check(const std::string& camera, const CameraCheck& check, const RigCheck& rig,
+                           const std::vector<std::string>& frame_names);
 
 }  // namespace kumite::calibration
 

@@ -68,6 +68,9 @@ struct TrackingConfig {
   double frame_tolerance_s = 0.004;  ///< s: frames this close in time form one frame set
   double coasting_s = 0.1;           ///< s: how long a body coasts before it is lost
   double camera_timeout_s = 0.5;     ///< s: no frame for this long = camera "no frames"
+  /// s: a camera that delivers images but sees none of the head's markers this long, while
+  /// the head is tracked by >= 2 other cameras and lies in its view, is "blind"
+  double camera_blind_s = 2.0;
   std::vector<LiveCameraConfig> cameras;
 
   /// Index of the body called `name`, or -1.

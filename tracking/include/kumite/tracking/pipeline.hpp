@@ -31,6 +31,12 @@ struct FrameResult {
   std::vector<int> masked;                 ///< per camera: blobs removed by the static mask
   std::vector<std::uint8_t> has_image;    ///< per camera: 1 = it delivered an image for this set
   int cameras_with_images = 0;
+  /// Per camera: images of body 0's (the head's) matched markers it gave; 0 when body 0 is
+  /// not tracked in this set.
+  std::vector<std::int32_t> head_images;
+  /// Per camera: body 0 is tracked and its centre projects inside the camera's image, in
+  /// front of it (the camera should see its markers).
+  std::vector<std::uint8_t> head_in_view;
   double latency_ms = 0;                   ///< processing time of this frame set
 };
 

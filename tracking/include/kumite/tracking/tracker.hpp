@@ -38,6 +38,9 @@ enum class CameraState : std::uint8_t {
   ok = 0,            ///< frames arriving
   no_frames = 1,     ///< nothing for longer than camera_timeout_s (see since_last_s)
   reconnecting = 2,  ///< the device failed; the capture thread is trying to reopen it
+  /// images arrive, but for camera_blind_s it saw none of the head's markers while >= 2
+  /// other cameras tracked the head inside its view (covered, dark, moved, out of focus)
+  blind = 3,
 };
 std::string_view to_string(CameraState s);
 
@@ -48,7 +51,13 @@ struct CameraStatus {
   double since_last_s = -1;   ///< s since that image, at the time asked (-1 = never)
   std::int32_t blobs = 0;     ///< blobs in its last image (after the static mask)
   std::int32_t masked = 0;    ///< blobs the static mask removed in its last image
+  /// s it has seen none of the head's markers while the others saw the head in its view
+  /// (0 while it sees them; state blind from camera_blind_s on)
+  double blind_s = 0;
 };
+/// One line saying what is wrong with a camera, for consoles and logs: "" when ok, else e.g.
+/// "sees no markers while others see the head (3.2 s)" or "no frames (0.6 s since the last frame)".
+std::string describe(const CameraStatus& status);
 
 /// Where frame sets come from. next() is called from the tracker thread only.
 class FrameSource {
