@@ -367,10 +367,10 @@ TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) 
     }
   }
   EXPECT_EQ(measured, 16);
-  // Regression guards on what the fighter reaches today (issue 12 asks for 0 snaps; before
-  // this round 16 of 16 of these strikes snapped): no knee flips, at most 2 strikes with a snap.
+  // Issue 12's figure, held since session 7 (0 of the 240-strike grid; before session 6, 16 of
+  // 16 of these strikes snapped): no knee flips, no strike with a snap.
   EXPECT_EQ(knee_flips, 0);
-  EXPECT_LE(snapped, 2);
+  EXPECT_EQ(snapped, 0);
 }
 
 }  // namespace
