@@ -57,8 +57,9 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         const bool lagging = other.phase != Phase::stepping && (target - f.lock).norm() > tun_.step_threshold_m;
         const double stretch = (f.lock - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
-        // held there it would be dragged along the floor.
-        if ((may_step && (lagging || stretch > tun_.max_leg_stretch)) || !in.reached) {
+        // held there it would be dragged along the floor. Otherwise a foot steps only while the
+        // other stands on the floor (both off it is a hop).
+        if ((other.phase == Phase::held && may_step && (lagging || stretch > tun_.max_leg_stretch)) || !in.reached) {
           f.phase = Phase::stepping;
           f.step_t = 0;
           f.step_from = f.lock;
@@ -72,6 +73,15 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         if (in.planted && !in.effector && down(in.drawn_ankle_m)) {
           f.phase = Phase::held;  // down where it is drawn (a kicking foot was drawn off its lock)
           f.lock = in.drawn_ankle_m;
+          break;
+        }
+        if (in.planted && !in.effector && !near_floor(f.lock)) {
+          // The motion has the foot down but it is still well up (a kick handing over to the
+          // rest motion): it goes back to where the motion has it at a foot's pace.
+          const Vector3d to = in.free_ankle_m - f.lock;
+          const double d = to.norm(), step = tun_.return_speed_mps * dt;
+          f.lock += d > step ? Vector3d(to * (step / d)) : to;
+          f.offset = f.lock - in.free_ankle_m;
           break;
         }
         if (in.planted && !in.effector && near_floor(f.lock)) {

@@ -15,6 +15,9 @@ namespace {
 struct Outcome {
   bool contact = false, reached = false, hit = false;
   double distance_m = 0, max_slide_m = 0;
+  double foot_up_after_m = 0;     ///< m: the higher ankle above its standing height, 1 s after the strike
+  bool feet_held_after = true;    ///< both feet held then
+  int frames_both_feet_off = 0;   ///< frames of that second with neither foot held
 };
 
 Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) {
@@ -37,6 +40,22 @@ Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) 
       const double d = (b.rig_positions()[static_cast<std::size_t>(ankles[s])] - before[s]).norm();
       o.max_slide_m = std::max(o.max_slide_m, d);
     }
+  }
+  // Then a second at rest: both feet back on the floor, held (a kicking foot never hangs in
+  // the air after the strike, and never both feet off the floor at once).
+  for (int i = 0; i < 120; ++i) {
+    b.update(t += dt, dt, head);
+    const auto locked = b.feet_locked();
+    if (!locked[0] && !locked[1]) ++o.frames_both_feet_off;
+  }
+  const auto& rest = rig->rest_pose;
+  const double floor_y = std::min({rest[static_cast<std::size_t>(CJ::l_ankle)].y(), rest[static_cast<std::size_t>(CJ::r_ankle)].y()});
+  for (int s = 0; s < 2; ++s) {
+    const double standing = rest[static_cast<std::size_t>(s == 0 ? CJ::l_ankle : CJ::r_ankle)].y() - floor_y;
+    const double lowest_toe = std::min(rest[static_cast<std::size_t>(CJ::l_toe)].y(), rest[static_cast<std::size_t>(CJ::r_toe)].y());
+    const double up = b.rig_positions()[static_cast<std::size_t>(ankles[s])].y() - (standing + std::max(0.0, floor_y - lowest_toe));
+    o.foot_up_after_m = std::max(o.foot_up_after_m, up);
+    o.feet_held_after = o.feet_held_after && b.feet_locked()[static_cast<std::size_t>(s)];
   }
   o.contact = b.strike().contact_done;
   o.reached = b.strike().contact_reached;
@@ -64,6 +83,11 @@ TEST(BehaviourShipped, EveryCharacterReachesTargetsAroundHeadHeight) {
           const Vector3d local(dx, kick ? fy * 0.65 * h : fy * h, kick ? 0.45 * h : 0.36 * h);
           const Outcome o = strike_once(b, kind, local);
           ASSERT_TRUE(o.contact) << rigs[c].name;
+          // "Down" is within landing_height_m (4 cm) of the standing height: a foot is put
+          // down where the motion has it, up to that little above the floor.
+          EXPECT_LT(o.foot_up_after_m, 0.05) << rigs[c].name << " " << to_string(kind) << ": a foot still in the air 1 s after the strike";
+          EXPECT_TRUE(o.feet_held_after) << rigs[c].name << " " << to_string(kind);
+          EXPECT_EQ(o.frames_both_feet_off, 0) << rigs[c].name << " " << to_string(kind);
           ++total;
           worst_slide = std::max(worst_slide, o.max_slide_m);
           if (o.reached) {

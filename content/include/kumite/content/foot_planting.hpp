@@ -28,6 +28,8 @@ struct FootPlantingTunables {
                                    ///< comes straight down where it is (higher: it follows the motion)
   double landing_speed_mps = 0.6;  ///< m/s: the least speed at which such a foot comes down
   double max_landing_speed_mps = 2.0;  ///< m/s: the most
+  double return_speed_mps = 2.0;   ///< m/s: a foot the motion has down but that is higher than
+                                   ///< landing_window_m goes back to the motion's foot this fast
 };
 
 /// What the motion says of one foot this update.
