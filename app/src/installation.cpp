@@ -482,5 +482,6 @@ const FrameData& Installation::replay(const FrameInput& input) {
 }
 
 bool Installation::has_tracker() const { return tracking_->has_tracker(); }
+bool Installation::tracking_loading() const { return tracking_->loading(); }
 
 }  // namespace kumite::app

@@ -56,6 +56,8 @@ class TrackingInput {
   virtual PoseTiming pose_timing(Timestamp /*t*/) { return {}; }
   /// False when no tracker is behind it (the head stays at its default): nothing to wait for.
   virtual bool has_tracker() const { return true; }
+  /// True while the source is still loading (a recording's preload): the show is not up yet.
+  virtual bool loading() const { return false; }
 };
 
 /// No tracking: the head stays at the configured default position (console usable alone).
@@ -221,6 +223,8 @@ class Installation {
   void record_to(SessionRecorder* recorder) { recorder_ = recorder; }
   Timestamp start_time() const { return start_; }
   bool has_tracker() const;
+  /// The tracker's source is still loading (a recording's preload): the show is not up yet.
+  bool tracking_loading() const;
 
   const FrameData& frame() const { return frame_; }
   const ConsoleState& console() const { return console_; }
