@@ -138,6 +138,14 @@ struct TrackingConfig {
   bool operator==(const TrackingConfig&) const = default;
 };
 
+/// [safety]: the visitor near a wall (or out of the tracked area): a glow on that wall and an
+/// event; the fighter's back-off reads FrameData::visitor_near_wall.
+struct SafetyConfig {
+  bool enabled = true;
+  double wall_distance_m = 0.4;  ///< m, 0.05..2: the tracked head this close to a wall's plane
+  bool operator==(const SafetyConfig&) const = default;
+};
+
 /// [health]: the health report staff read from another machine (`kumite status`).
 struct HealthConfig {
   /// JSON status file, rewritten atomically about every interval_s (relative: to the file's
@@ -177,6 +185,7 @@ struct InstallationConfig {
   TrackingConfig tracking;
   std::optional<std::filesystem::path> orders_script;  ///< `time_s,order` rows, as written
   HealthConfig health;
+  SafetyConfig safety;
 
   /// Source line of each key path ("walls[1].lower_left", "stereo.mode"); 0 when unknown.
   std::map<std::string, int> lines;
