@@ -11,15 +11,40 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <mutex>
+#include <set>
+
+#include <spdlog/spdlog.h>
 
 #include "kumite/common/error.hpp"
 
 namespace kumite {
 namespace fs = std::filesystem;
 
+namespace {
+/// The first time a process writes into a folder, the temporaries that killed writers left
+/// there go (one warning line naming them): every tool cleans up after its own kind at its next
+/// start, not only kumite.
+void sweep_once(const fs::path& dir) {
+  static std::mutex mutex;
+  static std::set<std::string> swept;
+  {
+    std::lock_guard lock(mutex);
+    if (!swept.insert(dir.string()).second) return;
+  }
+  const auto removed = remove_stale_temporaries(dir);
+  if (removed.empty()) return;
+  std::string names;
+  for (const auto& r : removed) names += (names.empty() ? "" : ", ") + r.filename().string();
+  spdlog::warn("removed {} temporary file{} left by killed runs in {}: {}", removed.size(), removed.size() == 1 ? "" : "s",
+               dir.string(), names);
+}
+}  // namespace
+
 fs::path temporary_path_beside(const fs::path& path) {
   static std::atomic<unsigned> counter{0};
   const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  sweep_once(dir);
   return dir / fmt::format(".{}.tmp-{}-{}{}", path.stem().string(), ::getpid(), counter++,
                            path.extension().string());
 }

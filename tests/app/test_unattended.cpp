@@ -505,6 +505,16 @@ TEST(Service, StaleTemporariesOfGoneProcessesAreRemovedLiveOnesKept) {
   EXPECT_TRUE(kumite::remove_stale_temporaries(dir / "missing").empty());
 }
 
+TEST(Service, TheFirstAtomicWriteIntoAFolderClearsItsStaleTemporaries) {
+  // Any tool (a calibration, a recording) cleans up after killed writers at its next write there.
+  const fs::path dir = fresh_dir("sweep");
+  const std::string stale = ".calibration.tmp-" + std::to_string(gone_pid()) + "-0.yaml";
+  std::ofstream(dir / stale) << "%YAML:1.0\n";
+  kumite::write_file_atomically(dir / "calibration.yaml", std::string_view("x: 1\n"));
+  EXPECT_FALSE(fs::exists(dir / stale));
+  EXPECT_EQ(text_of(dir / "calibration.yaml"), "x: 1\n");
+}
+
 TEST(Service, BackupsAreCompleteOrAbsent) {
   const fs::path dir = fresh_dir("backup");
   const std::string content(100000, 'c');

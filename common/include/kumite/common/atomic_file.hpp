@@ -19,7 +19,9 @@ void write_file_atomically(const std::filesystem::path& path,
                            const std::function<void(std::ostream&)>& write);
 
 /// A temporary path beside `path` keeping its extension (some writers, like OpenCV's
-/// FileStorage, choose the format from the extension): "dir/.name.tmp-<pid>-<n>.ext".
+/// FileStorage, choose the format from the extension): "dir/.name.tmp-<pid>-<n>.ext". The first
+/// call for a folder in a process also removes the temporaries of writers that are gone
+/// (remove_stale_temporaries), with one warning line when there were any.
 std::filesystem::path temporary_path_beside(const std::filesystem::path& path);
 
 /// Atomically moves `tmp` onto `path` (same directory). Throws kumite::Error on failure.
