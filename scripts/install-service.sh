@@ -58,10 +58,11 @@ done
 [[ -n "$CONFIG" ]] || die "--config FILE is required (see --help)"
 [[ -f "$CONFIG" ]] || die "--config $CONFIG: no such file"
 [[ "$NAME" =~ ^[A-Za-z0-9_.@-]+$ ]] || die "--name $NAME: letters, digits, _ . @ - only"
-[[ "$WATCHDOG" =~ ^[0-9]+(\.[0-9]+)?$ ]] && awk "BEGIN{exit !($WATCHDOG >= 1 && $WATCHDOG <= 600)}" \
-  || die "--watchdog-sec $WATCHDOG: a number of seconds, 1..600"
-[[ "$RESTART" =~ ^[0-9]+(\.[0-9]+)?$ ]] && awk "BEGIN{exit !($RESTART <= 600)}" \
-  || die "--restart-sec $RESTART: a number of seconds, 0..600"
+seconds_in() {  # seconds_in VALUE MIN MAX: a decimal number of seconds within [MIN, MAX]
+  [[ "$1" =~ ^[0-9]+(\.[0-9]+)?$ ]] && awk "BEGIN{exit !($1 >= $2 && $1 <= $3)}"
+}
+if ! seconds_in "$WATCHDOG" 1 600; then die "--watchdog-sec $WATCHDOG: a number of seconds, 1..600"; fi
+if ! seconds_in "$RESTART" 0 600; then die "--restart-sec $RESTART: a number of seconds, 0..600"; fi
 [[ -x "$KUMITE" ]] || die "--kumite $KUMITE: not an executable (build first: scripts/setup.sh)"
 CONFIG=$(realpath "$CONFIG")
 KUMITE=$(realpath "$KUMITE")
