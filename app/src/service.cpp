@@ -76,7 +76,8 @@ struct RunMonitor::Snapshot {
 };
 
 RunMonitor::RunMonitor(RunInfo info, RunMonitorOptions options)
-    : info_(std::move(info)), options_(std::move(options)), started_wall_(unix_now()), started_(now()) {
+    : info_(std::move(info)), options_(std::move(options)), started_(options_.process_started.value_or(now())) {
+  started_wall_ = unix_now() - (now() - started_);
   if (notifier_.enabled())
     spdlog::info("service: sd_notify to $NOTIFY_SOCKET{}",
                  notifier_.watchdog_s() ? fmt::format(", watchdog {:.1f} s (a ping every {:.2f} s while frames advance)",
@@ -176,7 +177,7 @@ void RunMonitor::frame_done(const Installation& inst, const FrameData& f) {
   if (!ready_sent_ && !inst.tracking_loading()) {
     ready_sent_ = true;
     notifier_.notify(fmt::format("READY=1\nSTATUS=running: frame {}, tracking {}", frames_, inst.console().tracking));
-    spdlog::info("service: the show is up after {:.2f} s (frame {}){}", t - started_, frames_,
+    spdlog::info("service: the show is up {:.2f} s after the process started (frame {}){}", t - started_, frames_,
                  notifier_.enabled() ? ": READY=1 sent" : "");
   }
   if (notifier_.watchdog_s() && (last_ping_ < 0 || t - last_ping_ >= notifier_.ping_interval_s())) {

@@ -131,7 +131,7 @@ int run_status(const Args& a) {
   return line.exit_code;
 }
 
-int run(const Args& a, const std::atomic<int>& stop) {
+int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_started) {
   auto config = kumite::app::load_installation_config(
       a.config, a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
   // Output folders are made (or refused, in one line) before anything starts, not found
@@ -213,6 +213,7 @@ int run(const Args& a, const std::atomic<int>& stop) {
   mo.health_interval_s = config.health.interval_s;
   mo.debug_hang_after_frames = a.debug_hang_after_frames;
   mo.stop = &stop;
+  mo.process_started = process_started;
   kumite::app::RunMonitor monitor(info, mo);
   const auto finish = [&](int rc) {
     if (recorder) {
@@ -267,6 +268,7 @@ int run_replay(const Args& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  const kumite::Timestamp process_started = kumite::now();  // uptime and the time to READY count from here
   kumite::keep_freed_memory();  // before any thread: frame-sized buffers are reused, not remapped
   CLI::App app{"kumite: the installation (walls in stereo, the fighter, the supervisor console)"};
   Args a;
@@ -324,7 +326,7 @@ int main(int argc, char** argv) {
     if (status->parsed()) return run_status(a);
     a.config_given = app.count("--config") > 0;
     if (!a.replay.empty()) return run_replay(a);
-    const int rc = run(a, stop);
+    const int rc = run(a, stop, process_started);
     if (const int sig = stop.load(); sig != 0) {
       spdlog::info("stopped by {}: outputs complete, exit status {}", sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal",
                    128 + sig);

@@ -60,6 +60,9 @@ struct RunMonitorOptions {
   std::uint64_t debug_hang_after_frames = 0;
   /// The run's stop flag (stop_on_signals()); a debug hang ends when it is set.
   const std::atomic<int>* stop = nullptr;
+  /// s, now() when the process started (main's first line): uptime and the time to READY count
+  /// from it; none: from the monitor's construction.
+  std::optional<Timestamp> process_started;
 };
 
 /// One run's watchdog pings, readiness and health report.
@@ -93,8 +96,8 @@ class RunMonitor {
   RunInfo info_;
   RunMonitorOptions options_;
   ServiceNotifier notifier_;
-  double started_wall_ = 0;   ///< s, Unix time at construction
-  Timestamp started_ = 0;     ///< s, now() at construction
+  double started_wall_ = 0;   ///< s, Unix time of the start (process_started, else construction)
+  Timestamp started_ = 0;     ///< s, now() of the start
   bool ready_sent_ = false;
   Timestamp last_ping_ = -1, last_status_ = -1;
   std::uint64_t frames_ = 0;
