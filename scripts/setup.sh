@@ -21,6 +21,8 @@ PACKAGES=(
   # graphics: windows, headless EGL (Mesa llvmpipe), operator console
   libglfw3-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev
   xvfb xauth
+  # running as a service: sd_notify readiness and watchdog pings (systemd)
+  libsystemd-dev
   # messaging (render cluster / OSC, later)
   libzmq3-dev cppzmq-dev liblo-dev
   # tests and benchmarks

@@ -212,7 +212,7 @@ class Reader {
 
 void Reader::parse(const toml::table& root) {
   only_keys(root, "", {"display_rate_hz", "late_latch", "display_latency_ms", "data_dir", "windows", "walls", "stereo", "viewer",
-                       "projection", "keys", "characters", "fighter", "tracking", "orders"});
+                       "projection", "keys", "characters", "fighter", "tracking", "orders", "health", "safety"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
   boolean(root, "late_latch", "", cfg_.late_latch);
   number(root, "display_latency_ms", "", cfg_.display_latency_ms);
@@ -234,6 +234,17 @@ void Reader::parse(const toml::table& root) {
     only_keys(*o, "orders", {"script"});
     std::filesystem::path s;
     if (path(*o, "script", "orders", s)) cfg_.orders_script = s;
+  }
+  if (const auto* h = table(root, "health", "", false)) {
+    only_keys(*h, "health", {"file", "interval_s"});
+    std::filesystem::path f;
+    if (path(*h, "file", "health", f)) cfg_.health.file = f;
+    number(*h, "interval_s", "health", cfg_.health.interval_s);
+  }
+  if (const auto* sf = table(root, "safety", "", false)) {
+    only_keys(*sf, "safety", {"enabled", "wall_distance_m"});
+    boolean(*sf, "enabled", "safety", cfg_.safety.enabled);
+    number(*sf, "wall_distance_m", "safety", cfg_.safety.wall_distance_m);
   }
 }
 
@@ -505,7 +516,8 @@ bool InstallationConfig::operator==(const InstallationConfig& o) const {
          display_latency_ms == o.display_latency_ms && windows == o.windows && walls == o.walls &&
          stereo == o.stereo && viewer == o.viewer && projection == o.projection &&
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
-         tracking == o.tracking && orders_script == o.orders_script && data_dir == o.data_dir;
+         tracking == o.tracking && orders_script == o.orders_script && data_dir == o.data_dir &&
+         health == o.health && safety == o.safety;
 }
 
 std::string check_wall_geometry(const WallConfig& w) {
@@ -655,6 +667,12 @@ void validate(const InstallationConfig& c) {
     fail_at(c, "range", "tracking.decode_threads", "must be 1..16");
   if (t.realtime_priority < 0 || t.realtime_priority > 99)
     fail_at(c, "range", "tracking.realtime_priority", "must be 0..99 (0 = normal scheduling)");
+  if (!(c.health.interval_s >= 0.1 && c.health.interval_s <= 60))
+    fail_at(c, "range", "health.interval_s", "must be 0.1..60 s");
+  if (!(c.safety.wall_distance_m >= 0.05 && c.safety.wall_distance_m <= 2))
+    fail_at(c, "range", "safety.wall_distance_m", "must be 0.05..2 m");
+  if (c.health.file && std::filesystem::is_directory(c.resolve(*c.health.file)))
+    fail_at(c, "folder", "health.file", c.resolve(*c.health.file).string() + " is a folder, not a file");
 }
 
 namespace {
@@ -766,6 +784,13 @@ std::string to_toml(const InstallationConfig& c) {
   if (!t.recording.empty()) tracking.insert("recording", t.recording.generic_string());
   root.insert("tracking", std::move(tracking));
   if (c.orders_script) root.insert("orders", toml::table{{"script", c.orders_script->generic_string()}});
+  if (c.health.file || c.health.interval_s != HealthConfig{}.interval_s) {
+    toml::table health{{"interval_s", c.health.interval_s}};
+    if (c.health.file) health.insert("file", c.health.file->generic_string());
+    root.insert("health", std::move(health));
+  }
+  if (c.safety != SafetyConfig{})
+    root.insert("safety", toml::table{{"enabled", c.safety.enabled}, {"wall_distance_m", c.safety.wall_distance_m}});
   std::ostringstream out;
   out << root << "\n";
   return out.str();

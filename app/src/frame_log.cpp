@@ -84,10 +84,14 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
     json ev = {{"type", to_string(e.type)}, {"time_s", e.time_s}};
     if (!e.order.empty()) ev["order"] = e.order;
     if (!e.text.empty()) ev["text"] = e.text;
-    if (is_strike_outcome(e.type)) ev["distance_m"] = e.distance_m;
+    if (is_strike_outcome(e.type) || e.type == EventType::visitor_near_wall || e.type == EventType::visitor_clear)
+      ev["distance_m"] = e.distance_m;
     events.push_back(ev);
   }
   j["events"] = events;
+  if (const auto& v = f.visitor_near_wall)  // only while the visitor is near a wall (or lost near one)
+    j["visitor_near_wall"] = {{"wall", v->wall < static_cast<int>(wall_names.size()) ? wall_names[static_cast<std::size_t>(v->wall)] : ""},
+                              {"distance_m", v->distance_m}, {"outside", v->outside}, {"lost", v->lost}};
   j["pose_age_ms"] = f.pose_age_ms >= 0 ? json(f.pose_age_ms) : json(nullptr);
   j["tracking_latency_ms"] = f.tracking_latency_ms >= 0 ? json(f.tracking_latency_ms) : json(nullptr);
   j["latch_ms"] = f.latch_ms;

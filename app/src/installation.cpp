@@ -129,13 +129,16 @@ std::string_view to_string(EventType type) {
     case EventType::miss: return "miss";
     case EventType::character_changed: return "character_changed";
     case EventType::warning: return "warning";
+    case EventType::visitor_near_wall: return "visitor_near_wall";
+    case EventType::visitor_clear: return "visitor_clear";
   }
   return "?";
 }
 
 std::optional<EventType> parse_event_type(std::string_view text) {
   for (const EventType t : {EventType::order, EventType::order_ignored, EventType::hit, EventType::dodged, EventType::miss,
-                            EventType::character_changed, EventType::warning})
+                            EventType::character_changed, EventType::warning, EventType::visitor_near_wall,
+                            EventType::visitor_clear})
     if (to_string(t) == text) return t;
   return std::nullopt;
 }
@@ -231,7 +234,7 @@ void Installation::note(const FrameEvent& e) {
     console_.last_order = e.order;
     console_.last_outcome = fmt::format("{} ({:.2f} m)", to_string(e.type), e.distance_m);
   }
-  if (e.type == EventType::warning || e.type == EventType::order_ignored)
+  if (e.type == EventType::warning || e.type == EventType::order_ignored || e.type == EventType::visitor_near_wall)
     spdlog::warn("{}", line);
   else
     spdlog::info("{}", line);
@@ -449,6 +452,7 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   }
   apply_orders(now);
   update_fighter(now, dt);
+  update_safety(now);
   console_.fighter_state = frame_.fighter.present ? std::string(content::to_string(frame_.fighter.state)) : "none";
   console_.character = frame_.fighter.character;
   console_.character_name = character_name(frame_.fighter.character);
@@ -481,6 +485,77 @@ const FrameData& Installation::replay(const FrameInput& input) {
   return frame_;
 }
 
+void Installation::update_safety(Timestamp now) {
+  frame_.visitor_near_wall.reset();
+  if (!config_.safety.enabled) return;
+  const double limit = config_.safety.wall_distance_m;
+  constexpr double kClearMargin_m = 0.10;  // hysteresis: clear only this much further out
+  const auto event = [&](EventType type, std::string text, double distance) {
+    FrameEvent e;
+    e.type = type;
+    e.text = std::move(text);
+    e.distance_m = distance;
+    e.time_s = now - start_;
+    note(e);
+  };
+  const auto name = [&](int w) { return config_.walls[static_cast<std::size_t>(w)].name; };
+  if (!console_.head_live) {
+    // Lost near a wall: the visitor most likely walked out of the cameras' view there.
+    if (near_wall_ && !near_wall_->lost) {
+      near_wall_->lost = true;
+      event(EventType::visitor_near_wall,
+            fmt::format("the visitor left the tracked area near wall {} (last seen {:.2f} m from it)", name(near_wall_->wall),
+                        near_wall_->distance_m),
+            near_wall_->distance_m);
+    }
+  } else {
+    // The nearest vertical wall, by the head's signed distance to its plane (positive on the
+    // room's side: the side the default head position is on).
+    const glm::dvec3 head = frame_.head.position;
+    const glm::dvec3 inside{config_.viewer.default_head_m[0], config_.viewer.default_head_m[1],
+                            config_.viewer.default_head_m[2]};
+    int best = -1;
+    double best_d = 0;
+    for (std::size_t w = 0; w < walls_.size(); ++w) {
+      const WallFrame& wf = walls_[w];
+      if (std::abs(wf.vn.y) > 0.5) continue;  // the floor (or a ceiling): not a wall to walk into
+      const double side = glm::dot(inside - wf.pa, wf.vn) >= 0 ? 1.0 : -1.0;
+      const double d = side * glm::dot(head - wf.pa, wf.vn);
+      if (best < 0 || d < best_d) {
+        best = static_cast<int>(w);
+        best_d = d;
+      }
+    }
+    const bool was = near_wall_.has_value();
+    const bool near = best >= 0 && (best_d < limit || (was && best_d < limit + kClearMargin_m));
+    if (near) {
+      const bool changed = !was || near_wall_->wall != best || near_wall_->lost || near_wall_->outside != (best_d < 0);
+      near_wall_ = VisitorNearWall{best, best_d, best_d < 0, false};
+      if (changed)
+        event(EventType::visitor_near_wall,
+              best_d < 0 ? fmt::format("the visitor is beyond wall {} ({:.2f} m): out of the room", name(best), -best_d)
+                         : fmt::format("the visitor is {:.2f} m from wall {} (limit {:.2f} m)", best_d, name(best), limit),
+              best_d);
+    } else if (was) {
+      event(EventType::visitor_clear,
+            fmt::format("the visitor is clear of the walls again ({:.2f} m from the nearest, {})", best_d,
+                        best >= 0 ? name(best) : "-"),
+            best_d);
+      near_wall_.reset();
+    }
+  }
+  frame_.visitor_near_wall = near_wall_;
+  if (!near_wall_) return;
+  const auto& v = *near_wall_;
+  console_.problems.push_back(v.lost ? fmt::format("visitor: left the tracked area near wall {}", name(v.wall))
+                              : v.outside ? fmt::format("visitor: beyond wall {} ({:.2f} m)", name(v.wall), -v.distance_m)
+                                          : fmt::format("visitor: {:.2f} m from wall {}", v.distance_m, name(v.wall)));
+  // The glow on that wall, brighter the closer (full at the wall, or when out or lost).
+  const double strength = v.lost || v.outside ? 1.0 : std::clamp(1.0 - v.distance_m / limit, 0.25, 1.0);
+  plan_wall_glow(walls_[static_cast<std::size_t>(v.wall)], frame_.head.position, strength, frame_.items);
+}
+
 bool Installation::has_tracker() const { return tracking_->has_tracker(); }
+bool Installation::tracking_loading() const { return tracking_->loading(); }
 
 }  // namespace kumite::app

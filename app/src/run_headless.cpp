@@ -11,6 +11,7 @@
 #include "kumite/app/headless.hpp"
 #include "kumite/app/renderer.hpp"
 #include "kumite/app/run.hpp"
+#include "kumite/app/service.hpp"
 #include "kumite/common/error.hpp"
 
 namespace kumite::app {
@@ -84,6 +85,7 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
     for (const auto& e : pngs.take_errors()) spdlog::warn("headless: {}", e);
     log.write(f, inst.console(), names, stereo);
     frames = i + 1;
+    if (opt.monitor) opt.monitor->frame_done(inst, f);
     if (opt.real_time && cfg.late_latch) {
       // The frame's whole work (GPU, reading PNG frames back, log) is what the latch must
       // leave room for before the next tick: a frame that saves PNGs holds the budget up for
@@ -93,6 +95,7 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
     }
   }
   glFinish();
+  if (opt.monitor) opt.monitor->stopping(stopping() ? fmt::format("signal {}", opt.stop->load()) : "run complete", &inst);
   const double wall_s = now() - t0;
   if (stopping())
     spdlog::info("headless: stopped (signal {}) after {} of {} frames; writing the PNGs queued", opt.stop->load(),

@@ -16,6 +16,7 @@
 #include "kumite/app/frame_log.hpp"
 #include "kumite/app/headless.hpp"
 #include "kumite/app/run.hpp"
+#include "kumite/app/service.hpp"
 #include "kumite/app/stereo.hpp"
 #include "kumite/common/error.hpp"
 
@@ -227,6 +228,7 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
       if (glfwWindowShouldClose(console->window())) done = true;
     }
     if (log) log->write(f, inst.console(), names, mode != StereoMode::mono);
+    if (opt.monitor) opt.monitor->frame_done(inst, f);
     for (auto& s : slots)
       if (glfwWindowShouldClose(s.window)) done = true;
     if (last) done = true;
@@ -238,6 +240,8 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
     slot = swapped > slot + period - kVsyncTolerance_s ? swapped : slot + period;
     sleep_until(slot);
   }
+  if (opt.monitor)
+    opt.monitor->stopping(opt.stop && opt.stop->load() != 0 ? fmt::format("signal {}", opt.stop->load()) : "quit", &inst);
   if (log) log->close();
   if (opt.stop && opt.stop->load() != 0) spdlog::info("windows: stopped (signal {})", opt.stop->load());
   log_retrieval_timing(inst);

@@ -71,6 +71,31 @@ glm::mat4 sphere_model(const glm::vec3& c, float r) {
 
 }  // namespace
 
+glm::vec3 glow_colour(double strength) {
+  const float t = static_cast<float>(std::clamp(strength, 0.0, 1.0));
+  return glm::vec3(1.0f, 0.75f * (1.0f - t) + 0.1f * t, 0.1f) * (0.5f + 0.5f * t);
+}
+
+void plan_wall_glow(const WallFrame& wall, const glm::dvec3& near, double strength, std::vector<DrawItem>& items) {
+  constexpr double kHalf = 0.8, kStep = 0.2, kInFront = 0.01;
+  constexpr float kRadius = 0.004f;
+  // The room's side of the wall: where `near` is, unless it is beyond the plane.
+  const glm::dvec3 rel = near - wall.pa;
+  const double side = glm::dot(rel, wall.vn) >= 0 ? 1.0 : -1.0;
+  const glm::dvec3 n = wall.vn * (side * kInFront);
+  const double u0 = std::clamp(glm::dot(rel, wall.vr) - kHalf, 0.0, wall.width_m);
+  const double u1 = std::clamp(glm::dot(rel, wall.vr) + kHalf, 0.0, wall.width_m);
+  const double v0 = std::clamp(glm::dot(rel, wall.vu) - kHalf, 0.0, wall.height_m);
+  const double v1 = std::clamp(glm::dot(rel, wall.vu) + kHalf, 0.0, wall.height_m);
+  if (u1 - u0 < 1e-3 || v1 - v0 < 1e-3) return;
+  const glm::vec3 colour = glow_colour(strength);
+  const auto at = [&](double u, double v) { return glm::vec3(wall.pa + wall.vr * u + wall.vu * v + n); };
+  for (double u = std::ceil(u0 / kStep) * kStep; u <= u1 + 1e-9; u += kStep)
+    items.push_back({bone_model(at(u, v0), at(u, v1), kRadius), colour, Mesh::cylinder});
+  for (double v = std::ceil(v0 / kStep) * kStep; v <= v1 + 1e-9; v += kStep)
+    items.push_back({bone_model(at(u0, v), at(u1, v), kRadius), colour, Mesh::cylinder});
+}
+
 void plan_fighter(const content::FighterFrame& f, glm::vec3 colour, std::vector<DrawItem>& items) {
   items.clear();
   const std::size_t n = f.joints.size();

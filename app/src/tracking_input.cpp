@@ -104,6 +104,7 @@ class TrackerInput final : public TrackingInput {
     return s;
   }
   Timestamp clock() const override { return now(); }
+  bool loading() const override { return counters_ && !counters_->playing.load(); }
   std::string describe() const override { return what_; }
   PoseTiming pose_timing(Timestamp t) override {
     PoseTiming p;

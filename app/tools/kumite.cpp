@@ -15,8 +15,10 @@
 #include "kumite/app/export.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
+#include "kumite/app/service.hpp"
 #include "kumite/app/session.hpp"
 #include "kumite/app/tracking_input.hpp"
+#include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/log.hpp"
 #include "kumite/common/realtime.hpp"
@@ -45,6 +47,10 @@ struct Args {
   // kumite export
   std::string export_log, export_bvh, export_head_csv;
   double export_from = 0, export_to = 1e300;
+  // unattended operation
+  std::string health_file;
+  std::uint64_t debug_hang_after_frames = 0;
+  std::string status_file;
 };
 
 
@@ -91,7 +97,41 @@ int run_export(const Args& a) {
   return 0;
 }
 
-int run(const Args& a, const std::atomic<int>& stop) {
+/// Leftovers of runs killed before they could clean up (SIGKILL, a power cut): temporary files
+/// of processes that are gone, in the folders this run writes or reads (its outputs, the
+/// calibration's). One line per folder that had any.
+void remove_leftovers(const std::vector<std::filesystem::path>& folders) {
+  std::vector<std::filesystem::path> seen;
+  for (const auto& f : folders) {
+    const auto dir = f.empty() ? std::filesystem::path(".") : f;
+    std::error_code ec;
+    const auto canonical = std::filesystem::weakly_canonical(dir, ec);
+    if (std::find(seen.begin(), seen.end(), canonical) != seen.end()) continue;
+    seen.push_back(canonical);
+    const auto removed = kumite::remove_stale_temporaries(dir);
+    if (removed.empty()) continue;
+    std::string names;
+    for (const auto& r : removed) names += (names.empty() ? "" : ", ") + r.filename().string();
+    spdlog::warn("removed {} temporary file{} left by killed runs in {}: {}", removed.size(),
+                 removed.size() == 1 ? "" : "s", dir.string(), names);
+  }
+}
+
+int run_status(const Args& a) {
+  std::filesystem::path file = a.status_file;
+  if (file.empty()) {
+    const auto config = kumite::app::load_installation_config(a.config);
+    if (!config.health.file)
+      throw kumite::Error("cli", "status",
+                          fmt::format("status: {} has no [health] file (give one, or --file FILE)", a.config));
+    file = config.resolve(*config.health.file);
+  }
+  const auto line = kumite::app::read_status(file, kumite::app::unix_now());
+  std::cout << line.text << "\n";
+  return line.exit_code;
+}
+
+int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_started) {
   auto config = kumite::app::load_installation_config(
       a.config, a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
   // Output folders are made (or refused, in one line) before anything starts, not found
@@ -106,6 +146,25 @@ int run(const Args& a, const std::atomic<int>& stop) {
       if (std::filesystem::is_directory(file)) throw kumite::Error("io", "folder", what + ": is a folder, not a file");
       kumite::app::make_output_folder(folder_of(file).empty() ? "." : folder_of(file), what);
     }
+  }
+  // The health report: --health-file, else the config's [health] file (made like an output).
+  std::optional<std::filesystem::path> health_file;
+  if (!a.health_file.empty()) health_file = a.health_file;
+  else if (config.health.file) health_file = config.resolve(*config.health.file);
+  if (health_file) {
+    const std::string what = "health report " + health_file->string();
+    if (std::filesystem::is_directory(*health_file)) throw kumite::Error("io", "folder", what + ": is a folder, not a file");
+    kumite::app::make_output_folder(folder_of(health_file->string()).empty() ? "." : folder_of(health_file->string()), what);
+  }
+  {
+    std::vector<std::filesystem::path> folders;
+    if (headless) folders.push_back(a.out);
+    for (const auto& f : {a.log, a.screenshot})
+      if (!headless && !f.empty()) folders.push_back(folder_of(f));
+    if (health_file) folders.push_back(health_file->parent_path());
+    if (!a.record.empty()) folders.push_back(std::filesystem::path(a.record).parent_path());
+    if (!config.tracking.calibration.empty()) folders.push_back(config.resolve(config.tracking.calibration).parent_path());
+    remove_leftovers(folders);
   }
   if (!config.data_root().empty()) spdlog::info("data folder ${{data_dir}}: {}", config.data_root().string());
   if (!a.stereo.empty()) {
@@ -143,6 +202,19 @@ int run(const Args& a, const std::atomic<int>& stop) {
     inst.record_to(recorder.get());
     spdlog::info("record: every frame's inputs and state hashes -> {}", a.record);
   }
+  kumite::app::RunInfo info;
+  info.config = std::filesystem::absolute(a.config);
+  info.mode = headless ? "headless" : "windows";
+  if (headless) info.frames_log = std::filesystem::path(a.out) / "frames.jsonl";
+  else if (!a.log.empty()) info.frames_log = a.log;
+  if (!a.record.empty()) info.session = a.record;
+  kumite::app::RunMonitorOptions mo;
+  mo.health_file = health_file;
+  mo.health_interval_s = config.health.interval_s;
+  mo.debug_hang_after_frames = a.debug_hang_after_frames;
+  mo.stop = &stop;
+  mo.process_started = process_started;
+  kumite::app::RunMonitor monitor(info, mo);
   const auto finish = [&](int rc) {
     if (recorder) {
       inst.record_to(nullptr);
@@ -162,6 +234,7 @@ int run(const Args& a, const std::atomic<int>& stop) {
     ho.resolution = parse_resolution(a.resolution);
     ho.real_time = !a.simulated;
     ho.stop = &stop;
+    ho.monitor = &monitor;
     return finish(kumite::app::run_headless(inst, ho));
   }
   kumite::app::WindowOptions wo;
@@ -170,6 +243,7 @@ int run(const Args& a, const std::atomic<int>& stop) {
   if (!a.screenshot.empty()) wo.screenshot = a.screenshot;
   if (!a.log.empty()) wo.log = a.log;
   wo.stop = &stop;
+  wo.monitor = &monitor;
   return finish(kumite::app::run_windows(inst, wo));
 }
 
@@ -194,6 +268,7 @@ int run_replay(const Args& a) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  const kumite::Timestamp process_started = kumite::now();  // uptime and the time to READY count from here
   kumite::keep_freed_memory();  // before any thread: frame-sized buffers are reused, not remapped
   CLI::App app{"kumite: the installation (walls in stereo, the fighter, the supervisor console)"};
   Args a;
@@ -229,6 +304,17 @@ int main(int argc, char** argv) {
   exp->add_option("--head-csv", a.export_head_csv, "CSV of the head poses: frame,time_s,x_m,y_m,z_m,qw,qx,qy,qz,live");
   exp->add_option("--config", a.config, "installation file the run used (its characters)");
   exp->add_option("--data-dir", a.data_dir, "as for the run");
+  app.add_option("--health-file", a.health_file,
+                 "write the health report (JSON, about once a second) here; overrides the config's [health] file");
+  app.add_option("--debug-hang-after-frames", a.debug_hang_after_frames,
+                 "TEST AID: after N frames the frame loop stops advancing (no frames, no watchdog pings) until "
+                 "SIGINT/SIGTERM, as a hung render or tracker would; 0 = off")
+      ->capture_default_str();
+  CLI::App* status = app.add_subcommand(
+      "status", "one line from the health report of a running kumite; exit 0 all well, 1 problems or stopped, "
+                "2 stale (hung or gone), 3 unreadable");
+  status->add_option("--file", a.status_file, "health report (default: the [health] file of --config)");
+  status->add_option("--config", a.config, "installation file whose [health] file to read");
   CLI11_PARSE(app, argc, argv);
   kumite::init_logging(a.verbosity);
   // SIGINT (Ctrl-C) and SIGTERM end the run at its next frame with its outputs complete; the
@@ -237,9 +323,10 @@ int main(int argc, char** argv) {
   const std::atomic<int>& stop = kumite::app::stop_on_signals();
   try {
     if (exp->parsed()) return run_export(a);
+    if (status->parsed()) return run_status(a);
     a.config_given = app.count("--config") > 0;
     if (!a.replay.empty()) return run_replay(a);
-    const int rc = run(a, stop);
+    const int rc = run(a, stop, process_started);
     if (const int sig = stop.load(); sig != 0) {
       spdlog::info("stopped by {}: outputs complete, exit status {}", sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal",
                    128 + sig);

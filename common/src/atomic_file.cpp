@@ -1,6 +1,9 @@
 #include "kumite/common/atomic_file.hpp"
 
+#include <signal.h>
 #include <unistd.h>
+
+#include <cctype>
 
 #include <atomic>
 #include <cerrno>
@@ -8,15 +11,40 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <mutex>
+#include <set>
+
+#include <spdlog/spdlog.h>
 
 #include "kumite/common/error.hpp"
 
 namespace kumite {
 namespace fs = std::filesystem;
 
+namespace {
+/// The first time a process writes into a folder, the temporaries that killed writers left
+/// there go (one warning line naming them): every tool cleans up after its own kind at its next
+/// start, not only kumite.
+void sweep_once(const fs::path& dir) {
+  static std::mutex mutex;
+  static std::set<std::string> swept;
+  {
+    std::lock_guard lock(mutex);
+    if (!swept.insert(dir.string()).second) return;
+  }
+  const auto removed = remove_stale_temporaries(dir);
+  if (removed.empty()) return;
+  std::string names;
+  for (const auto& r : removed) names += (names.empty() ? "" : ", ") + r.filename().string();
+  spdlog::warn("removed {} temporary file{} left by killed runs in {}: {}", removed.size(), removed.size() == 1 ? "" : "s",
+               dir.string(), names);
+}
+}  // namespace
+
 fs::path temporary_path_beside(const fs::path& path) {
   static std::atomic<unsigned> counter{0};
   const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+  sweep_once(dir);
   return dir / fmt::format(".{}.tmp-{}-{}{}", path.stem().string(), ::getpid(), counter++,
                            path.extension().string());
 }
@@ -72,12 +100,50 @@ fs::path keep_previous_version(const fs::path& path) {
     backup = path;
     backup += fmt::format(".{}-{}.bak", stamp, n);
   }
-  fs::copy_file(path, backup, ec);
+  // Copied beside it under a temporary name, then renamed: never a half (or 0-byte) backup.
+  const fs::path tmp = temporary_path_beside(backup);
+  fs::copy_file(path, tmp, ec);
+  if (!ec) fs::rename(tmp, backup, ec);
   if (ec) {
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
     throw Error("io", "backup",
                 fmt::format("{}: cannot keep the previous version: {}", path.string(), ec.message()));
   }
   return backup;
+}
+
+bool is_temporary_name(const std::string& name, long* pid) {
+  // ".<stem>.tmp-<pid>-<n><ext>": the stem may itself hold dots, so look for the last ".tmp-".
+  if (name.size() < 8 || name[0] != '.') return false;
+  const auto at = name.rfind(".tmp-");
+  if (at == std::string::npos || at == 0) return false;
+  std::size_t i = at + 5, digits = 0;
+  long p = 0;
+  for (; i < name.size() && std::isdigit(static_cast<unsigned char>(name[i])) && digits < 10; ++i, ++digits)
+    p = p * 10 + (name[i] - '0');
+  if (digits == 0 || i >= name.size() || name[i] != '-') return false;
+  std::size_t n = 0;
+  for (++i; i < name.size() && std::isdigit(static_cast<unsigned char>(name[i])); ++i) ++n;
+  if (n == 0 || (i < name.size() && name[i] != '.')) return false;
+  if (pid) *pid = p;
+  return p > 0;
+}
+
+std::vector<fs::path> remove_stale_temporaries(const fs::path& dir) {
+  std::vector<fs::path> removed;
+  std::error_code ec;
+  fs::directory_iterator it(dir, ec), end;
+  for (; !ec && it != end; it.increment(ec)) {
+    long pid = 0;
+    if (!is_temporary_name(it->path().filename().string(), &pid)) continue;
+    if (!it->is_regular_file(ec)) continue;
+    // Gone: no such process (EPERM means it exists under another user: leave it).
+    if (pid == ::getpid() || ::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;
+    std::error_code rm;
+    if (fs::remove(it->path(), rm)) removed.push_back(it->path());
+  }
+  return removed;
 }
 
 void write_all(int fd, std::string_view bytes, const std::filesystem::path& path) {

@@ -4,11 +4,18 @@
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <functional>
 #include <csignal>
 #include <fstream>
 #include <thread>
@@ -18,6 +25,8 @@
 #include "kumite/app/config.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
+#include "kumite/app/service.hpp"
+#include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 
 extern char** environ;
@@ -66,7 +75,8 @@ std::size_t count_lines(const fs::path& file) {
 }
 
 /// Starts the kumite binary with `args` (output to `log`); returns its pid.
-pid_t spawn_kumite(const std::vector<std::string>& args, const fs::path& log) {
+pid_t spawn_kumite(const std::vector<std::string>& args, const fs::path& log,
+                   const std::vector<std::string>& extra_env = {}) {
   const std::string exe = std::string(KUMITE_BINARY_DIR) + "/bin/kumite";
   std::vector<std::string> all{exe};
   all.insert(all.end(), args.begin(), args.end());
@@ -90,7 +100,12 @@ pid_t spawn_kumite(const std::vector<std::string>& args, const fs::path& log) {
   posix_spawnattr_setsigmask(&at, &none);
   posix_spawnattr_setflags(&at, POSIX_SPAWN_SETSIGDEF | POSIX_SPAWN_SETSIGMASK);
   pid_t pid = -1;
-  const int rc = posix_spawn(&pid, exe.c_str(), &fa, &at, argv.data(), environ);
+  std::vector<std::string> env_strings(extra_env);
+  for (char** e = environ; *e; ++e) env_strings.emplace_back(*e);
+  std::vector<char*> env;
+  for (auto& e : env_strings) env.push_back(e.data());
+  env.push_back(nullptr);
+  const int rc = posix_spawn(&pid, exe.c_str(), &fa, &at, argv.data(), env.data());
   posix_spawn_file_actions_destroy(&fa);
   posix_spawnattr_destroy(&at);
   EXPECT_EQ(rc, 0) << "cannot start " << exe;
@@ -239,4 +254,292 @@ TEST(Unattended, KumiteRefusesAnOutputUnderAFileBeforeTheRun) {
   EXPECT_EQ(text, "kumite: --out " + (dir / "file" / "out").string() + ": cannot create the folder " +
                       (dir / "file" / "out").string() + ": " + (dir / "file").string() + " is a file, not a folder\n");
   fs::remove_all(dir);
+}
+
+// --- the service manager's side (sd_notify), without systemd --------------------------------
+
+namespace {
+
+/// A unix datagram socket as systemd's $NOTIFY_SOCKET: what kumite sends, with arrival times.
+class NotifySocket {
+ public:
+  explicit NotifySocket(const fs::path& path) : path_(path) {
+    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un a{};
+    a.sun_family = AF_UNIX;
+    std::snprintf(a.sun_path, sizeof a.sun_path, "%s", path.c_str());
+    ::unlink(path.c_str());
+    ok_ = fd_ >= 0 && ::bind(fd_, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0;
+  }
+  ~NotifySocket() {
+    if (fd_ >= 0) ::close(fd_);
+    ::unlink(path_.c_str());
+  }
+  bool ok() const { return ok_; }
+  struct Message {
+    std::string text;
+    double at_s;  ///< since the socket was made
+  };
+  /// Receives for up to `seconds`, or until `until` is true of a message.
+  void receive(double seconds, const std::function<bool(const Message&)>& until = {}) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end) {
+      pollfd p{fd_, POLLIN, 0};
+      if (::poll(&p, 1, 20) <= 0) continue;
+      char buf[4096];
+      const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
+      if (n <= 0) continue;
+      messages.push_back({std::string(buf, static_cast<std::size_t>(n)),
+                          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count()});
+      if (until && until(messages.back())) return;
+    }
+  }
+  std::vector<Message> messages;
+  /// s since the socket was made (the messages' clock).
+  double now_s() const { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0_).count(); }
+
+ private:
+  fs::path path_;
+  int fd_ = -1;
+  bool ok_ = false;
+  std::chrono::steady_clock::time_point t0_ = std::chrono::steady_clock::now();
+};
+
+bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+}  // namespace
+
+TEST(Service, ReadyThenWatchdogPingsWhileFramesAdvanceAndNoneOnceTheLoopHangs) {
+  const fs::path dir = fresh_dir("notify");
+  std::ofstream(dir / "room.toml") << kConfig;
+  NotifySocket sock(dir / "notify.sock");
+  ASSERT_TRUE(sock.ok()) << std::strerror(errno);
+  // Real time at 60 Hz: 90 frames = 1.5 s of pings at every 0.1 s (a 0.4 s watchdog), then
+  // the loop hangs (the test aid) and no ping may come.
+  const pid_t pid = spawn_kumite({"--config", (dir / "room.toml").string(), "--headless", "--frames", "100000",
+                                  "--save-every", "0", "--out", (dir / "out").string(), "--health-file",
+                                  (dir / "health.json").string(), "--debug-hang-after-frames", "90"},
+                                 dir / "console.txt",
+                                 {"NOTIFY_SOCKET=" + (dir / "notify.sock").string(), "WATCHDOG_USEC=400000"});
+  ASSERT_GT(pid, 0);
+  // Until the hang is logged (frame 90), then 1.5 s more: the loop is hung.
+  sock.receive(30, [](const auto& m) { return has(m.text, "READY=1"); });
+  const auto hang_logged = [&] { return has(text_of(dir / "console.txt"), "the frame loop hangs now"); };
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!hang_logged() && std::chrono::steady_clock::now() < until) sock.receive(0.05);
+  ASSERT_TRUE(hang_logged()) << text_of(dir / "console.txt");
+  // A ping sent with the hang's frame may still wait in the socket: 0.3 s of grace.
+  const double hang_seen = sock.now_s();
+  sock.receive(1.5);
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  sock.receive(0.3);
+  ASSERT_TRUE(WIFEXITED(status)) << text_of(dir / "console.txt");
+  EXPECT_EQ(WEXITSTATUS(status), 143) << text_of(dir / "console.txt");
+
+  std::size_t ready = 0, first_ping = 0, pings = 0, stopping = 0;
+  double last_ping_at = -1;
+  for (std::size_t i = 0; i < sock.messages.size(); ++i) {
+    const auto& m = sock.messages[i];
+    if (has(m.text, "READY=1") && !ready) ready = i + 1;
+    if (has(m.text, "WATCHDOG=1")) {
+      if (!first_ping) first_ping = i + 1;
+      ++pings;
+      last_ping_at = m.at_s;
+    }
+    if (has(m.text, "STOPPING=1")) stopping = i + 1;
+  }
+  ASSERT_GT(ready, 0u) << "no READY=1";
+  ASSERT_GT(first_ping, 0u) << "no WATCHDOG=1";
+  EXPECT_LE(ready, first_ping) << "READY=1 comes with or before the first ping";
+  // 1.5 s of frames at a ping per 0.1 s: about 15 (a loaded machine renders slower, not fewer pings).
+  EXPECT_GE(pings, 8u);
+  // No ping while the loop hangs (1.5 s: the 0.4 s watchdog would have fired 3 times over).
+  EXPECT_LE(last_ping_at, hang_seen + 0.3) << "pings went on while the frame loop hung";
+  EXPECT_GT(stopping, 0u) << "no STOPPING=1 at SIGTERM";
+  EXPECT_TRUE(has(text_of(dir / "console.txt"), "watchdog 0.4 s")) << text_of(dir / "console.txt");
+}
+
+TEST(Service, HealthReportSaysRunningThenStaleWhenTheLoopHangsThenStopped) {
+  const fs::path dir = fresh_dir("health");
+  std::ofstream(dir / "room.toml") << kConfig << "[health]\nfile = \"state/health.json\"\ninterval_s = 0.2\n";
+  const fs::path report = dir / "state" / "health.json";  // relative to the config; the folder is made
+  const pid_t pid = spawn_kumite({"--config", (dir / "room.toml").string(), "--headless", "--frames", "100000",
+                                  "--save-every", "0", "--out", (dir / "out").string(),
+                                  "--debug-hang-after-frames", "120"},
+                                 dir / "console.txt");
+  ASSERT_GT(pid, 0);
+  // Running: a fresh report with frames counting up.
+  nlohmann::json j;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    j = nlohmann::json::parse(text_of(report), nullptr, false);
+    if (!j.is_discarded() && j.value("state", "") == "running" && j.value("frames", 0) > 10) break;
+  }
+  ASSERT_FALSE(j.is_discarded()) << text_of(dir / "console.txt");
+  EXPECT_EQ(j.value("state", ""), "running") << j.dump();
+  EXPECT_EQ(j.value("mode", ""), "headless");
+  for (const char* key : {"uptime_s", "fps", "frames", "tracking", "fighter", "recording", "events", "problems",
+                          "last_problem", "written_at", "pid"})
+    EXPECT_TRUE(j.contains(key)) << key << " missing: " << j.dump();
+  EXPECT_EQ(j["tracking"]["bodies"][0].value("role", ""), "head");
+  EXPECT_EQ(j["recording"].value("active", false), true);  // frames.jsonl is being written
+  // This room has no fighter database: running, with that problem (exit 1).
+  const auto line = read_status(report, unix_now());
+  EXPECT_EQ(line.exit_code, 1) << line.text;
+  EXPECT_TRUE(has(line.text, "kumite running") && has(line.text, "1 problem: no fighter")) << line.text;
+  // Hung after 120 frames (2 s): no new report; 3 x 0.2 s + 2 s later it is stale.
+  const auto hung_until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (!has(text_of(dir / "console.txt"), "the frame loop hangs now") &&
+         std::chrono::steady_clock::now() < hung_until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+  const auto stale = read_status(report, unix_now());
+  EXPECT_EQ(stale.exit_code, 2) << stale.text;
+  EXPECT_TRUE(has(stale.text, "STALE")) << stale.text;
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  const auto stopped = read_status(report, unix_now());
+  EXPECT_EQ(stopped.exit_code, 1) << stopped.text;
+  EXPECT_TRUE(has(stopped.text, "stopped")) << stopped.text;
+  // `kumite status --config` finds the report through the config; its exit status is the line's.
+  const std::string cmd = std::string(KUMITE_BINARY_DIR) + "/bin/kumite status --config " + (dir / "room.toml").string() +
+                          " > " + (dir / "status.txt").string() + " 2>&1";
+  const int rc = std::system(cmd.c_str());
+  EXPECT_EQ(WEXITSTATUS(rc), 1) << text_of(dir / "status.txt");
+  EXPECT_TRUE(has(text_of(dir / "status.txt"), "kumite stopped")) << text_of(dir / "status.txt");
+}
+
+TEST(Service, StatusIsZeroOnlyWhenFreshRunningAndWithoutProblems) {
+  const fs::path dir = fresh_dir("status_ok");
+  const double t = unix_now();
+  const auto report = [&](double written_at, const std::string& state, const std::string& problems) {
+    std::ofstream(dir / "h.json") << R"({"kumite_health": 1, "pid": 7, "state": ")" << state << R"(", "written_at": )"
+                                  << std::fixed << written_at << R"(, "interval_s": 1.0, "uptime_s": 3725, "frames": 223500,)"
+                                  << R"( "fps": 60.0, "tracking": {"status": "tracked, 900 frame sets", "cameras": [)"
+                                  << R"({"name": "cam0", "status": "ok"}, {"name": "cam1", "status": "no frames"}]},)"
+                                  << R"( "fighter": {"state": "resting"}, "recording": {"active": false}, "problems": )"
+                                  << problems << "}";
+    return read_status(dir / "h.json", t);
+  };
+  auto l = report(t - 0.5, "running", "[]");
+  EXPECT_EQ(l.exit_code, 0) << l.text;
+  EXPECT_EQ(l.text, "kumite running (pid 7): up 1h02m05s, frame 223500, 60.0 fps, tracking tracked, cameras 1/2 ok, "
+                    "fighter resting, recording off");
+  l = report(t - 0.5, "running", R"(["cam1: no frames"])");
+  EXPECT_EQ(l.exit_code, 1) << l.text;
+  l = report(t - 0.5, "loading", "[]");
+  EXPECT_EQ(l.exit_code, 1) << l.text;
+  l = report(t - 5.5, "running", "[]");  // 3 x 1 s + 2 s
+  EXPECT_EQ(l.exit_code, 2) << l.text;
+  EXPECT_TRUE(has(l.text, "STALE: last report")) << l.text;
+}
+
+TEST(Service, StatusOfAMissingOrForeignFileIsExit3InOneLine) {
+  const fs::path dir = fresh_dir("status");
+  auto l = read_status(dir / "none.json", unix_now());
+  EXPECT_EQ(l.exit_code, 3);
+  EXPECT_TRUE(has(l.text, "none.json")) << l.text;
+  std::ofstream(dir / "other.json") << R"({"hello": 1})";
+  l = read_status(dir / "other.json", unix_now());
+  EXPECT_EQ(l.exit_code, 3);
+  EXPECT_TRUE(has(l.text, "not a kumite health report")) << l.text;
+}
+
+TEST(Service, HealthKeysAreValidatedLikeEveryKey) {
+  const auto error_of = [](const std::string& extra) -> std::string {
+    try {
+      parse_installation_config(kConfig + extra, "room.toml");
+    } catch (const kumite::Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_TRUE(has(error_of("[health]\ninterval_s = nan\n"), "room.toml:9: health.interval_s: must be a finite number"))
+      << error_of("[health]\ninterval_s = nan\n");
+  EXPECT_TRUE(has(error_of("[health]\ninterval_s = 0.0\n"), "health.interval_s: must be 0.1..60"))
+      << error_of("[health]\ninterval_s = 0.0\n");
+  EXPECT_TRUE(has(error_of("[health]\nfile = 3\n"), "room.toml:9: health.file: expected a string"));
+  EXPECT_TRUE(has(error_of("[health]\nfiles = \"x\"\n"), "health.files: unknown key")) << error_of("[health]\nfiles = \"x\"\n");
+  const auto c = parse_installation_config(kConfig + "[health]\nfile = \"h.json\"\ninterval_s = 2.5\n", "room.toml");
+  ASSERT_TRUE(c.health.file);
+  EXPECT_EQ(*c.health.file, "h.json");
+  EXPECT_EQ(c.health.interval_s, 2.5);
+  EXPECT_EQ(parse_installation_config(to_toml(c), "room.toml"), c);  // written back and read again
+}
+
+// --- leftovers of killed runs ------------------------------------------------------------
+
+namespace {
+/// The pid of a process that has ended (and been reaped): no process has it now.
+pid_t gone_pid() {
+  const pid_t p = ::fork();
+  if (p == 0) ::_exit(0);
+  ::waitpid(p, nullptr, 0);
+  return p;
+}
+}  // namespace
+
+TEST(Service, StaleTemporariesOfGoneProcessesAreRemovedLiveOnesKept) {
+  const fs::path dir = fresh_dir("stale");
+  const pid_t dead = gone_pid();
+  const std::vector<std::string> stale{".frames.tmp-" + std::to_string(dead) + "-0.jsonl",
+                                       ".calibration.tmp-" + std::to_string(dead) + "-3.yaml",
+                                       ".cal.yaml.20260101-000000.tmp-" + std::to_string(dead) + "-1.bak"};
+  const std::vector<std::string> kept{".frames.tmp-" + std::to_string(::getppid()) + "-0.jsonl",  // alive
+                                      "frames.jsonl", ".frames.tmp-x-0.jsonl", "a.tmp-12-0.jsonl",
+                                      ".notes.tmp-" + std::to_string(dead) + "-z.txt"};
+  for (const auto& n : stale) std::ofstream(dir / n) << "x";
+  for (const auto& n : kept) std::ofstream(dir / n) << "x";
+  auto removed = kumite::remove_stale_temporaries(dir);
+  std::vector<std::string> names;
+  for (const auto& r : removed) names.push_back(r.filename().string());
+  std::sort(names.begin(), names.end());
+  auto want = stale;
+  std::sort(want.begin(), want.end());
+  EXPECT_EQ(names, want);
+  for (const auto& n : kept) EXPECT_TRUE(fs::exists(dir / n)) << n;
+  EXPECT_TRUE(kumite::remove_stale_temporaries(dir / "missing").empty());
+}
+
+TEST(Service, TheFirstAtomicWriteIntoAFolderClearsItsStaleTemporaries) {
+  // Any tool (a calibration, a recording) cleans up after killed writers at its next write there.
+  const fs::path dir = fresh_dir("sweep");
+  const std::string stale = ".calibration.tmp-" + std::to_string(gone_pid()) + "-0.yaml";
+  std::ofstream(dir / stale) << "%YAML:1.0\n";
+  kumite::write_file_atomically(dir / "calibration.yaml", std::string_view("x: 1\n"));
+  EXPECT_FALSE(fs::exists(dir / stale));
+  EXPECT_EQ(text_of(dir / "calibration.yaml"), "x: 1\n");
+}
+
+TEST(Service, BackupsAreCompleteOrAbsent) {
+  const fs::path dir = fresh_dir("backup");
+  const std::string content(100000, 'c');
+  std::ofstream(dir / "cal.yaml") << content;
+  const auto b = kumite::keep_previous_version(dir / "cal.yaml");
+  EXPECT_EQ(text_of(b), content);
+  for (const auto& e : fs::directory_iterator(dir))  // no temporary left beside it
+    EXPECT_FALSE(kumite::is_temporary_name(e.path().filename().string())) << e.path();
+}
+
+TEST(Service, KumiteRemovesLeftoversOfAKilledRunAtStartInOneLine) {
+  const fs::path dir = fresh_dir("leftovers");
+  std::ofstream(dir / "room.toml") << kConfig;
+  fs::create_directories(dir / "out");
+  const std::string left = ".frames.tmp-" + std::to_string(gone_pid()) + "-0.jsonl";
+  std::ofstream(dir / "out" / left) << "{\"frame\": 0}\n";
+  const pid_t pid = spawn_kumite({"--config", (dir / "room.toml").string(), "--headless", "--simulated-time",
+                                  "--frames", "3", "--save-every", "0", "--out", (dir / "out").string()},
+                                 dir / "console.txt");
+  ASSERT_GT(pid, 0);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << text_of(dir / "console.txt");
+  EXPECT_FALSE(fs::exists(dir / "out" / left));
+  const std::string console = text_of(dir / "console.txt");
+  EXPECT_TRUE(has(console, "removed 1 temporary file left by killed runs in") && has(console, left)) << console;
+  EXPECT_TRUE(fs::exists(dir / "out" / "frames.jsonl"));
 }

@@ -31,6 +31,18 @@ TEST(PackedImage, DarkFrameWithBlobsRoundTripsAndShrinks) {
   EXPECT_TRUE(same(p.unpack(), im));
 }
 
+TEST(PackedImage, FrameOnABlackLevelAboveZeroPacksToo) {
+  // Cameras' (and kumite-track synth's) background is a grey a little above 0 (12 there).
+  cv::Mat im(1024, 1280, CV_8UC1, cv::Scalar(12));
+  cv::circle(im, {300, 200}, 6, cv::Scalar(230), -1, cv::LINE_AA);
+  cv::circle(im, {900, 700}, 4, cv::Scalar(180), -1, cv::LINE_AA);
+  im.at<std::uint8_t>(0, 0) = 0;  // darker than the background
+  const kt::PackedImage p(im);
+  EXPECT_TRUE(p.packed());
+  EXPECT_LT(p.bytes(), im.total() / 100);
+  EXPECT_TRUE(same(p.unpack(), im));
+}
+
 TEST(PackedImage, NoisyFrameIsKeptAsIs) {
   cv::Mat im(480, 640, CV_8UC1);
   cv::randu(im, 0, 256);

@@ -1,5 +1,7 @@
 #include "kumite/tracking/packed_image.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cstring>
 
 namespace kumite::tracking {
@@ -19,21 +21,29 @@ PackedImage::PackedImage(const cv::Mat& image) {
   }
   const std::size_t n = image.total();
   const std::uint8_t* p = image.ptr<std::uint8_t>();
+  // The background level: cameras (and the synthetic recordings) have a black level above 0,
+  // so the runs kept are the pixels that differ from the image's most common value.
+  {
+    std::array<std::size_t, 256> hist{};
+    for (std::size_t k = 0; k < n; ++k) ++hist[p[k]];
+    background_ = static_cast<std::uint8_t>(std::max_element(hist.begin(), hist.end()) - hist.begin());
+  }
+  const std::uint8_t bg = background_;
   const std::size_t budget = static_cast<std::size_t>(kWorthIt * static_cast<double>(n));
   std::size_t i = 0;
   while (i < n) {
-    while (i < n && p[i] == 0) ++i;
+    while (i < n && p[i] == bg) ++i;
     if (i == n) break;
     const std::size_t begin = i;
     std::size_t end = i;  // one past the last non-zero pixel of the run
     while (i < n) {
-      if (p[i] != 0) {
+      if (p[i] != bg) {
         end = ++i;
         continue;
       }
       std::size_t gap = i;
-      while (gap < n && p[gap] == 0 && gap - end < kMinGap) ++gap;
-      if (gap < n && p[gap] != 0 && gap - end < kMinGap) {
+      while (gap < n && p[gap] == bg && gap - end < kMinGap) ++gap;
+      if (gap < n && p[gap] != bg && gap - end < kMinGap) {
         i = gap;  // a short gap: the run goes on
       } else {
         break;
@@ -59,7 +69,7 @@ PackedImage::PackedImage(const cv::Mat& image) {
 cv::Mat PackedImage::unpack() const {
   if (!dense_.empty()) return dense_;
   if (rows_ == 0) return {};
-  cv::Mat out = cv::Mat::zeros(rows_, cols_, CV_8UC1);
+  cv::Mat out(rows_, cols_, CV_8UC1, cv::Scalar(background_));
   std::uint8_t* p = out.ptr<std::uint8_t>();
   const std::uint8_t* src = pixels_.data();
   for (std::size_t r = 0; r + 1 < runs_.size(); r += 2) {

@@ -138,6 +138,23 @@ struct TrackingConfig {
   bool operator==(const TrackingConfig&) const = default;
 };
 
+/// [safety]: the visitor near a wall (or out of the tracked area): a glow on that wall and an
+/// event; the fighter's back-off reads FrameData::visitor_near_wall.
+struct SafetyConfig {
+  bool enabled = true;
+  double wall_distance_m = 0.4;  ///< m, 0.05..2: the tracked head this close to a wall's plane
+  bool operator==(const SafetyConfig&) const = default;
+};
+
+/// [health]: the health report staff read from another machine (`kumite status`).
+struct HealthConfig {
+  /// JSON status file, rewritten atomically about every interval_s (relative: to the file's
+  /// folder, like every path); none: no report.
+  std::optional<std::filesystem::path> file;
+  double interval_s = 1.0;  ///< s, 0.1..60
+  bool operator==(const HealthConfig&) const = default;
+};
+
 /// The placeholder a path in the file may start with (see InstallationConfig::resolve).
 inline constexpr std::string_view kDataDirPlaceholder = "${data_dir}";
 /// Environment variable overriding `data_dir` (load_installation_config reads it).
@@ -167,6 +184,8 @@ struct InstallationConfig {
   FighterSection fighter;
   TrackingConfig tracking;
   std::optional<std::filesystem::path> orders_script;  ///< `time_s,order` rows, as written
+  HealthConfig health;
+  SafetyConfig safety;
 
   /// Source line of each key path ("walls[1].lower_left", "stereo.mode"); 0 when unknown.
   std::map<std::string, int> lines;

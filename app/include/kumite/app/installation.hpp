@@ -56,14 +56,21 @@ class TrackingInput {
   virtual PoseTiming pose_timing(Timestamp /*t*/) { return {}; }
   /// False when no tracker is behind it (the head stays at its default): nothing to wait for.
   virtual bool has_tracker() const { return true; }
+  /// True while the source is still loading (a recording's preload): the show is not up yet.
+  virtual bool loading() const { return false; }
 };
 
 /// No tracking: the head stays at the configured default position (console usable alone).
 std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why);
 
 /// What a FrameEvent is. Text ("order", "hit", ...) only at the log and console (to_string).
-enum class EventType : std::uint8_t { order, order_ignored, hit, dodged, miss, character_changed, warning };
-/// "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning".
+enum class EventType : std::uint8_t {
+  order, order_ignored, hit, dodged, miss, character_changed, warning,
+  visitor_near_wall,  ///< the tracked head came within [safety] wall_distance_m of a wall, or left the tracked area
+  visitor_clear       ///< back in the room's safe area (tracked, clear of every wall)
+};
+/// "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning",
+/// "visitor_near_wall", "visitor_clear".
 std::string_view to_string(EventType type);
 /// The text form back (reading logs); std::nullopt when it is none of them.
 std::optional<EventType> parse_event_type(std::string_view text);
@@ -139,6 +146,15 @@ struct FighterPose {
   double heading_rad = 0;                ///< rotation about +Y; 0 = facing +Z (the visitor)
 };
 
+/// The visitor close to a wall (FrameData::visitor_near_wall): for the fighter's back-off and
+/// the console. Vertical walls only (not the floor).
+struct VisitorNearWall {
+  int wall = -1;           ///< index into the config's walls
+  double distance_m = 0;   ///< m, the head to the wall's plane (negative: beyond it); last tracked when `lost`
+  bool outside = false;    ///< beyond the wall's plane: out of the room
+  bool lost = false;       ///< tracking lost while near this wall: the visitor left the tracked area there
+};
+
 /// Everything a renderer and the log need about one frame.
 struct FrameData {
   std::uint64_t frame = 0;
@@ -157,6 +173,9 @@ struct FrameData {
   /// plus the display latency (config display_latency_ms).
   double predicted_ahead_ms = 0;
   FighterPose fighter;        ///< the fighter as plain data
+  /// The visitor within [safety] wall_distance_m of a wall, beyond one, or lost near one
+  /// (none: clear, or [safety] enabled = false).
+  std::optional<VisitorNearWall> visitor_near_wall;
 };
 
 /// What one frame took from outside (issue 13): with the same config, orders script and
@@ -221,6 +240,8 @@ class Installation {
   void record_to(SessionRecorder* recorder) { recorder_ = recorder; }
   Timestamp start_time() const { return start_; }
   bool has_tracker() const;
+  /// The tracker's source is still loading (a recording's preload): the show is not up yet.
+  bool tracking_loading() const;
 
   const FrameData& frame() const { return frame_; }
   const ConsoleState& console() const { return console_; }
@@ -238,6 +259,7 @@ class Installation {
   void update_head(Timestamp now, Timestamp shown_at);
   void apply_orders(Timestamp now);
   void update_fighter(Timestamp now, double dt);
+  void update_safety(Timestamp now);
   void copy_pose(const content::FighterFrame& f, int character, FighterPose& pose);
   void note(const FrameEvent& e);
 
@@ -265,6 +287,7 @@ class Installation {
   bool started_ = false, quit_ = false, mono_ = false;
   bool script_waits_ = false;  ///< the orders script waits for the head to be tracked
   double dt_filtered_ = 0;  ///< s, smoothed frame interval
+  std::optional<VisitorNearWall> near_wall_;  ///< the safety state across frames (hysteresis)
   std::uint64_t steps_ = 0;
   FrameInput input_;
   const FrameInput* replaying_ = nullptr;

@@ -11,6 +11,8 @@
 
 namespace kumite::app {
 
+class RunMonitor;  // service.hpp
+
 struct HeadlessOptions {
   int frames = 60;                 ///< frames to render
   std::filesystem::path out;       ///< output folder (made if missing)
@@ -23,6 +25,8 @@ struct HeadlessOptions {
   /// Non-zero (set from a signal handler or another thread): the run ends at its next frame,
   /// cleanly (PNG queue flushed, frames.jsonl closed), and run_headless returns 0.
   const std::atomic<int>* stop = nullptr;
+  /// Told of every frame drawn (watchdog pings, readiness, health report); none: nothing.
+  RunMonitor* monitor = nullptr;
 };
 /// Renders `options.frames` frames. Returns the process exit code.
 int run_headless(Installation& installation, const HeadlessOptions& options);
@@ -34,6 +38,8 @@ struct WindowOptions {
   std::optional<std::filesystem::path> log;         ///< frames.jsonl
   /// Non-zero: the run ends at its next frame as if a window was closed (screenshot, log).
   const std::atomic<int>* stop = nullptr;
+  /// Told of every frame drawn (watchdog pings, readiness, health report); none: nothing.
+  RunMonitor* monitor = nullptr;
 };
 /// Opens the windows and runs until quit (Escape / closing a window) or `seconds`.
 /// Throws kumite::Error when a window or the requested stereo mode cannot be had.

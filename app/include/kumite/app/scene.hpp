@@ -51,6 +51,13 @@ inline constexpr glm::vec3 kTargetColour{0.95f, 0.1f, 0.1f};
 void plan_fighter(const content::FighterFrame& fighter, glm::vec3 colour,
                   std::vector<DrawItem>& items);
 
+/// The boundary glow of a wall the visitor is close to: a grid of thin bars (0.2 m apart)
+/// 1 cm in front of `wall`, over a 1.6 m square round `near` (the head) projected onto it and
+/// kept within the wall; amber to red as `strength` (0..1) grows. Appended to `items`.
+void plan_wall_glow(const WallFrame& wall, const glm::dvec3& near, double strength, std::vector<DrawItem>& items);
+/// The glow's colour at `strength` 0..1 (amber to red).
+glm::vec3 glow_colour(double strength);
+
 /// The room's static lines (wall outlines, floor grid continuing into the virtual room):
 /// pairs of points (m, room frame) with a colour each.
 struct LineVertex {

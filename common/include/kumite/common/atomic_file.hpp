@@ -4,7 +4,9 @@
 #include <filesystem>
 #include <functional>
 #include <ostream>
+#include <string>
 #include <string_view>
+#include <vector>
 
 namespace kumite {
 
@@ -17,15 +19,29 @@ void write_file_atomically(const std::filesystem::path& path,
                            const std::function<void(std::ostream&)>& write);
 
 /// A temporary path beside `path` keeping its extension (some writers, like OpenCV's
-/// FileStorage, choose the format from the extension): "dir/.name.tmp-<pid>-<n>.ext".
+/// FileStorage, choose the format from the extension): "dir/.name.tmp-<pid>-<n>.ext". The first
+/// call for a folder in a process also removes the temporaries of writers that are gone
+/// (remove_stale_temporaries), with one warning line when there were any.
 std::filesystem::path temporary_path_beside(const std::filesystem::path& path);
 
 /// Atomically moves `tmp` onto `path` (same directory). Throws kumite::Error on failure.
 void commit_temporary(const std::filesystem::path& tmp, const std::filesystem::path& path);
 
 /// If `path` exists, copies it to "<path>.<YYYYmmdd-HHMMSS>.bak" (a new name each time) and
-/// returns that backup path; returns an empty path when there was nothing to keep.
+/// returns that backup path; returns an empty path when there was nothing to keep. The copy
+/// goes through a temporary file renamed into place: a backup is complete or absent (a
+/// process killed mid-copy leaves a temporary that remove_stale_temporaries() clears).
 std::filesystem::path keep_previous_version(const std::filesystem::path& path);
+
+/// Whether `name` is a temporary file name temporary_path_beside() makes
+/// (".<stem>.tmp-<pid>-<n><ext>"); its pid is stored in `pid` when given.
+bool is_temporary_name(const std::string& name, long* pid = nullptr);
+
+/// Removes the temporary files (temporary_path_beside's names) in `dir` whose writing process
+/// is gone: leftovers of runs killed with SIGKILL or by a power cut. A temporary of a live
+/// process (another run writing now) is left alone. Returns the removed paths; a folder that
+/// does not exist or cannot be read gives none. Never throws.
+std::vector<std::filesystem::path> remove_stale_temporaries(const std::filesystem::path& dir);
 
 /// Appends `bytes` to the open file descriptor `fd` in as few write(2) calls as it takes (one
 /// for a regular file; retried on EINTR and short writes), so a process killed between two

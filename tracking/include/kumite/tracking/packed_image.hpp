@@ -1,6 +1,7 @@
 #pragma once
 // A camera image held losslessly in little memory. Tracking images are dark with a few bright
-// blobs, so keeping only the runs of non-zero pixels shrinks a 1280x1024 frame (1.3 MB) to a
+// blobs, so keeping only the runs of pixels off the background level (the image's most common
+// grey: a camera's black level, 0 or a little above) shrinks a 1280x1024 frame (1.3 MB) to a
 // few kB, and expanding it takes a fraction of a millisecond where decoding its PNG takes
 // several. The recorded source keeps preloaded frame sets this way; a session recorder can too.
 // Images that would not shrink (noisy, not 8-bit, not continuous) are kept as they are.
@@ -30,6 +31,7 @@ class PackedImage {
 
  private:
   int rows_ = 0, cols_ = 0;
+  std::uint8_t background_ = 0;      // the grey outside the runs
   cv::Mat dense_;                    // kept as is
   std::vector<std::uint32_t> runs_;  // (offset, length) pairs in pixels, ascending
   std::vector<std::uint8_t> pixels_; // the runs' pixels, back to back
