@@ -361,6 +361,8 @@ void Installation::update_fighter(Timestamp now, double dt) {
     return;
   }
   const glm::dvec3 mid = (frame_.eyes.left + frame_.eyes.right) * 0.5;
+  // Visitor safety as of the last frame (update_safety runs after the fighter): back off.
+  fighter_->keep_away(near_wall_.has_value());
   fighter_->update(now, dt, Eigen::Vector3d(mid.x, mid.y, mid.z));
   const content::FighterFrame f = fighter_->frame();
   const int character = config_of_fighter_.at(static_cast<std::size_t>(f.character));

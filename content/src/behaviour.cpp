@@ -111,6 +111,7 @@ void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> pla
 }
 
 void Behaviour::order(const Order& o) { orders_.emplace_back(o, std::nullopt); }
+void Behaviour::keep_away(bool on) { keep_away_ = on; }
 void Behaviour::order_strike(const Order& o, const Vector3d& target) { orders_.emplace_back(o, target); }
 
 void Behaviour::emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance) {
@@ -225,6 +226,10 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     }
     if (paused_) {
       emit(FighterEvent::Kind::order_ignored, now, o, "paused");
+      continue;
+    }
+    if (keep_away_) {
+      emit(FighterEvent::Kind::order_ignored, now, o, "the visitor is near a wall: the fighter keeps away");
       continue;
     }
     // Freeze the target now: the visitor's head (punches) or below it (kicks: the torso).
@@ -373,6 +378,9 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   Vector2d goal = spot_xz_m_;
   if (dist > 1e-6) goal = head_xz - to_head / dist * config_.strike_distance_m;
   if (recentre_goal_) goal = *recentre_goal_;
+  // A visitor near a wall: back off (further from the visitor than the strike distance), so
+  // nobody is drawn toward the wall by the fighter.
+  if (keep_away_ && dist > 1e-6) goal = head_xz - to_head / dist * (config_.strike_distance_m + tun_.keep_away_extra_m);
   goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
   goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
   if (paused_) goal = spot_xz_m_;

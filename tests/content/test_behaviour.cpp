@@ -314,3 +314,35 @@ TEST(Behaviour, ReachOffsetLeavesSmoothlyWhenTheSegmentEndsAtContact) {
   EXPECT_LT(worst_wrist, before_contact + 1.5 * error / 0.25 * kDt + 1e-3) << "error " << error;
   EXPECT_GE(updates * kDt, 0.25 - 1e-9) << "d(t) released in fewer updates than release_time_s";
 }
+
+TEST(Behaviour, KeepsAwayFromAVisitorNearAWallAndIgnoresStrikesMeanwhile) {
+  // Visitor safety: while the app says the visitor is near a wall, the fighter backs off to
+  // keep_away_extra_m beyond its strike distance and refuses strike orders with a reason;
+  // afterwards it comes back and strikes again.
+  Behaviour b = make_behaviour(0);
+  Script run;
+  run.step(b, 240);  // settle at the strike distance
+  const auto distance = [&] {
+    const Vector3d r = b.frame().root;
+    return Eigen::Vector2d(run.head.x() - r.x(), run.head.z() - r.z()).norm();
+  };
+  const double near = distance();
+  EXPECT_NEAR(near, test_config().strike_distance_m, 0.3);
+  b.keep_away(true);
+  run.step(b, 5 * 120);
+  const double away = distance();
+  EXPECT_GT(away, near + 0.6) << "near " << near << " m, away " << away << " m";
+  EXPECT_LT(run.max_slide_m, 0.002);
+  b.order(order_of(OrderKind::punch_right));
+  run.step(b, 2);
+  ASSERT_EQ(run.count(FighterEvent::Kind::order_ignored), 1);
+  const auto ignored = std::find_if(run.events.begin(), run.events.end(),
+                                    [](const FighterEvent& e) { return e.kind == FighterEvent::Kind::order_ignored; });
+  EXPECT_NE(ignored->text.find("near a wall"), std::string::npos) << ignored->text;
+  b.keep_away(false);
+  run.step(b, 5 * 120);
+  EXPECT_NEAR(distance(), test_config().strike_distance_m, 0.3);
+  b.order(order_of(OrderKind::punch_right));
+  run.until_contact(b);
+  EXPECT_TRUE(b.strike().contact_done);
+}

@@ -69,6 +69,8 @@ struct BehaviourTunables {
   double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
   double max_root_drop_m = 0.30;      ///< m: the most the pelvis is lowered for held feet (a knee bend)
   double max_drop_rate_mps = 2.0;     ///< m/s: how fast that drop may change
+  double keep_away_extra_m = 0.8;     ///< m: how much further than the strike distance the fighter
+                                      ///< stands while the visitor is near a wall
   double release_time_s = 0.25;       ///< s: the shortest time d(t) takes to return to zero after
                                       ///< contact (it carries on through the blend into rest)
   double max_support_shift_m = 0.30;  ///< m: a strike clip is shifted at most this far on the floor
@@ -95,6 +97,11 @@ class Behaviour {
   void order(const Order& order);
   /// Strike toward an explicit room-frame target (tools, tests); same rules as order().
   void order_strike(const Order& order, const Eigen::Vector3d& target_room_m);
+  /// Visitor safety: while on, the fighter backs off to keep_away_extra_m beyond its strike
+  /// distance and strike orders are ignored with a reason (the app sets it while the visitor
+  /// is near a wall or lost near one). Takes effect at the next update.
+  void keep_away(bool on);
+  bool keeping_away() const { return keep_away_; }
   void update(Timestamp now, double dt, const Eigen::Vector3d& head);
 
   FighterFrame frame() const;
@@ -182,6 +189,7 @@ class Behaviour {
   int character_ = 0;
   FighterState state_ = FighterState::resting;
   bool paused_ = false;
+  bool keep_away_ = false;
   int rest_segment_ = 0;
   Source current_, previous_;
   double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
