@@ -139,6 +139,7 @@ class FighterImpl final : public Fighter {
                            [this] { return worker_->poll(); });
   }
   void order(const Order& order) override { behaviour_.order(order); }
+  void keep_away(bool on) override { behaviour_.keep_away(on); }
   void update(Timestamp now, double dt, const Eigen::Vector3d& head) override {
     worker_->set_update(++updates_);
     behaviour_.update(now, dt, head);

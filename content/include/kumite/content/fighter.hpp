@@ -113,6 +113,9 @@ class Fighter {
 
   /// Queue an order (any thread that owns the fighter; not thread-safe by itself).
   virtual void order(const Order& order) = 0;
+  /// Visitor safety: while on, the fighter backs off and ignores strike orders with a reason
+  /// (Behaviour::keep_away); the app sets it while the visitor is near a wall.
+  virtual void keep_away(bool on) = 0;
   /// Advance to `now` (dt = seconds since the last update) toward the visitor's head
   /// (room frame). Retrieval runs on a worker thread; its plan is applied exactly
   /// retrieval_delay_updates updates after the order (waiting for the worker only if it is
