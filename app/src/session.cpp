@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <sstream>
@@ -549,7 +550,9 @@ struct LoadedConfig {
 /// file that is not as recorded.
 LoadedConfig session_config(const std::filesystem::path& dir, const json& m, const LineReader& mr,
                             const ReplayOptions& options, std::vector<std::string>& notes) {
+  // ${data_dir}: --data-dir, else $KUMITE_DATA_DIR, else the folder it was when recorded.
   std::optional<std::filesystem::path> data_dir = options.data_dir;
+  if (const char* env = std::getenv(kDataDirEnv); !data_dir && env && *env) data_dir = std::filesystem::path(env);
   if (!data_dir && m.contains("data_dir") && m["data_dir"].is_string()) data_dir = m["data_dir"].get<std::string>();
   LoadedConfig out;
   if (!m.contains("files")) {  // version 1: the config and orders script by path
@@ -657,8 +660,9 @@ LoadedConfig session_config(const std::filesystem::path& dir, const json& m, con
   if (m.contains("database") && m["database"].is_object()) {
     const json& d = m["database"];
     const std::filesystem::path recorded = d.value("source", "");
-    // --data-dir moves a "${data_dir}/..." database; else the path recorded.
-    const std::filesystem::path now = options.data_dir ? c.resolve(c.fighter.database) : recorded;
+    // A "${data_dir}/..." database moves with the data folder; else the path recorded.
+    const std::filesystem::path now =
+        c.fighter.database.string().rfind(kDataDirPlaceholder, 0) == 0 ? c.resolve(c.fighter.database) : recorded;
     c.fighter.database = std::filesystem::absolute(now);
     if (!std::filesystem::exists(now))
       notes.push_back(fmt::format("{}: the fighter database is gone: replaying without a fighter: frames differ",
@@ -709,7 +713,7 @@ ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOption
   std::optional<std::uint64_t> expected;
   std::optional<double> from_s;
   double start = 0;
-  const auto t0 = std::chrono::steady_clock::now();
+  auto t0 = std::chrono::steady_clock::now();
   std::chrono::steady_clock::time_point pace0;
   Timestamp first_now = 0, last_now = 0, pace_now0 = 0;
   while (pos < all.size()) {
@@ -742,6 +746,7 @@ ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOption
       continue;
     }
     const auto frame = static_cast<std::uint64_t>(r.num(r.at(j, "frame", "frame"), "frame"));
+    if (rep.frames_recorded == 0) t0 = std::chrono::steady_clock::now();  // the frames' time, not the start-up's
     ++rep.frames_recorded;
     if (expected && frame != *expected) {
       rep.notes.push_back(fmt::format("{}:{}: frame {} follows frame {}: frames {}..{} were dropped while recording; the "
