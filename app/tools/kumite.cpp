@@ -183,7 +183,7 @@ int run_replay(const Args& a) {
                              rep.first_difference_field);
     return 1;
   }
-  if (rep.from_frame)
+  if (rep.from_frame && !a.replay_from.empty())
     spdlog::info("replay: shown from frame {} ({:.3f} s into the session){}", *rep.from_frame, rep.from_s,
                  a.replay_real_time ? ", in real time" : "");
   if (!rep.compared) {
