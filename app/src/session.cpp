@@ -101,6 +101,12 @@ struct LineReader {
     if (!std::isfinite(v)) fail(path, "must be a finite number");
     return v;
   }
+  /// A whole number in [lo, hi] (checked before any cast).
+  double whole(const json& j, std::string_view path, double lo, double hi) const {
+    const double v = num(j, path);
+    if (v != std::floor(v) || v < lo || v > hi) fail(path, fmt::format("expected a whole number in [{:g}, {:g}]", lo, hi));
+    return v;
+  }
   template <std::size_t N>
   std::array<double, N> nums(const json& j, std::string_view path) const {
     if (!j.is_array() || j.size() != N) fail(path, fmt::format("expected {} numbers", N));
@@ -133,15 +139,15 @@ FrameInput parse_input(const json& j, const LineReader& r) {
   if (!h.is_null()) {
     BodyPose p;
     p.timestamp = r.num(r.at(h, "timestamp", "input.tracking.head.timestamp"), "input.tracking.head.timestamp");
-    p.frame = static_cast<std::uint64_t>(r.num(r.at(h, "frame", "input.tracking.head.frame"), "input.tracking.head.frame"));
-    p.body = static_cast<std::int32_t>(r.num(r.at(h, "body", "input.tracking.head.body"), "input.tracking.head.body"));
+    p.frame = static_cast<std::uint64_t>(r.whole(r.at(h, "frame", "input.tracking.head.frame"), "input.tracking.head.frame", 0, 9007199254740992.0));
+    p.body = static_cast<std::int32_t>(r.whole(r.at(h, "body", "input.tracking.head.body"), "input.tracking.head.body", -1, 1e6));
     const double st = r.num(r.at(h, "status", "input.tracking.head.status"), "input.tracking.head.status");
     if (st != 0 && st != 1 && st != 2) r.fail("input.tracking.head.status", "expected 0, 1 or 2");
     p.status = static_cast<TrackingStatus>(static_cast<int>(st));
     p.position = r.nums<3>(r.at(h, "position", "input.tracking.head.position"), "input.tracking.head.position");
     p.orientation = r.nums<4>(r.at(h, "orientation", "input.tracking.head.orientation"), "input.tracking.head.orientation");
-    p.markers = static_cast<std::int32_t>(r.num(r.at(h, "markers", "input.tracking.head.markers"), "input.tracking.head.markers"));
-    p.cameras = static_cast<std::int32_t>(r.num(r.at(h, "cameras", "input.tracking.head.cameras"), "input.tracking.head.cameras"));
+    p.markers = static_cast<std::int32_t>(r.whole(r.at(h, "markers", "input.tracking.head.markers"), "input.tracking.head.markers", 0, 1e6));
+    p.cameras = static_cast<std::int32_t>(r.whole(r.at(h, "cameras", "input.tracking.head.cameras"), "input.tracking.head.cameras", 0, 1e6));
     p.ready_at = r.num(r.at(h, "ready_at", "input.tracking.head.ready_at"), "input.tracking.head.ready_at");
     in.tracking.head = p;
   }
@@ -592,7 +598,7 @@ LoadedConfig session_config(const std::filesystem::path& dir, const json& m, con
     const json& role = mr.at(f, "role", "files.role");
     if (!role.is_string()) mr.fail("files.role", "not a string");
     u.role = role.get<std::string>();
-    u.index = f.contains("index") ? static_cast<int>(mr.num(f["index"], "files.index")) : -1;
+    u.index = f.contains("index") ? static_cast<int>(mr.whole(f["index"], "files.index", 0, 1e6)) : -1;
     const std::filesystem::path source = f.value("source", "");
     if (!f.contains("snapshot") || f["snapshot"].is_null()) {
       // Missing when recorded (a character left out): missing for the replay too.
@@ -603,7 +609,7 @@ LoadedConfig session_config(const std::filesystem::path& dir, const json& m, con
     if (!rel.is_string()) mr.fail("files.snapshot", "not a string");
     const std::filesystem::path snap = dir / rel.get<std::string>();
     const auto bytes = read_bytes(snap);
-    const auto want_bytes = static_cast<std::uint64_t>(mr.num(mr.at(f, "bytes", "files.bytes"), "files.bytes"));
+    const auto want_bytes = static_cast<std::uint64_t>(mr.whole(mr.at(f, "bytes", "files.bytes"), "files.bytes", 0, 9007199254740992.0));
     std::string problem;
     if (!bytes)
       problem = "missing";
@@ -686,7 +692,24 @@ LoadedConfig session_config(const std::filesystem::path& dir, const json& m, con
 
 }  // namespace
 
+namespace {
+ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& options, std::string& where);
+}  // namespace
+
 ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOptions& options) {
+  // A value of the wrong JSON type (a hand-edited or damaged session) throws from the JSON
+  // library: said in one line naming the file (and line) being read.
+  std::string where = (dir / "manifest.json").string();
+  try {
+    return replay(dir, options, where);
+  } catch (const json::exception& e) {
+    throw Error("replay", "json", fmt::format("{}: {}", where, e.what()));
+  }
+}
+
+namespace {
+
+ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& options, std::string& where) {
   ReplayReport rep;
   const auto manifest_path = dir / "manifest.json";
   std::ifstream mf(manifest_path);
@@ -705,9 +728,9 @@ ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOption
   if (m.value("stopped", json(nullptr)) == "budget")
     rep.notes.push_back(fmt::format("{}: stopped: the disk budget ({} MB) was spent: the session ends there",
                                     manifest_path.string(), m.value("budget_mb", 0.0)));
-  if (m.value("dropped", 0) > 0)
+  if (const double dropped = m.contains("dropped") ? mr.whole(m["dropped"], "dropped", 0, 9007199254740992.0) : 0; dropped > 0)
     rep.notes.push_back(fmt::format("{}: dropped: {} frame(s) were dropped while recording: the replay stops at the first",
-                                    manifest_path.string(), m.value("dropped", 0)));
+                                    manifest_path.string(), dropped));
   LoadedConfig loaded = session_config(dir, m, mr, options, rep.notes);
   InstallationOptions io;
   io.mono_eyes = m.value("mono_eyes", false);
@@ -735,15 +758,18 @@ ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOption
     }
     const json j = json::parse(std::string_view(all).substr(pos, end - pos), nullptr, false);
     pos = end + 1;
+    where = fmt::format("{}:{}", r.file, r.line);
     if (j.is_discarded() || !j.is_object()) {
       rep.notes.push_back(fmt::format("{}:{}: not valid JSON: the replay stops there", r.file, r.line));
       break;
     }
     if (!inst) {
       start = r.num(r.at(j, "start", "start"), "start");
-      inst = std::make_unique<Installation>(loaded.config, std::make_unique<ReplayTracking>(j.value("has_tracker", false)), io);
+      inst = std::make_unique<Installation>(loaded.config, std::make_unique<ReplayTracking>(j.contains("has_tracker") && j["has_tracker"].is_boolean() && j["has_tracker"].get<bool>()), io);
       inst->start(start);
-      if (const auto first = j.value("first_frame", std::uint64_t{0}); first > 0) {
+      const auto first =
+          j.contains("first_frame") ? static_cast<std::uint64_t>(r.whole(j["first_frame"], "first_frame", 0, 9007199254740992.0)) : 0;
+      if (first > 0) {
         rep.compared = false;
         rep.notes.push_back(fmt::format("{}:{}: first_frame: the recording started at frame {} of the run (the record "
                                         "key): the state before it was not recorded, so its frames are re-run from a "
@@ -755,7 +781,7 @@ ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOption
       }
       continue;
     }
-    const auto frame = static_cast<std::uint64_t>(r.num(r.at(j, "frame", "frame"), "frame"));
+    const auto frame = static_cast<std::uint64_t>(r.whole(r.at(j, "frame", "frame"), "frame", 0, 9007199254740992.0));
     if (rep.frames_recorded == 0) t0 = std::chrono::steady_clock::now();  // the frames' time, not the start-up's
     ++rep.frames_recorded;
     if (expected && frame != *expected) {
@@ -802,5 +828,7 @@ ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOption
   rep.session_s = last_now - first_now;
   return rep;
 }
+
+}  // namespace
 
 }  // namespace kumite::app

@@ -1,6 +1,8 @@
-// Issue 13: a session recorded (every frame's inputs and state hashes) replays bit for bit;
-// a changed input is caught at its frame and field; a killed recording replays up to its
-// last complete frame; a newer or missing manifest is refused in one line.
+// Issue 13: a session recorded (its snapshot, every frame's inputs and state hashes) replays
+// bit for bit; a changed input is caught at its frame and field; a killed recording, a gap, a
+// newer version, a snapshot file cut short, missing or no longer valid: one line each and what
+// can be replayed is; --from; the disk budget; the record key; a missing or malformed manifest
+// is refused in one line.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -261,13 +263,24 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
   }
 }
 
-TEST(Session, AMissingManifestIsRefusedInOneLine) {
+TEST(Session, AMissingOrMalformedManifestIsRefusedInOneLine) {
   Tmp tmp;
   try {
     replay_session(tmp.path);
     ADD_FAILURE();
   } catch (const kumite::Error& e) {
     EXPECT_NE(std::string(e.what()).find("manifest.json: cannot read"), std::string::npos) << e.what();
+  }
+  for (const char* bad : {R"({"version": 2, "files": [{"role": "config", "index": 1e300}]})",
+                          R"({"version": 2, "complete": "yes"})", R"({"version": 2, "dropped": -1})"}) {
+    std::ofstream(tmp.path / "manifest.json", std::ios::trunc) << bad;
+    try {
+      replay_session(tmp.path);
+      ADD_FAILURE() << bad;
+    } catch (const kumite::Error& e) {
+      EXPECT_EQ(std::string(e.what()).rfind((tmp.path / "manifest.json").string(), 0), 0u) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
+    }
   }
 }
 
