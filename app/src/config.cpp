@@ -21,12 +21,14 @@ namespace kumite::app {
 
 std::optional<KeyAction> parse_key_action(std::string_view text) {
   if (text == "quit") return KeyAction{KeyAction::Kind::quit, OrderKind::punch_right, -1};
+  if (text == "record") return KeyAction{KeyAction::Kind::record, OrderKind::punch_right, -1};
   const auto o = parse_order(text);
   if (!o) return std::nullopt;
   return KeyAction{KeyAction::Kind::order, o->kind, o->character};
 }
 
 std::string to_string(const KeyAction& a) {
+  if (a.kind == KeyAction::Kind::record) return "record";
   return a.kind == KeyAction::Kind::quit ? "quit" : to_string(a.to_order(0));
 }
 
@@ -212,7 +214,7 @@ class Reader {
 
 void Reader::parse(const toml::table& root) {
   only_keys(root, "", {"display_rate_hz", "late_latch", "display_latency_ms", "data_dir", "windows", "walls", "stereo", "viewer",
-                       "projection", "keys", "characters", "fighter", "tracking", "orders", "health", "safety"});
+                       "projection", "keys", "characters", "fighter", "tracking", "orders", "health", "safety", "record"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
   boolean(root, "late_latch", "", cfg_.late_latch);
   number(root, "display_latency_ms", "", cfg_.display_latency_ms);
@@ -245,6 +247,10 @@ void Reader::parse(const toml::table& root) {
     only_keys(*sf, "safety", {"enabled", "wall_distance_m"});
     boolean(*sf, "enabled", "safety", cfg_.safety.enabled);
     number(*sf, "wall_distance_m", "safety", cfg_.safety.wall_distance_m);
+  }
+  if (const auto* r = table(root, "record", "", false)) {
+    only_keys(*r, "record", {"budget_mb"});
+    number(*r, "budget_mb", "record", cfg_.record_budget_mb);
   }
 }
 
@@ -330,7 +336,7 @@ void Reader::parse_keys(const toml::table& root) {
     const auto parsed = parse_key_action(act);
     if (!parsed)
       fail("unknown_action", line(node), full,
-           "unknown action (punch_left, punch_right, kick_left, kick_right, pause, resume, recentre, character_N, quit)");
+           "unknown action (punch_left, punch_right, kick_left, kick_right, pause, resume, recentre, character_N, quit, record)");
     cfg_.keys.push_back({*parsed, name, *code});
   }
 }
@@ -517,7 +523,7 @@ bool InstallationConfig::operator==(const InstallationConfig& o) const {
          stereo == o.stereo && viewer == o.viewer && projection == o.projection &&
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
          tracking == o.tracking && orders_script == o.orders_script && data_dir == o.data_dir &&
-         health == o.health && safety == o.safety;
+         health == o.health && safety == o.safety && record_budget_mb == o.record_budget_mb;
 }
 
 std::string check_wall_geometry(const WallConfig& w) {
@@ -549,6 +555,8 @@ std::string check_wall_geometry(const WallConfig& w) {
 void validate(const InstallationConfig& c) {
   if (!(c.display_rate_hz > 0 && c.display_rate_hz <= 1000))
     fail_at(c, "range", "display_rate_hz", "must be in (0, 1000] Hz");
+  if (!(c.record_budget_mb > 0 && c.record_budget_mb <= 1e7))
+    fail_at(c, "range", "record.budget_mb", "must be in (0, 10000000] MB");
   if (!(c.display_latency_ms >= 0 && c.display_latency_ms <= 100))
     fail_at(c, "range", "display_latency_ms", "must be in [0, 100] ms (the projectors' input lag)");
   if (c.walls.empty()) fail_at(c, "missing_wall", "walls", "no [[walls]]: at least one wall is needed");
@@ -791,6 +799,7 @@ std::string to_toml(const InstallationConfig& c) {
   }
   if (c.safety != SafetyConfig{})
     root.insert("safety", toml::table{{"enabled", c.safety.enabled}, {"wall_distance_m", c.safety.wall_distance_m}});
+  root.insert("record", toml::table{{"budget_mb", c.record_budget_mb}});
   std::ostringstream out;
   out << root << "\n";
   return out.str();

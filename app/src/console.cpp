@@ -1,4 +1,5 @@
 #include "console.hpp"
+#include "kumite/app/session.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -19,6 +20,10 @@ void handle_key(Installation& inst, int key) {
     if (k.code != key) continue;
     if (k.action.kind == KeyAction::Kind::quit) {
       inst.request_quit();
+      return;
+    }
+    if (k.action.kind == KeyAction::Kind::record) {
+      inst.record_key();
       return;
     }
     inst.order(k.action.to_order(now()));
@@ -183,6 +188,8 @@ void Console::frame(Installation& inst, const FrameData& f) {
               c.character_name.c_str(), c.paused ? "   PAUSED" : "");
   ImGui::Text("last order %s", c.last_order.empty() ? "-" : c.last_order.c_str());
   ImGui::Text("outcome    %s", c.last_outcome.empty() ? "-" : c.last_outcome.c_str());
+  if (const SessionRecorder* r = inst.recorder())
+    ImGui::TextColored(r->budget_reached() || r->dropped() > 0 ? kRed : kGreen, "%s", r->status_line().c_str());
   ImGui::Columns(1);
   ImGui::Separator();
   ImGui::PushStyleColor(ImGuiCol_Text, kRed);  // long lines wrap rather than run off

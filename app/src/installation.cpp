@@ -192,7 +192,7 @@ std::string Installation::character_name(int index) const {
 void Installation::start(Timestamp t) {
   start_ = t;
   last_step_ = t;
-  if (recorder_) recorder_->started(t, tracking_->has_tracker());
+  if (recorder_) recorder_->started(t, tracking_->has_tracker(), 0);
   script_.restart(t);
   started_ = true;
   script_waits_ = tracking_->has_tracker() && script_.remaining() > 0;
@@ -202,6 +202,11 @@ void Installation::start(Timestamp t) {
 }
 
 void Installation::order(const Order& o) { pending_.push_back(o); }
+
+void Installation::record_to(SessionRecorder* recorder) {
+  if (recorder && recorder != recorder_ && started_) recorder->started(start_, tracking_->has_tracker(), steps_);
+  recorder_ = recorder;
+}
 
 Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
   const PoseTiming at_start = tracking_->pose_timing(start);
@@ -469,7 +474,10 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   const auto budget = pacer_.draw_budget_s();
   console_.draw_budget_ms = budget ? *budget * 1e3 : -1;
   // Recording (when on) counts in the step's CPU time: hashing the state and queueing a copy.
-  if (recorder_) recorder_->push(frame_.frame, input_, state_hashes(frame_));
+  if (recorder_) {
+    recorder_->push(frame_.frame, input_, state_hashes(frame_));
+    if (recorder_->dropped() > 0 || recorder_->budget_reached()) console_.problems.push_back(recorder_->status_line());
+  }
   console_.frame_cpu_ms = (kumite::now() - cpu0) * 1e3;
   return frame_;
 }

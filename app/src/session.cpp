@@ -5,7 +5,12 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <ctime>
+#include <sstream>
+#include <thread>
 #include <fstream>
 
 #include <fmt/format.h>
@@ -49,6 +54,22 @@ struct Fnv {
 
 std::string hex(std::uint64_t v) { return fmt::format("{:016x}", v); }
 
+double unix_now() {
+  return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+}
+
+std::optional<std::string> read_bytes(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) return std::nullopt;
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+std::uint64_t fnv_of(std::string_view bytes) {
+  Fnv f;
+  f.bytes(bytes.data(), bytes.size());
+  return f.h;
+}
+
 json pose_json(const BodyPose& p) {
   return {{"timestamp", p.timestamp}, {"frame", p.frame}, {"body", p.body}, {"status", static_cast<int>(p.status)},
           {"position", p.position}, {"orientation", p.orientation}, {"markers", p.markers}, {"cameras", p.cameras},
@@ -78,6 +99,12 @@ struct LineReader {
     if (!j.is_number()) fail(path, "not a number");
     const double v = j.get<double>();
     if (!std::isfinite(v)) fail(path, "must be a finite number");
+    return v;
+  }
+  /// A whole number in [lo, hi] (checked before any cast).
+  double whole(const json& j, std::string_view path, double lo, double hi) const {
+    const double v = num(j, path);
+    if (v != std::floor(v) || v < lo || v > hi) fail(path, fmt::format("expected a whole number in [{:g}, {:g}]", lo, hi));
     return v;
   }
   template <std::size_t N>
@@ -112,15 +139,15 @@ FrameInput parse_input(const json& j, const LineReader& r) {
   if (!h.is_null()) {
     BodyPose p;
     p.timestamp = r.num(r.at(h, "timestamp", "input.tracking.head.timestamp"), "input.tracking.head.timestamp");
-    p.frame = static_cast<std::uint64_t>(r.num(r.at(h, "frame", "input.tracking.head.frame"), "input.tracking.head.frame"));
-    p.body = static_cast<std::int32_t>(r.num(r.at(h, "body", "input.tracking.head.body"), "input.tracking.head.body"));
+    p.frame = static_cast<std::uint64_t>(r.whole(r.at(h, "frame", "input.tracking.head.frame"), "input.tracking.head.frame", 0, 9007199254740992.0));
+    p.body = static_cast<std::int32_t>(r.whole(r.at(h, "body", "input.tracking.head.body"), "input.tracking.head.body", -1, 1e6));
     const double st = r.num(r.at(h, "status", "input.tracking.head.status"), "input.tracking.head.status");
     if (st != 0 && st != 1 && st != 2) r.fail("input.tracking.head.status", "expected 0, 1 or 2");
     p.status = static_cast<TrackingStatus>(static_cast<int>(st));
     p.position = r.nums<3>(r.at(h, "position", "input.tracking.head.position"), "input.tracking.head.position");
     p.orientation = r.nums<4>(r.at(h, "orientation", "input.tracking.head.orientation"), "input.tracking.head.orientation");
-    p.markers = static_cast<std::int32_t>(r.num(r.at(h, "markers", "input.tracking.head.markers"), "input.tracking.head.markers"));
-    p.cameras = static_cast<std::int32_t>(r.num(r.at(h, "cameras", "input.tracking.head.cameras"), "input.tracking.head.cameras"));
+    p.markers = static_cast<std::int32_t>(r.whole(r.at(h, "markers", "input.tracking.head.markers"), "input.tracking.head.markers", 0, 1e6));
+    p.cameras = static_cast<std::int32_t>(r.whole(r.at(h, "cameras", "input.tracking.head.cameras"), "input.tracking.head.cameras", 0, 1e6));
     p.ready_at = r.num(r.at(h, "ready_at", "input.tracking.head.ready_at"), "input.tracking.head.ready_at");
     in.tracking.head = p;
   }
@@ -201,15 +228,71 @@ std::uint64_t file_checksum(const std::filesystem::path& path) {
   return f.h;
 }
 
+SessionInfo session_info(const InstallationConfig& config, const InstallationOptions& options,
+                         std::optional<double> budget_mb) {
+  SessionInfo info;
+  info.config = config;
+  if (options.orders_script) info.orders_script = std::filesystem::absolute(*options.orders_script);
+  info.mono_eyes = options.mono_eyes;
+  info.budget_mb = budget_mb.value_or(config.record_budget_mb);
+  if (!(std::isfinite(info.budget_mb) && info.budget_mb > 0 && info.budget_mb <= 1e7))
+    throw Error("cli", "range", fmt::format("--record-budget-mb: {}: must be in (0, 10000000] MB", info.budget_mb));
+  return info;
+}
+
 SessionRecorder::SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames)
     : dir_(std::move(dir)), info_(std::move(info)), slots_(std::max<std::size_t>(queue_frames, 2)) {
   make_output_folder(dir_, "--record " + dir_.string());
-  created_unix_s_ = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+  {
+    std::error_code ec;
+    for (const auto& e : std::filesystem::directory_iterator(dir_, ec)) {
+      (void)e;
+      throw Error("io", "folder", fmt::format("--record {}: the folder is not empty (a session is recorded into an empty "
+                                              "or new folder)", dir_.string()));
+    }
+  }
+  created_unix_s_ = unix_now();
+  budget_bytes_ = static_cast<std::uint64_t>(info_.budget_mb * 1e6);
+  snapshot();
   const auto path = dir_ / "session.jsonl";
   fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd_ < 0) throw Error("io", "open", fmt::format("{}: cannot write ({})", path.string(), std::strerror(errno)));
   write_manifest(false);
   thread_ = std::thread([this] { run(); });
+}
+
+void SessionRecorder::snapshot() {
+  const InstallationConfig& c = info_.config;
+  const auto add = [&](std::string role, int index, const std::filesystem::path& source, const std::string& name) {
+    SnapshotFile f;
+    f.role = std::move(role);
+    f.index = index;
+    f.source = std::filesystem::absolute(source).lexically_normal();
+    if (const auto bytes = read_bytes(f.source)) {
+      f.snapshot = "snapshot/" + name;
+      f.fnv = fnv_of(*bytes);
+      f.bytes = bytes->size();
+      std::filesystem::create_directories((dir_ / f.snapshot).parent_path());
+      write_file_atomically(dir_ / f.snapshot, *bytes);
+      bytes_.fetch_add(bytes->size(), std::memory_order_relaxed);
+    }
+    files_.push_back(std::move(f));
+  };
+  if (!c.file.empty()) add("config", -1, c.file, "installation.toml");
+  std::optional<std::filesystem::path> orders = info_.orders_script;
+  if (!orders && c.orders_script) orders = c.resolve(*c.orders_script);
+  if (orders) add("orders", -1, *orders, "orders.csv");
+  if (!c.tracking.tracking.empty()) add("tracking", -1, c.resolve(c.tracking.tracking), "tracking.toml");
+  if (!c.tracking.calibration.empty()) add("calibration", -1, c.resolve(c.tracking.calibration), "calibration.yaml");
+  for (std::size_t i = 0; i < c.characters.size(); ++i)
+    add("character", static_cast<int>(i), c.resolve(c.characters[i].bvh), fmt::format("characters/{}.bvh", i + 1));
+  if (!c.fighter.database.empty()) {
+    database_ = std::filesystem::absolute(c.resolve(c.fighter.database)).lexically_normal();
+    // Its checksum (12 MB for the demo: ~20 ms) on the writer thread, not the frame's (the key).
+    std::error_code ec;
+    database_bytes_ = std::filesystem::file_size(database_, ec);
+    if (ec) database_bytes_ = 0;
+  }
 }
 
 SessionRecorder::~SessionRecorder() {
@@ -220,18 +303,19 @@ SessionRecorder::~SessionRecorder() {
   }
 }
 
-void SessionRecorder::started(Timestamp start, bool has_tracker) {
+void SessionRecorder::started(Timestamp start, bool has_tracker, std::uint64_t first_frame) {
   const std::uint64_t h = head_.load(std::memory_order_relaxed);
   if (h - tail_.load(std::memory_order_acquire) >= slots_.size()) {  // cannot happen before the first frame
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
   Item& item = slots_[h % slots_.size()];
-  item.start = std::pair{start, has_tracker};
+  item.start = Item::Start{start, has_tracker, first_frame, unix_now()};
   head_.store(h + 1, std::memory_order_release);
 }
 
 void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes) {
+  if (budget_reached_.load(std::memory_order_relaxed)) return;  // stopped: said once by the writer
   pushed_.fetch_add(1, std::memory_order_relaxed);
   const std::uint64_t h = head_.load(std::memory_order_relaxed);
   if (h - tail_.load(std::memory_order_acquire) >= slots_.size()) {
@@ -256,6 +340,14 @@ void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const S
 void SessionRecorder::run() {
   // Below the frame loop and the tracker: the disk can wait, a frame cannot.
   lower_this_thread_priority(kWriterNice);
+  if (!database_.empty()) {
+    database_fnv_ = file_checksum(database_);
+    try {
+      write_manifest(false);
+    } catch (const std::exception& e) {
+      error_ = e.what();
+    }
+  }
   std::string text;
   for (;;) {
     const bool stopping = stop_.load(std::memory_order_acquire);
@@ -265,7 +357,9 @@ void SessionRecorder::run() {
       const Item& item = slots_[t % slots_.size()];
       json j;
       if (item.start) {
-        j = {{"start", item.start->first}, {"has_tracker", item.start->second}};
+        start_ = item.start;
+        j = {{"start", item.start->start}, {"unix_s", item.start->unix_s}, {"has_tracker", item.start->has_tracker},
+             {"first_frame", item.start->first_frame}};
       } else {
         json hashes = json::object();
         for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
@@ -275,8 +369,16 @@ void SessionRecorder::run() {
       tail_.store(t + 1, std::memory_order_release);  // the slot is read: the frame loop may reuse it
       text = j.dump();
       text += '\n';
+      if (!error_.empty() || budget_reached_.load(std::memory_order_relaxed)) continue;
+      if (bytes_.load(std::memory_order_relaxed) + text.size() > budget_bytes_) {
+        budget_reached_.store(true, std::memory_order_relaxed);
+        spdlog::warn("record: {}: the disk budget of {:g} MB is spent: recording stopped after {} frames (the session "
+                     "replays up to there; --record-budget-mb or [record] budget_mb for more)",
+                     dir_.string(), info_.budget_mb, written_.load());
+        continue;
+      }
       try {
-        if (error_.empty()) write_line(text);
+        write_line(text);
       } catch (const std::exception& e) {
         error_ = e.what();  // said at close(); later frames are not written (the file would have a hole)
       }
@@ -288,6 +390,7 @@ void SessionRecorder::run() {
 
 void SessionRecorder::write_line(const std::string& line) {
   write_all(fd_, line, dir_ / "session.jsonl");
+  bytes_.fetch_add(line.size(), std::memory_order_relaxed);
   Fnv f{checksum_};
   f.bytes(line.data(), line.size());
   checksum_ = f.h;
@@ -300,17 +403,43 @@ void SessionRecorder::write_manifest(bool complete) {
   m["version"] = kSessionVersion;
   m["complete"] = complete;
   m["created_unix_s"] = created_unix_s_;
-  m["config"] = info_.config.string();
-  m["config_fnv"] = hex(file_checksum(info_.config));
-  m["orders_script"] = info_.orders_script ? json(info_.orders_script->string()) : json(nullptr);
-  m["orders_fnv"] = info_.orders_script ? json(hex(file_checksum(*info_.orders_script))) : json(nullptr);
+  json files = json::array();
+  for (const auto& f : files_) {
+    json e = {{"role", f.role}, {"source", f.source.string()}};
+    if (f.index >= 0) e["index"] = f.index;
+    if (f.snapshot.empty()) {
+      e["snapshot"] = nullptr;  // not there when recording started
+    } else {
+      e["snapshot"] = f.snapshot;
+      e["fnv"] = hex(f.fnv);
+      e["bytes"] = f.bytes;
+    }
+    files.push_back(std::move(e));
+  }
+  m["files"] = std::move(files);
+  if (!database_.empty())  // fnv null until the writer has read it
+    m["database"] = {{"source", database_.string()},
+                     {"fnv", database_fnv_ != 0 ? json(hex(database_fnv_)) : json(nullptr)},
+                     {"bytes", database_bytes_}};
+  const auto root = info_.config.data_root();
+  m["data_dir"] = root.empty() ? json(nullptr) : json(std::filesystem::absolute(root).lexically_normal().string());
+  m["recording"] = info_.config.tracking.recording.empty()
+                       ? json(nullptr)
+                       : json(std::filesystem::absolute(info_.config.resolve(info_.config.tracking.recording)).string());
   m["mono_eyes"] = info_.mono_eyes;
   m["state_fields"] = StateHashes::kFields;
+  m["budget_mb"] = info_.budget_mb;
   if (complete) {
-    m["closed_unix_s"] = std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    m["closed_unix_s"] = unix_now();
+    if (start_) {
+      m["start_unix_s"] = start_->unix_s;
+      m["first_frame"] = start_->first_frame;
+    }
     m["frames"] = written_.load();
     m["frames_offered"] = pushed_.load();
     m["dropped"] = dropped_.load();
+    m["stopped"] = budget_reached_.load() ? json("budget") : json(nullptr);
+    m["bytes"] = bytes_.load();
     m["session_fnv"] = hex(checksum_);
   }
   write_file_atomically(dir_ / "manifest.json", m.dump(2) + "\n");
@@ -328,14 +457,259 @@ void SessionRecorder::close() {
   if (!synced) throw Error("io", "write", fmt::format("{}: cannot sync", (dir_ / "session.jsonl").string()));
   if (dropped_ > 0)
     spdlog::warn("record: {} frame(s) dropped (the writer was behind): a replay stops at the first", dropped_.load());
-  spdlog::info("record: {} frames -> {}", written_.load(), dir_.string());
+  spdlog::info("record: {} frames, {:.2f} MB -> {}", written_.load(), bytes_.load() / 1e6, dir_.string());
 }
 
 std::uint64_t SessionRecorder::frames_written() const { return written_.load(); }
 std::uint64_t SessionRecorder::dropped() const { return dropped_.load(); }
 
-ReplayReport replay_session(const std::filesystem::path& dir, const std::optional<std::filesystem::path>& config_override,
-                            const std::optional<std::filesystem::path>& data_dir) {
+std::string SessionRecorder::status_line() const {
+  std::string s = fmt::format("recording {}: {} frames, {:.1f} of {:g} MB", dir_.string(), written_.load(),
+                              bytes_.load(std::memory_order_relaxed) / 1e6, info_.budget_mb);
+  if (const auto d = dropped_.load(std::memory_order_relaxed); d > 0) s += fmt::format(", {} dropped", d);
+  if (budget_reached()) s += ": STOPPED, disk budget spent";
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+RecordSwitch::RecordSwitch(Installation& installation, SessionInfo info, std::filesystem::path folder)
+    : inst_(installation), info_(std::move(info)), folder_(std::move(folder)) {}
+
+RecordSwitch::~RecordSwitch() {
+  try {
+    finish();
+  } catch (const std::exception& e) {
+    spdlog::error("{}", e.what());
+  }
+}
+
+void RecordSwitch::start() {
+  if (recorder_) return;
+  std::filesystem::path dir = folder_;
+  for (int n = 2; std::filesystem::exists(dir) && !std::filesystem::is_empty(dir); ++n)
+    dir = folder_.string() + fmt::format("-{}", n);
+  recorder_ = std::make_unique<SessionRecorder>(dir, info_);
+  inst_.record_to(recorder_.get());
+  spdlog::info("record: every frame's inputs and state hashes -> {}", dir.string());
+}
+
+void RecordSwitch::stop() {
+  if (!recorder_) return;
+  inst_.record_to(nullptr);
+  closing_.emplace_back([r = std::shared_ptr<SessionRecorder>(std::move(recorder_))] {
+    try {
+      r->close();
+    } catch (const std::exception& e) {
+      spdlog::error("record: {}", e.what());
+    }
+  });
+}
+
+void RecordSwitch::toggle() {
+  try {
+    if (recorder_)
+      stop();
+    else
+      start();
+  } catch (const std::exception& e) {
+    spdlog::error("record: {}", e.what());
+  }
+}
+
+void RecordSwitch::finish() {
+  if (recorder_) {
+    inst_.record_to(nullptr);
+    auto r = std::move(recorder_);
+    r->close();  // throws its error here
+  }
+  for (auto& t : closing_)
+    if (t.joinable()) t.join();
+  closing_.clear();
+}
+
+// ---------------------------------------------------------------------------------------------
+
+std::optional<double> parse_replay_from(std::string_view text, double start_unix_s) {
+  const std::string s(text);
+  int hh = 0, mm = 0, ss = 0;
+  char c1 = 0, c2 = 0;
+  std::istringstream in(s);
+  if (s.find(':') != std::string::npos) {
+    if (!(in >> hh >> c1 >> mm >> c2 >> ss) || c1 != ':' || c2 != ':' || !in.eof() || hh < 0 || hh > 23 || mm < 0 ||
+        mm > 59 || ss < 0 || ss > 59)
+      return std::nullopt;
+    const auto t = static_cast<std::time_t>(std::floor(start_unix_s));
+    std::tm local{};
+    if (!localtime_r(&t, &local)) return std::nullopt;
+    local.tm_hour = hh;
+    local.tm_min = mm;
+    local.tm_sec = ss;
+    local.tm_isdst = -1;
+    double at = static_cast<double>(std::mktime(&local));
+    if (at < std::floor(start_unix_s)) at += 86400;  // past midnight
+    return at - start_unix_s;
+  }
+  double v = 0;
+  if (!(in >> v) || !in.eof() || !std::isfinite(v) || v < 0) return std::nullopt;
+  return v;
+}
+
+namespace {
+
+struct LoadedConfig {
+  InstallationConfig config;
+  std::optional<std::filesystem::path> orders;
+};
+
+/// The session's installation from its snapshot (or what it falls back to), notes for every
+/// file that is not as recorded.
+LoadedConfig session_config(const std::filesystem::path& dir, const json& m, const LineReader& mr,
+                            const ReplayOptions& options, std::vector<std::string>& notes) {
+  // ${data_dir}: --data-dir, else $KUMITE_DATA_DIR, else the folder it was when recorded.
+  std::optional<std::filesystem::path> data_dir = options.data_dir;
+  if (const char* env = std::getenv(kDataDirEnv); !data_dir && env && *env) data_dir = std::filesystem::path(env);
+  if (!data_dir && m.contains("data_dir") && m["data_dir"].is_string()) data_dir = m["data_dir"].get<std::string>();
+  LoadedConfig out;
+  if (!m.contains("files")) {  // version 1: the config and orders script by path
+    const std::filesystem::path recorded = m.value("config", "");
+    const std::filesystem::path path = options.config_override.value_or(recorded);
+    if (hex(file_checksum(path)) != m.value("config_fnv", ""))
+      notes.push_back(fmt::format("{}: differs from the recorded config's checksum: frames may differ", path.string()));
+    out.config = load_installation_config(path, options.data_dir);
+    if (m.contains("orders_script") && m["orders_script"].is_string()) {
+      out.orders = m["orders_script"].get<std::string>();
+      if (hex(file_checksum(*out.orders)) != m.value("orders_fnv", ""))
+        notes.push_back(fmt::format("{}: differs from the recorded orders script: frames may differ", out.orders->string()));
+    }
+    return out;
+  }
+  // Each snapshot file: there, whole and unchanged, else its source as it is now (said).
+  struct Usable {
+    std::string role;
+    int index = -1;
+    std::optional<std::filesystem::path> path;  // none: missing when recorded, or now
+  };
+  std::vector<Usable> usable;
+  const json& files = mr.at(m, "files", "files");
+  if (!files.is_array()) mr.fail("files", "expected an array");
+  for (const json& f : files) {
+    Usable u;
+    const json& role = mr.at(f, "role", "files.role");
+    if (!role.is_string()) mr.fail("files.role", "not a string");
+    u.role = role.get<std::string>();
+    u.index = f.contains("index") ? static_cast<int>(mr.whole(f["index"], "files.index", 0, 1e6)) : -1;
+    const std::filesystem::path source = f.value("source", "");
+    if (!f.contains("snapshot") || f["snapshot"].is_null()) {
+      // Missing when recorded (a character left out): missing for the replay too.
+      usable.push_back(u);
+      continue;
+    }
+    const json& rel = f["snapshot"];
+    if (!rel.is_string()) mr.fail("files.snapshot", "not a string");
+    const std::filesystem::path snap = dir / rel.get<std::string>();
+    const auto bytes = read_bytes(snap);
+    const auto want_bytes = static_cast<std::uint64_t>(mr.whole(mr.at(f, "bytes", "files.bytes"), "files.bytes", 0, 9007199254740992.0));
+    std::string problem;
+    if (!bytes)
+      problem = "missing";
+    else if (bytes->size() < want_bytes)
+      problem = fmt::format("cut short ({} of {} bytes)", bytes->size(), want_bytes);
+    else if (bytes->size() != want_bytes || hex(fnv_of(*bytes)) != f.value("fnv", ""))
+      problem = "changed since it was recorded (checksum)";
+    if (problem.empty()) {
+      u.path = snap;
+    } else if (std::filesystem::exists(source)) {
+      u.path = source;
+      notes.push_back(fmt::format("{}: {}: replaying with {} as it is now: frames may differ", snap.string(), problem,
+                                  source.string()));
+    } else {
+      notes.push_back(fmt::format("{}: {}, and {} is gone: replaying without it: frames may differ", snap.string(),
+                                  problem, source.string()));
+    }
+    usable.push_back(u);
+  }
+  const auto find = [&](std::string_view role, int index = -1) -> const Usable* {
+    for (const auto& u : usable)
+      if (u.role == role && u.index == index) return &u;
+    return nullptr;
+  };
+  // The config: --config, else the snapshot, else (it no longer validates) the source.
+  const Usable* cfg = find("config");
+  if (options.config_override) {
+    notes.push_back(fmt::format("{}: replaying with --config instead of the recorded snapshot: frames may differ",
+                                options.config_override->string()));
+    out.config = load_installation_config(*options.config_override, data_dir);
+  } else {
+    if (!cfg || !cfg->path) throw Error("replay", "missing", fmt::format("{}: no installation file to replay with (the "
+                                                                         "snapshot and its source are gone)",
+                                                                         (dir / "manifest.json").string()));
+    try {
+      out.config = load_installation_config(*cfg->path, data_dir);
+    } catch (const Error& e) {
+      std::filesystem::path source;
+      for (const json& f : files)
+        if (f.value("role", "") == "config") source = f.value("source", "");
+      if (source.empty() || source == *cfg->path || !std::filesystem::exists(source)) throw;
+      notes.push_back(fmt::format("{}: the snapshot no longer validates: replaying with {} as it is now: frames may differ",
+                                  e.what(), source.string()));
+      out.config = load_installation_config(source, data_dir);
+    }
+  }
+  // The snapshot's paths are relative to the original file's folder: point them at the
+  // snapshot's copies (or what stands in for them). --config keeps its own characters and
+  // tracking files; the orders are the session's.
+  InstallationConfig& c = out.config;
+  if (const Usable* u = find("orders")) {
+    if (u->path) out.orders = std::filesystem::absolute(*u->path);
+  }
+  c.orders_script.reset();  // none recorded: none replayed
+  if (options.config_override) return out;
+  for (std::size_t i = 0; i < c.characters.size(); ++i) {
+    const Usable* u = find("character", static_cast<int>(i));
+    c.characters[i].bvh = u && u->path ? std::filesystem::absolute(*u->path)
+                                       : std::filesystem::absolute(dir / fmt::format("snapshot/missing-{}.bvh", i + 1));
+  }
+  if (const Usable* u = find("tracking"); u && u->path) c.tracking.tracking = std::filesystem::absolute(*u->path);
+  if (const Usable* u = find("calibration"); u && u->path) c.tracking.calibration = std::filesystem::absolute(*u->path);
+  if (m.contains("recording") && m["recording"].is_string()) c.tracking.recording = m["recording"].get<std::string>();
+  if (m.contains("database") && m["database"].is_object()) {
+    const json& d = m["database"];
+    const std::filesystem::path recorded = d.value("source", "");
+    // A "${data_dir}/..." database moves with the data folder; else the path recorded.
+    const std::filesystem::path now =
+        c.fighter.database.string().rfind(kDataDirPlaceholder, 0) == 0 ? c.resolve(c.fighter.database) : recorded;
+    c.fighter.database = std::filesystem::absolute(now);
+    if (!std::filesystem::exists(now))
+      notes.push_back(fmt::format("{}: the fighter database is gone: replaying without a fighter: frames differ",
+                                  now.string()));
+    else if (!d.contains("fnv") || !d["fnv"].is_string() || hex(file_checksum(now)) != d["fnv"].get<std::string>())
+      notes.push_back(fmt::format("{}: the fighter database differs from the one recorded (checksum): frames may differ",
+                                  now.string()));
+  }
+  return out;
+}
+
+}  // namespace
+
+namespace {
+ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& options, std::string& where);
+}  // namespace
+
+ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOptions& options) {
+  // A value of the wrong JSON type (a hand-edited or damaged session) throws from the JSON
+  // library: said in one line naming the file (and line) being read.
+  std::string where = (dir / "manifest.json").string();
+  try {
+    return replay(dir, options, where);
+  } catch (const json::exception& e) {
+    throw Error("replay", "json", fmt::format("{}: {}", where, e.what()));
+  }
+}
+
+namespace {
+
+ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& options, std::string& where) {
   ReplayReport rep;
   const auto manifest_path = dir / "manifest.json";
   std::ifstream mf(manifest_path);
@@ -345,22 +719,22 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
   if (m.is_discarded() || !m.is_object()) mr.fail("", "not valid JSON (or not an object)");
   const double version = mr.num(mr.at(m, "version", "version"), "version");
   if (version > kSessionVersion)
-    mr.fail("version", fmt::format("session version {} is newer than this kumite reads ({})", version, kSessionVersion));
+    rep.notes.push_back(fmt::format("{}: version: session version {} is newer than this kumite reads ({}): replayed as "
+                                    "version {}; a difference may be the format's",
+                                    manifest_path.string(), version, kSessionVersion, kSessionVersion));
   if (!m.value("complete", false))
     rep.notes.push_back(fmt::format("{}: complete: false: the recording did not end cleanly (killed?): replaying its "
                                     "complete frames", manifest_path.string()));
-  const std::filesystem::path recorded_config = m.value("config", "");
-  const std::filesystem::path config_path = config_override.value_or(recorded_config);
-  if (hex(file_checksum(config_path)) != m.value("config_fnv", ""))
-    rep.notes.push_back(fmt::format("{}: differs from the recorded config's checksum: frames may differ", config_path.string()));
-  auto config = load_installation_config(config_path, data_dir);
+  if (m.value("stopped", json(nullptr)) == "budget")
+    rep.notes.push_back(fmt::format("{}: stopped: the disk budget ({} MB) was spent: the session ends there",
+                                    manifest_path.string(), m.value("budget_mb", 0.0)));
+  if (const double dropped = m.contains("dropped") ? mr.whole(m["dropped"], "dropped", 0, 9007199254740992.0) : 0; dropped > 0)
+    rep.notes.push_back(fmt::format("{}: dropped: {} frame(s) were dropped while recording: the replay stops at the first",
+                                    manifest_path.string(), dropped));
+  LoadedConfig loaded = session_config(dir, m, mr, options, rep.notes);
   InstallationOptions io;
   io.mono_eyes = m.value("mono_eyes", false);
-  if (m.contains("orders_script") && m["orders_script"].is_string()) {
-    io.orders_script = m["orders_script"].get<std::string>();
-    if (hex(file_checksum(*io.orders_script)) != m.value("orders_fnv", ""))
-      rep.notes.push_back(fmt::format("{}: differs from the recorded orders script: frames may differ", io.orders_script->string()));
-  }
+  io.orders_script = loaded.orders;
 
   const auto session_path = dir / "session.jsonl";
   std::ifstream in(session_path, std::ios::binary);
@@ -370,8 +744,11 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
   std::size_t pos = 0;
   std::unique_ptr<Installation> inst;
   std::optional<std::uint64_t> expected;
-  const auto t0 = std::chrono::steady_clock::now();
-  Timestamp first_now = 0, last_now = 0;
+  std::optional<double> from_s;
+  double start = 0;
+  auto t0 = std::chrono::steady_clock::now();
+  std::chrono::steady_clock::time_point pace0;
+  Timestamp first_now = 0, last_now = 0, pace_now0 = 0;
   while (pos < all.size()) {
     const auto end = all.find('\n', pos);
     ++r.line;
@@ -381,14 +758,31 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
     }
     const json j = json::parse(std::string_view(all).substr(pos, end - pos), nullptr, false);
     pos = end + 1;
-    if (j.is_discarded() || !j.is_object()) r.fail("", "not valid JSON (or not an object)");
+    where = fmt::format("{}:{}", r.file, r.line);
+    if (j.is_discarded() || !j.is_object()) {
+      rep.notes.push_back(fmt::format("{}:{}: not valid JSON: the replay stops there", r.file, r.line));
+      break;
+    }
     if (!inst) {
-      const double start = r.num(r.at(j, "start", "start"), "start");
-      inst = std::make_unique<Installation>(config, std::make_unique<ReplayTracking>(j.value("has_tracker", false)), io);
+      start = r.num(r.at(j, "start", "start"), "start");
+      inst = std::make_unique<Installation>(loaded.config, std::make_unique<ReplayTracking>(j.contains("has_tracker") && j["has_tracker"].is_boolean() && j["has_tracker"].get<bool>()), io);
       inst->start(start);
+      const auto first =
+          j.contains("first_frame") ? static_cast<std::uint64_t>(r.whole(j["first_frame"], "first_frame", 0, 9007199254740992.0)) : 0;
+      if (first > 0) {
+        rep.compared = false;
+        rep.notes.push_back(fmt::format("{}:{}: first_frame: the recording started at frame {} of the run (the record "
+                                        "key): the state before it was not recorded, so its frames are re-run from a "
+                                        "fresh start and not compared", r.file, r.line, first));
+      }
+      if (options.from) {
+        from_s = parse_replay_from(*options.from, j.value("unix_s", m.value("created_unix_s", 0.0)));
+        if (!from_s) throw Error("cli", "from", fmt::format("--from {}: expected seconds (12.5) or a time of day (21:14:05)", *options.from));
+      }
       continue;
     }
-    const auto frame = static_cast<std::uint64_t>(r.num(r.at(j, "frame", "frame"), "frame"));
+    const auto frame = static_cast<std::uint64_t>(r.whole(r.at(j, "frame", "frame"), "frame", 0, 9007199254740992.0));
+    if (rep.frames_recorded == 0) t0 = std::chrono::steady_clock::now();  // the frames' time, not the start-up's
     ++rep.frames_recorded;
     if (expected && frame != *expected) {
       rep.notes.push_back(fmt::format("{}:{}: frame {} follows frame {}: frames {}..{} were dropped while recording; the "
@@ -397,10 +791,22 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
     }
     expected = frame + 1;
     const FrameInput input = parse_input(r.at(j, "input", "input"), r);
+    const bool shown = !from_s || input.now - start >= *from_s;
+    if (shown && !rep.from_frame) {
+      rep.from_frame = frame;
+      rep.from_s = input.now - start;
+      pace0 = std::chrono::steady_clock::now();
+      pace_now0 = input.now;
+    }
+    if (shown && options.real_time)
+      std::this_thread::sleep_until(pace0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                std::chrono::duration<double>(input.now - pace_now0)));
     const FrameData& f = inst->replay(input);
+    if (shown && options.on_frame) options.on_frame(f);
     if (rep.frames_replayed == 0) first_now = input.now;
     last_now = input.now;
     ++rep.frames_replayed;
+    if (!rep.compared) continue;
     const StateHashes got = state_hashes(f);
     const json& want = r.at(j, "hash", "hash");
     for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k) {
@@ -415,9 +821,14 @@ ReplayReport replay_session(const std::filesystem::path& dir, const std::optiona
     if (!rep.identical) break;
   }
   if (!inst) throw file_error("replay", "session", session_path.string(), 1, "start", "no start line: nothing recorded");
+  if (from_s && !rep.from_frame && rep.identical)
+    rep.notes.push_back(fmt::format("--from {}: {:.3f} s is past the last frame replayed ({:.3f} s)", *options.from,
+                                    *from_s, last_now - start));
   rep.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   rep.session_s = last_now - first_now;
   return rep;
 }
+
+}  // namespace
 
 }  // namespace kumite::app

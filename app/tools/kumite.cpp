@@ -42,7 +42,10 @@ struct Args {
   std::string data_dir;
   int render_nice = 5;
   int verbosity = 1;
-  std::string record, replay;
+  std::string record, replay, replay_from;
+  double record_budget_mb = 0;
+  bool record_budget_given = false;
+  bool replay_real_time = false;
   bool config_given = false;
   // kumite export
   std::string export_log, export_bvh, export_head_csv;
@@ -189,19 +192,14 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
     tracking = kumite::app::make_fixed_head_input(std::string("tracking unavailable: ") + e.what());
   }
   kumite::app::Installation inst(config, std::move(tracking), io);
-  std::unique_ptr<kumite::app::SessionRecorder> recorder;
-  if (!a.record.empty()) {
-    kumite::app::SessionInfo info;
-    info.config = std::filesystem::absolute(a.config);
-    if (io.orders_script)
-      info.orders_script = std::filesystem::absolute(*io.orders_script);
-    else if (config.orders_script)
-      info.orders_script = std::filesystem::absolute(config.resolve(*config.orders_script));
-    info.mono_eyes = io.mono_eyes;
-    recorder = std::make_unique<kumite::app::SessionRecorder>(a.record, info);
-    inst.record_to(recorder.get());
-    spdlog::info("record: every frame's inputs and state hashes -> {}", a.record);
-  }
+  // --record DIR records from the start; the record key (if bound) starts and stops a
+  // recording into --record's folder (default out/session; "-2", "-3"... when taken).
+  kumite::app::RecordSwitch recording(
+      inst,
+      kumite::app::session_info(config, io, a.record_budget_given ? std::optional<double>(a.record_budget_mb) : std::nullopt),
+      a.record.empty() ? "out/session" : a.record);
+  if (!a.record.empty()) recording.start();
+  inst.on_record_key([&recording] { recording.toggle(); });
   kumite::app::RunInfo info;
   info.config = std::filesystem::absolute(a.config);
   info.mode = headless ? "headless" : "windows";
@@ -216,10 +214,7 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
   mo.process_started = process_started;
   kumite::app::RunMonitor monitor(info, mo);
   const auto finish = [&](int rc) {
-    if (recorder) {
-      inst.record_to(nullptr);
-      recorder->close();
-    }
+    recording.finish();
     return rc;
   };
   // The tracker's threads are running (at the process's priority); the render thread and the
@@ -248,9 +243,12 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
 }
 
 int run_replay(const Args& a) {
-  const auto rep = kumite::app::replay_session(
-      a.replay, a.config_given ? std::optional<std::filesystem::path>(a.config) : std::nullopt,
-      a.data_dir.empty() ? std::nullopt : std::optional<std::filesystem::path>(a.data_dir));
+  kumite::app::ReplayOptions ro;
+  if (a.config_given) ro.config_override = a.config;
+  if (!a.data_dir.empty()) ro.data_dir = a.data_dir;
+  if (!a.replay_from.empty()) ro.from = a.replay_from;
+  ro.real_time = a.replay_real_time;
+  const auto rep = kumite::app::replay_session(a.replay, ro);
   for (const auto& n : rep.notes) spdlog::warn("replay: {}", n);
   const double speed = rep.wall_s > 0 ? rep.session_s / rep.wall_s : 0;
   if (!rep.identical) {
@@ -258,6 +256,14 @@ int run_replay(const Args& a) {
                              (std::filesystem::path(a.replay) / "session.jsonl").string(), *rep.first_difference_frame,
                              rep.first_difference_field);
     return 1;
+  }
+  if (rep.from_frame && !a.replay_from.empty())
+    spdlog::info("replay: shown from frame {} ({:.3f} s into the session){}", *rep.from_frame, rep.from_s,
+                 a.replay_real_time ? ", in real time" : "");
+  if (!rep.compared) {
+    spdlog::info("replay: {} of {} recorded frames re-run, not compared ({:.2f} s of session in {:.2f} s)",
+                 rep.frames_replayed, rep.frames_recorded, rep.session_s, rep.wall_s);
+    return 2;
   }
   spdlog::info("replay: {} of {} recorded frames replayed, every state identical to the recording ({:.2f} s of session "
                "in {:.2f} s: {:.0f}x real time)",
@@ -294,7 +300,12 @@ int main(int argc, char** argv) {
   app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->capture_default_str();
   app.add_option("--record", a.record,
                  "record the session into this folder: every frame's inputs and state hashes (kumite --replay)");
+  app.add_option("--record-budget-mb", a.record_budget_mb,
+                 "MB a recording may take on disk, then it stops with a warning (default: [record] budget_mb, 2048)");
   app.add_option("--replay", a.replay, "re-run a recorded session from its inputs and check every frame against it");
+  app.add_option("--from", a.replay_from,
+                 "replay: show from this time: seconds into the session (12.5) or the time of day (21:14:05)");
+  app.add_flag("--real-time", a.replay_real_time, "replay: frames at the pace they were recorded (default: as fast as possible)");
   CLI::App* exp = app.add_subcommand(
       "export", "from a frames.jsonl: the fighter's performance as BVH on its character's skeleton, the head poses as CSV");
   exp->add_option("--log", a.export_log, "frames.jsonl of a run")->required();
@@ -325,6 +336,7 @@ int main(int argc, char** argv) {
     if (exp->parsed()) return run_export(a);
     if (status->parsed()) return run_status(a);
     a.config_given = app.count("--config") > 0;
+    a.record_budget_given = app.count("--record-budget-mb") > 0;
     if (!a.replay.empty()) return run_replay(a);
     const int rc = run(a, stop, process_started);
     if (const int sig = stop.load(); sig != 0) {

@@ -77,7 +77,7 @@ struct ProjectionConfig {
 /// to the fighter, or quit. Text form (the file, the console): "punch_left", "punch_right",
 /// "kick_left", "kick_right", "pause", "resume", "recentre", "character N" (1-based), "quit".
 struct KeyAction {
-  enum class Kind : std::uint8_t { order, quit };
+  enum class Kind : std::uint8_t { order, quit, record };  ///< record: start / stop recording
   Kind kind = Kind::order;
   OrderKind order = OrderKind::punch_right;  ///< kind == order
   int character = -1;                        ///< 0-based, for OrderKind::select_character
@@ -186,6 +186,9 @@ struct InstallationConfig {
   std::optional<std::filesystem::path> orders_script;  ///< `time_s,order` rows, as written
   HealthConfig health;
   SafetyConfig safety;
+  /// [record] budget_mb: MB a session recording (kumite --record, the record key) may take on
+  /// disk; recording stops there with a warning (kumite --record-budget-mb overrides).
+  double record_budget_mb = 2048.0;
 
   /// Source line of each key path ("walls[1].lower_left", "stereo.mode"); 0 when unknown.
   std::map<std::string, int> lines;

@@ -4,6 +4,7 @@
 // happens elsewhere from FrameData. Nothing here waits on a camera, a file or retrieval.
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -236,8 +237,15 @@ class Installation {
   /// What the last step() took from outside.
   const FrameInput& input() const { return input_; }
   /// Every step from now on hands its input and its state's hashes to `recorder` (never
-  /// waiting on it); nullptr stops. The recorder must outlive the steps.
-  void record_to(SessionRecorder* recorder) { recorder_ = recorder; }
+  /// waiting on it); nullptr stops. The recorder must outlive the steps. Given after start(),
+  /// the recording begins at the next frame (the record key).
+  void record_to(SessionRecorder* recorder);
+  const SessionRecorder* recorder() const { return recorder_; }
+  /// The record key (KeyAction::Kind::record): calls what on_record_key() set, if anything.
+  void record_key() {
+    if (record_key_) record_key_();
+  }
+  void on_record_key(std::function<void()> f) { record_key_ = std::move(f); }
   Timestamp start_time() const { return start_; }
   bool has_tracker() const;
   /// The tracker's source is still loading (a recording's preload): the show is not up yet.
@@ -292,6 +300,7 @@ class Installation {
   FrameInput input_;
   const FrameInput* replaying_ = nullptr;
   SessionRecorder* recorder_ = nullptr;
+  std::function<void()> record_key_;
 };
 
 }  // namespace kumite::app

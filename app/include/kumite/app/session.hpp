@@ -1,24 +1,32 @@
 #pragma once
-// Recording and replaying a session (issue 13, first steps).
+// Recording and replaying a session (issue 13).
 //
-// `kumite ... --record DIR` writes DIR/manifest.json and DIR/session.jsonl. session.jsonl:
-// a first line {"start": s, "has_tracker": bool}, then one line per frame {"frame", "input":
-// the FrameInput (times, keyed orders, the tracker's snapshot and clock; numbers written
-// exactly), "hash": {field: 16 hex digits}} — the state's hashes per field (state_hashes).
+// `kumite ... --record DIR` (or the record key) writes a session folder:
+//   manifest.json   format, version, times, the snapshot's files with their sizes and checksums,
+//                   the fighter database's path and checksum, counts, drops, the budget
+//   snapshot/       the installation file, orders script, tracking.toml, rig calibration and
+//                   character BVHs exactly as they were when recording started
+//   session.jsonl   a first line {"start": s, "unix_s", "has_tracker", "first_frame"}, then one
+//                   line per frame {"frame", "input": the FrameInput (times, keyed orders, the
+//                   tracker's snapshot and clock; numbers written exactly), "hash": {field: 16
+//                   hex digits}}: the state's hashes per field (state_hashes).
 // Lines are written by a writer thread (the frame loop only queues a copy; when the queue is
 // full the frame is dropped and counted, never waited for), one write(2) each, so a session
 // killed with SIGKILL is readable up to its last complete line. manifest.json is written
 // (atomically) when recording starts, with "complete": false, and again at the end with the
-// counts, drops and the FNV-1a 64 checksum of session.jsonl.
+// counts, drops and the FNV-1a 64 checksum of session.jsonl. Past its disk budget the writer
+// stops (one warning; the manifest says "stopped": "budget").
 //
-// `kumite --replay DIR` re-runs the frames from the recorded inputs with the config and
-// orders script the manifest names (their checksums are compared and a change is said), and
-// checks every frame's hashes against the recording: the first difference is reported with
-// its frame and field.
+// `kumite --replay DIR` re-runs the frames from the recorded inputs with the snapshot's config,
+// characters and orders script and checks every frame's hashes against the recording: the
+// first difference is reported with its frame and field. A snapshot file missing, cut short or
+// changed, a snapshot config that no longer validates, a changed database, a newer version, a
+// killed recorder: one line each naming the file, and what can be replayed is.
 #include <array>
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -29,8 +37,8 @@
 
 namespace kumite::app {
 
-/// Session format version this build writes and reads.
-constexpr int kSessionVersion = 1;
+/// Session format version this build writes and reads (1: no snapshot, the config by path).
+constexpr int kSessionVersion = 2;
 
 /// Hashes (FNV-1a 64 over the exact bytes) of a frame's state, per field.
 struct StateHashes {
@@ -43,44 +51,76 @@ StateHashes state_hashes(const FrameData& frame);
 /// FNV-1a 64 of a file's bytes (0 when it cannot be read).
 std::uint64_t file_checksum(const std::filesystem::path& path);
 
+/// What a recording snapshots and notes about the run.
 struct SessionInfo {
-  std::filesystem::path config;                        ///< absolute
-  std::optional<std::filesystem::path> orders_script;  ///< absolute
+  /// The installation as run (`file`: the installation file it was read from; "" when built
+  /// in code: then no config snapshot, and the session cannot be replayed from its folder).
+  InstallationConfig config;
+  std::optional<std::filesystem::path> orders_script;  ///< the script run (overrides the config's)
   bool mono_eyes = false;                              ///< InstallationOptions::mono_eyes
+  double budget_mb = 2048;                             ///< MB on disk, then recording stops
 };
+/// The info for a run of `config` with `options`; `budget_mb` overrides the config's
+/// [record] budget_mb (kumite --record-budget-mb).
+SessionInfo session_info(const InstallationConfig& config, const InstallationOptions& options,
+                         std::optional<double> budget_mb = std::nullopt);
 
 class SessionRecorder {
  public:
-  /// Creates DIR (or uses an empty existing one) and writes the first manifest. Throws
-  /// kumite::Error("io", ...) naming the path.
+  /// Creates DIR (or uses an empty existing one), copies the snapshot and writes the first
+  /// manifest. Throws kumite::Error("io", ...) naming the path.
   SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames = 512);
   ~SessionRecorder();  ///< close() if not done (errors then only logged)
   SessionRecorder(const SessionRecorder&) = delete;
   SessionRecorder& operator=(const SessionRecorder&) = delete;
 
-  /// From Installation::start.
-  void started(Timestamp start, bool has_tracker);
+  /// From Installation::start (first_frame 0), or Installation::record_to on a running
+  /// installation (the record key): the run's start and the first frame recorded.
+  void started(Timestamp start, bool has_tracker, std::uint64_t first_frame = 0);
   /// From the frame loop: queues a copy, never waits for the disk (full queue: dropped, counted).
   void push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes);
   /// Writes what is queued, then the final manifest. Throws kumite::Error on a failed write.
   void close();
   std::uint64_t frames_written() const;
   std::uint64_t dropped() const;
+  std::uint64_t bytes() const { return bytes_.load(std::memory_order_relaxed); }  ///< on disk so far
+  /// True once the disk budget is spent: nothing more is written.
+  bool budget_reached() const { return budget_reached_.load(std::memory_order_relaxed); }
   const std::filesystem::path& dir() const { return dir_; }
+  /// One line for the console: folder, frames, MB of the budget, drops, stopped.
+  std::string status_line() const;
 
  private:
   struct Item {
     std::uint64_t frame = 0;
     FrameInput input;
     StateHashes hashes;
-    std::optional<std::pair<Timestamp, bool>> start;
+    struct Start {
+      Timestamp start = 0;
+      bool has_tracker = false;
+      std::uint64_t first_frame = 0;
+      double unix_s = 0;
+    };
+    std::optional<Start> start;
   };
+  struct SnapshotFile {
+    std::string role;  ///< config, orders, tracking, calibration, character
+    int index = -1;    ///< character: its index in the config
+    std::filesystem::path source;  ///< absolute
+    std::string snapshot;          ///< relative to the session folder ("": not there when recorded)
+    std::uint64_t fnv = 0, bytes = 0;
+  };
+  void snapshot();
   void run();
   void write_manifest(bool complete);
   void write_line(const std::string& line);
 
   std::filesystem::path dir_;
   SessionInfo info_;
+  std::vector<SnapshotFile> files_;
+  std::filesystem::path database_;  ///< absolute ("" none)
+  std::uint64_t database_fnv_ = 0, database_bytes_ = 0;
+  std::uint64_t budget_bytes_ = 0;
   int fd_ = -1;
   // A single-producer (the frame loop) single-consumer (the writer) ring of preallocated
   // items: the frame loop never takes a lock the writer holds (the writer runs at a low
@@ -88,31 +128,73 @@ class SessionRecorder {
   // vectors and strings have grown, never allocates.
   std::vector<Item> slots_;
   std::atomic<std::uint64_t> head_{0}, tail_{0};
-  std::atomic<bool> stop_{false};
-  std::atomic<std::uint64_t> written_{0}, dropped_{0}, pushed_{0};
+  std::atomic<bool> stop_{false}, budget_reached_{false};
+  std::atomic<std::uint64_t> written_{0}, dropped_{0}, pushed_{0}, bytes_{0};
   std::uint64_t checksum_ = 14695981039346656037ull;  // the writer's (read after join)
   std::string error_;                                 // the writer's (read after join)
+  std::optional<Item::Start> start_;                  // the writer's (read after join)
   double created_unix_s_ = 0;
   std::thread thread_;
 };
 
+/// The record key and --record: starts and stops session recordings of one installation.
+/// A recording started while the installation runs (the key) begins at that frame: its
+/// replay cannot reproduce the state before it, so its frames are re-run but not compared.
+class RecordSwitch {
+ public:
+  /// `folder`: where a recording goes (if it is taken, "<folder>-2", "-3", ...).
+  RecordSwitch(Installation& installation, SessionInfo info, std::filesystem::path folder);
+  ~RecordSwitch();  ///< stops (errors only logged)
+  void start();     ///< throws kumite::Error when the folder cannot be made
+  void stop();      ///< closes the recording on a thread of its own (the frame loop goes on)
+  void toggle();    ///< the record key: start or stop (errors logged, the run goes on)
+  bool recording() const { return static_cast<bool>(recorder_); }
+  /// Stops, and waits for the recordings being closed (their errors are logged).
+  void finish();
+
+ private:
+  Installation& inst_;
+  SessionInfo info_;
+  std::filesystem::path folder_;
+  std::unique_ptr<SessionRecorder> recorder_;
+  std::vector<std::thread> closing_;
+};
+
+struct ReplayOptions {
+  /// Replay with this installation file instead of the snapshot (said in a note).
+  std::optional<std::filesystem::path> config_override;
+  std::optional<std::filesystem::path> data_dir;  ///< what ${data_dir} means (default: as recorded)
+  /// Where the replay starts being shown and paced: "S" (seconds since the start, e.g. "12.5")
+  /// or a wall-clock time "HH:MM:SS" on the recording's clock (its manifest's start time).
+  /// Frames before it are still re-run (the state needs them), as fast as possible.
+  std::optional<std::string> from;
+  bool real_time = false;  ///< from `from` on, frames at the pace they were recorded
+  /// Called with each frame from `from` on (a presenter; nullptr: none).
+  std::function<void(const FrameData&)> on_frame;
+};
+
 struct ReplayReport {
   std::uint64_t frames_recorded = 0;  ///< complete frame lines in session.jsonl
-  std::uint64_t frames_replayed = 0;  ///< replayed and compared
+  std::uint64_t frames_replayed = 0;  ///< replayed (and compared unless !compared)
+  bool compared = true;               ///< false: a recording started mid-run (not comparable)
   bool identical = true;
   std::optional<std::uint64_t> first_difference_frame;
   std::string first_difference_field;
+  std::optional<std::uint64_t> from_frame;  ///< the first frame at or after ReplayOptions::from
+  double from_s = 0;                        ///< s since the start, that frame's
   std::vector<std::string> notes;     ///< one line each: what could not be replayed, changed files
   double wall_s = 0;                  ///< s, the replay's own time
   double session_s = 0;               ///< s, the recorded frames' time span
 };
 
-/// Re-runs DIR's frames without rendering and compares them. `config_override`: replay with
-/// another installation file than the manifest's (its checksum difference is noted).
-/// Throws kumite::Error for a session that cannot be replayed at all (no manifest, a newer
-/// version, no start line), naming the file.
-ReplayReport replay_session(const std::filesystem::path& dir,
-                            const std::optional<std::filesystem::path>& config_override = std::nullopt,
-                            const std::optional<std::filesystem::path>& data_dir = std::nullopt);
+/// Re-runs DIR's frames without rendering and compares them. Throws kumite::Error for a
+/// session that cannot be replayed at all (no manifest, no start line, no config that loads),
+/// naming the file.
+ReplayReport replay_session(const std::filesystem::path& dir, const ReplayOptions& options = {});
+
+/// "S" or "HH:MM:SS" (see ReplayOptions::from) as seconds since a start at `start_unix_s`
+/// (local time; a clock time before the start's time of day is on the next day). nullopt:
+/// neither form, or out of range.
+std::optional<double> parse_replay_from(std::string_view text, double start_unix_s);
 
 }  // namespace kumite::app
