@@ -78,7 +78,9 @@ TEST(RecordedSession, TheRepositorysSessionReplaysBitForBit) {
                                             (kSession / "session.jsonl").string(),
                                             rep.first_difference_frame.value_or(0), rep.first_difference_field)
                              << kReRecord;
-  if (rep.identical) EXPECT_EQ(rep.frames_replayed, frames);
+  if (rep.identical) {
+    EXPECT_EQ(rep.frames_replayed, frames);
+  }
 }
 
 TEST(RecordedSession, AChangedStepIsCaughtAtItsFrameAndField) {
