@@ -21,6 +21,30 @@ double smoothstep(double x) {
   return x * x * (3 - 2 * x);
 }
 double wrap(double a) { return std::remainder(a, 2 * std::numbers::pi); }
+/// The clip's root on the floor at segment time t (clip coordinates, linear between frames).
+Vector2d root_at(const MotionSegment& seg, double t) {
+  const double x = std::clamp(t / seg.frame_time_s, 0.0, static_cast<double>(seg.frame_count() - 1));
+  const int i0 = std::min(static_cast<int>(x), seg.frame_count() - 2);
+  const double a = x - i0;
+  return (1 - a) * seg.frames[static_cast<std::size_t>(i0)].root_xz_m + a * seg.frames[static_cast<std::size_t>(i0 + 1)].root_xz_m;
+}
+/// The part of the clip's root travel that Source::Travel scales, at segment time t: all of it
+/// from `from_s` to contact, then a weight easing from 1 to 0 over `release_s` (integrated per
+/// frame: the extra travel stops smoothly, with the clip's own motion, not at once).
+Vector2d scaled_travel(const MotionSegment& seg, const auto& travel, double t) {
+  if (t <= travel.from_s) return Vector2d::Zero();
+  const double tc = std::max(travel.from_s, travel.contact_s);
+  Vector2d g = root_at(seg, std::min(t, tc)) - root_at(seg, travel.from_s);
+  if (t <= tc || travel.release_s <= 0) return g;
+  const double end = std::min(t, tc + travel.release_s);
+  const double h = seg.frame_time_s;
+  for (double a = tc; a < end - 1e-12; a += h) {
+    const double b = std::min(end, a + h);
+    const double w = 1 - smoothstep((0.5 * (a + b) - tc) / travel.release_s);
+    g += w * (root_at(seg, b) - root_at(seg, a));
+  }
+  return g;
+}
 int group_of(const Effector& e) { return e.side + 2 * (e.leg ? 1 : 0); }
 std::optional<Effector> effector_of(OrderKind k) {
   switch (k) {
@@ -151,6 +175,13 @@ void Behaviour::sample(const Source& s, MkmFrame& out) const {
   const int i0 = std::min(static_cast<int>(x), seg.frame_count() - 2);
   MkmFrame mixed;
   blend_mkm(seg.frames[static_cast<std::size_t>(i0)], seg.frames[static_cast<std::size_t>(i0 + 1)], x - i0, mixed);
+  if (!s.loop && s.travel.scale != 1) mixed.root_xz_m += (s.travel.scale - 1) * scaled_travel(seg, s.travel, t);
+  if (!s.loop && s.travel.rise_n != 0) {
+    const Source::Travel& tr = s.travel;
+    const double w = t <= tr.contact_s ? smoothstep((t - tr.from_s) / std::max(1e-6, tr.contact_s - tr.from_s))
+                                       : 1 - smoothstep((t - tr.contact_s) / std::max(1e-6, tr.release_s));
+    mixed.root_height_n += w * tr.rise_n;
+  }
   place_mkm(mixed, s.placement, s.anchor_xz_m, stride_scale(), out);
 }
 
@@ -235,6 +266,18 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     // Freeze the target now: the visitor's head (punches) or below it (kicks: the torso).
     Vector3d target = explicit_target.value_or(head);
     if (!explicit_target && eff->leg) target.y() -= tun_.kick_target_drop_m;
+    if (!eff->leg) {
+      // A head the arm cannot reach (a visitor much taller than the character): aim at the
+      // highest point the arm reaches at max_punch_aim_deg from a standing shoulder, on the
+      // visitor's neck and chest below the head (still the visitor's body).
+      const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+      const CJ shoulder = eff->side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
+      const double floor = std::min({at(rig.rest_pose, CJ::l_ankle).y(), at(rig.rest_pose, CJ::l_toe).y(),
+                                     at(rig.rest_pose, CJ::r_ankle).y(), at(rig.rest_pose, CJ::r_toe).y()});
+      const double top = at(rig.rest_pose, shoulder).y() - floor +
+                         rig.morphology.arm_length(eff->side) * std::sin(tun_.max_punch_aim_deg * std::numbers::pi / 180);
+      if (target.y() > top) target.y() = top;
+    }
     StrikeRequest r;
     r.id = next_request_++;
     r.group = group_of(*eff);
@@ -251,7 +294,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   orders_.swap(deferred);
 }
 
-void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
+void Behaviour::align_to_support_foot(Source& s) const {
   // The clip is placed by its pelvis; shift it on the floor so that its support foot (planted
   // at the start and staying down longest) lands where that foot is held now: the motion then
   // swings its other foot and moves its body around a foot that does not have to move, as in
@@ -275,26 +318,86 @@ void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
   const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
   Vector2d shift(held.x() - at(c, ankle).x(), held.z() - at(c, ankle).z());
   // Along the line to the target: never back away for it (the held foot then steps up to where
-  // the clip has it, rather than the whole strike landing short), and never so far forward
-  // that the body ends up in the visitor at contact (a lunge travels): the pelvis stays at
-  // least min_contact_distance_m short of the target then, moving the clip back if need be.
+  // the clip has it, rather than the whole strike landing short).
   if (strike_target_) {
     Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
     if (dir.norm() > 1e-6) {
       dir.normalize();
-      Source at_contact = s;
-      at_contact.time_s = contact_time_s;
-      MkmFrame contact_pose;
-      sample(at_contact, contact_pose);
-      const double ahead = (Vector2d(strike_target_->x(), strike_target_->z()) - contact_pose.root_xz_m).dot(dir);
       const double along = shift.dot(dir);
-      const double wanted = std::min(std::max(along, 0.0), ahead - tun_.min_contact_distance_m);
-      shift += (wanted - along) * dir;
+      shift -= std::min(along, 0.0) * dir;
     }
   }
   const double limit = tun_.max_support_shift_m;
   if (shift.norm() > limit) shift *= limit / shift.norm();
   s.placement.origin_xz += shift;
+}
+
+void Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
+  // A lunge travels a fixed distance in the clip; the target is nearer or farther. Scale the
+  // clip's floor travel up to contact (a shorter or longer lunge: Source::Travel) so that at
+  // contact the limb's root (shoulder / hip) is as far from the target as the clip has it from
+  // its own hit point: the limb arrives as extended as captured and d(t) only turns it,
+  // instead of folding a straight punch up onto a near head or stretching it to a far one.
+  // Clips that hardly travel keep their travel; the pelvis always stays min_contact_distance_m
+  // short of the target at contact.
+  s.travel = Source::Travel{};
+  if (!strike_target_) return;
+  Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
+  if (dir.norm() < 1e-6) return;
+  dir.normalize();
+  s.travel.from_s = s.time_s;
+  s.travel.contact_s = contact_time_s;
+  s.travel.release_s = tun_.release_time_s;
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  const auto eff = seg.effector();
+  if (!eff) return;
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  Source at_contact = s;
+  at_contact.time_s = contact_time_s;
+  MkmFrame start_pose, contact_pose;
+  sample(s, start_pose);
+  sample(at_contact, contact_pose);
+  const Vector2d travel2 = contact_pose.root_xz_m - start_pose.root_xz_m;
+  const Vector3d target = *strike_target_;
+  double k = 0;  // scale - 1
+  const double leg = rig.morphology.leg_length_m;
+  CanonicalPose c;
+  decode_canonical(rig, contact_pose, c);
+  const CJ root = eff->leg ? (eff->side == kLeft ? CJ::l_hip : CJ::r_hip) : (eff->side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+  Vector3d limb_root = at(c, root);
+  const double reach = (at(c, eff->joint()) - limb_root).norm();
+  if (!eff->leg) {
+    // A target above what the arm reaches at max_punch_elevation_deg: raise the pelvis toward
+    // its standing height (a higher stance), at most max_strike_rise_m.
+    const double standing_n = at(rig.rest_pose, CJ::pelvis).y() / leg;
+    const double room = std::max(0.0, standing_n - contact_pose.root_height_n) * leg;
+    const double above = target.y() - limb_root.y() - reach * std::sin(tun_.max_punch_elevation_deg * std::numbers::pi / 180);
+    const double rise = std::clamp(above, 0.0, std::min(room, tun_.max_strike_rise_m));
+    s.travel.rise_n = rise / leg;
+    if (std::getenv("KUMITE_DEBUG_TRAVEL")) fmt::print(stderr, "standing {:.3f} contact {:.3f} above {:.3f} root_y {:.3f} reach {:.3f}\n", standing_n * leg, contact_pose.root_height_n * leg, above, limb_root.y(), reach);
+    limb_root.y() += rise;
+  }
+  if (travel2.norm() >= tun_.min_scaled_travel_m) {
+    const Vector3d T(travel2.x(), 0, travel2.y());
+    const Vector3d u = target - limb_root;
+    // |u - k T| = reach, the root approaching from behind (the smaller k); when no k reaches
+    // (a target far above or below), the k that comes closest.
+    const double tt = T.squaredNorm(), ut = u.dot(T);
+    const double disc = ut * ut - tt * (u.squaredNorm() - reach * reach);
+    k = disc >= 0 ? (ut - std::sqrt(disc)) / tt : ut / tt;
+    k = std::clamp(k, tun_.min_travel_scale - 1, tun_.max_travel_scale - 1);
+    const double td = T.x() * dir.x() + T.z() * dir.y();
+    if (td > 1e-6) {
+      const double ahead = (Vector2d(target.x(), target.z()) - contact_pose.root_xz_m).dot(dir);
+      k = std::min(k, (ahead - tun_.min_contact_distance_m) / td);
+    }
+    k = std::max(k, tun_.min_travel_scale - 1);
+  } else {
+    // No travel to scale: keep the pelvis short of the target by moving the clip back.
+    const double ahead = (Vector2d(target.x(), target.z()) - contact_pose.root_xz_m).dot(dir);
+    if (ahead < tun_.min_contact_distance_m) s.placement.origin_xz -= (tun_.min_contact_distance_m - ahead) * dir;
+  }
+  s.travel.scale = 1 + k;
 }
 
 void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
@@ -310,7 +413,8 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   current_.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   current_.anchor_xz_m = g_clip.origin_xz;
   strike_target_ = pending_->target_room_m;
-  align_to_support_foot(current_, plan.contact_frame * seg.frame_time_s);
+  align_to_support_foot(current_);
+  place_strike_travel(current_, plan.contact_frame * seg.frame_time_s);
   const Order order = pending_->order;
   strike_ = StrikeInfo{};
   strike_.active = true;
@@ -443,6 +547,14 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   earlier.time_s -= dt;
   sample(earlier, before);
 
+  // The motion's own ankle heights (without a strike's pelvis rise): a heel it raises.
+  MkmFrame unraised = cur;
+  if (current_.travel.rise_n != 0) {
+    Source plain = current_;
+    plain.travel.rise_n = 0;
+    sample(plain, unraised);
+  }
+  constexpr double kLiftDeadband_m = 0.01;
   std::array<FootSample, 2> in;
   for (int s = 0; s < 2; ++s) {
     const auto us = static_cast<std::size_t>(s);
@@ -456,6 +568,26 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
     f.free_ankle_m = rig_positions_[hip] + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
     f.source_step_m = mkm_ankle(rig, cur, s) - mkm_ankle(rig, before, s);
+    if (!f.planted && !current_.loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
+      // Where the motion puts this foot down next, and the horizontal way its ankle still goes.
+      const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+      const double land_t = current_.time_s + f.swing_left_s;
+      Source at = current_;
+      MkmFrame g;
+      Vector3d last = mkm_ankle(rig, cur, s);
+      double path = 0;
+      for (double t = (std::floor(current_.time_s / seg.frame_time_s) + 1) * seg.frame_time_s;; t += seg.frame_time_s) {
+        at.time_s = std::min(t, land_t);
+        sample(at, g);
+        const Vector3d p = mkm_ankle(rig, g, s);
+        path += Eigen::Vector2d(p.x() - last.x(), p.z() - last.z()).norm();
+        last = p;
+        if (t >= land_t) break;
+      }
+      f.has_landing = true;
+      f.landing_ankle_m = last;
+      f.source_path_left_m = path;
+    }
     f.drawn_ankle_m = rig_positions_[ankle];
     f.hip_m = rig_positions_[hip];
     f.leg_length_m = rig.morphology.limb_leg_length(s);
@@ -463,6 +595,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
                            std::min({rig.rest_pose[static_cast<std::size_t>(CJ::l_ankle)].y(), rig.rest_pose[static_cast<std::size_t>(CJ::l_toe)].y(),
                                      rig.rest_pose[static_cast<std::size_t>(CJ::r_ankle)].y(), rig.rest_pose[static_cast<std::size_t>(CJ::r_toe)].y()});
     f.reached = report_.foot_reached[us];
+    if (f.planted) f.source_lift_m = std::max(0.0, mkm_ankle(rig, unraised, s).y() - f.standing_ankle_y_m - kLiftDeadband_m);
     f.effector = reach && strike_.effector.leg && strike_.effector.side == s && state_ == FighterState::striking;
   }
   // Steps also while recovering: a strike that ends in a long stance steps back under the

@@ -26,8 +26,12 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
   const auto come_down = [&](Foot& f, const FootSample& in, double step_dt) {
     const double motion_fall = -in.source_step_m.y();
     const double fall = std::clamp(motion_fall, tun_.landing_speed_mps * step_dt, tun_.max_landing_speed_mps * step_dt);
-    f.lock.y() = std::max(in.standing_ankle_y_m, f.lock.y() - fall);
+    f.lock.y() = std::max(in.standing_ankle_y_m + in.source_lift_m, f.lock.y() - fall);
     f.offset = f.lock - in.free_ankle_m;
+  };
+  const auto hold = [&](Foot& f, const Vector3d& at) {
+    f.phase = Phase::held;
+    f.lock = at;
   };
   for (int s = 0; s < 2; ++s) {
     Foot& f = feet_[static_cast<std::size_t>(s)];
@@ -35,14 +39,12 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     const Foot& other = feet_[static_cast<std::size_t>(1 - s)];
     // The motion's contact counts only for a foot that is down: a cross-fade from a kick into
     // a standing motion says "planted" while the foot is still in the air.
-    const auto down = [&](const Vector3d& ankle) { return ankle.y() <= in.standing_ankle_y_m + tun_.landing_height_m; };
-    const auto near_floor = [&](const Vector3d& ankle) { return ankle.y() <= in.standing_ankle_y_m + tun_.landing_window_m; };
+    const double floor_y = in.standing_ankle_y_m + in.source_lift_m;  // the ankle's height when down now
+    const auto down = [&](const Vector3d& ankle) { return ankle.y() <= floor_y + tun_.landing_height_m; };
+    const auto near_floor = [&](const Vector3d& ankle) { return ankle.y() <= floor_y + tun_.landing_window_m; };
     switch (f.phase) {
       case Phase::free:
-        if (in.planted && !in.effector && down(in.drawn_ankle_m)) {
-          f.phase = Phase::held;
-          f.lock = in.drawn_ankle_m;  // where it is drawn now: holding it there moves nothing
-        }
+        if (in.planted && !in.effector && down(in.drawn_ankle_m)) hold(f, in.drawn_ankle_m);  // moves nothing
         break;
       case Phase::held: {
         if (!in.planted || in.effector) {
@@ -51,9 +53,22 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           f.offset = f.lock - in.free_ankle_m;
           break;
         }
+        // The heel rises and comes down with the motion's (toes stay put), at a foot's pace; a
+        // foot put down a little above the floor settles onto it.
+        // It comes down only as far as the leg reaches with its knee still bent (a straight
+        // knee moves centimetres per millimetre of ankle): else it waits on its toes.
+        const double want_y = floor_y;
+        double new_y = f.lock.y() + std::clamp(want_y - f.lock.y(), -tun_.max_landing_speed_mps * dt, tun_.max_landing_speed_mps * dt);
+        if (new_y < f.lock.y()) {
+          const double reach = tun_.max_leg_stretch * in.leg_length_m;
+          const double horiz = Eigen::Vector2d(f.lock.x() - in.hip_m.x(), f.lock.z() - in.hip_m.z()).norm();
+          const double lowest = horiz < reach ? in.hip_m.y() - std::sqrt(reach * reach - horiz * horiz) : f.lock.y();
+          new_y = std::min(f.lock.y(), std::max(new_y, lowest));
+        }
+        f.lock.y() = new_y;
         // Land ahead of the body: half a step's worth of its current velocity.
         Vector3d target = in.free_ankle_m + Vector3d(body_velocity_xz.x(), 0, body_velocity_xz.y()) * (0.5 * tun_.step_time_s);
-        target.y() = f.lock.y();
+        target.y() = floor_y;
         const bool lagging = other.phase != Phase::stepping && (target - f.lock).norm() > tun_.step_threshold_m;
         const double stretch = (f.lock - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
@@ -71,8 +86,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // Shed the offset by the time the motion plants the foot again, but never faster than
         // a share of the motion's own foot travel (a foot the motion barely moves stays put).
         if (in.planted && !in.effector && down(in.drawn_ankle_m)) {
-          f.phase = Phase::held;  // down where it is drawn (a kicking foot was drawn off its lock)
-          f.lock = in.drawn_ankle_m;
+          hold(f, in.drawn_ankle_m);  // down where it is drawn (a kicking foot was drawn off its lock)
           break;
         }
         if (in.planted && !in.effector && !near_floor(f.lock)) {
@@ -107,6 +121,22 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           f.lock = in.free_ankle_m + f.offset;
           break;
         }
+        const double step_h = Eigen::Vector2d(in.source_step_m.x(), in.source_step_m.z()).norm();
+        const double path = in.source_path_left_m + step_h;
+        if (in.has_landing && path > tun_.min_swing_path_m) {
+          // Toward the landing: the share of the remaining way the source covers this update,
+          // at most max_swing_speed_ratio x the source's own speed.
+          Vector3d to = in.landing_ankle_m - f.lock;
+          to.y() = 0;
+          Vector3d move = to * std::min(1.0, step_h / path);
+          const double cap = tun_.max_swing_speed_ratio * step_h;
+          if (move.norm() > cap) move *= cap / move.norm();
+          f.lock += move;
+          f.lock.y() += in.source_step_m.y();
+          f.lock.y() = std::max(f.lock.y(), std::min(in.standing_ankle_y_m, in.free_ankle_m.y()));
+          f.offset = f.lock - in.free_ankle_m;
+          break;
+        }
         const double travel = in.source_step_m.norm();
         f.lock += in.source_step_m;
         Vector3d gap = in.free_ankle_m - f.lock;
@@ -126,10 +156,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           break;
         }
         come_down(f, in, dt);
-        if (f.lock.y() <= in.standing_ankle_y_m + 1e-9 || down(in.drawn_ankle_m)) {
-          f.phase = Phase::held;
-          f.lock.y() = std::min(f.lock.y(), in.drawn_ankle_m.y());
-        }
+        if (f.lock.y() <= floor_y + 1e-9 || down(in.drawn_ankle_m)) hold(f, Vector3d(f.lock.x(), std::min(f.lock.y(), in.drawn_ankle_m.y()), f.lock.z()));
         break;
       }
       case Phase::stepping:
@@ -138,10 +165,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // not a slide (travel over the middle 70 % of the step, lift over all of it).
         f.lock = f.step_from + (f.step_to - f.step_from) * smoothstep((f.step_t - 0.15) / 0.7) +
                  Vector3d::UnitY() * tun_.step_height_m * std::sin(std::numbers::pi * std::min(1.0, f.step_t));
-        if (f.step_t >= 1) {
-          f.phase = Phase::held;
-          f.lock = f.step_to;
-        }
+        if (f.step_t >= 1) hold(f, f.step_to);
         break;
     }
     out.weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : 1.0;

@@ -27,11 +27,14 @@ FighterConfig test_config() {
   return c;
 }
 
+/// Along the floor (a held foot's heel may rise and come down with the motion's: not a slide).
+double horizontal(const Vector3d& d) { return std::hypot(d.x(), d.z()); }
+
 struct Script {
   double t = 0;
   Vector3d head{0, 1.7, 0.9};
   double max_jump_m = 0;       // largest joint displacement between two updates
-  double max_slide_m = 0;      // largest displacement of a held ankle between two updates
+  double max_slide_m = 0;      // largest displacement of a held ankle along the floor between two updates
   std::vector<FighterEvent> events;
 
   void step(Behaviour& b, int n = 1) {
@@ -54,9 +57,9 @@ struct Script {
         const auto locked = b.feet_locked();
         const Rig& rig = b.character(b.current_character());
         if (locked[0] && locked_before[0])
-          max_slide_m = std::max(max_slide_m, (b.rig_positions()[static_cast<std::size_t>(rig.skeleton.index(CJ::l_ankle))] - la).norm());
+          max_slide_m = std::max(max_slide_m, horizontal(b.rig_positions()[static_cast<std::size_t>(rig.skeleton.index(CJ::l_ankle))] - la));
         if (locked[1] && locked_before[1])
-          max_slide_m = std::max(max_slide_m, (b.rig_positions()[static_cast<std::size_t>(rig.skeleton.index(CJ::r_ankle))] - ra).norm());
+          max_slide_m = std::max(max_slide_m, horizontal(b.rig_positions()[static_cast<std::size_t>(rig.skeleton.index(CJ::r_ankle))] - ra));
       }
     }
   }
@@ -158,7 +161,11 @@ TEST(Behaviour, TargetFrozenAtOrderTimeAndKicksWithoutClipsWarn) {
   b.order(order_of(OrderKind::punch_right));
   run.step(b);
   const Vector3d frozen = b.strike().target_room_m;
-  EXPECT_LT((frozen - run.head).norm(), 1e-12);
+  // The visitor's head as it was at the order (punched no higher than the arm reaches: the
+  // synthetic body is short, so at the neck below it).
+  EXPECT_LT(std::hypot(frozen.x() - run.head.x(), frozen.z() - run.head.z()), 1e-12);
+  EXPECT_LE(frozen.y(), run.head.y());
+  EXPECT_GT(frozen.y(), run.head.y() - 0.4);
   run.head += Vector3d(0.3, 0, 0);  // the visitor moves; the strike keeps its target
   run.until_contact(b);
   EXPECT_LT((b.strike().target_room_m - frozen).norm(), 1e-12);
@@ -167,6 +174,30 @@ TEST(Behaviour, TargetFrozenAtOrderTimeAndKicksWithoutClipsWarn) {
   run.step(b, 2);
   EXPECT_EQ(run.count(FighterEvent::Kind::warning), 1);
   EXPECT_NE(b.state(), FighterState::striking);
+}
+
+// A visitor whose head the character's arm cannot reach (0.6 m above the head of the synthetic
+// body) is punched at the neck or chest, and that counts as a hit on the tracked body; a head
+// within reach is punched where it is.
+TEST(Behaviour, AHeadOutOfReachIsPunchedLowerAndStillHits) {
+  for (const double lift : {0.0, 0.6}) {
+    Behaviour b = make_behaviour();
+    Script run;
+    run.step(b, 10);
+    const Vector3d own_head = b.frame().joints[static_cast<std::size_t>(b.character(0).skeleton.index(CJ::head))];
+    run.head.y() = own_head.y() + lift;
+    run.step(b, 30);
+    b.order(order_of(OrderKind::punch_right));
+    run.step(b);
+    const Vector3d target = b.strike().target_room_m;
+    if (lift == 0.0) {
+      EXPECT_NEAR(target.y(), run.head.y(), 1e-12) << "a head within reach is the target";
+    } else {
+      EXPECT_LT(target.y(), run.head.y() - 0.3) << "a head 0.6 m above the fighter's is punched lower";
+    }
+    run.until_contact(b);
+    EXPECT_EQ(run.count(FighterEvent::Kind::hit), 1) << "lift " << lift;
+  }
 }
 
 // Switching character mid-strike: drawn joints stay continuous. Bound: the largest per-update

@@ -37,7 +37,10 @@ Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) 
     const auto locked = b.feet_locked();
     for (int s = 0; s < 2; ++s) {
       if (!(locked[s] && locked_before[s])) continue;
-      const double d = (b.rig_positions()[static_cast<std::size_t>(ankles[s])] - before[s]).norm();
+      // Along the floor: a held foot's heel may rise and come down with the motion's (a lunge's
+      // back foot on its toes), which is not a slide.
+      const Vector3d step = b.rig_positions()[static_cast<std::size_t>(ankles[s])] - before[s];
+      const double d = std::hypot(step.x(), step.z());
       o.max_slide_m = std::max(o.max_slide_m, d);
     }
   }

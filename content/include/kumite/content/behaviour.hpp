@@ -77,6 +77,16 @@ struct BehaviourTunables {
                                       ///< so that its support foot starts where that foot is held
   double min_contact_distance_m = 0.45;  ///< m: at contact the pelvis stays this far short of the
                                          ///< target (horizontally) when the clip is placed
+  double min_travel_scale = 0.35;     ///< a strike clip's floor travel to contact is scaled to
+  double max_travel_scale = 1.5;      ///< fit the target, within these factors (a shorter or
+                                      ///< longer lunge)
+  double min_scaled_travel_m = 0.12;  ///< m: clips that travel less to contact keep their travel
+  double max_strike_rise_m = 0.12;    ///< m: the most the pelvis is raised toward standing for a
+                                      ///< target above the clip's own hit
+  double max_punch_elevation_deg = 20;  ///< a punch aims at most this steeply upward before the
+                                        ///< pelvis is raised (up to max_strike_rise_m)
+  double max_punch_aim_deg = 40;      ///< a visitor's head higher than a standing shoulder's arm
+                                      ///< reaches at this elevation is punched lower (neck, chest)
   FootPlantingTunables feet;          ///< foot holding, swings and procedural steps
 };
 
@@ -162,9 +172,21 @@ class Behaviour {
     GroundFrame placement;
     Eigen::Vector2d anchor_xz_m{0, 0};
     bool loop = false;
+    /// A strike's floor travel scaled (a shorter or longer lunge): the root moves `scale` times
+    /// the clip's own travel from `from_s` to `contact_s`, then eases back to the clip's own
+    /// speed over `release_s` (position and speed continuous). 1: the clip as captured.
+    struct Travel {
+      double scale = 1;
+      double from_s = 0;     ///< s, segment time where the scaling starts
+      double contact_s = 0;  ///< s, segment time of contact
+      double release_s = 0.25;
+      double rise_n = 0;     ///< pelvis raised by this (/ leg length) at contact, eased in from
+                             ///< `from_s` and out over `release_s` (a high target)
+    } travel;
   };
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
   void start_strike(const StrikePlan& plan, Timestamp now);
+  void place_strike_travel(Source& s, double contact_time_s) const;
   void select_character(int index, Timestamp now);
   void sample(const Source& s, MkmFrame& out) const;
   double stride_scale() const;
@@ -172,7 +194,7 @@ class Behaviour {
   void update_follow(double dt, const Eigen::Vector3d& head);
   void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
   void compute_reach_error(double at_time_s);
-  void align_to_support_foot(Source& s, double contact_time_s) const;
+  void align_to_support_foot(Source& s) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   void emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance = 0);

@@ -30,6 +30,10 @@ struct FootPlantingTunables {
   double max_landing_speed_mps = 2.0;  ///< m/s: the most
   double return_speed_mps = 2.0;   ///< m/s: a foot the motion has down but that is higher than
                                    ///< landing_window_m goes back to the motion's foot this fast
+  double min_swing_path_m = 0.05;  ///< m: a lifted foot heads for the motion's landing when the
+                                   ///< source still travels its ankle this far (else it follows the source)
+  double max_swing_speed_ratio = 1.5;  ///< a foot heading for its landing moves at most this
+                                       ///< many times the source's horizontal speed
 };
 
 /// What the motion says of one foot this update.
@@ -41,10 +45,22 @@ struct FootSample {
   /// last update. A lifted foot travels this much (plus a share shed toward free_ankle_m), so
   /// it moves at the source's pace even while one motion fades into another.
   Eigen::Vector3d source_step_m{0, 0, 0};
+  /// A lifted foot's landing, where the motion being played puts this ankle down next (m, room),
+  /// and how far (m, horizontally, along its path) the motion's ankle still travels to get
+  /// there from where it is now. The foot covers the same share of its own way to the landing
+  /// each update as the source covers of its path: it lands where the motion lands it, with
+  /// the source's speed profile, whatever stance it lifted from.
+  bool has_landing = false;
+  Eigen::Vector3d landing_ankle_m{0, 0, 0};
+  double source_path_left_m = 0;
   Eigen::Vector3d drawn_ankle_m{0, 0, 0};  ///< m, room: where the ankle was drawn at the last update
   Eigen::Vector3d hip_m{0, 0, 0};          ///< m, room: the hip drawn at the last update
   double leg_length_m = 1;         ///< m, thigh + shin
   double standing_ankle_y_m = 0.08;  ///< m, the ankle's height above the floor when standing
+  /// m: how far the motion has this ankle above its standing height while the foot is in
+  /// contact (a heel raised onto the toes, as the back foot of a lunge): a held foot's ankle
+  /// rises and comes down with it, instead of the pelvis dropping to keep a flat foot.
+  double source_lift_m = 0;
   bool reached = true;             ///< the held ankle was within the leg's reach at the last solve
   bool effector = false;           ///< the kicking foot while d(t) acts on it: never held down anew
 };
