@@ -51,6 +51,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           // The motion lifts the foot: carry the gap to the motion's foot through the swing.
           f.phase = Phase::swinging;
           f.offset = f.lock - in.free_ankle_m;
+          f.swing_way_m = -1;
+          f.swing_progress = 0;
           break;
         }
         // The heel rises and comes down with the motion's (toes stay put), at a foot's pace; a
@@ -128,12 +130,21 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           // at most max_swing_speed_ratio x the source's own speed.
           Vector3d to = in.landing_ankle_m - f.lock;
           to.y() = 0;
+          if (f.swing_way_m < 0) f.swing_way_m = to.norm();
           Vector3d move = to * std::min(1.0, step_h / path);
           const double cap = tun_.max_swing_speed_ratio * step_h;
           if (move.norm() > cap) move *= cap / move.norm();
           f.lock += move;
           f.lock.y() += in.source_step_m.y();
           f.lock.y() = std::max(f.lock.y(), std::min(in.standing_ankle_y_m, in.free_ankle_m.y()));
+          // Clear the floor over the way (the source may start this foot mid-air, higher than
+          // ours, and bring it down while ours still has its whole way to go).
+          if (f.swing_way_m > 1e-6) {
+            const double way_left = Eigen::Vector2d(in.landing_ankle_m.x() - f.lock.x(), in.landing_ankle_m.z() - f.lock.z()).norm();
+            f.swing_progress = std::max(f.swing_progress, std::clamp(1 - way_left / f.swing_way_m, 0.0, 1.0));
+            const double lift = std::min(tun_.swing_lift_m, 0.25 * f.swing_way_m) * std::sin(std::numbers::pi * f.swing_progress);
+            f.lock.y() = std::max(f.lock.y(), in.standing_ankle_y_m + lift);
+          }
           f.offset = f.lock - in.free_ankle_m;
           break;
         }
@@ -153,6 +164,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         if (!in.planted || in.effector) {  // lifted again before it touched down
           f.phase = Phase::swinging;
           f.offset = f.lock - in.free_ankle_m;
+          f.swing_way_m = -1;
+          f.swing_progress = 0;
           break;
         }
         come_down(f, in, dt);

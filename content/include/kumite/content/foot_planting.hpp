@@ -34,6 +34,9 @@ struct FootPlantingTunables {
                                    ///< source still travels its ankle this far (else it follows the source)
   double max_swing_speed_ratio = 1.5;  ///< a foot heading for its landing moves at most this
                                        ///< many times the source's horizontal speed
+  double swing_lift_m = 0.10;      ///< m: a foot heading for its landing clears the floor by at
+                                   ///< least this at mid-way (at most 0.25 x its way), a sine over
+                                   ///< the way: a step, never a skim along the floor
 };
 
 /// What the motion says of one foot this update.
@@ -91,6 +94,8 @@ class FootPlanter {
     Eigen::Vector3d lock{0, 0, 0};    ///< m, room: where the ankle is held
     Eigen::Vector3d offset{0, 0, 0};  ///< m: swinging: lock - free ankle, shed over the swing
     double step_t = 0;                ///< stepping: 0..1
+    double swing_way_m = -1;          ///< swinging toward a landing: its way along the floor (m), -1 unknown
+    double swing_progress = 0;        ///< swinging: share of that way covered, 0..1 (never decreases)
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
   };
   FootPlantingTunables tun_;
