@@ -21,12 +21,26 @@ double smoothstep(double x) {
   return x * x * (3 - 2 * x);
 }
 double wrap(double a) { return std::remainder(a, 2 * std::numbers::pi); }
-/// The clip's root on the floor at segment time t (clip coordinates, linear between frames).
-Vector2d root_at(const MotionSegment& seg, double t) {
+/// Segment time t as the frame before it and the share of the way to the next (clamped to the clip).
+struct FramePair {
+  std::size_t i0;
+  double a;
+};
+FramePair frame_pair(const MotionSegment& seg, double t) {
   const double x = std::clamp(t / seg.frame_time_s, 0.0, static_cast<double>(seg.frame_count() - 1));
   const int i0 = std::min(static_cast<int>(x), seg.frame_count() - 2);
-  const double a = x - i0;
-  return (1 - a) * seg.frames[static_cast<std::size_t>(i0)].root_xz_m + a * seg.frames[static_cast<std::size_t>(i0 + 1)].root_xz_m;
+  return {static_cast<std::size_t>(i0), x - i0};
+}
+/// The clip's root on the floor at segment time t (clip coordinates, linear between frames).
+Vector2d root_at(const MotionSegment& seg, double t) {
+  const auto [i0, a] = frame_pair(seg, t);
+  return (1 - a) * seg.frames[i0].root_xz_m + a * seg.frames[i0 + 1].root_xz_m;
+}
+/// The floor under a rig's rest pose: its lowest ankle or toe joint (m, rig frame).
+double rest_floor_y(const Rig& rig) {
+  const CanonicalPose& r = rig.rest_pose;
+  return std::min({at(r, CanonicalJoint::l_ankle).y(), at(r, CanonicalJoint::l_toe).y(), at(r, CanonicalJoint::r_ankle).y(),
+                   at(r, CanonicalJoint::r_toe).y()});
 }
 /// The part of the clip's root travel that Source::Travel scales, at segment time t: all of it
 /// from `from_s` to contact, then a weight easing from 1 to 0 over `release_s` (integrated per
@@ -171,10 +185,9 @@ void Behaviour::sample(const Source& s, MkmFrame& out) const {
     t = std::fmod(std::max(0.0, t), 2 * period);  // ping-pong: no seam to blend over
     if (t > period) t = 2 * period - t;
   }
-  const double x = std::clamp(t / seg.frame_time_s, 0.0, static_cast<double>(seg.frame_count() - 1));
-  const int i0 = std::min(static_cast<int>(x), seg.frame_count() - 2);
+  const auto [i0, a] = frame_pair(seg, t);
   MkmFrame mixed;
-  blend_mkm(seg.frames[static_cast<std::size_t>(i0)], seg.frames[static_cast<std::size_t>(i0 + 1)], x - i0, mixed);
+  blend_mkm(seg.frames[i0], seg.frames[i0 + 1], a, mixed);
   if (!s.loop && s.travel.scale != 1) mixed.root_xz_m += (s.travel.scale - 1) * scaled_travel(seg, s.travel, t);
   if (!s.loop && s.travel.rise_n != 0) {
     const Source::Travel& tr = s.travel;
@@ -272,9 +285,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
       // visitor's neck and chest below the head (still the visitor's body).
       const Rig& rig = characters_[static_cast<std::size_t>(character_)];
       const CJ shoulder = eff->side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
-      const double floor = std::min({at(rig.rest_pose, CJ::l_ankle).y(), at(rig.rest_pose, CJ::l_toe).y(),
-                                     at(rig.rest_pose, CJ::r_ankle).y(), at(rig.rest_pose, CJ::r_toe).y()});
-      const double top = at(rig.rest_pose, shoulder).y() - floor +
+      const double top = at(rig.rest_pose, shoulder).y() - rest_floor_y(rig) +
                          rig.morphology.arm_length(eff->side) * std::sin(tun_.max_punch_aim_deg * std::numbers::pi / 180);
       if (target.y() > top) target.y() = top;
     }
@@ -374,7 +385,6 @@ void Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
     const double above = target.y() - limb_root.y() - reach * std::sin(tun_.max_punch_elevation_deg * std::numbers::pi / 180);
     const double rise = std::clamp(above, 0.0, std::min(room, tun_.max_strike_rise_m));
     s.travel.rise_n = rise / leg;
-    if (std::getenv("KUMITE_DEBUG_TRAVEL")) fmt::print(stderr, "standing {:.3f} contact {:.3f} above {:.3f} root_y {:.3f} reach {:.3f}\n", standing_n * leg, contact_pose.root_height_n * leg, above, limb_root.y(), reach);
     limb_root.y() += rise;
   }
   if (travel2.norm() >= tun_.min_scaled_travel_m) {
@@ -591,9 +601,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     f.drawn_ankle_m = rig_positions_[ankle];
     f.hip_m = rig_positions_[hip];
     f.leg_length_m = rig.morphology.limb_leg_length(s);
-    f.standing_ankle_y_m = rig.rest_pose[static_cast<std::size_t>(s == kLeft ? CJ::l_ankle : CJ::r_ankle)].y() -
-                           std::min({rig.rest_pose[static_cast<std::size_t>(CJ::l_ankle)].y(), rig.rest_pose[static_cast<std::size_t>(CJ::l_toe)].y(),
-                                     rig.rest_pose[static_cast<std::size_t>(CJ::r_ankle)].y(), rig.rest_pose[static_cast<std::size_t>(CJ::r_toe)].y()});
+    f.standing_ankle_y_m = at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle).y() - rest_floor_y(rig);
     f.reached = report_.foot_reached[us];
     if (f.planted) f.source_lift_m = std::max(0.0, mkm_ankle(rig, unraised, s).y() - f.standing_ankle_y_m - kLiftDeadband_m);
     f.effector = reach && strike_.effector.leg && strike_.effector.side == s && state_ == FighterState::striking;

@@ -59,8 +59,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // foot put down a little above the floor settles onto it.
         // It comes down only as far as the leg reaches with its knee still bent (a straight
         // knee moves centimetres per millimetre of ankle): else it waits on its toes.
-        const double want_y = floor_y;
-        double new_y = f.lock.y() + std::clamp(want_y - f.lock.y(), -tun_.max_landing_speed_mps * dt, tun_.max_landing_speed_mps * dt);
+        double new_y = f.lock.y() + std::clamp(floor_y - f.lock.y(), -tun_.max_landing_speed_mps * dt, tun_.max_landing_speed_mps * dt);
         if (new_y < f.lock.y()) {
           const double reach = tun_.max_leg_stretch * in.leg_length_m;
           const double horiz = Eigen::Vector2d(f.lock.x() - in.hip_m.x(), f.lock.z() - in.hip_m.z()).norm();
