@@ -42,23 +42,8 @@ double rest_floor_y(const Rig& rig) {
   return std::min({at(r, CanonicalJoint::l_ankle).y(), at(r, CanonicalJoint::l_toe).y(), at(r, CanonicalJoint::r_ankle).y(),
                    at(r, CanonicalJoint::r_toe).y()});
 }
-/// The part of the clip's root travel that Source::Travel scales, at segment time t: all of it
-/// from `from_s` to contact, then a weight easing from 1 to 0 over `release_s` (integrated per
-/// frame: the extra travel stops smoothly, with the clip's own motion, not at once).
-Vector2d scaled_travel(const MotionSegment& seg, const auto& travel, double t) {
-  if (t <= travel.from_s) return Vector2d::Zero();
-  const double tc = std::max(travel.from_s, travel.contact_s);
-  Vector2d g = root_at(seg, std::min(t, tc)) - root_at(seg, travel.from_s);
-  if (t <= tc || travel.release_s <= 0) return g;
-  const double end = std::min(t, tc + travel.release_s);
-  const double h = seg.frame_time_s;
-  for (double a = tc; a < end - 1e-12; a += h) {
-    const double b = std::min(end, a + h);
-    const double w = 1 - smoothstep((0.5 * (a + b) - tc) / travel.release_s);
-    g += w * (root_at(seg, b) - root_at(seg, a));
-  }
-  return g;
-}
+/// The integral of the release weight 1 - smoothstep(x) from 0 to x (x in [0, 1]).
+double eased_integral(double x) { return x - x * x * x + 0.5 * x * x * x * x; }
 int group_of(const Effector& e) { return e.side + 2 * (e.leg ? 1 : 0); }
 std::optional<Effector> effector_of(OrderKind k) {
   switch (k) {
@@ -125,6 +110,7 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
   switch_offset_.assign(max_joints, Vector3d::Zero());
+  eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames: no allocation while playing
   spot_xz_m_ = {config.home.x(), config.home.z()};
   facing_rad_ = 0;
   use_synchronous_planner(std::make_shared<StrikePlanner>(db_));
@@ -176,6 +162,38 @@ GroundFrame Behaviour::ground() const { return ground_frame_of(pose_); }
 
 std::array<bool, 2> Behaviour::feet_locked() const { return {feet_.held(kLeft), feet_.held(kRight)}; }
 
+Vector2d Behaviour::scaled_travel(const Source& s, const MotionSegment& seg, double t) const {
+  // The part of the clip's root travel that Source::Travel scales, at segment time t: all of it
+  // from `from_s` to contact, then weighted by 1 - smoothstep over `release_s` (the extra
+  // travel stops smoothly, with the clip's own motion, not at once). The root is linear within
+  // a frame, so the weighted travel is exact per frame; its running sums at contact and at each
+  // frame after it are kept for the strike being played (one pass per strike, O(1) per call).
+  const Source::Travel& tr = s.travel;
+  if (t <= tr.from_s) return Vector2d::Zero();
+  const double tc = std::max(tr.from_s, tr.contact_s);
+  Vector2d g = root_at(seg, std::min(t, tc)) - root_at(seg, tr.from_s);
+  if (t <= tc || tr.release_s <= 0) return g;
+  const double h = seg.frame_time_s, end = tc + tr.release_s;
+  const double first = std::ceil(tc / h - 1e-9) * h;  // the first frame at or after contact
+  // Knots: contact, then every frame time before the end of the release, then its end.
+  const auto knot = [&](std::size_t i) { return i == 0 ? tc : std::min(end, first + static_cast<double>(i - 1) * h); };
+  const auto part = [&](double a, double b) {  // weighted travel over [a, b] within one frame
+    if (b <= a) return Vector2d(Vector2d::Zero());
+    const Vector2d v = (root_at(seg, b) - root_at(seg, a)) / (b - a);
+    return Vector2d(v * tr.release_s * (eased_integral((b - tc) / tr.release_s) - eased_integral((a - tc) / tr.release_s)));
+  };
+  if (eased_.segment != s.segment || !(eased_.travel == tr)) {
+    eased_.segment = s.segment;
+    eased_.travel = tr;
+    eased_.cum.clear();
+    eased_.cum.push_back(Vector2d::Zero());
+    for (std::size_t i = 1; knot(i - 1) < end; ++i) eased_.cum.push_back(eased_.cum.back() + part(knot(i - 1), knot(i)));
+  }
+  if (t >= end) return g + eased_.cum.back();
+  const std::size_t i = t < first ? 0 : std::min(eased_.cum.size() - 1, 1 + static_cast<std::size_t>((t - first) / h));
+  return g + eased_.cum[i] + part(knot(i), t);
+}
+
 void Behaviour::sample(const Source& s, MkmFrame& out) const {
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
   const double period = (seg.frame_count() - 1) * seg.frame_time_s;
@@ -188,7 +206,18 @@ void Behaviour::sample(const Source& s, MkmFrame& out) const {
   const auto [i0, a] = frame_pair(seg, t);
   MkmFrame mixed;
   blend_mkm(seg.frames[i0], seg.frames[i0 + 1], a, mixed);
-  if (!s.loop && s.travel.scale != 1) mixed.root_xz_m += (s.travel.scale - 1) * scaled_travel(seg, s.travel, t);
+  place_sample(s, seg, t, mixed, out);
+}
+
+void Behaviour::sample_frame(const Source& s, int frame, MkmFrame& out) const {
+  // A strike source at one of its own frames: the frame itself, no blend (s.loop is false).
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  MkmFrame f = seg.frames[static_cast<std::size_t>(std::clamp(frame, 0, seg.frame_count() - 1))];
+  place_sample(s, seg, frame * seg.frame_time_s, f, out);
+}
+
+void Behaviour::place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const {
+  if (!s.loop && s.travel.scale != 1) mixed.root_xz_m += (s.travel.scale - 1) * scaled_travel(s, seg, t);
   if (!s.loop && s.travel.rise_n != 0) {
     const Source::Travel& tr = s.travel;
     const double w = t <= tr.contact_s ? smoothstep((t - tr.from_s) / std::max(1e-6, tr.contact_s - tr.from_s))
@@ -580,23 +609,33 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     f.source_step_m = mkm_ankle(rig, cur, s) - mkm_ankle(rig, before, s);
     if (!f.planted && !current_.loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
       // Where the motion puts this foot down next, and the horizontal way its ankle still goes.
-      const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
       const double land_t = current_.time_s + f.swing_left_s;
-      Source at = current_;
-      MkmFrame g;
-      Vector3d last = mkm_ankle(rig, cur, s);
-      double path = 0;
-      for (double t = (std::floor(current_.time_s / seg.frame_time_s) + 1) * seg.frame_time_s;; t += seg.frame_time_s) {
-        at.time_s = std::min(t, land_t);
-        sample(at, g);
-        const Vector3d p = mkm_ankle(rig, g, s);
-        path += Eigen::Vector2d(p.x() - last.x(), p.z() - last.z()).norm();
-        last = p;
-        if (t >= land_t) break;
+      const Vector3d now_m = mkm_ankle(rig, cur, s);
+      SwingPath& sp = swing_paths_[us];
+      const bool same = sp.segment == current_.segment && sp.character == character_ && std::abs(sp.land_t - land_t) < 1e-9 &&
+                        sp.placement.origin_xz == current_.placement.origin_xz && sp.placement.yaw_rad == current_.placement.yaw_rad &&
+                        sp.anchor_xz_m == current_.anchor_xz_m && sp.travel == current_.travel;
+      if (same) {
+        sp.way_left_m = std::max(0.0, sp.way_left_m - Eigen::Vector2d(now_m.x() - sp.last_m.x(), now_m.z() - sp.last_m.z()).norm());
+      } else {
+        // The source's own frames from now to the landing (swing_left_s ends on a frame).
+        const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+        const int land = std::min(static_cast<int>(std::lround(land_t / seg.frame_time_s)), seg.frame_count() - 1);
+        MkmFrame g;
+        Vector3d last = now_m;
+        double path = 0;
+        for (int k = static_cast<int>(std::floor(current_.time_s / seg.frame_time_s)) + 1; k <= land; ++k) {
+          sample_frame(current_, k, g);
+          const Vector3d p = mkm_ankle(rig, g, s);
+          path += Eigen::Vector2d(p.x() - last.x(), p.z() - last.z()).norm();
+          last = p;
+        }
+        sp = SwingPath{current_.segment, character_, land_t, current_.placement, current_.anchor_xz_m, current_.travel, last, now_m, path};
       }
+      sp.last_m = now_m;
       f.has_landing = true;
-      f.landing_ankle_m = last;
-      f.source_path_left_m = path;
+      f.landing_ankle_m = sp.landing_m;
+      f.source_path_left_m = sp.way_left_m;
     }
     f.drawn_ankle_m = rig_positions_[ankle];
     f.hip_m = rig_positions_[hip];

@@ -182,6 +182,7 @@ class Behaviour {
       double release_s = 0.25;
       double rise_n = 0;     ///< pelvis raised by this (/ leg length) at contact, eased in from
                              ///< `from_s` and out over `release_s` (a high target)
+      bool operator==(const Travel&) const = default;
     } travel;
   };
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
@@ -189,6 +190,9 @@ class Behaviour {
   void place_strike_travel(Source& s, double contact_time_s) const;
   void select_character(int index, Timestamp now);
   void sample(const Source& s, MkmFrame& out) const;
+  Eigen::Vector2d scaled_travel(const Source& s, const MotionSegment& seg, double t) const;
+  void sample_frame(const Source& s, int frame, MkmFrame& out) const;
+  void place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const;
   double stride_scale() const;
   void start_rest(Timestamp now);
   void update_follow(double dt, const Eigen::Vector3d& head);
@@ -240,6 +244,30 @@ class Behaviour {
   // Feet.
   FootPlanter feet_;
   FootLocks locks_;
+  /// Per foot, the landing of the swing under way and the source ankle's horizontal way left to
+  /// it: walked once when a swing (or the motion that plays it) begins, then reduced by each
+  /// update's own step, so a swing costs one pass over its frames rather than one per update.
+  struct SwingPath {
+    int segment = -1;        ///< -1: none
+    int character = -1;
+    double land_t = 0;       ///< s, segment time of the landing
+    GroundFrame placement;
+    Eigen::Vector2d anchor_xz_m{0, 0};
+    Source::Travel travel;
+    Eigen::Vector3d landing_m{0, 0, 0};  ///< m, room: the ankle at the landing
+    Eigen::Vector3d last_m{0, 0, 0};     ///< m, room: the source ankle at the last update
+    double way_left_m = 0;               ///< m, horizontal path from last_m to the landing
+  };
+  std::array<SwingPath, 2> swing_paths_{};
+  /// The strike's eased travel after contact (Source::Travel), summed per frame: cum[0] = 0 at
+  /// contact, cum[i] at the i-th knot (each frame time, then the release's end). Filled by the
+  /// first sample() of a strike that scales its travel; Behaviour is single-threaded.
+  struct EasedTravel {
+    int segment = -1;
+    Source::Travel travel;
+    std::vector<Eigen::Vector2d> cum;
+  };
+  mutable EasedTravel eased_;
 
   // Switch easing: per joint of the current rig, an offset fading to zero.
   std::vector<Eigen::Vector3d> switch_offset_;
