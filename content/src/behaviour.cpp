@@ -432,9 +432,12 @@ void Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
     }
     k = std::max(k, tun_.min_travel_scale - 1);
   } else {
-    // No travel to scale: keep the pelvis short of the target by moving the clip back.
+    // No travel to scale: keep the pelvis short of the target by moving the clip back, at most
+    // max_support_shift_m (as far as any placement shift goes: a target behind the fighter is
+    // not a reason to slide the whole strike away from it).
     const double ahead = (Vector2d(target.x(), target.z()) - contact_pose.root_xz_m).dot(dir);
-    if (ahead < tun_.min_contact_distance_m) s.placement.origin_xz -= (tun_.min_contact_distance_m - ahead) * dir;
+    if (ahead < tun_.min_contact_distance_m)
+      s.placement.origin_xz -= std::min(tun_.min_contact_distance_m - ahead, tun_.max_support_shift_m) * dir;
   }
   s.travel.scale = 1 + k;
 }
