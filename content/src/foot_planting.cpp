@@ -172,6 +172,15 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         break;
       }
       case Phase::stepping:
+        if (in.effector) {
+          // A kick takes the foot from wherever the step has it: a step carried on through the
+          // kick's approach would hold the foot on the floor at contact.
+          f.phase = Phase::swinging;
+          f.offset = f.lock - in.free_ankle_m;
+          f.swing_way_m = -1;
+          f.swing_progress = 0;
+          break;
+        }
         f.step_t += dt / tun_.step_time_s;
         // The foot leaves the floor before it travels and is down before it stops: a step,
         // not a slide (travel over the middle 70 % of the step, lift over all of it).

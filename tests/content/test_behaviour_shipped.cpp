@@ -108,3 +108,48 @@ TEST(BehaviourShipped, EveryCharacterReachesTargetsAroundHeadHeight) {
                 rigs[c].name.c_str(), h, reached, total, worst, worst_slide);
   }
 }
+
+// A kick ordered while its foot is in the middle of a procedural step (the fighter following
+// a visitor who moved): the kick takes the foot from where the step has it and lands on the
+// target. Seen in the demo: the step carried on through the strike and the kick "landed" with
+// the foot on the floor, 127 cm short.
+TEST(BehaviourShipped, AKickOrderedMidStepStillReachesItsTarget) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  FighterConfig cfg;
+  cfg.home = Vector3d::Zero();
+  cfg.min_x_m = cfg.min_z_m = -3;
+  cfg.max_x_m = cfg.max_z_m = 3;
+  const double dt = 1.0 / 120;
+  int tried = 0;
+  for (const OrderKind kind : {OrderKind::kick_left, OrderKind::kick_right}) {
+    const int side = kind == OrderKind::kick_left ? kLeft : kRight;
+    Behaviour b(set.db, {rigs[0]}, cfg);
+    double t = 0;
+    Vector3d head(0, 1.6, 0.9);
+    for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);
+    head = Vector3d(0.6, 1.6, 1.4);  // the visitor steps aside: the fighter follows with steps
+    bool stepping = false;
+    for (int i = 0; i < 600 && !stepping; ++i) {
+      b.update(t += dt, dt, head);
+      stepping = b.foot_planter().phase(side) == FootPlanter::Phase::stepping;
+    }
+    if (!stepping) continue;
+    ++tried;
+    const Vector3d target = b.ground().to_world(Vector3d(0, 0.55 * rigs[0].morphology.height_m, 0.45 * rigs[0].morphology.height_m));
+    b.order_strike(Order{t, kind}, target);
+    // From the strike's first update the kick owns the foot: never a procedural step while
+    // d(t) acts on it (a step that outlasts the kick's approach puts the foot on the floor at
+    // contact).
+    int stepping_while_kicking = 0;
+    for (int i = 0; i < 600 && !b.strike().contact_done; ++i) {
+      b.update(t += dt, dt, head);
+      if (b.state() == FighterState::striking && b.foot_planter().phase(side) == FootPlanter::Phase::stepping) ++stepping_while_kicking;
+    }
+    EXPECT_EQ(stepping_while_kicking, 0) << to_string(kind);
+    ASSERT_TRUE(b.strike().contact_done) << to_string(kind);
+    EXPECT_TRUE(b.strike().target_reached) << to_string(kind) << ": the kicking foot ended "
+                                           << b.strike().contact_distance_m << " m from the target";
+  }
+  EXPECT_GE(tried, 1) << "no foot was ever caught mid-step: the test did not test anything";
+}
