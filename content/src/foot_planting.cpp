@@ -33,6 +33,14 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.phase = Phase::held;
     f.lock = at;
   };
+  // Lifted (by the motion or a kick) from wherever the foot is: it carries its gap to the
+  // motion's foot, and starts a new way to its landing.
+  const auto start_swing = [&](Foot& f, const FootSample& in) {
+    f.phase = Phase::swinging;
+    f.offset = f.lock - in.free_ankle_m;
+    f.swing_way_m = -1;
+    f.swing_progress = 0;
+  };
   for (int s = 0; s < 2; ++s) {
     Foot& f = feet_[static_cast<std::size_t>(s)];
     const FootSample& in = samples[static_cast<std::size_t>(s)];
@@ -49,10 +57,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
       case Phase::held: {
         if (!in.planted || in.effector) {
           // The motion lifts the foot: carry the gap to the motion's foot through the swing.
-          f.phase = Phase::swinging;
-          f.offset = f.lock - in.free_ankle_m;
-          f.swing_way_m = -1;
-          f.swing_progress = 0;
+          start_swing(f, in);
           break;
         }
         // The heel rises and comes down with the motion's (toes stay put), at a foot's pace; a
@@ -161,10 +166,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
       }
       case Phase::landing: {
         if (!in.planted || in.effector) {  // lifted again before it touched down
-          f.phase = Phase::swinging;
-          f.offset = f.lock - in.free_ankle_m;
-          f.swing_way_m = -1;
-          f.swing_progress = 0;
+          start_swing(f, in);
           break;
         }
         come_down(f, in, dt);
@@ -175,10 +177,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         if (in.effector) {
           // A kick takes the foot from wherever the step has it: a step carried on through the
           // kick's approach would hold the foot on the floor at contact.
-          f.phase = Phase::swinging;
-          f.offset = f.lock - in.free_ankle_m;
-          f.swing_way_m = -1;
-          f.swing_progress = 0;
+          start_swing(f, in);
           break;
         }
         f.step_t += dt / tun_.step_time_s;
