@@ -12,9 +12,9 @@
 #include <sstream>
 
 #include <fmt/format.h>
-#include <toml++/toml.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/common/toml_reader.hpp"
 #include "kumite/common/wire.hpp"
 
 namespace kumite::app {
@@ -44,11 +44,10 @@ constexpr double kMinEdgeM = 0.01;
 /// A given upper_right corner may miss the implied one by this much (metres).
 constexpr double kCornerToleranceM = 0.01;
 
-std::string join_key(const std::string& path, std::string_view key) {
-  return path.empty() ? std::string(key) : path + "." + std::string(key);
-}
-
-/// Reads one file into an InstallationConfig, remembering the line of every key.
+/// Reads one file into an InstallationConfig. Every value goes through the project's strict
+/// reader (kumite/common/toml_reader.hpp): one wording and one set of codes for all files.
+/// Ranges and relations between keys are checked afterwards by validate(), which names lines
+/// from InstallationConfig::lines (every key of the file, recorded once by toml_key_lines).
 class Reader {
  public:
   Reader(std::string file, InstallationConfig& cfg) : file_(std::move(file)), cfg_(cfg) {}
@@ -60,127 +59,70 @@ class Reader {
 
   int line(const toml::node& n) const { return static_cast<int>(n.source().begin.line); }
 
-  void remember(const std::string& key, const toml::node& n) { cfg_.lines[key] = line(n); }
+  TomlTable at(const toml::table& t, const std::string& path) const { return TomlTable(t, "config", file_, path); }
 
   void only_keys(const toml::table& t, const std::string& path,
                  std::initializer_list<std::string_view> allowed) const {
-    for (auto&& [k, v] : t) {
-      if (std::find(allowed.begin(), allowed.end(), k.str()) == allowed.end()) {
-        std::string list;
-        for (auto a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
-        fail("unknown_key", line(v), join_key(path, k.str()),
-             fmt::format("unknown key (allowed here: {})", list));
-      }
-    }
+    at(t, path).only(allowed);
   }
 
   const toml::table* table(const toml::table& t, std::string_view key, const std::string& path,
                            bool required) {
-    const toml::node* n = t.get(key);
-    const std::string full = join_key(path, key);
-    if (!n) {
-      if (required) fail("missing_key", line(t), full, "missing table");
+    const auto sub = at(t, path).opt_table(key);
+    if (!sub) {
+      if (required) at(t, path).fail("missing_key", key, "is required (a table)");
       return nullptr;
     }
-    remember(full, *n);
-    if (!n->is_table()) fail("type", line(*n), full, "expected a table");
-    return n->as_table();
+    return &sub->raw();
   }
 
   const toml::array* array(const toml::table& t, std::string_view key, const std::string& path,
                            bool required) {
-    const toml::node* n = t.get(key);
-    const std::string full = join_key(path, key);
-    if (!n) {
-      if (required) fail("missing_key", line(t), full, "missing");
-      return nullptr;
-    }
-    remember(full, *n);
-    if (!n->is_array()) fail("type", line(*n), full, "expected an array");
-    return n->as_array();
+    const toml::array* a = at(t, path).opt_array(key);
+    if (!a && required) at(t, path).fail("missing_key", key, "is required");
+    return a;
   }
 
   template <typename F>
-  bool read(const toml::table& t, std::string_view key, const std::string& path, bool required,
-            F&& convert) {
-    const toml::node* n = t.get(key);
-    const std::string full = join_key(path, key);
-    if (!n) {
-      if (required) fail("missing_key", line(t), full, "missing");
+  bool read(const toml::table& t, std::string_view key, const std::string& path, bool required, F&& f) {
+    const TomlTable tt = at(t, path);
+    if (!tt.has(key)) {
+      if (required) tt.fail("missing_key", key, "is required");
       return false;
     }
-    remember(full, *n);
-    convert(*n, full);
+    f(tt);
     return true;
-  }
-
-  /// Every floating-point value of the file comes through here: toml++ reads nan and inf
-  /// (also +inf, -nan) as numbers, which no key of the installation means.
-  double finite(const toml::node& n, int at, const std::string& full) const {
-    const double v = n.value<double>().value();
-    if (!std::isfinite(v)) fail("not_finite", at, full, "must be a finite number");
-    return v;
   }
 
   bool number(const toml::table& t, std::string_view key, const std::string& path, double& out,
               bool required = false) {
-    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
-      if (!n.is_number()) fail("type", line(n), full, "expected a number");
-      out = finite(n, line(n), full);
-    });
+    return read(t, key, path, required, [&](const TomlTable& tt) { tt.read(key, out); });
   }
 
   bool integer(const toml::table& t, std::string_view key, const std::string& path, int& out,
                bool required = false) {
-    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
-      if (!n.is_integer()) fail("type", line(n), full, "expected an integer");
-      out = static_cast<int>(n.value<std::int64_t>().value());
-    });
+    return read(t, key, path, required, [&](const TomlTable& tt) { tt.read(key, out); });
   }
 
   bool boolean(const toml::table& t, std::string_view key, const std::string& path, bool& out,
                bool required = false) {
-    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
-      if (!n.is_boolean()) fail("type", line(n), full, "expected true or false");
-      out = n.value<bool>().value();
-    });
+    return read(t, key, path, required, [&](const TomlTable& tt) { tt.read(key, out); });
   }
 
   bool string(const toml::table& t, std::string_view key, const std::string& path,
               std::string& out, bool required = false) {
-    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
-      if (!n.is_string()) fail("type", line(n), full, "expected a string");
-      out = n.value<std::string>().value();
-    });
+    return read(t, key, path, required, [&](const TomlTable& tt) { tt.read(key, out); });
   }
 
   bool path(const toml::table& t, std::string_view key, const std::string& p,
             std::filesystem::path& out, bool required = false) {
-    std::string s;
-    if (!string(t, key, p, s, required)) return false;
-    if (s.empty()) fail("empty", cfg_.line_of(join_key(p, key)), join_key(p, key), "empty path");
-    out = s;
-    return true;
+    return read(t, key, p, required, [&](const TomlTable& tt) { tt.read(key, out); });
   }
 
   template <std::size_t N, typename T>
   bool numbers(const toml::table& t, std::string_view key, const std::string& path,
                std::array<T, N>& out, bool required = false) {
-    return read(t, key, path, required, [&](const toml::node& n, const std::string& full) {
-      const auto* a = n.as_array();
-      if (!a || a->size() != N)
-        fail("type", line(n), full, fmt::format("expected an array of {} numbers", N));
-      for (std::size_t i = 0; i < N; ++i) {
-        const toml::node& e = (*a)[i];
-        if constexpr (std::is_integral_v<T>) {
-          if (!e.is_integer()) fail("type", line(n), full, fmt::format("expected {} integers", N));
-          out[i] = static_cast<T>(e.value<std::int64_t>().value());
-        } else {
-          if (!e.is_number()) fail("type", line(n), full, fmt::format("expected {} numbers", N));
-          out[i] = finite(e, line(e), full);
-        }
-      }
-    });
+    return read(t, key, path, required, [&](const TomlTable& tt) { tt.read(key, out); });
   }
 
   void parse(const toml::table& root);
@@ -199,13 +141,7 @@ class Reader {
   void each_table(const toml::table& root, std::string_view key, bool required, F&& f) {
     const toml::array* a = array(root, key, "", required);
     if (!a) return;
-    for (std::size_t i = 0; i < a->size(); ++i) {
-      const std::string p = fmt::format("{}[{}]", key, i);
-      const toml::node& n = (*a)[i];
-      remember(p, n);
-      if (!n.is_table()) fail("type", line(n), p, "expected a table ([[" + std::string(key) + "]])");
-      f(*n.as_table(), p);
-    }
+    for (const TomlTable& t : at(root, "").tables(key)) f(t.raw(), t.path());
   }
 
   std::string file_;
@@ -322,8 +258,7 @@ void Reader::parse_keys(const toml::table& root) {
   for (auto&& [action_key, node] : *k) {
     const std::string action(action_key.str());
     const std::string full = "keys." + action;
-    remember(full, node);
-    if (!node.is_string()) fail("type", line(node), full, "expected a key name (string)");
+    if (!node.is_string()) fail("type", line(node), full, "must be a key name (a string)");
     const std::string name = node.value<std::string>().value();
     const auto code = key_code_from_name(name);
     if (!code)
@@ -689,13 +624,8 @@ InstallationConfig parse_config(std::string_view text, const std::filesystem::pa
   InstallationConfig cfg;
   cfg.file = file_name;
   cfg.data_dir_override = std::move(data_dir_override);
-  toml::table root;
-  try {
-    root = toml::parse(text, file_name.string());
-  } catch (const toml::parse_error& e) {
-    throw file_error("config", "parse", file_name.string(),
-                     static_cast<int>(e.source().begin.line), "", std::string(e.description()));
-  }
+  const toml::table root = parse_toml(text, file_name.string(), "config");
+  cfg.lines = toml_key_lines(root);
   Reader(file_name.string(), cfg).parse(root);
   validate(cfg);
   return cfg;

@@ -1,5 +1,5 @@
-// Board geometry, board.toml and the floor-points file (the one toml++ translation unit of
-// this library).
+// Board geometry, board.toml and the floor-points file (read through the project's strict
+// TOML reader, kumite/common/toml_reader.hpp).
 #include "kumite/calibration/board.hpp"
 
 #include <cmath>
@@ -9,10 +9,10 @@
 #include <sstream>
 
 #include <fmt/format.h>
-#include <toml++/toml.h>
 
 #include "kumite/calibration/commands.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/common/toml_reader.hpp"
 
 namespace kumite::calibration {
 namespace {
@@ -22,7 +22,6 @@ namespace {
   throw file_error("calibration", "board", source, line, key, msg);
 }
 
-int line_of(const toml::node& n) { return static_cast<int>(n.source().begin.line); }
 
 }  // namespace
 
@@ -110,85 +109,38 @@ void validate_impl(const Board& b, const std::string& source, const LineOf& line
 void validate(const Board& b, const std::string& source) { validate_impl(b, source, {}); }
 
 Board parse_board(std::string_view text, const std::string& source) {
-  toml::table tbl;
-  try {
-    tbl = toml::parse(text, source);
-  } catch (const toml::parse_error& e) {
-    fail(source, static_cast<int>(e.source().begin.line), "", std::string(e.description()));
-  }
-  static const char* known[] = {"type", "family", "rows", "cols", "tag_size_m",
-                                "gap_m", "first_id", "square_size_m"};
-  for (const auto& [k, v] : tbl) {
-    bool ok = false;
-    for (const char* n : known) ok = ok || k.str() == n;
-    if (!ok) fail(source, line_of(v), std::string(k.str()), "unknown key");
-  }
+  const toml::table tbl = parse_toml(text, source, "calibration");
+  const TomlTable t(tbl, "calibration", source);
+  t.only({"type", "family", "rows", "cols", "tag_size_m", "gap_m", "first_id", "square_size_m"});
   Board b;
-  auto get_string = [&](const char* key, bool required) -> std::optional<std::string> {
-    const toml::node* n = tbl.get(key);
-    if (!n) {
-      if (required) fail(source, 0, key, "missing");
-      return std::nullopt;
-    }
-    if (!n->is_string()) fail(source, line_of(*n), key, "must be a string");
-    return n->value<std::string>();
-  };
-  auto get_int = [&](const char* key, bool required, int def) -> int {
-    const toml::node* n = tbl.get(key);
-    if (!n) {
-      if (required) fail(source, 0, key, "missing");
-      return def;
-    }
-    if (!n->is_integer()) fail(source, line_of(*n), key, "must be an integer");
-    const int64_t v = *n->value<int64_t>();
-    if (v < -1000000 || v > 1000000) fail(source, line_of(*n), key, "out of range");
-    return static_cast<int>(v);
-  };
-  auto get_double = [&](const char* key, bool required, double def) -> double {
-    const toml::node* n = tbl.get(key);
-    if (!n) {
-      if (required) fail(source, 0, key, "missing");
-      return def;
-    }
-    if (!n->is_number()) fail(source, line_of(*n), key, "must be a number (metres)");
-    const double v = *n->value<double>();
-    if (!std::isfinite(v)) fail(source, line_of(*n), key, "must be a finite number (metres)");
-    // -0 is 0 (found by fuzz_board: "gap_m = -0.0" was written back as "-0", read as 0).
-    return v + 0.0;
-  };
-  const std::string type = *get_string("type", true);
+  const std::string type = t.string("type");
   if (type == "apriltag_grid") {
     b.type = BoardType::apriltag_grid;
   } else if (type == "chessboard") {
     b.type = BoardType::chessboard;
   } else {
-    fail(source, line_of(*tbl.get("type")), "type", "must be \"apriltag_grid\" or \"chessboard\"");
+    t.fail("value", "type", "must be \"apriltag_grid\" or \"chessboard\"");
   }
-  b.rows = get_int("rows", true, 0);
-  b.cols = get_int("cols", true, 0);
+  // Ranges and their relations are checked by validate_impl below (one place for a board made
+  // in code or read); here only the types, finiteness and a bound that keeps ints ints.
+  b.rows = static_cast<int>(t.integer("rows", -1000000, 1000000));
+  b.cols = static_cast<int>(t.integer("cols", -1000000, 1000000));
+  // -0 is 0 (found by fuzz_board: "gap_m = -0.0" was written back as "-0", read as 0).
+  const auto metres = [&](const char* key) { return t.number(key, TomlRange::any("m")) + 0.0; };
   if (b.type == BoardType::apriltag_grid) {
-    b.family = get_string("family", false).value_or("tag36h11");
-    b.tag_size_m = get_double("tag_size_m", true, 0);
-    b.gap_m = get_double("gap_m", true, 0);
-    b.first_id = get_int("first_id", false, 0);
+    b.family = t.opt_string("family").value_or("tag36h11");
+    b.tag_size_m = metres("tag_size_m");
+    b.gap_m = metres("gap_m");
+    b.first_id = static_cast<int>(t.opt_integer("first_id", -1000000, 1000000).value_or(0));
   } else {
-    b.square_size_m = get_double("square_size_m", true, 0);
+    b.square_size_m = metres("square_size_m");
   }
-  validate_impl(b, source, [&](const char* key) {
-    const toml::node* n = tbl.get(key);
-    return n ? line_of(*n) : 0;
-  });
+  validate_impl(b, source, [&](const char* key) { return t.has(key) ? t.line(key) : 0; });
   return b;
 }
 
 Board read_board(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) fail(path.string(), 0, "", "is a folder, not a file: give the board's .toml file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path.string(), 0, "", "cannot open the board file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_board(ss.str(), path.string());
+  return parse_board(read_text_file(path, "calibration"), path.string());
 }
 
 std::string board_to_toml(const Board& b) {
@@ -216,47 +168,36 @@ std::string board_to_toml(const Board& b) {
 }
 
 std::vector<FloorPoint> read_floor_points(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail(path.string(), 0, "", "cannot open the floor points file");
-  std::stringstream ss;
-  ss << in.rdbuf();
   const std::string src = path.string();
-  toml::table tbl;
-  try {
-    tbl = toml::parse(ss.str(), src);
-  } catch (const toml::parse_error& e) {
-    fail(src, static_cast<int>(e.source().begin.line), "", std::string(e.description()));
+  const toml::table tbl = parse_toml(read_text_file(path, "calibration"), src, "calibration");
+  const TomlTable top(tbl, "calibration", src);
+  top.only({"points"});
+  if (!top.has("points")) {
+    top.fail("missing_key", "points",
+             "is required: [[points]] tables with room = [x, y, z] and pixels = { cam = [u, v] }");
   }
-  const toml::array* arr = tbl["points"].as_array();
-  if (!arr) fail(src, 0, "points", "missing: expected [[points]] tables with room = [x, y, z] and pixels = { cam = [u, v] }");
   std::vector<FloorPoint> out;
-  for (std::size_t i = 0; i < arr->size(); ++i) {
-    const toml::table* t = (*arr)[i].as_table();
-    const std::string key = fmt::format("points[{}]", i);
-    if (!t) fail(src, line_of((*arr)[i]), key, "must be a table");
+  for (const TomlTable& t : top.tables("points")) {
+    t.only({"room", "pixels"});
     FloorPoint p;
-    p.line = line_of(*t);
-    const toml::array* room = (*t)["room"].as_array();
-    if (!room || room->size() != 3) fail(src, p.line, key + ".room", "must be [x, y, z] in metres");
-    for (std::size_t k = 0; k < 3; ++k) {
-      const auto v = (*room)[k].value<double>();
-      if (!v) fail(src, line_of((*room)[k]), key + ".room", "must be numbers (metres)");
-      p.room[static_cast<int>(k)] = *v;
+    p.line = t.line();
+    const toml::node* room = t.raw().get("room");
+    if (!room) t.fail("missing_key", "room", "is required: [x, y, z] in metres");
+    if (!room->is_array() || room->as_array()->size() != 3) t.fail("type", "room", "must be [x, y, z] in metres");
+    const auto xyz = *t.opt_numbers<3>("room", {-100, 100, "m"});
+    p.room = cv::Vec3d(xyz[0], xyz[1], xyz[2]);
+    const auto px = t.opt_table("pixels");
+    if (!px) t.fail("missing_key", "pixels", "is required: { cam0 = [u, v], cam1 = [u, v] }");
+    for (const auto& [cam, node] : px->raw()) {
+      const std::string name(cam.str());
+      if (!node.is_array() || node.as_array()->size() != 2) px->fail("type", name, "must be [u, v] in pixels");
+      const auto uv = *px->opt_numbers<2>(name, {-1e6, 1e6, "px"});
+      p.pixels.emplace_back(name, cv::Point2d(uv[0], uv[1]));
     }
-    const toml::table* px = (*t)["pixels"].as_table();
-    if (!px) fail(src, p.line, key + ".pixels", "missing: { cam0 = [u, v], cam1 = [u, v] }");
-    for (const auto& [cam, node] : *px) {
-      const toml::array* uv = node.as_array();
-      const std::string k2 = key + ".pixels." + std::string(cam.str());
-      if (!uv || uv->size() != 2) fail(src, line_of(node), k2, "must be [u, v] in pixels");
-      const auto u = (*uv)[0].value<double>(), v = (*uv)[1].value<double>();
-      if (!u || !v) fail(src, line_of(node), k2, "must be numbers (pixels)");
-      p.pixels.emplace_back(std::string(cam.str()), cv::Point2d(*u, *v));
-    }
-    if (p.pixels.size() < 2) fail(src, p.line, key + ".pixels", "a point needs pixels in at least two cameras");
+    if (p.pixels.size() < 2) t.fail("value", "pixels", "a point needs pixels in at least two cameras");
     out.push_back(std::move(p));
   }
-  if (out.size() < 3) fail(src, 0, "points", fmt::format("{} points given: mark at least three floor points", out.size()));
+  if (out.size() < 3) top.fail("value", "points", fmt::format("{} points given: mark at least three floor points", out.size()));
   return out;
 }
 

@@ -5,9 +5,9 @@
 #include <sstream>
 
 #include <fmt/format.h>
-#include <toml++/toml.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/common/toml_reader.hpp"
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/canonical.hpp"
 #include "kumite/content/character.hpp"
@@ -16,113 +16,20 @@ namespace kumite::content {
 
 namespace {
 
-/// Strict access to one TOML table: every error names file, line and the dotted key;
-/// unknown keys are errors (a typo must not be silently ignored).
-class Table {
+/// The project's strict table reader (kumite/common/toml_reader.hpp), named as content's
+/// readers always named it: Table(table, file, dotted prefix, component).
+class Table : public TomlTable {
  public:
   Table(const toml::table& t, std::string_view file, std::string prefix, std::string_view component)
-      : t_(t), file_(file), prefix_(std::move(prefix)), component_(component) {}
-
-  [[noreturn]] void fail(std::string_view code, std::string_view key, const toml::source_region& where,
-                         std::string_view msg) const {
-    throw file_error(component_, code, file_, static_cast<int>(where.begin.line), dotted(key), msg);
-  }
-  [[noreturn]] void fail(std::string_view code, std::string_view key, std::string_view msg) const {
-    const toml::node* n = t_.get(key);
-    fail(code, key, n ? n->source() : t_.source(), msg);
-  }
-
-  std::string dotted(std::string_view key) const { return prefix_.empty() ? std::string(key) : prefix_ + "." + std::string(key); }
-
-  void only(std::initializer_list<std::string_view> allowed) const {
-    for (const auto& [k, v] : t_) {
-      const std::string_view key = k.str();
-      if (std::find(allowed.begin(), allowed.end(), key) == allowed.end()) {
-        fail("unknown_key", key, v.source(), "unknown key");
-      }
-    }
-  }
-
-  bool has(std::string_view key) const { return t_.contains(key); }
-
-  std::optional<std::string> opt_string(std::string_view key) const {
-    const toml::node* n = t_.get(key);
-    if (!n) return std::nullopt;
-    if (!n->is_string()) fail("type", key, "must be a string");
-    return std::string(n->as_string()->get());
-  }
-  std::string string(std::string_view key) const {
-    auto v = opt_string(key);
-    if (!v) fail("missing_key", key, t_.source(), "is required");
-    return *v;
-  }
-  std::optional<double> opt_number(std::string_view key) const {
-    const toml::node* n = t_.get(key);
-    if (!n) return std::nullopt;
-    if (auto i = n->value_exact<int64_t>()) return static_cast<double>(*i);
-    if (auto d = n->value_exact<double>()) {
-      if (!std::isfinite(*d)) fail("not_finite", key, "must be finite");
-      return *d;
-    }
-    fail("type", key, "must be a number");
-  }
-  double number(std::string_view key) const {
-    auto v = opt_number(key);
-    if (!v) fail("missing_key", key, t_.source(), "is required");
-    return *v;
-  }
-  std::optional<int64_t> opt_integer(std::string_view key) const {
-    const toml::node* n = t_.get(key);
-    if (!n) return std::nullopt;
-    if (auto i = n->value_exact<int64_t>()) return *i;
-    fail("type", key, "must be an integer");
-  }
-  int64_t integer(std::string_view key) const {
-    auto v = opt_integer(key);
-    if (!v) fail("missing_key", key, t_.source(), "is required");
-    return *v;
-  }
-  const toml::table* opt_table(std::string_view key) const {
-    const toml::node* n = t_.get(key);
-    if (!n) return nullptr;
-    if (!n->is_table()) fail("type", key, "must be a table");
-    return n->as_table();
-  }
-  const toml::array* opt_array(std::string_view key) const {
-    const toml::node* n = t_.get(key);
-    if (!n) return nullptr;
-    if (!n->is_array()) fail("type", key, "must be an array");
-    return n->as_array();
-  }
-  int line(std::string_view key) const {
-    const toml::node* n = t_.get(key);
-    return static_cast<int>((n ? n->source() : t_.source()).begin.line);
-  }
-  int line() const { return static_cast<int>(t_.source().begin.line); }
-  const toml::table& raw() const { return t_; }
-
- private:
-  const toml::table& t_;
-  std::string_view file_;
-  std::string prefix_;
-  std::string_view component_;
+      : TomlTable(t, component, file, std::move(prefix)) {}
 };
 
 toml::table parse_toml(std::string_view text, std::string_view source, std::string_view component) {
-  try {
-    return toml::parse(text, source);
-  } catch (const toml::parse_error& e) {
-    throw file_error(component, "parse", source, static_cast<int>(e.source().begin.line), "",
-                     std::string(e.description()));
-  }
+  return kumite::parse_toml(text, source, component);
 }
 
 std::string read_text(const std::filesystem::path& path, std::string_view component) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw file_error(component, "io", path.string(), 0, "", "cannot open file");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
+  return read_text_file(path, component);
 }
 
 }  // namespace
@@ -138,14 +45,15 @@ Dialect parse_dialect_toml(std::string_view text, std::string_view source) {
   if (d.name.empty()) top.fail("value", "name", "must not be empty");
   d.description = top.opt_string("description").value_or("");
   d.source = std::string(source);
-  const toml::table* joints = top.opt_table("joints");
-  if (!joints) top.fail("missing_key", "joints", doc.source(), "is required ([joints] canonical = \"JointName\")");
+  const auto joints_table = top.opt_table("joints");
+  if (!joints_table) top.fail("missing_key", "joints", "is required ([joints] canonical = \"JointName\")");
+  const toml::table* joints = &joints_table->raw();
   const Table jt(*joints, source, "joints", "dialect");
   std::set<std::string> used;
   for (const auto& [k, v] : *joints) {
     const auto c = canonical_joint_from_string(k.str());
     if (!c) {
-      jt.fail("unknown_joint", k.str(), v.source(),
+      jt.fail_at(v, "unknown_joint", k.str(),
               "not a canonical joint (pelvis, spine, chest, neck, head, l_/r_ clavicle, shoulder, elbow, wrist, "
               "hip, knee, ankle, toe)");
     }
@@ -180,7 +88,7 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
   if (!semantics) m.fail("value", "semantics", fmt::format("unknown semantics '{}' (punch, kick, block, walk, rest, other)", sem));
   a.semantics = *semantics;
   const toml::array* frames = m.opt_array("frames");
-  if (!frames) m.fail("missing_key", "frames", t.source(), "is required: [first, last]");
+  if (!frames) m.fail("missing_key", "frames", "is required: [first, last]");
   if (frames->size() != 2 || !(*frames)[0].is_integer() || !(*frames)[1].is_integer()) {
     m.fail("type", "frames", "must be [first, last] (two integers)");
   }
@@ -207,8 +115,8 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
     a.height = *height;
   }
   if (is_strike(a.semantics)) {
-    if (!a.hit_segment) m.fail("missing_key", "hit_segment", t.source(), fmt::format("is required for a {}", sem));
-    if (!a.hit_frame) m.fail("missing_key", "hit_frame", t.source(), fmt::format("is required for a {}", sem));
+    if (!a.hit_segment) m.fail("missing_key", "hit_segment", fmt::format("is required for a {}", sem));
+    if (!a.hit_frame) m.fail("missing_key", "hit_frame", fmt::format("is required for a {}", sem));
     if (a.semantics == Semantics::punch && !is_hand(*a.hit_segment)) m.fail("value", "hit_segment", "a punch hits with a hand");
     if (a.semantics == Semantics::kick && is_hand(*a.hit_segment)) m.fail("value", "hit_segment", "a kick hits with a foot");
   } else {
@@ -321,7 +229,7 @@ CharacterCatalog parse_characters(std::string_view text, std::string_view source
   CharacterCatalog cat;
   cat.source = std::string(source);
   const toml::array* chars = top.opt_array("character");
-  if (!chars || chars->empty()) top.fail("missing_key", "character", doc.source(), "at least one [[character]] is required");
+  if (!chars || chars->empty()) top.fail("missing_key", "character", "at least one [[character]] is required");
   std::set<std::string> names;
   for (std::size_t i = 0; i < chars->size(); ++i) {
     const std::string prefix = fmt::format("character[{}]", i);
@@ -338,7 +246,7 @@ CharacterCatalog parse_characters(std::string_view text, std::string_view source
     e.file = c.string("file");
     if (e.file.empty()) c.fail("value", "file", "must not be empty");
     e.notes = c.opt_string("notes").value_or("");
-    if (const toml::table* g = c.opt_table("generate")) e.generate = parse_generate(*g, source, prefix + ".generate");
+    if (const auto g = c.opt_table("generate")) e.generate = parse_generate(g->raw(), source, prefix + ".generate");
     cat.characters.push_back(std::move(e));
   }
   return cat;

@@ -462,7 +462,7 @@ TEST(Service, HealthKeysAreValidatedLikeEveryKey) {
       << error_of("[health]\ninterval_s = nan\n");
   EXPECT_TRUE(has(error_of("[health]\ninterval_s = 0.0\n"), "health.interval_s: must be 0.1..60"))
       << error_of("[health]\ninterval_s = 0.0\n");
-  EXPECT_TRUE(has(error_of("[health]\nfile = 3\n"), "room.toml:9: health.file: expected a string"));
+  EXPECT_TRUE(has(error_of("[health]\nfile = 3\n"), "room.toml:9: health.file: must be a string"));
   EXPECT_TRUE(has(error_of("[health]\nfiles = \"x\"\n"), "health.files: unknown key")) << error_of("[health]\nfiles = \"x\"\n");
   const auto c = parse_installation_config(kConfig + "[health]\nfile = \"h.json\"\ninterval_s = 2.5\n", "room.toml");
   ASSERT_TRUE(c.health.file);

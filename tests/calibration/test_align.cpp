@@ -131,7 +131,15 @@ TEST(Align, PointsFileErrorsNameTheLine) {
     read_floor_points(f);
     FAIL();
   } catch (const kumite::Error& e) {
-    EXPECT_NE(std::string(e.what()).find(":1: points[0].room: must be [x, y, z]"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find(":2: points[0].room: must be [x, y, z]"), std::string::npos) << e.what();
+  }
+  // Every number is checked finite (nan used to be read as a floor point at nan).
+  std::ofstream(f) << "[[points]]\nroom = [0, 0, 0]\npixels = { cam0 = [1, 2], cam1 = [nan, 4] }\n";
+  try {
+    read_floor_points(f);
+    FAIL();
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(std::string(e.what()).find(":3: points[0].pixels.cam1: must be a finite number"), std::string::npos) << e.what();
   }
   fs::remove(f);
 }

@@ -151,7 +151,8 @@ TEST(Annotation, SchemaErrorsNameFileLineKey) {
   EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [9, 1]\n"),
             "m.toml:7: clip[0].motion[0].frames: [9, 1] must satisfy 0 <= first <= last");
   EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\nspeed = 3\n"),
-            "m.toml:8: clip[0].motion[0].speed: unknown key");
+            "m.toml:8: clip[0].motion[0].speed: unknown key (allowed here: name, semantics, frames, "
+            "hit_segment, hit_frame, height, note, peak_speed_mps, extension)");
   EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\n[[clip.motion]]\nname = \"k\"\n"
                                        "semantics = \"rest\"\nframes = [1, 9]\n"),
             "m.toml:9: clip[0].motion[1].name: motion name 'k' is used twice");

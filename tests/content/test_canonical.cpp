@@ -131,7 +131,7 @@ TEST(Canonical, DialectTomlErrorsNameFileLineKey) {
             "d.toml:4: joints.l_elbw: not a canonical joint (pelvis, spine, chest, neck, head, l_/r_ clavicle, "
             "shoulder, elbow, wrist, hip, knee, ankle, toe)");
   EXPECT_EQ(err("name = \"x\"\n[joints]\npelvis = 3\n"), "d.toml:3: joints.pelvis: must be a string");
-  EXPECT_EQ(err("name = \"x\"\ncolour = \"red\"\n[joints]\n"), "d.toml:2: colour: unknown key");
+  EXPECT_EQ(err("name = \"x\"\ncolour = \"red\"\n[joints]\n"), "d.toml:2: colour: unknown key (allowed here: name, description, joints)");
   EXPECT_EQ(err("[joints]\npelvis = \"Hips\"\n"), "d.toml:1: name: is required");
   EXPECT_EQ(err("name = \"x\"\n[joints]\npelvis = \"Hips\"\nspine = \"Hips\"\n"),
             "d.toml:4: joints.spine: joint 'Hips' is mapped twice");

@@ -131,7 +131,7 @@ TEST(Characters, LoadByNameOrFile) {
 
 TEST(Characters, CatalogErrorsNameFileLineKey) {
   const std::string head = "version = 1\n[[character]]\nname = \"a\"\nfile = \"a.bvh\"\n";
-  EXPECT_EQ(catalog_error(head + "colour = \"red\"\n"), "c.toml:5: character[0].colour: unknown key");
+  EXPECT_EQ(catalog_error(head + "colour = \"red\"\n"), "c.toml:5: character[0].colour: unknown key (allowed here: name, display_name, file, notes, generate)");
   EXPECT_EQ(catalog_error(head + "[character.generate]\nstature_m = 5.0\n"),
             "c.toml:6: character[0].generate.stature_m: must be 0.3..3 m");
   EXPECT_EQ(catalog_error(head + "[character.generate]\nstature_m = 1.8\ndialect = \"bandai\"\n"),

@@ -209,7 +209,7 @@ TEST(Config, ErrorsNameFileLineAndKey) {
     }
   };
   const std::string body = "[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n";
-  expect_error("", "t.toml: bodies: missing");
+  expect_error("", "bodies: is required: add [[bodies]]");
   expect_error("[[bodies]]\nname = \"h\"\nmarkers = [[0,0,0],[0.1,0,0]]\n", "at least 3 markers");
   expect_error(body + "[blobs]\nthreshold = \"high\"\n", "t.toml:5: blobs.threshold: must be an integer");
   expect_error(body + "[filter]\nbeta = -1\n", "filter.beta: must be in");

@@ -1,4 +1,4 @@
-// tracking.toml reader: the one .cpp of the tracking library that includes toml++.
+// tracking.toml reader (through the project's strict TOML reader, kumite/common/toml_reader.hpp).
 #include "kumite/tracking/config.hpp"
 
 #include <cmath>
@@ -6,148 +6,66 @@
 #include <set>
 #include <sstream>
 
-#include <toml++/toml.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/common/toml_reader.hpp"
 
 namespace kumite::tracking {
 namespace {
 
-class Reader {
- public:
-  explicit Reader(std::string_view source) : source_(source) {}
+using T = TomlTable;
 
-  [[noreturn]] void fail(const toml::node* node, std::string_view key, std::string_view msg) const {
-    const int line = node ? static_cast<int>(node->source().begin.line) : 0;
-    throw file_error("config", "invalid", source_, line, key, msg);
-  }
-
-  void check_keys(const toml::table& t, std::string_view where,
-                  std::initializer_list<std::string_view> known) const {
-    for (const auto& [k, v] : t) {
-      bool ok = false;
-      for (auto name : known) ok = ok || k.str() == name;
-      if (!ok) fail(&v, join(where, k.str()), "unknown key");
-    }
-  }
-
-  static std::string join(std::string_view where, std::string_view key) {
-    return where.empty() ? std::string(key) : std::string(where) + "." + std::string(key);
-  }
-
-  /// Every number of the file comes through here: toml++ reads nan and inf (also +inf,
-  /// -nan) as numbers, which no key means.
-  double finite(const toml::node* n, const std::string& key) const {
-    const auto v = n->value<double>();
-    if (!v || !(n->is_integer() || n->is_floating_point())) fail(n, key, "must be a number");
-    if (!std::isfinite(*v)) fail(n, key, "must be a finite number");
-    return *v;
-  }
-
-  void number(const toml::table& t, std::string_view where, std::string_view key, double& out,
-              double min, double max) const {
-    const toml::node* n = t.get(key);
-    if (!n) return;
-    const double v = finite(n, join(where, key));
-    if (v < min || v > max) {
-      fail(n, join(where, key), fmt::format("must be in [{}, {}], found {}", min, max, v));
-    }
-    out = v;
-  }
-
-  void integer(const toml::table& t, std::string_view where, std::string_view key, int& out,
-               int min, int max) const {
-    const toml::node* n = t.get(key);
-    if (!n) return;
-    if (!n->is_integer()) fail(n, join(where, key), "must be an integer");
-    const auto v = *n->value<std::int64_t>();
-    if (v < min || v > max) fail(n, join(where, key), fmt::format("must be in [{}, {}], found {}", min, max, v));
-    out = static_cast<int>(v);
-  }
-
-  void boolean(const toml::table& t, std::string_view where, std::string_view key, bool& out) const {
-    const toml::node* n = t.get(key);
-    if (!n) return;
-    if (!n->is_boolean()) fail(n, join(where, key), "must be true or false");
-    out = *n->value<bool>();
-  }
-
-  void string(const toml::table& t, std::string_view where, std::string_view key, std::string& out,
-              bool required, const toml::node* owner) const {
-    const toml::node* n = t.get(key);
-    if (!n) {
-      if (required) fail(owner, join(where, key), "missing");
-      return;
-    }
-    if (!n->is_string()) fail(n, join(where, key), "must be a string");
-    out = *n->value<std::string>();
-    if (out.empty()) fail(n, join(where, key), "must not be empty");
-  }
-
-  const toml::table* table(const toml::table& t, std::string_view key) const {
-    const toml::node* n = t.get(key);
-    if (!n) return nullptr;
-    if (!n->is_table()) fail(n, key, "must be a table");
-    return n->as_table();
-  }
-
-  std::string source_;
-};
-
-BodyConfig read_body(const Reader& r, const toml::table& t, const toml::node* node, std::size_t i) {
-  const std::string where = fmt::format("bodies[{}]", i);
-  r.check_keys(t, where, {"name", "markers", "distance_tolerance_m", "match_radius_m"});
+BodyConfig read_body(const T& t) {
+  t.only({"name", "markers", "distance_tolerance_m", "match_radius_m"});
   BodyConfig b;
-  r.string(t, where, "name", b.name, true, node);
-  const toml::node* m = t.get("markers");
-  if (!m) r.fail(node, where + ".markers", "missing");
-  if (!m->is_array()) r.fail(m, where + ".markers", "must be an array of [x, y, z] (m)");
-  for (const auto& p : *m->as_array()) {
+  b.name = t.string("name", false);
+  const toml::array* m = t.opt_array("markers");
+  if (!m) t.fail("missing_key", "markers", "is required: [[x, y, z], ...] (m)");
+  for (const auto& p : *m) {
     const auto* xyz = p.as_array();
-    if (!xyz || xyz->size() != 3) r.fail(&p, where + ".markers", "each marker must be [x, y, z] (m)");
+    if (!xyz || xyz->size() != 3) t.fail_at(p, "type", "markers", "each marker must be [x, y, z] (m)");
     Eigen::Vector3d v;
     for (int k = 0; k < 3; ++k) {
-      const toml::node& e = (*xyz)[k];
-      if (!e.is_number()) r.fail(&e, where + ".markers", "marker coordinates must be numbers in metres (|v| <= 10)");
-      const double c = r.finite(&e, where + ".markers");
-      if (std::abs(c) > 10) r.fail(&e, where + ".markers", "marker coordinates must be numbers in metres (|v| <= 10)");
+      const toml::node& e = (*xyz)[static_cast<std::size_t>(k)];
+      if (!e.is_number()) t.fail_at(e, "type", "markers", "marker coordinates must be numbers in metres (|v| <= 10)");
+      const double c = e.value<double>().value();
+      if (!std::isfinite(c)) t.fail_at(e, "not_finite", "markers", "must be a finite number");
+      if (std::abs(c) > 10) t.fail_at(e, "range", "markers", "marker coordinates must be numbers in metres (|v| <= 10)");
       v[k] = c;
     }
     b.markers.push_back(v);
   }
-  if (b.markers.size() < 3) r.fail(m, where + ".markers", "a rigid body needs at least 3 markers");
-  if (b.markers.size() > 32) r.fail(m, where + ".markers", "at most 32 markers per body");
+  if (b.markers.size() < 3) t.fail("value", "markers", "a rigid body needs at least 3 markers");
+  if (b.markers.size() > 32) t.fail("value", "markers", "at most 32 markers per body");
   for (std::size_t a = 0; a < b.markers.size(); ++a) {
     for (std::size_t c = a + 1; c < b.markers.size(); ++c) {
       if ((b.markers[a] - b.markers[c]).norm() < 0.01) {
-        r.fail(m, where + ".markers", fmt::format("markers {} and {} are closer than 1 cm", a, c));
+        t.fail("value", "markers", fmt::format("markers {} and {} are closer than 1 cm", a, c));
       }
     }
   }
-  r.number(t, where, "distance_tolerance_m", b.distance_tolerance_m, 1e-4, 0.05);
-  r.number(t, where, "match_radius_m", b.match_radius_m, 1e-3, 0.5);
+  t.read("distance_tolerance_m", b.distance_tolerance_m, {1e-4, 0.05, "m"});
+  t.read("match_radius_m", b.match_radius_m, {1e-3, 0.5, "m"});
   return b;
 }
 
-LiveCameraConfig read_camera(const Reader& r, const toml::table& t, const toml::node* node, std::size_t i) {
-  const std::string where = fmt::format("cameras[{}]", i);
-  r.check_keys(t, where, {"name", "device", "pixel_format", "width", "height", "fps", "exposure",
-                          "gain", "buffers"});
+LiveCameraConfig read_camera(const T& t) {
+  t.only({"name", "device", "pixel_format", "width", "height", "fps", "exposure", "gain", "buffers"});
   LiveCameraConfig c;
-  r.string(t, where, "name", c.name, true, node);
-  r.string(t, where, "device", c.device, true, node);
-  r.string(t, where, "pixel_format", c.pixel_format, false, node);
+  c.name = t.string("name", false);
+  c.device = t.string("device", false);
+  t.read("pixel_format", c.pixel_format, false);
   if (c.pixel_format == "Y8") c.pixel_format = "GREY";
   if (c.pixel_format != "GREY" && c.pixel_format != "Y16" && c.pixel_format != "MJPG" &&
       c.pixel_format != "YUYV") {
-    r.fail(t.get("pixel_format"), where + ".pixel_format", "must be GREY, Y8, Y16, MJPG or YUYV");
+    t.fail("value", "pixel_format", "must be GREY, Y8, Y16, MJPG or YUYV");
   }
-  r.integer(t, where, "width", c.width, 16, 16384);
-  r.integer(t, where, "height", c.height, 16, 16384);
-  r.number(t, where, "fps", c.fps, 1, 1000);
-  r.integer(t, where, "exposure", c.exposure, -1, 1 << 30);
-  r.integer(t, where, "gain", c.gain, -1, 1 << 30);
-  r.integer(t, where, "buffers", c.buffers, 1, 32);
+  t.read("width", c.width, 16, 16384);
+  t.read("height", c.height, 16, 16384);
+  t.read("fps", c.fps, {1, 1000, "Hz"});
+  t.read("exposure", c.exposure, -1, 1 << 30);
+  t.read("gain", c.gain, -1, 1 << 30);
+  t.read("buffers", c.buffers, 1, 32);
   return c;
 }
 
@@ -161,92 +79,71 @@ int TrackingConfig::find_body(std::string_view name) const {
 }
 
 TrackingConfig parse_tracking_config(std::string_view text, std::string_view source) {
-  Reader r(source);
-  toml::table root;
-  try {
-    root = toml::parse(text, source);
-  } catch (const toml::parse_error& e) {
-    throw file_error("config", "parse", source, static_cast<int>(e.source().begin.line), "",
-                     std::string(e.description()));
-  }
-  r.check_keys(root, "", {"bodies", "blobs", "static_mask", "matching", "filter", "cameras",
-                          "frame_tolerance_s", "coasting_s", "camera_timeout_s", "camera_blind_s"});
+  const toml::table root_table = parse_toml(text, source, "config");
+  const T root(root_table, "config", source);
+  root.only({"bodies", "blobs", "static_mask", "matching", "filter", "cameras", "frame_tolerance_s",
+             "coasting_s", "camera_timeout_s", "camera_blind_s"});
   TrackingConfig c;
-  r.number(root, "", "frame_tolerance_s", c.frame_tolerance_s, 0, 1);
-  r.number(root, "", "coasting_s", c.coasting_s, 0, 10);
-  r.number(root, "", "camera_timeout_s", c.camera_timeout_s, 0.01, 60);
-  r.number(root, "", "camera_blind_s", c.camera_blind_s, 0.1, 600);
+  root.read("frame_tolerance_s", c.frame_tolerance_s, {0, 1, "s"});
+  root.read("coasting_s", c.coasting_s, {0, 10, "s"});
+  root.read("camera_timeout_s", c.camera_timeout_s, {0.01, 60, "s"});
+  root.read("camera_blind_s", c.camera_blind_s, {0.1, 600, "s"});
 
-  if (const auto* t = r.table(root, "blobs")) {
-    r.check_keys(*t, "blobs", {"threshold", "seed_row_step", "min_area", "max_area", "min_roundness", "max_blobs"});
-    r.integer(*t, "blobs", "threshold", c.blobs.threshold, 0, 254);
-    r.integer(*t, "blobs", "seed_row_step", c.blobs.seed_row_step, 1, 64);
-    r.integer(*t, "blobs", "min_area", c.blobs.min_area, 1, 1 << 20);
-    r.integer(*t, "blobs", "max_area", c.blobs.max_area, 1, 1 << 24);
-    r.number(*t, "blobs", "min_roundness", c.blobs.min_roundness, 0, 1);
-    r.integer(*t, "blobs", "max_blobs", c.blobs.max_blobs, 1, 10000);
-    if (c.blobs.max_area < c.blobs.min_area) r.fail(t->get("max_area"), "blobs.max_area", "must be >= min_area");
+  if (const auto t = root.opt_table("blobs")) {
+    t->only({"threshold", "seed_row_step", "min_area", "max_area", "min_roundness", "max_blobs"});
+    t->read("threshold", c.blobs.threshold, 0, 254);
+    t->read("seed_row_step", c.blobs.seed_row_step, 1, 64);
+    t->read("min_area", c.blobs.min_area, 1, 1 << 20);
+    t->read("max_area", c.blobs.max_area, 1, 1 << 24);
+    t->read("min_roundness", c.blobs.min_roundness, {0, 1, ""});
+    t->read("max_blobs", c.blobs.max_blobs, 1, 10000);
+    if (c.blobs.max_area < c.blobs.min_area) t->fail("range", "max_area", "must be >= min_area");
   }
-  if (const auto* t = r.table(root, "static_mask")) {
-    r.check_keys(*t, "static_mask", {"enabled", "still_px", "learn_s", "margin_px", "forget_s"});
-    r.boolean(*t, "static_mask", "enabled", c.static_mask);
-    r.number(*t, "static_mask", "still_px", c.mask.still_px, 0, 100);
-    r.number(*t, "static_mask", "learn_s", c.mask.learn_s, 0, 3600);
-    r.number(*t, "static_mask", "margin_px", c.mask.margin_px, 0, 100);
-    r.number(*t, "static_mask", "forget_s", c.mask.forget_s, 0, 60);
+  if (const auto t = root.opt_table("static_mask")) {
+    t->only({"enabled", "still_px", "learn_s", "margin_px", "forget_s"});
+    t->read("enabled", c.static_mask);
+    t->read("still_px", c.mask.still_px, {0, 100, "px"});
+    t->read("learn_s", c.mask.learn_s, {0, 3600, "s"});
+    t->read("margin_px", c.mask.margin_px, {0, 100, "px"});
+    t->read("forget_s", c.mask.forget_s, {0, 60, "s"});
   }
-  if (const auto* t = r.table(root, "matching")) {
-    r.check_keys(*t, "matching", {"max_ray_distance_m", "max_reprojection_px", "outlier_px", "min_cameras",
-                                  "max_residual_m", "min_depth_m"});
-    r.number(*t, "matching", "max_ray_distance_m", c.match.max_ray_distance_m, 1e-5, 1);
-    r.number(*t, "matching", "max_reprojection_px", c.match.max_reprojection_px, 0.01, 100);
-    r.number(*t, "matching", "outlier_px", c.match.outlier_px, 0.01, 100);
-    r.integer(*t, "matching", "min_cameras", c.match.min_cameras, 2, 16);
-    r.number(*t, "matching", "max_residual_m", c.match.max_residual_m, 1e-5, 1);
-    r.number(*t, "matching", "min_depth_m", c.match.min_depth_m, 0, 100);
+  if (const auto t = root.opt_table("matching")) {
+    t->only({"max_ray_distance_m", "max_reprojection_px", "outlier_px", "min_cameras", "max_residual_m",
+             "min_depth_m"});
+    t->read("max_ray_distance_m", c.match.max_ray_distance_m, {1e-5, 1, "m"});
+    t->read("max_reprojection_px", c.match.max_reprojection_px, {0.01, 100, "px"});
+    t->read("outlier_px", c.match.outlier_px, {0.01, 100, "px"});
+    t->read("min_cameras", c.match.min_cameras, 2, 16);
+    t->read("max_residual_m", c.match.max_residual_m, {1e-5, 1, "m"});
+    t->read("min_depth_m", c.match.min_depth_m, {0, 100, "m"});
   }
-  if (const auto* t = r.table(root, "filter")) {
-    r.check_keys(*t, "filter", {"enabled", "min_cutoff_hz", "beta", "d_cutoff_hz", "rot_min_cutoff_hz",
-                                "rot_beta", "rot_d_cutoff_hz", "max_prediction_s"});
-    r.boolean(*t, "filter", "enabled", c.filter.enabled);
-    r.number(*t, "filter", "min_cutoff_hz", c.filter.min_cutoff_hz, 1e-4, 1000);
-    r.number(*t, "filter", "beta", c.filter.beta, 0, 1e6);
-    r.number(*t, "filter", "d_cutoff_hz", c.filter.d_cutoff_hz, 1e-4, 1000);
-    r.number(*t, "filter", "rot_min_cutoff_hz", c.filter.rot_min_cutoff_hz, 1e-4, 1000);
-    r.number(*t, "filter", "rot_beta", c.filter.rot_beta, 0, 1e6);
-    r.number(*t, "filter", "rot_d_cutoff_hz", c.filter.rot_d_cutoff_hz, 1e-4, 1000);
-    r.number(*t, "filter", "max_prediction_s", c.filter.max_prediction_s, 0, 1);
+  if (const auto t = root.opt_table("filter")) {
+    t->only({"enabled", "min_cutoff_hz", "beta", "d_cutoff_hz", "rot_min_cutoff_hz", "rot_beta",
+             "rot_d_cutoff_hz", "max_prediction_s"});
+    t->read("enabled", c.filter.enabled);
+    t->read("min_cutoff_hz", c.filter.min_cutoff_hz, {1e-4, 1000, "Hz"});
+    t->read("beta", c.filter.beta, {0, 1e6, ""});
+    t->read("d_cutoff_hz", c.filter.d_cutoff_hz, {1e-4, 1000, "Hz"});
+    t->read("rot_min_cutoff_hz", c.filter.rot_min_cutoff_hz, {1e-4, 1000, "Hz"});
+    t->read("rot_beta", c.filter.rot_beta, {0, 1e6, ""});
+    t->read("rot_d_cutoff_hz", c.filter.rot_d_cutoff_hz, {1e-4, 1000, "Hz"});
+    t->read("max_prediction_s", c.filter.max_prediction_s, {0, 1, "s"});
   }
-  const toml::node* bodies = root.get("bodies");
-  if (!bodies) r.fail(nullptr, "bodies", "missing: add [[bodies]] with name and markers");
-  if (!bodies->is_array_of_tables()) r.fail(bodies, "bodies", "must be [[bodies]] tables");
-  std::size_t i = 0;
-  for (const auto& b : *bodies->as_array()) {
-    c.bodies.push_back(read_body(r, *b.as_table(), &b, i));
+  if (!root.has("bodies")) root.fail("missing_key", "bodies", "is required: add [[bodies]] with name and markers");
+  const auto bodies = root.tables("bodies");
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    c.bodies.push_back(read_body(bodies[i]));
     if (c.find_body(c.bodies.back().name) != static_cast<int>(i)) {
-      r.fail(&b, fmt::format("bodies[{}].name", i), "duplicate body name \"" + c.bodies.back().name + "\"");
+      bodies[i].fail("value", "name", "duplicate body name \"" + c.bodies.back().name + "\"");
     }
-    ++i;
   }
-  if (c.bodies.empty()) r.fail(bodies, "bodies", "at least one body is needed");
-  if (const toml::node* cams = root.get("cameras")) {
-    if (!cams->is_array_of_tables()) r.fail(cams, "cameras", "must be [[cameras]] tables");
-    std::size_t k = 0;
-    for (const auto& cam : *cams->as_array()) c.cameras.push_back(read_camera(r, *cam.as_table(), &cam, k++));
-  }
+  if (c.bodies.empty()) root.fail("value", "bodies", "at least one body is needed");
+  for (const auto& cam : root.tables("cameras")) c.cameras.push_back(read_camera(cam));
   return c;
 }
 
 TrackingConfig read_tracking_config(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) {
-    throw Error("config", "missing", fmt::format("{}: is a folder, not a file: give the tracking .toml file", path.string()));
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error("config", "missing", fmt::format("{}: cannot open tracking config", path.string()));
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_tracking_config(ss.str(), path.string());
+  return parse_tracking_config(read_text_file(path, "config"), path.string());
 }
 
 }  // namespace kumite::tracking
