@@ -291,7 +291,9 @@ void Reader::parse_fighter(const toml::table& root) {
   if (!f) return;
   only_keys(*f, "fighter", {"database", "initial_character", "home_m", "strike_distance_m",
                             "hit_radius_m", "visitor_head_radius_m", "visitor_body_radius_m", "x_limits_m",
-                            "z_limits_m"});
+                            "z_limits_m", "behaviour", "retrieval"});
+  // [fighter.behaviour], [fighter.behaviour.feet], [fighter.retrieval]: content's keys, read by
+  // content::parse_fighter_tunables from the same text (parse_config).
   auto& s = cfg_.fighter;
   path(*f, "database", "fighter", s.database);
   if (integer(*f, "initial_character", "fighter", s.initial_character)) s.initial_character -= 1;
@@ -627,6 +629,7 @@ InstallationConfig parse_config(std::string_view text, const std::filesystem::pa
   const toml::table root = parse_toml(text, file_name.string(), "config");
   cfg.lines = toml_key_lines(root);
   Reader(file_name.string(), cfg).parse(root);
+  content::parse_fighter_tunables(text, file_name.string(), cfg.fighter.behaviour, cfg.fighter.retrieval);
   validate(cfg);
   return cfg;
 }
@@ -709,6 +712,19 @@ std::string to_toml(const InstallationConfig& c) {
                       {"x_limits_m", to_array(f.x_limits_m)},
                       {"z_limits_m", to_array(f.z_limits_m)}};
   if (!f.database.empty()) fighter.insert("database", f.database.generic_string());
+  {  // the tunables that differ from their defaults (absent keys read back as the defaults)
+    toml::table behaviour, feet, retrieval;
+    const content::BehaviourTunables db;
+    const content::RetrievalTunables dr;
+    for (const content::TunableKey& k : content::fighter_tunable_keys()) {
+      const double v = content::tunable_value(k, f.behaviour, f.retrieval);
+      if (v == content::tunable_value(k, db, dr)) continue;
+      (k.feet ? feet : k.retrieval ? retrieval : behaviour).insert(k.key, v);
+    }
+    if (!feet.empty()) behaviour.insert("feet", std::move(feet));
+    if (!behaviour.empty()) fighter.insert("behaviour", std::move(behaviour));
+    if (!retrieval.empty()) fighter.insert("retrieval", std::move(retrieval));
+  }
   root.insert("fighter", std::move(fighter));
   const auto& t = c.tracking;
   toml::table tracking{{"source", std::string(to_string(t.source))},

@@ -61,6 +61,8 @@ content::FighterConfig fighter_config(const InstallationConfig& c, const std::ve
   f.max_x_m = c.fighter.x_limits_m[1];
   f.min_z_m = c.fighter.z_limits_m[0];
   f.max_z_m = c.fighter.z_limits_m[1];
+  f.behaviour = c.fighter.behaviour;
+  f.retrieval = c.fighter.retrieval;
   return f;
 }
 

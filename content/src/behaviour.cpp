@@ -96,9 +96,10 @@ StrikePlan StrikePlanner::plan(const StrikeRequest& r) const {
 
 // ---- Behaviour --------------------------------------------------------------------------
 
-Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config,
-                     BehaviourTunables tunables)
-    : db_(std::move(db)), characters_(std::move(characters)), config_(config), tun_(tunables), feet_(tunables.feet) {
+Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config)
+    : db_(std::move(db)), characters_(std::move(characters)), config_(config), tun_(config.behaviour),
+      feet_(config.behaviour.feet) {
+  validate(config.behaviour, config.retrieval);
   if (characters_.empty()) throw Error("fighter", "config", "no characters to show");
   if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
   character_ = std::clamp(config.initial_character, 0, character_count() - 1);
@@ -113,7 +114,7 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames: no allocation while playing
   spot_xz_m_ = {config.home.x(), config.home.z()};
   facing_rad_ = 0;
-  use_synchronous_planner(std::make_shared<StrikePlanner>(db_));
+  use_synchronous_planner(std::make_shared<StrikePlanner>(db_, config.retrieval));
   start_rest(0);
   blend_elapsed_s_ = 1e9;
 }
@@ -467,7 +468,7 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   strike_.start_time_s = plan.start_frame * seg.frame_time_s;
   strike_.contact_time_s = plan.contact_frame * seg.frame_time_s;
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
-  strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - config_.blend_time_s);
+  strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s);
   state_ = FighterState::striking;
   following_ = false;
   compute_reach_error(strike_.contact_time_s);
@@ -487,9 +488,9 @@ void Behaviour::compute_reach_error(double at_time_s) {
   MkmFrame a, b, pose;
   sample(cur, b);
   const double be = blend_elapsed_s_ + ahead;
-  if (prev.segment >= 0 && be < config_.blend_time_s) {
+  if (prev.segment >= 0 && be < tun_.blend_time_s) {
     sample(prev, a);
-    blend_mkm(a, b, smoothstep(be / config_.blend_time_s), pose);
+    blend_mkm(a, b, smoothstep(be / tun_.blend_time_s), pose);
   } else {
     pose = b;
   }
@@ -562,7 +563,7 @@ double Behaviour::swing_left_s(int side) const {
   const int first = std::clamp(static_cast<int>(std::ceil(current_.time_s / seg.frame_time_s - 1e-9)), 0, n);
   for (int k = first; k < n; ++k)
     if (seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5) return k * seg.frame_time_s - current_.time_s;
-  return (n - 1) * seg.frame_time_s - current_.time_s + config_.blend_time_s;  // the rest motion after it
+  return (n - 1) * seg.frame_time_s - current_.time_s + tun_.blend_time_s;  // the rest motion after it
 }
 
 namespace {
@@ -731,12 +732,12 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   const bool contact_now =
       state_ == FighterState::striking && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
   if (state_ == FighterState::striking && strike_.contact_done &&
-      current_.time_s >= strike_.end_time_s - config_.blend_time_s) {
+      current_.time_s >= strike_.end_time_s - tun_.blend_time_s) {
     start_rest(now);
     state_ = FighterState::recovering;
   }
   // Recovering lasts until the blend into rest is done and d(t) is back to zero.
-  if (state_ == FighterState::recovering && blend_elapsed_s_ >= config_.blend_time_s &&
+  if (state_ == FighterState::recovering && blend_elapsed_s_ >= tun_.blend_time_s &&
       previous_.time_s >= strike_.release_end_s) {
     state_ = FighterState::resting;
     strike_.active = false;
@@ -747,10 +748,10 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   pose_before_ = pose_;
   MkmFrame cur;
   sample(current_, cur);
-  if (previous_.segment >= 0 && blend_elapsed_s_ < config_.blend_time_s) {
+  if (previous_.segment >= 0 && blend_elapsed_s_ < tun_.blend_time_s) {
     MkmFrame prev;
     sample(previous_, prev);
-    blend_mkm(prev, cur, smoothstep(blend_elapsed_s_ / config_.blend_time_s), pose_);
+    blend_mkm(prev, cur, smoothstep(blend_elapsed_s_ / tun_.blend_time_s), pose_);
   } else {
     pose_ = cur;
   }
@@ -768,7 +769,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       // The error of this very frame, so the contact frame lands on the target.
       compute_reach_error(current_.time_s);
       strike_.contact_time_s = current_.time_s;
-      strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - config_.blend_time_s);
+      strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s);
       ramp = 1;
     } else if (!strike_.contact_done) {
       ramp = smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s));
@@ -840,7 +841,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       switch_offset_[i] = cj >= 0 ? Vector3d(old_c[static_cast<std::size_t>(cj)] - new_c[static_cast<std::size_t>(cj)]) : Vector3d::Zero();
     }
   }
-  const double fade = switch_elapsed_s_ < config_.blend_time_s ? 1 - smoothstep(switch_elapsed_s_ / config_.blend_time_s) : 0.0;
+  const double fade = switch_elapsed_s_ < tun_.blend_time_s ? 1 - smoothstep(switch_elapsed_s_ / tun_.blend_time_s) : 0.0;
   for (std::size_t i = 0; i < n; ++i) positions_[i] = rig_positions_[i] + switch_offset_[i] * fade;
 }
 
@@ -869,7 +870,7 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
   config.max_x_m = config.max_z_m = 1e3;
   Behaviour b(db, {character}, config);
   // Plan outside update() so the per-frame timings hold adaptation only.
-  const StrikePlanner planner(db);
+  const StrikePlanner planner(db, config.retrieval);
   std::optional<StrikeRequest> request;
   std::optional<StrikePlan> result;
   b.set_planner([&](const StrikeRequest& r) { request = r; },
@@ -883,7 +884,7 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
   // The visitor stands where the target is (a kick's target lies kick_target_drop_m below the
   // head), so the contact is judged against a visitor who did not move.
   Vector3d head = target;
-  if (const auto e = effector_of(order); e && e->leg) head.y() += BehaviourTunables{}.kick_target_drop_m;
+  if (const auto e = effector_of(order); e && e->leg) head.y() += config.behaviour.kick_target_drop_m;
   double dt = 1.0 / 120, t = 0;
   const int ankles[2] = {rig.skeleton.index(CJ::l_ankle), rig.skeleton.index(CJ::r_ankle)};
   auto record = [&] {

@@ -1,6 +1,7 @@
 // Every TOML file content/ reads (dialect maps, motions.toml, characters.toml) goes through
 // this one translation unit: the only place in the library that includes toml++.
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -11,6 +12,7 @@
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/canonical.hpp"
 #include "kumite/content/character.hpp"
+#include "kumite/content/tunables.hpp"
 
 namespace kumite::content {
 
@@ -254,6 +256,43 @@ CharacterCatalog parse_characters(std::string_view text, std::string_view source
 
 CharacterCatalog read_characters(const std::filesystem::path& path) {
   return parse_characters(read_text(path, "character"), path.string());
+}
+
+// ---- [fighter.behaviour], [fighter.behaviour.feet], [fighter.retrieval] ----------------------
+
+void parse_fighter_tunables(std::string_view text, std::string_view file, BehaviourTunables& b,
+                            RetrievalTunables& r) {
+  const toml::table doc = parse_toml(text, file, "config");
+  const TomlTable root(doc, "config", file);
+  const auto fighter = root.opt_table("fighter");
+  if (!fighter) return validate(b, r);
+  std::map<std::string, int> lines;  // key under [fighter] -> line, for contradictions
+  const auto read_table = [&](const TomlTable& t, std::string_view name, std::vector<std::string_view> allowed) {
+    for (const TunableKey& k : fighter_tunable_keys()) {
+      if (k.table == name) allowed.push_back(k.key);
+    }
+    t.only(allowed);
+    for (const TunableKey& k : fighter_tunable_keys()) {
+      if (k.table != name || !t.has(k.key)) continue;
+      double& v = k.behaviour ? b.*k.behaviour : k.feet ? b.feet.*k.feet : r.*k.retrieval;
+      t.read(k.key, v, {k.min, k.max, k.unit});
+      lines[std::string(name) + "." + std::string(k.key)] = t.line(k.key);
+    }
+  };
+  if (const auto beh = fighter->opt_table("behaviour")) {
+    read_table(*beh, "behaviour", {"feet"});
+    if (const auto feet = beh->opt_table("feet")) read_table(*feet, "behaviour.feet", {});
+  }
+  if (const auto ret = fighter->opt_table("retrieval")) read_table(*ret, "retrieval", {});
+  if (const auto p = tunables_problem(b, r)) {
+    const auto at = lines.find(p->key);
+    throw file_error("config", p->code, file, at != lines.end() ? at->second : fighter->line(),
+                     "fighter." + p->key, p->message);
+  }
+}
+
+void read_fighter_tunables(const std::filesystem::path& file, BehaviourTunables& b, RetrievalTunables& r) {
+  parse_fighter_tunables(read_text(file, "config"), file.string(), b, r);
 }
 
 }  // namespace kumite::content

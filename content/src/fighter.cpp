@@ -128,7 +128,7 @@ class FighterImpl final : public Fighter {
  public:
   FighterImpl(std::shared_ptr<const Database> db, std::vector<Rig> rigs, const FighterConfig& config,
               FighterOptions options)
-      : behaviour_(db, std::move(rigs), config), planner_(std::make_shared<StrikePlanner>(db)) {
+      : behaviour_(db, std::move(rigs), config), planner_(std::make_shared<StrikePlanner>(db, config.retrieval)) {
     if (options.retrieval_delay_updates < 0)
       throw Error("fighter", "config", "fighter: retrieval_delay_updates must be >= 0");
     RetrievalWorker::PlanFn plan = [planner = planner_, hook = std::move(options.plan)](const StrikeRequest& r) {

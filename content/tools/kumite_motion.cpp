@@ -47,6 +47,11 @@ using namespace kumite::content;
 
 namespace {
 
+/// The fighter's settings every command that plays the fighter uses: defaults, or the
+/// [fighter.behaviour] / [fighter.behaviour.feet] / [fighter.retrieval] tables of the
+/// installation file given with --tunables (the same keys and checks as `kumite --config`).
+FighterConfig g_fighter;
+
 // ---- annotate ------------------------------------------------------------------------------
 
 struct AnnotateArgs {
@@ -257,7 +262,7 @@ int run_strike(const StrikeArgs& a) {
   if (!a.trace.empty()) prepare_output("--trace", a.trace);
   auto db = std::make_shared<const Database>(load_database(a.db));
   const Rig rig = load_character_rig(a.character);
-  const StrikeRecording rec = record_strike(db, rig, order->kind, target);
+  const StrikeRecording rec = record_strike(db, rig, order->kind, target, g_fighter);
   if (rec.contact_frame < 0) {
     for (const auto& e : rec.events) fmt::print(stderr, "  {}\n", e);
     throw kumite::Error("strike", "no_strike", fmt::format("{}: no {} in the database", a.db, a.order));
@@ -287,7 +292,7 @@ int run_strike(const StrikeArgs& a) {
   j["hit"] = rec.strike.hit;
   j["target_reached"] = rec.strike.target_reached;
   j["body_distance_m"] = rec.strike.body_distance_m;
-  j["hit_radius_m"] = FighterConfig{}.hit_radius_m;
+  j["hit_radius_m"] = g_fighter.hit_radius_m;
   j["retrieval_us"] = rec.retrieval_us;
   j["retrieval_cost"] = rec.strike.plan.choice.cost;
   j["target_in_box"] = rec.strike.plan.choice.target_in_box;
@@ -574,7 +579,7 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     const bool kick = sc.order == kumite::OrderKind::kick_left || sc.order == kumite::OrderKind::kick_right;
     nlohmann::json js{{"character", rig.name}, {"order", std::string(kumite::to_string(sc.order))},
                       {"target", {sc.target_m.x(), sc.target_m.y(), sc.target_m.z()}}};
-    const StrikeRecording rec = record_strike(db, rig, sc.order, sc.target_m);
+    const StrikeRecording rec = record_strike(db, rig, sc.order, sc.target_m, g_fighter);
     if (rec.contact_frame < 0) {
       ++totals.no_strike;
       js["struck"] = false;
@@ -706,7 +711,7 @@ struct BoutResult {
 /// Plays the bout. `out_bvh` empty: the runs' BVH are formatted and parsed back in memory.
 BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vector<Rig> rigs, double seconds,
                              const std::string& out_bvh) {
-  const FighterConfig config;
+  const FighterConfig config = g_fighter;
   Behaviour b(db, rigs, config);  // rigs stay ours: the run skeletons come from them
   const double dt = 1.0 / 60;
   struct Contact {
@@ -943,7 +948,7 @@ int run_bench(const BenchArgs& a) {
 
   // 1. Retrieval over the shipped database: full planning (retarget onto the actor,
   //    features, search) per query.
-  const StrikePlanner planner(db);
+  const StrikePlanner planner(db, g_fighter.retrieval);
   const auto requests = bench_requests(*db, rigs, a.queries, rng);
   std::vector<double> plan_us, search_us, brute_us;
   for (const auto& r : requests) plan_us.push_back(planner.plan(r).retrieval_us);
@@ -1026,7 +1031,7 @@ int run_bench(const BenchArgs& a) {
         const double h = rig.morphology.height_m;
         const bool kick = kind >= kumite::OrderKind::kick_left;
         const Eigen::Vector3d target(0.15 * u(rng), (kick ? 0.6 : 0.9) * h, 0.38 * h);
-        const StrikeRecording rec = record_strike(db, rig, kind, target);
+        const StrikeRecording rec = record_strike(db, rig, kind, target, g_fighter);
         adapt_us.insert(adapt_us.end(), rec.update_us.begin(), rec.update_us.end());
         ++strikes;
       }
@@ -1060,6 +1065,13 @@ int run_bench(const BenchArgs& a) {
 int main(int argc, char** argv) {
   CLI::App app{"kumite-motion: motion content tools (annotation, characters, database, strikes, bench)"};
   app.require_subcommand(1);
+  std::string tunables_file;
+  app.add_option("--tunables", tunables_file,
+                 "installation file (config/demo.toml) whose [fighter.behaviour], [fighter.behaviour.feet] and "
+                 "[fighter.retrieval] the fighter plays with (strike, quality, bout, bench, tunables)")
+      ->check(CLI::ExistingFile);
+  auto* tunables_cmd = app.add_subcommand(
+      "tunables", "Print the fighter's tunables as TOML, each with its unit and range (the defaults, or --tunables')");
   AnnotateArgs annotate_args;
   add_annotate(app, annotate_args);
   MakeCharactersArgs make_characters_args;
@@ -1076,6 +1088,11 @@ int main(int argc, char** argv) {
   add_bout(app, bout_args);
   CLI11_PARSE(app, argc, argv);
   try {
+    if (!tunables_file.empty()) read_fighter_tunables(tunables_file, g_fighter.behaviour, g_fighter.retrieval);
+    if (app.got_subcommand(tunables_cmd)) {
+      fmt::print("{}", format_fighter_tunables(g_fighter.behaviour, g_fighter.retrieval));
+      return 0;
+    }
     if (app.got_subcommand("annotate")) return run_annotate(annotate_args);
     if (app.got_subcommand("make-characters")) return run_make_characters(make_characters_args);
     if (app.got_subcommand("build")) return run_build(build_args);

@@ -328,6 +328,9 @@ TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
       {"", "[fighter]\nx_limits_m = [{}, 1]", app, "fighter.x_limits_m"},
       {"", "[fighter]\nz_limits_m = [-4, {}]", app, "fighter.z_limits_m"},
       {"", "[tracking]\nlost_after_s = {}", app, "tracking.lost_after_s"},
+      {"", "[fighter.behaviour]\nwalk_speed_mps = {}", app, "fighter.behaviour.walk_speed_mps"},
+      {"", "[fighter.behaviour.feet]\nswing_lift_m = {}", app, "fighter.behaviour.feet.swing_lift_m"},
+      {"", "[fighter.retrieval]\nbox_margin_m = {}", app, "fighter.retrieval.box_margin_m"},
   };
   for (const char* value : {"nan", "inf", "+inf", "-inf", "-nan", "+nan"}) {
     for (const auto& c : cases) {
@@ -344,6 +347,32 @@ TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
   // An element on a line of its own is named by its line.
   EXPECT_EQ(error_of(kBase + "[viewer]\ndefault_head_m = [\n  0,\n  nan,\n  0]\n"),
             "bad.toml:" + std::to_string(base_lines + 4) + ": viewer.default_head_m: must be a finite number");
+}
+
+// Issue 13: the fighter's tunables live in the installation file, checked like every key, and
+// survive the round trip a session snapshot makes.
+TEST(Config, FighterTunablesAreReadCheckedAndWrittenBack) {
+  const int base_lines = static_cast<int>(std::count(kBase.begin(), kBase.end(), '\n'));
+  const auto c = parse_installation_config(
+      kBase + "[fighter]\nstrike_distance_m = 0.8\n[fighter.behaviour]\nwalk_speed_mps = 0.5\nblend_time_s = 0.3\n"
+              "[fighter.behaviour.feet]\nswing_lift_m = 0.08\n[fighter.retrieval]\npose_weight = 2\n",
+      "room.toml");
+  EXPECT_EQ(c.fighter.behaviour.walk_speed_mps, 0.5);
+  EXPECT_EQ(c.fighter.behaviour.blend_time_s, 0.3);
+  EXPECT_EQ(c.fighter.behaviour.feet.swing_lift_m, 0.08);
+  EXPECT_EQ(c.fighter.retrieval.pose_weight, 2.0);
+  EXPECT_EQ(c.fighter.behaviour.turn_speed_rad_s, kumite::content::BehaviourTunables{}.turn_speed_rad_s);
+  const std::string text = to_toml(c);
+  EXPECT_EQ(parse_installation_config(text, "again.toml"), c) << text;
+  EXPECT_EQ(text.find("turn_speed_rad_s"), std::string::npos) << "defaults are not written";
+  // A default file writes no tunables at all.
+  EXPECT_EQ(to_toml(parse_installation_config(kBase, "base.toml")).find("behaviour"), std::string::npos);
+  EXPECT_EQ(error_of(kBase + "[fighter.behaviour]\nwalk_speed_mps = 9\n"),
+            "bad.toml:" + std::to_string(base_lines + 2) +
+                ": fighter.behaviour.walk_speed_mps: must be in [0.05, 3] m/s, found 9");
+  EXPECT_EQ(error_of(kBase + "[fighter]\nbehavior = 1\n").find("bad.toml:" + std::to_string(base_lines + 2) +
+                                                                 ": fighter.behavior: unknown key (allowed here:"),
+            0u);
 }
 
 // Issue 13: key actions and event types are enums parsed once; text only at the edges.

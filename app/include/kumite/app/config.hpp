@@ -19,6 +19,8 @@
 
 #include "kumite/common/wire.hpp"
 
+#include "kumite/content/tunables.hpp"
+
 namespace kumite::app {
 
 using Vec3 = std::array<double, 3>;
@@ -112,6 +114,11 @@ struct FighterSection {
   double visitor_body_radius_m = 0.20;  ///< m: ... or this close to the body axis below the head
   std::array<double, 2> x_limits_m{-1.4, 1.4};   ///< m, where it may walk (room x)
   std::array<double, 2> z_limits_m{-4.0, -1.7};  ///< m, where it may walk (room z)
+  /// [fighter.behaviour] (with [fighter.behaviour.feet]) and [fighter.retrieval]: the
+  /// fighter's tunables, every key with its unit and range (content/tunables.hpp,
+  /// `kumite-motion tunables` prints them with their defaults).
+  content::BehaviourTunables behaviour;
+  content::RetrievalTunables retrieval;
   bool operator==(const FighterSection&) const = default;
 };
 

@@ -61,34 +61,6 @@ class StrikePlanner {
   RetrievalTunables tunables_;
 };
 
-struct BehaviourTunables {
-  double follow_tolerance_m = 0.25;   ///< m: start following when farther than this off the spot
-  double arrive_tolerance_m = 0.05;   ///< m: stop following this close to the spot
-  double walk_speed_mps = 0.7;        ///< m/s of the root while following
-  double turn_speed_rad_s = 2.5;      ///< rad/s while turning to face the visitor
-  double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
-  double max_root_drop_m = 0.30;      ///< m: the most the pelvis is lowered for held feet (a knee bend)
-  double max_drop_rate_mps = 2.0;     ///< m/s: how fast that drop may change
-  double keep_away_extra_m = 0.8;     ///< m: how much further than the strike distance the fighter
-                                      ///< stands while the visitor is near a wall
-  double release_time_s = 0.25;       ///< s: the shortest time d(t) takes to return to zero after
-                                      ///< contact (it carries on through the blend into rest)
-  double max_support_shift_m = 0.30;  ///< m: a strike clip is shifted at most this far on the floor
-                                      ///< so that its support foot starts where that foot is held
-  double min_contact_distance_m = 0.45;  ///< m: at contact the pelvis stays this far short of the
-                                         ///< target (horizontally) when the clip is placed
-  double min_travel_scale = 0.35;     ///< a strike clip's floor travel to contact is scaled to
-  double max_travel_scale = 1.5;      ///< fit the target, within these factors (a shorter or
-                                      ///< longer lunge)
-  double min_scaled_travel_m = 0.12;  ///< m: clips that travel less to contact keep their travel
-  double max_strike_rise_m = 0.12;    ///< m: the most the pelvis is raised toward standing for a
-                                      ///< target above the clip's own hit
-  double max_punch_elevation_deg = 20;  ///< a punch aims at most this steeply upward before the
-                                        ///< pelvis is raised (up to max_strike_rise_m)
-  double max_punch_aim_deg = 40;      ///< a visitor's head higher than a standing shoulder's arm
-                                      ///< reaches at this elevation is punched lower (neck, chest)
-  FootPlantingTunables feet;          ///< foot holding, swings and procedural steps
-};
 
 /// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
 class Behaviour {
@@ -96,8 +68,9 @@ class Behaviour {
   using Submit = std::function<void(const StrikeRequest&)>;
   using Poll = std::function<std::optional<StrikePlan>()>;
 
-  Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config,
-            BehaviourTunables tunables = {});
+  /// Tunables from config.behaviour (and config.retrieval for the synchronous planner);
+  /// throws kumite::Error when they are out of range (validate()).
+  Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config);
 
   /// Where plans come from. Default: synchronous planning inside update() via `planner`.
   void set_planner(Submit submit, Poll poll);

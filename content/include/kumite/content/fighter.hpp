@@ -19,6 +19,7 @@
 
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
+#include "kumite/content/tunables.hpp"
 
 namespace kumite::content {
 
@@ -41,7 +42,8 @@ struct FighterConfig {
   double visitor_body_radius_m = 0.20;   ///< m, radius of the torso/legs capsule
   double visitor_neck_m = 0.25;          ///< m, head point down to the capsule's top
   double visitor_capsule_bottom_m = 0.25;  ///< m above the floor: the capsule's bottom
-  double blend_time_s = 0.2;             ///< s, cross-fade into a new motion
+  BehaviourTunables behaviour;           ///< [fighter.behaviour] (tunables.hpp)
+  RetrievalTunables retrieval;           ///< [fighter.retrieval]
 };
 
 enum class FighterState { resting, following, striking, recovering };

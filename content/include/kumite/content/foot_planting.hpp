@@ -14,30 +14,10 @@
 #include <Eigen/Core>
 
 #include "kumite/content/adaptation.hpp"
+#include "kumite/content/tunables.hpp"
 
 namespace kumite::content {
 
-struct FootPlantingTunables {
-  double step_threshold_m = 0.12;  ///< m: a held foot steps when its free place is this far
-  double max_leg_stretch = 0.97;   ///< hip->held ankle / leg length beyond which the foot steps
-  double step_time_s = 0.30;       ///< s per procedural step
-  double step_height_m = 0.06;     ///< m: foot lift at mid-step
-  double min_swing_s = 0.15;       ///< s: the shortest time over which a lifted foot sheds its offset
-  double landing_height_m = 0.04;  ///< m: a lifted foot is put down only this close to its standing height
-  double landing_window_m = 0.08;  ///< m above standing height: a foot the motion puts down this low
-                                   ///< comes straight down where it is (higher: it follows the motion)
-  double landing_speed_mps = 0.6;  ///< m/s: the least speed at which such a foot comes down
-  double max_landing_speed_mps = 2.0;  ///< m/s: the most
-  double return_speed_mps = 2.0;   ///< m/s: a foot the motion has down but that is higher than
-                                   ///< landing_window_m goes back to the motion's foot this fast
-  double min_swing_path_m = 0.05;  ///< m: a lifted foot heads for the motion's landing when the
-                                   ///< source still travels its ankle this far (else it follows the source)
-  double max_swing_speed_ratio = 1.5;  ///< a foot heading for its landing moves at most this
-                                       ///< many times the source's horizontal speed
-  double swing_lift_m = 0.10;      ///< m: a foot heading for its landing clears the floor by at
-                                   ///< least this at mid-way (at most 0.25 x its way), a sine over
-                                   ///< the way: a step, never a skim along the floor
-};
 
 /// What the motion says of one foot this update.
 struct FootSample {

@@ -26,6 +26,7 @@
 #include <Eigen/Core>
 
 #include "kumite/content/mkm.hpp"
+#include "kumite/content/tunables.hpp"
 
 namespace kumite::content {
 
@@ -37,12 +38,6 @@ inline constexpr int kWindowMax = 16;
 /// Effector groups: side + 2 * leg (0 left hand, 1 right hand, 2 left foot, 3 right foot).
 inline constexpr int kGroupCount = 4;
 
-struct RetrievalTunables {
-  double pose_weight = 1.0;               ///< per unit of feature distance (dimensionless)
-  double trajectory_weight_per_m = 5.0;   ///< 1/m: 20 cm of hit-point miss = 1 unit of pose
-  double box_margin_m = 0.15;             ///< m: how far adaptation may comfortably move the
-                                          ///< hit point outside the clip's own hit window
-};
 
 struct RetrievalIndex {
   struct Cluster {

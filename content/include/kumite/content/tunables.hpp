@@ -1,0 +1,124 @@
+#pragma once
+// The fighter's tunables: plain structs with their defaults, and their keys in the
+// installation file (issue 13), where a technician may change them without a rebuild:
+//
+//   [fighter.behaviour]        BehaviourTunables   (following, strike placement, blends)
+//   [fighter.behaviour.feet]   FootPlantingTunables (holding feet, swings, procedural steps)
+//   [fighter.retrieval]        RetrievalTunables   (the strike search's cost weights)
+//
+// Every key has a unit and a range (fighter_tunable_keys()); a file's value outside it, nan or
+// inf, an unknown key or two keys that contradict each other is an error naming file, line and
+// key. Values made in code are checked by validate() the same way. Lengths in metres, times in
+// seconds, speeds in metres per second, angles in degrees where the key says _deg.
+#include <filesystem>
+#include <limits>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace kumite::content {
+
+struct FootPlantingTunables {
+  double step_threshold_m = 0.12;  ///< m: a held foot steps when its free place is this far
+  double max_leg_stretch = 0.97;   ///< hip->held ankle / leg length beyond which the foot steps
+  double step_time_s = 0.30;       ///< s per procedural step
+  double step_height_m = 0.06;     ///< m: foot lift at mid-step
+  double min_swing_s = 0.15;       ///< s: the shortest time over which a lifted foot sheds its offset
+  double landing_height_m = 0.04;  ///< m: a lifted foot is put down only this close to its standing height
+  double landing_window_m = 0.08;  ///< m above standing height: a foot the motion puts down this low
+                                   ///< comes straight down where it is (higher: it follows the motion)
+  double landing_speed_mps = 0.6;  ///< m/s: the least speed at which such a foot comes down
+  double max_landing_speed_mps = 2.0;  ///< m/s: the most
+  double return_speed_mps = 2.0;   ///< m/s: a foot the motion has down but that is higher than
+                                   ///< landing_window_m goes back to the motion's foot this fast
+  double min_swing_path_m = 0.05;  ///< m: a lifted foot heads for the motion's landing when the
+                                   ///< source still travels its ankle this far (else it follows the source)
+  double max_swing_speed_ratio = 1.5;  ///< a foot heading for its landing moves at most this
+                                       ///< many times the source's horizontal speed
+  double swing_lift_m = 0.10;      ///< m: a foot heading for its landing clears the floor by at
+                                   ///< least this at mid-way (at most 0.25 x its way), a sine over
+                                   ///< the way: a step, never a skim along the floor
+  bool operator==(const FootPlantingTunables&) const = default;
+};
+
+struct RetrievalTunables {
+  double pose_weight = 1.0;               ///< per unit of feature distance (dimensionless)
+  double trajectory_weight_per_m = 5.0;   ///< 1/m: 20 cm of hit-point miss = 1 unit of pose
+  double box_margin_m = 0.15;             ///< m: how far adaptation may comfortably move the
+                                          ///< hit point outside the clip's own hit window
+  bool operator==(const RetrievalTunables&) const = default;
+};
+
+struct BehaviourTunables {
+  double follow_tolerance_m = 0.25;   ///< m: start following when farther than this off the spot
+  double arrive_tolerance_m = 0.05;   ///< m: stop following this close to the spot
+  double walk_speed_mps = 0.7;        ///< m/s of the root while following
+  double turn_speed_rad_s = 2.5;      ///< rad/s while turning to face the visitor
+  double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
+  double max_root_drop_m = 0.30;      ///< m: the most the pelvis is lowered for held feet (a knee bend)
+  double max_drop_rate_mps = 2.0;     ///< m/s: how fast that drop may change
+  double keep_away_extra_m = 0.8;     ///< m: how much further than the strike distance the fighter
+                                      ///< stands while the visitor is near a wall
+  double release_time_s = 0.25;       ///< s: the shortest time d(t) takes to return to zero after
+                                      ///< contact (it carries on through the blend into rest)
+  double max_support_shift_m = 0.30;  ///< m: a strike clip is shifted at most this far on the floor
+                                      ///< so that its support foot starts where that foot is held
+  double min_contact_distance_m = 0.45;  ///< m: at contact the pelvis stays this far short of the
+                                         ///< target (horizontally) when the clip is placed
+  double min_travel_scale = 0.35;     ///< a strike clip's floor travel to contact is scaled to
+  double max_travel_scale = 1.5;      ///< fit the target, within these factors (a shorter or
+                                      ///< longer lunge)
+  double min_scaled_travel_m = 0.12;  ///< m: clips that travel less to contact keep their travel
+  double max_strike_rise_m = 0.12;    ///< m: the most the pelvis is raised toward standing for a
+                                      ///< target above the clip's own hit
+  double max_punch_elevation_deg = 20;  ///< a punch aims at most this steeply upward before the
+                                        ///< pelvis is raised (up to max_strike_rise_m)
+  double max_punch_aim_deg = 40;      ///< a visitor's head higher than a standing shoulder's arm
+                                      ///< reaches at this elevation is punched lower (neck, chest)
+  double blend_time_s = 0.2;          ///< s, cross-fade into a new motion (and a character switch's easing)
+  FootPlantingTunables feet;          ///< foot holding, swings and procedural steps
+  bool operator==(const BehaviourTunables&) const = default;
+};
+
+/// One tunable as a file names it: its dotted key under [fighter] ("behaviour.walk_speed_mps",
+/// "behaviour.feet.swing_lift_m", "retrieval.pose_weight"), unit and closed range.
+struct TunableKey {
+  std::string_view table;  ///< "behaviour", "behaviour.feet" or "retrieval"
+  std::string_view key;    ///< within that table
+  std::string_view unit;   ///< "m", "s", "m/s", "rad/s", "deg", "1/m", "" (a ratio)
+  double min = 0, max = 0;
+  double BehaviourTunables::*behaviour = nullptr;  ///< one of these three is set
+  double FootPlantingTunables::*feet = nullptr;
+  double RetrievalTunables::*retrieval = nullptr;
+};
+/// Every tunable key, in the order they are documented and written.
+const std::vector<TunableKey>& fighter_tunable_keys();
+
+/// The value of `key` in (b, r).
+double tunable_value(const TunableKey& key, const BehaviourTunables& b, const RetrievalTunables& r);
+
+/// Reads [fighter.behaviour], [fighter.behaviour.feet] and [fighter.retrieval] from an
+/// installation file's text (other tables are not looked at: the installation's reader checks
+/// them), over `b` and `r` (keys absent keep their values). Errors: kumite::Error, component
+/// "config", "file:line: fighter.behaviour.key: message".
+void parse_fighter_tunables(std::string_view text, std::string_view file, BehaviourTunables& b,
+                            RetrievalTunables& r);
+void read_fighter_tunables(const std::filesystem::path& file, BehaviourTunables& b, RetrievalTunables& r);
+
+/// The first key out of its range or contradicting another: its key under [fighter]
+/// ("behaviour.feet.swing_lift_m"), code ("range", "not_finite") and message.
+struct TunableProblem {
+  std::string key, code, message;
+};
+std::optional<TunableProblem> tunables_problem(const BehaviourTunables& b, const RetrievalTunables& r);
+
+/// Throws kumite::Error ("config", "range") naming the first key out of its range, or two
+/// keys that contradict each other (arrive_tolerance_m >= follow_tolerance_m, ...).
+void validate(const BehaviourTunables& b, const RetrievalTunables& r);
+
+/// The three tables as TOML, every key with its value, unit and range (kumite-motion tunables
+/// prints the defaults; parse_fighter_tunables reads it back to the same values).
+std::string format_fighter_tunables(const BehaviourTunables& b, const RetrievalTunables& r);
+
+}  // namespace kumite::content
