@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Re-records tests/app/data/session-demo, the short session tests/app/test_recorded_session.cpp
+# Re-records tests/app/data/session-demo, the short session tests/app_core/test_recorded_session.cpp
 # replays bit for bit: 200 frames (3.3 s) of the shipped demo (config/demo.toml with its
 # recording streamed rather than preloaded, so the head is tracked from the first second),
 # headless at 64x36, no PNGs, the tracker on the synthetic demo recording, the demo's orders.

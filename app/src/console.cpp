@@ -15,9 +15,32 @@
 
 namespace kumite::app {
 
+std::optional<int> glfw_key_code(std::string_view name) {
+  if (name.size() == 1 && name[0] >= 'A' && name[0] <= 'Z') return GLFW_KEY_A + (name[0] - 'A');
+  if (name.size() == 1 && name[0] >= '0' && name[0] <= '9') return GLFW_KEY_0 + (name[0] - '0');
+  if (name.size() >= 2 && name.size() <= 3 && name[0] == 'F' && name[1] >= '1' && name[1] <= '9') {
+    const int n = name.size() == 2 ? name[1] - '0' : (name[1] - '0') * 10 + (name[2] - '0');
+    if (n >= 1 && n <= 12) return GLFW_KEY_F1 + (n - 1);
+  }
+  if (name.size() == 4 && name.substr(0, 3) == "KP_" && name[3] >= '0' && name[3] <= '9')
+    return GLFW_KEY_KP_0 + (name[3] - '0');
+  static const std::pair<std::string_view, int> named[] = {
+      {"SPACE", GLFW_KEY_SPACE},     {"ENTER", GLFW_KEY_ENTER},   {"TAB", GLFW_KEY_TAB},
+      {"BACKSPACE", GLFW_KEY_BACKSPACE}, {"ESCAPE", GLFW_KEY_ESCAPE}, {"LEFT", GLFW_KEY_LEFT},
+      {"RIGHT", GLFW_KEY_RIGHT},     {"UP", GLFW_KEY_UP},         {"DOWN", GLFW_KEY_DOWN},
+      {"HOME", GLFW_KEY_HOME},       {"END", GLFW_KEY_END},       {"INSERT", GLFW_KEY_INSERT},
+      {"DELETE", GLFW_KEY_DELETE},   {"PAGE_UP", GLFW_KEY_PAGE_UP},
+      {"PAGE_DOWN", GLFW_KEY_PAGE_DOWN}, {"COMMA", GLFW_KEY_COMMA}, {"PERIOD", GLFW_KEY_PERIOD},
+      {"MINUS", GLFW_KEY_MINUS},     {"SLASH", GLFW_KEY_SLASH},   {"SEMICOLON", GLFW_KEY_SEMICOLON},
+  };
+  for (auto& [n, code] : named)
+    if (n == name) return code;
+  return std::nullopt;
+}
+
 void handle_key(Installation& inst, int key) {
   for (const auto& k : inst.config().keys) {
-    if (k.code != key) continue;
+    if (glfw_key_code(k.name) != key) continue;
     if (k.action.kind == KeyAction::Kind::quit) {
       inst.request_quit();
       return;

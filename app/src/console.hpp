@@ -2,6 +2,9 @@
 // The supervisor console (Dear ImGui in its own GLFW window): buttons and keys for orders,
 // the key map, tracking and camera status, the fighter, last order and outcome, problems,
 // frame rate, and a top view of the room.
+#include <optional>
+#include <string_view>
+
 #include "kumite/app/installation.hpp"
 
 struct GLFWwindow;

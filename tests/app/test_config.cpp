@@ -1,11 +1,14 @@
 // The installation file: round trips and every bad-config case, each naming file, line, key.
 #include <gtest/gtest.h>
 
+#include <set>
+
 #include <algorithm>
 #include <string>
 #include <vector>
 
 #include "kumite/app/config.hpp"
+#include "kumite/app/run.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/common/error.hpp"
 
@@ -109,6 +112,30 @@ TEST(Config, UnknownKeyName) {
   EXPECT_EQ(code, "unknown_key_name");
   EXPECT_NE(msg.find("bad.toml:18: keys.punch_left: unknown key name \"Jay\""), std::string::npos)
       << msg;
+}
+
+// The config reader knows key names without GLFW; every name it accepts has a GLFW code in the
+// windowed runner (run.hpp), and no two names share one.
+TEST(Config, EveryKeyNameTheReaderAcceptsHasAWindowKeyCode) {
+  std::vector<std::string> names = {"SPACE", "ENTER", "TAB", "BACKSPACE", "ESCAPE", "LEFT", "RIGHT", "UP",
+                                    "DOWN", "HOME", "END", "INSERT", "DELETE", "PAGE_UP", "PAGE_DOWN",
+                                    "COMMA", "PERIOD", "MINUS", "SLASH", "SEMICOLON"};
+  for (char c = 'A'; c <= 'Z'; ++c) names.emplace_back(1, c);
+  for (char c = '0'; c <= '9'; ++c) names.emplace_back(1, c);
+  for (int f = 1; f <= 12; ++f) names.push_back("F" + std::to_string(f));
+  for (int k = 0; k <= 9; ++k) names.push_back("KP_" + std::to_string(k));
+  std::set<int> codes;
+  for (const auto& n : names) {
+    ASSERT_EQ(canonical_key_name(n), n);
+    const auto code = glfw_key_code(n);
+    ASSERT_TRUE(code.has_value()) << n;
+    EXPECT_TRUE(codes.insert(*code).second) << n << " shares its code";
+  }
+  EXPECT_EQ(canonical_key_name("j"), "J");
+  for (const char* bad : {"F13", "F0", "F01", "KP_A", "Jay", "", "space"}) EXPECT_FALSE(canonical_key_name(bad)) << bad;
+  // "j" and "J" are one key: binding both is refused.
+  EXPECT_NE(error_of(replace(kBase, "character_1 = \"1\"", "character_1 = \"j\"")).find("is already bound"),
+            std::string::npos);
 }
 
 TEST(Config, UnknownAction) {

@@ -94,7 +94,7 @@ std::string to_string(const KeyAction& action);
 struct KeyBinding {
   KeyAction action;
   std::string key;  ///< key name as written ("J", "SPACE", "F1", "KP_1", ...)
-  int code = 0;     ///< GLFW key code
+  std::string name; ///< the same, canonical ("j" -> "J"); the windowed runner maps it to its key code
   bool operator==(const KeyBinding&) const = default;
 };
 
@@ -229,7 +229,8 @@ std::string check_wall_geometry(const WallConfig& wall);
 /// TOML text that parse_installation_config() reads back to an equal config.
 std::string to_toml(const InstallationConfig& config);
 
-/// GLFW key code for a key name ("A", "7", "SPACE", "F5", "KP_2", "LEFT", ...), or nullopt.
-std::optional<int> key_code_from_name(std::string_view name);
+/// The canonical form of a key name ("a" -> "A", "7", "SPACE", "F5", "KP_2", "LEFT", ...), or
+/// nullopt when no keyboard has it. GLFW-free: the windowed runner turns names into codes.
+std::optional<std::string> canonical_key_name(std::string_view name);
 
 }  // namespace kumite::app

@@ -1,6 +1,7 @@
 #pragma once
 // The two ways the installation runs: headless (EGL, PNGs + frames.jsonl) and in windows
-// (GLFW, stereo modes, the supervisor console).
+// (GLFW, stereo modes, the supervisor console). The presenters' library (kumite::app); the
+// frame step they present is kumite::app_core, which has no GL.
 #include <array>
 #include <atomic>
 #include <filesystem>
@@ -8,6 +9,7 @@
 #include <string_view>
 
 #include "kumite/app/installation.hpp"
+#include "kumite/app/run_control.hpp"
 
 namespace kumite::app {
 
@@ -41,26 +43,12 @@ struct WindowOptions {
   /// Told of every frame drawn (watchdog pings, readiness, health report); none: nothing.
   RunMonitor* monitor = nullptr;
 };
+/// The GLFW key code of a canonical key name (canonical_key_name in config.hpp), or nullopt:
+/// the key map's names become codes only here, next to the windowed runner.
+std::optional<int> glfw_key_code(std::string_view name);
+
 /// Opens the windows and runs until quit (Escape / closing a window) or `seconds`.
 /// Throws kumite::Error when a window or the requested stereo mode cannot be had.
 int run_windows(Installation& installation, const WindowOptions& options);
-
-/// From the first call on, SIGINT and SIGTERM no longer kill the process: they store their
-/// number in the returned flag (pass it as the options' `stop`), so the run ends at its next
-/// frame with its outputs complete. A second such signal kills the process at once (a run
-/// stuck in start-up or in a driver can still be interrupted).
-const std::atomic<int>& stop_on_signals();
-
-/// Creates `dir` and its missing parents (or checks an existing one is writable), else throws
-/// kumite::Error("io", "folder") in one line: "<what>: <why>" (`what` e.g. "--out out/x",
-/// why: a file in the way, no permission).
-void make_output_folder(const std::filesystem::path& dir, std::string_view what);
-
-/// One line at the end of a run: strike plans asked for, and how many updates had to wait
-/// for the retrieval worker (content::kRetrievalDelayUpdates).
-void log_retrieval_timing(const Installation& installation);
-
-/// Whether a display is there to open windows on ($DISPLAY or $WAYLAND_DISPLAY).
-bool display_available();
 
 }  // namespace kumite::app

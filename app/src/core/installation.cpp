@@ -1,6 +1,6 @@
 #include "kumite/app/installation.hpp"
 
-#include "kumite/app/run.hpp"
+#include "kumite/app/run_control.hpp"
 #include "kumite/app/session.hpp"
 
 #include <algorithm>

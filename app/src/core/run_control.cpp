@@ -9,7 +9,7 @@
 
 #include <fmt/format.h>
 
-#include "kumite/app/run.hpp"
+#include "kumite/app/run_control.hpp"
 #include "kumite/common/error.hpp"
 
 namespace kumite::app {

@@ -1,8 +1,6 @@
 // The installation file: TOML (toml++, included here only) <-> InstallationConfig.
 #include "kumite/app/config.hpp"
 
-#include <GLFW/glfw3.h>  // key codes only
-
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -260,8 +258,8 @@ void Reader::parse_keys(const toml::table& root) {
     const std::string full = "keys." + action;
     if (!node.is_string()) fail("type", line(node), full, "must be a key name (a string)");
     const std::string name = node.value<std::string>().value();
-    const auto code = key_code_from_name(name);
-    if (!code)
+    const auto canonical = canonical_key_name(name);
+    if (!canonical)
       fail("unknown_key_name", line(node), full,
            fmt::format("unknown key name \"{}\" (A-Z, 0-9, F1-F12, KP_0-KP_9, SPACE, ENTER, "
                        "TAB, BACKSPACE, ESCAPE, LEFT, RIGHT, UP, DOWN, ...)", name));
@@ -272,7 +270,7 @@ void Reader::parse_keys(const toml::table& root) {
     if (!parsed)
       fail("unknown_action", line(node), full,
            "unknown action (punch_left, punch_right, kick_left, kick_right, pause, resume, recentre, character_N, quit, record)");
-    cfg_.keys.push_back({*parsed, name, *code});
+    cfg_.keys.push_back({*parsed, name, *canonical});
   }
 }
 
@@ -385,12 +383,12 @@ std::string_view to_string(TrackingSource s) {
   return "?";
 }
 
-std::optional<int> key_code_from_name(std::string_view name) {
+std::optional<std::string> canonical_key_name(std::string_view name) {
   if (name.size() == 1) {
     const char c = name[0];
-    if (c >= 'A' && c <= 'Z') return GLFW_KEY_A + (c - 'A');
-    if (c >= 'a' && c <= 'z') return GLFW_KEY_A + (c - 'a');
-    if (c >= '0' && c <= '9') return GLFW_KEY_0 + (c - '0');
+    if (c >= 'A' && c <= 'Z') return std::string(1, c);
+    if (c >= 'a' && c <= 'z') return std::string(1, static_cast<char>(c - 'a' + 'A'));
+    if (c >= '0' && c <= '9') return std::string(1, c);
   }
   if (name.size() >= 2 && name.size() <= 3 && name[0] == 'F') {
     int n = 0;
@@ -398,22 +396,16 @@ std::optional<int> key_code_from_name(std::string_view name) {
       if (c < '0' || c > '9') return std::nullopt;
       n = n * 10 + (c - '0');
     }
-    if (n >= 1 && n <= 12) return GLFW_KEY_F1 + (n - 1);
+    if (n >= 1 && n <= 12 && name[1] != '0') return std::string(name);
     return std::nullopt;
   }
-  if (name.size() == 4 && name.substr(0, 3) == "KP_" && name[3] >= '0' && name[3] <= '9')
-    return GLFW_KEY_KP_0 + (name[3] - '0');
-  static const std::pair<std::string_view, int> named[] = {
-      {"SPACE", GLFW_KEY_SPACE},     {"ENTER", GLFW_KEY_ENTER},   {"TAB", GLFW_KEY_TAB},
-      {"BACKSPACE", GLFW_KEY_BACKSPACE}, {"ESCAPE", GLFW_KEY_ESCAPE}, {"LEFT", GLFW_KEY_LEFT},
-      {"RIGHT", GLFW_KEY_RIGHT},     {"UP", GLFW_KEY_UP},         {"DOWN", GLFW_KEY_DOWN},
-      {"HOME", GLFW_KEY_HOME},       {"END", GLFW_KEY_END},       {"INSERT", GLFW_KEY_INSERT},
-      {"DELETE", GLFW_KEY_DELETE},   {"PAGE_UP", GLFW_KEY_PAGE_UP},
-      {"PAGE_DOWN", GLFW_KEY_PAGE_DOWN}, {"COMMA", GLFW_KEY_COMMA}, {"PERIOD", GLFW_KEY_PERIOD},
-      {"MINUS", GLFW_KEY_MINUS},     {"SLASH", GLFW_KEY_SLASH},   {"SEMICOLON", GLFW_KEY_SEMICOLON},
+  if (name.size() == 4 && name.substr(0, 3) == "KP_" && name[3] >= '0' && name[3] <= '9') return std::string(name);
+  static constexpr std::string_view named[] = {
+      "SPACE", "ENTER", "TAB",      "BACKSPACE", "ESCAPE", "LEFT",  "RIGHT", "UP",        "DOWN", "HOME",
+      "END",   "INSERT", "DELETE", "PAGE_UP",   "PAGE_DOWN", "COMMA", "PERIOD", "MINUS", "SLASH", "SEMICOLON",
   };
-  for (auto& [n, code] : named)
-    if (n == name) return code;
+  for (const auto n : named)
+    if (n == name) return std::string(name);
   return std::nullopt;
 }
 
@@ -555,7 +547,7 @@ void validate(const InstallationConfig& c) {
   if (!(pr.near_m > 0 && pr.far_m > pr.near_m))
     fail_at(c, "range", "projection.near_m", "need 0 < near_m < far_m");
   // Keys: known actions, no key bound twice, characters that exist.
-  std::map<int, std::string> used;
+  std::map<std::string, std::string> used;  // canonical key name -> action
   for (const auto& k : c.keys) {
     const std::string action = to_string(k.action);
     const std::string key = "keys." + (action.rfind("character ", 0) == 0 ? "character_" + action.substr(10) : action);
@@ -564,7 +556,7 @@ void validate(const InstallationConfig& c) {
       fail_at(c, "unknown_character", key,
               fmt::format("character {} does not exist ({} characters defined)", k.action.character + 1,
                           c.characters.size()));
-    if (auto [it, fresh] = used.emplace(k.code, action); !fresh)
+    if (auto [it, fresh] = used.emplace(k.name, action); !fresh)
       fail_at(c, "duplicate_key", key,
               "key \"" + k.key + "\" is already bound to \"" + it->second + "\"");
   }
