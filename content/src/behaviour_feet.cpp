@@ -1,0 +1,124 @@
+// Behaviour: what the motion now playing says of each foot (contact, lift, landing and the
+// way to it, its own step this update), handed to the FootPlanter (foot_planting.cpp).
+#include "kumite/content/behaviour.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "behaviour_internal.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/content/bvh.hpp"
+#include "kumite/content/canonical.hpp"
+
+namespace kumite::content {
+
+using namespace behaviour_detail;
+using CJ = CanonicalJoint;
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+
+std::array<bool, 2> Behaviour::feet_locked() const { return {feet_.held(kLeft), feet_.held(kRight)}; }
+
+double Behaviour::swing_left_s(int side) const {
+  // Time until the motion now playing puts this foot down again.
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+  if (current_.loop) return 0;  // the rest motion: nothing to follow (the shortest swing applies)
+  const int n = seg.frame_count();
+  const int first = std::clamp(static_cast<int>(std::ceil(current_.time_s / seg.frame_time_s - 1e-9)), 0, n);
+  for (int k = first; k < n; ++k)
+    if (seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5) return k * seg.frame_time_s - current_.time_s;
+  return (n - 1) * seg.frame_time_s - current_.time_s + tun_.blend_time_s;  // the rest motion after it
+}
+
+namespace {
+/// Where a placed MKM frame puts an ankle (m, room) on a rig, without decoding the whole pose:
+/// pelvis, the rest pose's hip offset turned with the pelvis frame, the leg vector.
+Vector3d mkm_ankle(const Rig& rig, const MkmFrame& f, int side) {
+  const Vector3d pelvis(f.root_xz_m.x(), f.root_height_n * rig.morphology.leg_length_m, f.root_xz_m.y());
+  const CanonicalPose& rest = rig.rest_pose;
+  const Vector3d hip_local = pelvis_frame(rest).conjugate() * (at(rest, side == kLeft ? CJ::l_hip : CJ::r_hip) - at(rest, CJ::pelvis));
+  return pelvis + f.pelvis * hip_local + f.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side);
+}
+}  // namespace
+
+void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur) {
+  if (!have_pose_) {
+    locks_ = FootLocks{};
+    return;
+  }
+  const std::array<double, 2>& planted = cur.planted;
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  // The motion being played, one update earlier: how far it moved each foot since.
+  MkmFrame before;
+  Source earlier = current_;
+  earlier.time_s -= dt;
+  sample(earlier, before);
+
+  // The motion's own ankle heights (without a strike's pelvis rise): a heel it raises.
+  MkmFrame unraised = cur;
+  if (current_.travel.rise_n != 0) {
+    Source plain = current_;
+    plain.travel.rise_n = 0;
+    sample(plain, unraised);
+  }
+  constexpr double kLiftDeadband_m = 0.01;
+  std::array<FootSample, 2> in;
+  for (int s = 0; s < 2; ++s) {
+    const auto us = static_cast<std::size_t>(s);
+    const auto ankle = static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_ankle : CJ::r_ankle));
+    const auto hip = static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_hip : CJ::r_hip));
+    FootSample& f = in[us];
+    // Contacts of the motion being blended TO: a cross-fade moves feet the new motion has
+    // down elsewhere, and following the fade would slide them there along the floor.
+    f.planted = planted[us] >= 0.5;
+    f.swing_left_s = swing_left_s(s);
+    // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
+    f.free_ankle_m = rig_positions_[hip] + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
+    f.source_step_m = mkm_ankle(rig, cur, s) - mkm_ankle(rig, before, s);
+    if (!f.planted && !current_.loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
+      // Where the motion puts this foot down next, and the horizontal way its ankle still goes.
+      const double land_t = current_.time_s + f.swing_left_s;
+      const Vector3d now_m = mkm_ankle(rig, cur, s);
+      SwingPath& sp = swing_paths_[us];
+      const bool same = sp.segment == current_.segment && sp.character == character_ && std::abs(sp.land_t - land_t) < 1e-9 &&
+                        sp.placement.origin_xz == current_.placement.origin_xz && sp.placement.yaw_rad == current_.placement.yaw_rad &&
+                        sp.anchor_xz_m == current_.anchor_xz_m && sp.travel == current_.travel;
+      if (same) {
+        sp.way_left_m = std::max(0.0, sp.way_left_m - Eigen::Vector2d(now_m.x() - sp.last_m.x(), now_m.z() - sp.last_m.z()).norm());
+      } else {
+        // The source's own frames from now to the landing (swing_left_s ends on a frame).
+        const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+        const int land = std::min(static_cast<int>(std::lround(land_t / seg.frame_time_s)), seg.frame_count() - 1);
+        MkmFrame g;
+        Vector3d last = now_m;
+        double path = 0;
+        for (int k = static_cast<int>(std::floor(current_.time_s / seg.frame_time_s)) + 1; k <= land; ++k) {
+          sample_frame(current_, k, g);
+          const Vector3d p = mkm_ankle(rig, g, s);
+          path += Eigen::Vector2d(p.x() - last.x(), p.z() - last.z()).norm();
+          last = p;
+        }
+        sp = SwingPath{current_.segment, character_, land_t, current_.placement, current_.anchor_xz_m, current_.travel, last, now_m, path};
+      }
+      sp.last_m = now_m;
+      f.has_landing = true;
+      f.landing_ankle_m = sp.landing_m;
+      f.source_path_left_m = sp.way_left_m;
+    }
+    f.drawn_ankle_m = rig_positions_[ankle];
+    f.hip_m = rig_positions_[hip];
+    f.leg_length_m = rig.morphology.limb_leg_length(s);
+    f.standing_ankle_y_m = at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle).y() - rest_floor_y(rig);
+    f.reached = report_.foot_reached[us];
+    if (f.planted) f.source_lift_m = std::max(0.0, mkm_ankle(rig, unraised, s).y() - f.standing_ankle_y_m - kLiftDeadband_m);
+    f.effector = reach && strike_.effector.leg && strike_.effector.side == s && state_ == FighterState::striking;
+  }
+  // Steps also while recovering: a strike that ends in a long stance steps back under the
+  // body instead of squatting into the rest motion's narrower one.
+  // Not while d(t) still acts: the strike holds its stance until it has been taken back.
+  const bool may_step = state_ != FighterState::striking && ramp_ <= 0;
+  feet_.update(dt, in, may_step, spot_velocity_, locks_);
+}
+
+}  // namespace kumite::content

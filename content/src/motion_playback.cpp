@@ -1,0 +1,214 @@
+// Behaviour: playing its sources (the motion now and the one it fades from): sampling a
+// segment at a time, placing it in the room, a strike's scaled floor travel and pelvis rise, a
+// clip moved onto its support foot, the rest motion started where the body is.
+#include "kumite/content/behaviour.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "behaviour_internal.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/content/bvh.hpp"
+#include "kumite/content/canonical.hpp"
+
+namespace kumite::content {
+
+using namespace behaviour_detail;
+using CJ = CanonicalJoint;
+using Eigen::Vector2d;
+using Eigen::Vector3d;
+
+double Behaviour::stride_scale() const {
+  return characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m / db_->actor.leg_length_m;
+}
+
+GroundFrame Behaviour::ground() const { return ground_frame_of(pose_); }
+
+Vector2d Behaviour::scaled_travel(const Source& s, const MotionSegment& seg, double t) const {
+  // The part of the clip's root travel that Source::Travel scales, at segment time t: all of it
+  // from `from_s` to contact, then weighted by 1 - smoothstep over `release_s` (the extra
+  // travel stops smoothly, with the clip's own motion, not at once). The root is linear within
+  // a frame, so the weighted travel is exact per frame; its running sums at contact and at each
+  // frame after it are kept for the strike being played (one pass per strike, O(1) per call).
+  const Source::Travel& tr = s.travel;
+  if (t <= tr.from_s) return Vector2d::Zero();
+  const double tc = std::max(tr.from_s, tr.contact_s);
+  Vector2d g = root_at(seg, std::min(t, tc)) - root_at(seg, tr.from_s);
+  if (t <= tc || tr.release_s <= 0) return g;
+  const double h = seg.frame_time_s, end = tc + tr.release_s;
+  const double first = std::ceil(tc / h - 1e-9) * h;  // the first frame at or after contact
+  // Knots: contact, then every frame time before the end of the release, then its end.
+  const auto knot = [&](std::size_t i) { return i == 0 ? tc : std::min(end, first + static_cast<double>(i - 1) * h); };
+  const auto part = [&](double a, double b) {  // weighted travel over [a, b] within one frame
+    if (b <= a) return Vector2d(Vector2d::Zero());
+    const Vector2d v = (root_at(seg, b) - root_at(seg, a)) / (b - a);
+    return Vector2d(v * tr.release_s * (eased_integral((b - tc) / tr.release_s) - eased_integral((a - tc) / tr.release_s)));
+  };
+  if (eased_.segment != s.segment || !(eased_.travel == tr)) {
+    eased_.segment = s.segment;
+    eased_.travel = tr;
+    eased_.cum.clear();
+    eased_.cum.push_back(Vector2d::Zero());
+    for (std::size_t i = 1; knot(i - 1) < end; ++i) eased_.cum.push_back(eased_.cum.back() + part(knot(i - 1), knot(i)));
+  }
+  if (t >= end) return g + eased_.cum.back();
+  const std::size_t i = t < first ? 0 : std::min(eased_.cum.size() - 1, 1 + static_cast<std::size_t>((t - first) / h));
+  return g + eased_.cum[i] + part(knot(i), t);
+}
+
+void Behaviour::sample(const Source& s, MkmFrame& out) const {
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  const double period = (seg.frame_count() - 1) * seg.frame_time_s;
+  double t = s.time_s;
+  if (s.loop && seg.kind != SegmentKind::rest) t = 0;  // no rest clip: hold the first frame
+  if (s.loop && period > 0) {
+    t = std::fmod(std::max(0.0, t), 2 * period);  // ping-pong: no seam to blend over
+    if (t > period) t = 2 * period - t;
+  }
+  const auto [i0, a] = frame_pair(seg, t);
+  MkmFrame mixed;
+  blend_mkm(seg.frames[i0], seg.frames[i0 + 1], a, mixed);
+  place_sample(s, seg, t, mixed, out);
+}
+
+void Behaviour::sample_frame(const Source& s, int frame, MkmFrame& out) const {
+  // A strike source at one of its own frames: the frame itself, no blend (s.loop is false).
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  MkmFrame f = seg.frames[static_cast<std::size_t>(std::clamp(frame, 0, seg.frame_count() - 1))];
+  place_sample(s, seg, frame * seg.frame_time_s, f, out);
+}
+
+void Behaviour::place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const {
+  if (!s.loop && s.travel.scale != 1) mixed.root_xz_m += (s.travel.scale - 1) * scaled_travel(s, seg, t);
+  if (!s.loop && s.travel.rise_n != 0) {
+    const Source::Travel& tr = s.travel;
+    const double w = t <= tr.contact_s ? smoothstep((t - tr.from_s) / std::max(1e-6, tr.contact_s - tr.from_s))
+                                       : 1 - smoothstep((t - tr.contact_s) / std::max(1e-6, tr.release_s));
+    mixed.root_height_n += w * tr.rise_n;
+  }
+  place_mkm(mixed, s.placement, s.anchor_xz_m, stride_scale(), out);
+}
+
+void Behaviour::start_rest(Timestamp) {
+  const MotionSegment& rest = db_->segments[static_cast<std::size_t>(rest_segment_)];
+  if (have_pose_) spot_xz_m_ = pose_.root_xz_m;
+  previous_ = current_;
+  blend_elapsed_s_ = 0;
+  current_ = Source{};
+  current_.segment = rest_segment_;
+  current_.loop = true;
+  current_.anchor_xz_m = rest.frames[0].root_xz_m;
+  current_.placement.origin_xz = spot_xz_m_;
+  current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
+}
+
+void Behaviour::align_to_support_foot(Source& s) const {
+  // The clip is placed by its pelvis; shift it on the floor so that its support foot (planted
+  // at the start and staying down longest) lands where that foot is held now: the motion then
+  // swings its other foot and moves its body around a foot that does not have to move, as in
+  // the mocap, instead of dragging a held foot the clip has elsewhere out of the leg's reach.
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  const int first = std::clamp(static_cast<int>(std::lround(s.time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
+  int best = -1, best_run = 0;
+  for (int side = 0; side < 2; ++side) {
+    if (!feet_.held(side)) continue;
+    int run = 0;
+    for (int k = first; k < seg.frame_count() && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5; ++k) ++run;
+    if (run > best_run) { best = side; best_run = run; }
+  }
+  if (best < 0) return;
+  MkmFrame placed;
+  sample(s, placed);
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  CanonicalPose c;
+  decode_canonical(rig, placed, c);
+  const CJ ankle = best == kLeft ? CJ::l_ankle : CJ::r_ankle;
+  const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
+  Vector2d shift(held.x() - at(c, ankle).x(), held.z() - at(c, ankle).z());
+  // Along the line to the target: never back away for it (the held foot then steps up to where
+  // the clip has it, rather than the whole strike landing short).
+  if (strike_target_) {
+    Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
+    if (dir.norm() > 1e-6) {
+      dir.normalize();
+      const double along = shift.dot(dir);
+      shift -= std::min(along, 0.0) * dir;
+    }
+  }
+  const double limit = tun_.max_support_shift_m;
+  if (shift.norm() > limit) shift *= limit / shift.norm();
+  s.placement.origin_xz += shift;
+}
+
+void Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
+  // A lunge travels a fixed distance in the clip; the target is nearer or farther. Scale the
+  // clip's floor travel up to contact (a shorter or longer lunge: Source::Travel) so that at
+  // contact the limb's root (shoulder / hip) is as far from the target as the clip has it from
+  // its own hit point: the limb arrives as extended as captured and d(t) only turns it,
+  // instead of folding a straight punch up onto a near head or stretching it to a far one.
+  // Clips that hardly travel keep their travel; the pelvis always stays min_contact_distance_m
+  // short of the target at contact.
+  s.travel = Source::Travel{};
+  if (!strike_target_) return;
+  Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
+  if (dir.norm() < 1e-6) return;
+  dir.normalize();
+  s.travel.from_s = s.time_s;
+  s.travel.contact_s = contact_time_s;
+  s.travel.release_s = tun_.release_time_s;
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  const auto eff = seg.effector();
+  if (!eff) return;
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  Source at_contact = s;
+  at_contact.time_s = contact_time_s;
+  MkmFrame start_pose, contact_pose;
+  sample(s, start_pose);
+  sample(at_contact, contact_pose);
+  const Vector2d travel2 = contact_pose.root_xz_m - start_pose.root_xz_m;
+  const Vector3d target = *strike_target_;
+  double k = 0;  // scale - 1
+  const double leg = rig.morphology.leg_length_m;
+  CanonicalPose c;
+  decode_canonical(rig, contact_pose, c);
+  const CJ root = eff->leg ? (eff->side == kLeft ? CJ::l_hip : CJ::r_hip) : (eff->side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+  Vector3d limb_root = at(c, root);
+  const double reach = (at(c, eff->joint()) - limb_root).norm();
+  if (!eff->leg) {
+    // A target above what the arm reaches at max_punch_elevation_deg: raise the pelvis toward
+    // its standing height (a higher stance), at most max_strike_rise_m.
+    const double standing_n = at(rig.rest_pose, CJ::pelvis).y() / leg;
+    const double room = std::max(0.0, standing_n - contact_pose.root_height_n) * leg;
+    const double above = target.y() - limb_root.y() - reach * std::sin(tun_.max_punch_elevation_deg * std::numbers::pi / 180);
+    const double rise = std::clamp(above, 0.0, std::min(room, tun_.max_strike_rise_m));
+    s.travel.rise_n = rise / leg;
+    limb_root.y() += rise;
+  }
+  if (travel2.norm() >= tun_.min_scaled_travel_m) {
+    const Vector3d T(travel2.x(), 0, travel2.y());
+    const Vector3d u = target - limb_root;
+    // |u - k T| = reach, the root approaching from behind (the smaller k); when no k reaches
+    // (a target far above or below), the k that comes closest.
+    const double tt = T.squaredNorm(), ut = u.dot(T);
+    const double disc = ut * ut - tt * (u.squaredNorm() - reach * reach);
+    k = disc >= 0 ? (ut - std::sqrt(disc)) / tt : ut / tt;
+    k = std::clamp(k, tun_.min_travel_scale - 1, tun_.max_travel_scale - 1);
+    const double td = T.x() * dir.x() + T.z() * dir.y();
+    if (td > 1e-6) {
+      const double ahead = (Vector2d(target.x(), target.z()) - contact_pose.root_xz_m).dot(dir);
+      k = std::min(k, (ahead - tun_.min_contact_distance_m) / td);
+    }
+    k = std::max(k, tun_.min_travel_scale - 1);
+  } else {
+    // No travel to scale: keep the pelvis short of the target by moving the clip back, at most
+    // max_support_shift_m (as far as any placement shift goes: a target behind the fighter is
+    // not a reason to slide the whole strike away from it).
+    const double ahead = (Vector2d(target.x(), target.z()) - contact_pose.root_xz_m).dot(dir);
+    if (ahead < tun_.min_contact_distance_m)
+      s.placement.origin_xz -= std::min(tun_.min_contact_distance_m - ahead, tun_.max_support_shift_m) * dir;
+  }
+  s.travel.scale = 1 + k;
+}
+
+}  // namespace kumite::content

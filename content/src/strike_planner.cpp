@@ -1,0 +1,49 @@
+// StrikePlanner: a strike request (pose, target) to a plan (segment, start and contact
+// frame): retarget onto the actor, features, retrieve(). Runs on the retrieval worker.
+#include <chrono>
+
+#include "behaviour_internal.hpp"
+#include "kumite/content/behaviour.hpp"
+
+namespace kumite::content {
+
+namespace {
+Rig actor_rig(const Database& db) { return make_rig(db.actor_skeleton, {}, db.actor_name); }
+}  // namespace
+
+StrikePlanner::StrikePlanner(std::shared_ptr<const Database> db, RetrievalTunables tunables)
+    : db_(std::move(db)), actor_(actor_rig(*db_)), tunables_(tunables) {}
+
+RetrievalQuery StrikePlanner::make_query(const StrikeRequest& r) const {
+  const double k = db_->actor.leg_length_m / r.character_leg_length_m;
+  // Retarget onto the actor: MKM is normalised already except the root's horizontal
+  // displacement, which scales with leg length (about the current root).
+  MkmFrame now = r.now, before = r.before;
+  before.root_xz_m = now.root_xz_m + (before.root_xz_m - now.root_xz_m) * k;
+  CanonicalPose pn, pb;
+  decode_canonical(actor_, now, pn);
+  decode_canonical(actor_, before, pb);
+  RetrievalQuery q;
+  q.group = r.group;
+  pose_features(pn, pb, r.dt_s, ground_frame_of(pn), db_->actor.leg_length_m, db_->velocity_weight_s, q.features);
+  q.target_m = (r.target_local_m * k).cast<float>();
+  return q;
+}
+
+StrikePlan StrikePlanner::plan(const StrikeRequest& r) const {
+  const auto t0 = std::chrono::steady_clock::now();
+  const RetrievalQuery q = make_query(r);
+  StrikePlan p;
+  p.id = r.id;
+  p.choice = retrieve(db_->index, q, tunables_);
+  if (p.choice.row >= 0) {
+    const auto row = static_cast<std::size_t>(p.choice.row);
+    p.segment = db_->index.segment[row];
+    p.start_frame = db_->index.start_frame[row];
+    p.contact_frame = db_->index.window_first[row] + p.choice.window_sample * db_->index.window_stride[row];
+  }
+  p.retrieval_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count();
+  return p;
+}
+
+}  // namespace kumite::content
