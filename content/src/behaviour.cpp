@@ -5,6 +5,7 @@
 #include "kumite/content/behaviour.hpp"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <numbers>
 
@@ -61,9 +62,21 @@ void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> pla
   };
 }
 
-void Behaviour::order(const Order& o) { orders_.emplace_back(o, std::nullopt); }
+void Behaviour::order(const Order& o) { orders_.push_back({o, std::nullopt}); }
 void Behaviour::keep_away(bool on) { keep_away_ = on; }
-void Behaviour::order_strike(const Order& o, const Vector3d& target) { orders_.emplace_back(o, target); }
+void Behaviour::order_strike(const Order& o, const Vector3d& target) { orders_.push_back({o, target}); }
+
+void Behaviour::enter(FighterState next) {
+  using S = FighterState;
+  // The transitions of the state machine (behaviour.hpp, state_); anything else is a bug.
+  [[maybe_unused]] const bool allowed =
+      next == state_ || (state_ == S::resting && (next == S::following || next == S::striking)) ||
+      (state_ == S::following && (next == S::resting || next == S::striking)) ||
+      (state_ == S::striking && next == S::recovering) || (state_ == S::recovering && next == S::resting);
+  assert(allowed);
+  state_ = next;
+  strike_.active = next == S::striking || next == S::recovering;
+}
 
 void Behaviour::emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance) {
   FighterEvent e;
@@ -106,8 +119,8 @@ void Behaviour::select_character(int index, Timestamp now) {
     s->placement.origin_xz += d_old - d_new;
   }
   feet_.reset();           // re-plant on the new legs (the easing hides the change)
-  switch_elapsed_s_ = -1;  // marks "compute offsets after this update's solve"
-  if (strike_.active) compute_reach_error(strike_.contact_time_s);
+  switch_offsets_due_ = true;  // the easing's offsets: after this update's solve
+  if (state_ == FighterState::striking) compute_reach_error(strike_.contact_time_s);
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
        fmt::format("character {} ({})", index + 1, characters_[static_cast<std::size_t>(index)].name));
 }
@@ -117,10 +130,12 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   // for that (at most release_time_s): starting now would drop the offset in one frame.
   decltype(orders_) deferred;
   while (!orders_.empty()) {
-    auto [o, explicit_target] = orders_.front();
+    const QueuedOrder queued = orders_.front();
     orders_.pop_front();
-    if (effector_of(o.kind) && state_ == FighterState::recovering && strike_.active) {
-      deferred.emplace_back(o, explicit_target);
+    const Order& o = queued.order;
+    const std::optional<Vector3d>& explicit_target = queued.target_room_m;
+    if (effector_of(o.kind) && state_ == FighterState::recovering) {
+      deferred.push_back(queued);
       continue;
     }
     switch (o.kind) {
@@ -192,7 +207,6 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   place_strike_travel(current_, plan.contact_frame * seg.frame_time_s);
   const Order order = pending_->order;
   strike_ = StrikeInfo{};
-  strike_.active = true;
   strike_.order = order;
   strike_.target_room_m = pending_->target_room_m;
   strike_.plan = plan;
@@ -201,8 +215,7 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   strike_.contact_time_s = plan.contact_frame * seg.frame_time_s;
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
   strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s);
-  state_ = FighterState::striking;
-  following_ = false;
+  enter(FighterState::striking);
   compute_reach_error(strike_.contact_time_s);
   (void)now;
 }
@@ -264,14 +277,15 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
   if (paused_) goal = spot_xz_m_;
   const Vector2d off = goal - spot_xz_m_;
-  if (!following_ && off.norm() > tun_.follow_tolerance_m) following_ = true;
+  bool following = state_ == FighterState::following;
+  if (!following && off.norm() > tun_.follow_tolerance_m) following = true;
   spot_velocity_.setZero();
-  if (following_) {
+  if (following) {
     const double step = std::min(off.norm(), tun_.walk_speed_mps * dt);
     if (off.norm() > 1e-9) spot_xz_m_ += off / off.norm() * step;
     if (off.norm() > 1e-9 && dt > 0) spot_velocity_ = off / off.norm() * step / dt;
     if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m) {
-      following_ = false;
+      following = false;
       recentre_goal_.reset();
     }
   }
@@ -284,7 +298,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   const MotionSegment& rest = db_->segments[static_cast<std::size_t>(current_.segment)];
   current_.placement.origin_xz = spot_xz_m_;
   current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
-  state_ = following_ ? FighterState::following : FighterState::resting;
+  enter(following ? FighterState::following : FighterState::resting);
 }
 
 namespace {
@@ -337,8 +351,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   const std::size_t old_n = static_cast<std::size_t>(characters_[static_cast<std::size_t>(character_)].joint_count());
 
   // A switch needs the old drawn pose; copy it before handle_orders changes character.
-  const bool switch_pending = std::any_of(orders_.begin(), orders_.end(), [](const auto& o) {
-    return o.first.kind == OrderKind::select_character;
+  const bool switch_pending = std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) {
+    return q.order.kind == OrderKind::select_character;
   });
   if (switch_pending && have_pose_) old_display.assign(positions_.begin(), positions_.begin() + static_cast<std::ptrdiff_t>(old_n));
 
@@ -359,19 +373,18 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   current_.time_s += dt;
   previous_.time_s += dt;
   blend_elapsed_s_ += dt;
-  if (switch_elapsed_s_ >= 0) switch_elapsed_s_ += dt;
+  if (!switch_offsets_due_) switch_elapsed_s_ += dt;
   const bool contact_now =
       state_ == FighterState::striking && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
   if (state_ == FighterState::striking && strike_.contact_done &&
       current_.time_s >= strike_.end_time_s - tun_.blend_time_s) {
     start_rest(now);
-    state_ = FighterState::recovering;
+    enter(FighterState::recovering);
   }
   // Recovering lasts until the blend into rest is done and d(t) is back to zero.
   if (state_ == FighterState::recovering && blend_elapsed_s_ >= tun_.blend_time_s &&
       previous_.time_s >= strike_.release_end_s) {
-    state_ = FighterState::resting;
-    strike_.active = false;
+    enter(FighterState::resting);
   }
   if (state_ == FighterState::resting || state_ == FighterState::following) update_follow(dt, head);
 
@@ -450,7 +463,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
 
 
   // Character switch easing: offsets from the old drawn pose, fading over blend_time.
-  if (switch_elapsed_s_ < 0) {
+  if (switch_offsets_due_) {
+    switch_offsets_due_ = false;
     switch_elapsed_s_ = 0;
     const Rig& old_rig = characters_[static_cast<std::size_t>(old_character)];
     CanonicalPose old_c, new_c;

@@ -186,7 +186,16 @@ class Behaviour {
   std::deque<StrikePlan> sync_results_;
 
   int character_ = 0;
+  /// The state machine. Its states and the only transitions enter() allows:
+  ///   resting   -> following  the spot to keep is off by more than follow_tolerance_m
+  ///   following -> resting    arrived (within arrive_tolerance_m)
+  ///   resting | following -> striking   a strike's plan arrived (start_strike)
+  ///   striking  -> recovering  the strike's clip ends: it blends into the rest motion
+  ///   recovering -> resting    the blend is done and d(t) is back to zero
+  /// A strike order waits for its plan in pending_ (any state but striking); paused_ and
+  /// keep_away_ are orders' conditions, not states (a paused fighter rests in place).
   FighterState state_ = FighterState::resting;
+  void enter(FighterState next);
   bool paused_ = false;
   bool keep_away_ = false;
   int rest_segment_ = 0;
@@ -194,11 +203,16 @@ class Behaviour {
   double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
   double facing_rad_ = 0;
   Eigen::Vector2d spot_xz_m_{0, 0};  ///< m, where the rest motion is anchored (room)
-  bool following_ = false;
   Eigen::Vector2d spot_velocity_{0, 0};  ///< m/s of the rest spot while following
   std::optional<Eigen::Vector2d> recentre_goal_;
 
-  std::deque<std::pair<Order, std::optional<Eigen::Vector3d>>> orders_;
+  /// An order queued for the next update; a strike's explicit room target (tools, tests) or
+  /// none (the visitor's head at that update).
+  struct QueuedOrder {
+    Order order{};
+    std::optional<Eigen::Vector3d> target_room_m;
+  };
+  std::deque<QueuedOrder> orders_;
   std::uint64_t next_request_ = 1;
   /// A strike order sent to the planner, waiting for its plan.
   struct PendingStrike {
@@ -244,7 +258,8 @@ class Behaviour {
 
   // Switch easing: per joint of the current rig, an offset fading to zero.
   std::vector<Eigen::Vector3d> switch_offset_;
-  double switch_elapsed_s_ = 1e9;
+  double switch_elapsed_s_ = 1e9;  ///< s since the offsets were taken (long ago: no easing)
+  bool switch_offsets_due_ = false; ///< a switch this update: take the offsets after the solve
 
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> rig_positions_, positions_;
