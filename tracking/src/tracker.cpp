@@ -523,11 +523,77 @@ std::string describe(const CameraStatus& s) {
   return "?";
 }
 
+/// What the loop carries from one frame set to the next (the thread's, or process()'s caller's).
+struct Tracker::Progress {
+  Progress(std::size_t cameras, double blind_after_s) : last_frame(cameras, -1), blind(cameras, blind_after_s) {}
+  std::vector<Timestamp> last_frame;
+  BlindWatch blind;
+  bool first = true;
+};
+
+void Tracker::handle(const FrameSet& frames, Timestamp ready_override) {
+  if (!progress_) progress_ = std::make_unique<Progress>(rig_.cameras.size(), config_.camera_blind_s);
+  Progress& pr = *progress_;
+  if (frame_set_hook_) frame_set_hook_(frames);
+  if (pr.first) {
+    // A recording played as fast as possible runs on its own clock, far from now().
+    clock_is_source_.store(ready_override >= 0 || std::abs(frames.timestamp - kumite::now()) > 60.0,
+                           std::memory_order_release);
+    pr.first = false;
+  }
+  const Timestamp started = kumite::now();
+  const FrameResult& r = pipeline_->process(frames);
+  // On a recording's own clock (played as fast as possible) the set is handed over at
+  // once: its latency is the processing time. process(): as the caller says.
+  const Timestamp ready = ready_override >= 0 ? ready_override
+                          : clock_is_source_.load(std::memory_order_acquire)
+                              ? frames.timestamp + (kumite::now() - started)
+                              : kumite::now();
+  for (std::size_t b = 0; b < r.filtered.size(); ++b) {
+    Snapshot s;
+    const FilteredState& st = r.states[b];
+    s.timestamp = r.filtered[b].timestamp;
+    s.last_measured = st.valid ? st.timestamp : -1;
+    for (int k = 0; k < 3; ++k) {
+      s.p[k] = st.position[k];
+      s.v[k] = st.velocity[k];
+      s.w[k] = st.angular_velocity[k];
+    }
+    s.q[0] = st.orientation.w(), s.q[1] = st.orientation.x(), s.q[2] = st.orientation.y(),
+    s.q[3] = st.orientation.z();
+    s.valid = st.valid && r.filtered[b].status != TrackingStatus::lost;
+    s.pose = r.filtered[b];
+    s.pose.ready_at = ready;
+    snapshots_[b]->value.publish(s);
+    poses_[b]->publish(s.pose);
+  }
+  pr.blind.update(r);
+  for (std::size_t c = 0; c < cameras_.size(); ++c) {
+    const bool has = c < frames.images.size() && !frames.images[c].empty();
+    if (has) pr.last_frame[c] = c < frames.camera_times.size() ? frames.camera_times[c] : frames.timestamp;
+    CameraStatus st;
+    st.last_frame = pr.last_frame[c];
+    st.blobs = has ? static_cast<std::int32_t>(r.blobs[c].size()) : 0;
+    st.masked = has ? r.masked[c] : 0;
+    st.blind_s = pr.blind.unseen_s(c);
+    st.state = source_ && source_->reconnecting(c) ? CameraState::reconnecting
+               : pr.blind.blind(c)                 ? CameraState::blind
+                                                   : CameraState::ok;
+    cameras_[c]->value.publish(st);
+  }
+  last_source_time_.store(frames.timestamp, std::memory_order_release);
+  processed_.fetch_add(1, std::memory_order_acq_rel);
+  if (hook_) hook_(r);
+}
+
+void Tracker::process(const FrameSet& frames) {
+  if (thread_.joinable()) throw Error("tracking", "state", "Tracker::process while its thread runs");
+  handle(frames, frames.timestamp);
+}
+
 void Tracker::run() {
   use_realtime_priority(realtime_priority_);
-  std::vector<Timestamp> last_frame(rig_.cameras.size(), -1);
-  BlindWatch blind(rig_.cameras.size(), config_.camera_blind_s);
-  bool first = true;
+  progress_.reset();
   try {
     while (!stop_.load()) {
       FrameSet frames;
@@ -537,53 +603,7 @@ void Tracker::run() {
         if (source_->end_of_stream()) break;
         continue;
       }
-      if (first) {
-        // A recording played as fast as possible runs on its own clock, far from now().
-        clock_is_source_.store(std::abs(frames.timestamp - kumite::now()) > 60.0, std::memory_order_release);
-        first = false;
-      }
-      const Timestamp started = kumite::now();
-      const FrameResult& r = pipeline_->process(frames);
-      // On a recording's own clock (played as fast as possible) the set is handed over at
-      // once: its latency is the processing time.
-      const Timestamp ready = clock_is_source_.load(std::memory_order_acquire)
-                                  ? frames.timestamp + (kumite::now() - started)
-                                  : kumite::now();
-      for (std::size_t b = 0; b < r.filtered.size(); ++b) {
-        Snapshot s;
-        const FilteredState& st = r.states[b];
-        s.timestamp = r.filtered[b].timestamp;
-        s.last_measured = st.valid ? st.timestamp : -1;
-        for (int k = 0; k < 3; ++k) {
-          s.p[k] = st.position[k];
-          s.v[k] = st.velocity[k];
-          s.w[k] = st.angular_velocity[k];
-        }
-        s.q[0] = st.orientation.w(), s.q[1] = st.orientation.x(), s.q[2] = st.orientation.y(),
-        s.q[3] = st.orientation.z();
-        s.valid = st.valid && r.filtered[b].status != TrackingStatus::lost;
-        s.pose = r.filtered[b];
-        s.pose.ready_at = ready;
-        snapshots_[b]->value.publish(s);
-        poses_[b]->publish(s.pose);
-      }
-      blind.update(r);
-      for (std::size_t c = 0; c < cameras_.size(); ++c) {
-        const bool has = c < frames.images.size() && !frames.images[c].empty();
-        if (has) last_frame[c] = c < frames.camera_times.size() ? frames.camera_times[c] : frames.timestamp;
-        CameraStatus st;
-        st.last_frame = last_frame[c];
-        st.blobs = has ? static_cast<std::int32_t>(r.blobs[c].size()) : 0;
-        st.masked = has ? r.masked[c] : 0;
-        st.blind_s = blind.unseen_s(c);
-        st.state = source_->reconnecting(c) ? CameraState::reconnecting
-                   : blind.blind(c)         ? CameraState::blind
-                                            : CameraState::ok;
-        cameras_[c]->value.publish(st);
-      }
-      last_source_time_.store(frames.timestamp, std::memory_order_release);
-      processed_.fetch_add(1, std::memory_order_acq_rel);
-      if (hook_) hook_(r);
+      handle(frames, -1);
     }
   } catch (const std::exception& e) {
     spdlog::error("tracker stopped: {}", e.what());

@@ -7,6 +7,9 @@
 // Images that would not shrink (noisy, not 8-bit, not continuous) are kept as they are.
 #include <cstddef>
 #include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include <opencv2/core/mat.hpp>
@@ -23,6 +26,14 @@ class PackedImage {
   /// The image again, pixel for pixel: a new buffer, or for a kept image the same (shared)
   /// one, so treat it as read-only. An empty Mat for an empty image.
   cv::Mat unpack() const;
+
+  /// Appends the image in a portable binary form (little-endian; packed runs, or a kept
+  /// image's pixels with its OpenCV type) that read_from() gives back pixel for pixel.
+  void append_to(std::string& out) const;
+  /// Reads one image that append_to() wrote from the front of `in` and advances it. nullopt
+  /// (with `why`) for a truncated or inconsistent one (runs outside the image, overlapping,
+  /// sizes that do not add up): never reads past `in`.
+  static std::optional<PackedImage> read_from(std::string_view& in, std::string* why = nullptr);
 
   bool empty() const { return rows_ == 0 && dense_.empty(); }
   bool packed() const { return dense_.empty() && rows_ > 0; }

@@ -164,6 +164,14 @@ class Tracker {
   /// Optional per-frame hook, called on the tracker thread after publishing (the tool writes
   /// poses.csv rows with it). Set before start().
   void on_frame(std::function<void(const FrameResult&)> hook) { hook_ = std::move(hook); }
+  /// Optional raw hook, called on the tracker thread with every frame set as the source
+  /// handed it over, before it is processed (a session recorder copies the images). It must
+  /// not block. Set before start().
+  void on_frame_set(std::function<void(const FrameSet&)> hook) { frame_set_hook_ = std::move(hook); }
+  /// Processes one frame set on the caller's thread, as the tracker thread would (the thread
+  /// must not run): replaying recorded camera frames in step with recorded display frames.
+  /// The pose is published as ready at the set's own timestamp, on the recording's clock.
+  void process(const FrameSet& frames);
   /// Runs the tracker thread under SCHED_FIFO at `priority` (1..99; 0 = the normal
   /// scheduler, the default), so rendering and decoding never hold a frame set back: its
   /// pose is ready about a millisecond after the set is due. Needs root, CAP_SYS_NICE or an
@@ -173,7 +181,11 @@ class Tracker {
 
  private:
   struct Snapshot;  // filter state, trivially copyable
+  struct Progress;  // what the loop carries from set to set
   void run();
+  /// One frame set: process, publish poses and camera states. ready_override >= 0: the
+  /// poses' ready_at (process()); < 0: measured (the thread).
+  void handle(const FrameSet& frames, Timestamp ready_override);
   Timestamp clock_now() const;
 
   RigCalibration rig_;
@@ -189,6 +201,8 @@ class Tracker {
   std::atomic<bool> clock_is_source_{false};
   std::atomic<double> last_source_time_{0};
   std::function<void(const FrameResult&)> hook_;
+  std::function<void(const FrameSet&)> frame_set_hook_;
+  std::unique_ptr<Progress> progress_;
   std::thread thread_;
   std::atomic<bool> stop_{false};
   std::atomic<bool> running_{false};
