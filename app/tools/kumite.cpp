@@ -46,6 +46,7 @@ struct Args {
   double record_budget_mb = 0;
   bool record_budget_given = false;
   bool replay_real_time = false;
+  bool retrack = false;
   bool config_given = false;
   // kumite export
   std::string export_log, export_bvh, export_head_csv;
@@ -248,9 +249,23 @@ int run_replay(const Args& a) {
   if (!a.data_dir.empty()) ro.data_dir = a.data_dir;
   if (!a.replay_from.empty()) ro.from = a.replay_from;
   ro.real_time = a.replay_real_time;
+  ro.retrack = a.retrack;
   const auto rep = kumite::app::replay_session(a.replay, ro);
   for (const auto& n : rep.notes) spdlog::warn("replay: {}", n);
   const double speed = rep.wall_s > 0 ? rep.session_s / rep.wall_s : 0;
+  if (rep.retrack) {
+    // Re-tracked: a report, not a check (the tracker of this build may differ on purpose).
+    const auto& t = *rep.retrack;
+    spdlog::info("replay --retrack: {} frames from {} camera frame sets ({:.2f} s of session in {:.2f} s: {:.1f}x real "
+                 "time); the re-tracked head is {:.2f} / {:.2f} / {:.2f} mm (p50 / p95 / max) from the recorded one; "
+                 "tracked in one and not the other in {} frames; {} of {} frames identical to the recording{}",
+                 rep.frames_replayed, t.sets, rep.session_s, rep.wall_s, speed, t.head_p50_m * 1e3, t.head_p95_m * 1e3,
+                 t.head_max_m * 1e3, t.status_differs, t.frames_identical, t.frames_compared,
+                 rep.first_difference_frame ? fmt::format(" (the first to differ: frame {}, {})", *rep.first_difference_frame,
+                                                          rep.first_difference_field)
+                                            : "");
+    return rep.notes.empty() ? 0 : 2;
+  }
   if (!rep.identical) {
     std::cerr << fmt::format("kumite: {}: frame {}: {} differs from the recording (frames before it identical)\n",
                              (std::filesystem::path(a.replay) / "session.jsonl").string(), *rep.first_difference_frame,
@@ -306,6 +321,9 @@ int main(int argc, char** argv) {
   app.add_option("--from", a.replay_from,
                  "replay: show from this time: seconds into the session (12.5) or the time of day (21:14:05)");
   app.add_flag("--real-time", a.replay_real_time, "replay: frames at the pace they were recorded (default: as fast as possible)");
+  app.add_flag("--retrack", a.retrack,
+               "replay: re-track the head from the session's camera frames (cameras.bin) with this build's tracker, in "
+               "step with the recorded frames, and report how far it is from the recorded head (not a bit-for-bit check)");
   CLI::App* exp = app.add_subcommand(
       "export", "from a frames.jsonl: the fighter's performance as BVH on its character's skeleton, the head poses as CSV");
   exp->add_option("--log", a.export_log, "frames.jsonl of a run")->required();

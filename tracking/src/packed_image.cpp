@@ -24,9 +24,13 @@ PackedImage::PackedImage(const cv::Mat& image) {
   const std::uint8_t* p = image.ptr<std::uint8_t>();
   // The background level: cameras (and the synthetic recordings) have a black level above 0,
   // so the runs kept are the pixels that differ from the image's most common value.
+  // Estimated from every 61st pixel (a prime stride: no alignment with rows): the blobs cover
+  // a few percent of an IR image, so the most common grey is found as well, in a fraction of
+  // the time (a session recorder packs 240 images a second). Any value would still be exact:
+  // the runs keep every pixel that differs from it.
   {
     std::array<std::size_t, 256> hist{};
-    for (std::size_t k = 0; k < n; ++k) ++hist[p[k]];
+    for (std::size_t k = 0; k < n; k += 61) ++hist[p[k]];
     background_ = static_cast<std::uint8_t>(std::max_element(hist.begin(), hist.end()) - hist.begin());
   }
   const std::uint8_t bg = background_;

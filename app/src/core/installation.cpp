@@ -195,6 +195,7 @@ void Installation::start(Timestamp t) {
   start_ = t;
   last_step_ = t;
   if (recorder_) recorder_->started(t, tracking_->has_tracker(), 0);
+  tracking_->record_frame_sets(recorder_);  // ends the tracker's pre-roll of camera frames
   script_.restart(t);
   started_ = true;
   script_waits_ = tracking_->has_tracker() && script_.remaining() > 0;
@@ -207,6 +208,7 @@ void Installation::order(const Order& o) { pending_.push_back(o); }
 
 void Installation::record_to(SessionRecorder* recorder) {
   if (recorder && recorder != recorder_ && started_) recorder->started(start_, tracking_->has_tracker(), steps_);
+  tracking_->record_frame_sets(recorder);
   recorder_ = recorder;
 }
 

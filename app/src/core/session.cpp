@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <algorithm>
 #include <cstring>
 #include <ctime>
 #include <sstream>
@@ -18,9 +19,13 @@
 #include <spdlog/spdlog.h>
 
 #include "kumite/app/run_control.hpp"
+#include "kumite/app/tracking_input.hpp"
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/realtime.hpp"
+#include "kumite/tracking/camera_frames.hpp"
+#include "kumite/tracking/recording.hpp"
+#include "kumite/tracking/tracker.hpp"
 
 namespace kumite::app {
 
@@ -240,8 +245,18 @@ SessionInfo session_info(const InstallationConfig& config, const InstallationOpt
   return info;
 }
 
+/// One queued camera frame set (images shared with the tracker's: sources hand over fresh ones).
+struct SessionRecorder::SetSlot {
+  tracking::FrameSet set;
+};
+
+/// Frame sets queued for the writer: 1 s at 60 Hz. Each holds its images (4 x 1.3 MB for the
+/// demo's cameras) until packed, so the queue bounds that memory (~310 MB when full).
+constexpr std::size_t kSetQueue = 60;
+
 SessionRecorder::SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames)
     : dir_(std::move(dir)), info_(std::move(info)), slots_(std::max<std::size_t>(queue_frames, 2)) {
+  for (std::size_t i = 0; i < kSetQueue; ++i) set_slots_.push_back(std::make_unique<SetSlot>());
   make_output_folder(dir_, "--record " + dir_.string());
   {
     std::error_code ec;
@@ -337,6 +352,44 @@ void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const S
   head_.store(h + 1, std::memory_order_release);
 }
 
+void SessionRecorder::push_frame_set(const tracking::FrameSet& set) {
+  if (budget_reached_.load(std::memory_order_relaxed) || stop_.load(std::memory_order_relaxed)) return;
+  const std::uint64_t h = set_head_.load(std::memory_order_relaxed);
+  if (h - set_tail_.load(std::memory_order_acquire) >= set_slots_.size()) {
+    sets_dropped_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  tracking::FrameSet& slot = set_slots_[h % set_slots_.size()]->set;
+  slot.frame = set.frame;
+  slot.timestamp = set.timestamp;
+  slot.images.assign(set.images.begin(), set.images.end());  // headers: the pixels are shared
+  slot.camera_times.assign(set.camera_times.begin(), set.camera_times.end());
+  set_head_.store(h + 1, std::memory_order_release);
+}
+
+void SessionRecorder::write_frame_set(const tracking::FrameSet& set) {
+  const std::string record = tracking::encode_frame_set(set);
+  const auto path = dir_ / "cameras.bin";
+  const std::size_t header = frames_fd_ < 0 ? tracking::kCameraFramesHeader.size() : 0;
+  if (bytes_.load(std::memory_order_relaxed) + record.size() + header > budget_bytes_) {
+    budget_reached_.store(true, std::memory_order_relaxed);
+    spdlog::warn("record: {}: the disk budget of {:g} MB is spent: recording stopped after {} frames and {} camera "
+                 "frame sets (the session replays up to there; --record-budget-mb or [record] budget_mb for more)",
+                 dir_.string(), info_.budget_mb, written_.load(), sets_written_.load());
+    return;
+  }
+  if (frames_fd_ < 0) {
+    frames_fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (frames_fd_ < 0) throw Error("io", "open", fmt::format("{}: cannot write ({})", path.string(), std::strerror(errno)));
+    write_all(frames_fd_, tracking::kCameraFramesHeader, path);
+    bytes_.fetch_add(header, std::memory_order_relaxed);
+  }
+  write_all(frames_fd_, record, path);  // one write: a kill leaves whole records
+  bytes_.fetch_add(record.size(), std::memory_order_relaxed);
+  set_bytes_.fetch_add(record.size() + header, std::memory_order_relaxed);
+  sets_written_.fetch_add(1, std::memory_order_relaxed);
+}
+
 void SessionRecorder::run() {
   // Below the frame loop and the tracker: the disk can wait, a frame cannot.
   lower_this_thread_priority(kWriterNice);
@@ -383,6 +436,20 @@ void SessionRecorder::run() {
         error_ = e.what();  // said at close(); later frames are not written (the file would have a hole)
       }
     }
+    // Camera frame sets (a few ms each to pack): what is queued now.
+    const std::uint64_t sh = set_head_.load(std::memory_order_acquire);
+    for (std::uint64_t st = set_tail_.load(std::memory_order_relaxed); st < sh; ++st) {
+      tracking::FrameSet& set = set_slots_[st % set_slots_.size()]->set;
+      if (error_.empty() && !budget_reached_.load(std::memory_order_relaxed)) {
+        try {
+          write_frame_set(set);
+        } catch (const std::exception& e) {
+          error_ = e.what();
+        }
+      }
+      for (auto& im : set.images) im.release();  // the tracker's pixels are not held longer than needed
+      set_tail_.store(st + 1, std::memory_order_release);
+    }
     if (stopping) return;  // everything pushed before stop was written
     std::this_thread::sleep_for(std::chrono::milliseconds(kWriterPeriodMs));
   }
@@ -428,6 +495,9 @@ void SessionRecorder::write_manifest(bool complete) {
                        : json(std::filesystem::absolute(info_.config.resolve(info_.config.tracking.recording)).string());
   m["mono_eyes"] = info_.mono_eyes;
   m["state_fields"] = StateHashes::kFields;
+  if (frames_fd_ >= 0 || sets_written_.load() > 0 || sets_dropped_.load() > 0)
+    m["camera_frames"] = {{"file", "cameras.bin"}, {"sets", sets_written_.load()}, {"dropped", sets_dropped_.load()},
+                          {"bytes", set_bytes_.load()}};
   m["budget_mb"] = info_.budget_mb;
   if (complete) {
     m["closed_unix_s"] = unix_now();
@@ -450,14 +520,22 @@ void SessionRecorder::close() {
   stop_.store(true, std::memory_order_release);
   if (thread_.joinable()) thread_.join();
   const int fd = std::exchange(fd_, -1);
-  const bool synced = ::fsync(fd) == 0;
+  bool synced = ::fsync(fd) == 0;
   ::close(fd);
+  if (frames_fd_ >= 0) {
+    synced = ::fsync(frames_fd_) == 0 && synced;
+    ::close(std::exchange(frames_fd_, -1));
+  }
   write_manifest(true);
   if (!error_.empty()) throw Error("io", "write", error_);
   if (!synced) throw Error("io", "write", fmt::format("{}: cannot sync", (dir_ / "session.jsonl").string()));
   if (dropped_ > 0)
     spdlog::warn("record: {} frame(s) dropped (the writer was behind): a replay stops at the first", dropped_.load());
-  spdlog::info("record: {} frames, {:.2f} MB -> {}", written_.load(), bytes_.load() / 1e6, dir_.string());
+  if (sets_dropped_ > 0)
+    spdlog::warn("record: {} camera frame set(s) dropped (the writer was behind): a re-track misses them",
+                 sets_dropped_.load());
+  spdlog::info("record: {} frames, {} camera frame sets, {:.2f} MB -> {}", written_.load(), sets_written_.load(),
+               bytes_.load() / 1e6, dir_.string());
 }
 
 std::uint64_t SessionRecorder::frames_written() const { return written_.load(); }
@@ -467,6 +545,8 @@ std::string SessionRecorder::status_line() const {
   std::string s = fmt::format("recording {}: {} frames, {:.1f} of {:g} MB", dir_.string(), written_.load(),
                               bytes_.load(std::memory_order_relaxed) / 1e6, info_.budget_mb);
   if (const auto d = dropped_.load(std::memory_order_relaxed); d > 0) s += fmt::format(", {} dropped", d);
+  if (const auto n = sets_written_.load(std::memory_order_relaxed); n > 0) s += fmt::format(", {} camera frame sets", n);
+  if (const auto d = sets_dropped_.load(std::memory_order_relaxed); d > 0) s += fmt::format(" ({} dropped)", d);
   if (budget_reached()) s += ": STOPPED, disk budget spent";
   return s;
 }
@@ -736,6 +816,37 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
   io.mono_eyes = m.value("mono_eyes", false);
   io.orders_script = loaded.orders;
 
+  // --retrack: the session's camera frames through this build's tracker, in step with the
+  // recorded frames (each frame set processed before the first frame at or after its time).
+  struct Retracking {
+    tracking::Tracker tracker;
+    tracking::CameraFramesReader frames;
+    int head = 0;
+    std::vector<std::string> names;
+    TrackerReading reading;
+    std::optional<tracking::FrameSet> next;
+    bool more = true;
+    std::vector<double> head_m;
+  };
+  std::unique_ptr<Retracking> rt;
+  if (options.retrack) {
+    const auto cameras = dir / "cameras.bin";
+    if (!std::filesystem::exists(cameras))
+      throw Error("replay", "missing", fmt::format("{}: no camera frames in this session (recorded without a tracker, or "
+                                                   "by a kumite that did not keep them): it cannot be re-tracked",
+                                                   cameras.string()));
+    const InstallationConfig& c = loaded.config;
+    auto rig = tracking::read_calibration(c.resolve(c.tracking.calibration));
+    auto tc = tracking::read_tracking_config(c.resolve(c.tracking.tracking));
+    std::vector<std::string> names;
+    for (const auto& cam : rig.cameras) names.push_back(cam.name);
+    rt.reset(new Retracking{tracking::Tracker(std::move(rig), std::move(tc)), tracking::CameraFramesReader(cameras),
+                            c.tracking.head_body, std::move(names), {}, std::nullopt, true, {}});
+    if (rt->head < 0 || rt->head >= static_cast<int>(rt->tracker.body_count()))
+      throw Error("replay", "config", fmt::format("tracking.head_body {}: no such body in the snapshot's tracking.toml", rt->head));
+    rep.retrack = ReplayReport::Retrack{};
+  }
+
   const auto session_path = dir / "session.jsonl";
   std::ifstream in(session_path, std::ios::binary);
   if (!in) throw Error("replay", "missing", fmt::format("{}: cannot read", session_path.string()));
@@ -790,7 +901,31 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       break;
     }
     expected = frame + 1;
-    const FrameInput input = parse_input(r.at(j, "input", "input"), r);
+    FrameInput input = parse_input(r.at(j, "input", "input"), r);
+    std::optional<BodyPose> recorded_head;
+    if (rt) {
+      recorded_head = input.tracking.head;
+      for (;;) {
+        if (!rt->next && rt->more) {
+          tracking::FrameSet set;
+          rt->more = rt->frames.next(set);
+          if (rt->more) rt->next = std::move(set);
+        }
+        // The sets the live tracker had published when this frame took its pose: up to the one
+        // its newest pose came from (recorded), else (no pose yet) those due by the frame's time.
+        if (!rt->next) break;
+        const bool due = recorded_head ? rt->next->frame <= recorded_head->frame : rt->next->timestamp <= input.now;
+        if (!due) break;
+        rt->tracker.process(*rt->next);
+        rt->next.reset();
+        ++rep.retrack->sets;
+      }
+      // The time the frame predicts the head to, as Installation::update_head does.
+      const Timestamp seen_at = std::max(input.now, input.shown_at) + loaded.config.display_latency_ms * 1e-3;
+      TrackingSnapshot snap = read_tracker(rt->tracker, rt->head, input.now, seen_at, rt->names, false, rt->reading);
+      snap.source = "re-tracked from " + (dir / "cameras.bin").string();
+      input.tracking = std::move(snap);
+    }
     const bool shown = !from_s || input.now - start >= *from_s;
     if (shown && !rep.from_frame) {
       rep.from_frame = frame;
@@ -806,6 +941,35 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
     if (rep.frames_replayed == 0) first_now = input.now;
     last_now = input.now;
     ++rep.frames_replayed;
+    if (rt) {
+      // Re-tracked: compared with the recording, not required to match it.
+      const auto& h = input.tracking.head;
+      const bool a = recorded_head && recorded_head->status == TrackingStatus::tracked;
+      const bool b = h && h->status == TrackingStatus::tracked;
+      if (a && b) {
+        const double dx = h->position[0] - recorded_head->position[0], dy = h->position[1] - recorded_head->position[1],
+                     dz = h->position[2] - recorded_head->position[2];
+        rt->head_m.push_back(std::sqrt(dx * dx + dy * dy + dz * dz));
+      } else if (a != b) {
+        ++rep.retrack->status_differs;
+      }
+      const StateHashes got = state_hashes(f);
+      const json& want = r.at(j, "hash", "hash");
+      bool same = true;
+      for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
+        same = same && want.value(std::string(StateHashes::kFields[k]), "") == hex(got.value[k]);
+      ++rep.retrack->frames_compared;
+      if (same) ++rep.retrack->frames_identical;
+      if (!same && !rep.first_difference_frame) {
+        rep.first_difference_frame = frame;
+        for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
+          if (want.value(std::string(StateHashes::kFields[k]), "") != hex(got.value[k])) {
+            rep.first_difference_field = std::string(StateHashes::kFields[k]);
+            break;
+          }
+      }
+      continue;
+    }
     if (!rep.compared) continue;
     const StateHashes got = state_hashes(f);
     const json& want = r.at(j, "hash", "hash");
@@ -824,6 +988,16 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
   if (from_s && !rep.from_frame && rep.identical)
     rep.notes.push_back(fmt::format("--from {}: {:.3f} s is past the last frame replayed ({:.3f} s)", *options.from,
                                     *from_s, last_now - start));
+  if (rt) {
+    if (!rt->frames.problem().empty()) rep.notes.push_back(rt->frames.problem() + ": the re-track has no frames after it");
+    auto& v = rt->head_m;
+    std::sort(v.begin(), v.end());
+    const auto pct = [&](double q) { return v.empty() ? 0.0 : v[static_cast<std::size_t>(q * static_cast<double>(v.size() - 1))]; };
+    rep.retrack->head_p50_m = pct(0.5);
+    rep.retrack->head_p95_m = pct(0.95);
+    rep.retrack->head_max_m = v.empty() ? 0.0 : v.back();
+    rep.identical = rep.retrack->frames_identical == rep.retrack->frames_compared;
+  }
   rep.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   rep.session_s = last_now - first_now;
   return rep;

@@ -6,6 +6,9 @@
 #include "kumite/app/tracking_input.hpp"
 
 #include "kumite/app/frame_pacer.hpp"
+#include "kumite/app/session.hpp"
+
+#include <mutex>
 
 #include <array>
 
@@ -37,6 +40,22 @@ class TrackerInput final : public TrackingInput {
       : preload_(c.tracking.recording_preload), tracker_(rig, tc), head_(c.tracking.head_body),
         source_(c.tracking.source) {
     tracker_.set_realtime_priority(c.tracking.realtime_priority);
+    // Camera frame sets to a session recorder while one records (record_frame_sets). The
+    // tracker thread takes this lock once per set; the frame loop only to swap the recorder.
+    // Until the installation starts (or a recorder attaches, if earlier), the sets are kept
+    // (at most kPreroll, their images shared) so that a recording made from the start holds
+    // every set the tracker's filter has seen: re-tracking it then starts from the same state.
+    tracker_.on_frame_set([this](const tracking::FrameSet& set) {
+      const std::lock_guard lock(sink_mutex_);
+      if (sink_) {
+        sink_->push_frame_set(set);
+      } else if (preroll_open_) {
+        if (preroll_.size() < kPreroll)
+          preroll_.push_back(set);
+        else
+          preroll_overflow_ = true;
+      }
+    });
     for (const auto& cam : rig.cameras) names_.push_back(cam.name);
     if (head_ >= static_cast<int>(tracker_.body_count()))
       throw file_error("config", "range", c.file.string(), c.line_of("tracking.head_body"),
@@ -67,43 +86,26 @@ class TrackerInput final : public TrackingInput {
   ~TrackerInput() override { tracker_.stop(); }
 
   TrackingSnapshot poll(Timestamp now_s, Timestamp display_time) override {
-    TrackingSnapshot s;
-    const auto latest = tracker_.latest(head_);
-    if (latest) {
-      // A coasting pose is a prediction: its age counts from the last frame set that saw the
-      // head (if that one came and went between two polls, an older one: the age errs long).
-      if (latest->status == TrackingStatus::tracked) {
-        last_measured_ = latest->timestamp;
-        last_ready_ = latest->ready_at;
-      }
-      // Tracked, coasting or lost as of now: the time to the display (vsync, projector lag)
-      // must not age a fresh pose into "lost". Extrapolated to the display time, unless that
-      // lies past the tracker's coasting time: then the pose as of now.
-      const BodyPose at_now = tracker_.predict(head_, now_s);
-      s.head = tracker_.predict(head_, display_time);
-      if (s.head->status == TrackingStatus::lost) s.head = at_now;
-      s.head->status = at_now.status;
-      s.measured_at = last_measured_;
-      s.measured_ready_at = last_ready_;
-      s.status = std::string(to_string(s.head->status));
-    } else {
-      s.status = tracker_.running() ? "waiting for the first frame set" : "tracker stopped";
-    }
-    s.status += fmt::format(", {} frame sets", tracker_.frames_processed());
-    if (!tracker_.running()) s.status += " (tracker stopped)";
-    const auto cams = tracker_.camera_status(now_s);
-    for (std::size_t i = 0; i < cams.size(); ++i) {
-      CameraView v;
-      v.name = i < names_.size() ? names_[i] : fmt::format("cam{}", i);
-      v.status = std::string(tracking::to_string(cams[i].state));
-      v.blobs = cams[i].blobs;
-      v.since_last_ms = cams[i].since_last_s >= 0 ? cams[i].since_last_s * 1e3 : -1;
-      s.cameras.push_back(v);
-    }
+    TrackingSnapshot s = read_tracker(tracker_, head_, now_s, display_time, names_, true, reading_);
     if (counters_) describe_recording(now_s, s);
     return s;
   }
   Timestamp clock() const override { return now(); }
+  void record_frame_sets(SessionRecorder* recorder) override {
+    const std::lock_guard lock(sink_mutex_);
+    if (preroll_open_) {  // the first call (a recorder from the start, or the installation starting)
+      if (recorder) {
+        for (const auto& set : preroll_) recorder->push_frame_set(set);
+        if (preroll_overflow_)
+          spdlog::warn("record: more than {} camera frame sets came before the recording began: a re-track of it "
+                       "starts from a different tracker state", kPreroll);
+      }
+      preroll_.clear();
+      preroll_.shrink_to_fit();
+      preroll_open_ = false;
+    }
+    sink_ = recorder;
+  }
   bool loading() const override { return counters_ && !counters_->playing.load(); }
   std::string describe() const override { return what_; }
   PoseTiming pose_timing(Timestamp t) override {
@@ -153,11 +155,15 @@ class TrackerInput final : public TrackingInput {
           100 * rates_[0] / all, c.decode_ms.load()));
   }
 
+  static constexpr std::size_t kPreroll = 32;  // frame sets (0.5 s at 60 Hz)
+  std::mutex sink_mutex_;
+  SessionRecorder* sink_ = nullptr;  // guarded by sink_mutex_, as the three below
+  std::vector<tracking::FrameSet> preroll_;
+  bool preroll_open_ = true, preroll_overflow_ = false;
   std::shared_ptr<tracking::RecordingOptions::Counters> counters_;
   PoseClock pose_clock_;  // when the next pose should be out (late latching)
   int preload_ = 0;
-  Timestamp last_measured_ = -1;
-  Timestamp last_ready_ = -1;  // when last_measured_'s pose was published
+  TrackerReading reading_;
   Timestamp rate_t0_ = -1;
   std::array<std::uint64_t, 3> rate_n0_{0, 0, 0};
   std::array<double, 3> rates_{0, 0, 0};
@@ -169,6 +175,44 @@ class TrackerInput final : public TrackingInput {
 };
 
 }  // namespace
+
+TrackingSnapshot read_tracker(const tracking::Tracker& tracker, int head, Timestamp now_s, Timestamp display_time,
+                              const std::vector<std::string>& names, bool threaded, TrackerReading& carried) {
+  TrackingSnapshot s;
+  const auto latest = tracker.latest(head);
+  if (latest) {
+    // A coasting pose is a prediction: its age counts from the last frame set that saw the
+    // head (if that one came and went between two polls, an older one: the age errs long).
+    if (latest->status == TrackingStatus::tracked) {
+      carried.last_measured = latest->timestamp;
+      carried.last_ready = latest->ready_at;
+    }
+    // Tracked, coasting or lost as of now: the time to the display (vsync, projector lag)
+    // must not age a fresh pose into "lost". Extrapolated to the display time, unless that
+    // lies past the tracker's coasting time: then the pose as of now.
+    const BodyPose at_now = tracker.predict(head, now_s);
+    s.head = tracker.predict(head, display_time);
+    if (s.head->status == TrackingStatus::lost) s.head = at_now;
+    s.head->status = at_now.status;
+    s.measured_at = carried.last_measured;
+    s.measured_ready_at = carried.last_ready;
+    s.status = std::string(to_string(s.head->status));
+  } else {
+    s.status = !threaded || tracker.running() ? "waiting for the first frame set" : "tracker stopped";
+  }
+  s.status += fmt::format(", {} frame sets", tracker.frames_processed());
+  if (threaded && !tracker.running()) s.status += " (tracker stopped)";
+  const auto cams = tracker.camera_status(now_s);
+  for (std::size_t i = 0; i < cams.size(); ++i) {
+    CameraView v;
+    v.name = i < names.size() ? names[i] : fmt::format("cam{}", i);
+    v.status = std::string(tracking::to_string(cams[i].state));
+    v.blobs = cams[i].blobs;
+    v.since_last_ms = cams[i].since_last_s >= 0 ? cams[i].since_last_s * 1e3 : -1;
+    s.cameras.push_back(v);
+  }
+  return s;
+}
 
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config) {
   if (config.tracking.source == TrackingSource::none)

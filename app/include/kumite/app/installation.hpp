@@ -43,6 +43,8 @@ struct TrackingSnapshot {
   std::vector<std::string> problems; ///< what is wrong with the source now
 };
 
+class SessionRecorder;
+
 /// Where head poses come from (the tracker, or nothing). poll() never blocks.
 class TrackingInput {
  public:
@@ -59,6 +61,9 @@ class TrackingInput {
   virtual bool has_tracker() const { return true; }
   /// True while the source is still loading (a recording's preload): the show is not up yet.
   virtual bool loading() const { return false; }
+  /// Hands every camera frame set the tracker gets from now on to `recorder` (nullptr: stop;
+  /// returns once no set is being handed over). Sources without cameras ignore it.
+  virtual void record_frame_sets(SessionRecorder* /*recorder*/) {}
 };
 
 /// No tracking: the head stays at the configured default position (console usable alone).

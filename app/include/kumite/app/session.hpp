@@ -6,6 +6,8 @@
 //                   the fighter database's path and checksum, counts, drops, the budget
 //   snapshot/       the installation file, orders script, tracking.toml, rig calibration and
 //                   character BVHs exactly as they were when recording started
+//   cameras.bin     with a tracker: every camera frame set the tracker was handed, packed
+//                   losslessly (tracking/camera_frames.hpp), for `--replay DIR --retrack`
 //   session.jsonl   a first line {"start": s, "unix_s", "has_tracker", "first_frame"}, then one
 //                   line per frame {"frame", "input": the FrameInput (times, keyed orders, the
 //                   tracker's snapshot and clock; numbers written exactly), "hash": {field: 16
@@ -34,6 +36,10 @@
 #include <vector>
 
 #include "kumite/app/installation.hpp"
+
+namespace kumite::tracking {
+struct FrameSet;
+}
 
 namespace kumite::app {
 
@@ -79,6 +85,12 @@ class SessionRecorder {
   void started(Timestamp start, bool has_tracker, std::uint64_t first_frame = 0);
   /// From the frame loop: queues a copy, never waits for the disk (full queue: dropped, counted).
   void push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes);
+  /// From the tracker thread: queues the frame set (its images shared, not copied: sources
+  /// hand over fresh images), never waiting; the writer packs and appends it to cameras.bin.
+  /// A full queue drops the set (counted: a re-track then misses it).
+  void push_frame_set(const tracking::FrameSet& set);
+  std::uint64_t frame_sets_written() const { return sets_written_.load(std::memory_order_relaxed); }
+  std::uint64_t frame_sets_dropped() const { return sets_dropped_.load(std::memory_order_relaxed); }
   /// Writes what is queued, then the final manifest. Throws kumite::Error on a failed write.
   void close();
   std::uint64_t frames_written() const;
@@ -114,6 +126,7 @@ class SessionRecorder {
   void run();
   void write_manifest(bool complete);
   void write_line(const std::string& line);
+  void write_frame_set(const tracking::FrameSet& set);
 
   std::filesystem::path dir_;
   SessionInfo info_;
@@ -134,6 +147,12 @@ class SessionRecorder {
   std::string error_;                                 // the writer's (read after join)
   std::optional<Item::Start> start_;                  // the writer's (read after join)
   double created_unix_s_ = 0;
+  // Camera frame sets: the same kind of ring, filled by the tracker thread.
+  struct SetSlot;
+  std::vector<std::unique_ptr<SetSlot>> set_slots_;
+  std::atomic<std::uint64_t> set_head_{0}, set_tail_{0};
+  std::atomic<std::uint64_t> sets_written_{0}, sets_dropped_{0}, set_bytes_{0};
+  int frames_fd_ = -1;  // cameras.bin, opened at the first set (the writer's)
   std::thread thread_;
 };
 
@@ -169,6 +188,12 @@ struct ReplayOptions {
   /// Frames before it are still re-run (the state needs them), as fast as possible.
   std::optional<std::string> from;
   bool real_time = false;  ///< from `from` on, frames at the pace they were recorded
+  /// Re-track: the head poses come from the session's camera frames (cameras.bin) run through
+  /// the tracker of this build with the snapshot's calibration and tracking.toml, in step with
+  /// the recorded frames (each frame set before the first frame that takes its pose), instead
+  /// of the recorded poses. States are then compared, not required to match: the report says
+  /// how far the re-tracked head is from the recorded one, and which frames differ.
+  bool retrack = false;
   /// Called with each frame from `from` on (a presenter; nullptr: none).
   std::function<void(const FrameData&)> on_frame;
 };
@@ -184,6 +209,17 @@ struct ReplayReport {
   double from_s = 0;                        ///< s since the start, that frame's
   std::vector<std::string> notes;     ///< one line each: what could not be replayed, changed files
   double wall_s = 0;                  ///< s, the replay's own time
+  /// retrack: frame sets re-tracked; frames whose state matched the recording; the re-tracked
+  /// head's distance from the recorded one over frames where both were tracked (m: p50, p95,
+  /// max) and frames where one was tracked and the other not.
+  struct Retrack {
+    std::uint64_t sets = 0;
+    std::uint64_t frames_identical = 0;
+    std::uint64_t frames_compared = 0;
+    double head_p50_m = 0, head_p95_m = 0, head_max_m = 0;
+    std::uint64_t status_differs = 0;
+  };
+  std::optional<Retrack> retrack;
   double session_s = 0;               ///< s, the recorded frames' time span
 };
 

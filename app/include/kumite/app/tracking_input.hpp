@@ -3,11 +3,14 @@
 // from the config's calibration, tracking.toml and recording (or live cameras); poll()
 // reads the newest head pose without waiting and predicts it to the display time.
 #include <memory>
+#include <string>
+#include <vector>
 
 #include "kumite/app/installation.hpp"
 
 namespace kumite::tracking {
 class FrameSource;
+class Tracker;
 }
 
 namespace kumite::app {
@@ -18,5 +21,15 @@ std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& con
 /// The same tracker on a frame source of the caller's (benchmarks, tests, replay from memory).
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config,
                                                    std::unique_ptr<tracking::FrameSource> source);
+
+/// What a tracker says at `now` as the frame sees it: the head predicted to `display_time`
+/// (its status as of now), the measurement it comes from, the cameras' states, a status line.
+/// The live input's poll() and the replay's re-tracking build their snapshots through this.
+struct TrackerReading {
+  Timestamp last_measured = -1;  ///< carried from call to call: the newest tracked measurement
+  Timestamp last_ready = -1;
+};
+TrackingSnapshot read_tracker(const tracking::Tracker& tracker, int head_body, Timestamp now, Timestamp display_time,
+                              const std::vector<std::string>& camera_names, bool threaded, TrackerReading& carried);
 
 }  // namespace kumite::app
