@@ -60,6 +60,7 @@ struct Run {
   double wait_for_head_s = 0;
   fs::path session;
   std::uint64_t frames = 0, dropped = 0, bytes = 0;
+  std::uint64_t camera_sets = 0, camera_sets_dropped = 0, camera_bytes = 0;  // cameras.bin
   double session_s = 0;
   std::string json() const {
     return fmt::format(
@@ -69,8 +70,9 @@ struct Run {
         recording ? "true" : "false", wall_ms.size(), wait_for_head_s, percentile(wall_ms, 0.5),
         percentile(wall_ms, 0.99), percentile(wall_ms, 1.0), percentile(cpu_ms, 0.5), percentile(cpu_ms, 0.99),
         percentile(cpu_ms, 1.0),
-        recording ? fmt::format(", \"session_frames\": {}, \"dropped\": {}, \"session_bytes\": {}, \"session_s\": {:.2f}",
-                                frames, dropped, bytes, session_s)
+        recording ? fmt::format(", \"session_frames\": {}, \"dropped\": {}, \"session_bytes\": {}, \"session_s\": {:.2f}, "
+                                "\"camera_sets\": {}, \"camera_sets_dropped\": {}, \"camera_bytes\": {}",
+                                frames, dropped, bytes, session_s, camera_sets, camera_sets_dropped, camera_bytes)
                   : std::string());
   }
 };
@@ -113,6 +115,9 @@ Run run_once(const fs::path& config_path, double seconds, const std::optional<fs
     r.frames = rec->frames_written();
     r.dropped = rec->dropped();
     r.bytes = fs::file_size(*record_into / "session.jsonl");
+    r.camera_sets = rec->frame_sets_written();
+    r.camera_sets_dropped = rec->frame_sets_dropped();
+    if (fs::exists(*record_into / "cameras.bin")) r.camera_bytes = fs::file_size(*record_into / "cameras.bin");
     r.session_s = now() - t0;
   }
   return r;
@@ -167,11 +172,13 @@ int main(int argc, char** argv) {
       }
       rec.close();
     }
-    std::vector<double> rec_p99, off_p99, rec_cpu99, off_cpu99, per_min;
+    std::vector<double> rec_p99, off_p99, rec_cpu99, off_cpu99, per_min, camera_per_min;
     for (const Run& r : runs) {
       (r.recording ? rec_p99 : off_p99).push_back(percentile(r.wall_ms, 0.99));
       (r.recording ? rec_cpu99 : off_cpu99).push_back(percentile(r.cpu_ms, 0.99));
       if (r.recording && r.session_s > 0) per_min.push_back(static_cast<double>(r.bytes) / r.session_s * 60.0 / 1e6);
+      if (r.recording && r.session_s > 0)
+        camera_per_min.push_back(static_cast<double>(r.camera_bytes) / r.session_s * 60.0 / 1e6);
     }
     std::string run_json;
     for (const Run& r : runs) run_json += (run_json.empty() ? "" : ", ") + r.json();
@@ -183,11 +190,11 @@ int main(int argc, char** argv) {
         " \"step_cpu_p99_ms\": {\"recording_median_of_runs\": %.4f, \"not_recording_median_of_runs\": %.4f},\n"
         " \"record_push_us\": {\"median\": %.2f, \"p99\": %.2f, \"max\": %.2f},\n"
         " \"replays\": [%s],\n \"replay_speed_x\": {\"median\": %.1f, \"min\": %.1f}, \"replays_identical\": %s,\n"
-        " \"session_mb_per_minute\": %.3f, \"max_rss_mb\": %.1f}\n",
+        " \"session_mb_per_minute\": %.3f, \"camera_frames_mb_per_minute\": %.3f, \"max_rss_mb\": %.1f}\n",
         config.string().c_str(), seconds, rounds, run_json.c_str(), percentile(rec_p99, 0.5), percentile(off_p99, 0.5),
         percentile(rec_cpu99, 0.5), percentile(off_cpu99, 0.5), percentile(push_us, 0.5), percentile(push_us, 0.99),
         percentile(push_us, 1.0), replay_json.c_str(), percentile(speeds, 0.5), percentile(speeds, 0.0),
-        all_identical ? "true" : "false", percentile(per_min, 0.5), max_rss_mb());
+        all_identical ? "true" : "false", percentile(per_min, 0.5), percentile(camera_per_min, 0.5), max_rss_mb());
     fs::remove_all(out);
     return all_identical ? 0 : 1;
   } catch (const std::exception& e) {

@@ -24,6 +24,9 @@ std::string read_text_file(const std::filesystem::path& path, std::string_view c
   if (std::filesystem::is_directory(path, ec)) {
     throw file_error(component, "io", path.string(), 0, "", "is a folder, not a file");
   }
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec)) {
+    throw file_error(component, "io", path.string(), 0, "", "is not a regular file");  // a device or FIFO: no end
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw file_error(component, "io", path.string(), 0, "", "cannot open file");
   std::ostringstream ss;

@@ -272,7 +272,12 @@ TEST(Session, AMissingOrMalformedManifestIsRefusedInOneLine) {
     EXPECT_NE(std::string(e.what()).find("manifest.json: cannot read"), std::string::npos) << e.what();
   }
   for (const char* bad : {R"({"version": 2, "files": [{"role": "config", "index": 1e300}]})",
-                          R"({"version": 2, "complete": "yes"})", R"({"version": 2, "dropped": -1})"}) {
+                          R"({"version": 2, "complete": "yes"})", R"({"version": 2, "dropped": -1})",
+                          // A damaged manifest cannot send the replay out of its folder or into a
+                          // device that never ends (it used to read /dev/zero for ever).
+                          R"({"version": 2, "files": [{"role": "config", "snapshot": "/dev/zero", "bytes": 1}]})",
+                          R"({"version": 2, "files": [{"role": "config", "snapshot": "../../etc/passwd", "bytes": 1}]})",
+                          R"({"version": 2, "files": [{"role": "config", "source": "/dev/zero", "snapshot": "x", "bytes": 1}]})"}) {
     std::ofstream(tmp.path / "manifest.json", std::ios::trunc) << bad;
     try {
       replay_session(tmp.path);
@@ -281,6 +286,14 @@ TEST(Session, AMissingOrMalformedManifestIsRefusedInOneLine) {
       EXPECT_EQ(std::string(e.what()).rfind((tmp.path / "manifest.json").string(), 0), 0u) << e.what();
       EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos) << e.what();
     }
+  }
+  // A version 1 manifest names its config by path: a device is refused, naming it.
+  std::ofstream(tmp.path / "manifest.json", std::ios::trunc) << R"({"version": 1, "config": "/dev/zero"})";
+  try {
+    replay_session(tmp.path);
+    ADD_FAILURE();
+  } catch (const kumite::Error& e) {
+    EXPECT_EQ(std::string(e.what()), "/dev/zero: is not a regular file: give the installation's .toml file");
   }
 }
 

@@ -638,6 +638,9 @@ InstallationConfig load_installation_config(const std::filesystem::path& file,
   if (std::filesystem::is_directory(file, ec)) {
     throw file_error("config", "open", file.string(), 0, "", "is a folder, not a file: give the installation's .toml file");
   }
+  if (std::filesystem::exists(file, ec) && !std::filesystem::is_regular_file(file, ec)) {
+    throw file_error("config", "open", file.string(), 0, "", "is not a regular file: give the installation's .toml file");
+  }
   std::ifstream in(file, std::ios::binary);
   if (!in) throw file_error("config", "open", file.string(), 0, "", "cannot open the file");
   std::stringstream ss;

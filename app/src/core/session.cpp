@@ -63,7 +63,11 @@ double unix_now() {
   return std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
 }
 
+/// A regular file's bytes (nullopt: missing, unreadable, or not a regular file: a manifest
+/// naming /dev/zero or a folder must not hang or fail the replay).
 std::optional<std::string> read_bytes(const std::filesystem::path& p) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(p, ec)) return std::nullopt;
   std::ifstream in(p, std::ios::binary);
   if (!in) return std::nullopt;
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
@@ -222,6 +226,8 @@ StateHashes state_hashes(const FrameData& f) {
 }
 
 std::uint64_t file_checksum(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return 0;  // a device has no end to sum
   std::ifstream in(path, std::ios::binary);
   if (!in) return 0;
   Fnv f;
@@ -687,7 +693,11 @@ LoadedConfig session_config(const std::filesystem::path& dir, const json& m, con
     }
     const json& rel = f["snapshot"];
     if (!rel.is_string()) mr.fail("files.snapshot", "not a string");
-    const std::filesystem::path snap = dir / rel.get<std::string>();
+    const std::filesystem::path rel_path(rel.get<std::string>());
+    // Inside the session folder only (a damaged manifest cannot point the replay elsewhere).
+    if (rel_path.is_absolute() || rel_path.lexically_normal().string().rfind("..", 0) == 0 || rel_path.empty())
+      mr.fail("files.snapshot", fmt::format("\"{}\" is not a path inside the session folder", rel_path.string()));
+    const std::filesystem::path snap = dir / rel_path;
     const auto bytes = read_bytes(snap);
     const auto want_bytes = static_cast<std::uint64_t>(mr.whole(mr.at(f, "bytes", "files.bytes"), "files.bytes", 0, 9007199254740992.0));
     std::string problem;
@@ -699,7 +709,7 @@ LoadedConfig session_config(const std::filesystem::path& dir, const json& m, con
       problem = "changed since it was recorded (checksum)";
     if (problem.empty()) {
       u.path = snap;
-    } else if (std::filesystem::exists(source)) {
+    } else if (std::error_code ec; std::filesystem::is_regular_file(source, ec)) {
       u.path = source;
       notes.push_back(fmt::format("{}: {}: replaying with {} as it is now: frames may differ", snap.string(), problem,
                                   source.string()));
