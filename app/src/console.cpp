@@ -42,7 +42,7 @@ void handle_key(Installation& inst, int key) {
   for (const auto& k : inst.config().keys) {
     if (glfw_key_code(k.name) != key) continue;
     if (k.action.kind == KeyAction::Kind::quit) {
-      inst.request_quit();
+      inst.quit_key(now());  // armed by the first press, quits at the second
       return;
     }
     if (k.action.kind == KeyAction::Kind::record) {
@@ -97,17 +97,19 @@ ImU32 colour(glm::vec3 c) {
                   static_cast<int>(c.b * 255), 255);
 }
 
-/// The room from above: walls (x, z), the visitor (head, facing), the fighter and target.
+/// The room from above: walls (x, z), the visitor (head, facing), the fighter and target,
+/// scaled to fit the space it is given (the room's 6 m x 7 m whole, whatever the window).
 void top_view(const Installation& inst, const FrameData& f) {
-  const ImVec2 size(ImGui::GetContentRegionAvail().x, 300);
+  const ImVec2 size = ImGui::GetContentRegionAvail();
   const ImVec2 o = ImGui::GetCursorScreenPos();
   ImDrawList* dl = ImGui::GetWindowDrawList();
   dl->AddRectFilled(o, ImVec2(o.x + size.x, o.y + size.y), IM_COL32(18, 20, 26, 255));
-  // Room x in [-3, 3] across, z in [-5, 2] down (the front wall at the top).
+  // Room x in [-3, 3] across, z in [-5, 2] down (the front wall at the top), centred.
   const double x0 = -3.0, x1 = 3.0, z0 = -5.0, z1 = 2.0;
-  const float s = static_cast<float>(std::min(size.x / (x1 - x0), size.y / (z1 - z0)));
+  const float s = static_cast<float>(std::min(size.x / (x1 - x0), (size.y - 16) / (z1 - z0)));
+  const float ox = o.x + (size.x - static_cast<float>(x1 - x0) * s) / 2, oy = o.y + 16;
   auto at = [&](double x, double z) {
-    return ImVec2(o.x + static_cast<float>(x - x0) * s, o.y + static_cast<float>(z - z0) * s);
+    return ImVec2(ox + static_cast<float>(x - x0) * s, oy + static_cast<float>(z - z0) * s);
   };
   for (double x = -3; x <= 3.01; x += 0.5)
     dl->AddLine(at(x, z0), at(x, z1), IM_COL32(40, 44, 54, 255));
@@ -137,8 +139,45 @@ void top_view(const Installation& inst, const FrameData& f) {
       const glm::vec3 p(item.model[3]);
       dl->AddCircle(at(p.x, p.z), 6, IM_COL32(255, 40, 40, 255), 0, 2.0f);
     }
-  dl->AddText(ImVec2(o.x + 4, o.y + 2), IM_COL32(180, 180, 190, 255), "top view (front wall up)");
+  dl->AddText(ImVec2(o.x + 4, o.y + 1), IM_COL32(180, 180, 190, 255), "top view (front wall up)");
   ImGui::Dummy(size);
+}
+
+/// A full-width band with large text: the states a supervisor must not miss.
+void banner(const char* id, const std::string& text, ImVec4 background) {
+  ImGui::PushStyleColor(ImGuiCol_ChildBg, background);
+  ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1, 1, 1, 1));
+  ImGui::BeginChild(id, ImVec2(0, 40), false, ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse);
+  ImGui::SetWindowFontScale(2.0f);
+  ImGui::SetCursorPos(ImVec2(10, 6));
+  ImGui::TextUnformatted(text.c_str());
+  ImGui::EndChild();
+  ImGui::PopStyleColor(2);
+}
+
+/// The banners this frame: an armed quit, loading, tracking lost, paused.
+int banners(Installation& inst, const ConsoleState& c) {
+  int shown = 0;
+  const Timestamp t = now();
+  if (const auto until = inst.quit_armed_until(t)) {
+    const std::string key = key_for(inst, KeyAction{KeyAction::Kind::quit, OrderKind::punch_right, -1});
+    banner("quit", fmt::format("QUIT?  press {} again within {:.0f} s to end the show", key.empty() ? "quit" : key,
+                               std::ceil(*until - t)),
+           ImVec4(0.65f, 0.1f, 0.1f, 1));
+    ++shown;
+  }
+  if (inst.tracking_loading()) {
+    banner("loading", "LOADING the tracking source: the show starts when it is in", ImVec4(0.15f, 0.3f, 0.6f, 1));
+    ++shown;
+  } else if (inst.has_tracker() && !c.head_live) {
+    banner("lost", "TRACKING LOST: walls drawn from the last good head", ImVec4(0.7f, 0.15f, 0.1f, 1));
+    ++shown;
+  }
+  if (c.paused) {
+    banner("paused", "PAUSED: the fighter holds still and ignores strikes", ImVec4(0.7f, 0.45f, 0.0f, 1));
+    ++shown;
+  }
+  return shown;
 }
 
 }  // namespace
@@ -149,14 +188,19 @@ void Console::frame(Installation& inst, const FrameData& f) {
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
   const ConsoleState& c = inst.console();
+  const bool loading = inst.tracking_loading();
   ImGui::SetNextWindowPos(ImVec2(0, 0));
   ImGui::SetNextWindowSize(ImGui::GetIO().DisplaySize);
   ImGui::Begin("Kumite supervisor", nullptr,
-               ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoCollapse);
+               ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoCollapse |
+                   ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse);
+  banners(inst, c);
   ImGui::Text("%.1f fps   frame CPU %.3f ms   stereo %s   t = %.1f s", c.fps, c.frame_cpu_ms,
               std::string(to_string(mode_)).c_str(), f.time_s);
-  ImGui::Columns(2, nullptr, false);
-  // Left column: orders and the key map.
+  // Upper part: orders and the key map (left), tracking and the fighter (right), each in a
+  // region of its own so that nothing of one column draws through the other.
+  const float upper_h = 405;
+  ImGui::BeginChild("left", ImVec2(372, upper_h), false, ImGuiWindowFlags_NoScrollbar);
   ImGui::TextColored(kAmber, "Orders");
   order_button(inst, "Punch left", OrderKind::punch_left);
   ImGui::SameLine();
@@ -172,13 +216,25 @@ void Console::frame(Installation& inst, const FrameData& f) {
   order_button(inst, c.paused ? "Resume" : "Pause", c.paused ? OrderKind::resume : OrderKind::pause);
   ImGui::SameLine();
   order_button(inst, "Recentre", OrderKind::recentre);
-  ImGui::Separator();
+  ImGui::Spacing();
   ImGui::TextColored(kAmber, "Key map");
-  for (const auto& k : inst.config().keys) ImGui::Text("%-10s %s", k.key.c_str(), to_string(k.action).c_str());
-  ImGui::NextColumn();
-  // Right column: status.
+  // Two pairs of columns: a dozen keys in six rows.
+  if (ImGui::BeginTable("keys", 4, ImGuiTableFlags_SizingFixedFit)) {
+    for (int col = 0; col < 4; ++col)
+      ImGui::TableSetupColumn(nullptr, ImGuiTableColumnFlags_WidthFixed, col % 2 == 0 ? 62.0f : 112.0f);
+    for (const auto& k : inst.config().keys) {
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(k.key.c_str());
+      ImGui::TableNextColumn();
+      ImGui::TextUnformatted(to_string(k.action).c_str());
+    }
+    ImGui::EndTable();
+  }
+  ImGui::EndChild();
+  ImGui::SameLine();
+  ImGui::BeginChild("right", ImVec2(0, upper_h), false, ImGuiWindowFlags_NoScrollbar);
   ImGui::TextColored(kAmber, "Tracking");
-  ImGui::TextColored(c.head_live ? kGreen : kRed, "head: %s", c.tracking.c_str());
+  ImGui::TextColored(loading ? kAmber : c.head_live ? kGreen : kRed, "head: %s", loading ? "loading" : c.tracking.c_str());
   if (!c.tracking_source.empty()) ImGui::TextWrapped("%s", c.tracking_source.c_str());
   ImGui::Text("head  [%.2f, %.2f, %.2f] m   markers %d", f.head.position.x, f.head.position.y,
               f.head.position.z, c.markers_seen);
@@ -200,32 +256,35 @@ void Console::frame(Installation& inst, const FrameData& f) {
   else
     ImGui::TextWrapped("late latch: pose taken %.1f ms in (drawing budget %.1f ms)", c.latch_ms, c.draw_budget_ms);
   for (const auto& cam : c.cameras) {
-    const std::string last = cam.since_last_ms >= 0 ? fmt::format("last frame {:.0f} ms ago", cam.since_last_ms)
-                                                    : std::string("never a frame");
-    ImGui::TextColored(cam.status == "ok" ? kGreen : kRed, "camera %-8s %-12s %3d blobs  %s", cam.name.c_str(),
-                       cam.status.c_str(), cam.blobs, last.c_str());
+    // While the source loads no camera has a frame yet: loading, not an alarm.
+    const std::string last = loading                 ? std::string("waiting for the source to load")
+                             : cam.since_last_ms >= 0 ? fmt::format("last frame {:.0f} ms ago", cam.since_last_ms)
+                                                      : std::string("never a frame");
+    ImGui::TextColored(loading ? kAmber : cam.status == "ok" ? kGreen : kRed, "camera %-8s %-12s %3d blobs  %s",
+                       cam.name.c_str(), loading ? "loading" : cam.status.c_str(), cam.blobs, last.c_str());
   }
-  ImGui::Separator();
+  ImGui::Spacing();
   ImGui::TextColored(kAmber, "Fighter");
-  ImGui::Text("state %s   character %d %s%s", c.fighter_state.c_str(), c.character + 1,
-              c.character_name.c_str(), c.paused ? "   PAUSED" : "");
+  ImGui::Text("state %s   character %d %s", c.fighter_state.c_str(), c.character + 1, c.character_name.c_str());
   ImGui::Text("last order %s", c.last_order.empty() ? "-" : c.last_order.c_str());
   ImGui::Text("outcome    %s", c.last_outcome.empty() ? "-" : c.last_outcome.c_str());
   if (const SessionRecorder* r = inst.recorder())
     ImGui::TextColored(r->budget_reached() || r->dropped() > 0 ? kRed : kGreen, "%s", r->status_line().c_str());
-  ImGui::Columns(1);
+  ImGui::EndChild();
   ImGui::Separator();
   ImGui::PushStyleColor(ImGuiCol_Text, kRed);  // long lines wrap rather than run off
   for (const auto& p : c.problems) ImGui::TextWrapped("! %s", p.c_str());
   ImGui::PopStyleColor();
-  // The top view beside the recent events, so both stay on screen.
-  ImGui::Columns(2, "view_and_events", false);  // its own id: the columns above keep their widths
-  ImGui::SetColumnWidth(0, 280);
+  // Lower part: the top view beside the recent events, both in what is left of the window.
+  const float lower_h = std::max(120.0f, ImGui::GetContentRegionAvail().y);
+  ImGui::BeginChild("top_view", ImVec2(300, lower_h), false, ImGuiWindowFlags_NoScrollbar);
   top_view(inst, f);
-  ImGui::NextColumn();
+  ImGui::EndChild();
+  ImGui::SameLine();
+  ImGui::BeginChild("events", ImVec2(0, lower_h));
   ImGui::TextColored(kAmber, "Recent events (newest first)");
   for (auto it = c.recent.rbegin(); it != c.recent.rend(); ++it) ImGui::TextWrapped("%s", it->c_str());
-  ImGui::Columns(1);
+  ImGui::EndChild();
   ImGui::End();
   ImGui::Render();
   int w = 0, h = 0;

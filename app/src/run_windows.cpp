@@ -168,8 +168,12 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
   std::unique_ptr<Console> console;
   if (opt.console) {
     context_hints(false);
-    GLFWwindow* cw = glfwCreateWindow(960, 760, "kumite: supervisor console", nullptr, nullptr);
+    // [console] size and position: apart from the walls' windows (a console over the front
+    // wall shows on the wall).
+    const auto& cc = cfg.console;
+    GLFWwindow* cw = glfwCreateWindow(cc.size[0], cc.size[1], "kumite: supervisor console", nullptr, nullptr);
     if (!cw) throw Error("app", "window", "cannot open the supervisor console window");
+    if (cc.position) glfwSetWindowPos(cw, (*cc.position)[0], (*cc.position)[1]);
     glfwSetWindowUserPointer(cw, &keys);
     glfwSetKeyCallback(cw, on_key);  // before ImGui, which chains to it
     console = std::make_unique<Console>(cw, mode);
@@ -225,12 +229,20 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
         screenshot(console->window(), p.replace_filename(p.stem().string() + "-console.png"));
       }
       console->swap();
-      if (glfwWindowShouldClose(console->window())) done = true;
+      // Closing the console (or a wall window) is a quit like the quit key's: armed by the
+      // first, done by a second within [console] quit_confirm_s (a stray click ends no show).
+      if (glfwWindowShouldClose(console->window())) {
+        glfwSetWindowShouldClose(console->window(), GLFW_FALSE);
+        if (inst.quit_key(now())) done = true;
+      }
     }
     if (log) log->write(f, inst.console(), names, mode != StereoMode::mono);
     if (opt.monitor) opt.monitor->frame_done(inst, f);
     for (auto& s : slots)
-      if (glfwWindowShouldClose(s.window)) done = true;
+      if (glfwWindowShouldClose(s.window)) {
+        glfwSetWindowShouldClose(s.window, GLFW_FALSE);
+        if (inst.quit_key(now())) done = true;
+      }
     if (last) done = true;
     // The next frame starts at the vsync the swap waited for: a swap that came back at most
     // kVsyncTolerance_s before the next tick did wait for one (a display a little faster than

@@ -402,6 +402,27 @@ TEST(Config, FighterTunablesAreReadCheckedAndWrittenBack) {
             0u);
 }
 
+// Issue 15: the console window's size and place (apart from the walls') and the quit
+// confirmation, checked like every key and written back.
+TEST(Config, ConsoleWindowIsPlacedSizedAndCheckedInTheConfig) {
+  const int base_lines = static_cast<int>(std::count(kBase.begin(), kBase.end(), '\n'));
+  const auto c = parse_installation_config(kBase + "[console]\nsize = [1024, 768]\nposition = [1930, 0]\nquit_confirm_s = 5\n",
+                                           "room.toml");
+  EXPECT_EQ(c.console.size, (std::array<int, 2>{1024, 768}));
+  ASSERT_TRUE(c.console.position);
+  EXPECT_EQ(*c.console.position, (std::array<int, 2>{1930, 0}));
+  EXPECT_EQ(c.console.quit_confirm_s, 5.0);
+  EXPECT_EQ(parse_installation_config(to_toml(c), "again.toml"), c);
+  EXPECT_EQ(parse_installation_config(kBase, "base.toml").console, ConsoleWindowConfig{});
+  EXPECT_EQ(error_of(kBase + "[console]\nsize = [320, 200]\n"),
+            "bad.toml:" + std::to_string(base_lines + 2) +
+                ": console.size: must be at least [640, 480] px (everything on the console must fit), found [320, 200]");
+  EXPECT_EQ(error_of(kBase + "[console]\nquit_confirm_s = nan\n"),
+            "bad.toml:" + std::to_string(base_lines + 2) + ": console.quit_confirm_s: must be a finite number");
+  EXPECT_EQ(error_of(kBase + "[console]\nposition = [0]\n"),
+            "bad.toml:" + std::to_string(base_lines + 2) + ": console.position: must be an array of 2 integers");
+}
+
 // Issue 13: key actions and event types are enums parsed once; text only at the edges.
 TEST(Config, KeyActionsAndEventTypesRoundTripThroughTheirText) {
   for (const char* t : {"punch_left", "punch_right", "kick_left", "kick_right", "pause", "resume", "recentre",

@@ -51,6 +51,8 @@ lost_after_s = 0.25
 /// Plays a list of snapshots, one per poll, the last one repeated.
 class ScriptedTracking final : public TrackingInput {
  public:
+  bool is_loading = false;
+  bool loading() const override { return is_loading; }
   std::vector<TrackingSnapshot> snaps;
   std::size_t next = 0;
   kumite::Timestamp clock_now = 0;
@@ -114,6 +116,47 @@ TEST(Installation, TheHeadIsPredictedToWhenTheFrameIsSeen) {
   EXPECT_NEAR(tr->display_at, 100.12, 1e-9);
   inst.step(100.2, 100.19);
   EXPECT_NEAR(tr->display_at, 100.22, 1e-9);
+}
+
+// Issue 15: while the source loads (a recording's preload) no camera has a frame yet; that is
+// loading (a banner on the console), not a list of camera alarms; once it plays, a camera
+// without frames is a problem again.
+TEST(Installation, WhileTheSourceLoadsCamerasAreNotAlarms) {
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  auto tracking = std::make_unique<ScriptedTracking>();
+  auto* tr = tracking.get();
+  tr->snaps.push_back(lost());
+  tr->is_loading = true;
+  Installation inst(cfg, std::move(tracking), {});
+  inst.start(100);
+  inst.step(100);
+  EXPECT_TRUE(inst.tracking_loading());
+  EXPECT_FALSE(has_problem(inst.console(), "camera cam1"));
+  EXPECT_FALSE(has_problem(inst.console(), "head not tracked"));
+  tr->is_loading = false;
+  inst.step(100 + 1 / 60.0);
+  EXPECT_TRUE(has_problem(inst.console(), "camera cam1: no frames"));
+  EXPECT_TRUE(has_problem(inst.console(), "head not tracked (lost)"));
+}
+
+// Issue 15: one press of the quit key does not end the show: it arms a quit for
+// [console] quit_confirm_s; a second press within that time quits, a late one arms again.
+TEST(Installation, QuittingTakesTwoPressesWithinTheConfirmTime) {
+  auto cfg = parse_installation_config(std::string(kRoom) + "\n[console]\nquit_confirm_s = 2.0\n", "room.toml");
+  Installation inst(cfg, make_fixed_head_input("test"), {});
+  inst.start(100);
+  EXPECT_FALSE(inst.quit_key(100.0));
+  EXPECT_FALSE(inst.quit_requested());
+  ASSERT_TRUE(inst.quit_armed_until(101.0));
+  EXPECT_EQ(*inst.quit_armed_until(101.0), 102.0);
+  EXPECT_FALSE(inst.quit_armed_until(102.5)) << "expired";
+  EXPECT_FALSE(inst.quit_key(103.0)) << "too late: armed again";
+  EXPECT_TRUE(inst.quit_key(104.5));
+  EXPECT_TRUE(inst.quit_requested());
+  // quit_confirm_s = 0: one press quits (an installation that wants it so).
+  auto once = parse_installation_config(std::string(kRoom) + "\n[console]\nquit_confirm_s = 0\n", "room.toml");
+  Installation inst2(once, make_fixed_head_input("test"), {});
+  EXPECT_TRUE(inst2.quit_key(100.0));
 }
 
 TEST(Installation, TrackingLostMidRunKeepsTheLastGoodEyes) {

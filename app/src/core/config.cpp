@@ -148,7 +148,7 @@ class Reader {
 
 void Reader::parse(const toml::table& root) {
   only_keys(root, "", {"display_rate_hz", "late_latch", "display_latency_ms", "data_dir", "windows", "walls", "stereo", "viewer",
-                       "projection", "keys", "characters", "fighter", "tracking", "orders", "health", "safety", "record"});
+                       "projection", "keys", "characters", "fighter", "tracking", "orders", "health", "safety", "record", "console"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
   boolean(root, "late_latch", "", cfg_.late_latch);
   number(root, "display_latency_ms", "", cfg_.display_latency_ms);
@@ -185,6 +185,17 @@ void Reader::parse(const toml::table& root) {
   if (const auto* r = table(root, "record", "", false)) {
     only_keys(*r, "record", {"budget_mb"});
     number(*r, "budget_mb", "record", cfg_.record_budget_mb);
+  }
+  if (const auto* con = table(root, "console", "", false)) {
+    const TomlTable t = at(*con, "console");
+    t.only({"size", "position", "quit_confirm_s"});
+    t.read("size", cfg_.console.size, 1, 16384);
+    std::array<int, 2> pos{};
+    if (t.read("position", pos, -32768, 32767)) cfg_.console.position = pos;
+    t.read("quit_confirm_s", cfg_.console.quit_confirm_s, {0, 30, "s"});
+    if (cfg_.console.size[0] < 640 || cfg_.console.size[1] < 480)
+      t.fail("range", "size", fmt::format("must be at least [640, 480] px (everything on the console must fit), found "
+                                          "[{}, {}]", cfg_.console.size[0], cfg_.console.size[1]));
   }
 }
 
@@ -740,6 +751,12 @@ std::string to_toml(const InstallationConfig& c) {
   }
   if (c.safety != SafetyConfig{})
     root.insert("safety", toml::table{{"enabled", c.safety.enabled}, {"wall_distance_m", c.safety.wall_distance_m}});
+  if (c.console != ConsoleWindowConfig{}) {
+    toml::table con{{"size", toml::array{c.console.size[0], c.console.size[1]}},
+                    {"quit_confirm_s", c.console.quit_confirm_s}};
+    if (c.console.position) con.insert("position", toml::array{(*c.console.position)[0], (*c.console.position)[1]});
+    root.insert("console", std::move(con));
+  }
   root.insert("record", toml::table{{"budget_mb", c.record_budget_mb}});
   std::ostringstream out;
   out << root << "\n";

@@ -293,12 +293,15 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
   console_.head_live = live;
   console_.pose_age_ms = frame_.pose_age_ms;
   console_.tracking_latency_ms = frame_.tracking_latency_ms;
-  if (!live && config_.tracking.source != TrackingSource::none)
+  if (!live && config_.tracking.source != TrackingSource::none && !tracking_->loading())
     console_.problems.push_back(
         fmt::format("head not tracked ({}): walls drawn from the last good head position",
                     snap.status));
-  for (const auto& c : snap.cameras)
-    if (c.status != "ok") console_.problems.push_back("camera " + c.name + ": " + c.status);
+  // While the source loads (a recording's preload) no camera has given a frame yet: that is
+  // loading, shown as such, not a camera fault.
+  if (!tracking_->loading())
+    for (const auto& c : snap.cameras)
+      if (c.status != "ok") console_.problems.push_back("camera " + c.name + ": " + c.status);
   frame_.head = last_good_head_;
   const double ipd = mono_ ? 0.0 : config_.viewer.interpupillary_distance_m;
   frame_.eyes = eyes_from_head(frame_.head, ipd, to_glm(config_.viewer.eye_offset_m));
@@ -571,5 +574,22 @@ void Installation::update_safety(Timestamp now) {
 
 bool Installation::has_tracker() const { return tracking_->has_tracker(); }
 bool Installation::tracking_loading() const { return tracking_->loading(); }
+
+bool Installation::quit_key(Timestamp now) {
+  if (config_.console.quit_confirm_s <= 0 || (quit_armed_until_ && now <= *quit_armed_until_)) {
+    quit_ = true;
+    quit_armed_until_.reset();
+    spdlog::info("quit: by the supervisor");
+    return true;
+  }
+  quit_armed_until_ = now + config_.console.quit_confirm_s;
+  spdlog::info("quit: armed; press the quit key again within {:g} s to end the show", config_.console.quit_confirm_s);
+  return false;
+}
+
+std::optional<Timestamp> Installation::quit_armed_until(Timestamp now) const {
+  if (quit_armed_until_ && now <= *quit_armed_until_) return quit_armed_until_;
+  return std::nullopt;
+}
 
 }  // namespace kumite::app

@@ -30,6 +30,16 @@ std::string_view to_string(StereoMode m);
 std::optional<StereoMode> stereo_mode_from_string(std::string_view s);
 
 /// One output window (or, with several walls in it, one window split into viewports).
+/// [console]: the supervisor console window (windowed runs), placed apart from the walls'.
+struct ConsoleWindowConfig {
+  std::array<int, 2> size{960, 760};             ///< pixels; at least 640 x 480
+  std::optional<std::array<int, 2>> position;    ///< pixels, top-left on the desktop (none: the window system's choice)
+  /// s: the quit key (and closing the console) only arms a quit, shown in a banner; a second
+  /// press within this long quits. 0: one press quits.
+  double quit_confirm_s = 3.0;
+  bool operator==(const ConsoleWindowConfig&) const = default;
+};
+
 struct WindowConfig {
   std::string name;
   std::array<int, 2> size{1280, 720};     ///< pixels (windowed); fullscreen uses the monitor's
@@ -193,6 +203,7 @@ struct InstallationConfig {
   std::optional<std::filesystem::path> orders_script;  ///< `time_s,order` rows, as written
   HealthConfig health;
   SafetyConfig safety;
+  ConsoleWindowConfig console;
   /// [record] budget_mb: MB a session recording (kumite --record, the record key) may take on
   /// disk; recording stops there with a warning (kumite --record-budget-mb overrides).
   double record_budget_mb = 2048.0;

@@ -267,6 +267,11 @@ class Installation {
   /// without a fighter).
   content::RetrievalTiming retrieval_timing() const;
   void request_quit() { quit_ = true; }
+  /// The quit key (or closing the console) at `now`: the first press arms a quit for
+  /// [console] quit_confirm_s, a second within that quits; returns whether it quit.
+  bool quit_key(Timestamp now);
+  /// Until when an armed quit waits for its second press (nullopt: none armed, or expired at `now`).
+  std::optional<Timestamp> quit_armed_until(Timestamp now) const;
 
  private:
   void update_head(Timestamp now, Timestamp shown_at);
@@ -298,6 +303,7 @@ class Installation {
   HeadPose last_good_head_;
   Timestamp start_ = 0, last_step_ = 0;
   bool started_ = false, quit_ = false, mono_ = false;
+  std::optional<Timestamp> quit_armed_until_;
   bool script_waits_ = false;  ///< the orders script waits for the head to be tracked
   double dt_filtered_ = 0;  ///< s, smoothed frame interval
   std::optional<VisitorNearWall> near_wall_;  ///< the safety state across frames (hysteresis)
