@@ -31,7 +31,8 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   }
   const bool stereo = cfg.stereo.mode != StereoMode::mono;
   const char* eye_names[2] = {stereo ? "left" : "mono", "right"};
-  FrameLog log(opt.out / "frames.jsonl");
+  FrameLog log(opt.out / "frames.jsonl",
+               static_cast<std::uint64_t>(inst.config().frames_log_budget_mb * 1e6));
   // Two frames' images may wait for the writer; in real time, more are dropped (and said).
   PngWriter pngs(2 * targets.size() * (stereo ? 2 : 1), !opt.real_time);
   std::vector<std::uint8_t> pixels;

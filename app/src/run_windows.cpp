@@ -182,7 +182,7 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
   std::unique_ptr<FrameLog> log;
   std::vector<std::string> names;
   for (const auto& w : cfg.walls) names.push_back(w.name);
-  if (opt.log) log = std::make_unique<FrameLog>(*opt.log);
+  if (opt.log) log = std::make_unique<FrameLog>(*opt.log, static_cast<std::uint64_t>(cfg.frames_log_budget_mb * 1e6));
 
   const Timestamp t0 = now();
   inst.start(t0);

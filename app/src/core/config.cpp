@@ -148,7 +148,7 @@ class Reader {
 
 void Reader::parse(const toml::table& root) {
   only_keys(root, "", {"display_rate_hz", "late_latch", "display_latency_ms", "data_dir", "windows", "walls", "stereo", "viewer",
-                       "projection", "keys", "characters", "fighter", "tracking", "orders", "health", "safety", "record", "console"});
+                       "projection", "keys", "characters", "fighter", "tracking", "orders", "health", "safety", "record", "console", "log"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
   boolean(root, "late_latch", "", cfg_.late_latch);
   number(root, "display_latency_ms", "", cfg_.display_latency_ms);
@@ -185,6 +185,11 @@ void Reader::parse(const toml::table& root) {
   if (const auto* r = table(root, "record", "", false)) {
     only_keys(*r, "record", {"budget_mb"});
     number(*r, "budget_mb", "record", cfg_.record_budget_mb);
+  }
+  if (const auto* lg = table(root, "log", "", false)) {
+    const TomlTable t = at(*lg, "log");
+    t.only({"frames_budget_mb"});
+    t.read("frames_budget_mb", cfg_.frames_log_budget_mb, {1, 1e7, "MB"});
   }
   if (const auto* con = table(root, "console", "", false)) {
     const TomlTable t = at(*con, "console");
@@ -463,7 +468,8 @@ bool InstallationConfig::operator==(const InstallationConfig& o) const {
          stereo == o.stereo && viewer == o.viewer && projection == o.projection &&
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
          tracking == o.tracking && orders_script == o.orders_script && data_dir == o.data_dir &&
-         health == o.health && safety == o.safety && record_budget_mb == o.record_budget_mb;
+         health == o.health && safety == o.safety && record_budget_mb == o.record_budget_mb &&
+         console == o.console && frames_log_budget_mb == o.frames_log_budget_mb;
 }
 
 std::string check_wall_geometry(const WallConfig& w) {
@@ -751,6 +757,8 @@ std::string to_toml(const InstallationConfig& c) {
   }
   if (c.safety != SafetyConfig{})
     root.insert("safety", toml::table{{"enabled", c.safety.enabled}, {"wall_distance_m", c.safety.wall_distance_m}});
+  if (c.frames_log_budget_mb != InstallationConfig{}.frames_log_budget_mb)
+    root.insert("log", toml::table{{"frames_budget_mb", c.frames_log_budget_mb}});
   if (c.console != ConsoleWindowConfig{}) {
     toml::table con{{"size", toml::array{c.console.size[0], c.console.size[1]}},
                     {"quit_confirm_s", c.console.quit_confirm_s}};

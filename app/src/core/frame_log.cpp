@@ -10,6 +10,7 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
@@ -113,7 +114,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
   return j.dump();
 }
 
-FrameLog::FrameLog(std::filesystem::path path) : path_(std::move(path)) {
+FrameLog::FrameLog(std::filesystem::path path, std::uint64_t budget_bytes) : path_(std::move(path)), budget_(budget_bytes) {
   fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd_ < 0) throw Error("io", "open", fmt::format("{}: cannot write ({})", path_.string(), std::strerror(errno)));
 }
@@ -127,9 +128,32 @@ void FrameLog::write(const FrameData& f, const ConsoleState& c,
   write_line(frame_json(f, c, wall_names, stereo));
 }
 
+std::filesystem::path FrameLog::previous_path() const {
+  std::filesystem::path p = path_;
+  return p.replace_filename(path_.stem().string() + ".1" + path_.extension().string());
+}
+
+void FrameLog::rotate() {
+  const int fd = std::exchange(fd_, -1);
+  ::fsync(fd);
+  ::close(fd);
+  std::error_code ec;
+  std::filesystem::rename(path_, previous_path(), ec);  // replaces the half before
+  if (ec) throw Error("io", "write", fmt::format("{}: cannot rotate to {} ({})", path_.string(), previous_path().string(), ec.message()));
+  fd_ = ::open(path_.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd_ < 0) throw Error("io", "open", fmt::format("{}: cannot write ({})", path_.string(), std::strerror(errno)));
+  bytes_ = 0;
+  ++rotations_;
+  spdlog::info("frames log: {} reached half its budget of {:.0f} MB: the frames so far are now in {}, new ones go to {}",
+               path_.string(), static_cast<double>(budget_) / 1e6, previous_path().filename().string(),
+               path_.filename().string());
+}
+
 void FrameLog::write_line(std::string line) {
   if (fd_ < 0) throw Error("io", "write", path_.string() + ": written after close()");
   line += '\n';
+  if (budget_ > 0 && bytes_ > 0 && bytes_ + line.size() > budget_ / 2) rotate();
+  bytes_ += line.size();
   // One write(2) for the whole line (a regular file takes it whole; the loop is for the
   // rare short write and EINTR): a process killed between frames leaves complete lines.
   write_all(fd_, line, path_);

@@ -207,6 +207,9 @@ struct InstallationConfig {
   /// [record] budget_mb: MB a session recording (kumite --record, the record key) may take on
   /// disk; recording stops there with a warning (kumite --record-budget-mb overrides).
   double record_budget_mb = 2048.0;
+  /// [log] frames_budget_mb: MB frames.jsonl may take on disk, kept as two halves
+  /// (frames.jsonl, the newest, and frames.1.jsonl): a run of any length stays bounded.
+  double frames_log_budget_mb = 2048.0;
 
   /// Source line of each key path ("walls[1].lower_left", "stereo.mode"); 0 when unknown.
   std::map<std::string, int> lines;

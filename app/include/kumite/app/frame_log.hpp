@@ -13,6 +13,12 @@
 // handed to the kernel whole at the end of its frame; only a power cut or a full disk can
 // leave the last line short (close() syncs to disk and reports a failed write). A previous
 // run's file of the same name is replaced when the log opens.
+//
+// Bounded: with a budget (`[log] frames_budget_mb`), when the file would grow past half of it,
+// it is renamed to frames.1.jsonl (replacing the one before) and a new frames.jsonl begins, so
+// a run of any length keeps its newest frames in frames.jsonl and the ones before them in
+// frames.1.jsonl, and never holds more than the budget on disk (each rotation is logged).
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -23,8 +29,9 @@ namespace kumite::app {
 
 class FrameLog {
  public:
-  /// Creates (or empties) `path`. Throws kumite::Error("io", "open") naming it.
-  explicit FrameLog(std::filesystem::path path);
+  /// Creates (or empties) `path`. Throws kumite::Error("io", "open") naming it. `budget_bytes`
+  /// > 0: at most that much on disk, in two halves (above); 0: unbounded.
+  explicit FrameLog(std::filesystem::path path, std::uint64_t budget_bytes = 0);
   ~FrameLog();  ///< without close(): the lines written stay (an error is not reported)
   FrameLog(const FrameLog&) = delete;
   FrameLog& operator=(const FrameLog&) = delete;
@@ -36,10 +43,15 @@ class FrameLog {
   /// Syncs and closes the file. Throws kumite::Error("io", "write") naming the file.
   void close();
   const std::filesystem::path& path() const { return path_; }
+  /// The previous half (frames.1.jsonl beside frames.jsonl).
+  std::filesystem::path previous_path() const;
+  std::uint64_t rotations() const { return rotations_; }
 
  private:
+  void rotate();
   std::filesystem::path path_;
   int fd_ = -1;
+  std::uint64_t budget_ = 0, bytes_ = 0, rotations_ = 0;
 };
 
 /// The JSON line for one frame (exposed for tests).
