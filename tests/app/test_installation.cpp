@@ -3,6 +3,9 @@
 // that do not exist, late latching. A scripted TrackingInput (a test double) stands in for the tracker.
 #include <gtest/gtest.h>
 
+#include <spdlog/sinks/ringbuffer_sink.h>
+#include <spdlog/spdlog.h>
+
 #include <chrono>
 #include <fstream>
 #include <thread>
@@ -137,6 +140,33 @@ TEST(Installation, WhileTheSourceLoadsCamerasAreNotAlarms) {
   inst.step(100 + 1 / 60.0);
   EXPECT_TRUE(has_problem(inst.console(), "camera cam1: no frames"));
   EXPECT_TRUE(has_problem(inst.console(), "head not tracked (lost)"));
+}
+
+// Issue 15: a camera that goes bad (here: blind, as a black or covered one is) is one warning
+// line in the log when it happens and one when it is back, not a line per frame.
+TEST(Installation, ACameraGoingBadIsOneLogLineEachWay) {
+  auto sink = std::make_shared<spdlog::sinks::ringbuffer_sink_mt>(64);
+  spdlog::default_logger()->sinks().push_back(sink);
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  auto tracking = std::make_unique<ScriptedTracking>();
+  auto* tr = tracking.get();
+  TrackingSnapshot ok = tracked(100, 0, 1.6, 0), bad = ok;
+  ok.cameras = {{"cam0", "ok", 5, 8.0}, {"cam1", "ok", 5, 8.0}};
+  bad.cameras = {{"cam0", "ok", 5, 8.0}, {"cam1", "sees no markers while others see the head", 0, 8.0}};
+  for (int i = 0; i < 5; ++i) tr->snaps.push_back(ok);
+  for (int i = 0; i < 30; ++i) tr->snaps.push_back(bad);
+  for (int i = 0; i < 5; ++i) tr->snaps.push_back(ok);
+  Installation inst(cfg, std::move(tracking), {});
+  inst.start(100);
+  for (int i = 0; i < 40; ++i) inst.step(100 + i / 60.0);
+  spdlog::default_logger()->sinks().pop_back();
+  int warned = 0, back = 0;
+  for (const auto& line : sink->last_formatted()) {
+    warned += line.find("camera cam1: sees no markers while others see the head") != std::string::npos;
+    back += line.find("camera cam1: ok again") != std::string::npos;
+  }
+  EXPECT_EQ(warned, 1);
+  EXPECT_EQ(back, 1);
 }
 
 // Issue 15: one press of the quit key does not end the show: it arms a quit for

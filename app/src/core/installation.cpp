@@ -299,9 +299,22 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
                     snap.status));
   // While the source loads (a recording's preload) no camera has given a frame yet: that is
   // loading, shown as such, not a camera fault.
-  if (!tracking_->loading())
+  if (!tracking_->loading()) {
     for (const auto& c : snap.cameras)
       if (c.status != "ok") console_.problems.push_back("camera " + c.name + ": " + c.status);
+    // The log says when a camera's state changes (a black or covered camera, one that stops
+    // or comes back): one line each way, not one per frame.
+    camera_states_.resize(snap.cameras.size());
+    for (std::size_t i = 0; i < snap.cameras.size(); ++i) {
+      const auto& c = snap.cameras[i];
+      if (c.status == camera_states_[i]) continue;
+      if (c.status != "ok")
+        spdlog::warn("camera {}: {}", c.name, c.status);  // e.g. "sees no markers while others see the head"
+      else if (!camera_states_[i].empty())
+        spdlog::info("camera {}: ok again", c.name);
+      camera_states_[i] = c.status;
+    }
+  }
   frame_.head = last_good_head_;
   const double ipd = mono_ ? 0.0 : config_.viewer.interpupillary_distance_m;
   frame_.eyes = eyes_from_head(frame_.head, ipd, to_glm(config_.viewer.eye_offset_m));

@@ -304,6 +304,7 @@ class Installation {
   Timestamp start_ = 0, last_step_ = 0;
   bool started_ = false, quit_ = false, mono_ = false;
   std::optional<Timestamp> quit_armed_until_;
+  std::vector<std::string> camera_states_;  ///< per camera, its status at the last frame (log on change)
   bool script_waits_ = false;  ///< the orders script waits for the head to be tracked
   double dt_filtered_ = 0;  ///< s, smoothed frame interval
   std::optional<VisitorNearWall> near_wall_;  ///< the safety state across frames (hysteresis)
