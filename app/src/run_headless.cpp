@@ -12,34 +12,98 @@
 #include "kumite/app/renderer.hpp"
 #include "kumite/app/run.hpp"
 #include "kumite/app/service.hpp"
+#include "kumite/app/session.hpp"
 #include "kumite/common/error.hpp"
 
 namespace kumite::app {
 
+/// What a headless run or a rendered replay does with each frame: draw every wall and eye
+/// off-screen, write PNGs of the frames asked for (every K-th and each strike's contact) on
+/// the writer thread, log the frame to frames.jsonl.
+class HeadlessPresenter {
+ public:
+  HeadlessPresenter(const Installation& inst, const std::filesystem::path& out, int save_every,
+                    std::optional<std::array<int, 2>> resolution, bool wait_for_pngs)
+      : out_(out), save_every_(save_every) {
+    const auto& cfg = inst.config();
+    make_output_folder(out, "headless output folder");
+    context_ = std::make_unique<HeadlessContext>();
+    spdlog::info("headless: {}", gl_description());
+    renderer_ = std::make_unique<Renderer>(inst.walls());
+    for (const auto& w : cfg.walls) {
+      const auto res = resolution.value_or(w.resolution);
+      targets_.push_back(std::make_unique<OffscreenTarget>(res[0], res[1]));
+      names_.push_back(w.name);
+    }
+    stereo_ = cfg.stereo.mode != StereoMode::mono;
+    log_ = std::make_unique<FrameLog>(out / "frames.jsonl", static_cast<std::uint64_t>(cfg.frames_log_budget_mb * 1e6));
+    // Two frames' images may wait for the writer; in real time, more are dropped (and said).
+    pngs_ = std::make_unique<PngWriter>(2 * targets_.size() * (stereo_ ? 2 : 1), wait_for_pngs);
+  }
+
+  /// Draws frame `i` (its number in the PNG names) and logs it.
+  void present(const Installation& inst, const FrameData& f, int i) {
+    const char* eye_names[2] = {stereo_ ? "left" : "mono", "right"};
+    // Every K-th frame, and each strike's moment of contact (a hit or a miss), which a
+    // strike-long run would otherwise rarely catch.
+    const bool contact = std::any_of(f.events.begin(), f.events.end(),
+                                     [](const FrameEvent& e) { return is_strike_outcome(e.type); });
+    const bool save = save_every_ > 0 && (i % save_every_ == 0 || contact);
+    for (std::size_t w = 0; w < targets_.size(); ++w) {
+      for (int e = 0; e < (stereo_ ? 2 : 1); ++e) {
+        const Timestamp r0 = now();
+        auto& target = *targets_[w];
+        target.bind();
+        renderer_->clear(0, 0, target.width(), target.height());
+        renderer_->draw(f.views[w][static_cast<std::size_t>(e)], f.items);
+        if (!save) {
+          glFlush();
+          render_s_ += now() - r0;
+          continue;
+        }
+        target.read(pixels_);
+        render_s_ += now() - r0;
+        if (!pngs_->push(out_ / fmt::format("{}_{}_{:05}.png", names_[w], eye_names[e], i), target.width(),
+                         target.height(), std::move(pixels_)) &&
+            pngs_->dropped() == 1)
+          spdlog::warn("headless: frame {}: the PNG writer is behind, images are being dropped", i);
+        pixels_ = {};
+      }
+    }
+    for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
+    log_->write(f, inst.console(), names_, stereo_);
+  }
+
+  /// Writes what is queued and closes the log. Throws kumite::Error on a failed write.
+  void finish() {
+    glFinish();
+    pngs_->flush();
+    for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
+    log_->close();
+  }
+  double render_s() const { return render_s_; }
+  const PngWriter& pngs() const { return *pngs_; }
+
+ private:
+  std::filesystem::path out_;
+  int save_every_ = 1;
+  std::unique_ptr<HeadlessContext> context_;
+  std::unique_ptr<Renderer> renderer_;
+  std::vector<std::unique_ptr<OffscreenTarget>> targets_;
+  std::vector<std::string> names_;
+  bool stereo_ = false;
+  std::unique_ptr<FrameLog> log_;
+  std::unique_ptr<PngWriter> pngs_;
+  std::vector<std::uint8_t> pixels_;
+  double render_s_ = 0;
+};
+
 int run_headless(Installation& inst, const HeadlessOptions& opt) {
   const auto& cfg = inst.config();
-  make_output_folder(opt.out, "headless output folder");
-  HeadlessContext context;
-  spdlog::info("headless: {}", gl_description());
-  Renderer renderer(inst.walls());
-  std::vector<std::unique_ptr<OffscreenTarget>> targets;
-  std::vector<std::string> names;
-  for (const auto& w : cfg.walls) {
-    const auto res = opt.resolution.value_or(w.resolution);
-    targets.push_back(std::make_unique<OffscreenTarget>(res[0], res[1]));
-    names.push_back(w.name);
-  }
-  const bool stereo = cfg.stereo.mode != StereoMode::mono;
-  const char* eye_names[2] = {stereo ? "left" : "mono", "right"};
-  FrameLog log(opt.out / "frames.jsonl",
-               static_cast<std::uint64_t>(inst.config().frames_log_budget_mb * 1e6));
-  // Two frames' images may wait for the writer; in real time, more are dropped (and said).
-  PngWriter pngs(2 * targets.size() * (stereo ? 2 : 1), !opt.real_time);
-  std::vector<std::uint8_t> pixels;
+  HeadlessPresenter presenter(inst, opt.out, opt.save_every, opt.resolution, !opt.real_time);
   const double step = 1.0 / cfg.display_rate_hz;
   const Timestamp t0 = now();
   inst.start(t0);
-  double render_s = 0;
   const auto stopping = [&] { return opt.stop && opt.stop->load() != 0; };
   int frames = 0;  // rendered and logged
   for (int i = 0; i < opt.frames && !inst.quit_requested() && !stopping(); ++i) {
@@ -57,34 +121,7 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
       t = std::max(t, inst.latch(now(), shown));
     }
     const FrameData& f = inst.step(t, shown);
-    // Every K-th frame, and each strike's moment of contact (a hit or a miss), which a
-    // strike-long run would otherwise rarely catch.
-    const bool contact = std::any_of(f.events.begin(), f.events.end(),
-                                     [](const FrameEvent& e) { return is_strike_outcome(e.type); });
-    const bool save = opt.save_every > 0 && (i % opt.save_every == 0 || contact);
-    for (std::size_t w = 0; w < targets.size(); ++w) {
-      for (int e = 0; e < (stereo ? 2 : 1); ++e) {
-        const Timestamp r0 = now();
-        auto& target = *targets[w];
-        target.bind();
-        renderer.clear(0, 0, target.width(), target.height());
-        renderer.draw(f.views[w][static_cast<std::size_t>(e)], f.items);
-        if (!save) {
-          glFlush();
-          render_s += now() - r0;
-          continue;
-        }
-        target.read(pixels);
-        render_s += now() - r0;
-        if (!pngs.push(opt.out / fmt::format("{}_{}_{:05}.png", names[w], eye_names[e], i), target.width(),
-                       target.height(), std::move(pixels)) &&
-            pngs.dropped() == 1)
-          spdlog::warn("headless: frame {}: the PNG writer is behind, images are being dropped", i);
-        pixels = {};
-      }
-    }
-    for (const auto& e : pngs.take_errors()) spdlog::warn("headless: {}", e);
-    log.write(f, inst.console(), names, stereo);
+    presenter.present(inst, f, i);
     frames = i + 1;
     if (opt.monitor) opt.monitor->frame_done(inst, f);
     if (opt.real_time && cfg.late_latch) {
@@ -101,17 +138,40 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   if (stopping())
     spdlog::info("headless: stopped (signal {}) after {} of {} frames; writing the PNGs queued", opt.stop->load(),
                  frames, opt.frames);
-  pngs.flush();
-  for (const auto& e : pngs.take_errors()) spdlog::warn("headless: {}", e);
-  log.close();
+  presenter.finish();
   spdlog::info("headless: {} frames in {:.2f} s ({:.1f} ms/frame, GL {:.1f} ms of it); {} PNGs written -> {}",
-               frames, wall_s, wall_s * 1e3 / std::max(frames, 1), render_s * 1e3 / std::max(frames, 1), pngs.written(),
-               opt.out.string());
+               frames, wall_s, wall_s * 1e3 / std::max(frames, 1), presenter.render_s() * 1e3 / std::max(frames, 1),
+               presenter.pngs().written(), opt.out.string());
   log_retrieval_timing(inst);
-  if (pngs.dropped() > 0)
+  if (presenter.pngs().dropped() > 0)
     spdlog::warn("headless: {} PNGs not written: the writer was behind (real time never waits for it; "
                  "--save-every larger, or --simulated-time, writes them all)",
-                 pngs.dropped());
+                 presenter.pngs().dropped());
+  return 0;
+}
+
+int replay_headless(const std::filesystem::path& session, ReplayOptions options, const HeadlessOptions& opt,
+                    ReplayReport& report) {
+  // The replay's installation is made inside replay_session: the presenter with it.
+  std::unique_ptr<HeadlessPresenter> presenter;
+  const Installation* installation = nullptr;
+  int shown = 0;
+  options.on_start = [&](const Installation& inst) {
+    installation = &inst;
+    presenter = std::make_unique<HeadlessPresenter>(inst, opt.out, opt.save_every, opt.resolution, true);
+  };
+  const auto inner = options.on_frame;
+  options.on_frame = [&](const FrameData& f) {
+    if (inner) inner(f);
+    if (!presenter || shown >= opt.frames) return;
+    presenter->present(*installation, f, static_cast<int>(f.frame));  // named by the session's frame
+    ++shown;
+  };
+  report = replay_session(session, options);
+  if (presenter) {
+    presenter->finish();
+    spdlog::info("replay: {} frames drawn, {} PNGs written -> {}", shown, presenter->pngs().written(), opt.out.string());
+  }
   return 0;
 }
 

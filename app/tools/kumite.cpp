@@ -9,6 +9,7 @@
 #include <atomic>
 #include <csignal>
 #include <iostream>
+#include <limits>
 
 
 #include "kumite/app/config.hpp"
@@ -47,6 +48,7 @@ struct Args {
   bool record_budget_given = false;
   bool replay_real_time = false;
   bool retrack = false;
+  bool replay_out_given = false, frames_given = false;
   bool config_given = false;
   // kumite export
   std::string export_log, export_bvh, export_head_csv;
@@ -250,7 +252,19 @@ int run_replay(const Args& a) {
   if (!a.replay_from.empty()) ro.from = a.replay_from;
   ro.real_time = a.replay_real_time;
   ro.retrack = a.retrack;
-  const auto rep = kumite::app::replay_session(a.replay, ro);
+  // --out with --replay draws the replayed frames headless (from --from on, at most --frames
+  // of them when given): the walls as the visitor saw them at that moment, and frames.jsonl.
+  kumite::app::ReplayReport rep;
+  if (a.replay_out_given) {
+    kumite::app::HeadlessOptions ho;
+    ho.frames = a.frames_given ? a.frames : std::numeric_limits<int>::max();
+    ho.out = a.out;
+    ho.save_every = a.save_every;
+    ho.resolution = parse_resolution(a.resolution);
+    kumite::app::replay_headless(a.replay, ro, ho, rep);
+  } else {
+    rep = kumite::app::replay_session(a.replay, ro);
+  }
   for (const auto& n : rep.notes) spdlog::warn("replay: {}", n);
   const double speed = rep.wall_s > 0 ? rep.session_s / rep.wall_s : 0;
   if (rep.retrack) {
@@ -317,7 +331,9 @@ int main(int argc, char** argv) {
                  "record the session into this folder: every frame's inputs and state hashes (kumite --replay)");
   app.add_option("--record-budget-mb", a.record_budget_mb,
                  "MB a recording may take on disk, then it stops with a warning (default: [record] budget_mb, 2048)");
-  app.add_option("--replay", a.replay, "re-run a recorded session from its inputs and check every frame against it");
+  app.add_option("--replay", a.replay,
+                 "re-run a recorded session from its inputs and check every frame against it; with --out, also draw "
+                 "the replayed frames headless there (PNGs, frames.jsonl), from --from on, at most --frames of them");
   app.add_option("--from", a.replay_from,
                  "replay: show from this time: seconds into the session (12.5) or the time of day (21:14:05)");
   app.add_flag("--real-time", a.replay_real_time, "replay: frames at the pace they were recorded (default: as fast as possible)");
@@ -355,6 +371,8 @@ int main(int argc, char** argv) {
     if (status->parsed()) return run_status(a);
     a.config_given = app.count("--config") > 0;
     a.record_budget_given = app.count("--record-budget-mb") > 0;
+    a.replay_out_given = app.count("--out") > 0;
+    a.frames_given = app.count("--frames") > 0;
     if (!a.replay.empty()) return run_replay(a);
     const int rc = run(a, stop, process_started);
     if (const int sig = stop.load(); sig != 0) {

@@ -18,6 +18,7 @@
 
 #include "kumite/app/config.hpp"
 #include "kumite/app/installation.hpp"
+#include "kumite/app/run.hpp"
 #include "kumite/app/session.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/content/annotation.hpp"
@@ -423,4 +424,37 @@ TEST(Session, TheRecordKeyStartsAndStopsRecordings) {
   const ReplayReport second = replay_session(tmp.path / "rec-2");
   EXPECT_FALSE(second.compared) << "started by the key mid-run";
   EXPECT_EQ(second.frames_replayed, 40u);
+}
+
+// Issue 13: any moment of a session can be drawn again: a replay with a headless presenter
+// (kumite --replay DIR --out OUT --from S --frames N) renders the walls from that frame on, as
+// the run drew them, and logs those frames; PNGs are named by the session's frame numbers.
+TEST(Session, AReplayDrawsTheMomentAskedFor) {
+  Tmp tmp;
+  const fs::path config = write_config(tmp.path);
+  const fs::path orders = tmp.path / "orders.csv";
+  std::ofstream(orders) << "time_s,order\n0.2,punch_right\n";
+  record(config, orders, tmp.path / "s", 150);
+  ReplayOptions ro;
+  ro.from = "1.0";
+  HeadlessOptions ho;
+  ho.out = tmp.path / "drawn";
+  ho.frames = 12;
+  ho.save_every = 5;
+  ho.resolution = std::array<int, 2>{64, 36};
+  ReplayReport rep;
+  ASSERT_EQ(replay_headless(tmp.path / "s", ro, ho, rep), 0);
+  EXPECT_TRUE(rep.identical);
+  ASSERT_TRUE(rep.from_frame);
+  EXPECT_EQ(*rep.from_frame, 60u);
+  std::vector<std::uint64_t> logged;
+  std::ifstream in(tmp.path / "drawn/frames.jsonl");
+  for (std::string line; std::getline(in, line);) logged.push_back(nlohmann::json::parse(line)["frame"].get<std::uint64_t>());
+  ASSERT_EQ(logged.size(), 12u);
+  EXPECT_EQ(logged.front(), 60u);
+  EXPECT_EQ(logged.back(), 71u);
+  // Every wall and eye of frames 60, 65 and 70 (frame % 5 == 0).
+  for (const char* f : {"front_left_00060.png", "front_right_00065.png", "floor_left_00070.png"})
+    EXPECT_TRUE(fs::exists(tmp.path / "drawn" / f)) << f;
+  EXPECT_FALSE(fs::exists(tmp.path / "drawn/front_left_00055.png"));
 }

@@ -888,6 +888,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       start = r.num(r.at(j, "start", "start"), "start");
       inst = std::make_unique<Installation>(loaded.config, std::make_unique<ReplayTracking>(j.contains("has_tracker") && j["has_tracker"].is_boolean() && j["has_tracker"].get<bool>()), io);
       inst->start(start);
+      if (options.on_start) options.on_start(*inst);
       const auto first =
           j.contains("first_frame") ? static_cast<std::uint64_t>(r.whole(j["first_frame"], "first_frame", 0, 9007199254740992.0)) : 0;
       if (first > 0) {

@@ -33,6 +33,14 @@ struct HeadlessOptions {
 /// Renders `options.frames` frames. Returns the process exit code.
 int run_headless(Installation& installation, const HeadlessOptions& options);
 
+struct ReplayOptions;
+struct ReplayReport;
+/// A replay (replay_session) drawn headless: from `options.from` on, at most
+/// `headless.frames` frames rendered into `headless.out` as a run would (PNGs every
+/// `save_every` frames and at each contact, frames.jsonl). The report is the replay's.
+int replay_headless(const std::filesystem::path& session, ReplayOptions options, const HeadlessOptions& headless,
+                    ReplayReport& report);
+
 struct WindowOptions {
   std::optional<double> seconds;   ///< s, stop after this long (none: until quit)
   bool console = true;             ///< open the supervisor console window

@@ -196,6 +196,9 @@ struct ReplayOptions {
   bool retrack = false;
   /// Called with each frame from `from` on (a presenter; nullptr: none).
   std::function<void(const FrameData&)> on_frame;
+  /// Called once with the replay's installation, before its first frame (a presenter sets
+  /// itself up with its walls and config; nullptr: none).
+  std::function<void(const Installation&)> on_start;
 };
 
 struct ReplayReport {
