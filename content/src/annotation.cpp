@@ -135,8 +135,13 @@ std::string format_annotations(const AnnotationSet& set) {
       if (m.hit_frame) out += fmt::format("hit_frame = {}\n", *m.hit_frame);
       if (m.height) out += fmt::format("height = \"{}\"\n", to_string(*m.height));
       if (!m.note.empty()) out += fmt::format("note = {}\n", toml_string(m.note));
-      if (m.peak_speed_mps > 0) out += fmt::format("peak_speed_mps = {:.2f}\n", m.peak_speed_mps);
-      if (m.extension > 0) out += fmt::format("extension = {:.3f}\n", m.extension);
+      // Informational, so rounded for people; a value that rounds to zero is left out as a zero
+      // is (found by fuzz_motions: 0.004 m/s was written "0.00", which reads back as none, so a
+      // second write differed from the first).
+      if (const std::string v = fmt::format("{:.2f}", m.peak_speed_mps); m.peak_speed_mps > 0 && v != "0.00")
+        out += "peak_speed_mps = " + v + "\n";
+      if (const std::string v = fmt::format("{:.3f}", m.extension); m.extension > 0 && v != "0.000")
+        out += "extension = " + v + "\n";
     }
   }
   return out;

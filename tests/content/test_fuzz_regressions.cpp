@@ -41,6 +41,18 @@ TEST(FuzzRegressions, AnnotationNotesWithDelAreWrittenBackReadable) {
   EXPECT_EQ(format_annotations(back), out);
 }
 
+// fuzz_motions (corpus_fuzz_motions/regression-peak-speed-rounds-to-zero): peak_speed_mps =
+// 0.004 was written "0.00", which reads back as no value, so writing what was read back gave
+// another text: a value that rounds to zero is now left out the first time.
+TEST(FuzzRegressions, AnnotationValuesThatRoundToZeroAreWrittenAsAFixedPoint) {
+  for (const char* line : {"peak_speed_mps = 0.004\n", "extension = 0.0004\n", "peak_speed_mps = 0.005\n"}) {
+    const std::string text = std::string("version = 1\n[[clip]]\nfile = \"a.bvh\"\n[[clip.motion]]\nname = \"a_rest\"\n"
+                                         "semantics = \"rest\"\nframes = [0, 10]\n") + line;
+    const std::string out = format_annotations(parse_annotations(text, "motions.toml"));
+    EXPECT_EQ(format_annotations(parse_annotations(out, "motions-out.toml")), out) << line;
+  }
+}
+
 // fuzz_characters (regression-scale-precision.toml): shoulder_width = 1.0001 was written as
 // "1.000" (3 decimals), which reads back as 1.0 and is then left out: numbers are written with
 // the digits that read back to the same value.
