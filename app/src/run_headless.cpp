@@ -112,6 +112,10 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
     // time). Simulated: exact steps of 1/rate, as fast as rendering goes.
     Timestamp t = t0 + i * step;
     Timestamp shown = t;  // simulated: the frame is its own moment
+    // Simulated time never runs ahead of a tracker: its poses are stamped on the real clock,
+    // so frames faster than the display rate would find every pose too old (the head "lost"
+    // for a whole fast run). Slower than real time it stays as fast as rendering goes.
+    if (!opt.real_time && inst.has_tracker()) sleep_until(t);
     if (opt.real_time) {
       // Late latching (config late_latch) as in windows: the frame's pose just after the
       // tracker's next one is out, when this frame's work still fits before the next tick,
