@@ -13,6 +13,8 @@
 #include <string>
 #include <string_view>
 
+#include <spdlog/spdlog.h>
+
 #include "kumite/app/session.hpp"
 #include "kumite/common/error.hpp"
 
@@ -38,6 +40,7 @@ window = "main"
 
 const fs::path& session_dir() {
   static const fs::path dir = [] {
+    spdlog::set_level(spdlog::level::off);  // an installation per input: its log lines are noise here
     const fs::path d = fs::temp_directory_path() / ("kumite_fuzz_session_" + std::to_string(::getpid()));
     fs::create_directories(d / "snapshot");
     std::ofstream(d / "snapshot/installation.toml", std::ios::binary) << kInstallation;
