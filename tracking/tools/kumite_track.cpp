@@ -70,20 +70,26 @@ double percentile(std::vector<double> v, double p) {
 class Collector {
  public:
   Collector(std::optional<TruthTable> truth, bool unfiltered, std::vector<std::string> cameras, double camera_timeout_s,
-            std::string body_name)
+            std::vector<std::string> body_names)
       : truth_(std::move(truth)), unfiltered_(unfiltered), camera_timeout_s_(camera_timeout_s),
         camera_names_(std::move(cameras)),
-        images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0), body_name_(std::move(body_name)) {
-    rows_ = "frame,timestamp_s,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms\n";
+        images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0), body_name_(body_names.at(0)),
+        body_names_(std::move(body_names)) {
+    rows_ = "frame,timestamp_s,body,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms\n";
   }
 
   void add(const FrameResult& r) {
     std::lock_guard lock(mutex_);
+    // One row per body of tracking.toml per frame set, named as there (head, left_hand, ...:
+    // kumite-recognise reads the bodies whose names are roles and ignores the others).
+    for (std::size_t b = 0; b < body_names_.size(); ++b) {
+      const BodyPose& p = unfiltered_ ? r.raw.at(b) : r.filtered.at(b);
+      rows_ += fmt::format("{},{:.6f},{},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{:.3f}\n", r.frame,
+                           r.timestamp, body_names_[b], to_string(p.status), p.position[0], p.position[1], p.position[2],
+                           p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3], p.markers,
+                           p.cameras, r.latency_ms);
+    }
     const BodyPose& p = unfiltered_ ? r.raw.at(0) : r.filtered.at(0);
-    rows_ += fmt::format("{},{:.6f},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{},{},{:.3f}\n", r.frame,
-                         r.timestamp, to_string(p.status), p.position[0], p.position[1], p.position[2],
-                         p.orientation[0], p.orientation[1], p.orientation[2], p.orientation[3], p.markers,
-                         p.cameras, r.latency_ms);
     latency_.push_back(r.latency_ms);
     ++frames_;
     if (frames_ == 1) first_time_ = r.timestamp;
@@ -195,6 +201,7 @@ class Collector {
   Timestamp first_time_ = 0, last_time_ = 0;
   bool was_tracked_ = false, ever_tracked_ = false;
   std::string body_name_;
+  std::vector<std::string> body_names_;  // every body of tracking.toml, [[bodies]] order
   Eigen::Vector3d jitter_sum_{0, 0, 0};
   double jitter_sum2_ = 0;
   int jitter_n_ = 0;
@@ -241,7 +248,9 @@ int run_tracker(const RunOptions& o) {
   }
   std::vector<std::string> names;
   for (const auto& c : rig.cameras) names.push_back(c.name);
-  Collector collector(std::move(truth), o.unfiltered, names, config.camera_timeout_s, config.bodies.at(0).name);
+  std::vector<std::string> body_names;
+  for (const auto& b : config.bodies) body_names.push_back(b.name);
+  Collector collector(std::move(truth), o.unfiltered, names, config.camera_timeout_s, std::move(body_names));
   Tracker tracker(rig, config);
   std::atomic<std::size_t> skipped{0};
   tracker.on_frame([&](const FrameResult& r) { collector.add(r); });
