@@ -141,7 +141,7 @@ void RunMonitor::take_snapshot(const Installation& inst, const FrameData& f, Sna
   s.tracking_source = c.tracking_source;
   s.head_live = c.head_live;
   s.pose_age_ms = c.pose_age_ms;
-  s.head_body = inst.config().tracking.head_body;
+  s.head_body = inst.config().tracking.head_body.value_or(-1);  // -1: the body named "head"
   s.cameras = c.cameras;
   s.markers_seen = c.markers_seen;
   s.fighter_state = c.fighter_state;
@@ -266,7 +266,7 @@ json RunMonitor::to_json(const Snapshot& s) const {
   j["ready"] = s.ready;
   j["watchdog_s"] = notifier_.watchdog_s() ? json(*notifier_.watchdog_s()) : json(nullptr);
   j["tracking"] = {{"status", s.tracking}, {"source", s.tracking_source}, {"markers_seen", s.markers_seen}};
-  j["tracking"]["bodies"] = json::array({json{{"body", s.head_body},
+  j["tracking"]["bodies"] = json::array({json{{"body", s.head_body >= 0 ? json(s.head_body) : json(nullptr)},  // null: by its role
                                               {"role", "head"},
                                               {"status", s.tracking},
                                               {"live", s.head_live},

@@ -554,3 +554,22 @@ TEST(TrackingInput, AProjectorLagDoesNotMakeAFreshPoseLost) {
     EXPECT_NEAR(later.head->position[1], 1.65, 0.02) << ahead;
   }
 }
+
+// Issue 14: the app finds the glasses by their role, the body tracking.toml names `head`
+// (gloves and shoes are other bodies), unless [tracking] head_body picks one by index.
+TEST(Installation, TheHeadIsTheBodyNamedHead) {
+  const std::string bodies =
+      "[[bodies]]\nname = \"left_hand\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n"
+      "[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.12,0,0],[0,0.05,0.03]]\n";
+  const auto tc = kumite::tracking::parse_tracking_config(bodies, "t.toml");
+  auto cfg = parse_installation_config(kRoom, "room.toml");
+  EXPECT_EQ(head_body_index(cfg, tc), 1);
+  cfg.tracking.head_body = 0;
+  EXPECT_EQ(head_body_index(cfg, tc), 0) << "an explicit index wins";
+  cfg.tracking.head_body = 2;
+  EXPECT_THROW(head_body_index(cfg, tc), kumite::Error);
+  cfg.tracking.head_body.reset();
+  const auto unnamed = kumite::tracking::parse_tracking_config(
+      "[[bodies]]\nname = \"glasses\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n", "t.toml");
+  EXPECT_EQ(head_body_index(cfg, unnamed), 0) << "no body named head: body 0, said in the log";
+}

@@ -342,7 +342,7 @@ void Reader::parse_tracking(const toml::table& root) {
   path(*t, "calibration", "tracking", c.calibration);
   path(*t, "tracking", "tracking", c.tracking);
   path(*t, "recording", "tracking", c.recording);
-  integer(*t, "head_body", "tracking", c.head_body);
+  if (int hb = 0; integer(*t, "head_body", "tracking", hb)) c.head_body = hb;
   number(*t, "lost_after_s", "tracking", c.lost_after_s);
   integer(*t, "recording_preload", "tracking", c.recording_preload);
   integer(*t, "decode_threads", "tracking", c.decode_threads);
@@ -600,7 +600,7 @@ void validate(const InstallationConfig& c) {
   }
   if (t.source == TrackingSource::recording && t.recording.empty())
     fail_at(c, "missing_key", "tracking", "tracking.recording is needed for source = \"recording\"");
-  if (t.head_body < 0) fail_at(c, "range", "tracking.head_body", "must be >= 0");
+  if (t.head_body && *t.head_body < 0) fail_at(c, "range", "tracking.head_body", "must be >= 0");
   if (t.recording_preload < 0) fail_at(c, "range", "tracking.recording_preload", "must be >= 0");
   // "${data_dir}" needs a data folder from somewhere.
   if (c.data_root().empty()) {
@@ -740,11 +740,11 @@ std::string to_toml(const InstallationConfig& c) {
   root.insert("fighter", std::move(fighter));
   const auto& t = c.tracking;
   toml::table tracking{{"source", std::string(to_string(t.source))},
-                       {"head_body", t.head_body},
                        {"lost_after_s", t.lost_after_s},
                        {"recording_preload", t.recording_preload},
                        {"decode_threads", t.decode_threads},
                        {"realtime_priority", t.realtime_priority}};
+  if (t.head_body) tracking.insert("head_body", *t.head_body);
   if (!t.calibration.empty()) tracking.insert("calibration", t.calibration.generic_string());
   if (!t.tracking.empty()) tracking.insert("tracking", t.tracking.generic_string());
   if (!t.recording.empty()) tracking.insert("recording", t.recording.generic_string());

@@ -37,7 +37,7 @@ class TrackerInput final : public TrackingInput {
  public:
   TrackerInput(const InstallationConfig& c, tracking::RigCalibration rig,
                tracking::TrackingConfig tc, std::unique_ptr<tracking::FrameSource> source)
-      : preload_(c.tracking.recording_preload), tracker_(rig, tc), head_(c.tracking.head_body),
+      : preload_(c.tracking.recording_preload), tracker_(rig, tc), head_(head_body_index(c, tc)),
         source_(c.tracking.source) {
     tracker_.set_realtime_priority(c.tracking.realtime_priority);
     // Camera frame sets to a session recorder while one records (record_frame_sets). The
@@ -175,6 +175,22 @@ class TrackerInput final : public TrackingInput {
 };
 
 }  // namespace
+
+int head_body_index(const InstallationConfig& c, const tracking::TrackingConfig& tc) {
+  if (c.tracking.head_body) {
+    if (*c.tracking.head_body >= static_cast<int>(tc.bodies.size()))
+      throw file_error("config", "range", c.file.string(), c.line_of("tracking.head_body"), "tracking.head_body",
+                       fmt::format("body {} does not exist ({} bodies in {})", *c.tracking.head_body, tc.bodies.size(),
+                                   c.resolve(c.tracking.tracking).string()));
+    return *c.tracking.head_body;
+  }
+  if (const int i = tc.find_body("head"); i >= 0) return i;
+  if (tc.bodies.empty()) return 0;
+  spdlog::warn("tracking: {} names no body \"head\": body 0 (\"{}\") is taken as the glasses; name it head (its "
+               "role) or set [tracking] head_body",
+               c.resolve(c.tracking.tracking).string(), tc.bodies[0].name);
+  return 0;
+}
 
 TrackingSnapshot read_tracker(const tracking::Tracker& tracker, int head, Timestamp now_s, Timestamp display_time,
                               const std::vector<std::string>& names, bool threaded, TrackerReading& carried) {

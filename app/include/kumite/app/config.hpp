@@ -140,7 +140,9 @@ struct TrackingConfig {
   std::filesystem::path calibration;  ///< rig calibration (OpenCV YAML), as written
   std::filesystem::path tracking;     ///< tracking.toml, as written
   std::filesystem::path recording;    ///< recording folder (source = "recording")
-  int head_body = 0;                  ///< body index of the glasses in tracking.toml
+  /// The glasses' body: by default the body tracking.toml names by its role, `head` (body 0,
+  /// said once, when none is named so); `head_body = N` picks body N by its index instead.
+  std::optional<int> head_body;
   /// s, how long a lost head keeps its last good pose before the console calls it lost.
   double lost_after_s = 0.25;
   /// Frame sets of the recording decoded into memory before playback starts, then played

@@ -11,6 +11,7 @@
 namespace kumite::tracking {
 class FrameSource;
 class Tracker;
+struct TrackingConfig;
 }
 
 namespace kumite::app {
@@ -21,6 +22,11 @@ std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& con
 /// The same tracker on a frame source of the caller's (benchmarks, tests, replay from memory).
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config,
                                                    std::unique_ptr<tracking::FrameSource> source);
+
+/// The index of the glasses' body in `tracking`: `[tracking] head_body` when given, else the
+/// body named `head` (its role), else body 0 (with one warning naming tracking.toml's first
+/// body). Throws kumite::Error (config, range) for a head_body that does not exist.
+int head_body_index(const InstallationConfig& config, const tracking::TrackingConfig& tracking);
 
 /// What a tracker says at `now` as the frame sees it: the head predicted to `display_time`
 /// (its status as of now), the measurement it comes from, the cameras' states, a status line.
