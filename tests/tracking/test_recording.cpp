@@ -431,3 +431,55 @@ TEST(TrackingConfig, CameraBlindWindowIsReadAndChecked) {
     EXPECT_NE(std::string(e.what()).find("camera_blind_s"), std::string::npos) << e.what();
   }
 }
+
+// Issue 14: gloves move at 8 m/s and are other bodies: each body may have its own One Euro
+// filter ([bodies.filter], over the file's [filter]) and coasting time; the tracker uses them.
+TEST(TrackingConfig, ABodyHasItsOwnFilterAndCoasting) {
+  const std::string text =
+      "coasting_s = 0.1\n[filter]\nbeta = 600.0\nmin_cutoff_hz = 1.0\n"
+      "[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n"
+      "[[bodies]]\nname = \"right_hand\"\nmarkers = [[0,0,0],[0.06,0,0],[0,0.045,0]]\ncoasting_s = 0.05\n"
+      "[bodies.filter]\nbeta = 2000.0\n";
+  const TrackingConfig c = parse_tracking_config(text, "t.toml");
+  ASSERT_EQ(c.bodies.size(), 2U);
+  EXPECT_FALSE(c.bodies[0].filter);
+  ASSERT_TRUE(c.bodies[1].filter);
+  EXPECT_EQ(c.bodies[1].filter->beta, 2000.0);
+  EXPECT_EQ(c.bodies[1].filter->min_cutoff_hz, 1.0) << "keys it does not set come from [filter]";
+  EXPECT_EQ(c.bodies[1].coasting_or(c.coasting_s), 0.05);
+  EXPECT_EQ(c.bodies[0].coasting_or(c.coasting_s), 0.1);
+  EXPECT_EQ(c.head_body(), 0);
+  const auto error_of = [](const std::string& t) {
+    try {
+      parse_tracking_config(t, "t.toml");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_EQ(error_of("[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n[bodies.filter]\nbeta = nan\n"),
+            "t.toml:5: bodies[0].filter.beta: must be a finite number");
+  EXPECT_EQ(error_of("[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\ncoasting_s = 20\n"),
+            "t.toml:4: bodies[0].coasting_s: must be in [0, 10] s, found 20");
+
+  // The tracker predicts each body with its own coasting: the same still head, processed set
+  // by set (SYNTHETIC), is still tracked 0.4 s after its last set with 0.6 s of coasting, and
+  // lost with the file's.
+  const fs::path dir = small_recording("own-coasting", 10);
+  const auto rig = corner_rig();
+  for (const double own : {-1.0, 0.6}) {
+    TrackingConfig config = ktest::shipped_config();
+    if (own > 0) config.bodies[0].coasting_s = own;
+    ASSERT_LT(config.coasting_s, 0.4);
+    Tracker tracker(rig, config);
+    auto source = open_recording_source(dir, rig, config);
+    FrameSet set;
+    double last = 0;
+    while (source->next(set, 1.0)) {
+      tracker.process(set);
+      last = set.timestamp;
+    }
+    EXPECT_EQ(tracker.predict(0, last + 0.4).status, own > 0 ? TrackingStatus::tracked : TrackingStatus::lost) << own;
+  }
+  fs::remove_all(dir);
+}

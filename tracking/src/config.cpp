@@ -15,8 +15,22 @@ namespace {
 
 using T = TomlTable;
 
-BodyConfig read_body(const T& t) {
-  t.only({"name", "markers", "distance_tolerance_m", "match_radius_m"});
+/// [filter], or a body's own [bodies.filter] (over `f`: keys absent keep its values).
+void read_filter(const T& t, FilterConfig& f) {
+  t.only({"enabled", "min_cutoff_hz", "beta", "d_cutoff_hz", "rot_min_cutoff_hz", "rot_beta", "rot_d_cutoff_hz",
+          "max_prediction_s"});
+  t.read("enabled", f.enabled);
+  t.read("min_cutoff_hz", f.min_cutoff_hz, {1e-4, 1000, "Hz"});
+  t.read("beta", f.beta, {0, 1e6, ""});
+  t.read("d_cutoff_hz", f.d_cutoff_hz, {1e-4, 1000, "Hz"});
+  t.read("rot_min_cutoff_hz", f.rot_min_cutoff_hz, {1e-4, 1000, "Hz"});
+  t.read("rot_beta", f.rot_beta, {0, 1e6, ""});
+  t.read("rot_d_cutoff_hz", f.rot_d_cutoff_hz, {1e-4, 1000, "Hz"});
+  t.read("max_prediction_s", f.max_prediction_s, {0, 1, "s"});
+}
+
+BodyConfig read_body(const T& t, const FilterConfig& shared_filter) {
+  t.only({"name", "markers", "distance_tolerance_m", "match_radius_m", "filter", "coasting_s"});
   BodyConfig b;
   b.name = t.string("name", false);
   const toml::array* m = t.opt_array("markers");
@@ -46,6 +60,13 @@ BodyConfig read_body(const T& t) {
   }
   t.read("distance_tolerance_m", b.distance_tolerance_m, {1e-4, 0.05, "m"});
   t.read("match_radius_m", b.match_radius_m, {1e-3, 0.5, "m"});
+  // Its own filter starts from the file's [filter]: only what differs need be written.
+  if (const auto f = t.opt_table("filter")) {
+    FilterConfig own = shared_filter;
+    read_filter(*f, own);
+    b.filter = own;
+  }
+  if (double c = 0; t.read("coasting_s", c, {0, 10, "s"})) b.coasting_s = c;
   return b;
 }
 
@@ -117,22 +138,11 @@ TrackingConfig parse_tracking_config(std::string_view text, std::string_view sou
     t->read("max_residual_m", c.match.max_residual_m, {1e-5, 1, "m"});
     t->read("min_depth_m", c.match.min_depth_m, {0, 100, "m"});
   }
-  if (const auto t = root.opt_table("filter")) {
-    t->only({"enabled", "min_cutoff_hz", "beta", "d_cutoff_hz", "rot_min_cutoff_hz", "rot_beta",
-             "rot_d_cutoff_hz", "max_prediction_s"});
-    t->read("enabled", c.filter.enabled);
-    t->read("min_cutoff_hz", c.filter.min_cutoff_hz, {1e-4, 1000, "Hz"});
-    t->read("beta", c.filter.beta, {0, 1e6, ""});
-    t->read("d_cutoff_hz", c.filter.d_cutoff_hz, {1e-4, 1000, "Hz"});
-    t->read("rot_min_cutoff_hz", c.filter.rot_min_cutoff_hz, {1e-4, 1000, "Hz"});
-    t->read("rot_beta", c.filter.rot_beta, {0, 1e6, ""});
-    t->read("rot_d_cutoff_hz", c.filter.rot_d_cutoff_hz, {1e-4, 1000, "Hz"});
-    t->read("max_prediction_s", c.filter.max_prediction_s, {0, 1, "s"});
-  }
+  if (const auto t = root.opt_table("filter")) read_filter(*t, c.filter);
   if (!root.has("bodies")) root.fail("missing_key", "bodies", "is required: add [[bodies]] with name and markers");
   const auto bodies = root.tables("bodies");
   for (std::size_t i = 0; i < bodies.size(); ++i) {
-    c.bodies.push_back(read_body(bodies[i]));
+    c.bodies.push_back(read_body(bodies[i], c.filter));
     if (c.find_body(c.bodies.back().name) != static_cast<int>(i)) {
       bodies[i].fail("value", "name", "duplicate body name \"" + c.bodies.back().name + "\"");
     }

@@ -39,6 +39,7 @@ struct Pipeline::Impl {
   std::vector<StaticMask> masks;
   std::vector<RigidBodyModel> bodies;
   std::vector<BodyTrack> tracks;
+  std::size_t head = 0;  // the glasses (the body named head): blind-camera watch
   std::vector<std::vector<Observation>> observations;
   std::unique_ptr<Triangulator> triangulator;
   std::vector<std::uint8_t> taken;
@@ -59,8 +60,9 @@ struct Pipeline::Impl {
     }
     for (const auto& b : config.bodies) {
       bodies.emplace_back(b);
-      tracks.emplace_back(config.filter);
+      tracks.emplace_back(b.filter_or(config.filter));
     }
+    head = static_cast<std::size_t>(config.head_body());
     observations.resize(cameras.size());
     used.resize(cameras.size());
     triangulator = std::make_unique<Triangulator>(std::span<const CameraModel>(cameras), config.match);
@@ -114,8 +116,9 @@ struct Pipeline::Impl {
     const RigidBodyModel& model = bodies[b];
     const Timestamp t = frames.timestamp;
     const double age = tr.last_time < 0 ? 1e9 : t - tr.last_time;
+    const double coasting_s = config.bodies[b].coasting_or(config.coasting_s);
     std::optional<RigidPose> predicted;
-    if (tr.last && age <= config.coasting_s) {
+    if (tr.last && age <= coasting_s) {
       predicted = tr.last;
       if (tr.has_velocity && age > 0) predicted->translation += tr.velocity * age;
     }
@@ -130,7 +133,7 @@ struct Pipeline::Impl {
           if (result.markers[i].blob[c] >= 0) used[c][result.markers[i].blob[c]] = 1;
         }
       }
-      if (tr.last && age > 0 && age <= config.coasting_s) {
+      if (tr.last && age > 0 && age <= coasting_s) {
         tr.velocity = (fit->pose.translation - tr.last->translation) / age;
         tr.has_velocity = true;
       } else {
@@ -139,7 +142,7 @@ struct Pipeline::Impl {
       tr.last = fit->pose;
       tr.last_time = t;
       const Eigen::Vector3d centre = fit->pose.apply(model.centroid());
-      if (b == 0) note_head(*fit, centre);
+      if (b == head) note_head(*fit, centre);
       raw = to_pose(centre, fit->pose.rotation);
       raw.status = TrackingStatus::tracked;
       raw.markers = fit->matched;
@@ -149,7 +152,7 @@ struct Pipeline::Impl {
       filtered.status = TrackingStatus::tracked;
       filtered.markers = raw.markers;
       filtered.cameras = raw.cameras;
-    } else if (tr.last && age <= config.coasting_s) {
+    } else if (tr.last && age <= coasting_s) {
       // Coasting: hold the last unsmoothed pose for matching; publish the filtered one.
       raw = to_pose(tr.last->apply(model.centroid()), tr.last->rotation);
       raw.status = TrackingStatus::coasting;
@@ -188,7 +191,8 @@ const TrackingConfig& Pipeline::config() const { return impl_->config; }
 std::size_t Pipeline::body_count() const { return impl_->bodies.size(); }
 
 void Pipeline::reset() {
-  for (auto& t : impl_->tracks) t = BodyTrack(impl_->config.filter);
+  for (std::size_t b = 0; b < impl_->tracks.size(); ++b)
+    impl_->tracks[b] = BodyTrack(impl_->config.bodies[b].filter_or(impl_->config.filter));
   for (auto& m : impl_->masks) m.clear();
 }
 

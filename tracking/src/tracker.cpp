@@ -483,14 +483,15 @@ namespace {
 /// where that does not hold (head lost, out of its view, no image) neither count nor reset.
 class BlindWatch {
  public:
-  BlindWatch(std::size_t cameras, double after_s) : since_(cameras, -1), count_(cameras, 0), last_(cameras, -1), after_s_(after_s) {}
+  BlindWatch(std::size_t cameras, double after_s, std::size_t head_body)
+      : since_(cameras, -1), count_(cameras, 0), last_(cameras, -1), after_s_(after_s), head_(head_body) {}
   void update(const FrameResult& r) {
-    const bool head = !r.raw.empty() && r.raw[0].status == TrackingStatus::tracked;
+    const bool head = r.raw.size() > head_ && r.raw[head_].status == TrackingStatus::tracked;
     for (std::size_t c = 0; c < since_.size() && c < r.has_image.size(); ++c) {
       if (!r.has_image[c]) continue;
       if (r.head_images[c] > 0) {
         since_[c] = -1, count_[c] = 0;
-      } else if (head && r.head_in_view[c] && r.raw[0].cameras >= 2) {
+      } else if (head && r.head_in_view[c] && r.raw[head_].cameras >= 2) {
         if (since_[c] < 0) since_[c] = r.timestamp;
         ++count_[c];
         last_[c] = r.timestamp;
@@ -508,6 +509,7 @@ class BlindWatch {
   std::vector<int> count_;
   std::vector<Timestamp> last_;
   double after_s_;
+  std::size_t head_ = 0;  // the glasses' body
 };
 }  // namespace
 
@@ -525,14 +527,17 @@ std::string describe(const CameraStatus& s) {
 
 /// What the loop carries from one frame set to the next (the thread's, or process()'s caller's).
 struct Tracker::Progress {
-  Progress(std::size_t cameras, double blind_after_s) : last_frame(cameras, -1), blind(cameras, blind_after_s) {}
+  Progress(std::size_t cameras, double blind_after_s, std::size_t head_body)
+      : last_frame(cameras, -1), blind(cameras, blind_after_s, head_body) {}
   std::vector<Timestamp> last_frame;
   BlindWatch blind;
   bool first = true;
 };
 
 void Tracker::handle(const FrameSet& frames, Timestamp ready_override) {
-  if (!progress_) progress_ = std::make_unique<Progress>(rig_.cameras.size(), config_.camera_blind_s);
+  if (!progress_)
+    progress_ = std::make_unique<Progress>(rig_.cameras.size(), config_.camera_blind_s,
+                                           static_cast<std::size_t>(config_.head_body()));
   Progress& pr = *progress_;
   if (frame_set_hook_) frame_set_hook_(frames);
   if (pr.first) {
@@ -629,7 +634,8 @@ BodyPose Tracker::predict(int body, Timestamp t) const {
     return lost;
   }
   BodyPose out = snap->pose;
-  if (!snap->valid || t - snap->last_measured > config_.coasting_s) {
+  const BodyConfig& bc = config_.bodies[static_cast<std::size_t>(body)];
+  if (!snap->valid || t - snap->last_measured > bc.coasting_or(config_.coasting_s)) {
     if (out.status != TrackingStatus::lost) out.status = TrackingStatus::lost;
     return out;
   }
@@ -642,7 +648,7 @@ BodyPose Tracker::predict(int body, Timestamp t) const {
   st.valid = true;
   Eigen::Vector3d p;
   Eigen::Quaterniond q;
-  kumite::tracking::predict(st, t, config_.filter.max_prediction_s, p, q);
+  kumite::tracking::predict(st, t, bc.filter_or(config_.filter).max_prediction_s, p, q);
   out.position = {p.x(), p.y(), p.z()};
   out.orientation = {q.w(), q.x(), q.y(), q.z()};
   out.timestamp = t;

@@ -14,6 +14,18 @@
 
 namespace kumite::tracking {
 
+/// One Euro filter (Casiez et al. 2012) for position (per axis, m) and orientation (angle).
+struct FilterConfig {
+  bool enabled = true;
+  double min_cutoff_hz = 1.0;       ///< Hz: cutoff at rest (lower = less jitter, more lag)
+  double beta = 600.0;              ///< 1/m: cutoff grows by beta * speed (m/s)
+  double d_cutoff_hz = 4.0;         ///< Hz: cutoff of the speed estimate
+  double rot_min_cutoff_hz = 1.0;   ///< Hz
+  double rot_beta = 80.0;           ///< 1/rad: cutoff grows by rot_beta * angular speed (rad/s)
+  double rot_d_cutoff_hz = 1.0;     ///< Hz
+  double max_prediction_s = 0.1;    ///< s: predict() never extrapolates further than this
+};
+
 /// A rigid body: its markers in its own frame (m). For the head: +X right, +Y up, looking
 /// toward -Z. The reported position is the centroid of ALL the model markers.
 struct BodyConfig {
@@ -21,6 +33,13 @@ struct BodyConfig {
   std::vector<Eigen::Vector3d> markers;  ///< m, body frame; at least 3, distinct distances
   double distance_tolerance_m = 0.004;   ///< m: inter-marker distance match tolerance
   double match_radius_m = 0.03;          ///< m: marker-to-prediction radius when tracked
+  /// Its own One Euro filter and coasting ([bodies.filter], coasting_s in [[bodies]]): a fist
+  /// moves at 8 m/s, and the head's settings would lag it. None: the file's [filter] and
+  /// coasting_s.
+  std::optional<FilterConfig> filter;
+  std::optional<double> coasting_s;      ///< s
+  const FilterConfig& filter_or(const FilterConfig& shared) const { return filter ? *filter : shared; }
+  double coasting_or(double shared) const { return coasting_s.value_or(shared); }
 };
 
 /// Correspondence and triangulation.
@@ -33,17 +52,6 @@ struct MatchConfig {
   double min_depth_m = 0.2;           ///< m: in front of every camera by at least this
 };
 
-/// One Euro filter (Casiez et al. 2012) for position (per axis, m) and orientation (angle).
-struct FilterConfig {
-  bool enabled = true;
-  double min_cutoff_hz = 1.0;       ///< Hz: cutoff at rest (lower = less jitter, more lag)
-  double beta = 600.0;              ///< 1/m: cutoff grows by beta * speed (m/s)
-  double d_cutoff_hz = 4.0;         ///< Hz: cutoff of the speed estimate
-  double rot_min_cutoff_hz = 1.0;   ///< Hz
-  double rot_beta = 80.0;           ///< 1/rad: cutoff grows by rot_beta * angular speed (rad/s)
-  double rot_d_cutoff_hz = 1.0;     ///< Hz
-  double max_prediction_s = 0.1;    ///< s: predict() never extrapolates further than this
-};
 
 /// A live V4L2 camera (`[[cameras]]`, only for --live).
 struct LiveCameraConfig {
@@ -75,6 +83,11 @@ struct TrackingConfig {
 
   /// Index of the body called `name`, or -1.
   int find_body(std::string_view name) const;
+  /// The glasses: the body named by its role, "head", else body 0.
+  int head_body() const {
+    const int i = find_body("head");
+    return i >= 0 ? i : 0;
+  }
 };
 
 /// Parses tracking.toml text (`source` names it in errors). Throws kumite::Error("config",...)
