@@ -256,13 +256,12 @@ struct SessionRecorder::SetSlot {
   tracking::FrameSet set;
 };
 
-/// Frame sets queued for the writer: 1 s at 60 Hz. Each holds its images (4 x 1.3 MB for the
-/// demo's cameras) until packed, so the queue bounds that memory (~310 MB when full).
-constexpr std::size_t kSetQueue = 60;
-
-SessionRecorder::SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames)
+// Frame sets queued for the writer (default 60: 1 s at 60 Hz). Each holds its images (4 x 1.3
+// MB for the demo's cameras) until packed, so the queue bounds that memory (~310 MB when full).
+SessionRecorder::SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames,
+                                 std::size_t queue_sets)
     : dir_(std::move(dir)), info_(std::move(info)), slots_(std::max<std::size_t>(queue_frames, 2)) {
-  for (std::size_t i = 0; i < kSetQueue; ++i) set_slots_.push_back(std::make_unique<SetSlot>());
+  for (std::size_t i = 0; i < std::max<std::size_t>(queue_sets, 2); ++i) set_slots_.push_back(std::make_unique<SetSlot>());
   make_output_folder(dir_, "--record " + dir_.string());
   {
     std::error_code ec;
@@ -373,8 +372,14 @@ void SessionRecorder::push_frame_set(const tracking::FrameSet& set) {
   set_head_.store(h + 1, std::memory_order_release);
 }
 
-void SessionRecorder::write_frame_set(const tracking::FrameSet& set) {
-  const std::string record = tracking::encode_frame_set(set);
+void SessionRecorder::push_encoded_frame_sets(std::vector<std::string> records) {
+  const std::lock_guard lock(encoded_mutex_);
+  for (auto& r : records) encoded_.push_back(std::move(r));
+}
+
+void SessionRecorder::write_frame_set(const tracking::FrameSet& set) { write_frame_record(tracking::encode_frame_set(set)); }
+
+void SessionRecorder::write_frame_record(const std::string& record) {
   const auto path = dir_ / "cameras.bin";
   const std::size_t header = frames_fd_ < 0 ? tracking::kCameraFramesHeader.size() : 0;
   if (bytes_.load(std::memory_order_relaxed) + record.size() + header > budget_bytes_) {
@@ -442,8 +447,25 @@ void SessionRecorder::run() {
         error_ = e.what();  // said at close(); later frames are not written (the file would have a hole)
       }
     }
-    // Camera frame sets (a few ms each to pack): what is queued now.
+    // Camera frame sets: first the tracker's pre-roll (already encoded), then the queue (a few
+    // ms each to pack). The queue's head is read first: a set queued after it waits for the
+    // next round, so a pre-roll handed over meanwhile is still written before it.
     const std::uint64_t sh = set_head_.load(std::memory_order_acquire);
+    {
+      std::vector<std::string> pre;
+      {
+        const std::lock_guard lock(encoded_mutex_);
+        pre.swap(encoded_);
+      }
+      for (const auto& r : pre) {
+        if (!error_.empty() || budget_reached_.load(std::memory_order_relaxed)) break;
+        try {
+          write_frame_record(r);
+        } catch (const std::exception& e) {
+          error_ = e.what();
+        }
+      }
+    }
     for (std::uint64_t st = set_tail_.load(std::memory_order_relaxed); st < sh; ++st) {
       tracking::FrameSet& set = set_slots_[st % set_slots_.size()]->set;
       if (error_.empty() && !budget_reached_.load(std::memory_order_relaxed)) {

@@ -16,6 +16,7 @@
 #include <spdlog/spdlog.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/tracking/camera_frames.hpp"
 #include "kumite/tracking/tracker.hpp"
 
 namespace kumite::app {
@@ -42,16 +43,18 @@ class TrackerInput final : public TrackingInput {
     tracker_.set_realtime_priority(c.tracking.realtime_priority);
     // Camera frame sets to a session recorder while one records (record_frame_sets). The
     // tracker thread takes this lock once per set; the frame loop only to swap the recorder.
-    // Until the installation starts (or a recorder attaches, if earlier), the sets are kept
-    // (at most kPreroll, their images shared) so that a recording made from the start holds
-    // every set the tracker's filter has seen: re-tracking it then starts from the same state.
+    // Until the installation starts (or a recorder attaches, if earlier), the sets are kept,
+    // packed (a few kB each, at most kPreroll of them: a minute at 60 Hz), so that a recording
+    // made from the start holds every set the tracker's filter has seen: re-tracking it then
+    // starts from the same state, however long the start-up took. Packing costs the tracker
+    // thread a little only before the show starts.
     tracker_.on_frame_set([this](const tracking::FrameSet& set) {
       const std::lock_guard lock(sink_mutex_);
       if (sink_) {
         sink_->push_frame_set(set);
       } else if (preroll_open_) {
         if (preroll_.size() < kPreroll)
-          preroll_.push_back(set);
+          preroll_.push_back(tracking::encode_frame_set(set));
         else
           preroll_overflow_ = true;
       }
@@ -95,7 +98,8 @@ class TrackerInput final : public TrackingInput {
     const std::lock_guard lock(sink_mutex_);
     if (preroll_open_) {  // the first call (a recorder from the start, or the installation starting)
       if (recorder) {
-        for (const auto& set : preroll_) recorder->push_frame_set(set);
+        recorder->push_encoded_frame_sets(std::move(preroll_));
+        preroll_ = {};
         if (preroll_overflow_)
           spdlog::warn("record: more than {} camera frame sets came before the recording began: a re-track of it "
                        "starts from a different tracker state", kPreroll);
@@ -155,10 +159,10 @@ class TrackerInput final : public TrackingInput {
           100 * rates_[0] / all, c.decode_ms.load()));
   }
 
-  static constexpr std::size_t kPreroll = 32;  // frame sets (0.5 s at 60 Hz)
+  static constexpr std::size_t kPreroll = 3600;  // frame sets (a minute at 60 Hz, ~15 MB packed)
   std::mutex sink_mutex_;
   SessionRecorder* sink_ = nullptr;  // guarded by sink_mutex_, as the three below
-  std::vector<tracking::FrameSet> preroll_;
+  std::vector<std::string> preroll_;  // encoded records (tracking::encode_frame_set)
   bool preroll_open_ = true, preroll_overflow_ = false;
   std::shared_ptr<tracking::RecordingOptions::Counters> counters_;
   PoseClock pose_clock_;  // when the next pose should be out (late latching)

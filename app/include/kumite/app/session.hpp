@@ -29,6 +29,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -75,7 +76,10 @@ class SessionRecorder {
  public:
   /// Creates DIR (or uses an empty existing one), copies the snapshot and writes the first
   /// manifest. Throws kumite::Error("io", ...) naming the path.
-  SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames = 512);
+  /// `queue_sets`: camera frame sets that may wait for the writer (each holds its images until
+  /// packed: the queue bounds that memory); more are dropped and counted.
+  SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames = 512,
+                  std::size_t queue_sets = 60);
   ~SessionRecorder();  ///< close() if not done (errors then only logged)
   SessionRecorder(const SessionRecorder&) = delete;
   SessionRecorder& operator=(const SessionRecorder&) = delete;
@@ -89,6 +93,9 @@ class SessionRecorder {
   /// hand over fresh images), never waiting; the writer packs and appends it to cameras.bin.
   /// A full queue drops the set (counted: a re-track then misses it).
   void push_frame_set(const tracking::FrameSet& set);
+  /// Frame sets already encoded (tracking::encode_frame_set), written before any pushed
+  /// later: the tracker's pre-roll, from its start to the recording's (any thread).
+  void push_encoded_frame_sets(std::vector<std::string> records);
   std::uint64_t frame_sets_written() const { return sets_written_.load(std::memory_order_relaxed); }
   std::uint64_t frame_sets_dropped() const { return sets_dropped_.load(std::memory_order_relaxed); }
   /// Writes what is queued, then the final manifest. Throws kumite::Error on a failed write.
@@ -153,6 +160,9 @@ class SessionRecorder {
   std::atomic<std::uint64_t> set_head_{0}, set_tail_{0};
   std::atomic<std::uint64_t> sets_written_{0}, sets_dropped_{0}, set_bytes_{0};
   int frames_fd_ = -1;  // cameras.bin, opened at the first set (the writer's)
+  std::mutex encoded_mutex_;
+  std::vector<std::string> encoded_;  // pre-encoded records waiting for the writer (guarded)
+  void write_frame_record(const std::string& record);
   std::thread thread_;
 };
 
