@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "json_reader.hpp"
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/content/bvh.hpp"
@@ -17,32 +18,6 @@ namespace kumite::app {
 namespace {
 using nlohmann::json;
 
-struct LogReader {
-  std::string file;
-  int line = 0;
-
-  [[noreturn]] void fail(std::string_view key, std::string_view message) const {
-    throw file_error("export", "log", file, line, key, message);
-  }
-  const json& at(const json& j, std::string_view key, std::string_view path) const {
-    if (!j.is_object() || !j.contains(key)) fail(path, "missing");
-    return j.at(std::string(key));
-  }
-  double number(const json& j, std::string_view path) const {
-    if (!j.is_number()) fail(path, "not a number");
-    const double v = j.get<double>();
-    if (!std::isfinite(v)) fail(path, "must be a finite number");
-    return v;
-  }
-  template <std::size_t N>
-  std::array<double, N> numbers(const json& j, std::string_view path) const {
-    if (!j.is_array() || j.size() != N) fail(path, fmt::format("expected {} numbers", N));
-    std::array<double, N> out{};
-    for (std::size_t i = 0; i < N; ++i) out[i] = number(j[i], path);
-    return out;
-  }
-};
-
 }  // namespace
 
 ExportReport export_log(const InstallationConfig& config, const ExportOptions& opt) {
@@ -50,7 +25,7 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
     throw Error("cli", "range", fmt::format("--from {} --to {}: expected finite times with from <= to", opt.from_s, opt.to_s));
   std::ifstream in(opt.log, std::ios::binary);
   if (!in) throw Error("io", "open", fmt::format("{}: cannot read", opt.log.string()));
-  LogReader r{opt.log.string()};
+  JsonLineReader r{"export", "log", opt.log.string(), 0};
   ExportReport rep;
 
   content::Clip clip;  // the fighter, once its character is known
@@ -76,10 +51,10 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
       }
       r.fail("", "not valid JSON (or not an object)");
     }
-    const double t = r.number(r.at(j, "time_s", "time_s"), "time_s");
+    const double t = r.num(r.at(j, "time_s", "time_s"), "time_s");
     if (t < opt.from_s) continue;
     if (t > opt.to_s) break;
-    const int frame = static_cast<int>(r.number(r.at(j, "frame", "frame"), "frame"));
+    const int frame = static_cast<int>(r.num(r.at(j, "frame", "frame"), "frame"));
     if (rep.frames == 0) {
       rep.first_frame = frame;
       rep.first_time_s = t;
@@ -89,8 +64,8 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
     rep.last_time_s = t;
     if (opt.head_csv) {
       const json& head = r.at(j, "head", "head");
-      const auto p = r.numbers<3>(r.at(head, "position", "head.position"), "head.position");
-      const auto q = r.numbers<4>(r.at(head, "quaternion", "head.quaternion"), "head.quaternion");
+      const auto p = r.nums<3>(r.at(head, "position", "head.position"), "head.position");
+      const auto q = r.nums<4>(r.at(head, "quaternion", "head.quaternion"), "head.quaternion");
       const bool live = head.value("live", false);
       csv += fmt::format("{},{:.6f},{:.6f},{:.6f},{:.6f},{:.7f},{:.7f},{:.7f},{:.7f},{}\n", frame, t, p[0], p[1], p[2], q[0],
                          q[1], q[2], q[3], live ? 1 : 0);
@@ -98,7 +73,7 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
     if (!opt.bvh) continue;
     const json& f = r.at(j, "fighter", "fighter");
     if (!f.value("present", false)) r.fail("fighter.present", "no fighter in this frame: nothing to export");
-    const int character = static_cast<int>(r.number(r.at(f, "character", "fighter.character"), "fighter.character")) - 1;
+    const int character = static_cast<int>(r.num(r.at(f, "character", "fighter.character"), "fighter.character")) - 1;
     if (rep.character < 0) {
       if (character < 0 || character >= static_cast<int>(config.characters.size()))
         r.fail("fighter.character", fmt::format("character {} is not in {} ({} characters)", character + 1,
@@ -120,12 +95,12 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
                                               "interval with one character", rep.character + 1, character + 1, frame, t));
     }
     const json& rot = r.at(f, "local_rotations", "fighter.local_rotations");
-    const auto root = r.numbers<3>(r.at(f, "root_joint", "fighter.root_joint"), "fighter.root_joint");
+    const auto root = r.nums<3>(r.at(f, "root_joint", "fighter.root_joint"), "fighter.root_joint");
     clip.root_positions.emplace_back(root[0], root[1], root[2]);
     const auto& names = clip.skeleton.names;
     for (std::size_t k = 0; k < names.size(); ++k) {
       const std::string key = "fighter.local_rotations." + names[k];
-      const auto q = r.numbers<4>(r.at(rot, names[k], key), key);
+      const auto q = r.nums<4>(r.at(rot, names[k], key), key);
       Eigen::Quaterniond qq(q[0], q[1], q[2], q[3]);
       if (std::abs(qq.norm() - 1) > 1e-3) r.fail(key, fmt::format("not a unit quaternion (norm {:.6f})", qq.norm()));
       clip.local_rotations.push_back(qq.normalized());

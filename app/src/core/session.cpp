@@ -20,6 +20,7 @@
 
 #include "kumite/app/run_control.hpp"
 #include "kumite/app/tracking_input.hpp"
+#include "json_reader.hpp"
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/realtime.hpp"
@@ -94,36 +95,9 @@ json input_json(const FrameInput& in) {
   return {{"now", in.now}, {"shown_at", in.shown_at}, {"keyed", keyed}, {"tracking", t}, {"clock", in.tracking_clock}};
 }
 
-struct LineReader {
-  std::string file;
-  int line = 0;
-  [[noreturn]] void fail(std::string_view key, std::string_view msg) const {
-    throw file_error("replay", "session", file, line, key, msg);
-  }
-  const json& at(const json& j, const char* key, std::string_view path) const {
-    if (!j.is_object() || !j.contains(key)) fail(path, "missing");
-    return j.at(key);
-  }
-  double num(const json& j, std::string_view path) const {
-    if (!j.is_number()) fail(path, "not a number");
-    const double v = j.get<double>();
-    if (!std::isfinite(v)) fail(path, "must be a finite number");
-    return v;
-  }
-  /// A whole number in [lo, hi] (checked before any cast).
-  double whole(const json& j, std::string_view path, double lo, double hi) const {
-    const double v = num(j, path);
-    if (v != std::floor(v) || v < lo || v > hi) fail(path, fmt::format("expected a whole number in [{:g}, {:g}]", lo, hi));
-    return v;
-  }
-  template <std::size_t N>
-  std::array<double, N> nums(const json& j, std::string_view path) const {
-    if (!j.is_array() || j.size() != N) fail(path, fmt::format("expected {} numbers", N));
-    std::array<double, N> out{};
-    for (std::size_t k = 0; k < N; ++k) out[k] = num(j[k], path);
-    return out;
-  }
-};
+/// manifest.json and session.jsonl lines: errors are ("replay", "session").
+using LineReader = JsonLineReader;
+LineReader session_reader(std::string file) { return {"replay", "session", std::move(file), 0}; }
 
 FrameInput parse_input(const json& j, const LineReader& r) {
   FrameInput in;
@@ -827,7 +801,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
   std::ifstream mf(manifest_path);
   if (!mf) throw Error("replay", "missing", fmt::format("{}: cannot read (not a recorded session)", manifest_path.string()));
   const json m = json::parse(mf, nullptr, false);
-  LineReader mr{manifest_path.string(), 0};
+  LineReader mr = session_reader(manifest_path.string());
   if (m.is_discarded() || !m.is_object()) mr.fail("", "not valid JSON (or not an object)");
   const double version = mr.num(mr.at(m, "version", "version"), "version");
   if (version > kSessionVersion)
@@ -884,7 +858,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
   std::ifstream in(session_path, std::ios::binary);
   if (!in) throw Error("replay", "missing", fmt::format("{}: cannot read", session_path.string()));
   std::string all((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  LineReader r{session_path.string(), 0};
+  LineReader r = session_reader(session_path.string());
   std::size_t pos = 0;
   std::unique_ptr<Installation> inst;
   std::optional<std::uint64_t> expected;
