@@ -5,6 +5,8 @@
 
 #include <fmt/format.h>
 
+#include "binary_io.hpp"
+#include "kumite/common/checksum.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/tracking/packed_image.hpp"
 
@@ -15,27 +17,8 @@ constexpr std::uint32_t kMagic = 0x3153464B;  // "KFS1" little-endian
 constexpr std::uint32_t kMaxPayload = 1u << 30;
 constexpr std::uint32_t kMaxCameras = 64;
 
-std::uint64_t fnv1a(std::string_view s) {
-  std::uint64_t h = 14695981039346656037ull;
-  for (const char c : s) {
-    h ^= static_cast<std::uint8_t>(c);
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-template <typename T>
-void put(std::string& out, T v) {
-  char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));
-  out.append(b, sizeof(T));
-}
-template <typename T>
-bool get(std::string_view& in, T& v) {
-  if (in.size() < sizeof(T)) return false;
-  std::memcpy(&v, in.data(), sizeof(T));
-  in.remove_prefix(sizeof(T));
-  return true;
-}
+using binary::get;
+using binary::put;
 }  // namespace
 
 std::string encode_frame_set(const FrameSet& set) {
@@ -51,7 +34,7 @@ std::string encode_frame_set(const FrameSet& set) {
   out.reserve(payload.size() + 16);
   put<std::uint32_t>(out, kMagic);
   put<std::uint32_t>(out, static_cast<std::uint32_t>(payload.size()));
-  put<std::uint64_t>(out, fnv1a(payload));
+  put<std::uint64_t>(out, fnv1a64(payload));
   out += payload;
   return out;
 }
@@ -91,7 +74,7 @@ bool CameraFramesReader::next(FrameSet& out) {
   buffer_.resize(bytes);
   in_.read(buffer_.data(), bytes);
   if (in_.gcount() != static_cast<std::streamsize>(bytes)) return fail("cut short (a recorder killed mid-write)");
-  if (fnv1a(buffer_) != sum) return fail("checksum does not match (damaged)");
+  if (fnv1a64(buffer_) != sum) return fail("checksum does not match (damaged)");
   std::string_view p(buffer_);
   FrameSet set;
   std::uint32_t cameras = 0;

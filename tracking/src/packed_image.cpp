@@ -1,5 +1,7 @@
 #include "kumite/tracking/packed_image.hpp"
 
+#include "binary_io.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cstring>
@@ -90,20 +92,8 @@ std::size_t PackedImage::bytes() const {
 }
 
 namespace {
-template <typename T>
-void put(std::string& out, T v) {
-  static_assert(std::is_trivially_copyable_v<T>);
-  char b[sizeof(T)];
-  std::memcpy(b, &v, sizeof(T));  // little-endian hosts (x86-64, aarch64): the file's order
-  out.append(b, sizeof(T));
-}
-template <typename T>
-bool get(std::string_view& in, T& v) {
-  if (in.size() < sizeof(T)) return false;
-  std::memcpy(&v, in.data(), sizeof(T));
-  in.remove_prefix(sizeof(T));
-  return true;
-}
+using binary::get;
+using binary::put;
 constexpr std::uint8_t kEmpty = 0, kPacked = 1, kDense = 2;
 constexpr std::int64_t kMaxPixels = 1LL << 26;  // 64 Mpx: no camera image is larger
 }  // namespace

@@ -22,6 +22,7 @@
 #include "kumite/app/tracking_input.hpp"
 #include "json_reader.hpp"
 #include "kumite/common/atomic_file.hpp"
+#include "kumite/common/checksum.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/realtime.hpp"
 #include "kumite/tracking/camera_frames.hpp"
@@ -38,15 +39,9 @@ constexpr int kWriterNice = 15;
 /// ms the writer sleeps when it has written everything queued (the queue holds 512 frames:
 /// 8.5 s at 60 Hz).
 constexpr int kWriterPeriodMs = 5;
-constexpr std::uint64_t kFnvOffset = 14695981039346656037ull;
-constexpr std::uint64_t kFnvPrime = 1099511628211ull;
-
 struct Fnv {
-  std::uint64_t h = kFnvOffset;
-  void bytes(const void* p, std::size_t n) {
-    const auto* b = static_cast<const unsigned char*>(p);
-    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * kFnvPrime;
-  }
+  std::uint64_t h = kFnv1a64Offset;
+  void bytes(const void* p, std::size_t n) { h = fnv1a64(p, n, h); }
   void d(double v) { bytes(&v, sizeof v); }
   void i(std::int64_t v) { bytes(&v, sizeof v); }
   void v3(const glm::dvec3& v) { d(v.x); d(v.y); d(v.z); }
@@ -74,11 +69,7 @@ std::optional<std::string> read_bytes(const std::filesystem::path& p) {
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-std::uint64_t fnv_of(std::string_view bytes) {
-  Fnv f;
-  f.bytes(bytes.data(), bytes.size());
-  return f.h;
-}
+std::uint64_t fnv_of(std::string_view bytes) { return fnv1a64(bytes); }
 
 json pose_json(const BodyPose& p) {
   return {{"timestamp", p.timestamp}, {"frame", p.frame}, {"body", p.body}, {"status", static_cast<int>(p.status)},

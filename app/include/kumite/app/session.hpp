@@ -150,7 +150,7 @@ class SessionRecorder {
   std::atomic<std::uint64_t> head_{0}, tail_{0};
   std::atomic<bool> stop_{false}, budget_reached_{false};
   std::atomic<std::uint64_t> written_{0}, dropped_{0}, pushed_{0}, bytes_{0};
-  std::uint64_t checksum_ = 14695981039346656037ull;  // the writer's (read after join)
+  std::uint64_t checksum_ = 14695981039346656037ull;  // kFnv1a64Offset; the writer's (read after join)
   std::string error_;                                 // the writer's (read after join)
   std::optional<Item::Start> start_;                  // the writer's (read after join)
   double created_unix_s_ = 0;
