@@ -73,7 +73,7 @@ class Collector {
             std::vector<std::string> body_names)
       : truth_(std::move(truth)), unfiltered_(unfiltered), camera_timeout_s_(camera_timeout_s),
         camera_names_(std::move(cameras)),
-        images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0), body_name_(body_names.at(0)),
+        images_(camera_names_.size(), 0), last_image_(camera_names_.size(), -1.0),
         body_names_(std::move(body_names)) {
     rows_ = "frame,timestamp_s,body,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms\n";
   }
@@ -103,9 +103,9 @@ class Collector {
     const BodyPose& f = r.filtered.at(0);
     // The console says when the head is lost (past coasting) and when it is found again.
     if (f.status == TrackingStatus::lost && was_tracked_) {
-      spdlog::warn("{}: lost at {:.3f} s (frame {})", body_name_, r.timestamp - first_time_, r.frame);
+      spdlog::warn("{}: lost at {:.3f} s (frame {})", body_names_.front(), r.timestamp - first_time_, r.frame);
     } else if (f.status == TrackingStatus::tracked && !was_tracked_) {
-      spdlog::info("{}: {} at {:.3f} s (frame {}, {} markers, {} cameras)", body_name_,
+      spdlog::info("{}: {} at {:.3f} s (frame {}, {} markers, {} cameras)", body_names_.front(),
                    ever_tracked_ ? "tracked again" : "found", r.timestamp - first_time_, r.frame, f.markers, f.cameras);
       ever_tracked_ = true;
     }
@@ -200,8 +200,7 @@ class Collector {
   std::vector<Timestamp> last_image_;  // per camera: time of its last image (s, -1 = none)
   Timestamp first_time_ = 0, last_time_ = 0;
   bool was_tracked_ = false, ever_tracked_ = false;
-  std::string body_name_;
-  std::vector<std::string> body_names_;  // every body of tracking.toml, [[bodies]] order
+  std::vector<std::string> body_names_;  // every body of tracking.toml, [[bodies]] order (body 0 first)
   Eigen::Vector3d jitter_sum_{0, 0, 0};
   double jitter_sum2_ = 0;
   int jitter_n_ = 0;

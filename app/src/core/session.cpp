@@ -837,11 +837,9 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
     auto tc = tracking::read_tracking_config(c.resolve(c.tracking.tracking));
     std::vector<std::string> names;
     for (const auto& cam : rig.cameras) names.push_back(cam.name);
+    const int head = head_body_index(c, tc);  // throws, naming the key, for a body that does not exist
     rt.reset(new Retracking{tracking::Tracker(std::move(rig), std::move(tc)), tracking::CameraFramesReader(cameras),
-                            0, std::move(names), {}, std::nullopt, true, {}});
-    rt->head = head_body_index(c, tracking::read_tracking_config(c.resolve(c.tracking.tracking)));
-    if (rt->head < 0 || rt->head >= static_cast<int>(rt->tracker.body_count()))
-      throw Error("replay", "config", fmt::format("tracking.head_body {}: no such body in the snapshot's tracking.toml", rt->head));
+                            head, std::move(names), {}, std::nullopt, true, {}});
     rep.retrack = ReplayReport::Retrack{};
   }
 

@@ -59,12 +59,7 @@ class TrackerInput final : public TrackingInput {
           preroll_overflow_ = true;
       }
     });
-    for (const auto& cam : rig.cameras) names_.push_back(cam.name);
-    if (head_ >= static_cast<int>(tracker_.body_count()))
-      throw file_error("config", "range", c.file.string(), c.line_of("tracking.head_body"),
-                       "tracking.head_body",
-                       fmt::format("body {} does not exist ({} bodies in {})", head_,
-                                   tracker_.body_count(), c.resolve(c.tracking.tracking).string()));
+    for (const auto& cam : rig.cameras) names_.push_back(cam.name);  // head_: checked by head_body_index
     if (source) {
       tracker_.start(std::move(source));
       what_ = "frame source given by the caller";
@@ -188,12 +183,11 @@ int head_body_index(const InstallationConfig& c, const tracking::TrackingConfig&
                                    c.resolve(c.tracking.tracking).string()));
     return *c.tracking.head_body;
   }
-  if (const int i = tc.find_body("head"); i >= 0) return i;
-  if (tc.bodies.empty()) return 0;
+  if (tc.find_body("head") >= 0 || tc.bodies.empty()) return tc.head_body();
   spdlog::warn("tracking: {} names no body \"head\": body 0 (\"{}\") is taken as the glasses; name it head (its "
                "role) or set [tracking] head_body",
                c.resolve(c.tracking.tracking).string(), tc.bodies[0].name);
-  return 0;
+  return tc.head_body();
 }
 
 TrackingSnapshot read_tracker(const tracking::Tracker& tracker, int head, Timestamp now_s, Timestamp display_time,
