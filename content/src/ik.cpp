@@ -29,6 +29,19 @@ TwoBoneResult solve_two_bone(const Eigen::Vector3d& root, const Eigen::Vector3d&
   return r;
 }
 
+TwoBoneResult solve_two_bone_soft(const Eigen::Vector3d& root, const Eigen::Vector3d& target, double l1,
+                                  double l2, const Eigen::Vector3d& pole_unit, double softness_m) {
+  const double full = l1 + l2;
+  const double s = std::clamp(softness_m, 0.0, 0.5 * full);
+  const Eigen::Vector3d v = target - root;
+  const double d = v.norm();
+  if (s <= 0 || d <= full - s || d < 1e-12) return solve_two_bone(root, target, l1, l2, pole_unit);
+  const double soft = full - s + s * (1 - std::exp(-(d - (full - s)) / s));
+  TwoBoneResult r = solve_two_bone(root, root + v * (soft / d), l1, l2, pole_unit);
+  r.reached = d <= full + 1e-9;
+  return r;
+}
+
 Eigen::Quaterniond swing_between(const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
   return Eigen::Quaterniond::FromTwoVectors(from, to);
 }

@@ -102,7 +102,9 @@ TEST(BehaviourShipped, EveryCharacterReachesTargetsAroundHeadHeight) {
       }
     }
     EXPECT_LT(worst, 1e-3) << rigs[c].name;
-    EXPECT_LT(worst_slide, 2e-3) << rigs[c].name;
+    // A held foot whose leg is nearly straight is drawn a few mm short of its hold (soft
+    // two-bone IK: no knee pop), and that shortfall changes as the hip moves: <= 3 mm a frame.
+    EXPECT_LT(worst_slide, 3e-3) << rigs[c].name;
     EXPECT_GE(reached, total * 3 / 4) << rigs[c].name << ": reached " << reached << " of " << total;
     std::printf("%s (%.2f m): reached %d/%d, worst reach error %.2e m, worst foot slide %.2e m\n",
                 rigs[c].name.c_str(), h, reached, total, worst, worst_slide);

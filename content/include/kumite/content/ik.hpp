@@ -22,6 +22,14 @@ struct TwoBoneResult {
 /// the middle joint bends.
 TwoBoneResult solve_two_bone(const Eigen::Vector3d& root, const Eigen::Vector3d& target, double l1,
                              double l2, const Eigen::Vector3d& pole_unit);
+/// The same with a soft end of reach (m, 0 = hard): a target within `softness_m` of full
+/// extension or beyond is reached at root + axis * (L - s + s * (1 - exp(-(d - (L - s)) / s)))
+/// (L = l1 + l2, s = softness_m), so the limb straightens smoothly as its target goes out of
+/// reach instead of its middle joint moving centimetres for the last millimetres (the knee
+/// "pop" of two-bone IK). The end then falls short of the target by at most s;
+/// `reached` still says whether the target lies within l1 + l2.
+TwoBoneResult solve_two_bone_soft(const Eigen::Vector3d& root, const Eigen::Vector3d& target, double l1,
+                                  double l2, const Eigen::Vector3d& pole_unit, double softness_m);
 
 /// The smallest rotation taking direction `from` onto `to` (neither need be unit).
 Eigen::Quaterniond swing_between(const Eigen::Vector3d& from, const Eigen::Vector3d& to);
