@@ -37,6 +37,9 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   global_.resize(max_joints);
   rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
+  scratch_local_.resize(max_joints);
+  scratch_global_.resize(max_joints);
+  scratch_positions_.resize(max_joints);
   switch_offset_.assign(max_joints, Vector3d::Zero());
   eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames: no allocation while playing
   spot_xz_m_ = {config.home.x(), config.home.z()};
@@ -217,6 +220,15 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s);
   enter(FighterState::striking);
   compute_reach_error(strike_.contact_time_s);
+  // A correction that lengthens the hit point's way plays the strike slower (the blend into
+  // it eases the change of rate in); then d(t) and its release are found again at that rate.
+  current_.rate = strike_rate();
+  strike_.rate = current_.rate;
+  if (current_.rate != 1) {
+    strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s,
+                                     strike_.end_time_s - tun_.blend_time_s * current_.rate);
+    compute_reach_error(strike_.contact_time_s);
+  }
   (void)now;
 }
 
@@ -226,13 +238,14 @@ void Behaviour::compute_reach_error(double at_time_s) {
   // that gap.
   const Source* strike_src = current_.segment == strike_.plan.segment && state_ == FighterState::striking ? &current_ : nullptr;
   if (!strike_src) return;
-  const double ahead = at_time_s - current_.time_s;
+  const double ahead = at_time_s - current_.time_s;  // segment seconds
+  const double ahead_wall = ahead / current_.rate;   // s
   Source cur = current_, prev = previous_;
   cur.time_s += ahead;
-  prev.time_s += ahead;
+  prev.time_s += ahead_wall * prev.rate;
   MkmFrame a, b, pose;
   sample(cur, b);
-  const double be = blend_elapsed_s_ + ahead;
+  const double be = blend_elapsed_s_ + ahead_wall;
   if (prev.segment >= 0 && be < tun_.blend_time_s) {
     sample(prev, a);
     blend_mkm(a, b, smoothstep(be / tun_.blend_time_s), pose);
@@ -261,6 +274,85 @@ void Behaviour::compute_reach_error(double at_time_s) {
     strike_.turn = Eigen::Quaterniond::Identity();
     strike_.stretch = 1;
   }
+}
+
+double Behaviour::strike_rate() {
+  // The hit point's way as it will be drawn (the blend out of the previous motion, the strike
+  // with its scaled travel and d(t) ramped as update() ramps them, decoded on the character)
+  // beside the source clip's own hit path scaled to the character, from the strike start to
+  // the end of d(t)'s release, both sampled at 60 Hz. When the drawn peak speed exceeds
+  // max_strike_speed_ratio times the source's, the strike is played slower (refined twice:
+  // the blend runs in wall time, so the drawn speed is not quite proportional to the rate).
+  if (tun_.min_strike_rate >= 1) return 1;  // off (the default: see BehaviourTunables)
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+  if (seg.hit_path_m.size() != seg.frames.size() || seg.frame_count() < 2) return 1;
+  constexpr double h = 1.0 / 60;  // s between samples
+  const int first = std::clamp(static_cast<int>(std::lround(strike_.start_time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
+  const int last = std::clamp(static_cast<int>(std::lround(strike_.release_end_s / seg.frame_time_s)), first, seg.frame_count() - 1);
+  const auto path_at = [&](double t) {
+    const auto [i0, a] = frame_pair(seg, t);
+    return Vector3d(((1 - a) * seg.hit_path_m[i0] + a * seg.hit_path_m[i0 + 1]).cast<double>());
+  };
+  double src_peak = 0;
+  for (double t = first * seg.frame_time_s + h; t <= last * seg.frame_time_s + 1e-9; t += h)
+    src_peak = std::max(src_peak, (path_at(t) - path_at(t - h)).norm() / h);
+  src_peak *= stride_scale();
+  if (!(src_peak > 1e-9)) return 1;
+
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const auto n = static_cast<std::size_t>(rig.joint_count());
+  const auto effector = static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()));
+  const auto drawn_peak = [&](double rate) {
+    Source cur = current_, prev = previous_;
+    cur.rate = rate;
+    const double t0 = current_.time_s, p0 = previous_.time_s;
+    double peak = 0;
+    Vector3d last_p = Vector3d::Zero();
+    MkmFrame a, b, pose;
+    for (int k = 0;; ++k) {
+      const double w = k * h;
+      cur.time_s = t0 + rate * w;
+      if (cur.time_s > strike_.release_end_s + 1e-9) break;
+      prev.time_s = p0 + prev.rate * w;
+      sample(cur, b);
+      const double be = blend_elapsed_s_ + w;
+      if (prev.segment >= 0 && be < tun_.blend_time_s) {
+        sample(prev, a);
+        blend_mkm(a, b, smoothstep(be / tun_.blend_time_s), pose);
+      } else {
+        pose = b;
+      }
+      const double t = cur.time_s;
+      const double ramp = t <= strike_.contact_time_s
+                              ? smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s))
+                              : 1 - smoothstep((t - strike_.contact_time_s) / std::max(1e-6, strike_.release_end_s - strike_.contact_time_s));
+      ReachGoal goal;
+      goal.effector = strike_.effector;
+      goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, strike_.turn);
+      goal.stretch = 1 + ramp * (strike_.stretch - 1);
+      AdaptJob job;
+      job.rig = &rig;
+      job.pose = &pose;
+      job.reach = &goal;
+      job.local_rotations = std::span(scratch_local_).first(n);
+      job.global_rotations = std::span(scratch_global_).first(n);
+      job.global_positions = std::span(scratch_positions_).first(n);
+      if (!job.Run()) return 0.0;
+      const Vector3d p = scratch_positions_[effector];
+      if (k > 0) peak = std::max(peak, (p - last_p).norm() / h);
+      last_p = p;
+    }
+    return peak;
+  };
+  double rate = 1;
+  for (int refine = 0; refine < 2; ++refine) {
+    const double peak = drawn_peak(rate);
+    if (!(peak > tun_.max_strike_speed_ratio * src_peak)) break;
+    const double next = std::clamp(rate * tun_.max_strike_speed_ratio * src_peak / peak, tun_.min_strike_rate, 1.0);
+    if (next >= rate) break;
+    rate = next;
+  }
+  return rate;
 }
 
 void Behaviour::update_follow(double dt, const Vector3d& head) {
@@ -370,14 +462,14 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
 
   // Advance the clocks by the whole frame: the contact frame is the first frame at or past the
   // planned contact time, a real frame of motion (no sub-frame hold, no copy of the last).
-  current_.time_s += dt;
-  previous_.time_s += dt;
+  current_.time_s += dt * current_.rate;
+  previous_.time_s += dt * previous_.rate;
   blend_elapsed_s_ += dt;
   if (!switch_offsets_due_) switch_elapsed_s_ += dt;
   const bool contact_now =
       state_ == FighterState::striking && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
   if (state_ == FighterState::striking && strike_.contact_done &&
-      current_.time_s >= strike_.end_time_s - tun_.blend_time_s) {
+      current_.time_s >= strike_.end_time_s - tun_.blend_time_s * current_.rate) {
     start_rest(now);
     enter(FighterState::recovering);
   }
@@ -413,7 +505,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       // The error of this very frame, so the contact frame lands on the target.
       compute_reach_error(current_.time_s);
       strike_.contact_time_s = current_.time_s;
-      strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s);
+      strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s * current_.rate);
       ramp = 1;
     } else if (!strike_.contact_done) {
       ramp = smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s));

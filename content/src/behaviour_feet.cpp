@@ -27,8 +27,8 @@ double Behaviour::swing_left_s(int side) const {
   const int n = seg.frame_count();
   const int first = std::clamp(static_cast<int>(std::ceil(current_.time_s / seg.frame_time_s - 1e-9)), 0, n);
   for (int k = first; k < n; ++k)
-    if (seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5) return k * seg.frame_time_s - current_.time_s;
-  return (n - 1) * seg.frame_time_s - current_.time_s + tun_.blend_time_s;  // the rest motion after it
+    if (seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5) return (k * seg.frame_time_s - current_.time_s) / current_.rate;
+  return ((n - 1) * seg.frame_time_s - current_.time_s) / current_.rate + tun_.blend_time_s;  // the rest motion after it
 }
 
 namespace {
@@ -52,7 +52,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   // The motion being played, one update earlier: how far it moved each foot since.
   MkmFrame before;
   Source earlier = current_;
-  earlier.time_s -= dt;
+  earlier.time_s -= dt * current_.rate;
   sample(earlier, before);
 
   // The motion's own ankle heights (without a strike's pelvis rise): a heel it raises.
@@ -78,7 +78,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     f.source_step_m = mkm_ankle(rig, cur, s) - mkm_ankle(rig, before, s);
     if (!f.planted && !current_.loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
       // Where the motion puts this foot down next, and the horizontal way its ankle still goes.
-      const double land_t = current_.time_s + f.swing_left_s;
+      const double land_t = current_.time_s + f.swing_left_s * current_.rate;
       const Vector3d now_m = mkm_ankle(rig, cur, s);
       SwingPath& sp = swing_paths_[us];
       const bool same = sp.segment == current_.segment && sp.character == character_ && std::abs(sp.land_t - land_t) < 1e-9 &&

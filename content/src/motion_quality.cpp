@@ -382,11 +382,14 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
                             src.frame_time_s));
   StrikeQuality q;
   q.speed_scale = in.speed_scale;
+  if (!std::isfinite(in.rate) || in.rate <= 0 || in.rate > 1)
+    throw Error("content", "argument", fmt::format("motion quality: playback rate {} is not in (0, 1]", in.rate));
+  const auto source_of = [&](int k) { return in.source_first + static_cast<int>(std::lround(in.rate * (k - in.output_first))); };
   q.output_range = clamp_range(out, {in.output_first, in.output_last});
-  q.source_range = {in.source_first, in.source_first + (q.output_range.last - in.output_first)};
+  q.source_range = {in.source_first, source_of(q.output_range.last)};
   q.source_range = clamp_range(src, q.source_range);
-  // Keep both ranges the same length (the source may end first).
-  q.output_range.last = in.output_first + (q.source_range.last - in.source_first);
+  // Keep both ranges over the same motion (the source may end first).
+  while (q.output_range.last > q.output_range.first && source_of(q.output_range.last) > q.source_range.last) --q.output_range.last;
   // Floor levels of the source over the played frames (a long clip's floor is not flat to
   // 1.5 cm everywhere).
   const FootContacts src_contacts = detect_foot_contacts(src, {}, q.source_range);
@@ -396,7 +399,7 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
     auto& m = mapped.contact[static_cast<std::size_t>(side)];
     m.assign(static_cast<std::size_t>(out.frame_count), 0);
     for (int k = q.output_range.first; k <= q.output_range.last; ++k) {
-      const int sf = in.source_first + (k - in.output_first);
+      const int sf = source_of(k);
       if (sf >= 0 && sf < src.frame_count) m[static_cast<std::size_t>(k)] = src_contacts.contact[static_cast<std::size_t>(side)][static_cast<std::size_t>(sf)];
     }
   }
@@ -410,7 +413,7 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
   q.source = track_figures(src, q.source_range, src_contacts, in.speed_scale, o);
   const int h = speed_half_window(out.frame_time_s, o.window_s);
   q.output_contact = limb_at_contact(out, in.effector, in.contact_frame, in.target_m, h);
-  const int src_contact = std::clamp(in.source_first + (in.contact_frame - in.output_first), 0, src.frame_count - 1);
+  const int src_contact = std::clamp(source_of(in.contact_frame), 0, src.frame_count - 1);
   const Limb l = limb_of(in.effector.side, in.effector.leg);
   const Vector3d src_end = src.at(src_contact, require(*src.skeleton, l.end));
   q.source_contact = limb_at_contact(src, in.effector, src_contact, src_end, h);
@@ -442,14 +445,18 @@ StrikeComparisonInput strike_comparison_input(const Database& db, const StrikeRe
       rec.strike.plan.segment >= static_cast<int>(db.segments.size()))
     throw Error("content", "argument", "motion quality: the recording holds no strike");
   const MotionSegment& seg = db.segments[static_cast<std::size_t>(rec.strike.plan.segment)];
-  const int first = rec.contact_frame - (rec.strike.plan.contact_frame - rec.strike.plan.start_frame);
+  // Played at rate r, the contact comes on the first frame at or past the contact time.
+  const double r = rec.strike.rate;
+  const int first = rec.contact_frame -
+                    static_cast<int>(std::ceil((rec.strike.plan.contact_frame - rec.strike.plan.start_frame) / r - 1e-9));
   const int seg_last = seg.source_first_frame + seg.frame_count() - 1;
   StrikeComparisonInput in;
   in.output = &output;
   in.source = &source;
   in.output_first = first;
-  in.output_last = std::min(output.frame_count - 1, first + (seg_last - rec.source_start_frame));
+  in.output_last = std::min(output.frame_count - 1, first + static_cast<int>(std::floor((seg_last - rec.source_start_frame) / r)));
   in.source_first = rec.source_start_frame;
+  in.rate = r;
   in.contact_frame = rec.contact_frame;
   in.effector = effector_of_order(order);
   in.target_m = rec.strike.target_room_m;

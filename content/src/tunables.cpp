@@ -48,6 +48,8 @@ const std::vector<TunableKey>& fighter_tunable_keys() {
       b("max_punch_elevation_deg", "deg", 0, 89, &B::max_punch_elevation_deg),
       b("max_punch_aim_deg", "deg", 0, 89, &B::max_punch_aim_deg),
       b("blend_time_s", "s", 0.02, 2, &B::blend_time_s),
+      b("max_strike_speed_ratio", "", 1, 5, &B::max_strike_speed_ratio),
+      b("min_strike_rate", "", 0.2, 1, &B::min_strike_rate),
       f("step_threshold_m", "m", 0.01, 1, &F::step_threshold_m),
       f("max_leg_stretch", "", 0.5, 1, &F::max_leg_stretch),
       f("step_time_s", "s", 0.05, 2, &F::step_time_s),

@@ -614,6 +614,7 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     js["output_frames"] = {q.output_range.first, q.output_range.last};
     js["source_frames"] = {q.source_range.first, q.source_range.last};
     js["speed_scale"] = q.speed_scale;
+    js["rate"] = rec.strike.rate;
     js["reachable"] = rec.strike.contact_reached;
     js["hit"] = rec.strike.hit;
     js["solver_reach_error_m"] = rec.strike.contact_distance_m;
@@ -1039,6 +1040,25 @@ int run_bench(const BenchArgs& a) {
   }
   j["adaptation_us_per_frame"] = stats_json(adapt_us);
   j["adaptation_strikes"] = strikes;
+  if (!a.skip_adaptation && g_fighter.behaviour.min_strike_rate >= 1) {
+    // The same strikes with the playback rate on (BehaviourTunables::min_strike_rate): what
+    // finding the rate costs the frame that starts each strike.
+    FighterConfig with_rate = g_fighter;
+    with_rate.behaviour.min_strike_rate = 0.6;
+    with_rate.behaviour.blend_time_s = 0.25;
+    std::vector<double> rate_us;
+    std::mt19937 rng_rate(7);
+    for (int rep = 0; rep < 8; ++rep)
+      for (const Rig& rig : rigs)
+        for (auto kind : kinds) {
+          const double h = rig.morphology.height_m;
+          const bool kick = kind >= kumite::OrderKind::kick_left;
+          const Eigen::Vector3d target(0.15 * u(rng_rate), (kick ? 0.6 : 0.9) * h, 0.38 * h);
+          const StrikeRecording rec = record_strike(db, rig, kind, target, with_rate);
+          rate_us.insert(rate_us.end(), rec.update_us.begin(), rec.update_us.end());
+        }
+    j["adaptation_us_per_frame_strike_rate"] = stats_json(rate_us);
+  }
 
   // 4. Motion quality (what the eye sees; `kumite-motion quality` for the per-strike detail).
   if (a.quality_targets > 0) {

@@ -82,8 +82,8 @@ void record(const fs::path& config_path, const fs::path& orders, const fs::path&
   const double t0 = 5000.0;
   inst.start(t0);
   for (int i = 0; i < frames; ++i) {
-    if (i == 70) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));
-    if (i == 100) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
+    if (i == 100) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));  // the punch is over by then
+    if (i == 140) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
     inst.step(t0 + i / 60.0 + (i % 3) * 1e-4);  // uneven frame times, as a real loop has
   }
   inst.record_to(nullptr);
@@ -121,10 +121,10 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
     std::string moved;
     while (std::getline(in, line)) {
       auto j = nlohmann::json::parse(line);
-      if (j.contains("frame") && j["frame"] == 70) {
+      if (j.contains("frame") && j["frame"] == 100) {
         moved = j["input"]["keyed"].dump();
         j["input"]["keyed"] = nlohmann::json::array();
-      } else if (j.contains("frame") && j["frame"] == 71) {
+      } else if (j.contains("frame") && j["frame"] == 101) {
         j["input"]["keyed"] = nlohmann::json::parse(moved);
       }
       out += j.dump() + "\n";
@@ -134,7 +134,7 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
     const ReplayReport d = replay_session(tmp.path / "changed");
     EXPECT_FALSE(d.identical);
     ASSERT_TRUE(d.first_difference_frame);
-    EXPECT_EQ(*d.first_difference_frame, 70u);
+    EXPECT_EQ(*d.first_difference_frame, 100u);
     EXPECT_EQ(d.first_difference_field, "fighter");  // the kick not ordered there: no target frozen
   }
 
@@ -213,7 +213,7 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
   }
 
   // A character missing from the snapshot and from its source: said, and the difference caught
-  // (character 2 is switched to at frame 100).
+  // (character 2 is switched to at frame 140).
   {
     copy_session(tmp.path / "s", tmp.path / "nochar");
     fs::remove(tmp.path / "nochar/snapshot/characters/2.bvh");

@@ -336,7 +336,10 @@ TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) 
     EXPECT_EQ(in.output_first, 1);
     const StrikeQuality q = compare_strike(in);
     EXPECT_GT(q.output_range.count(), 30);
-    EXPECT_EQ(q.output_range.count(), q.source_range.count());
+    // A strike played slower (Behaviour::strike_rate) shows fewer source frames than it draws.
+    EXPECT_GT(rec.strike.rate, 0.0);
+    EXPECT_LE(rec.strike.rate, 1.0);
+    EXPECT_NEAR(q.source_range.count() - 1, rec.strike.rate * (q.output_range.count() - 1), 1.0);
     for (const TrackFigures* f : {&q.output, &q.source}) {
       EXPECT_TRUE(std::isfinite(f->speed.p99_mps) && f->speed.p99_mps > 0);
       EXPECT_TRUE(std::isfinite(f->speed.max_mps));
@@ -374,3 +377,44 @@ TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) 
 }
 
 }  // namespace
+
+TEST(MotionQualityShipped, AStrikeWhoseCorrectionLengthensItsWayIsPlayedSlowerNotFaster) {
+  // Bruno's left punch at his own head height, half his stature in front: the shipped mid
+  // punch (135_06) must rise ~0.3 m more in a lunge compressed to a near target. Played at
+  // the clip's rate, the drawn joints (the BVH read back) are ~1.5x as fast as the source
+  // clip's over the same frames; strike_rate() plays it slower so they stay near the source's.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& bruno = rigs[1];
+  const Vector3d target(0.074, 1.786, 0.966);
+  const auto p99_ratio = [&](const FighterConfig& config, double& rate) {
+    const StrikeRecording rec = record_strike(set.db, bruno, OrderKind::punch_left, target, config);
+    EXPECT_GE(rec.contact_frame, 0);
+    rate = rec.strike.rate;
+    const Clip back = parse_bvh(format_bvh(rec.motion), "bruno.bvh");
+    const std::vector<Vector3d> pos = all_joint_positions(back);
+    const JointTrack out{&back.skeleton, pos, back.frame_count, back.frame_time_s};
+    const Clip src = load_source_clip(rec.source_clip, rec.mirrored, default_content_dir() / "motions");
+    const std::vector<Vector3d> spos = all_joint_positions(src);
+    const JointTrack st{&src.skeleton, spos, src.frame_count, src.frame_time_s};
+    const StrikeQuality q = compare_strike(strike_comparison_input(*set.db, rec, OrderKind::punch_left, out, st,
+                                                                   measure_proportions(back.skeleton).leg_m,
+                                                                   measure_proportions(src.skeleton).leg_m));
+    if (rate < 1) EXPECT_TRUE(q.output.snaps.empty());  // (at the clip's rate it snaps as well)
+    EXPECT_LT(q.output_contact.end_to_target_m, 0.002);
+    return q.output.speed.p99_mps / q.source.speed.p99_mps;
+  };
+  FighterConfig clip_rate;  // the default: the rate is off
+  FighterConfig slower;
+  slower.behaviour.min_strike_rate = 0.6;
+  slower.behaviour.blend_time_s = 0.25;
+  double rate_fixed = 0, rate = 0;
+  const double fixed = p99_ratio(clip_rate, rate_fixed);
+  const double slowed = p99_ratio(slower, rate);
+  std::printf("p99 joint speed / source: %.2f at the clip's rate, %.2f at rate %.2f\n", fixed, slowed, rate);
+  EXPECT_EQ(rate_fixed, 1.0);
+  EXPECT_GT(fixed, 1.3);  // the problem (the test could fail)
+  EXPECT_LT(rate, 0.9);
+  EXPECT_GE(rate, slower.behaviour.min_strike_rate);
+  EXPECT_LT(slowed, 1.2);
+}

@@ -125,6 +125,7 @@ class Behaviour {
     Eigen::Vector3d error_m{0, 0, 0};  ///< m: target - effector at contact, before d(t)
     Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t): limb turn at contact
     double stretch = 1;                ///< full d(t): limb length factor at contact
+    double rate = 1;                   ///< segment seconds played per second (strike_rate())
     bool contact_done = false;
     double contact_distance_m = -1;
     bool contact_reached = true;   ///< the limb (after the trunk fallback) could reach
@@ -145,6 +146,9 @@ class Behaviour {
     GroundFrame placement;
     Eigen::Vector2d anchor_xz_m{0, 0};
     bool loop = false;
+    /// Segment seconds played per second (a strike whose correction lengthens its way is
+    /// played slower: strike_rate()). Times inside the segment stay segment times.
+    double rate = 1;
     /// A strike's floor travel scaled (a shorter or longer lunge): the root moves `scale` times
     /// the clip's own travel from `from_s` to `contact_s`, then eases back to the clip's own
     /// speed over `release_s` (position and speed continuous). 1: the clip as captured.
@@ -171,6 +175,7 @@ class Behaviour {
   void update_follow(double dt, const Eigen::Vector3d& head);
   void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
   void compute_reach_error(double at_time_s);
+  double strike_rate();
   void align_to_support_foot(Source& s) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
@@ -263,6 +268,8 @@ class Behaviour {
 
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> rig_positions_, positions_;
+  std::vector<Eigen::Quaterniond> scratch_local_, scratch_global_;  // strike_rate()'s decodes
+  std::vector<Eigen::Vector3d> scratch_positions_;
   Eigen::Vector3d root_joint_{0, 0, 0};
   AdaptReport report_;
   std::vector<FighterEvent> events_;

@@ -208,7 +208,7 @@ std::vector<StrikeCase> quality_grid(std::span<const Rig> characters, int target
 
 /// One strike compared with its source. Output = the read-back BVH; source = the source clip
 /// (mirrored when the segment is) over the same frames. Mapping: output frame k shows source
-/// frame source_first + (k - output_first) (same frame rate, checked). The output frames
+/// frame source_first + round(rate * (k - output_first)) (same frame rate, checked). The output frames
 /// before output_first are the rest pose; the blend-in (FighterConfig::blend_time_s after
 /// output_first) cross-fades rest into the strike, and the blend-out into the rest clip
 /// happens over the segment's last blend_time_s, so every compared frame has a source frame.
@@ -217,6 +217,9 @@ struct StrikeComparisonInput {
   const JointTrack* source = nullptr;
   int output_first = 0, output_last = 0;  ///< output frames compared
   int source_first = 0;                   ///< source frame of output_first
+  /// Source frames per output frame (a strike played slower: Behaviour::strike_rate()).
+  /// Output frame k shows source frame source_first + round(rate * (k - output_first)).
+  double rate = 1;
   int contact_frame = 0;                  ///< output frame of contact
   Effector effector;
   Eigen::Vector3d target_m{0, 0, 0};      ///< room frame of the output
