@@ -418,3 +418,26 @@ TEST(MotionQualityShipped, AStrikeWhoseCorrectionLengthensItsWayIsPlayedSlowerNo
   EXPECT_GE(rate, slower.behaviour.min_strike_rate);
   EXPECT_LT(slowed, 1.2);
 }
+
+TEST(MotionQualityShipped, APunchAboveTheArmsEasyReachRaisesThePelvis) {
+  // A target above what the arm reaches at max_punch_elevation_deg from the contact pose's
+  // shoulder raises the pelvis toward its standing height (max_strike_rise_m). The rise once
+  // measured the standing pelvis from the rest pose's own pelvis (0): it never rose. Judged on
+  // the drawn root joint (the BVH's root positions) at contact, against the same strike with
+  // the rise set to 0.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& bruno = rigs[1];
+  const Vector3d target(0.0, 1.86, 0.9);
+  const auto root_y_at_contact = [&](double rise_m) {
+    FighterConfig config;
+    config.behaviour.max_strike_rise_m = rise_m;
+    const StrikeRecording rec = record_strike(set.db, bruno, OrderKind::punch_left, target, config);
+    EXPECT_GE(rec.contact_frame, 0);
+    return rec.motion.root_positions[static_cast<std::size_t>(rec.contact_frame)].y();
+  };
+  const double flat = root_y_at_contact(0), raised = root_y_at_contact(FighterConfig{}.behaviour.max_strike_rise_m);
+  std::printf("root at contact: %.3f m without the rise, %.3f m with it\n", flat, raised);
+  EXPECT_GT(raised - flat, 0.02);
+  EXPECT_LE(raised - flat, FighterConfig{}.behaviour.max_strike_rise_m + 1e-6);
+}
