@@ -320,6 +320,13 @@ std::string map_canonical(Skeleton& skeleton, std::string_view source) {
   return map_canonical(skeleton, default_dialects(), source);
 }
 
+std::string structural_mapping_warning(const Skeleton& skeleton, std::string_view source) {
+  if (skeleton.dialect != "structural") return {};
+  return fmt::format("{}: skeleton: no dialect map matched its joint names; its canonical joints were guessed "
+                     "from names and structure: check its motion, or add a map in content/dialects/",
+                     source);
+}
+
 CanonicalJoint mirror_joint(CanonicalJoint j) {
   const std::string_view n = to_string(j);
   if (n.size() > 2 && (n[0] == 'l' || n[0] == 'r') && n[1] == '_') {

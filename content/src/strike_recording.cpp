@@ -13,6 +13,8 @@
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
 
+#include <spdlog/spdlog.h>
+
 namespace kumite::content {
 
 using namespace behaviour_detail;
@@ -121,6 +123,7 @@ Rig load_character_rig(const std::string& name_or_path) {
   }
   const Clip c = read_bvh(path);
   if (c.frame_count < 1) throw Error("fighter", "character", fmt::format("{}: no rest frame", path.string()));
+  if (const std::string w = structural_mapping_warning(c.skeleton, path.string()); !w.empty()) spdlog::warn("{}", w);
   Rig rig = make_rig(c.skeleton, c.rotations(0), path.stem().string());
   rig.unit_m = c.unit_m;
   return rig;

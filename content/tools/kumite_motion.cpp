@@ -77,6 +77,8 @@ int run_annotate(const AnnotateArgs& a) {
     if (const BvhUnitCheck u = check_bvh_unit(clip, file); !u.warning.empty()) {
       fmt::print(stderr, "kumite-motion: warning: {}\n", u.warning);
     }
+    if (const std::string w = structural_mapping_warning(clip.skeleton, file); !w.empty())
+      fmt::print(stderr, "kumite-motion: warning: {}\n", w);
     std::string rel = fs::relative(fs::absolute(file), out.parent_path()).generic_string();
     ClipAnnotation c = propose_annotations(clip, rel);
     c.mirror = !a.no_mirror;

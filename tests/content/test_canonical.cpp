@@ -77,6 +77,12 @@ TEST(Canonical, StructuralMappingOfUnknownNames) {
                                    {"r_elbow", "r_Unterarm"}, {"r_wrist", "r_hand"}, {"r_hip", "r_Oberschenkel"},
                                    {"r_knee", "r_Schienbein"}, {"r_ankle", "r_foot"}, {"r_toe", "r_Zeh"}});
   EXPECT_EQ(map_canonical(s, std::span<const Dialect>(builtin_dialects()), "synthetic"), "structural");
+  // Guessed joints are said, naming the file (a named dialect is not).
+  EXPECT_EQ(structural_mapping_warning(s, "chars/odd.bvh").rfind("chars/odd.bvh: skeleton: no dialect map matched", 0), 0u)
+      << structural_mapping_warning(s, "chars/odd.bvh");
+  Skeleton named = s;
+  named.dialect = "cmu";
+  EXPECT_EQ(structural_mapping_warning(named, "x.bvh"), "");
   EXPECT_EQ(name_of(s, CJ::pelvis), "Becken");
   EXPECT_EQ(name_of(s, CJ::spine), "Ruecken");
   EXPECT_EQ(name_of(s, CJ::chest), "Brust");

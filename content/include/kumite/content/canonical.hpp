@@ -66,6 +66,10 @@ std::string map_canonical(Skeleton& skeleton, const Dialect* dialect, std::strin
 /// detect_dialect + map_canonical with default_dialects() (or the given list).
 std::string map_canonical(Skeleton& skeleton, std::string_view source = "skeleton");
 std::string map_canonical(Skeleton& skeleton, std::span<const Dialect> dialects, std::string_view source);
+/// "" for a skeleton a dialect map named (or not mapped at all), else one line naming `source`:
+/// its canonical joints were guessed from names and structure ("structural"), which can put
+/// a joint one bone off and distort every motion played on it without any error.
+std::string structural_mapping_warning(const Skeleton& skeleton, std::string_view source);
 
 /// Is `j` a left-side joint / its right-side partner (and vice versa; centre joints map to
 /// themselves).
