@@ -217,7 +217,7 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   strike_.start_time_s = plan.start_frame * seg.frame_time_s;
   strike_.contact_time_s = plan.contact_frame * seg.frame_time_s;
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
-  strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s);
+  strike_.release_end_s = release_end_s(strike_.contact_time_s);
   enter(FighterState::striking);
   compute_reach_error(strike_.contact_time_s);
   // A correction that lengthens the hit point's way plays the strike slower (the blend into
@@ -225,11 +225,43 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   current_.rate = strike_rate();
   strike_.rate = current_.rate;
   if (current_.rate != 1) {
-    strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s,
-                                     strike_.end_time_s - tun_.blend_time_s * current_.rate);
+    strike_.release_end_s = release_end_s(strike_.contact_time_s);
     compute_reach_error(strike_.contact_time_s);
   }
   (void)now;
+}
+
+void Behaviour::compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose,
+                        MkmFrame& out) const {
+  sample(cur, cur_pose);
+  if (prev.segment >= 0 && blend_elapsed_s < tun_.blend_time_s) {
+    MkmFrame prev_pose;
+    sample(prev, prev_pose);
+    blend_mkm(prev_pose, cur_pose, smoothstep(blend_elapsed_s / tun_.blend_time_s), out);
+  } else {
+    out = cur_pose;
+  }
+}
+
+double Behaviour::ramp_in(double t) const {
+  return smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s));
+}
+
+double Behaviour::ramp_out(double t) const {
+  return 1 - smoothstep((t - strike_.contact_time_s) / std::max(1e-6, strike_.release_end_s - strike_.contact_time_s));
+}
+
+ReachGoal Behaviour::reach_goal(double ramp) const {
+  ReachGoal goal;
+  goal.effector = strike_.effector;
+  goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, strike_.turn);
+  goal.stretch = 1 + ramp * (strike_.stretch - 1);
+  goal.pin = ramp;
+  return goal;
+}
+
+double Behaviour::release_end_s(double contact_time_s) const {
+  return std::max(contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s * current_.rate);
 }
 
 void Behaviour::compute_reach_error(double at_time_s) {
@@ -243,15 +275,8 @@ void Behaviour::compute_reach_error(double at_time_s) {
   Source cur = current_, prev = previous_;
   cur.time_s += ahead;
   prev.time_s += ahead_wall * prev.rate;
-  MkmFrame a, b, pose;
-  sample(cur, b);
-  const double be = blend_elapsed_s_ + ahead_wall;
-  if (prev.segment >= 0 && be < tun_.blend_time_s) {
-    sample(prev, a);
-    blend_mkm(a, b, smoothstep(be / tun_.blend_time_s), pose);
-  } else {
-    pose = b;
-  }
+  MkmFrame b, pose;
+  compose(cur, prev, blend_elapsed_s_ + ahead_wall, b, pose);
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   CanonicalPose c;
   decode_canonical(rig, pose, c);
@@ -308,28 +333,15 @@ double Behaviour::strike_rate() {
     const double t0 = current_.time_s, p0 = previous_.time_s;
     double peak = 0;
     Vector3d last_p = Vector3d::Zero();
-    MkmFrame a, b, pose;
+    MkmFrame b, pose;
     for (int k = 0;; ++k) {
       const double w = k * h;
       cur.time_s = t0 + rate * w;
       if (cur.time_s > strike_.release_end_s + 1e-9) break;
       prev.time_s = p0 + prev.rate * w;
-      sample(cur, b);
-      const double be = blend_elapsed_s_ + w;
-      if (prev.segment >= 0 && be < tun_.blend_time_s) {
-        sample(prev, a);
-        blend_mkm(a, b, smoothstep(be / tun_.blend_time_s), pose);
-      } else {
-        pose = b;
-      }
+      compose(cur, prev, blend_elapsed_s_ + w, b, pose);
       const double t = cur.time_s;
-      const double ramp = t <= strike_.contact_time_s
-                              ? smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s))
-                              : 1 - smoothstep((t - strike_.contact_time_s) / std::max(1e-6, strike_.release_end_s - strike_.contact_time_s));
-      ReachGoal goal;
-      goal.effector = strike_.effector;
-      goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, strike_.turn);
-      goal.stretch = 1 + ramp * (strike_.stretch - 1);
+      const ReachGoal goal = reach_goal(t <= strike_.contact_time_s ? ramp_in(t) : ramp_out(t));
       AdaptJob job;
       job.rig = &rig;
       job.pose = &pose;
@@ -483,14 +495,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // Compose the pose: cross-fade previous -> current.
   pose_before_ = pose_;
   MkmFrame cur;
-  sample(current_, cur);
-  if (previous_.segment >= 0 && blend_elapsed_s_ < tun_.blend_time_s) {
-    MkmFrame prev;
-    sample(previous_, prev);
-    blend_mkm(prev, cur, smoothstep(blend_elapsed_s_ / tun_.blend_time_s), pose_);
-  } else {
-    pose_ = cur;
-  }
+  compose(current_, previous_, blend_elapsed_s_, cur, pose_);
   if (!have_pose_) pose_before_ = pose_;
 
   // d(t): zero at the strike start, the full error at contact, then back to zero over at least
@@ -505,17 +510,12 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       // The error of this very frame, so the contact frame lands on the target.
       compute_reach_error(current_.time_s);
       strike_.contact_time_s = current_.time_s;
-      strike_.release_end_s = std::max(strike_.contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s * current_.rate);
+      strike_.release_end_s = release_end_s(strike_.contact_time_s);
       ramp = 1;
-    } else if (!strike_.contact_done) {
-      ramp = smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s));
     } else {
-      ramp = 1 - smoothstep((t - strike_.contact_time_s) / std::max(1e-6, strike_.release_end_s - strike_.contact_time_s));
+      ramp = strike_.contact_done ? ramp_out(t) : ramp_in(t);
     }
-    goal.effector = strike_.effector;
-    goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, strike_.turn);
-    goal.stretch = 1 + ramp * (strike_.stretch - 1);
-    goal.pin = ramp;
+    goal = reach_goal(ramp);
     reach = &goal;
   }
   ramp_ = ramp;

@@ -176,6 +176,13 @@ class Behaviour {
   void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
   void compute_reach_error(double at_time_s);
   double strike_rate();
+  /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into the blend (cur_pose: `cur`
+  /// alone), as update() composes every frame.
+  void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out) const;
+  double ramp_in(double t) const;   ///< d(t)'s weight at segment time t before contact
+  double ramp_out(double t) const;  ///< ... and after it, until release_end_s
+  ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
+  double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
   void align_to_support_foot(Source& s) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
