@@ -1023,23 +1023,28 @@ int run_bench(const BenchArgs& a) {
                                         "then a loop computing the full cost of each eligible row; same cost, no index"}};
 
   // 3. Adaptation per frame (blend + retarget + reach + feet), strikes on every character.
-  std::vector<double> adapt_us;
   std::uniform_real_distribution<double> u(-1, 1);
   const kumite::OrderKind kinds[4] = {kumite::OrderKind::punch_right, kumite::OrderKind::punch_left,
                                       kumite::OrderKind::kick_right, kumite::OrderKind::kick_left};
-  int strikes = 0;
-  for (int rep = 0; rep < (a.skip_adaptation ? 0 : 8); ++rep) {
-    for (const Rig& rig : rigs) {
-      for (auto kind : kinds) {
-        const double h = rig.morphology.height_m;
-        const bool kick = kind >= kumite::OrderKind::kick_left;
-        const Eigen::Vector3d target(0.15 * u(rng), (kick ? 0.6 : 0.9) * h, 0.38 * h);
-        const StrikeRecording rec = record_strike(db, rig, kind, target, g_fighter);
-        adapt_us.insert(adapt_us.end(), rec.update_us.begin(), rec.update_us.end());
-        ++strikes;
+  // Each order on every character 8 times, targets drawn from `r`: every update's time (us).
+  const auto time_strikes = [&](const FighterConfig& fighter, std::mt19937& r, int& strikes) {
+    std::vector<double> us;
+    for (int rep = 0; rep < 8; ++rep) {
+      for (const Rig& rig : rigs) {
+        for (auto kind : kinds) {
+          const double h = rig.morphology.height_m;
+          const bool kick = kind >= kumite::OrderKind::kick_left;
+          const Eigen::Vector3d target(0.15 * u(r), (kick ? 0.6 : 0.9) * h, 0.38 * h);
+          const StrikeRecording rec = record_strike(db, rig, kind, target, fighter);
+          us.insert(us.end(), rec.update_us.begin(), rec.update_us.end());
+          ++strikes;
+        }
       }
     }
-  }
+    return us;
+  };
+  int strikes = 0;
+  const std::vector<double> adapt_us = a.skip_adaptation ? std::vector<double>{} : time_strikes(g_fighter, rng, strikes);
   j["adaptation_us_per_frame"] = stats_json(adapt_us);
   j["adaptation_strikes"] = strikes;
   if (!a.skip_adaptation && g_fighter.behaviour.min_strike_rate >= 1) {
@@ -1048,18 +1053,9 @@ int run_bench(const BenchArgs& a) {
     FighterConfig with_rate = g_fighter;
     with_rate.behaviour.min_strike_rate = 0.6;
     with_rate.behaviour.blend_time_s = 0.25;
-    std::vector<double> rate_us;
     std::mt19937 rng_rate(7);
-    for (int rep = 0; rep < 8; ++rep)
-      for (const Rig& rig : rigs)
-        for (auto kind : kinds) {
-          const double h = rig.morphology.height_m;
-          const bool kick = kind >= kumite::OrderKind::kick_left;
-          const Eigen::Vector3d target(0.15 * u(rng_rate), (kick ? 0.6 : 0.9) * h, 0.38 * h);
-          const StrikeRecording rec = record_strike(db, rig, kind, target, with_rate);
-          rate_us.insert(rate_us.end(), rec.update_us.begin(), rec.update_us.end());
-        }
-    j["adaptation_us_per_frame_strike_rate"] = stats_json(rate_us);
+    int rate_strikes = 0;
+    j["adaptation_us_per_frame_strike_rate"] = stats_json(time_strikes(with_rate, rng_rate, rate_strikes));
   }
 
   // 4. Motion quality (what the eye sees; `kumite-motion quality` for the per-strike detail).
