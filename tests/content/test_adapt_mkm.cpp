@@ -42,6 +42,14 @@ struct Buffers {
   Vector3d at_joint(const Rig& rig, CJ j) const { return pos[static_cast<std::size_t>(rig.skeleton.index(j))]; }
 };
 
+/// Frame `frame` of a SYNTHETIC 40-frame punch on skeleton `s`, encoded for `rig`.
+MkmFrame punch_pose(const Skeleton& s, const Rig& rig, int frame) {
+  const Clip clip = synthetic::make_punch_clip(s, 40);
+  MkmFrame f;
+  encode_mkm(fk_canonical(clip, frame), rig.morphology, 0.0, nullptr, f);
+  return f;
+}
+
 }  // namespace
 
 TEST(Mkm, EncodeDecodeOnTheSameSkeletonReproducesEveryCanonicalJoint) {
@@ -115,11 +123,9 @@ TEST(Ik, TwoBoneReachesEveryReachableTargetAndBendsTowardThePole) {
 
 TEST(Adapt, ReachOffsetLandsTheWristExactlyUsingTheTrunkWhenNeeded) {
   const Skeleton s = synthetic::make_skeleton({.scale = 0.9, .arm = 0.95});
-  const Clip clip = synthetic::make_punch_clip(s, 40);
   const Rig rig = make_rig(s, {}, "c");
   Buffers b(rig);
-  MkmFrame f;
-  encode_mkm(fk_canonical(clip, 20), rig.morphology, 0.0, nullptr, f);
+  const MkmFrame f = punch_pose(s, rig, 20);
   ASSERT_TRUE(b.job(rig, f).Run());
   const Vector3d wrist = b.at_joint(rig, CJ::r_wrist);
   const Vector3d shoulder = b.at_joint(rig, CJ::r_shoulder);
@@ -159,11 +165,9 @@ TEST(Adapt, ReachOffsetLandsTheWristExactlyUsingTheTrunkWhenNeeded) {
 
 TEST(Adapt, FootLocksHoldTheAnkleAndValidateRejectsShortBuffers) {
   const Skeleton s = synthetic::make_skeleton({});
-  const Clip clip = synthetic::make_punch_clip(s, 40);
   const Rig rig = make_rig(s, {}, "c");
   Buffers b(rig);
-  MkmFrame f;
-  encode_mkm(fk_canonical(clip, 0), rig.morphology, 0.0, nullptr, f);
+  const MkmFrame f = punch_pose(s, rig, 0);
   ASSERT_TRUE(b.job(rig, f).Run());
   FootLocks locks;
   locks.weight = {1, 1};
@@ -248,11 +252,9 @@ TEST(Adapt, TheTrunkFadesInAsTheGoalNearsTheArmsReach) {
   // the elbow), and the drawn shoulder moves continuously with the goal (no step of it more
   // than 3 x the goal's), the wrist always on its goal.
   const Skeleton s = synthetic::make_skeleton({});
-  const Clip clip = synthetic::make_punch_clip(s, 40);
   const Rig rig = make_rig(s, {}, "c");
   Buffers b(rig);
-  MkmFrame f;
-  encode_mkm(fk_canonical(clip, 20), rig.morphology, 0.0, nullptr, f);
+  const MkmFrame f = punch_pose(s, rig, 20);
   ASSERT_TRUE(b.job(rig, f).Run());
   const Vector3d shoulder0 = b.at_joint(rig, CJ::r_shoulder);
   const Vector3d wrist0 = b.at_joint(rig, CJ::r_wrist);

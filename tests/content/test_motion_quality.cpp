@@ -310,6 +310,28 @@ TEST(MotionQuality, GridPutsPunchesAtHeadHeightKicksAtTheTorsoInFront) {
   }
 }
 
+/// A recorded strike judged by the independent path: its BVH text read back, beside its
+/// source clip read from the motions folder (filled in place: the tracks point into it).
+struct Judged {
+  Clip back, src;
+  std::vector<Vector3d> pos, spos;
+  JointTrack out, st;
+  StrikeComparisonInput in;
+  StrikeQuality q;
+  Judged(const Database& db, const StrikeRecording& rec, OrderKind order, const std::string& name)
+      : back(parse_bvh(format_bvh(rec.motion), name + ".bvh")),
+        src(load_source_clip(rec.source_clip, rec.mirrored, default_content_dir() / "motions")),
+        pos(all_joint_positions(back)),
+        spos(all_joint_positions(src)),
+        out{&back.skeleton, pos, back.frame_count, back.frame_time_s},
+        st{&src.skeleton, spos, src.frame_count, src.frame_time_s},
+        in(strike_comparison_input(db, rec, order, out, st, measure_proportions(back.skeleton).leg_m,
+                                   measure_proportions(src.skeleton).leg_m)),
+        q(compare_strike(in)) {}
+  Judged(const Judged&) = delete;
+  Judged& operator=(const Judged&) = delete;
+};
+
 TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) {
   const auto& set = kumite::content::testing::shipped_database();
   const auto rigs = kumite::content::testing::shipped_characters();
@@ -322,19 +344,11 @@ TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) 
     const StrikeRecording rec = record_strike(set.db, rig, sc.order, sc.target_m);
     ASSERT_GE(rec.contact_frame, 0) << rig.name << " " << to_string(sc.order);
     // The independent path: the BVH text read back.
-    Clip motion = rec.motion;
-    const Clip back = parse_bvh(format_bvh(motion), rig.name + ".bvh");
-    const std::vector<Vector3d> pos = all_joint_positions(back);
-    const JointTrack out{&back.skeleton, pos, back.frame_count, back.frame_time_s};
-    const Clip src = load_source_clip(rec.source_clip, rec.mirrored, default_content_dir() / "motions");
-    const std::vector<Vector3d> spos = all_joint_positions(src);
-    const JointTrack st{&src.skeleton, spos, src.frame_count, src.frame_time_s};
-    const StrikeComparisonInput in = strike_comparison_input(*set.db, rec, sc.order, out, st,
-                                                             measure_proportions(back.skeleton).leg_m,
-                                                             measure_proportions(src.skeleton).leg_m);
+    const Judged judged(*set.db, rec, sc.order, rig.name);
+    const StrikeComparisonInput& in = judged.in;
     // The mapping: the strike source starts on the update after the request (frame 1).
     EXPECT_EQ(in.output_first, 1);
-    const StrikeQuality q = compare_strike(in);
+    const StrikeQuality& q = judged.q;
     EXPECT_GT(q.output_range.count(), 30);
     // A strike played slower (Behaviour::strike_rate) shows fewer source frames than it draws.
     EXPECT_GT(rec.strike.rate, 0.0);
@@ -391,16 +405,11 @@ TEST(MotionQualityShipped, AStrikeWhoseCorrectionLengthensItsWayIsPlayedSlowerNo
     const StrikeRecording rec = record_strike(set.db, bruno, OrderKind::punch_left, target, config);
     EXPECT_GE(rec.contact_frame, 0);
     rate = rec.strike.rate;
-    const Clip back = parse_bvh(format_bvh(rec.motion), "bruno.bvh");
-    const std::vector<Vector3d> pos = all_joint_positions(back);
-    const JointTrack out{&back.skeleton, pos, back.frame_count, back.frame_time_s};
-    const Clip src = load_source_clip(rec.source_clip, rec.mirrored, default_content_dir() / "motions");
-    const std::vector<Vector3d> spos = all_joint_positions(src);
-    const JointTrack st{&src.skeleton, spos, src.frame_count, src.frame_time_s};
-    const StrikeQuality q = compare_strike(strike_comparison_input(*set.db, rec, OrderKind::punch_left, out, st,
-                                                                   measure_proportions(back.skeleton).leg_m,
-                                                                   measure_proportions(src.skeleton).leg_m));
-    if (rate < 1) EXPECT_TRUE(q.output.snaps.empty());  // (at the clip's rate it snaps as well)
+    const Judged judged(*set.db, rec, OrderKind::punch_left, "bruno");
+    const StrikeQuality& q = judged.q;
+    if (rate < 1) {
+      EXPECT_TRUE(q.output.snaps.empty());  // (at the clip's rate it snaps as well)
+    }
     EXPECT_LT(q.output_contact.end_to_target_m, 0.002);
     return q.output.speed.p99_mps / q.source.speed.p99_mps;
   };
