@@ -123,7 +123,7 @@ void top_view(const Installation& inst, const FrameData& f) {
   // Visitor: eyes' midpoint and facing (head -Z).
   const glm::dvec3 mid = (f.eyes.left + f.eyes.right) * 0.5;
   const glm::dvec3 ahead = f.head.orientation * glm::dvec3(0, 0, -0.35);
-  const ImU32 visitor = inst.console().head_live ? IM_COL32(90, 230, 120, 255) : IM_COL32(230, 180, 60, 255);
+  const ImU32 visitor = inst.head_live() ? IM_COL32(90, 230, 120, 255) : IM_COL32(230, 180, 60, 255);
   dl->AddCircleFilled(at(mid.x, mid.z), 7, visitor);
   dl->AddLine(at(mid.x, mid.z), at(mid.x + ahead.x, mid.z + ahead.z), visitor, 2.0f);
   if (f.fighter.present) {
@@ -187,7 +187,7 @@ void Console::frame(Installation& inst, const FrameData& f) {
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
-  const ConsoleState& c = inst.console();
+  const ConsoleState c = inst.console();
   const bool loading = inst.tracking_loading();
   ImGui::SetNextWindowPos(ImVec2(0, 0));
   ImGui::SetNextWindowSize(ImGui::GetIO().DisplaySize);
@@ -260,7 +260,7 @@ void Console::frame(Installation& inst, const FrameData& f) {
     const std::string last = loading                 ? std::string("waiting for the source to load")
                              : cam.since_last_ms >= 0 ? fmt::format("last frame {:.0f} ms ago", cam.since_last_ms)
                                                       : std::string("never a frame");
-    ImGui::TextColored(loading ? kAmber : cam.status == "ok" ? kGreen : kRed, "camera %-8s %-12s %3d blobs  %s",
+    ImGui::TextColored(loading ? kAmber : cam.state == CameraState::ok ? kGreen : kRed, "camera %-8s %-12s %3d blobs  %s",
                        cam.name.c_str(), loading ? "loading" : cam.status.c_str(), cam.blobs, last.c_str());
   }
   ImGui::Spacing();

@@ -61,7 +61,7 @@ struct RunMonitor::Snapshot {
   bool head_live = false;
   double pose_age_ms = -1;
   int head_body = 0;
-  std::vector<CameraView> cameras;
+  std::vector<ConsoleCamera> cameras;
   int markers_seen = 0;
   std::string fighter_state;
   std::string character_name;
@@ -128,7 +128,7 @@ void RunMonitor::stopping(const std::string& why, const Installation* inst) {
 }
 
 void RunMonitor::take_snapshot(const Installation& inst, const FrameData& f, Snapshot& s) const {
-  const ConsoleState& c = inst.console();
+  const ConsoleState c = inst.console();
   s.wall = unix_now();
   s.uptime_s = now() - started_;
   s.frames = frames_;
@@ -159,7 +159,7 @@ void RunMonitor::frame_done(const Installation& inst, const FrameData& f) {
   ++frames_;
   for (const auto& e : f.events) ++events_[std::string(to_string(e.type))];
   // The newest problem, with the moment it first showed (a problem that stays is not new).
-  const auto& problems = inst.console().problems;
+  const auto problems = inst.problems();
   if (!problems.empty() && (problems.size() != last_problems_count_ || problems.front() != last_problem_)) {
     if (problems.front() != last_problem_) {
       last_problem_ = problems.front();
@@ -185,7 +185,7 @@ void RunMonitor::frame_done(const Installation& inst, const FrameData& f) {
     last_ping_ = t;
   }
   if (notifier_.enabled() && (last_status_ < 0 || t - last_status_ >= kStatusInterval_s)) {
-    const auto& c = inst.console();
+    const ConsoleState c = inst.console();
     notifier_.notify(fmt::format("STATUS={}: frame {}, {:.1f} fps, tracking {}, fighter {}{}",
                                  ready_sent_ ? "running" : "loading", frames_, c.fps, c.tracking, c.fighter_state,
                                  c.problems.empty() ? "" : ", problem: " + c.problems.front()));

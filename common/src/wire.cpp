@@ -17,6 +17,16 @@ std::string_view to_string(TrackingStatus s) {
   return "lost";
 }
 
+std::string_view to_string(CameraState s) {
+  switch (s) {
+    case CameraState::ok: return "ok";
+    case CameraState::no_frames: return "no frames";
+    case CameraState::reconnecting: return "reconnecting";
+    case CameraState::blind: return "sees no markers while others see the head";
+  }
+  return "?";
+}
+
 std::string_view to_string(OrderKind kind) {
   switch (kind) {
     case OrderKind::punch_left: return "punch_left";

@@ -382,8 +382,13 @@ bool AdaptJob::Run() const {
 
 void decode_canonical(const Rig& rig, const MkmFrame& pose, CanonicalPose& out) {
   const auto n = static_cast<std::size_t>(rig.joint_count());
-  std::vector<Quaterniond> local(n), global(n);
-  std::vector<Vector3d> pos(n);
+  // Per thread, their room kept: the fighter decodes on the frame thread (a strike's start),
+  // the planner on its worker; neither allocates once warm.
+  thread_local std::vector<Quaterniond> local, global;
+  thread_local std::vector<Vector3d> pos;
+  local.resize(n);
+  global.resize(n);
+  pos.resize(n);
   AdaptJob job;
   job.rig = &rig;
   job.pose = &pose;

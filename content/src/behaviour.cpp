@@ -131,14 +131,14 @@ void Behaviour::select_character(int index, Timestamp now) {
 void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   // A strike ordered while the last one still hands its reach offset back (recovering) waits
   // for that (at most release_time_s): starting now would drop the offset in one frame.
-  decltype(orders_) deferred;
-  while (!orders_.empty()) {
-    const QueuedOrder queued = orders_.front();
-    orders_.pop_front();
+  // Both queues keep their room from update to update: taking orders allocates nothing.
+  taking_.swap(orders_);
+  orders_.clear();
+  for (const QueuedOrder& queued : taking_) {
     const Order& o = queued.order;
     const std::optional<Vector3d>& explicit_target = queued.target_room_m;
     if (effector_of(o.kind) && state_ == FighterState::recovering) {
-      deferred.push_back(queued);
+      orders_.push_back(queued);  // deferred, in order
       continue;
     }
     switch (o.kind) {
@@ -190,7 +190,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
          fmt::format("target at ({:.2f}, {:.2f}, {:.2f}) m", target.x(), target.y(), target.z()));
     submit_(r);
   }
-  orders_.swap(deferred);
+  taking_.clear();
 }
 
 void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
@@ -278,7 +278,7 @@ void Behaviour::compute_reach_error(double at_time_s) {
   MkmFrame b, pose;
   compose(cur, prev, blend_elapsed_s_ + ahead_wall, b, pose);
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  CanonicalPose c;
+  CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
   decode_canonical(rig, pose, c);
   const Vector3d effector = at(c, strike_.effector.joint());
   strike_.error_m = strike_.target_room_m - effector;

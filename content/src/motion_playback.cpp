@@ -121,7 +121,7 @@ void Behaviour::align_to_support_foot(Source& s) const {
   MkmFrame placed;
   sample(s, placed);
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  CanonicalPose c;
+  CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
   decode_canonical(rig, placed, c);
   const CJ ankle = best == kLeft ? CJ::l_ankle : CJ::r_ankle;
   const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
@@ -170,7 +170,7 @@ void Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
   const Vector3d target = *strike_target_;
   double k = 0;  // scale - 1
   const double leg = rig.morphology.leg_length_m;
-  CanonicalPose c;
+  CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
   decode_canonical(rig, contact_pose, c);
   const CJ root = eff->leg ? (eff->side == kLeft ? CJ::l_hip : CJ::r_hip) : (eff->side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
   Vector3d limb_root = at(c, root);

@@ -60,15 +60,16 @@ class ScriptedTracking final : public TrackingInput {
   std::size_t next = 0;
   kumite::Timestamp clock_now = 0;
   kumite::Timestamp display_at = 0;  // the last poll's display time
-  TrackingSnapshot poll(kumite::Timestamp t, kumite::Timestamp display_time) override {
+  void poll(kumite::Timestamp t, kumite::Timestamp display_time, TrackingSnapshot& out) override {
     display_at = display_time;
     clock_now = t;
-    const auto& s = snaps[std::min(next, snaps.size() - 1)];
+    out = snaps[std::min(next, snaps.size() - 1)];
     ++next;
-    return s;
   }
   kumite::Timestamp clock() const override { return clock_now; }
   std::string describe() const override { return "scripted"; }
+  const std::vector<std::string>& camera_names() const override { return names; }
+  std::vector<std::string> names{"cam0", "cam1"};
 };
 
 TrackingSnapshot tracked(double t, double x, double y, double z) {
@@ -81,15 +82,16 @@ TrackingSnapshot tracked(double t, double x, double y, double z) {
   s.head = p;
   s.measured_at = t;
   s.measured_ready_at = t + 0.0012;  // published 1.2 ms after its camera time
-  s.status = "tracked";
-  s.cameras = {{"cam0", "ok", 4, 8.0}, {"cam1", "ok", 4, 8.0}};
+  s.state = TrackerState::tracked;
+  s.frame_sets = 1;
+  s.cameras = {{kumite::CameraState::ok, 4, 8.0}, {kumite::CameraState::ok, 4, 8.0}};
   return s;
 }
 
 TrackingSnapshot lost() {
   TrackingSnapshot s;
-  s.status = "lost";
-  s.cameras = {{"cam0", "ok", 0, 8.0}, {"cam1", "no frames", 0, 900.0}};
+  s.state = TrackerState::lost;
+  s.cameras = {{kumite::CameraState::ok, 0, 8.0}, {kumite::CameraState::no_frames, 0, 900.0}};
   return s;
 }
 
@@ -139,7 +141,7 @@ TEST(Installation, WhileTheSourceLoadsCamerasAreNotAlarms) {
   tr->is_loading = false;
   inst.step(100 + 1 / 60.0);
   EXPECT_TRUE(has_problem(inst.console(), "camera cam1: no frames"));
-  EXPECT_TRUE(has_problem(inst.console(), "head not tracked (lost)"));
+  EXPECT_TRUE(has_problem(inst.console(), "head not tracked (lost, "));
 }
 
 // Issue 15: a camera that goes bad (here: blind, as a black or covered one is) is one warning
@@ -151,8 +153,8 @@ TEST(Installation, ACameraGoingBadIsOneLogLineEachWay) {
   auto tracking = std::make_unique<ScriptedTracking>();
   auto* tr = tracking.get();
   TrackingSnapshot ok = tracked(100, 0, 1.6, 0), bad = ok;
-  ok.cameras = {{"cam0", "ok", 5, 8.0}, {"cam1", "ok", 5, 8.0}};
-  bad.cameras = {{"cam0", "ok", 5, 8.0}, {"cam1", "sees no markers while others see the head", 0, 8.0}};
+  ok.cameras = {{kumite::CameraState::ok, 5, 8.0}, {kumite::CameraState::ok, 5, 8.0}};
+  bad.cameras = {{kumite::CameraState::ok, 5, 8.0}, {kumite::CameraState::blind, 0, 8.0}};
   for (int i = 0; i < 5; ++i) tr->snaps.push_back(ok);
   for (int i = 0; i < 30; ++i) tr->snaps.push_back(bad);
   for (int i = 0; i < 5; ++i) tr->snaps.push_back(ok);
@@ -215,7 +217,7 @@ TEST(Installation, TrackingLostMidRunKeepsTheLastGoodEyes) {
     EXPECT_EQ(f.head.position, last_tracked.head.position);
     EXPECT_EQ(f.eyes.left, last_tracked.eyes.left);
     EXPECT_EQ(f.views[0][0].view, last_tracked.views[0][0].view);
-    EXPECT_TRUE(has_problem(inst.console(), "head not tracked (lost): walls drawn from the last good head position"));
+    EXPECT_TRUE(has_problem(inst.console(), "head not tracked (lost, 0 frame sets): walls drawn from the last good head position"));
     EXPECT_TRUE(has_problem(inst.console(), "camera cam1: no frames"));
   }
   // The fighter's database is missing: said, and the walls still have views.
@@ -230,7 +232,7 @@ TEST(Installation, CoastingPoseHasAnAgeButNoLatencySplit) {
   auto tracking = std::make_unique<ScriptedTracking>();
   TrackingSnapshot s = tracked(100 - 0.030, 0.3, 1.6, 0.2);
   s.head->status = kumite::TrackingStatus::coasting;
-  s.status = "coasting";
+  s.state = TrackerState::coasting;
   tracking->snaps.push_back(s);
   Installation inst(cfg, std::move(tracking), {});
   const auto& f = inst.step(100);
@@ -375,7 +377,7 @@ class TimedTracking final : public TrackingInput {
   kumite::Timestamp newest_at = -1;  // camera time of the pose out at the start (-1: not given)
   bool known = true;
   int looks = 0;
-  TrackingSnapshot poll(kumite::Timestamp, kumite::Timestamp) override { return {}; }
+  void poll(kumite::Timestamp, kumite::Timestamp, TrackingSnapshot& out) override { out = {}; }
   kumite::Timestamp clock() const override { return kumite::now(); }
   std::string describe() const override { return "timed"; }
   PoseTiming pose_timing(kumite::Timestamp) override {
@@ -507,32 +509,6 @@ TEST(TrackingInput, AMissingTrackerFileIsNamedAtItsConfigKey) {
   }
 }
 
-namespace {
-/// SYNTHETIC frame sets of a visitor standing still, rendered for the shipped rig and handed
-/// over at 60 Hz on now()'s clock, as cameras would.
-class StandingVisitor final : public kumite::tracking::FrameSource {
- public:
-  StandingVisitor(const kumite::tracking::RigCalibration& rig, const kumite::tracking::TrackingConfig& tc)
-      : renderer_(rig, tc.bodies.at(0), {}) {}
-  bool next(kumite::tracking::FrameSet& out, double) override {
-    if (n_ == 0) start_ = kumite::now();
-    const kumite::Timestamp due = start_ + static_cast<double>(n_) / 60.0;
-    kumite::sleep_until(due);
-    out = renderer_.render(n_, kumite::tracking::static_visitor(static_cast<double>(n_) / 60.0));
-    out.timestamp = due;
-    out.camera_times.assign(out.images.size(), due);
-    ++n_;
-    return true;
-  }
-  bool end_of_stream() const override { return false; }
-
- private:
-  kumite::tracking::SyntheticRenderer renderer_;
-  std::uint64_t n_ = 0;
-  kumite::Timestamp start_ = 0;
-};
-}  // namespace
-
 TEST(TrackingInput, AProjectorLagDoesNotMakeAFreshPoseLost) {
   auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
   // Poses count as lost 1 s after capture here, not the demo's 0.25 s: under a sanitizer on a
@@ -541,19 +517,22 @@ TEST(TrackingInput, AProjectorLagDoesNotMakeAFreshPoseLost) {
   cfg.tracking.lost_after_s = 1.0;
   const auto rig = kumite::tracking::read_calibration(cfg.resolve(cfg.tracking.calibration));
   const auto tc = kumite::tracking::read_tracking_config(cfg.resolve(cfg.tracking.tracking));
-  auto input = make_tracking_input(cfg, std::make_unique<StandingVisitor>(rig, tc));
+  // SYNTHETIC frame sets of a visitor standing still, handed over at 60 Hz as cameras would.
+  auto input = make_tracking_input(
+      cfg, kumite::tracking::synthetic_live_source(rig, tc.bodies.at(0), kumite::tracking::static_visitor));
   TrackingSnapshot s;
   const kumite::Timestamp give_up = kumite::now() + 20;
   do {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    s = input->poll(kumite::now(), kumite::now());
+    input->poll(kumite::now(), kumite::now(), s);
   } while ((!s.head || s.head->status != kumite::TrackingStatus::tracked) && kumite::now() < give_up);
-  ASSERT_TRUE(s.head && s.head->status == kumite::TrackingStatus::tracked) << s.status;
+  ASSERT_TRUE(s.head && s.head->status == kumite::TrackingStatus::tracked) << describe(s);
   // Seen 80 ms and 1.25 s from now (a slow projector; past the tracker's 0.1 s coasting time
   // and past lost_after_s: a pose judged by its age at the display time would be lost): still
   // tracked, where the visitor stands.
   for (const double ahead : {0.08, 1.25}) {
-    const auto later = input->poll(kumite::now(), kumite::now() + ahead);
+    TrackingSnapshot later;
+    input->poll(kumite::now(), kumite::now() + ahead, later);
     ASSERT_TRUE(later.head);
     EXPECT_EQ(later.head->status, kumite::TrackingStatus::tracked) << ahead;
     EXPECT_NEAR(later.head->position[1], 1.65, 0.02) << ahead;

@@ -45,10 +45,11 @@ class PlacedHead final : public TrackingInput {
  public:
   std::optional<glm::dvec3> at;
   kumite::Timestamp t = 0;
-  TrackingSnapshot poll(kumite::Timestamp now, kumite::Timestamp) override {
+  void poll(kumite::Timestamp now, kumite::Timestamp, TrackingSnapshot& out) override {
     t = now;
-    TrackingSnapshot s;
-    s.status = at ? "tracked" : "lost";
+    TrackingSnapshot& s = out;
+    s = {};
+    s.state = at ? TrackerState::tracked : TrackerState::lost;
     if (at) {
       kumite::BodyPose p;
       p.timestamp = now - 0.005;
@@ -59,7 +60,6 @@ class PlacedHead final : public TrackingInput {
       s.measured_at = now - 0.005;
       s.measured_ready_at = now - 0.004;
     }
-    return s;
   }
   kumite::Timestamp clock() const override { return t; }
   std::string describe() const override { return "placed"; }

@@ -303,7 +303,7 @@ TEST(Session, AFullQueueDropsFramesAndCountsThemNeverWaiting) {
   SessionRecorder rec(tmp.path / "s", SessionInfo{}, 2);
   rec.started(1.0, false);
   FrameInput in;
-  in.tracking.status = "no tracking";
+  in.tracking.state = TrackerState::none;
   for (int i = 0; i < 5000; ++i) {
     in.now = 1.0 + i / 60.0;
     rec.push(static_cast<std::uint64_t>(i), in, StateHashes{});

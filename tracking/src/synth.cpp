@@ -11,7 +11,9 @@
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/common/time.hpp"
 #include "kumite/tracking/geometry.hpp"
+#include "kumite/tracking/tracker.hpp"
 
 namespace kumite::tracking {
 namespace fs = std::filesystem;
@@ -266,6 +268,43 @@ RigCalibration corner_rig(double side_m, double height_m, int width, int height,
     rig.cameras.push_back(cam);
   }
   return rig;
+}
+
+namespace {
+
+class SyntheticLiveSource final : public FrameSource {
+ public:
+  SyntheticLiveSource(const RigCalibration& rig, const BodyConfig& body,
+                      std::function<TrajectoryPoint(Timestamp)> trajectory, double rate_hz, SynthOptions options)
+      : renderer_(rig, body, std::move(options)), trajectory_(std::move(trajectory)), period_s_(1.0 / rate_hz) {}
+  bool next(FrameSet& out, double) override {
+    if (n_ == 0) start_ = now();
+    const Timestamp due = start_ + static_cast<double>(n_) * period_s_;
+    sleep_until(due);
+    out = renderer_.render(n_, trajectory_(due - start_));
+    out.timestamp = due;
+    out.camera_times.assign(out.images.size(), due);
+    ++n_;
+    return true;
+  }
+  bool end_of_stream() const override { return false; }
+
+ private:
+  SyntheticRenderer renderer_;
+  std::function<TrajectoryPoint(Timestamp)> trajectory_;
+  double period_s_;
+  std::uint64_t n_ = 0;
+  Timestamp start_ = 0;
+};
+
+}  // namespace
+
+std::unique_ptr<FrameSource> synthetic_live_source(const RigCalibration& rig, const BodyConfig& body,
+                                                   std::function<TrajectoryPoint(Timestamp)> trajectory,
+                                                   double rate_hz, SynthOptions options) {
+  if (!(std::isfinite(rate_hz) && rate_hz > 0 && rate_hz <= 1000))
+    throw Error("synth", "range", fmt::format("synthetic live source: rate {} Hz: must be in (0, 1000]", rate_hz));
+  return std::make_unique<SyntheticLiveSource>(rig, body, std::move(trajectory), rate_hz, std::move(options));
 }
 
 }  // namespace kumite::tracking

@@ -19,15 +19,6 @@
 
 namespace kumite::tracking {
 
-std::string_view to_string(CameraState s) {
-  switch (s) {
-    case CameraState::ok: return "ok";
-    case CameraState::no_frames: return "no frames";
-    case CameraState::reconnecting: return "reconnecting";
-    case CameraState::blind: return "sees no markers while others see the head";
-  }
-  return "?";
-}
 
 // ---------------------------------------------------------------------------------------
 // Recorded source
@@ -659,19 +650,21 @@ std::vector<CameraStatus> Tracker::camera_status(std::optional<Timestamp> now_s)
   const Timestamp now = now_s.value_or(clock_now());
   std::vector<CameraStatus> out;
   out.reserve(cameras_.size());
-  for (const auto& slot : cameras_) {
-    CameraStatus st = slot->value.read().value_or(CameraStatus{});
-    if (st.last_frame >= 0) {
-      st.since_last_s = std::max(0.0, now - st.last_frame);
-      if (st.state != CameraState::reconnecting && st.since_last_s > config_.camera_timeout_s) {
-        st.state = CameraState::no_frames;
-      }
-    } else if (st.state == CameraState::ok) {
+  for (std::size_t i = 0; i < cameras_.size(); ++i) out.push_back(camera_status(i, now));
+  return out;
+}
+
+CameraStatus Tracker::camera_status(std::size_t camera, Timestamp now) const {
+  CameraStatus st = cameras_.at(camera)->value.read().value_or(CameraStatus{});
+  if (st.last_frame >= 0) {
+    st.since_last_s = std::max(0.0, now - st.last_frame);
+    if (st.state != CameraState::reconnecting && st.since_last_s > config_.camera_timeout_s) {
       st.state = CameraState::no_frames;
     }
-    out.push_back(st);
+  } else if (st.state == CameraState::ok) {
+    st.state = CameraState::no_frames;
   }
-  return out;
+  return st;
 }
 
 }  // namespace kumite::tracking

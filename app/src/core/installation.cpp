@@ -26,10 +26,13 @@ constexpr double kLatchPoll_s = 0.00025;
 class FixedHeadInput final : public TrackingInput {
  public:
   explicit FixedHeadInput(std::string why) : why_(std::move(why)) {}
-  TrackingSnapshot poll(Timestamp, Timestamp) override {
-    TrackingSnapshot s;
-    s.status = why_;
-    return s;
+  void poll(Timestamp, Timestamp, TrackingSnapshot& out) override {
+    out.head.reset();
+    out.measured_at = out.measured_ready_at = -1;
+    out.state = TrackerState::none;
+    out.frame_sets = 0;
+    out.cameras.clear();
+    out.source = {};
   }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return "none (" + why_ + ")"; }
@@ -194,7 +197,7 @@ std::string Installation::character_name(int index) const {
 void Installation::start(Timestamp t) {
   start_ = t;
   last_step_ = t;
-  if (recorder_) recorder_->started(t, tracking_->has_tracker(), 0);
+  if (recorder_) recorder_->started(t, tracking_->has_tracker(), 0, tracking_->camera_names());
   tracking_->record_frame_sets(recorder_);  // ends the tracker's pre-roll of camera frames
   script_.restart(t);
   started_ = true;
@@ -207,7 +210,7 @@ void Installation::start(Timestamp t) {
 void Installation::order(const Order& o) { pending_.push_back(o); }
 
 void Installation::record_to(SessionRecorder* recorder) {
-  if (recorder && recorder != recorder_ && started_) recorder->started(start_, tracking_->has_tracker(), steps_);
+  if (recorder && recorder != recorder_ && started_) recorder->started(start_, tracking_->has_tracker(), steps_, tracking_->camera_names());
   tracking_->record_frame_sets(recorder);
   recorder_ = recorder;
 }
@@ -228,25 +231,25 @@ Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
   return t;
 }
 
-void Installation::note(const FrameEvent& e) {
-  frame_.events.push_back(e);
+std::string describe(const FrameEvent& e) {
   std::string line = fmt::format("{:7.2f} s  {}", e.time_s, to_string(e.type));
   if (!e.order.empty()) line += " " + e.order;
   if (!e.text.empty()) line += ": " + e.text;
-  console_.recent.push_back(line);
-  while (console_.recent.size() > kRecentEvents) console_.recent.pop_front();
-  if (e.type == EventType::order || e.type == EventType::order_ignored) {
-    console_.last_order = e.order;
-    console_.last_outcome = e.type == EventType::order ? "accepted" : "ignored: " + e.text;
-  } else if (is_strike_outcome(e.type)) {
-    // The strike's own order: an order ignored meanwhile must not take this outcome.
-    console_.last_order = e.order;
-    console_.last_outcome = fmt::format("{} ({:.2f} m)", to_string(e.type), e.distance_m);
-  }
+  return line;
+}
+
+void Installation::note(const FrameEvent& e) {
+  frame_.events.push_back(e);
+  // Events are rare (orders, contacts, character switches): kept whole for the console.
+  recent_.push_back(e);
+  while (recent_.size() > kRecentEvents) recent_.pop_front();
+  // The console's last order and its outcome: an order (accepted or ignored), or a strike's
+  // outcome with the strike's own order (an order ignored meanwhile must not take it).
+  if (e.type == EventType::order || e.type == EventType::order_ignored || is_strike_outcome(e.type)) last_order_ = e;
   if (e.type == EventType::warning || e.type == EventType::order_ignored || e.type == EventType::visitor_near_wall)
-    spdlog::warn("{}", line);
+    spdlog::warn("{}", describe(e));
   else
-    spdlog::info("{}", line);
+    spdlog::info("{}", describe(e));
 }
 
 void Installation::update_head(Timestamp now, Timestamp shown_at) {
@@ -258,13 +261,9 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
     input_.tracking = replaying_->tracking;
     input_.tracking_clock = replaying_->tracking_clock;
   } else {
-    input_.tracking = tracking_->poll(now, seen_at);
+    tracking_->poll(now, seen_at, input_.tracking);
   }
   const TrackingSnapshot& snap = input_.tracking;
-  console_.cameras = snap.cameras;
-  console_.tracking = snap.status;
-  console_.tracking_source = snap.source;
-  for (const auto& p : snap.problems) console_.problems.push_back(p);
   // Pose age: the newest head measurement's camera time to now, the moment this frame takes
   // the head for rendering (the draw follows at once), tracked or not.
   if (!replaying_) input_.tracking_clock = snap.measured_at >= 0 ? tracking_->clock() : -1;
@@ -279,7 +278,7 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
                                    : -1;
   bool live = false;
   if (snap.head && snap.head->status != TrackingStatus::lost && age_s >= 0) {
-    console_.markers_seen = snap.head->markers;
+    markers_seen_ = snap.head->markers;
     if (age_s <= config_.tracking.lost_after_s) {
       const auto& p = snap.head->position;
       const auto& q = snap.head->orientation;
@@ -288,31 +287,22 @@ void Installation::update_head(Timestamp now, Timestamp shown_at) {
       live = true;
     }
   } else {
-    console_.markers_seen = snap.head ? snap.head->markers : 0;
+    markers_seen_ = snap.head ? snap.head->markers : 0;
   }
-  console_.head_live = live;
-  console_.pose_age_ms = frame_.pose_age_ms;
-  console_.tracking_latency_ms = frame_.tracking_latency_ms;
-  if (!live && config_.tracking.source != TrackingSource::none && !tracking_->loading())
-    console_.problems.push_back(
-        fmt::format("head not tracked ({}): walls drawn from the last good head position",
-                    snap.status));
+  frame_.head_live = live;
   // While the source loads (a recording's preload) no camera has given a frame yet: that is
-  // loading, shown as such, not a camera fault.
+  // loading, not a camera fault. The log says when a camera's state changes (a black or
+  // covered camera, one that stops or comes back): one line each way, not one per frame.
   if (!tracking_->loading()) {
-    for (const auto& c : snap.cameras)
-      if (c.status != "ok") console_.problems.push_back("camera " + c.name + ": " + c.status);
-    // The log says when a camera's state changes (a black or covered camera, one that stops
-    // or comes back): one line each way, not one per frame.
     camera_states_.resize(snap.cameras.size());
     for (std::size_t i = 0; i < snap.cameras.size(); ++i) {
-      const auto& c = snap.cameras[i];
-      if (c.status == camera_states_[i]) continue;
-      if (c.status != "ok")
-        spdlog::warn("camera {}: {}", c.name, c.status);  // e.g. "sees no markers while others see the head"
-      else if (!camera_states_[i].empty())
-        spdlog::info("camera {}: ok again", c.name);
-      camera_states_[i] = c.status;
+      const CameraState c = snap.cameras[i].state;
+      if (camera_states_[i] == c) continue;
+      if (c != CameraState::ok)
+        spdlog::warn("camera {}: {}", camera_name(i), to_string(c));  // e.g. "sees no markers while others see the head"
+      else if (camera_states_[i])
+        spdlog::info("camera {}: ok again", camera_name(i));
+      camera_states_[i] = c;
     }
   }
   frame_.head = last_good_head_;
@@ -324,14 +314,14 @@ void Installation::apply_orders(Timestamp now) {
   due_.clear();
   if (script_waits_) {
     const double waited = now - start_;
-    if (console_.head_live || waited >= kScriptWaitForHead_s) {
+    if (frame_.head_live || waited >= kScriptWaitForHead_s) {
       script_waits_ = false;
+      script_waited_s_.reset();
       script_.restart(now);
       spdlog::info("orders script: starts {:.2f} s into the run ({})", waited,
-                   console_.head_live ? "head tracked" : "the head is still not tracked");
+                   frame_.head_live ? "head tracked" : "the head is still not tracked");
     } else {
-      console_.problems.push_back(fmt::format(
-          "orders script waits for the head to be tracked ({:.0f} s of at most {:.0f} s)", waited, kScriptWaitForHead_s));
+      script_waited_s_ = waited;
     }
   }
   if (!script_waits_) script_.due(now, due_);
@@ -341,8 +331,8 @@ void Installation::apply_orders(Timestamp now) {
     FrameEvent e;
     e.time_s = now - start_;
     e.order = to_string(o);
-    if (o.kind == OrderKind::pause) console_.paused = true;
-    if (o.kind == OrderKind::resume) console_.paused = false;
+    if (o.kind == OrderKind::pause) paused_ = true;
+    if (o.kind == OrderKind::resume) paused_ = false;
     if (!fighter_) {
       e.type = EventType::order_ignored;
       e.text = fighter_problem_;
@@ -378,7 +368,6 @@ void Installation::update_fighter(Timestamp now, double dt) {
   FighterPose& pose = frame_.fighter;
   pose.present = static_cast<bool>(fighter_);
   if (!fighter_) {
-    console_.problems.push_back(fighter_problem_);
     pose.joints.clear();
     pose.local_rotations.clear();
     pose.skeleton.reset();
@@ -402,7 +391,6 @@ void Installation::update_fighter(Timestamp now, double dt) {
     }
     note(to_frame_event(e, start_));
   }
-  for (const auto& m : missing_characters_) console_.problems.push_back(m);
 }
 
 void Installation::copy_pose(const content::FighterFrame& f, int character, FighterPose& pose) {
@@ -465,40 +453,23 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   input_.shown_at = shown_at;
   input_.keyed.assign(pending_.begin(), pending_.end());
   frame_.events.clear();
-  console_.problems.clear();
   frame_.now = now;
   frame_.time_s = now - start_;
   update_head(now, shown_at);
-  if (plan_views(walls_, frame_.eyes, config_.projection.near_m, config_.projection.far_m, frame_.views,
-                 kept_walls_) > 0) {
-    std::vector<std::string> past;  // rare: the eye went through these walls
-    for (std::size_t w = 0; w < walls_.size(); ++w)
-      if (kept_walls_[w]) past.push_back(config_.walls[w].name);
-    console_.problems.push_back(fmt::format("an eye is on or behind the plane of wall(s) {}: drawn from their last good view",
-                                            fmt::join(past, ", ")));
-  }
+  // A wall whose plane an eye is on or behind keeps its last good view (kept_walls_: said
+  // by the console).
+  plan_views(walls_, frame_.eyes, config_.projection.near_m, config_.projection.far_m, frame_.views, kept_walls_);
   apply_orders(now);
   update_fighter(now, dt);
   update_safety(now);
-  console_.fighter_state = frame_.fighter.present ? std::string(content::to_string(frame_.fighter.state)) : "none";
-  console_.character = frame_.fighter.character;
-  console_.character_name = character_name(frame_.fighter.character);
   // Frame rate from the smoothed frame time (the first step after start() has no interval).
   if (frame_.frame > 0 && dt > 0)
     dt_filtered_ = dt_filtered_ == 0 ? dt : 0.9 * dt_filtered_ + 0.1 * dt;
-  console_.fps = dt_filtered_ > 0 ? 1.0 / dt_filtered_ : 0;
   frame_.latch_ms = latch_ms_;
-  console_.latch_ms = latch_ms_;
   latch_ms_ = 0;  // a loop that does not call latch() takes the pose at the frame's start
-  console_.late_latch = pacer_.enabled();
-  const auto budget = pacer_.draw_budget_s();
-  console_.draw_budget_ms = budget ? *budget * 1e3 : -1;
   // Recording (when on) counts in the step's CPU time: hashing the state and queueing a copy.
-  if (recorder_) {
-    recorder_->push(frame_.frame, input_, state_hashes(frame_));
-    if (recorder_->dropped() > 0 || recorder_->budget_reached()) console_.problems.push_back(recorder_->status_line());
-  }
-  console_.frame_cpu_ms = (kumite::now() - cpu0) * 1e3;
+  if (recorder_) recorder_->push(frame_.frame, input_, state_hashes(frame_));
+  frame_cpu_ms_ = (kumite::now() - cpu0) * 1e3;
   return frame_;
 }
 
@@ -529,7 +500,7 @@ void Installation::update_safety(Timestamp now) {
     note(e);
   };
   const auto name = [&](int w) { return config_.walls[static_cast<std::size_t>(w)].name; };
-  if (!console_.head_live) {
+  if (!frame_.head_live) {
     // Lost near a wall: the visitor most likely walked out of the cameras' view there.
     if (near_wall_ && !near_wall_->lost) {
       near_wall_->lost = true;
@@ -577,12 +548,85 @@ void Installation::update_safety(Timestamp now) {
   frame_.visitor_near_wall = near_wall_;
   if (!near_wall_) return;
   const auto& v = *near_wall_;
-  console_.problems.push_back(v.lost ? fmt::format("visitor: left the tracked area near wall {}", name(v.wall))
-                              : v.outside ? fmt::format("visitor: beyond wall {} ({:.2f} m)", name(v.wall), -v.distance_m)
-                                          : fmt::format("visitor: {:.2f} m from wall {}", v.distance_m, name(v.wall)));
   // The glow on that wall, brighter the closer (full at the wall, or when out or lost).
   const double strength = v.lost || v.outside ? 1.0 : std::clamp(1.0 - v.distance_m / limit, 0.25, 1.0);
   plan_wall_glow(walls_[static_cast<std::size_t>(v.wall)], frame_.head.position, strength, frame_.items);
+}
+
+std::string Installation::camera_name(std::size_t i) const {
+  const auto& names = tracking_->camera_names();
+  return i < names.size() ? names[i] : fmt::format("cam{}", i);
+}
+
+ConsoleState Installation::console() const {
+  ConsoleState c;
+  const TrackingSnapshot& snap = input_.tracking;
+  const bool loading = tracking_->loading();
+  c.fps = dt_filtered_ > 0 ? 1.0 / dt_filtered_ : 0;
+  c.frame_cpu_ms = frame_cpu_ms_;
+  c.tracking = describe(snap, tracking_->describe());
+  c.tracking_source = describe(snap.source);
+  for (std::size_t i = 0; i < snap.cameras.size(); ++i) {
+    const CameraView& v = snap.cameras[i];
+    c.cameras.push_back({camera_name(i), v.state, std::string(to_string(v.state)), v.blobs, v.since_last_ms});
+  }
+  c.markers_seen = markers_seen_;
+  c.head_live = frame_.head_live;
+  c.pose_age_ms = frame_.pose_age_ms;
+  c.tracking_latency_ms = frame_.tracking_latency_ms;
+  c.latch_ms = frame_.latch_ms;
+  c.late_latch = pacer_.enabled();
+  const auto budget = pacer_.draw_budget_s();
+  c.draw_budget_ms = budget ? *budget * 1e3 : -1;
+  c.fighter_state = frame_.fighter.present ? std::string(content::to_string(frame_.fighter.state)) : "none";
+  c.character = frame_.fighter.character;
+  c.character_name = character_name(frame_.fighter.character);
+  c.paused = paused_;
+  if (const auto& last = last_order_) {
+    c.last_order = last->order;
+    c.last_outcome = last->type == EventType::order           ? std::string("accepted")
+                     : last->type == EventType::order_ignored ? "ignored: " + last->text
+                                                              : fmt::format("{} ({:.2f} m)", to_string(last->type),
+                                                                            last->distance_m);
+  }
+  for (const auto& e : recent_) c.recent.push_back(describe(e));
+
+  c.problems = problems();
+  return c;
+}
+
+std::vector<std::string> Installation::problems() const {
+  std::vector<std::string> p;
+  const TrackingSnapshot& snap = input_.tracking;
+  const bool loading = tracking_->loading();
+  if (const auto s = source_problem(snap.source)) p.push_back(*s);
+  if (!frame_.head_live && config_.tracking.source != TrackingSource::none && !loading)
+    p.push_back(fmt::format("head not tracked ({}): walls drawn from the last good head position",
+                            describe(snap, tracking_->describe())));
+  if (!loading)
+    for (std::size_t i = 0; i < snap.cameras.size(); ++i)
+      if (snap.cameras[i].state != CameraState::ok)
+        p.push_back(fmt::format("camera {}: {}", camera_name(i), to_string(snap.cameras[i].state)));
+  std::vector<std::string> past;  // rare: the eye went through these walls
+  for (std::size_t w = 0; w < walls_.size() && w < kept_walls_.size(); ++w)
+    if (kept_walls_[w]) past.push_back(config_.walls[w].name);
+  if (!past.empty())
+    p.push_back(fmt::format("an eye is on or behind the plane of wall(s) {}: drawn from their last good view",
+                            fmt::join(past, ", ")));
+  if (script_waited_s_)
+    p.push_back(fmt::format("orders script waits for the head to be tracked ({:.0f} s of at most {:.0f} s)",
+                            *script_waited_s_, kScriptWaitForHead_s));
+  if (!fighter_) p.push_back(fighter_problem_);
+  if (fighter_)
+    for (const auto& m : missing_characters_) p.push_back(m);
+  if (const auto& v = frame_.visitor_near_wall) {
+    const std::string& wall = config_.walls[static_cast<std::size_t>(v->wall)].name;
+    p.push_back(v->lost      ? fmt::format("visitor: left the tracked area near wall {}", wall)
+                : v->outside ? fmt::format("visitor: beyond wall {} ({:.2f} m)", wall, -v->distance_m)
+                             : fmt::format("visitor: {:.2f} m from wall {}", v->distance_m, wall));
+  }
+  if (recorder_ && (recorder_->dropped() > 0 || recorder_->budget_reached())) p.push_back(recorder_->status_line());
+  return p;
 }
 
 bool Installation::has_tracker() const { return tracking_->has_tracker(); }

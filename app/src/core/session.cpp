@@ -80,9 +80,19 @@ json pose_json(const BodyPose& p) {
 json input_json(const FrameInput& in) {
   json keyed = json::array();
   for (const auto& o : in.keyed) keyed.push_back({{"time", o.time}, {"order", to_string(o)}});
-  json t = {{"measured_at", in.tracking.measured_at}, {"measured_ready_at", in.tracking.measured_ready_at},
-            {"status", in.tracking.status}};
-  t["head"] = in.tracking.head ? pose_json(*in.tracking.head) : json(nullptr);
+  const TrackingSnapshot& s = in.tracking;
+  json t = {{"measured_at", s.measured_at}, {"measured_ready_at", s.measured_ready_at},
+            {"state", static_cast<int>(s.state)}, {"frame_sets", s.frame_sets}};
+  t["head"] = s.head ? pose_json(*s.head) : json(nullptr);
+  json cams = json::array();
+  for (const CameraView& c : s.cameras) cams.push_back({static_cast<int>(c.state), c.blobs, c.since_last_ms});
+  t["cameras"] = std::move(cams);
+  if (s.source.recording) {
+    const SourceStats& src = s.source;
+    t["source"] = {{"loading", src.loading}, {"loaded", src.loaded},     {"to_load", src.to_load},
+                   {"from_memory", src.from_memory}, {"decode_ms", src.decode_ms}, {"rates", src.rates},
+                   {"totals", src.totals}};
+  }
   return {{"now", in.now}, {"shown_at", in.shown_at}, {"keyed", keyed}, {"tracking", t}, {"clock", in.tracking_clock}};
 }
 
@@ -106,9 +116,53 @@ FrameInput parse_input(const json& j, const LineReader& r) {
   in.tracking.measured_at = r.num(r.at(t, "measured_at", "input.tracking.measured_at"), "input.tracking.measured_at");
   in.tracking.measured_ready_at =
       r.num(r.at(t, "measured_ready_at", "input.tracking.measured_ready_at"), "input.tracking.measured_ready_at");
-  const json& status = r.at(t, "status", "input.tracking.status");
-  if (!status.is_string()) r.fail("input.tracking.status", "not a string");
-  in.tracking.status = status.get<std::string>();
+  if (t.contains("status")) {
+    // Version 2: a status line, "tracked, 120 frame sets" (the cameras and source not kept).
+    const json& status = t["status"];
+    if (!status.is_string()) r.fail("input.tracking.status", "not a string");
+    const std::string line = status.get<std::string>();
+    for (const TrackerState st : {TrackerState::waiting, TrackerState::tracked, TrackerState::coasting,
+                                  TrackerState::lost, TrackerState::stopped})
+      if (line.starts_with(to_string(st))) in.tracking.state = st;
+    if (const auto comma = line.find(", "); comma != std::string::npos)
+      in.tracking.frame_sets = std::strtoull(line.c_str() + comma + 2, nullptr, 10);
+    if (line.find("(tracker stopped)") != std::string::npos) in.tracking.state = TrackerState::stopped;
+  } else {
+    in.tracking.state = static_cast<TrackerState>(
+        r.whole(r.at(t, "state", "input.tracking.state"), "input.tracking.state", 0, static_cast<int>(TrackerState::stopped)));
+    in.tracking.frame_sets = static_cast<std::uint64_t>(
+        r.whole(r.at(t, "frame_sets", "input.tracking.frame_sets"), "input.tracking.frame_sets", 0, 9007199254740992.0));
+    for (const auto& c : r.at(t, "cameras", "input.tracking.cameras")) {
+      if (!c.is_array() || c.size() != 3) r.fail("input.tracking.cameras", "expected [state, blobs, since_last_ms]");
+      CameraView v;
+      v.state = static_cast<CameraState>(r.whole(c[0], "input.tracking.cameras.state", 0, static_cast<int>(CameraState::blind)));
+      v.blobs = static_cast<int>(r.whole(c[1], "input.tracking.cameras.blobs", 0, 1e6));
+      v.since_last_ms = r.num(c[2], "input.tracking.cameras.since_last_ms");
+      in.tracking.cameras.push_back(v);
+    }
+    if (t.contains("source")) {
+      const json& src = t["source"];
+      SourceStats& o = in.tracking.source;
+      o.recording = true;
+      const auto flag = [&](const char* key) {
+        const json& b = r.at(src, key, std::string("input.tracking.source.") + key);
+        if (!b.is_boolean()) r.fail(std::string("input.tracking.source.") + key, "not true or false");
+        return b.get<bool>();
+      };
+      const auto count = [&](const json& v, const std::string& key) {
+        return static_cast<std::uint64_t>(r.whole(v, key, 0, 9007199254740992.0));
+      };
+      o.loading = flag("loading");
+      o.from_memory = flag("from_memory");
+      o.loaded = count(r.at(src, "loaded", "input.tracking.source.loaded"), "input.tracking.source.loaded");
+      o.to_load = count(r.at(src, "to_load", "input.tracking.source.to_load"), "input.tracking.source.to_load");
+      o.decode_ms = r.num(r.at(src, "decode_ms", "input.tracking.source.decode_ms"), "input.tracking.source.decode_ms");
+      o.rates = r.nums<3>(r.at(src, "rates", "input.tracking.source.rates"), "input.tracking.source.rates");
+      const json& totals = r.at(src, "totals", "input.tracking.source.totals");
+      if (!totals.is_array() || totals.size() != 3) r.fail("input.tracking.source.totals", "expected 3 counts");
+      for (std::size_t k = 0; k < 3; ++k) o.totals[k] = count(totals[k], "input.tracking.source.totals");
+    }
+  }
   const json& h = r.at(t, "head", "input.tracking.head");
   if (!h.is_null()) {
     BodyPose p;
@@ -131,14 +185,17 @@ FrameInput parse_input(const json& j, const LineReader& r) {
 /// No tracker is asked during a replay: the recorded snapshots come in through replay().
 class ReplayTracking final : public TrackingInput {
  public:
-  explicit ReplayTracking(bool has_tracker) : has_tracker_(has_tracker) {}
-  TrackingSnapshot poll(Timestamp, Timestamp) override { return {}; }
+  ReplayTracking(bool has_tracker, std::vector<std::string> camera_names)
+      : has_tracker_(has_tracker), names_(std::move(camera_names)) {}
+  void poll(Timestamp, Timestamp, TrackingSnapshot& out) override { out = {}; }
   Timestamp clock() const override { return 0; }
   std::string describe() const override { return "replay"; }
   bool has_tracker() const override { return has_tracker_; }
+  const std::vector<std::string>& camera_names() const override { return names_; }
 
  private:
   bool has_tracker_;
+  std::vector<std::string> names_;
 };
 
 }  // namespace
@@ -288,14 +345,15 @@ SessionRecorder::~SessionRecorder() {
   }
 }
 
-void SessionRecorder::started(Timestamp start, bool has_tracker, std::uint64_t first_frame) {
+void SessionRecorder::started(Timestamp start, bool has_tracker, std::uint64_t first_frame,
+                              std::vector<std::string> camera_names) {
   const std::uint64_t h = head_.load(std::memory_order_relaxed);
   if (h - tail_.load(std::memory_order_acquire) >= slots_.size()) {  // cannot happen before the first frame
     dropped_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
   Item& item = slots_[h % slots_.size()];
-  item.start = Item::Start{start, has_tracker, first_frame, unix_now()};
+  item.start = Item::Start{start, has_tracker, first_frame, unix_now(), std::move(camera_names)};
   head_.store(h + 1, std::memory_order_release);
 }
 
@@ -315,7 +373,10 @@ void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const S
   item.input.tracking.head = input.tracking.head;
   item.input.tracking.measured_at = input.tracking.measured_at;
   item.input.tracking.measured_ready_at = input.tracking.measured_ready_at;
-  item.input.tracking.status.assign(input.tracking.status);
+  item.input.tracking.state = input.tracking.state;
+  item.input.tracking.frame_sets = input.tracking.frame_sets;
+  item.input.tracking.cameras.assign(input.tracking.cameras.begin(), input.tracking.cameras.end());
+  item.input.tracking.source = input.tracking.source;
   item.input.tracking_clock = input.tracking_clock;
   item.hashes = hashes;
   item.start.reset();
@@ -388,7 +449,7 @@ void SessionRecorder::run() {
       if (item.start) {
         start_ = item.start;
         j = {{"start", item.start->start}, {"unix_s", item.start->unix_s}, {"has_tracker", item.start->has_tracker},
-             {"first_frame", item.start->first_frame}};
+             {"first_frame", item.start->first_frame}, {"cameras", item.start->camera_names}};
       } else {
         json hashes = json::object();
         for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
@@ -872,7 +933,12 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
     }
     if (!inst) {
       start = r.num(r.at(j, "start", "start"), "start");
-      inst = std::make_unique<Installation>(loaded.config, std::make_unique<ReplayTracking>(j.contains("has_tracker") && j["has_tracker"].is_boolean() && j["has_tracker"].get<bool>()), io);
+      std::vector<std::string> names;  // version 3 on; before, the console says cam0, cam1, ...
+      if (j.contains("cameras") && j["cameras"].is_array())
+        for (const auto& n : j["cameras"]) names.push_back(n.is_string() ? n.get<std::string>() : "?");
+      if (rt) names = rt->names;
+      const bool has_tracker = j.contains("has_tracker") && j["has_tracker"].is_boolean() && j["has_tracker"].get<bool>();
+      inst = std::make_unique<Installation>(loaded.config, std::make_unique<ReplayTracking>(has_tracker, std::move(names)), io);
       inst->start(start);
       if (options.on_start) options.on_start(*inst);
       const auto first =
@@ -919,9 +985,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       }
       // The time the frame predicts the head to, as Installation::update_head does.
       const Timestamp seen_at = std::max(input.now, input.shown_at) + loaded.config.display_latency_ms * 1e-3;
-      TrackingSnapshot snap = read_tracker(rt->tracker, rt->head, input.now, seen_at, rt->names, false, rt->reading);
-      snap.source = "re-tracked from " + (dir / "cameras.bin").string();
-      input.tracking = std::move(snap);
+      read_tracker(rt->tracker, rt->head, input.now, seen_at, false, rt->reading, input.tracking);
     }
     const bool shown = !from_s || input.now - start >= *from_s;
     if (shown && !rep.from_frame) {

@@ -83,10 +83,9 @@ class TrackerInput final : public TrackingInput {
   }
   ~TrackerInput() override { tracker_.stop(); }
 
-  TrackingSnapshot poll(Timestamp now_s, Timestamp display_time) override {
-    TrackingSnapshot s = read_tracker(tracker_, head_, now_s, display_time, names_, true, reading_);
+  void poll(Timestamp now_s, Timestamp display_time, TrackingSnapshot& s) override {
+    read_tracker(tracker_, head_, now_s, display_time, true, reading_, s);
     if (counters_) describe_recording(now_s, s);
-    return s;
   }
   Timestamp clock() const override { return now(); }
   void record_frame_sets(SessionRecorder* recorder) override {
@@ -107,6 +106,7 @@ class TrackerInput final : public TrackingInput {
   }
   bool loading() const override { return counters_ && !counters_->playing.load(); }
   std::string describe() const override { return what_; }
+  const std::vector<std::string>& camera_names() const override { return names_; }
   PoseTiming pose_timing(Timestamp t) override {
     PoseTiming p;
     if (const auto latest = tracker_.latest(head_)) {
@@ -123,14 +123,19 @@ class TrackerInput final : public TrackingInput {
   /// The recording's rates over the last second or so, and a problem when it cannot keep up.
   void describe_recording(Timestamp t, TrackingSnapshot& s) {
     const auto& c = *counters_;
+    SourceStats& src = s.source;
+    src.recording = true;
+    src.from_memory = preload_ > 0;
     if (!c.playing.load()) {
       // The recording may hold fewer sets than the config asks to preload.
       const std::uint64_t asked = c.to_preload.load();
-      const auto want = asked > 0 ? asked : static_cast<std::uint64_t>(preload_);
-      s.source = want > 0 ? fmt::format("recording: loading {} of {} frame sets into memory", c.preloaded.load(), want)
-                          : "recording: decoding the first frame set";
+      src.loading = true;
+      src.loaded = c.preloaded.load();
+      src.to_load = asked > 0 ? asked : static_cast<std::uint64_t>(preload_);
       return;
     }
+    src.loaded = c.preloaded.load();
+    src.decode_ms = c.decode_ms.load();
     const std::array<std::uint64_t, 3> n{c.delivered.load(), c.not_decoded.load(), c.dropped_stale.load()};
     if (rate_t0_ < 0 || t - rate_t0_ >= 1.0) {
       if (rate_t0_ >= 0) {
@@ -140,18 +145,8 @@ class TrackerInput final : public TrackingInput {
       rate_t0_ = t;
       rate_n0_ = n;
     }
-    s.source = fmt::format(
-        "recording ({}): {:.1f} frame sets/s tracked, {:.1f}/s skipped (decoder behind), {:.1f}/s dropped "
-        "(tracker behind); totals {} / {} / {}",
-        preload_ > 0 ? fmt::format("{} sets looped from memory", c.preloaded.load())
-                     : fmt::format("from disk, decode {:.0f} ms/set", c.decode_ms.load()),
-        rates_[0], rates_[1], rates_[2], n[0], n[1], n[2]);
-    const double all = rates_[0] + rates_[1] + rates_[2];
-    if (all > 0 && rates_[0] < 0.9 * all)
-      s.problems.push_back(fmt::format(
-          "recording: only {:.0f}% of frame sets reach the tracker (PNG decoding {:.0f} ms per set): "
-          "pose age grows; set tracking.recording_preload to play from memory",
-          100 * rates_[0] / all, c.decode_ms.load()));
+    src.rates = rates_;
+    src.totals = n;
   }
 
   static constexpr std::size_t kPreroll = 3600;  // frame sets (a minute at 60 Hz, ~15 MB packed)
@@ -190,9 +185,12 @@ int head_body_index(const InstallationConfig& c, const tracking::TrackingConfig&
   return tc.head_body();
 }
 
-TrackingSnapshot read_tracker(const tracking::Tracker& tracker, int head, Timestamp now_s, Timestamp display_time,
-                              const std::vector<std::string>& names, bool threaded, TrackerReading& carried) {
-  TrackingSnapshot s;
+void read_tracker(const tracking::Tracker& tracker, int head, Timestamp now_s, Timestamp display_time, bool threaded,
+                  TrackerReading& carried, TrackingSnapshot& s) {
+  s.head.reset();
+  s.measured_at = -1;
+  s.measured_ready_at = -1;
+  s.source = {};
   const auto latest = tracker.latest(head);
   if (latest) {
     // A coasting pose is a prediction: its age counts from the last frame set that saw the
@@ -210,22 +208,60 @@ TrackingSnapshot read_tracker(const tracking::Tracker& tracker, int head, Timest
     s.head->status = at_now.status;
     s.measured_at = carried.last_measured;
     s.measured_ready_at = carried.last_ready;
-    s.status = std::string(to_string(s.head->status));
+    s.state = s.head->status == TrackingStatus::tracked    ? TrackerState::tracked
+              : s.head->status == TrackingStatus::coasting ? TrackerState::coasting
+                                                           : TrackerState::lost;
   } else {
-    s.status = !threaded || tracker.running() ? "waiting for the first frame set" : "tracker stopped";
+    s.state = TrackerState::waiting;
   }
-  s.status += fmt::format(", {} frame sets", tracker.frames_processed());
-  if (threaded && !tracker.running()) s.status += " (tracker stopped)";
-  const auto cams = tracker.camera_status(now_s);
-  for (std::size_t i = 0; i < cams.size(); ++i) {
-    CameraView v;
-    v.name = i < names.size() ? names[i] : fmt::format("cam{}", i);
-    v.status = std::string(tracking::to_string(cams[i].state));
-    v.blobs = cams[i].blobs;
-    v.since_last_ms = cams[i].since_last_s >= 0 ? cams[i].since_last_s * 1e3 : -1;
-    s.cameras.push_back(v);
+  // A tracker whose thread ended says so, whatever its last pose was.
+  if (threaded && !tracker.running()) s.state = TrackerState::stopped;
+  s.frame_sets = tracker.frames_processed();
+  s.cameras.resize(tracker.camera_count());  // its room kept from frame to frame
+  for (std::size_t i = 0; i < s.cameras.size(); ++i) {
+    const tracking::CameraStatus c = tracker.camera_status(i, now_s);
+    s.cameras[i] = {c.state, c.blobs, c.since_last_s >= 0 ? c.since_last_s * 1e3 : -1};
   }
-  return s;
+}
+
+std::string_view to_string(TrackerState state) {
+  switch (state) {
+    case TrackerState::none: return "no tracking";
+    case TrackerState::waiting: return "waiting for the first frame set";
+    case TrackerState::tracked: return "tracked";
+    case TrackerState::coasting: return "coasting";
+    case TrackerState::lost: return "lost";
+    case TrackerState::stopped: return "tracker stopped";
+  }
+  return "?";
+}
+
+std::string describe(const TrackingSnapshot& s, std::string_view none_why) {
+  if (s.state == TrackerState::none) return std::string(none_why);
+  return fmt::format("{}, {} frame sets", to_string(s.state), s.frame_sets);
+}
+
+std::string describe(const SourceStats& src) {
+  if (!src.recording) return {};
+  if (src.loading)
+    return src.to_load > 0 ? fmt::format("recording: loading {} of {} frame sets into memory", src.loaded, src.to_load)
+                           : std::string("recording: decoding the first frame set");
+  return fmt::format(
+      "recording ({}): {:.1f} frame sets/s tracked, {:.1f}/s skipped (decoder behind), {:.1f}/s dropped "
+      "(tracker behind); totals {} / {} / {}",
+      src.from_memory ? fmt::format("{} sets looped from memory", src.loaded)
+                      : fmt::format("from disk, decode {:.0f} ms/set", src.decode_ms),
+      src.rates[0], src.rates[1], src.rates[2], src.totals[0], src.totals[1], src.totals[2]);
+}
+
+std::optional<std::string> source_problem(const SourceStats& src) {
+  if (!src.recording || src.loading) return std::nullopt;
+  const double all = src.rates[0] + src.rates[1] + src.rates[2];
+  if (!(all > 0 && src.rates[0] < 0.9 * all)) return std::nullopt;
+  return fmt::format(
+      "recording: only {:.0f}% of frame sets reach the tracker (PNG decoding {:.0f} ms per set): "
+      "pose age grows; set tracking.recording_preload to play from memory",
+      100 * src.rates[0] / all, src.decode_ms);
 }
 
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config) {

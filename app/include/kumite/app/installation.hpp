@@ -2,6 +2,7 @@
 // The installation's frame, CPU side: tracking in, orders in, the fighter advanced, eyes and
 // per-wall views computed, the console's state updated. Rendering (headless or windows)
 // happens elsewhere from FrameData. Nothing here waits on a camera, a file or retrieval.
+#include <array>
 #include <cstdint>
 #include <deque>
 #include <functional>
@@ -20,15 +21,48 @@
 
 namespace kumite::app {
 
-/// One camera as the console shows it.
+/// One camera as the tracker reported it (the console names it: TrackingInput::camera_names).
 struct CameraView {
-  std::string name;
-  std::string status;   ///< "ok", "no frames", "reconnecting"
-  int blobs = 0;        ///< blobs in its newest frame
+  CameraState state = CameraState::no_frames;
+  int blobs = 0;              ///< blobs in its newest frame
   double since_last_ms = -1;  ///< ms since its newest frame (-1: never)
+  bool operator==(const CameraView&) const = default;
 };
 
-/// What the tracking side has at one display time.
+/// Where the tracker stands (text: to_string).
+enum class TrackerState : std::uint8_t {
+  none,      ///< no tracker (tracking.source = "none", or it could not start)
+  waiting,   ///< running, no frame set measured the head yet
+  tracked,   ///< the head measured in the newest frame set
+  coasting,  ///< the head predicted from its last measurement
+  lost,      ///< the head not measured for longer than the coasting limit
+  stopped,   ///< the tracker's thread ended (the source ended or failed)
+};
+/// "no tracking", "waiting for the first frame set", "tracked", "coasting", "lost",
+/// "tracker stopped".
+std::string_view to_string(TrackerState state);
+
+/// The frame source's counters as numbers (text: describe(SourceStats)).
+struct SourceStats {
+  bool recording = false;        ///< false: live cameras, or no source
+  bool loading = false;          ///< a recording's preload is under way
+  std::uint64_t loaded = 0;      ///< frame sets preloaded so far
+  std::uint64_t to_load = 0;     ///< frame sets to preload (0: decoding the first set from disk)
+  bool from_memory = false;      ///< the recording loops over its preloaded sets
+  double decode_ms = 0;          ///< ms per set decoded (from disk)
+  /// Per second over the last second or so, and in all: frame sets tracked, skipped (the
+  /// decoder behind) and dropped (the tracker behind).
+  std::array<double, 3> rates{0, 0, 0};
+  std::array<std::uint64_t, 3> totals{0, 0, 0};
+  bool operator==(const SourceStats&) const = default;
+};
+/// One line about the source ("" when it is not a recording).
+std::string describe(const SourceStats& source);
+/// What is wrong with the source now, one line (nullopt: nothing).
+std::optional<std::string> source_problem(const SourceStats& source);
+
+/// What the tracking side has at one display time: numbers and enums only (the console's
+/// text is made from it by whoever shows it).
 struct TrackingSnapshot {
   std::optional<BodyPose> head;      ///< newest head pose, predicted to the display time
   /// s, camera time of the newest frame set that measured the head (-1: none yet); the
@@ -37,11 +71,14 @@ struct TrackingSnapshot {
   /// s, when that measurement's pose was published (-1: unknown): ready_at - measured_at is
   /// the tracking latency, clock() - ready_at the wait for the display.
   Timestamp measured_ready_at = -1;
-  std::vector<CameraView> cameras;
-  std::string status;                ///< one line: "tracked", "lost", "no tracking", ...
-  std::string source;                ///< one line about the frame source (recording: rates, drops)
-  std::vector<std::string> problems; ///< what is wrong with the source now
+  TrackerState state = TrackerState::none;
+  std::uint64_t frame_sets = 0;      ///< frame sets the tracker has processed
+  std::vector<CameraView> cameras;   ///< per camera, in the rig's order
+  SourceStats source;
 };
+/// The tracking line of the console: "tracked, 1200 frame sets", "tracker stopped, 30 frame
+/// sets", or `none_why` when there is no tracker.
+std::string describe(const TrackingSnapshot& snapshot, std::string_view none_why = "no tracking");
 
 class SessionRecorder;
 
@@ -50,11 +87,17 @@ class TrackingInput {
  public:
   virtual ~TrackingInput() = default;
   /// At time `now`: the newest head pose predicted to `display_time` (when the frame's
-  /// picture will be seen; >= now), camera status as of now.
-  virtual TrackingSnapshot poll(Timestamp now, Timestamp display_time) = 0;
+  /// picture will be seen; >= now), camera status as of now, written over `out` (the last
+  /// frame's snapshot: overwrite every field; reuse its vectors' room, allocate nothing).
+  virtual void poll(Timestamp now, Timestamp display_time, TrackingSnapshot& out) = 0;
   /// The clock the tracker's timestamps use, so pose age can be measured (s).
   virtual Timestamp clock() const = 0;
   virtual std::string describe() const = 0;
+  /// The cameras' names, in the order of TrackingSnapshot::cameras (fixed once it is made).
+  virtual const std::vector<std::string>& camera_names() const {
+    static const std::vector<std::string> none;
+    return none;
+  }
   /// The newest head pose out now and when the next is expected (late latching; never blocks).
   virtual PoseTiming pose_timing(Timestamp /*t*/) { return {}; }
   /// False when no tracker is behind it (the head stays at its default): nothing to wait for.
@@ -95,13 +138,23 @@ inline bool is_strike_outcome(EventType type) {
   return type == EventType::hit || type == EventType::dodged || type == EventType::miss;
 }
 
-/// The console's state: computed every frame, drawn by ImGui in windows, logged headless.
+/// One camera as the console shows it.
+struct ConsoleCamera {
+  std::string name;
+  CameraState state = CameraState::no_frames;
+  std::string status;         ///< to_string(state)
+  int blobs = 0;              ///< blobs in its newest frame
+  double since_last_ms = -1;  ///< ms since its newest frame (-1: never)
+};
+
+/// The console's text: made from the frame's plain data by Installation::console() when a
+/// presenter asks (ImGui in windows, frames.jsonl, the service's status), never in step().
 struct ConsoleState {
   double fps = 0;                  ///< Hz, frames per second (rolling)
   double frame_cpu_ms = 0;         ///< ms, CPU of the last frame's step()
-  std::string tracking;            ///< "tracked", "coasting", "lost", "no tracking", ...
+  std::string tracking;            ///< "tracked, 120 frame sets", "lost, ...", "no tracking", ...
   std::string tracking_source;     ///< the frame source: frame sets per second, skipped, dropped
-  std::vector<CameraView> cameras;
+  std::vector<ConsoleCamera> cameras;
   int markers_seen = 0;
   bool head_live = false;          ///< false: using the last good (or default) head
   /// ms, camera time of the newest head measurement to the moment this frame samples it for
@@ -124,6 +177,8 @@ struct ConsoleState {
   std::vector<std::string> problems;  ///< what is wrong now (one line each)
   std::deque<std::string> recent;     ///< recent events, newest last
 };
+/// One line for an event: "  12.34 s  hit punch_right: ...".
+std::string describe(const FrameEvent& event);
 
 /// The fighter's skeleton, made once per character: what a FighterPose's arrays are indexed by.
 struct FighterSkeleton {
@@ -167,6 +222,7 @@ struct FrameData {
   double time_s = 0;          ///< s since the start of the run
   Timestamp now = 0;          ///< s, the frame loop's clock (display time)
   HeadPose head;              ///< the pose used (predicted, or last good, or default)
+  bool head_live = false;     ///< `head` is a fresh tracked pose (false: the last good one, or the default)
   Eyes eyes;
   WallViews views;            ///< [wall][eye]
   std::vector<DrawItem> items;///< the fighter and its target
@@ -257,7 +313,12 @@ class Installation {
   bool tracking_loading() const;
 
   const FrameData& frame() const { return frame_; }
-  const ConsoleState& console() const { return console_; }
+  /// The console's text for the last frame, made now (a presenter's call, not the step's).
+  ConsoleState console() const;
+  /// What is wrong now, one line each (ConsoleState::problems), made now.
+  std::vector<std::string> problems() const;
+  /// The head pose of the last frame is a fresh tracked one (FrameData::head_live).
+  bool head_live() const { return frame_.head_live; }
   const InstallationConfig& config() const { return config_; }
   std::span<const WallFrame> walls() const { return walls_; }
   int character_count() const;
@@ -280,6 +341,7 @@ class Installation {
   void update_safety(Timestamp now);
   void copy_pose(const content::FighterFrame& f, int character, FighterPose& pose);
   void note(const FrameEvent& e);
+  std::string camera_name(std::size_t index) const;
 
   InstallationConfig config_;
   std::vector<WallFrame> walls_;
@@ -296,7 +358,13 @@ class Installation {
   std::vector<Order> pending_;
   std::vector<Order> due_;
   FrameData frame_;
-  ConsoleState console_;
+  // The console's facts, kept by step() as plain data (console() makes the text).
+  int markers_seen_ = 0;
+  bool paused_ = false;
+  std::optional<double> script_waited_s_;  ///< s, the orders script still waits for the head
+  double frame_cpu_ms_ = 0;
+  std::deque<FrameEvent> recent_;          ///< newest last
+  std::optional<FrameEvent> last_order_;   ///< the last order, or strike outcome, noted
   FramePacer pacer_;
   double latch_ms_ = 0;  ///< from the last latch(), for the next step()
   std::optional<LatchWindow> last_window_;
@@ -304,7 +372,7 @@ class Installation {
   Timestamp start_ = 0, last_step_ = 0;
   bool started_ = false, quit_ = false, mono_ = false;
   std::optional<Timestamp> quit_armed_until_;
-  std::vector<std::string> camera_states_;  ///< per camera, its status at the last frame (log on change)
+  std::vector<std::optional<CameraState>> camera_states_;  ///< per camera, at the last frame (log on change)
   bool script_waits_ = false;  ///< the orders script waits for the head to be tracked
   double dt_filtered_ = 0;  ///< s, smoothed frame interval
   std::optional<VisitorNearWall> near_wall_;  ///< the safety state across frames (hysteresis)

@@ -8,10 +8,11 @@
 //                   character BVHs exactly as they were when recording started
 //   cameras.bin     with a tracker: every camera frame set the tracker was handed, packed
 //                   losslessly (tracking/camera_frames.hpp), for `--replay DIR --retrack`
-//   session.jsonl   a first line {"start": s, "unix_s", "has_tracker", "first_frame"}, then one
-//                   line per frame {"frame", "input": the FrameInput (times, keyed orders, the
-//                   tracker's snapshot and clock; numbers written exactly), "hash": {field: 16
-//                   hex digits}}: the state's hashes per field (state_hashes).
+//   session.jsonl   a first line {"start": s, "unix_s", "has_tracker", "first_frame",
+//                   "cameras": [names]}, then one line per frame {"frame", "input": the
+//                   FrameInput (times, keyed orders, the tracker's snapshot: head, state, frame
+//                   sets, cameras, source counters; its clock; numbers written exactly), "hash":
+//                   {field: 16 hex digits}}: the state's hashes per field (state_hashes).
 // Lines are written by a writer thread (the frame loop only queues a copy; when the queue is
 // full the frame is dropped and counted, never waited for), one write(2) each, so a session
 // killed with SIGKILL is readable up to its last complete line. manifest.json is written
@@ -45,7 +46,9 @@ struct FrameSet;
 namespace kumite::app {
 
 /// Session format version this build writes and reads (1: no snapshot, the config by path).
-constexpr int kSessionVersion = 2;
+/// 3: the tracker's snapshot as numbers (state, frame sets, cameras, source counters) and the
+/// cameras' names in the start line; 2 kept it as a status line.
+constexpr int kSessionVersion = 3;
 
 /// Hashes (FNV-1a 64 over the exact bytes) of a frame's state, per field.
 struct StateHashes {
@@ -86,7 +89,8 @@ class SessionRecorder {
 
   /// From Installation::start (first_frame 0), or Installation::record_to on a running
   /// installation (the record key): the run's start and the first frame recorded.
-  void started(Timestamp start, bool has_tracker, std::uint64_t first_frame = 0);
+  void started(Timestamp start, bool has_tracker, std::uint64_t first_frame = 0,
+               std::vector<std::string> camera_names = {});
   /// From the frame loop: queues a copy, never waits for the disk (full queue: dropped, counted).
   void push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes);
   /// From the tracker thread: queues the frame set (its images shared, not copied: sources
@@ -119,6 +123,7 @@ class SessionRecorder {
       bool has_tracker = false;
       std::uint64_t first_frame = 0;
       double unix_s = 0;
+      std::vector<std::string> camera_names;
     };
     std::optional<Start> start;
   };

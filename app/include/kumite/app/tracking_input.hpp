@@ -29,13 +29,14 @@ std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& con
 int head_body_index(const InstallationConfig& config, const tracking::TrackingConfig& tracking);
 
 /// What a tracker says at `now` as the frame sees it: the head predicted to `display_time`
-/// (its status as of now), the measurement it comes from, the cameras' states, a status line.
+/// (its status as of now), the measurement it comes from, the cameras' states, where the tracker stands.
 /// The live input's poll() and the replay's re-tracking build their snapshots through this.
 struct TrackerReading {
   Timestamp last_measured = -1;  ///< carried from call to call: the newest tracked measurement
   Timestamp last_ready = -1;
 };
-TrackingSnapshot read_tracker(const tracking::Tracker& tracker, int head_body, Timestamp now, Timestamp display_time,
-                              const std::vector<std::string>& camera_names, bool threaded, TrackerReading& carried);
+/// Fills `out` (its vectors' room reused: nothing allocated once warm).
+void read_tracker(const tracking::Tracker& tracker, int head_body, Timestamp now, Timestamp display_time, bool threaded,
+                  TrackerReading& carried, TrackingSnapshot& out);
 
 }  // namespace kumite::app

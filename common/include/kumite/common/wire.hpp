@@ -22,6 +22,18 @@ enum class TrackingStatus : std::uint8_t {
 };
 std::string_view to_string(TrackingStatus s);
 
+/// One camera's state as the tracker sees it (tracking::Tracker::camera_status).
+enum class CameraState : std::uint8_t {
+  ok = 0,            ///< frames arriving
+  no_frames = 1,     ///< nothing for longer than camera_timeout_s (see since_last_s)
+  reconnecting = 2,  ///< the device failed; the capture thread is trying to reopen it
+  /// images arrive, but for camera_blind_s it saw none of the head's markers while >= 2
+  /// other cameras tracked the head inside its view (covered, dark, moved, out of focus)
+  blind = 3,
+};
+/// "ok", "no frames", "reconnecting", "sees no markers while others see the head".
+std::string_view to_string(CameraState s);
+
 /// One rigid body's pose at one instant.
 struct BodyPose {
   Timestamp timestamp = 0;  ///< s, camera time of the frame set it was measured from

@@ -6,6 +6,8 @@
 // truth is the trajectory itself, an independent path from the tracker's output.
 #include <cstdint>
 #include <filesystem>
+#include <functional>
+#include <memory>
 #include <random>
 #include <vector>
 
@@ -56,6 +58,8 @@ struct SynthOptions {
   std::uint32_t seed = 1;
 };
 
+class FrameSource;  // tracker.hpp
+
 class SyntheticRenderer {
  public:
   SyntheticRenderer(const RigCalibration& rig, const BodyConfig& body, SynthOptions options);
@@ -87,5 +91,13 @@ void write_synthetic_recording(const std::filesystem::path& dir, const RigCalibr
 /// tracked area, looking at its centre at 1.2 m; 66 x 54 degree lenses (f = 1000 px), mild barrel distortion.
 RigCalibration corner_rig(double side_m = 3.0, double height_m = 2.6, int width = 1280, int height = 1024,
                           double focal_px = 1000);
+
+/// SYNTHETIC live cameras: a frame source that renders `trajectory` (a function of the seconds
+/// since its first frame set) into every camera of `rig` at `rate_hz` on the real clock
+/// (kumite::now(): each set waits for its time and is stamped with it, as a camera's driver
+/// stamps), for tests and benchmarks of the live path. It never ends.
+std::unique_ptr<FrameSource> synthetic_live_source(const RigCalibration& rig, const BodyConfig& body,
+                                                   std::function<TrajectoryPoint(Timestamp)> trajectory,
+                                                   double rate_hz = 60, SynthOptions options = {});
 
 }  // namespace kumite::tracking

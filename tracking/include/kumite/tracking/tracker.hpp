@@ -34,15 +34,9 @@
 
 namespace kumite::tracking {
 
-enum class CameraState : std::uint8_t {
-  ok = 0,            ///< frames arriving
-  no_frames = 1,     ///< nothing for longer than camera_timeout_s (see since_last_s)
-  reconnecting = 2,  ///< the device failed; the capture thread is trying to reopen it
-  /// images arrive, but for camera_blind_s it saw none of the head's markers while >= 2
-  /// other cameras tracked the head inside its view (covered, dark, moved, out of focus)
-  blind = 3,
-};
-std::string_view to_string(CameraState s);
+/// The camera states are common's (wire.hpp): the app's per-frame input carries them.
+using kumite::CameraState;
+using kumite::to_string;
 
 /// One camera's status, trivially copyable.
 struct CameraStatus {
@@ -159,6 +153,8 @@ class Tracker {
   BodyPose predict(int body, Timestamp t) const;
   /// Per camera (calibration order), as of time `now_s` (default: the tracker's clock now).
   std::vector<CameraStatus> camera_status(std::optional<Timestamp> now_s = std::nullopt) const;
+  /// One camera's (index in camera_status() order; < camera_count()), at `now_s`: allocates nothing.
+  CameraStatus camera_status(std::size_t camera, Timestamp now_s) const;
   /// Frame sets processed so far.
   std::uint64_t frames_processed() const { return processed_.load(std::memory_order_acquire); }
   /// Optional per-frame hook, called on the tracker thread after publishing (the tool writes
