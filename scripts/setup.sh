@@ -16,8 +16,8 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config ccache clang libclang-rt-14-dev libfuzzer-14-dev
   # maths, vision, optimisation
   libeigen3-dev libglm-dev libopencv-dev libopencv-contrib-dev libapriltag-dev libceres-dev
-  # config, CLI, logging, JSON
-  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev
+  # config, CLI, logging, JSON; zlib (session recordings: the frames' states compressed)
+  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev zlib1g-dev
   # graphics: windows, headless EGL (Mesa llvmpipe), operator console
   libglfw3-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev
   xvfb xauth

@@ -85,11 +85,14 @@ std::string key_for(const Installation& inst, const KeyAction& action) {
   return "";
 }
 
-void order_button(Installation& inst, const char* label, OrderKind order, int character = -1) {
+void order_button(const Installation& inst, Installation* orders, const char* label, OrderKind order,
+                  int character = -1) {
   const KeyAction action{KeyAction::Kind::order, order, character};
   const std::string key = key_for(inst, action);
   const std::string text = key.empty() ? std::string(label) : fmt::format("{} [{}]", label, key);
-  if (ImGui::Button(text.c_str(), ImVec2(170, 0))) inst.order(action.to_order(now()));
+  ImGui::BeginDisabled(orders == nullptr);
+  if (ImGui::Button(text.c_str(), ImVec2(170, 0)) && orders) orders->order(action.to_order(now()));
+  ImGui::EndDisabled();
 }
 
 ImU32 colour(glm::vec3 c) {
@@ -156,7 +159,7 @@ void banner(const char* id, const std::string& text, ImVec4 background) {
 }
 
 /// The banners this frame: an armed quit, loading, tracking lost, paused.
-int banners(Installation& inst, const ConsoleState& c) {
+int banners(const Installation& inst, const ConsoleState& c) {
   int shown = 0;
   const Timestamp t = now();
   if (const auto until = inst.quit_armed_until(t)) {
@@ -182,7 +185,7 @@ int banners(Installation& inst, const ConsoleState& c) {
 
 }  // namespace
 
-void Console::frame(Installation& inst, const FrameData& f) {
+void Console::frame(const Installation& inst, const FrameData& f, Installation* orders) {
   glfwMakeContextCurrent(window_);
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
@@ -194,6 +197,9 @@ void Console::frame(Installation& inst, const FrameData& f) {
   ImGui::Begin("Kumite supervisor", nullptr,
                ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoCollapse |
                    ImGuiWindowFlags_NoScrollbar | ImGuiWindowFlags_NoScrollWithMouse);
+  if (!orders)  // a replay: not the show
+    banner("replay", fmt::format("REPLAY  frame {}  {:.1f} s  (no orders)", f.frame, f.time_s),
+           ImVec4(0.35f, 0.2f, 0.55f, 1));
   banners(inst, c);
   ImGui::Text("%.1f fps   frame CPU %.3f ms   stereo %s   t = %.1f s", c.fps, c.frame_cpu_ms,
               std::string(to_string(mode_)).c_str(), f.time_s);
@@ -202,20 +208,20 @@ void Console::frame(Installation& inst, const FrameData& f) {
   const float upper_h = 405;
   ImGui::BeginChild("left", ImVec2(372, upper_h), false, ImGuiWindowFlags_NoScrollbar);
   ImGui::TextColored(kAmber, "Orders");
-  order_button(inst, "Punch left", OrderKind::punch_left);
+  order_button(inst, orders, "Punch left", OrderKind::punch_left);
   ImGui::SameLine();
-  order_button(inst, "Punch right", OrderKind::punch_right);
-  order_button(inst, "Kick left", OrderKind::kick_left);
+  order_button(inst, orders, "Punch right", OrderKind::punch_right);
+  order_button(inst, orders, "Kick left", OrderKind::kick_left);
   ImGui::SameLine();
-  order_button(inst, "Kick right", OrderKind::kick_right);
+  order_button(inst, orders, "Kick right", OrderKind::kick_right);
   for (int i = 0; i < inst.character_count(); ++i) {
     const std::string label = fmt::format("{} {}", i + 1, inst.character_name(i));
-    order_button(inst, label.c_str(), OrderKind::select_character, i);
+    order_button(inst, orders, label.c_str(), OrderKind::select_character, i);
     if (i % 2 == 0 && i + 1 < inst.character_count()) ImGui::SameLine();
   }
-  order_button(inst, c.paused ? "Resume" : "Pause", c.paused ? OrderKind::resume : OrderKind::pause);
+  order_button(inst, orders, c.paused ? "Resume" : "Pause", c.paused ? OrderKind::resume : OrderKind::pause);
   ImGui::SameLine();
-  order_button(inst, "Recentre", OrderKind::recentre);
+  order_button(inst, orders, "Recentre", OrderKind::recentre);
   ImGui::Spacing();
   ImGui::TextColored(kAmber, "Key map");
   // Two pairs of columns: a dozen keys in six rows.

@@ -20,7 +20,9 @@ class Console {
   ~Console();
   Console(const Console&) = delete;
   Console& operator=(const Console&) = delete;
-  void frame(Installation& installation, const FrameData& frame);
+  /// Draws the console for `frame`. `orders`: what its buttons order (nullptr: a replay, whose
+  /// frames are the recording's: the buttons are shown, greyed).
+  void frame(const Installation& installation, const FrameData& frame, Installation* orders);
   void swap();
   GLFWwindow* window() const { return window_; }
 

@@ -17,6 +17,7 @@
 #include "kumite/app/headless.hpp"
 #include "kumite/app/run.hpp"
 #include "kumite/app/service.hpp"
+#include "kumite/app/session.hpp"
 #include "kumite/app/stereo.hpp"
 #include "kumite/common/error.hpp"
 
@@ -31,16 +32,24 @@ struct WindowSlot {
   std::vector<std::size_t> walls;  ///< wall indices shown in it
 };
 
-/// What key callbacks need (set as every window's user pointer).
+/// What key callbacks need (set as every window's user pointer): the installation the keys
+/// order, or (a replay: nothing to order) the config whose quit key ends it.
 struct KeyContext {
   Installation* installation = nullptr;
+  const InstallationConfig* replay_config = nullptr;
+  bool quit = false;  ///< a replay's quit key was pressed
 };
 
 void on_key(GLFWwindow* w, int key, int, int action, int) {
   if (action != GLFW_PRESS) return;
   auto* ctx = static_cast<KeyContext*>(glfwGetWindowUserPointer(w));
   if (!ctx) return;
-  handle_key(*ctx->installation, key);
+  if (ctx->installation) {
+    handle_key(*ctx->installation, key);
+  } else if (ctx->replay_config) {
+    for (const auto& k : ctx->replay_config->keys)
+      if (k.action.kind == KeyAction::Kind::quit && glfw_key_code(k.name) == key) ctx->quit = true;
+  }
 }
 
 void glfw_error(int code, const char* text) { spdlog::debug("GLFW error 0x{:x}: {}", code, text); }
@@ -112,72 +121,143 @@ void screenshot(GLFWwindow* w, const std::filesystem::path& path) {
   spdlog::info("screenshot {}", path.string());
 }
 
+/// The installation's windows: one per [[windows]] entry with its walls in the stereo mode,
+/// and the supervisor console (optional). GLFW is set up by the first and ended by the last.
+class Windows {
+ public:
+  /// `keys`: every window's key and close target. Throws kumite::Error when a window or the
+  /// stereo mode asked for cannot be had.
+  Windows(const Installation& inst, bool with_console, KeyContext* keys) : cfg_(inst.config()) {
+    glfwSetErrorCallback(glfw_error);
+    if (!glfwInit()) throw Error("app", "display", "cannot open the display (GLFW init failed): use --headless");
+    try {
+      open(inst, with_console, keys);
+    } catch (...) {
+      close();
+      throw;
+    }
+  }
+  ~Windows() { close(); }
+  Windows(const Windows&) = delete;
+  Windows& operator=(const Windows&) = delete;
+
+  StereoMode mode() const { return mode_; }
+  Console* console() { return console_.get(); }
+  GLFWwindow* first() const { return slots_[0].window; }
+
+  /// Draws `f` into every wall's viewport (`finish`: and waits for the GPU).
+  void draw(const FrameData& f, bool finish) {
+    for (auto& s : slots_) {
+      glfwMakeContextCurrent(s.window);
+      int fb_w = 0, fb_h = 0;
+      glfwGetFramebufferSize(s.window, &fb_w, &fb_h);
+      s.renderer->clear(0, 0, fb_w, fb_h);
+      for (std::size_t w : s.walls)
+        draw_wall_stereo(*s.renderer, mode_, wall_viewport(cfg_.walls[w], s.config, fb_w, fb_h), f.views[w], f.items);
+      if (finish) glFinish();
+    }
+  }
+  /// Shows what draw() drew (`wait_flip`: until the first window's flip is done).
+  void swap(bool wait_flip) {
+    for (auto& s : slots_) glfwSwapBuffers(s.window);
+    if (wait_flip) {
+      glfwMakeContextCurrent(slots_[0].window);
+      glFinish();
+    }
+  }
+  /// A window (a wall's or the console) asked to close since the last call.
+  bool close_asked() {
+    bool asked = false;
+    const auto take = [&](GLFWwindow* w) {
+      if (w && glfwWindowShouldClose(w)) {
+        glfwSetWindowShouldClose(w, GLFW_FALSE);
+        asked = true;
+      }
+    };
+    if (console_) take(console_->window());
+    for (auto& s : slots_) take(s.window);
+    return asked;
+  }
+
+ private:
+  void open(const Installation& inst, bool with_console, KeyContext* keys) {
+    mode_ = cfg_.stereo.mode;
+    std::vector<WindowConfig> windows = cfg_.windows;
+    if (windows.empty()) windows.push_back(WindowConfig{"main"});
+    slots_.resize(windows.size());
+    for (std::size_t i = 0; i < windows.size(); ++i) {
+      auto& s = slots_[i];
+      s.config = windows[i];
+      GLFWwindow* share = i > 0 ? slots_[0].window : nullptr;
+      s.window = open_window(s.config, mode_ == StereoMode::quad_buffer, share);
+      if (!s.window && mode_ == StereoMode::quad_buffer) {
+        const std::string why = fmt::format(
+            "quad-buffer stereo: the display offers no stereo OpenGL context for window \"{}\" "
+            "(Xvfb and most consumer GPUs have none)",
+            s.config.name);
+        if (!cfg_.stereo.allow_fallback)
+          throw stereo_error(cfg_, why + "; set [stereo] allow_fallback = true or another mode");
+        mode_ = cfg_.stereo.fallback;
+        spdlog::warn("{}: falling back to {} (stereo.allow_fallback)", why, to_string(mode_));
+        s.window = open_window(s.config, false, share);
+      }
+      if (!s.window)
+        throw Error("app", "window", fmt::format("cannot open window \"{}\" with an OpenGL 3.3 core context", s.config.name));
+      glfwMakeContextCurrent(s.window);
+      if (mode_ == StereoMode::quad_buffer) {
+        GLboolean stereo = GL_FALSE;
+        glGetBooleanv(GL_STEREO, &stereo);
+        if (!stereo)
+          throw stereo_error(cfg_, fmt::format("quad-buffer: the context of window \"{}\" has no stereo buffers", s.config.name));
+      }
+      glfwSwapInterval(i == 0 ? 1 : 0);
+      glfwSetWindowUserPointer(s.window, keys);
+      glfwSetKeyCallback(s.window, on_key);
+      s.renderer = std::make_unique<Renderer>(inst.walls());
+      spdlog::info("window \"{}\": {} ({} stereo)", s.config.name, gl_description(), to_string(mode_));
+    }
+    for (std::size_t w = 0; w < cfg_.walls.size(); ++w) {
+      const int i = cfg_.window_of(w);
+      slots_[static_cast<std::size_t>(std::max(0, i))].walls.push_back(w);
+    }
+    if (with_console) {
+      context_hints(false);
+      // [console] size and position: apart from the walls' windows (a console over the front
+      // wall shows on the wall).
+      const auto& cc = cfg_.console;
+      GLFWwindow* cw = glfwCreateWindow(cc.size[0], cc.size[1], "kumite: supervisor console", nullptr, nullptr);
+      if (!cw) throw Error("app", "window", "cannot open the supervisor console window");
+      if (cc.position) glfwSetWindowPos(cw, (*cc.position)[0], (*cc.position)[1]);
+      glfwSetWindowUserPointer(cw, keys);
+      glfwSetKeyCallback(cw, on_key);  // before ImGui, which chains to it
+      console_ = std::make_unique<Console>(cw, mode_);
+    }
+  }
+  void close() {
+    console_.reset();
+    for (auto& s : slots_) {
+      if (!s.window) continue;
+      glfwMakeContextCurrent(s.window);
+      s.renderer.reset();
+      glfwDestroyWindow(s.window);
+    }
+    slots_.clear();
+    glfwTerminate();
+  }
+
+  const InstallationConfig& cfg_;
+  StereoMode mode_ = StereoMode::mono;
+  std::vector<WindowSlot> slots_;
+  std::unique_ptr<Console> console_;
+};
+
 }  // namespace
 
 int run_windows(Installation& inst, const WindowOptions& opt) {
   const auto& cfg = inst.config();
-  glfwSetErrorCallback(glfw_error);
-  if (!glfwInit())
-    throw Error("app", "display", "cannot open the display (GLFW init failed): use --headless");
-  struct Terminate {
-    ~Terminate() { glfwTerminate(); }
-  } terminate;
-
-  StereoMode mode = cfg.stereo.mode;
-  std::vector<WindowConfig> windows = cfg.windows;
-  if (windows.empty()) windows.push_back(WindowConfig{"main"});
-  std::vector<WindowSlot> slots(windows.size());
   KeyContext keys{&inst};
-  for (std::size_t i = 0; i < windows.size(); ++i) {
-    auto& s = slots[i];
-    s.config = windows[i];
-    GLFWwindow* share = i > 0 ? slots[0].window : nullptr;
-    s.window = open_window(s.config, mode == StereoMode::quad_buffer, share);
-    if (!s.window && mode == StereoMode::quad_buffer) {
-      const std::string why = fmt::format(
-          "quad-buffer stereo: the display offers no stereo OpenGL context for window \"{}\" "
-          "(Xvfb and most consumer GPUs have none)",
-          s.config.name);
-      if (!cfg.stereo.allow_fallback) throw stereo_error(cfg, why + "; set [stereo] allow_fallback = true or another mode");
-      mode = cfg.stereo.fallback;
-      spdlog::warn("{}: falling back to {} (stereo.allow_fallback)", why, to_string(mode));
-      s.window = open_window(s.config, false, share);
-    }
-    if (!s.window)
-      throw Error("app", "window",
-                  fmt::format("cannot open window \"{}\" with an OpenGL 3.3 core context",
-                              s.config.name));
-    glfwMakeContextCurrent(s.window);
-    if (mode == StereoMode::quad_buffer) {
-      GLboolean stereo = GL_FALSE;
-      glGetBooleanv(GL_STEREO, &stereo);
-      if (!stereo)
-        throw stereo_error(cfg, fmt::format("quad-buffer: the context of window \"{}\" has no stereo buffers", s.config.name));
-    }
-    glfwSwapInterval(i == 0 ? 1 : 0);
-    glfwSetWindowUserPointer(s.window, &keys);
-    glfwSetKeyCallback(s.window, on_key);
-    s.renderer = std::make_unique<Renderer>(inst.walls());
-    spdlog::info("window \"{}\": {} ({} stereo)", s.config.name, gl_description(), to_string(mode));
-  }
-  for (std::size_t w = 0; w < cfg.walls.size(); ++w) {
-    const int i = cfg.window_of(w);
-    slots[static_cast<std::size_t>(std::max(0, i))].walls.push_back(w);
-  }
-
-  std::unique_ptr<Console> console;
-  if (opt.console) {
-    context_hints(false);
-    // [console] size and position: apart from the walls' windows (a console over the front
-    // wall shows on the wall).
-    const auto& cc = cfg.console;
-    GLFWwindow* cw = glfwCreateWindow(cc.size[0], cc.size[1], "kumite: supervisor console", nullptr, nullptr);
-    if (!cw) throw Error("app", "window", "cannot open the supervisor console window");
-    if (cc.position) glfwSetWindowPos(cw, (*cc.position)[0], (*cc.position)[1]);
-    glfwSetWindowUserPointer(cw, &keys);
-    glfwSetKeyCallback(cw, on_key);  // before ImGui, which chains to it
-    console = std::make_unique<Console>(cw, mode);
-  }
+  Windows windows(inst, opt.console, &keys);
+  const StereoMode mode = windows.mode();
 
   std::unique_ptr<FrameLog> log;
   std::vector<std::string> names;
@@ -196,53 +276,32 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
     // The picture is seen at the next vsync: the head is predicted to then.
     const Timestamp t = inst.latch(now(), slot + period);
     const FrameData& f = inst.step(t, slot + period);
-    for (auto& s : slots) {
-      glfwMakeContextCurrent(s.window);
-      int fb_w = 0, fb_h = 0;
-      glfwGetFramebufferSize(s.window, &fb_w, &fb_h);
-      s.renderer->clear(0, 0, fb_w, fb_h);
-      for (std::size_t w : s.walls)
-        draw_wall_stereo(*s.renderer, mode, wall_viewport(cfg.walls[w], s.config, fb_w, fb_h),
-                         f.views[w], f.items);
-      // The drawing time the latch must leave room for is the GPU's too: wait for it.
-      if (cfg.late_latch) glFinish();
-    }
+    // The drawing time the latch must leave room for is the GPU's too: wait for it.
+    windows.draw(f, cfg.late_latch);
     inst.drawn(now() - t);
     const bool stopped = opt.stop && opt.stop->load() != 0;  // SIGINT/SIGTERM: as a quit
     const bool last = inst.quit_requested() || stopped || (opt.seconds && t - t0 >= *opt.seconds);
     if (last && opt.screenshot) {
-      glfwMakeContextCurrent(slots[0].window);
-      screenshot(slots[0].window, *opt.screenshot);
+      glfwMakeContextCurrent(windows.first());
+      screenshot(windows.first(), *opt.screenshot);
     }
-    for (auto& s : slots) glfwSwapBuffers(s.window);
     // Drivers that queue the swap return at once: wait for the flip, so `swapped` is the
     // vsync and the next frame's drawing time does not include this one's.
-    if (cfg.late_latch) {
-      glfwMakeContextCurrent(slots[0].window);
-      glFinish();
-    }
+    windows.swap(cfg.late_latch);
     const Timestamp swapped = now();
-    if (console) {
-      console->frame(inst, f);
+    if (Console* console = windows.console()) {
+      console->frame(inst, f, &inst);
       if (last && opt.screenshot) {
         auto p = *opt.screenshot;
         screenshot(console->window(), p.replace_filename(p.stem().string() + "-console.png"));
       }
       console->swap();
-      // Closing the console (or a wall window) is a quit like the quit key's: armed by the
-      // first, done by a second within [console] quit_confirm_s (a stray click ends no show).
-      if (glfwWindowShouldClose(console->window())) {
-        glfwSetWindowShouldClose(console->window(), GLFW_FALSE);
-        if (inst.quit_key(now())) done = true;
-      }
     }
     if (log) log->write(f, inst.console(), names, mode != StereoMode::mono);
     if (opt.monitor) opt.monitor->frame_done(inst, f);
-    for (auto& s : slots)
-      if (glfwWindowShouldClose(s.window)) {
-        glfwSetWindowShouldClose(s.window, GLFW_FALSE);
-        if (inst.quit_key(now())) done = true;
-      }
+    // Closing the console (or a wall window) is a quit like the quit key's: armed by the
+    // first, done by a second within [console] quit_confirm_s (a stray click ends no show).
+    if (windows.close_asked() && inst.quit_key(now())) done = true;
     if (last) done = true;
     // The next frame starts at the vsync the swap waited for: a swap that came back at most
     // kVsyncTolerance_s before the next tick did wait for one (a display a little faster than
@@ -257,12 +316,57 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
   if (log) log->close();
   if (opt.stop && opt.stop->load() != 0) spdlog::info("windows: stopped (signal {})", opt.stop->load());
   log_retrieval_timing(inst);
-  console.reset();
-  for (auto& s : slots) {
-    glfwMakeContextCurrent(s.window);
-    s.renderer.reset();
-    glfwDestroyWindow(s.window);
-  }
+  return 0;
+}
+
+int replay_windows(const std::filesystem::path& session, ReplayOptions options, const WindowOptions& opt,
+                   ReplayReport& report) {
+  // The replay's installation is made inside replay_session: the windows with it. Keys and
+  // the console's buttons give no orders (the frames are the recording's); the quit key, or
+  // closing a window, ends the replay.
+  std::unique_ptr<Windows> windows;
+  const Installation* installation = nullptr;  // replay_session's, while it runs
+  KeyContext keys{nullptr};
+  FrameData last;  // for the screenshot, when asked for
+  bool shown = false;
+  options.on_start = [&](const Installation& inst) {
+    installation = &inst;
+    keys.replay_config = &inst.config();
+    windows = std::make_unique<Windows>(inst, opt.console, &keys);
+  };
+  const auto inner = options.on_frame;
+  options.on_frame = [&](const FrameData& f) {
+    if (inner) inner(f);
+    if (!windows) return;
+    if (opt.screenshot) last = f;
+    shown = true;
+    glfwPollEvents();
+    windows->draw(f, false);
+    windows->swap(false);
+    if (Console* console = windows->console()) {
+      console->frame(*installation, f, nullptr);
+      console->swap();
+    }
+    if (windows->close_asked()) keys.quit = true;
+  };
+  const auto inner_stop = options.stop_requested;
+  options.stop_requested = [&] {
+    return keys.quit || (opt.stop && opt.stop->load() != 0) || (inner_stop && inner_stop());
+  };
+  options.on_end = [&](const Installation& inst) {
+    if (!windows || !shown || !opt.screenshot) return;
+    // The last frame shown, drawn again (the windows' back buffers hold nothing after a swap).
+    windows->draw(last, true);
+    glfwMakeContextCurrent(windows->first());
+    screenshot(windows->first(), *opt.screenshot);
+    if (Console* console = windows->console()) {
+      console->frame(inst, last, nullptr);
+      auto p = *opt.screenshot;
+      screenshot(console->window(), p.replace_filename(p.stem().string() + "-console.png"));
+    }
+  };
+  report = replay_session(session, options);
+  windows.reset();
   return 0;
 }
 

@@ -47,6 +47,7 @@ struct Args {
   double record_budget_mb = 0;
   bool record_budget_given = false;
   bool replay_real_time = false;
+  bool replay_windows = false;
   bool retrack = false;
   bool replay_out_given = false, frames_given = false;
   bool config_given = false;
@@ -245,7 +246,7 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
   return finish(kumite::app::run_windows(inst, wo));
 }
 
-int run_replay(const Args& a) {
+int run_replay(const Args& a, const std::atomic<int>& stop) {
   kumite::app::ReplayOptions ro;
   if (a.config_given) ro.config_override = a.config;
   if (!a.data_dir.empty()) ro.data_dir = a.data_dir;
@@ -255,7 +256,18 @@ int run_replay(const Args& a) {
   // --out with --replay draws the replayed frames headless (from --from on, at most --frames
   // of them when given): the walls as the visitor saw them at that moment, and frames.jsonl.
   kumite::app::ReplayReport rep;
-  if (a.replay_out_given) {
+  if (a.replay_windows) {
+    // In the installation's windows and its console, at the pace it was recorded unless asked
+    // otherwise: a technician watching what happened at that moment.
+    if (a.replay_out_given)
+      throw kumite::Error("cli", "replay", "--replay: --windows and --out: one of them (windows, or PNGs headless)");
+    kumite::app::WindowOptions wo;
+    wo.console = !a.no_console;
+    wo.stop = &stop;
+    if (!a.screenshot.empty()) wo.screenshot = a.screenshot;
+    ro.real_time = true;
+    kumite::app::replay_windows(a.replay, ro, wo, rep);
+  } else if (a.replay_out_given) {
     kumite::app::HeadlessOptions ho;
     ho.frames = a.frames_given ? a.frames : std::numeric_limits<int>::max();
     ho.out = a.out;
@@ -275,20 +287,25 @@ int run_replay(const Args& a) {
                  "tracked in one and not the other in {} frames; {} of {} frames identical to the recording{}",
                  rep.frames_replayed, t.sets, rep.session_s, rep.wall_s, speed, t.head_p50_m * 1e3, t.head_p95_m * 1e3,
                  t.head_max_m * 1e3, t.status_differs, t.frames_identical, t.frames_compared,
-                 rep.first_difference_frame ? fmt::format(" (the first to differ: frame {}, {})", *rep.first_difference_frame,
-                                                          rep.first_difference_field)
+                 rep.first_difference_frame
+                     ? fmt::format(" (the first to differ: frame {}, {})", *rep.first_difference_frame,
+                                   rep.first_difference_detail.empty() ? rep.first_difference_field
+                                                                       : rep.first_difference_detail)
                                             : "");
     return rep.notes.empty() ? 0 : 2;
   }
   if (!rep.identical) {
-    std::cerr << fmt::format("kumite: {}: frame {}: {} differs from the recording (frames before it identical)\n",
+    std::cerr << fmt::format("kumite: {}: frame {}: {} differs from the recording (frames before it identical){}\n",
                              (std::filesystem::path(a.replay) / "session.jsonl").string(), *rep.first_difference_frame,
-                             rep.first_difference_field);
+                             rep.first_difference_field,
+                             rep.first_difference_detail.empty() ? "" : ": " + rep.first_difference_detail);
     return 1;
   }
   if (rep.from_frame && !a.replay_from.empty())
     spdlog::info("replay: shown from frame {} ({:.3f} s into the session){}", *rep.from_frame, rep.from_s,
                  a.replay_real_time ? ", in real time" : "");
+  if (rep.stopped_after_frame)
+    spdlog::info("replay: ended by the viewer after frame {} (the frames up to it compared)", *rep.stopped_after_frame);
   if (!rep.compared) {
     spdlog::info("replay: {} of {} recorded frames re-run, not compared ({:.2f} s of session in {:.2f} s)",
                  rep.frames_replayed, rep.frames_recorded, rep.session_s, rep.wall_s);
@@ -336,6 +353,9 @@ int main(int argc, char** argv) {
                  "the replayed frames headless there (PNGs, frames.jsonl), from --from on, at most --frames of them");
   app.add_option("--from", a.replay_from,
                  "replay: show from this time: seconds into the session (12.5) or the time of day (21:14:05)");
+  app.add_flag("--windows", a.replay_windows,
+               "replay: show the replayed frames in the installation's windows and its console (buttons greyed), at "
+               "the pace they were recorded; the quit key or closing a window ends it");
   app.add_flag("--real-time", a.replay_real_time, "replay: frames at the pace they were recorded (default: as fast as possible)");
   app.add_flag("--retrack", a.retrack,
                "replay: re-track the head from the session's camera frames (cameras.bin) with this build's tracker, in "
@@ -373,7 +393,7 @@ int main(int argc, char** argv) {
     a.record_budget_given = app.count("--record-budget-mb") > 0;
     a.replay_out_given = app.count("--out") > 0;
     a.frames_given = app.count("--frames") > 0;
-    if (!a.replay.empty()) return run_replay(a);
+    if (!a.replay.empty()) return run_replay(a, stop);
     const int rc = run(a, stop, process_started);
     if (const int sig = stop.load(); sig != 0) {
       spdlog::info("stopped by {}: outputs complete, exit status {}", sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal",

@@ -61,6 +61,7 @@ struct Run {
   fs::path session;
   std::uint64_t frames = 0, dropped = 0, bytes = 0;
   std::uint64_t camera_sets = 0, camera_sets_dropped = 0, camera_bytes = 0;  // cameras.bin
+  std::uint64_t state_bytes = 0;                                                // states.bin
   double session_s = 0;
   std::string json() const {
     return fmt::format(
@@ -71,8 +72,9 @@ struct Run {
         percentile(wall_ms, 0.99), percentile(wall_ms, 1.0), percentile(cpu_ms, 0.5), percentile(cpu_ms, 0.99),
         percentile(cpu_ms, 1.0),
         recording ? fmt::format(", \"session_frames\": {}, \"dropped\": {}, \"session_bytes\": {}, \"session_s\": {:.2f}, "
-                                "\"camera_sets\": {}, \"camera_sets_dropped\": {}, \"camera_bytes\": {}",
-                                frames, dropped, bytes, session_s, camera_sets, camera_sets_dropped, camera_bytes)
+                                "\"camera_sets\": {}, \"camera_sets_dropped\": {}, \"camera_bytes\": {}, \"state_bytes\": {}",
+                                frames, dropped, bytes, session_s, camera_sets, camera_sets_dropped, camera_bytes,
+                                state_bytes)
                   : std::string());
   }
 };
@@ -100,7 +102,7 @@ Run run_once(const fs::path& config_path, double seconds, const std::optional<fs
     const double c0 = thread_cpu_s();
     inst.step(t, next + step);
     const double wall = (now() - t) * 1e3, cpu = (thread_cpu_s() - c0) * 1e3;
-    if (!tracked_at && inst.console().head_live) tracked_at = t;
+    if (!tracked_at && inst.head_live()) tracked_at = t;
     if (tracked_at) {
       r.wall_ms.push_back(wall);
       r.cpu_ms.push_back(cpu);
@@ -118,6 +120,7 @@ Run run_once(const fs::path& config_path, double seconds, const std::optional<fs
     r.camera_sets = rec->frame_sets_written();
     r.camera_sets_dropped = rec->frame_sets_dropped();
     if (fs::exists(*record_into / "cameras.bin")) r.camera_bytes = fs::file_size(*record_into / "cameras.bin");
+    if (fs::exists(*record_into / "states.bin")) r.state_bytes = fs::file_size(*record_into / "states.bin");
     r.session_s = now() - t0;
   }
   return r;
@@ -166,19 +169,21 @@ int main(int argc, char** argv) {
       const app::FrameData& f = inst.step(1000.0);
       for (int i = 0; i < 20000; ++i) {
         const auto a = std::chrono::steady_clock::now();
-        rec.push(static_cast<std::uint64_t>(i), inst.input(), app::state_hashes(f));
+        rec.push(static_cast<std::uint64_t>(i), inst.input(), app::state_hashes(f), f);
         push_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - a).count());
         if (i % 256 == 255) std::this_thread::sleep_for(std::chrono::milliseconds(4));  // 60 Hz has room: let it drain
       }
       rec.close();
     }
-    std::vector<double> rec_p99, off_p99, rec_cpu99, off_cpu99, per_min, camera_per_min;
+    std::vector<double> rec_p99, off_p99, rec_cpu99, off_cpu99, per_min, camera_per_min, states_per_min;
     for (const Run& r : runs) {
       (r.recording ? rec_p99 : off_p99).push_back(percentile(r.wall_ms, 0.99));
       (r.recording ? rec_cpu99 : off_cpu99).push_back(percentile(r.cpu_ms, 0.99));
       if (r.recording && r.session_s > 0) per_min.push_back(static_cast<double>(r.bytes) / r.session_s * 60.0 / 1e6);
       if (r.recording && r.session_s > 0)
         camera_per_min.push_back(static_cast<double>(r.camera_bytes) / r.session_s * 60.0 / 1e6);
+      if (r.recording && r.session_s > 0)
+        states_per_min.push_back(static_cast<double>(r.state_bytes) / r.session_s * 60.0 / 1e6);
     }
     std::string run_json;
     for (const Run& r : runs) run_json += (run_json.empty() ? "" : ", ") + r.json();
@@ -190,11 +195,12 @@ int main(int argc, char** argv) {
         " \"step_cpu_p99_ms\": {\"recording_median_of_runs\": %.4f, \"not_recording_median_of_runs\": %.4f},\n"
         " \"record_push_us\": {\"median\": %.2f, \"p99\": %.2f, \"max\": %.2f},\n"
         " \"replays\": [%s],\n \"replay_speed_x\": {\"median\": %.1f, \"min\": %.1f}, \"replays_identical\": %s,\n"
-        " \"session_mb_per_minute\": %.3f, \"camera_frames_mb_per_minute\": %.3f, \"max_rss_mb\": %.1f}\n",
+        " \"session_mb_per_minute\": %.3f, \"camera_frames_mb_per_minute\": %.3f, \"frame_states_mb_per_minute\": %.3f, "
+        "\"max_rss_mb\": %.1f}\n",
         config.string().c_str(), seconds, rounds, run_json.c_str(), percentile(rec_p99, 0.5), percentile(off_p99, 0.5),
         percentile(rec_cpu99, 0.5), percentile(off_cpu99, 0.5), percentile(push_us, 0.5), percentile(push_us, 0.99),
         percentile(push_us, 1.0), replay_json.c_str(), percentile(speeds, 0.5), percentile(speeds, 0.0),
-        all_identical ? "true" : "false", percentile(per_min, 0.5), percentile(camera_per_min, 0.5), max_rss_mb());
+        all_identical ? "true" : "false", percentile(per_min, 0.5), percentile(camera_per_min, 0.5), percentile(states_per_min, 0.5), max_rss_mb());
     fs::remove_all(out);
     return all_identical ? 0 : 1;
   } catch (const std::exception& e) {

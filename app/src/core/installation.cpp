@@ -452,6 +452,8 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   input_.now = now;
   input_.shown_at = shown_at;
   input_.keyed.assign(pending_.begin(), pending_.end());
+  if (replaying_) latch_ms_ = replaying_->latch_ms;
+  input_.latch_ms = latch_ms_;
   frame_.events.clear();
   frame_.now = now;
   frame_.time_s = now - start_;
@@ -468,7 +470,7 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   frame_.latch_ms = latch_ms_;
   latch_ms_ = 0;  // a loop that does not call latch() takes the pose at the frame's start
   // Recording (when on) counts in the step's CPU time: hashing the state and queueing a copy.
-  if (recorder_) recorder_->push(frame_.frame, input_, state_hashes(frame_));
+  if (recorder_) recorder_->push(frame_.frame, input_, state_hashes(frame_), frame_);
   frame_cpu_ms_ = (kumite::now() - cpu0) * 1e3;
   return frame_;
 }
@@ -561,7 +563,6 @@ std::string Installation::camera_name(std::size_t i) const {
 ConsoleState Installation::console() const {
   ConsoleState c;
   const TrackingSnapshot& snap = input_.tracking;
-  const bool loading = tracking_->loading();
   c.fps = dt_filtered_ > 0 ? 1.0 / dt_filtered_ : 0;
   c.frame_cpu_ms = frame_cpu_ms_;
   c.tracking = describe(snap, tracking_->describe());

@@ -18,6 +18,7 @@
 #include <nlohmann/json.hpp>
 #include <spdlog/spdlog.h>
 
+#include "kumite/app/frame_states.hpp"
 #include "kumite/app/run_control.hpp"
 #include "kumite/app/tracking_input.hpp"
 #include "json_reader.hpp"
@@ -93,7 +94,8 @@ json input_json(const FrameInput& in) {
                    {"from_memory", src.from_memory}, {"decode_ms", src.decode_ms}, {"rates", src.rates},
                    {"totals", src.totals}};
   }
-  return {{"now", in.now}, {"shown_at", in.shown_at}, {"keyed", keyed}, {"tracking", t}, {"clock", in.tracking_clock}};
+  return {{"now", in.now},     {"shown_at", in.shown_at}, {"keyed", keyed}, {"tracking", t}, {"clock", in.tracking_clock},
+          {"latch_ms", in.latch_ms}};
 }
 
 /// manifest.json and session.jsonl lines: errors are ("replay", "session").
@@ -105,6 +107,7 @@ FrameInput parse_input(const json& j, const LineReader& r) {
   in.now = r.num(r.at(j, "now", "input.now"), "input.now");
   in.shown_at = r.num(r.at(j, "shown_at", "input.shown_at"), "input.shown_at");
   in.tracking_clock = r.num(r.at(j, "clock", "input.clock"), "input.clock");
+  if (j.contains("latch_ms")) in.latch_ms = r.num(j["latch_ms"], "input.latch_ms");  // version 3 on
   for (const auto& o : r.at(j, "keyed", "input.keyed")) {
     const auto text = r.at(o, "order", "input.keyed.order");
     if (!text.is_string()) r.fail("input.keyed.order", "not a string");
@@ -357,7 +360,8 @@ void SessionRecorder::started(Timestamp start, bool has_tracker, std::uint64_t f
   head_.store(h + 1, std::memory_order_release);
 }
 
-void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes) {
+void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes,
+                           const FrameData& state) {
   if (budget_reached_.load(std::memory_order_relaxed)) return;  // stopped: said once by the writer
   pushed_.fetch_add(1, std::memory_order_relaxed);
   const std::uint64_t h = head_.load(std::memory_order_relaxed);
@@ -378,7 +382,9 @@ void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const S
   item.input.tracking.cameras.assign(input.tracking.cameras.begin(), input.tracking.cameras.end());
   item.input.tracking.source = input.tracking.source;
   item.input.tracking_clock = input.tracking_clock;
+  item.input.latch_ms = input.latch_ms;
   item.hashes = hashes;
+  item.state = state;  // copy-assigned: the slot's vectors keep their room
   item.start.reset();
   head_.store(h + 1, std::memory_order_release);
 }
@@ -427,6 +433,20 @@ void SessionRecorder::write_frame_record(const std::string& record) {
   sets_written_.fetch_add(1, std::memory_order_relaxed);
 }
 
+void SessionRecorder::write_state_record() {
+  const auto path = dir_ / "states.bin";
+  if (states_fd_ < 0) {
+    states_fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (states_fd_ < 0) throw Error("io", "open", fmt::format("{}: cannot write ({})", path.string(), std::strerror(errno)));
+    write_all(states_fd_, kFrameStatesHeader, path);
+    bytes_.fetch_add(kFrameStatesHeader.size(), std::memory_order_relaxed);
+    state_bytes_.fetch_add(kFrameStatesHeader.size(), std::memory_order_relaxed);
+  }
+  write_all(states_fd_, state_record_, path);  // one write: a kill leaves whole records
+  bytes_.fetch_add(state_record_.size(), std::memory_order_relaxed);
+  state_bytes_.fetch_add(state_record_.size(), std::memory_order_relaxed);
+}
+
 void SessionRecorder::run() {
   // Below the frame loop and the tracker: the disk can wait, a frame cannot.
   lower_this_thread_priority(kWriterNice);
@@ -455,12 +475,18 @@ void SessionRecorder::run() {
         for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
           hashes[std::string(StateHashes::kFields[k])] = hex(item.hashes.value[k]);
         j = {{"frame", item.frame}, {"input", input_json(item.input)}, {"hash", hashes}};
+        const FighterPose& p = item.state.fighter;
+        const bool first_of_character =
+            p.present && std::find(skeletons_written_.begin(), skeletons_written_.end(), p.character) == skeletons_written_.end();
+        encode_frame_state(item.state, first_of_character, state_record_);
+        if (first_of_character) skeletons_written_.push_back(p.character);
       }
       tail_.store(t + 1, std::memory_order_release);  // the slot is read: the frame loop may reuse it
       text = j.dump();
       text += '\n';
       if (!error_.empty() || budget_reached_.load(std::memory_order_relaxed)) continue;
-      if (bytes_.load(std::memory_order_relaxed) + text.size() > budget_bytes_) {
+      const std::size_t state_bytes = item.start ? 0 : state_record_.size() + (states_fd_ < 0 ? kFrameStatesHeader.size() : 0);
+      if (bytes_.load(std::memory_order_relaxed) + text.size() + state_bytes > budget_bytes_) {
         budget_reached_.store(true, std::memory_order_relaxed);
         spdlog::warn("record: {}: the disk budget of {:g} MB is spent: recording stopped after {} frames (the session "
                      "replays up to there; --record-budget-mb or [record] budget_mb for more)",
@@ -468,6 +494,9 @@ void SessionRecorder::run() {
         continue;
       }
       try {
+        // The state first: a frame whose line is in session.jsonl has its state in states.bin
+        // (a kill between the two leaves one state more, which the replay does not reach).
+        if (!item.start) write_state_record();
         write_line(text);
       } catch (const std::exception& e) {
         error_ = e.what();  // said at close(); later frames are not written (the file would have a hole)
@@ -565,6 +594,7 @@ void SessionRecorder::write_manifest(bool complete) {
     m["stopped"] = budget_reached_.load() ? json("budget") : json(nullptr);
     m["bytes"] = bytes_.load();
     m["session_fnv"] = hex(checksum_);
+    if (state_bytes_.load() > 0) m["frame_states"] = {{"file", "states.bin"}, {"bytes", state_bytes_.load()}};
   }
   write_file_atomically(dir_ / "manifest.json", m.dump(2) + "\n");
 }
@@ -579,6 +609,10 @@ void SessionRecorder::close() {
   if (frames_fd_ >= 0) {
     synced = ::fsync(frames_fd_) == 0 && synced;
     ::close(std::exchange(frames_fd_, -1));
+  }
+  if (states_fd_ >= 0) {
+    synced = ::fsync(states_fd_) == 0 && synced;
+    ::close(std::exchange(states_fd_, -1));
   }
   write_manifest(true);
   if (!error_.empty()) throw Error("io", "write", error_);
@@ -904,6 +938,33 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
     rep.retrack = ReplayReport::Retrack{};
   }
 
+  // The frames as recorded, whole (version 3 on): each replayed frame is checked against its
+  // recorded state too, and a difference is said by value.
+  std::unique_ptr<FrameStatesReader> states;
+  FrameData recorded;
+  if (const auto path = dir / "states.bin"; std::filesystem::exists(path)) {
+    try {
+      states = std::make_unique<FrameStatesReader>(path);
+    } catch (const std::exception& e) {
+      rep.notes.push_back(fmt::format("{}: the frames are checked by their hashes alone", e.what()));
+    }
+  }
+  // The recorded state of `frame` (nullptr: none, said once).
+  const auto recorded_state = [&](std::uint64_t frame) -> FrameData* {
+    if (!states) return nullptr;
+    if (states->next(recorded) && recorded.frame == frame) return &recorded;
+    rep.notes.push_back(
+        !states->problem().empty()
+            ? states->problem() + ": later frames are checked by their hashes alone"
+            : recorded.frame != frame && states->frames_read() > 0
+                  ? fmt::format("{}: holds frame {} where frame {} was due: later frames are checked by their hashes "
+                                "alone", (dir / "states.bin").string(), recorded.frame, frame)
+                  : fmt::format("{}: ends before frame {}: later frames are checked by their hashes alone",
+                                (dir / "states.bin").string(), frame));
+    states.reset();
+    return nullptr;
+  };
+
   const auto session_path = dir / "session.jsonl";
   std::ifstream in(session_path, std::ios::binary);
   if (!in) throw Error("replay", "missing", fmt::format("{}: cannot read", session_path.string()));
@@ -917,7 +978,12 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
   auto t0 = std::chrono::steady_clock::now();
   std::chrono::steady_clock::time_point pace0;
   Timestamp first_now = 0, last_now = 0, pace_now0 = 0;
+  std::optional<std::uint64_t> stop_after;  // the viewer ended the replay after this frame
   while (pos < all.size()) {
+    if (stop_after) {
+      rep.stopped_after_frame = stop_after;
+      break;
+    }
     const auto end = all.find('\n', pos);
     ++r.line;
     if (end == std::string::npos) {
@@ -999,6 +1065,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
                                                 std::chrono::duration<double>(input.now - pace_now0)));
     const FrameData& f = inst->replay(input);
     if (shown && options.on_frame) options.on_frame(f);
+    if (shown && options.stop_requested && options.stop_requested()) stop_after = frame;
     if (rep.frames_replayed == 0) first_now = input.now;
     last_now = input.now;
     ++rep.frames_replayed;
@@ -1019,9 +1086,16 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       bool same = true;
       for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
         same = same && want.value(std::string(StateHashes::kFields[k]), "") == hex(got.value[k]);
+      FrameData* was = recorded_state(frame);
+      // The live tracker's latency (its poses' publishing time) is a measurement of that run,
+      // which re-tracking offline cannot make again: not compared.
+      if (was) was->tracking_latency_ms = f.tracking_latency_ms;
+      const auto detail = was ? first_difference(*was, f) : std::nullopt;
+      same = same && !detail;
       ++rep.retrack->frames_compared;
       if (same) ++rep.retrack->frames_identical;
       if (!same && !rep.first_difference_frame) {
+        if (detail) rep.first_difference_detail = *detail;
         rep.first_difference_frame = frame;
         for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
           if (want.value(std::string(StateHashes::kFields[k]), "") != hex(got.value[k])) {
@@ -1043,9 +1117,18 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
         break;
       }
     }
+    // The whole state as recorded: every field (what was drawn included), by value.
+    if (const FrameData* was = recorded_state(frame))
+      if (auto detail = first_difference(*was, f)) {
+        if (rep.identical) rep.first_difference_field = detail->substr(0, detail->find(':'));
+        rep.identical = false;
+        rep.first_difference_frame = frame;
+        rep.first_difference_detail = std::move(*detail);
+      }
     if (!rep.identical) break;
   }
   if (!inst) throw file_error("replay", "session", session_path.string(), 1, "start", "no start line: nothing recorded");
+  if (options.on_end) options.on_end(*inst);
   if (from_s && !rep.from_frame && rep.identical)
     rep.notes.push_back(fmt::format("--from {}: {:.3f} s is past the last frame replayed ({:.3f} s)", *options.from,
                                     *from_s, last_now - start));

@@ -249,6 +249,7 @@ struct FrameInput {
   std::vector<Order> keyed; ///< orders from keys / the console taken by this frame
   TrackingSnapshot tracking;///< as the tracker gave it
   Timestamp tracking_clock = -1;  ///< s, the tracker's clock() the pose age was measured with
+  double latch_ms = 0;      ///< ms, how far into its frame it took the head (late latching; FrameData::latch_ms)
 };
 
 class SessionRecorder;

@@ -55,6 +55,12 @@ struct WindowOptions {
 /// the key map's names become codes only here, next to the windowed runner.
 std::optional<int> glfw_key_code(std::string_view name);
 
+/// A replay (replay_session) shown in the installation's windows and its console (buttons
+/// greyed: the frames are the recording's), from `options.from` on; the quit key, closing a
+/// window or `window.stop` ends it. Pass `options.real_time` for the recorded pace.
+int replay_windows(const std::filesystem::path& session, ReplayOptions options, const WindowOptions& window,
+                   ReplayReport& report);
+
 /// Opens the windows and runs until quit (Escape / closing a window) or `seconds`.
 /// Throws kumite::Error when a window or the requested stereo mode cannot be had.
 int run_windows(Installation& installation, const WindowOptions& options);

@@ -8,6 +8,9 @@
 //                   character BVHs exactly as they were when recording started
 //   cameras.bin     with a tracker: every camera frame set the tracker was handed, packed
 //                   losslessly (tracking/camera_frames.hpp), for `--replay DIR --retrack`
+//   states.bin      every frame's state whole (FrameData: head, eyes, views, the fighter's joints
+//                   and rotations, events, what was drawn), exact binary (frame_states.hpp): what
+//                   visitors saw, kept even when a later build would make other frames
 //   session.jsonl   a first line {"start": s, "unix_s", "has_tracker", "first_frame",
 //                   "cameras": [names]}, then one line per frame {"frame", "input": the
 //                   FrameInput (times, keyed orders, the tracker's snapshot: head, state, frame
@@ -92,7 +95,8 @@ class SessionRecorder {
   void started(Timestamp start, bool has_tracker, std::uint64_t first_frame = 0,
                std::vector<std::string> camera_names = {});
   /// From the frame loop: queues a copy, never waits for the disk (full queue: dropped, counted).
-  void push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes);
+  /// The frame's state is copied whole for states.bin (frame_states.hpp).
+  void push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes, const FrameData& state);
   /// From the tracker thread: queues the frame set (its images shared, not copied: sources
   /// hand over fresh images), never waiting; the writer packs and appends it to cameras.bin.
   /// A full queue drops the set (counted: a re-track then misses it).
@@ -118,6 +122,7 @@ class SessionRecorder {
     std::uint64_t frame = 0;
     FrameInput input;
     StateHashes hashes;
+    FrameData state;
     struct Start {
       Timestamp start = 0;
       bool has_tracker = false;
@@ -165,6 +170,12 @@ class SessionRecorder {
   std::atomic<std::uint64_t> set_head_{0}, set_tail_{0};
   std::atomic<std::uint64_t> sets_written_{0}, sets_dropped_{0}, set_bytes_{0};
   int frames_fd_ = -1;  // cameras.bin, opened at the first set (the writer's)
+  // states.bin: every frame's state whole (the writer's, as the two below)
+  int states_fd_ = -1;
+  std::string state_record_;
+  std::vector<int> skeletons_written_;  // characters whose skeleton record is in states.bin
+  std::atomic<std::uint64_t> state_bytes_{0};
+  void write_state_record();
   std::mutex encoded_mutex_;
   std::vector<std::string> encoded_;  // pre-encoded records waiting for the writer (guarded)
   void write_frame_record(const std::string& record);
@@ -214,6 +225,12 @@ struct ReplayOptions {
   /// Called once with the replay's installation, before its first frame (a presenter sets
   /// itself up with its walls and config; nullptr: none).
   std::function<void(const Installation&)> on_start;
+  /// Asked after each frame shown: true ends the replay there (a viewer closed its window;
+  /// said in a note, the frames up to there compared). nullptr: never.
+  std::function<bool()> stop_requested;
+  /// Called once after the last frame, with the replay's installation still there (a
+  /// presenter's last picture; nullptr: none).
+  std::function<void(const Installation&)> on_end;
 };
 
 struct ReplayReport {
@@ -223,7 +240,14 @@ struct ReplayReport {
   bool identical = true;
   std::optional<std::uint64_t> first_difference_frame;
   std::string first_difference_field;
+  /// The first difference by value, from the recorded frame states (states.bin): one line
+  /// naming the field and both values ("fighter.joints[LeftHand]: recorded ..., now ...");
+  /// "" when the session has no states (version 2) or the frames are identical.
+  std::string first_difference_detail;
   std::optional<std::uint64_t> from_frame;  ///< the first frame at or after ReplayOptions::from
+  /// ReplayOptions::stop_requested ended the replay after this frame (the frames up to it
+  /// were compared; the rest not replayed).
+  std::optional<std::uint64_t> stopped_after_frame;
   double from_s = 0;                        ///< s since the start, that frame's
   std::vector<std::string> notes;     ///< one line each: what could not be replayed, changed files
   double wall_s = 0;                  ///< s, the replay's own time

@@ -1,0 +1,71 @@
+#pragma once
+// The frames as the installation made them (`states.bin` in a session folder, issue 13):
+// every FrameData whole, so a recording shows what visitors saw even after the code that made
+// it has changed, and a replay that differs says where, by value (joint, wall, event).
+//
+// File: the line "kumite-frame-states 1\n", then records, each
+//   u32 magic 0x3154534B ("KST1"), u32 payload bytes, u64 FNV-1a 64 of the payload; payload =
+//   u32 bytes unpacked, then zlib's compressed stream (level 1) of: u8 kind, then
+//   kind 1, skeleton (before the first frame of each character drawn): i32 character, u32
+//     joints, per joint a string (u32 bytes, bytes) name and i32 parent;
+//   kind 2, frame: u64 frame, f64 time_s, now; head (position xyz, orientation wxyz), u8
+//     head_live; eyes (left xyz, right xyz); u32 walls, per wall and eye the frustum (6 f64),
+//     view and projection (16 f64 each, column-major), u8 valid; f64 pose_age_ms,
+//     pose_measured_at, tracking_latency_ms, latch_ms, predicted_ahead_ms; the fighter: u8
+//     present, u8 state, i32 character, u32 joints, joints (xyz each), local rotations (wxyz
+//     each), root_joint xyz, u8 has target (+ xyz), root xyz, heading_rad; u8 visitor near
+//     wall (+ i32 wall, f64 distance_m, u8 outside, u8 lost); u32 events, each u8 type,
+//     string order, string text, f64 distance_m, time_s; u32 draw items, each the model
+//     matrix (16 f32), colour (3 f32), u8 mesh.
+// Little-endian, numbers exactly as computed. One record is written whole with one write(2):
+// a recorder killed mid-write leaves whole records and at most one cut one, which the reader
+// reports and stops at.
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include "kumite/app/installation.hpp"
+
+namespace kumite::app {
+
+inline constexpr std::string_view kFrameStatesHeader = "kumite-frame-states 1\n";
+
+/// Appends the records for `frame` to `out`: its character's skeleton first when `with_skeleton`
+/// (the writer's first frame of that character), then the frame. `out`'s room is reused.
+void encode_frame_state(const FrameData& frame, bool with_skeleton, std::string& out);
+
+class FrameStatesReader {
+ public:
+  /// Opens the file and checks its first line. Throws kumite::Error ("io": cannot open;
+  /// "format": not a frame states file, or a newer version) naming the file.
+  explicit FrameStatesReader(const std::filesystem::path& file);
+  /// The next frame (skeleton records are taken on the way); false at the end of the file, or
+  /// at a damaged or cut record (then problem() names the file, the record and what is wrong,
+  /// and nothing more is read).
+  bool next(FrameData& out);
+  /// "" while all is well; one line otherwise.
+  const std::string& problem() const { return problem_; }
+  std::uint64_t frames_read() const { return frames_; }
+
+ private:
+  bool fail(std::string what);
+  std::filesystem::path path_;
+  std::ifstream in_;
+  std::string buffer_, raw_;
+  std::string problem_;
+  std::uint64_t frames_ = 0, records_ = 0, offset_ = 0;
+  std::map<int, std::shared_ptr<const FighterSkeleton>> skeletons_;
+};
+
+/// The first difference between a recorded frame and the same frame made again, as one line
+/// naming the field and both values ("fighter.joints[LeftHand]: recorded (0.312, 1.204,
+/// -0.553) m, now (0.318, 1.204, -0.553) m, 6.0 mm apart"); nullopt when they are identical,
+/// bit for bit (draw items included).
+std::optional<std::string> first_difference(const FrameData& recorded, const FrameData& now);
+
+}  // namespace kumite::app
