@@ -169,7 +169,7 @@ void RunMonitor::frame_done(const Installation& inst, const FrameData& f) {
   last_problems_count_ = problems.size();
   for (const auto& e : f.events)
     if (e.type == EventType::warning) {
-      last_problem_ = e.text;
+      last_problem_ = inst.event_text(e);
       last_problem_wall_ = unix_now();
     }
 

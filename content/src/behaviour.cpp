@@ -81,14 +81,28 @@ void Behaviour::enter(FighterState next) {
   strike_.active = next == S::striking || next == S::recovering;
 }
 
-void Behaviour::emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance) {
+FighterEvent& Behaviour::emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
+                              double distance) {
   FighterEvent e;
   e.time = t;
   e.kind = kind;
   e.order = o;
-  e.text = std::move(text);
+  e.reason = reason;
   e.distance_m = distance;
-  events_.push_back(std::move(e));
+  events_.push_back(e);
+  return events_.back();
+}
+
+std::string Behaviour::describe(const FighterEvent& event) const {
+  return content::describe(
+      event,
+      [&](int s) {
+        return s >= 0 && s < static_cast<int>(db_->segments.size()) ? db_->segments[static_cast<std::size_t>(s)].name
+                                                                     : std::string("?");
+      },
+      [&](int c) {
+        return c >= 0 && c < character_count() ? characters_[static_cast<std::size_t>(c)].name : std::string("?");
+      });
 }
 
 std::vector<FighterEvent> Behaviour::take_events() {
@@ -100,7 +114,8 @@ std::vector<FighterEvent> Behaviour::take_events() {
 void Behaviour::select_character(int index, Timestamp now) {
   if (index < 0 || index >= character_count()) {
     emit(FighterEvent::Kind::warning, now, Order{now, OrderKind::select_character, index},
-         fmt::format("no character {} (have {})", index + 1, character_count()));
+         FighterEvent::Reason::no_such_character)
+        .character_count = character_count();
     return;
   }
   if (index == character_) return;
@@ -125,7 +140,7 @@ void Behaviour::select_character(int index, Timestamp now) {
   switch_offsets_due_ = true;  // the easing's offsets: after this update's solve
   if (state_ == FighterState::striking) compute_reach_error(strike_.contact_time_s);
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
-       fmt::format("character {} ({})", index + 1, characters_[static_cast<std::size_t>(index)].name));
+       FighterEvent::Reason::none);
 }
 
 void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
@@ -143,25 +158,25 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     }
     switch (o.kind) {
       case OrderKind::select_character: select_character(o.character, now); continue;
-      case OrderKind::pause: paused_ = true; emit(FighterEvent::Kind::order_accepted, now, o, "paused"); continue;
-      case OrderKind::resume: paused_ = false; emit(FighterEvent::Kind::order_accepted, now, o, "resumed"); continue;
+      case OrderKind::pause: paused_ = true; emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::paused); continue;
+      case OrderKind::resume: paused_ = false; emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::resumed); continue;
       case OrderKind::recentre:
         recentre_goal_ = Vector2d(config_.home.x(), config_.home.z());
-        emit(FighterEvent::Kind::order_accepted, now, o, "recentre: walking home");
+        emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::recentre);
         continue;
       default: break;
     }
     const auto eff = effector_of(o.kind);
     if (state_ == FighterState::striking || pending_) {
-      emit(FighterEvent::Kind::order_ignored, now, o, "mid-strike");  // the event names the order
+      emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::mid_strike);  // the event names the order
       continue;
     }
     if (paused_) {
-      emit(FighterEvent::Kind::order_ignored, now, o, "paused");
+      emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::paused);
       continue;
     }
     if (keep_away_) {
-      emit(FighterEvent::Kind::order_ignored, now, o, "the visitor is near a wall: the fighter keeps away");
+      emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::near_wall);
       continue;
     }
     // Freeze the target now: the visitor's head (punches) or below it (kicks: the torso).
@@ -186,8 +201,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     r.target_local_m = ground().to_local(target);
     r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
     pending_ = PendingStrike{r.id, o, target};
-    emit(FighterEvent::Kind::order_accepted, now, o,
-         fmt::format("target at ({:.2f}, {:.2f}, {:.2f}) m", target.x(), target.y(), target.z()));
+    emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
     submit_(r);
   }
   taking_.clear();
@@ -430,20 +444,16 @@ void Behaviour::judge_contact(Timestamp now, const Vector3d& head) {
                               distance_to_segment(hit_point, top, bottom) - config_.visitor_body_radius_m);
   strike_.body_distance_m = gap;
   strike_.hit = gap <= 0;
-  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(strike_.plan.segment)];
-  const std::string what = fmt::format("{} (frames {}->{})", seg.name, strike_.plan.start_frame, strike_.plan.contact_frame);
-  if (strike_.hit) {
-    emit(FighterEvent::Kind::hit, now, strike_.order,
-         fmt::format("{}: touched the visitor ({:.1f} cm from the target)", what, strike_.contact_distance_m * 100), 0);
-  } else if (strike_.target_reached) {
-    emit(FighterEvent::Kind::dodged, now, strike_.order,
-         fmt::format("{}: the visitor had moved, {:.1f} cm clear of the hit point", what, gap * 100), gap);
-  } else {
-    emit(FighterEvent::Kind::miss, now, strike_.order,
-         fmt::format("{}: {:.1f} cm short of the target{}, {:.1f} cm clear of the visitor", what,
-                     strike_.contact_distance_m * 100, report_.reached ? "" : " (out of reach)", gap * 100),
-         gap);
-  }
+  const auto kind = strike_.hit              ? FighterEvent::Kind::hit
+                    : strike_.target_reached ? FighterEvent::Kind::dodged
+                                             : FighterEvent::Kind::miss;
+  FighterEvent& e = emit(kind, now, strike_.order, FighterEvent::Reason::none, strike_.hit ? 0.0 : gap);
+  e.target = strike_.target_room_m;
+  e.segment = strike_.plan.segment;
+  e.start_frame = strike_.plan.start_frame;
+  e.contact_frame = strike_.plan.contact_frame;
+  e.contact_distance_m = strike_.contact_distance_m;
+  e.out_of_reach = !report_.reached;
 }
 
 void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
@@ -464,7 +474,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   if (pending_) {
     if (auto p = poll_(); p && p->id == pending_->request) {
       if (p->segment < 0) {
-        emit(FighterEvent::Kind::warning, now, pending_->order, "no strike in the database for this order");
+        emit(FighterEvent::Kind::warning, now, pending_->order, FighterEvent::Reason::no_strike);
       } else {
         start_strike(*p, now);
       }

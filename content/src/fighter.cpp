@@ -11,6 +11,8 @@
 #include <mutex>
 #include <thread>
 
+#include <fmt/format.h>
+
 #include "kumite/common/error.hpp"
 #include "kumite/content/behaviour.hpp"
 
@@ -35,6 +37,40 @@ std::string_view to_string(FighterEvent::Kind k) {
     case FighterEvent::Kind::miss: return "miss";
     case FighterEvent::Kind::character_changed: return "character_changed";
     case FighterEvent::Kind::warning: return "warning";
+  }
+  return "?";
+}
+
+std::string describe(const FighterEvent& e, const std::function<std::string(int)>& segment_name,
+                     const std::function<std::string(int)>& character_name) {
+  using R = FighterEvent::Reason;
+  using K = FighterEvent::Kind;
+  switch (e.kind) {
+    case K::hit:
+    case K::dodged:
+    case K::miss: {
+      const std::string what = fmt::format("{} (frames {}->{})", segment_name(e.segment), e.start_frame, e.contact_frame);
+      if (e.kind == K::hit)
+        return fmt::format("{}: touched the visitor ({:.1f} cm from the target)", what, e.contact_distance_m * 100);
+      if (e.kind == K::dodged)
+        return fmt::format("{}: the visitor had moved, {:.1f} cm clear of the hit point", what, e.distance_m * 100);
+      return fmt::format("{}: {:.1f} cm short of the target{}, {:.1f} cm clear of the visitor", what,
+                         e.contact_distance_m * 100, e.out_of_reach ? " (out of reach)" : "", e.distance_m * 100);
+    }
+    case K::character_changed:
+      return fmt::format("character {} ({})", e.order.character + 1, character_name(e.order.character));
+    default: break;
+  }
+  switch (e.reason) {
+    case R::none: return "";
+    case R::paused: return "paused";
+    case R::resumed: return "resumed";
+    case R::recentre: return "recentre: walking home";
+    case R::strike: return fmt::format("target at ({:.2f}, {:.2f}, {:.2f}) m", e.target.x(), e.target.y(), e.target.z());
+    case R::mid_strike: return "mid-strike";
+    case R::near_wall: return "the visitor is near a wall: the fighter keeps away";
+    case R::no_such_character: return fmt::format("no character {} (have {})", e.order.character + 1, e.character_count);
+    case R::no_strike: return "no strike in the database for this order";
   }
   return "?";
 }
@@ -154,6 +190,7 @@ class FighterImpl final : public Fighter {
     return f;
   }
   std::vector<FighterEvent> take_events() override { return behaviour_.take_events(); }
+  std::string describe(const FighterEvent& event) const override { return behaviour_.describe(event); }
   int character_count() const override { return behaviour_.character_count(); }
   std::string character_name(int index) const override {
     if (index < 0 || index >= character_count()) return {};

@@ -79,7 +79,8 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
       if (locked[static_cast<std::size_t>(s)] && locked_before[static_cast<std::size_t>(s)])
         rec.max_foot_slide_m = std::max(rec.max_foot_slide_m,
                                         (b.rig_positions()[static_cast<std::size_t>(ankles[s])] - before[s]).norm());
-    for (auto& e : b.take_events()) rec.events.push_back(std::string(to_string(e.kind)) + ": " + e.text);
+    for (auto& e : b.take_events())
+      rec.events.push_back(std::string(to_string(e.kind)) + ": " + b.describe(e));
     record();
     t += dt;
   };

@@ -779,7 +779,7 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     drawn.insert(drawn.end(), cp.begin(), cp.end());
     ++state_frames[std::string(to_string(frame.state))];
     for (const auto& e : b.take_events()) {
-      events.push_back(fmt::format("{:.3f} s: {}: {}", t, to_string(e.kind), e.text));
+      events.push_back(fmt::format("{:.3f} s: {}: {}", t, to_string(e.kind), b.describe(e)));
       if ((e.kind == FighterEvent::Kind::hit || e.kind == FighterEvent::Kind::miss) && frame.target)
         run.contacts.push_back({run.clip.frame_count - 1, effector_of_order(e.order.kind), *frame.target,
                                 e.kind == FighterEvent::Kind::hit});

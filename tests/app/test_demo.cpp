@@ -222,8 +222,11 @@ TEST(Demo, AMissingCharacterFileLeavesTheOthersAndKeepsTheKeyNumbers) {
   EXPECT_TRUE(said_missing);
   bool ignored_1 = false, changed_3 = false;
   for (const auto& e : events) {
-    if (e.type == EventType::order_ignored && e.order == "character 1") ignored_1 = e.text.find("not loaded") != std::string::npos;
-    if (e.type == EventType::character_changed) changed_3 = e.text == "character 3 (Bruno)" && e.order == "character 3";
+    const std::string order = e.order ? kumite::to_string(*e.order) : "";
+    if (e.type == EventType::order_ignored && order == "character 1")
+      ignored_1 = inst.event_text(e).find("not loaded") != std::string::npos;
+    if (e.type == EventType::character_changed)
+      changed_3 = inst.event_text(e) == "character 3 (Bruno)" && order == "character 3";
   }
   EXPECT_TRUE(ignored_1);
   EXPECT_TRUE(changed_3);

@@ -285,7 +285,8 @@ TEST(Installation, TheOrdersScriptStartsWhenTheHeadIsTracked) {
     }
     EXPECT_TRUE(said_waiting);
     ASSERT_EQ(events.size(), 1u);
-    EXPECT_EQ(events[0].order, "punch_left");
+    ASSERT_TRUE(events[0].order);
+    EXPECT_EQ(kumite::to_string(*events[0].order), "punch_left");
     // 0.1 s after the first tracked frame (2 s in), or after the longest wait (30 s).
     EXPECT_NEAR(events[0].time_s, (ever_tracked ? 2.0 : Installation::kScriptWaitForHead_s) + 0.1, 1.0 / 60 + 1e-9)
         << ever_tracked;
@@ -308,14 +309,16 @@ TEST(Installation, ScriptedAndKeyedOrdersAreLoggedWithOutcomes) {
     events.insert(events.end(), f.events.begin(), f.events.end());
   }
   ASSERT_EQ(events.size(), 3u);
-  EXPECT_EQ(events[0].order, "punch_left");
+  const auto order = [](const FrameEvent& e) { return e.order ? kumite::to_string(*e.order) : std::string("none"); };
+  EXPECT_EQ(order(events[0]), "punch_left");
   EXPECT_NEAR(events[0].time_s, 0.1, 1.0 / 60 + 1e-9);
-  EXPECT_EQ(events[1].order, "character 7");
-  EXPECT_EQ(events[2].order, "kick_right");
+  EXPECT_EQ(order(events[1]), "character 7");
+  EXPECT_EQ(order(events[2]), "kick_right");
   // No fighter here (missing database): each is ignored, saying why.
   for (const auto& e : events) {
     EXPECT_EQ(e.type, EventType::order_ignored);
-    EXPECT_NE(e.text.find("no fighter"), std::string::npos) << e.text;
+    EXPECT_EQ(e.cause, EventCause::no_fighter);
+    EXPECT_NE(inst.event_text(e).find("no fighter"), std::string::npos) << inst.event_text(e);
   }
   EXPECT_EQ(inst.console().last_order, "kick_right");
   // The frame log line carries them.

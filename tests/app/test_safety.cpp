@@ -136,7 +136,8 @@ TEST(Safety, TheNearestWallIsNamedTheFloorIsNoWallBeyondAndLostAreSaid) {
   EXPECT_TRUE(f.visitor_near_wall->lost);
   EXPECT_EQ(count(f, EventType::visitor_near_wall), 1);
   bool said = false;
-  for (const auto& e : f.events) said |= e.text.find("left the tracked area near wall left") != std::string::npos;
+  for (const auto& e : f.events)
+    said |= room.inst->event_text(e).find("left the tracked area near wall left") != std::string::npos;
   EXPECT_TRUE(said);
   EXPECT_FALSE(f.items.empty());
   f = room.step(std::nullopt);

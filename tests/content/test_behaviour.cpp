@@ -129,7 +129,8 @@ TEST(Behaviour, OrdersDuringAStrikeAreIgnoredWithAReason) {
   EXPECT_EQ(run.count(FighterEvent::Kind::order_ignored), 2);
   for (const auto& e : run.events) {
     if (e.kind == FighterEvent::Kind::order_ignored) {
-      EXPECT_NE(e.text.find("mid-strike"), std::string::npos);
+      EXPECT_EQ(e.reason, FighterEvent::Reason::mid_strike);
+      EXPECT_EQ(b.describe(e), "mid-strike");
     }
   }
   run.until_rest(b);
@@ -298,7 +299,7 @@ TEST(Behaviour, AVisitorWhoDucksOrStepsAsideIsNotHit) {
       const auto e = std::find_if(run.events.begin(), run.events.end(),
                                   [](const FighterEvent& x) { return x.kind == FighterEvent::Kind::dodged; });
       EXPECT_GT(e->distance_m, 0.05) << m;  // clear of the visitor's body, and says by how much
-      EXPECT_NE(e->text.find("clear of the hit point"), std::string::npos) << e->text;
+      EXPECT_NE(b.describe(*e).find("clear of the hit point"), std::string::npos) << b.describe(*e);
     }
   }
 }
@@ -369,7 +370,8 @@ TEST(Behaviour, KeepsAwayFromAVisitorNearAWallAndIgnoresStrikesMeanwhile) {
   ASSERT_EQ(run.count(FighterEvent::Kind::order_ignored), 1);
   const auto ignored = std::find_if(run.events.begin(), run.events.end(),
                                     [](const FighterEvent& e) { return e.kind == FighterEvent::Kind::order_ignored; });
-  EXPECT_NE(ignored->text.find("near a wall"), std::string::npos) << ignored->text;
+  EXPECT_EQ(ignored->reason, FighterEvent::Reason::near_wall);
+  EXPECT_NE(b.describe(*ignored).find("near a wall"), std::string::npos) << b.describe(*ignored);
   b.keep_away(false);
   run.step(b, 5 * 120);
   EXPECT_NEAR(distance(), test_config().strike_distance_m, 0.3);

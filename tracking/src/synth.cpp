@@ -279,6 +279,11 @@ class SyntheticLiveSource final : public FrameSource {
       : renderer_(rig, body, std::move(options)), trajectory_(std::move(trajectory)), period_s_(1.0 / rate_hz) {}
   bool next(FrameSet& out, double) override {
     if (n_ == 0) start_ = now();
+    // As cameras do for a consumer that is behind: the sets it was too slow for are gone, and
+    // the next is the newest one due (a tracker slower than the rate on a loaded machine sees
+    // fewer, fresh sets rather than ever older ones).
+    const Timestamp late = now() - (start_ + static_cast<double>(n_) * period_s_);
+    if (late > period_s_) n_ += static_cast<std::uint64_t>(late / period_s_);
     const Timestamp due = start_ + static_cast<double>(n_) * period_s_;
     sleep_until(due);
     out = renderer_.render(n_, trajectory_(due - start_));

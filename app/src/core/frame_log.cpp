@@ -81,10 +81,11 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
     fj["local_rotations"] = std::move(rotations);
   }
   json events = json::array();
-  for (const auto& e : f.events) {
+  for (std::size_t k = 0; k < f.events.size(); ++k) {
+    const FrameEvent& e = f.events[k];
     json ev = {{"type", to_string(e.type)}, {"time_s", e.time_s}};
-    if (!e.order.empty()) ev["order"] = e.order;
-    if (!e.text.empty()) ev["text"] = e.text;
+    if (e.order) ev["order"] = to_string(*e.order);
+    if (k < c.frame_events.size() && !c.frame_events[k].empty()) ev["text"] = c.frame_events[k];
     if (is_strike_outcome(e.type) || e.type == EventType::visitor_near_wall || e.type == EventType::visitor_clear)
       ev["distance_m"] = e.distance_m;
     events.push_back(ev);

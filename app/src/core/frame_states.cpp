@@ -191,10 +191,32 @@ void encode_frame_state(const FrameData& f, bool with_skeleton, std::string& out
     o.u32(f.events.size());
     for (const FrameEvent& e : f.events) {
       o.u8(static_cast<std::uint8_t>(e.type));
-      o.str(e.order);
-      o.str(e.text);
+      o.u8(e.order.has_value());
+      const Order order = e.order.value_or(Order{});
+      o.d(order.time);
+      o.u8(static_cast<std::uint8_t>(order.kind));
+      o.put(static_cast<std::int32_t>(order.character));
       o.d(e.distance_m);
       o.d(e.time_s);
+      o.u8(static_cast<std::uint8_t>(e.cause));
+      const content::FighterEvent& g = e.fighter;
+      o.d(g.time);
+      o.u8(static_cast<std::uint8_t>(g.kind));
+      o.d(g.order.time);
+      o.u8(static_cast<std::uint8_t>(g.order.kind));
+      o.put(static_cast<std::int32_t>(g.order.character));
+      o.u8(static_cast<std::uint8_t>(g.reason));
+      o.d(g.distance_m);
+      o.d(g.target.x()), o.d(g.target.y()), o.d(g.target.z());
+      o.put(static_cast<std::int32_t>(g.segment));
+      o.put(static_cast<std::int32_t>(g.start_frame));
+      o.put(static_cast<std::int32_t>(g.contact_frame));
+      o.d(g.contact_distance_m);
+      o.u8(g.out_of_reach);
+      o.put(static_cast<std::int32_t>(g.character_count));
+      o.put(static_cast<std::int32_t>(e.wall));
+      o.u8(e.outside);
+      o.u8(e.lost);
     }
     o.u32(f.items.size());
     for (const DrawItem& it : f.items) {
@@ -312,14 +334,43 @@ bool FrameStatesReader::next(FrameData& f) {
         r.visitor_near_wall = v;
       }
       r.events.resize(in.count());
+      // An enum's byte, checked against its last value.
+      const auto enum_of = [&](auto last) {
+        const auto v = in.u8();
+        if (v > static_cast<std::uint8_t>(last)) in.ok = false;
+        return static_cast<decltype(last)>(v);
+      };
+      const auto order_of = [&] {
+        Order o;
+        o.time = in.d();
+        o.kind = enum_of(OrderKind::recentre);
+        o.character = in.get<std::int32_t>();
+        return o;
+      };
       for (FrameEvent& e : r.events) {
-        const auto type = in.u8();
-        if (type > static_cast<std::uint8_t>(EventType::visitor_clear)) in.ok = false;
-        e.type = static_cast<EventType>(type);
-        e.order = in.str();
-        e.text = in.str();
+        e.type = enum_of(EventType::visitor_clear);
+        const bool has_order = in.u8() != 0;
+        const Order order = order_of();
+        if (has_order) e.order = order;
         e.distance_m = in.d();
         e.time_s = in.d();
+        e.cause = enum_of(EventCause::visitor);
+        content::FighterEvent& g = e.fighter;
+        g.time = in.d();
+        g.kind = enum_of(content::FighterEvent::Kind::warning);
+        g.order = order_of();
+        g.reason = enum_of(content::FighterEvent::Reason::no_strike);
+        g.distance_m = in.d();
+        g.target.x() = in.d(), g.target.y() = in.d(), g.target.z() = in.d();
+        g.segment = in.get<std::int32_t>();
+        g.start_frame = in.get<std::int32_t>();
+        g.contact_frame = in.get<std::int32_t>();
+        g.contact_distance_m = in.d();
+        g.out_of_reach = in.u8() != 0;
+        g.character_count = in.get<std::int32_t>();
+        e.wall = in.get<std::int32_t>();
+        e.outside = in.u8() != 0;
+        e.lost = in.u8() != 0;
       }
       r.items.resize(in.count());
       for (DrawItem& it : r.items) {
@@ -420,15 +471,23 @@ std::optional<std::string> first_difference(const FrameData& a, const FrameData&
     if (auto d = point("fighter.target", *p.target, *q.target)) return d;
   if (auto d = point("fighter.root", p.root, q.root)) return d;
   if (auto d = num("fighter.heading_rad", p.heading_rad, q.heading_rad)) return d;
+  const auto event_name = [](const FrameEvent& e) {
+    return fmt::format("{}{}", to_string(e.type), e.order ? " " + to_string(*e.order) : std::string());
+  };
   if (a.events.size() != b.events.size())
     return fmt::format("events: recorded {} ({}), now {} ({})", a.events.size(),
-                       a.events.empty() ? "-" : describe(a.events.front()), b.events.size(),
-                       b.events.empty() ? "-" : describe(b.events.front()));
+                       a.events.empty() ? "-" : event_name(a.events.front()), b.events.size(),
+                       b.events.empty() ? "-" : event_name(b.events.front()));
   for (std::size_t k = 0; k < a.events.size(); ++k) {
     const FrameEvent &x = a.events[k], &y = b.events[k];
-    if (x.type != y.type || x.order != y.order || x.text != y.text || !same(x.distance_m, y.distance_m) ||
-        !same(x.time_s, y.time_s))
-      return fmt::format("events[{}]: recorded \"{}\", now \"{}\"", k, describe(x), describe(y));
+    const bool equal = x.type == y.type && x.order.has_value() == y.order.has_value() &&
+                       (!x.order || (x.order->kind == y.order->kind && x.order->character == y.order->character &&
+                                     same(x.order->time, y.order->time))) &&
+                       same(x.distance_m, y.distance_m) && same(x.time_s, y.time_s) && x.cause == y.cause &&
+                       x.wall == y.wall && x.outside == y.outside && x.lost == y.lost;
+    if (!equal || !(x.fighter == y.fighter))
+      return fmt::format("events[{}]: recorded {} ({:.3f} s, {:.4f} m), now {} ({:.3f} s, {:.4f} m)", k, event_name(x),
+                         x.time_s, x.distance_m, event_name(y), y.time_s, y.distance_m);
   }
   if (a.visitor_near_wall.has_value() != b.visitor_near_wall.has_value() ||
       (a.visitor_near_wall &&

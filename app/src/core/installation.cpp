@@ -69,20 +69,23 @@ content::FighterConfig fighter_config(const InstallationConfig& c, const std::ve
   return f;
 }
 
-FrameEvent to_frame_event(const content::FighterEvent& e, Timestamp start) {
+/// `order`: the event's order in the config's numbering (a character switch's mapped back).
+FrameEvent to_frame_event(const content::FighterEvent& e, const Order& order, Timestamp start) {
   using K = content::FighterEvent::Kind;
   FrameEvent f;
   f.time_s = e.time - start;
-  f.text = e.text;
   f.distance_m = e.distance_m;
+  f.cause = EventCause::fighter;
+  f.fighter = e;
+  f.order = order;  // a strike's outcome: the strike's order
   switch (e.kind) {
-    case K::order_accepted: f.type = EventType::order; f.order = to_string(e.order); break;
-    case K::order_ignored: f.type = EventType::order_ignored; f.order = to_string(e.order); break;
-    case K::hit: f.type = EventType::hit; f.order = to_string(e.order); break;    // the strike's order
-    case K::dodged: f.type = EventType::dodged; f.order = to_string(e.order); break;
-    case K::miss: f.type = EventType::miss; f.order = to_string(e.order); break;
-    case K::character_changed: f.type = EventType::character_changed; f.order = to_string(e.order); break;
-    case K::warning: f.type = EventType::warning; break;
+    case K::order_accepted: f.type = EventType::order; break;
+    case K::order_ignored: f.type = EventType::order_ignored; break;
+    case K::hit: f.type = EventType::hit; break;
+    case K::dodged: f.type = EventType::dodged; break;
+    case K::miss: f.type = EventType::miss; break;
+    case K::character_changed: f.type = EventType::character_changed; break;
+    case K::warning: f.type = EventType::warning; f.order.reset(); break;
   }
   return f;
 }
@@ -231,13 +234,6 @@ Timestamp Installation::latch(Timestamp start, Timestamp deadline) {
   return t;
 }
 
-std::string describe(const FrameEvent& e) {
-  std::string line = fmt::format("{:7.2f} s  {}", e.time_s, to_string(e.type));
-  if (!e.order.empty()) line += " " + e.order;
-  if (!e.text.empty()) line += ": " + e.text;
-  return line;
-}
-
 void Installation::note(const FrameEvent& e) {
   frame_.events.push_back(e);
   // Events are rare (orders, contacts, character switches): kept whole for the console.
@@ -246,10 +242,11 @@ void Installation::note(const FrameEvent& e) {
   // The console's last order and its outcome: an order (accepted or ignored), or a strike's
   // outcome with the strike's own order (an order ignored meanwhile must not take it).
   if (e.type == EventType::order || e.type == EventType::order_ignored || is_strike_outcome(e.type)) last_order_ = e;
+  // The service log's line (an event is rare: a few a minute).
   if (e.type == EventType::warning || e.type == EventType::order_ignored || e.type == EventType::visitor_near_wall)
-    spdlog::warn("{}", describe(e));
+    spdlog::warn("{}", event_line(e));
   else
-    spdlog::info("{}", describe(e));
+    spdlog::info("{}", event_line(e));
 }
 
 void Installation::update_head(Timestamp now, Timestamp shown_at) {
@@ -330,20 +327,19 @@ void Installation::apply_orders(Timestamp now) {
   for (const Order& o : due_) {
     FrameEvent e;
     e.time_s = now - start_;
-    e.order = to_string(o);
+    e.order = o;
     if (o.kind == OrderKind::pause) paused_ = true;
     if (o.kind == OrderKind::resume) paused_ = false;
     if (!fighter_) {
       e.type = EventType::order_ignored;
-      e.text = fighter_problem_;
+      e.cause = EventCause::no_fighter;
       note(e);
       continue;
     }
     if (o.kind == OrderKind::select_character &&
         (o.character < 0 || o.character >= character_count())) {
       e.type = EventType::order_ignored;
-      e.text = fmt::format("character {} does not exist ({} characters)", o.character + 1,
-                           character_count());
+      e.cause = EventCause::no_such_character;
       note(e);
       continue;
     }
@@ -353,8 +349,7 @@ void Installation::apply_orders(Timestamp now) {
       timed.character = fighter_of_config_[static_cast<std::size_t>(o.character)];
       if (timed.character < 0) {
         e.type = EventType::order_ignored;
-        e.text = fmt::format("character {} \"{}\" is not loaded (its file is missing)", o.character + 1,
-                             character_name(o.character));
+        e.cause = EventCause::character_not_loaded;
         note(e);
         continue;
       }
@@ -382,14 +377,12 @@ void Installation::update_fighter(Timestamp now, double dt) {
   const int character = config_of_fighter_.at(static_cast<std::size_t>(f.character));
   plan_fighter(f, character_colour(character), frame_.items);
   copy_pose(f, character, pose);
-  for (auto e : fighter_->take_events()) {
-    if (e.order.kind == OrderKind::select_character && e.order.character >= 0 &&
-        e.order.character < static_cast<int>(config_of_fighter_.size())) {  // back to config numbering
-      e.order.character = config_of_fighter_[static_cast<std::size_t>(e.order.character)];
-      if (e.kind == content::FighterEvent::Kind::character_changed)
-        e.text = fmt::format("character {} ({})", e.order.character + 1, character_name(e.order.character));
-    }
-    note(to_frame_event(e, start_));
+  for (const auto& e : fighter_->take_events()) {
+    Order order = e.order;
+    if (order.kind == OrderKind::select_character && order.character >= 0 &&
+        order.character < static_cast<int>(config_of_fighter_.size()))  // back to config numbering
+      order.character = config_of_fighter_[static_cast<std::size_t>(order.character)];
+    note(to_frame_event(e, order, start_));
   }
 }
 
@@ -493,23 +486,22 @@ void Installation::update_safety(Timestamp now) {
   if (!config_.safety.enabled) return;
   const double limit = config_.safety.wall_distance_m;
   constexpr double kClearMargin_m = 0.10;  // hysteresis: clear only this much further out
-  const auto event = [&](EventType type, std::string text, double distance) {
+  const auto event = [&](EventType type, int wall, double distance, bool outside, bool lost) {
     FrameEvent e;
     e.type = type;
-    e.text = std::move(text);
+    e.cause = EventCause::visitor;
+    e.wall = wall;
     e.distance_m = distance;
+    e.outside = outside;
+    e.lost = lost;
     e.time_s = now - start_;
     note(e);
   };
-  const auto name = [&](int w) { return config_.walls[static_cast<std::size_t>(w)].name; };
   if (!frame_.head_live) {
     // Lost near a wall: the visitor most likely walked out of the cameras' view there.
     if (near_wall_ && !near_wall_->lost) {
       near_wall_->lost = true;
-      event(EventType::visitor_near_wall,
-            fmt::format("the visitor left the tracked area near wall {} (last seen {:.2f} m from it)", name(near_wall_->wall),
-                        near_wall_->distance_m),
-            near_wall_->distance_m);
+      event(EventType::visitor_near_wall, near_wall_->wall, near_wall_->distance_m, near_wall_->outside, true);
     }
   } else {
     // The nearest vertical wall, by the head's signed distance to its plane (positive on the
@@ -534,16 +526,9 @@ void Installation::update_safety(Timestamp now) {
     if (near) {
       const bool changed = !was || near_wall_->wall != best || near_wall_->lost || near_wall_->outside != (best_d < 0);
       near_wall_ = VisitorNearWall{best, best_d, best_d < 0, false};
-      if (changed)
-        event(EventType::visitor_near_wall,
-              best_d < 0 ? fmt::format("the visitor is beyond wall {} ({:.2f} m): out of the room", name(best), -best_d)
-                         : fmt::format("the visitor is {:.2f} m from wall {} (limit {:.2f} m)", best_d, name(best), limit),
-              best_d);
+      if (changed) event(EventType::visitor_near_wall, best, best_d, best_d < 0, false);
     } else if (was) {
-      event(EventType::visitor_clear,
-            fmt::format("the visitor is clear of the walls again ({:.2f} m from the nearest, {})", best_d,
-                        best >= 0 ? name(best) : "-"),
-            best_d);
+      event(EventType::visitor_clear, best, best_d, false, false);
       near_wall_.reset();
     }
   }
@@ -553,6 +538,45 @@ void Installation::update_safety(Timestamp now) {
   // The glow on that wall, brighter the closer (full at the wall, or when out or lost).
   const double strength = v.lost || v.outside ? 1.0 : std::clamp(1.0 - v.distance_m / limit, 0.25, 1.0);
   plan_wall_glow(walls_[static_cast<std::size_t>(v.wall)], frame_.head.position, strength, frame_.items);
+}
+
+std::string Installation::event_text(const FrameEvent& e) const {
+  const auto wall_name = [&](int w) {
+    return w >= 0 && w < static_cast<int>(config_.walls.size()) ? config_.walls[static_cast<std::size_t>(w)].name
+                                                                 : std::string("-");
+  };
+  const int character = e.order ? e.order->character : -1;
+  switch (e.cause) {
+    case EventCause::no_fighter: return fighter_problem_;
+    case EventCause::no_such_character:
+      return fmt::format("character {} does not exist ({} characters)", character + 1, character_count());
+    case EventCause::character_not_loaded:
+      return fmt::format("character {} \"{}\" is not loaded (its file is missing)", character + 1,
+                         character_name(character));
+    case EventCause::visitor:
+      if (e.type == EventType::visitor_clear)
+        return fmt::format("the visitor is clear of the walls again ({:.2f} m from the nearest, {})", e.distance_m,
+                           wall_name(e.wall));
+      if (e.lost)
+        return fmt::format("the visitor left the tracked area near wall {} (last seen {:.2f} m from it)",
+                           wall_name(e.wall), e.distance_m);
+      if (e.outside)
+        return fmt::format("the visitor is beyond wall {} ({:.2f} m): out of the room", wall_name(e.wall), -e.distance_m);
+      return fmt::format("the visitor is {:.2f} m from wall {} (limit {:.2f} m)", e.distance_m, wall_name(e.wall),
+                         config_.safety.wall_distance_m);
+    case EventCause::fighter:
+      if (e.type == EventType::character_changed)  // the config's numbering and names
+        return fmt::format("character {} ({})", character + 1, character_name(character));
+      return fighter_ ? fighter_->describe(e.fighter) : std::string();
+  }
+  return "?";
+}
+
+std::string Installation::event_line(const FrameEvent& e) const {
+  std::string line = fmt::format("{:7.2f} s  {}", e.time_s, to_string(e.type));
+  if (e.order) line += " " + to_string(*e.order);
+  if (const std::string text = event_text(e); !text.empty()) line += ": " + text;
+  return line;
 }
 
 std::string Installation::camera_name(std::size_t i) const {
@@ -584,13 +608,14 @@ ConsoleState Installation::console() const {
   c.character_name = character_name(frame_.fighter.character);
   c.paused = paused_;
   if (const auto& last = last_order_) {
-    c.last_order = last->order;
+    c.last_order = last->order ? to_string(*last->order) : std::string();
     c.last_outcome = last->type == EventType::order           ? std::string("accepted")
-                     : last->type == EventType::order_ignored ? "ignored: " + last->text
+                     : last->type == EventType::order_ignored ? "ignored: " + event_text(*last)
                                                               : fmt::format("{} ({:.2f} m)", to_string(last->type),
                                                                             last->distance_m);
   }
-  for (const auto& e : recent_) c.recent.push_back(describe(e));
+  for (const auto& e : recent_) c.recent.push_back(event_line(e));
+  for (const auto& e : frame_.events) c.frame_events.push_back(event_text(e));
 
   c.problems = problems();
   return c;

@@ -203,7 +203,7 @@ class ReplayTracking final : public TrackingInput {
 
 }  // namespace
 
-StateHashes state_hashes(const FrameData& f) {
+StateHashes state_hashes(const FrameData& f, const std::function<std::string(const FrameEvent&)>& event_text) {
   StateHashes out;
   Fnv t;
   t.i(static_cast<std::int64_t>(f.frame));
@@ -241,8 +241,34 @@ StateHashes state_hashes(const FrameData& f) {
   Fnv ev;
   for (const auto& x : f.events) {
     ev.i(static_cast<int>(x.type));
-    ev.s(x.order);
-    ev.s(x.text);
+    if (event_text) {  // versions 1 and 2: events were hashed by their text
+      ev.s(x.order ? to_string(*x.order) : std::string());
+      ev.s(event_text(x));
+    } else {
+      ev.i(x.order.has_value());
+      if (x.order) {
+        ev.i(static_cast<int>(x.order->kind));
+        ev.i(x.order->character);
+      }
+      ev.i(static_cast<int>(x.cause));
+      const content::FighterEvent& g = x.fighter;
+      ev.i(static_cast<int>(g.kind));
+      ev.i(static_cast<int>(g.reason));
+      ev.i(static_cast<int>(g.order.kind));
+      ev.i(g.order.character);
+      ev.d(g.target.x());
+      ev.d(g.target.y());
+      ev.d(g.target.z());
+      ev.i(g.segment);
+      ev.i(g.start_frame);
+      ev.i(g.contact_frame);
+      ev.d(g.contact_distance_m);
+      ev.i(g.out_of_reach);
+      ev.i(g.character_count);
+      ev.i(x.wall);
+      ev.i(x.outside);
+      ev.i(x.lost);
+    }
     ev.d(x.distance_m);
     ev.d(x.time_s);
   }
@@ -979,6 +1005,9 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
   std::chrono::steady_clock::time_point pace0;
   Timestamp first_now = 0, last_now = 0, pace_now0 = 0;
   std::optional<std::uint64_t> stop_after;  // the viewer ended the replay after this frame
+  // Sessions before version 3 hashed events by their text: the same text, made again.
+  std::function<std::string(const FrameEvent&)> text_hash;
+  if (version < 3) text_hash = [&](const FrameEvent& e) { return inst->event_text(e); };
   while (pos < all.size()) {
     if (stop_after) {
       rep.stopped_after_frame = stop_after;
@@ -1081,7 +1110,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       } else if (a != b) {
         ++rep.retrack->status_differs;
       }
-      const StateHashes got = state_hashes(f);
+      const StateHashes got = state_hashes(f, text_hash);
       const json& want = r.at(j, "hash", "hash");
       bool same = true;
       for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
@@ -1106,7 +1135,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       continue;
     }
     if (!rep.compared) continue;
-    const StateHashes got = state_hashes(f);
+    const StateHashes got = state_hashes(f, text_hash);
     const json& want = r.at(j, "hash", "hash");
     for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k) {
       const std::string field(StateHashes::kFields[k]);

@@ -124,13 +124,28 @@ std::string_view to_string(EventType type);
 /// The text form back (reading logs); std::nullopt when it is none of them.
 std::optional<EventType> parse_event_type(std::string_view text);
 
-/// One event of a frame, ready for the log and the console.
+/// Where a FrameEvent comes from (its line for people: Installation::event_text).
+enum class EventCause : std::uint8_t {
+  fighter,               ///< the fighter's own event (FrameEvent::fighter)
+  no_fighter,            ///< an order ignored: no fighter (its database or characters missing)
+  no_such_character,     ///< an order ignored: that character does not exist
+  character_not_loaded,  ///< an order ignored: that character's file is missing
+  visitor,               ///< the visitor's safety (visitor_near_wall / visitor_clear)
+};
+
+/// One event of a frame, as data: no text (the log and console make it: event_text).
 struct FrameEvent {
   EventType type = EventType::warning;
-  std::string order;     ///< the order concerned, text form ("" if none)
-  std::string text;      ///< one line for people
-  double distance_m = 0; ///< hit / dodged / miss: m from the hit point to the visitor's body (0: touching)
+  std::optional<Order> order;  ///< the order concerned (characters in the config's numbering)
+  double distance_m = 0; ///< hit / dodged / miss: m from the hit point to the visitor's body (0: touching);
+                         ///< visitor events: m from the head to the wall
   double time_s = 0;     ///< s since the start of the run
+  EventCause cause = EventCause::fighter;
+  content::FighterEvent fighter;  ///< cause fighter: the fighter's event, whole (its order in its own numbering)
+  int wall = -1;         ///< visitor events: the wall concerned (-1: none)
+  bool outside = false;  ///< visitor_near_wall: beyond the wall's plane
+  bool lost = false;     ///< visitor_near_wall: tracking lost near the wall
+  bool operator==(const FrameEvent&) const = default;
 };
 /// A strike's outcome at contact: "hit" (touched the visitor), "dodged" (reached its target,
 /// the visitor had moved away) or "miss" (short of its target).
@@ -176,9 +191,9 @@ struct ConsoleState {
   std::string last_outcome;        ///< "accepted", "hit (0.04 m)", "miss (0.31 m)", "ignored: ..."
   std::vector<std::string> problems;  ///< what is wrong now (one line each)
   std::deque<std::string> recent;     ///< recent events, newest last
+  std::vector<std::string> frame_events;  ///< the frame's own events' texts (event_text), in order
 };
-/// One line for an event: "  12.34 s  hit punch_right: ...".
-std::string describe(const FrameEvent& event);
+
 
 /// The fighter's skeleton, made once per character: what a FighterPose's arrays are indexed by.
 struct FighterSkeleton {
@@ -316,6 +331,11 @@ class Installation {
   const FrameData& frame() const { return frame_; }
   /// The console's text for the last frame, made now (a presenter's call, not the step's).
   ConsoleState console() const;
+  /// An event's line for people ("target at (0.57, 1.61, 0.48) m", "135_06_punch_left_3
+  /// (frames 20->50): touched the visitor (0.0 cm from the target)", ...), and the whole line
+  /// the log and console show ("   12.34 s  hit punch_right: ...").
+  std::string event_text(const FrameEvent& event) const;
+  std::string event_line(const FrameEvent& event) const;
   /// What is wrong now, one line each (ConsoleState::problems), made now.
   std::vector<std::string> problems() const;
   /// The head pose of the last frame is a fresh tracked one (FrameData::head_live).

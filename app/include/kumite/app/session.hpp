@@ -59,7 +59,9 @@ struct StateHashes {
   std::array<std::uint64_t, kFields.size()> value{};
   bool operator==(const StateHashes&) const = default;
 };
-StateHashes state_hashes(const FrameData& frame);
+/// `event_text` (replaying a version 1 or 2 session: events were hashed by their order's and
+/// their line's text): Installation::event_text; empty (version 3): by their fields.
+StateHashes state_hashes(const FrameData& frame, const std::function<std::string(const FrameEvent&)>& event_text = {});
 
 /// FNV-1a 64 of a file's bytes (0 when it cannot be read).
 std::uint64_t file_checksum(const std::filesystem::path& path);

@@ -66,6 +66,7 @@ struct Order {
   Timestamp time = 0;  ///< s, when it was given (same clock as the frame loop)
   OrderKind kind = OrderKind::punch_right;
   std::int32_t character = -1;  ///< 0-based character index for select_character
+  bool operator==(const Order&) const = default;
 };
 
 /// "punch_left", ..., "character 2" (1-based in text, as the supervisor sees it), "pause".

@@ -89,6 +89,9 @@ class Behaviour {
 
   FighterFrame frame() const;
   std::vector<FighterEvent> take_events();
+  /// The event's line for people (content::describe with this database's clip names and the
+  /// characters' names).
+  std::string describe(const FighterEvent& event) const;
   int character_count() const { return static_cast<int>(characters_.size()); }
   const Rig& character(int i) const { return characters_[static_cast<std::size_t>(i)]; }
   int current_character() const { return character_; }
@@ -186,7 +189,8 @@ class Behaviour {
   void align_to_support_foot(Source& s) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
-  void emit(FighterEvent::Kind kind, Timestamp t, const Order& o, std::string text, double distance = 0);
+  FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
+                     double distance = 0);
 
   std::shared_ptr<const Database> db_;
   std::vector<Rig> characters_;

@@ -49,18 +49,43 @@ struct FighterConfig {
 enum class FighterState { resting, following, striking, recovering };
 std::string_view to_string(FighterState s);
 
+/// Something the fighter did or refused, as data (its line for people: describe()).
 struct FighterEvent {
   /// hit: touched the visitor; dodged: reached its target, but the visitor had moved away;
   /// miss: fell short of its target (out of reach) and did not touch the visitor.
-  enum class Kind { order_accepted, order_ignored, hit, dodged, miss, character_changed, warning };
+  enum class Kind : std::uint8_t { order_accepted, order_ignored, hit, dodged, miss, character_changed, warning };
+  /// What an accepted order did, why one was ignored, what a warning is about.
+  enum class Reason : std::uint8_t {
+    none,
+    paused,             ///< accepted pause; or ignored: the fighter is paused
+    resumed,            ///< accepted resume
+    recentre,           ///< accepted recentre: walking home
+    strike,             ///< accepted strike: `target` frozen
+    mid_strike,         ///< ignored: a strike is under way
+    near_wall,          ///< ignored: the visitor is near a wall, the fighter keeps away
+    no_such_character,  ///< warning: `order.character` does not exist (`character_count` do)
+    no_strike,          ///< warning: no strike in the database for this order
+  };
   Timestamp time = 0;
   Kind kind = Kind::warning;
-  Order order{};              ///< the order concerned (accepted / ignored)
+  Order order{};              ///< the order concerned (a strike's outcome: the strike's)
+  Reason reason = Reason::none;
   double distance_m = 0;      ///< hit / dodged / miss: m from the hit point to the visitor's
                               ///< body surface at contact (0 when touching)
-  std::string text;           ///< one line for the console ("ignored: mid-strike", ...)
+  Eigen::Vector3d target{0, 0, 0};  ///< m, room frame: an accepted strike's frozen target
+  int segment = -1;           ///< hit / dodged / miss: the database segment played
+  int start_frame = 0, contact_frame = 0;  ///< its frames (start, contact)
+  double contact_distance_m = 0;  ///< hit / miss: m from the hit point to the target at contact
+  bool out_of_reach = false;  ///< miss: the limb could not reach the target
+  int character_count = 0;    ///< no_such_character: how many there are
+  bool operator==(const FighterEvent&) const = default;
 };
 std::string_view to_string(FighterEvent::Kind k);
+/// The event's line for people, as the log and console show it ("mid-strike", "target at
+/// (0.57, 1.61, 0.48) m", "135_06_punch_left_3 (frames 20->50): touched the visitor (0.0 cm
+/// from the target)", ...); `segment_name` names e.segment, `character_name` a character.
+std::string describe(const FighterEvent& e, const std::function<std::string(int)>& segment_name,
+                     const std::function<std::string(int)>& character_name);
 
 /// One frame of the fighter, ready to draw. Spans stay valid until the next update().
 struct FighterFrame {
@@ -126,6 +151,8 @@ class Fighter {
   virtual FighterFrame frame() const = 0;
   /// Events since the last call (orders accepted/ignored, hit/miss, warnings).
   virtual std::vector<FighterEvent> take_events() = 0;
+  /// The event's line for people (describe(), with this fighter's clips and characters).
+  virtual std::string describe(const FighterEvent& event) const = 0;
   virtual int character_count() const = 0;
   virtual std::string character_name(int index) const = 0;
   virtual RetrievalTiming retrieval_timing() const = 0;

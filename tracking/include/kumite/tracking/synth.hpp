@@ -95,7 +95,8 @@ RigCalibration corner_rig(double side_m = 3.0, double height_m = 2.6, int width 
 /// SYNTHETIC live cameras: a frame source that renders `trajectory` (a function of the seconds
 /// since its first frame set) into every camera of `rig` at `rate_hz` on the real clock
 /// (kumite::now(): each set waits for its time and is stamped with it, as a camera's driver
-/// stamps), for tests and benchmarks of the live path. It never ends.
+/// stamps), for tests and benchmarks of the live path; a set the consumer was too late for is
+/// skipped, as a camera drops it. It never ends.
 std::unique_ptr<FrameSource> synthetic_live_source(const RigCalibration& rig, const BodyConfig& body,
                                                    std::function<TrajectoryPoint(Timestamp)> trajectory,
                                                    double rate_hz = 60, SynthOptions options = {});
