@@ -71,7 +71,7 @@ class HeadlessPresenter {
       }
     }
     for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
-    log_->write(f, inst.console(), names_, stereo_);
+    log_->write(f, inst.console(f), names_, stereo_);
   }
 
   /// Writes what is queued and closes the log. Throws kumite::Error on a failed write.

@@ -122,7 +122,7 @@ void screenshot(GLFWwindow* w, const std::filesystem::path& path) {
 }
 
 /// The installation's windows: one per [[windows]] entry with its walls in the stereo mode,
-/// and the supervisor console (optional). GLFW is set up by the first and ended by the last.
+/// and the supervisor console (optional). It sets GLFW up and ends it: one at a time.
 class Windows {
  public:
   /// `keys`: every window's key and close target. Throws kumite::Error when a window or the

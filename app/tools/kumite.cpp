@@ -266,6 +266,7 @@ int run_replay(const Args& a, const std::atomic<int>& stop) {
     wo.stop = &stop;
     if (!a.screenshot.empty()) wo.screenshot = a.screenshot;
     ro.real_time = true;
+    ro.show_recorded = true;  // what the visitors saw, even where this build makes other frames
     kumite::app::replay_windows(a.replay, ro, wo, rep);
   } else if (a.replay_out_given) {
     kumite::app::HeadlessOptions ho;
@@ -273,6 +274,7 @@ int run_replay(const Args& a, const std::atomic<int>& stop) {
     ho.out = a.out;
     ho.save_every = a.save_every;
     ho.resolution = parse_resolution(a.resolution);
+    ro.show_recorded = true;  // draw what the visitors saw, even where this build makes other frames
     kumite::app::replay_headless(a.replay, ro, ho, rep);
   } else {
     rep = kumite::app::replay_session(a.replay, ro);

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <ctime>
 #include <fstream>
 #include <set>
@@ -17,6 +18,7 @@
 #include <sstream>
 
 #include <nlohmann/json.hpp>
+#include <zlib.h>
 #include <unistd.h>
 
 #include "kumite/app/config.hpp"
@@ -24,6 +26,7 @@
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run.hpp"
 #include "kumite/app/session.hpp"
+#include "kumite/common/checksum.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/database.hpp"
@@ -606,4 +609,88 @@ TEST(ReplayWindows, ShowsTheRecordedFramesAndTheViewerCanEndIt) {
   ASSERT_TRUE(fs::exists(tmp.path / "shot-console.png"));
   EXPECT_GT(fs::file_size(tmp.path / "shot.png"), 10000u) << "the walls drawn, not a blank window";
   EXPECT_GT(fs::file_size(tmp.path / "shot-console.png"), 10000u);
+}
+
+// A presenter can show the frames as recorded (what the visitors saw), past a difference this
+// build makes: --replay --windows and --replay --out do.
+TEST(FrameStates, AReplayCanShowTheRecordedFramesPastADifference) {
+  Tmp tmp;
+  const fs::path config = write_config(tmp.path);
+  const fs::path orders = tmp.path / "orders.csv";
+  std::ofstream(orders) << "time_s,order\n0.2,punch_right\n";
+  record(config, orders, tmp.path / "s", 120);
+  std::string text = read(config);
+  const auto at = text.find("strike_distance_m = ");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, text.find('\n', at) - at, "strike_distance_m = 0.6");
+  std::ofstream(tmp.path / "changed.toml") << text;
+  ReplayOptions ro;
+  ro.config_override = tmp.path / "changed.toml";
+  ro.show_recorded = true;
+  std::vector<FrameData> shown;
+  ro.on_frame = [&](const FrameData& f) { shown.push_back(f); };
+  const ReplayReport rep = replay_session(tmp.path / "s", ro);
+  EXPECT_FALSE(rep.identical);
+  ASSERT_TRUE(rep.first_difference_frame);
+  EXPECT_EQ(rep.frames_replayed, 120u) << "on past the first difference";
+  ASSERT_EQ(shown.size(), 120u);
+  FrameStatesReader reader(tmp.path / "s/states.bin");
+  FrameData f;
+  for (std::size_t k = 0; k < shown.size(); ++k) {
+    ASSERT_TRUE(reader.next(f));
+    const auto d = first_difference(f, shown[k]);
+    EXPECT_FALSE(d) << "frame " << k << " shown is not the recorded one: " << *d;
+  }
+}
+
+// A damaged count in a record (here: a million walls in a 10 kB frame) is refused, not
+// allocated: the reader stops there, naming the file and the record.
+TEST(FrameStates, ACountLargerThanItsRecordIsRefused) {
+  Tmp tmp;
+  const fs::path config = write_config(tmp.path);
+  const fs::path orders = tmp.path / "orders.csv";
+  std::ofstream(orders) << "time_s,order\n";
+  record(config, orders, tmp.path / "s", 3);
+  // The second record (the first is the skeleton): unpack, set its walls count, pack again.
+  std::string file = read(tmp.path / "s/states.bin");
+  std::size_t at = kFrameStatesHeader.size();
+  std::uint32_t bytes = 0;
+  std::memcpy(&bytes, file.data() + at + 4, 4);
+  at += 16 + bytes;  // past the skeleton record
+  std::memcpy(&bytes, file.data() + at + 4, 4);
+  std::uint32_t raw_bytes = 0;
+  std::memcpy(&raw_bytes, file.data() + at + 16, 4);
+  std::string raw(raw_bytes, '\0');
+  uLongf n = raw_bytes;
+  ASSERT_EQ(uncompress(reinterpret_cast<Bytef*>(raw.data()), &n, reinterpret_cast<const Bytef*>(file.data() + at + 20),
+                       bytes - 4),
+            Z_OK);
+  ASSERT_EQ(raw[0], 2) << "a frame record";
+  const std::size_t walls_at = 1 + 8 + 8 + 8 + 24 + 32 + 1 + 48;  // kind, frame, times, head, live, eyes
+  std::uint32_t walls = 0;
+  std::memcpy(&walls, raw.data() + walls_at, 4);
+  ASSERT_GT(walls, 0u);
+  walls = 1u << 20;
+  std::memcpy(raw.data() + walls_at, &walls, 4);
+  uLongf packed = compressBound(raw_bytes);
+  std::string z(packed, '\0');
+  ASSERT_EQ(compress2(reinterpret_cast<Bytef*>(z.data()), &packed, reinterpret_cast<const Bytef*>(raw.data()), raw_bytes, 1),
+            Z_OK);
+  z.resize(packed);
+  std::string payload(4, '\0');
+  std::memcpy(payload.data(), &raw_bytes, 4);
+  payload += z;
+  const std::uint32_t payload_bytes = static_cast<std::uint32_t>(payload.size());
+  const std::uint64_t sum = kumite::fnv1a64(payload);
+  std::string record = file.substr(at, 4);
+  record.append(reinterpret_cast<const char*>(&payload_bytes), 4);
+  record.append(reinterpret_cast<const char*>(&sum), 8);
+  record += payload;
+  file = file.substr(0, at) + record;  // the damaged frame, last
+  std::ofstream(tmp.path / "s/states.bin", std::ios::binary | std::ios::trunc) << file;
+  FrameStatesReader reader(tmp.path / "s/states.bin");
+  FrameData f;
+  EXPECT_FALSE(reader.next(f));
+  EXPECT_NE(reader.problem().find("record 1 "), std::string::npos) << reader.problem();
+  EXPECT_NE(reader.problem().find("does not read whole"), std::string::npos) << reader.problem();
 }

@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "kumite/app/installation.hpp"
+#include "kumite/app/session.hpp"
 #include "kumite/app/tracking_input.hpp"
 #include "kumite/common/time.hpp"
 #include "kumite/tracking/synth.hpp"
@@ -48,10 +49,17 @@ void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
 using namespace kumite::app;
 namespace fs = std::filesystem;
 
-TEST(StepAllocations, AWarmFrameWithoutEventsAllocatesNothing) {
-#if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "the sanitizer build replaces operator new itself";
-#endif
+namespace {
+
+/// The shipped demo with the real fighter (its database built from content/motions),
+/// orders of every kind and two switches: frames without an event after 1.5 s, counted.
+struct Counted {
+  int quiet = 0, quiet_allocating = 0, with_events = 0;
+  long most = 0;
+  std::string where;
+};
+
+Counted run_demo(bool record) {
   const fs::path source = KUMITE_SOURCE_DIR;
   const fs::path dir = fs::temp_directory_path() / ("kumite_app_core_alloc_" + std::to_string(::getpid()));
   fs::remove_all(dir);
@@ -68,44 +76,76 @@ TEST(StepAllocations, AWarmFrameWithoutEventsAllocatesNothing) {
                                        "6.0,punch_left\n8.0,kick_right\n9.5,character 3\n10.5,punch_right\n";
   InstallationOptions io;
   io.orders_script = dir / "orders.csv";
-  Installation inst(cfg, make_fixed_head_input("test"), io);
-  ASSERT_EQ(inst.character_count(), 5);
-
-  // Warm-up: 1.5 s, in which the first strike starts (its decoded poses reserve their room).
-  // Then 11.5 s of frames at 60 Hz, counted: strikes of every kind, two character switches.
-  const double dt = 1.0 / 60;
-  const double t0 = 1000;
-  inst.start(t0);
-  int frame = 0;
-  for (; frame < 90; ++frame) inst.step(t0 + frame * dt);
-  int quiet = 0, quiet_allocating = 0, with_events = 0;
-  long most = 0;
-  std::string where;
-  for (; frame < 60 * 13; ++frame) {
-    t_allocations = 0;
-    t_counting = true;
-    const FrameData& f = inst.step(t0 + frame * dt);
-    t_counting = false;
-    const long n = t_allocations;
-    if (!f.events.empty()) {
-      ++with_events;
-      continue;
+  Counted c;
+  {
+    Installation inst(cfg, make_fixed_head_input("test"), io);
+    EXPECT_EQ(inst.character_count(), 5);
+    // Recording: a ring of 32 frames, so that the warm-up fills every slot's room once (the
+    // writer's own thread allocates as it likes: not counted).
+    std::unique_ptr<SessionRecorder> rec;
+    if (record) {
+      rec = std::make_unique<SessionRecorder>(dir / "session", session_info(cfg, io), 32);
+      inst.record_to(rec.get());
     }
-    ++quiet;
-    if (n > 0) {
-      ++quiet_allocating;
-      if (n > most) {
-        most = n;
-        where = fmt::format("frame {} ({:.2f} s, fighter {})", frame, f.time_s,
-                            kumite::content::to_string(f.fighter.state));
+    // Warm-up: 1.5 s, in which the first strike starts (its decoded poses reserve their room).
+    // Then 11.5 s of frames at 60 Hz, counted: strikes of every kind, two character switches.
+    const double dt = 1.0 / 60;
+    const double t0 = 1000;
+    inst.start(t0);
+    int frame = 0;
+    for (; frame < 90; ++frame) inst.step(t0 + frame * dt);
+    for (; frame < 60 * 13; ++frame) {
+      t_allocations = 0;
+      t_counting = true;
+      const FrameData& f = inst.step(t0 + frame * dt);
+      t_counting = false;
+      const long n = t_allocations;
+      if (!f.events.empty()) {
+        ++c.with_events;
+        continue;
       }
+      ++c.quiet;
+      if (n > 0) {
+        ++c.quiet_allocating;
+        if (n > c.most) {
+          c.most = n;
+          c.where = fmt::format("frame {} ({:.2f} s, fighter {})", frame, f.time_s,
+                                kumite::content::to_string(f.fighter.state));
+        }
+      }
+    }
+    if (rec) {
+      inst.record_to(nullptr);
+      rec->close();
+      EXPECT_GT(rec->frames_written(), 0u);
     }
   }
   fs::remove_all(dir);
-  EXPECT_GE(with_events, 7) << "the orders were taken (the script's strikes and switches)";
-  EXPECT_GE(quiet, 600);
-  EXPECT_EQ(quiet_allocating, 0) << quiet_allocating << " of " << quiet
-                                 << " frames without an event allocated; the most, " << most << ", at " << where;
+  return c;
+}
+
+}  // namespace
+
+TEST(StepAllocations, AWarmFrameWithoutEventsAllocatesNothing) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "the sanitizer build replaces operator new itself";
+#endif
+  const Counted c = run_demo(false);
+  EXPECT_GE(c.with_events, 7) << "the orders were taken (the script's strikes and switches)";
+  EXPECT_GE(c.quiet, 600);
+  EXPECT_EQ(c.quiet_allocating, 0) << c.quiet_allocating << " of " << c.quiet
+                                   << " frames without an event allocated; the most, " << c.most << ", at " << c.where;
+}
+
+// Recording too: the input, the hashes and the whole state copied into the ring's kept room.
+TEST(StepAllocations, RecordingAWarmFrameAllocatesNothing) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "the sanitizer build replaces operator new itself";
+#endif
+  const Counted c = run_demo(true);
+  EXPECT_GE(c.quiet, 600);
+  EXPECT_EQ(c.quiet_allocating, 0) << c.quiet_allocating << " of " << c.quiet
+                                   << " frames without an event allocated; the most, " << c.most << ", at " << c.where;
 }
 
 // The same with the tracker behind the frame (SYNTHETIC live cameras: a visitor standing

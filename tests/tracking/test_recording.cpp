@@ -432,6 +432,22 @@ TEST(TrackingConfig, CameraBlindWindowIsReadAndChecked) {
   }
 }
 
+// A marker coordinate written as an integer too large for a double (fuzz_tracking_config found
+// -66666666666666630 throwing std::bad_optional_access): one line naming file, line and key.
+TEST(TrackingConfig, AnIntegerMarkerCoordinatePastADoubleIsRefusedInOneLine) {
+  try {
+    (void)parse_tracking_config("[[bodies]]\nname = \"head\"\nmarkers = [[0,0,0],[0.1,-66666666666666630,0],"
+                                "[0,0.07,0],[0.03,0.02,0.05]]\n",
+                                "t.toml");
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("t.toml:3"), std::string::npos) << what;
+    EXPECT_NE(what.find("markers"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+}
+
 // Issue 14: gloves move at 8 m/s and are other bodies: each body may have its own One Euro
 // filter ([bodies.filter], over the file's [filter]) and coasting time; the tracker uses them.
 TEST(TrackingConfig, ABodyHasItsOwnFilterAndCoasting) {

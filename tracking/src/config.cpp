@@ -2,6 +2,7 @@
 #include "kumite/tracking/config.hpp"
 
 #include <cmath>
+#include <optional>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -42,7 +43,11 @@ BodyConfig read_body(const T& t, const FilterConfig& shared_filter) {
     for (int k = 0; k < 3; ++k) {
       const toml::node& e = (*xyz)[static_cast<std::size_t>(k)];
       if (!e.is_number()) t.fail_at(e, "type", "markers", "marker coordinates must be numbers in metres (|v| <= 10)");
-      const double c = e.value<double>().value();
+      // An integer past 2^53 has no exact double: toml++ gives none (fuzz_tracking_config found
+      // -66666666666666630 throwing bad_optional_access here).
+      const std::optional<double> number = e.value<double>();
+      if (!number) t.fail_at(e, "range", "markers", "marker coordinates must be numbers in metres (|v| <= 10)");
+      const double c = *number;
       if (!std::isfinite(c)) t.fail_at(e, "not_finite", "markers", "must be a finite number");
       if (std::abs(c) > 10) t.fail_at(e, "range", "markers", "marker coordinates must be numbers in metres (|v| <= 10)");
       v[k] = c;

@@ -87,9 +87,11 @@ struct In {
     return v;
   }
   std::uint8_t u8() { return get<std::uint8_t>(); }
-  std::uint32_t count() {
+  /// A count of things of at least `bytes_each` bytes each still to read: no more than the
+  /// bytes left can hold (a damaged count must not make the reader allocate gigabytes).
+  std::uint32_t count(std::size_t bytes_each = 1) {
     const auto n = get<std::uint32_t>();
-    if (n > kMaxCount) ok = false;
+    if (n > kMaxCount || static_cast<std::size_t>(n) * bytes_each > p.size()) ok = false;
     return ok ? n : 0;
   }
   /// A number that must be finite (every number of a frame is).
@@ -298,7 +300,7 @@ bool FrameStatesReader::next(FrameData& f) {
       r.head_live = in.u8() != 0;
       r.eyes.left = in.v3();
       r.eyes.right = in.v3();
-      r.views.resize(in.count());
+      r.views.resize(in.count(2 * (38 * 8 + 1)));  // per wall: two eyes' frustum, view, projection, valid
       for (auto& wall : r.views)
         for (EyeView& e : wall) {
           e.frustum = {in.d(), in.d(), in.d(), in.d(), in.d(), in.d()};
@@ -317,9 +319,9 @@ bool FrameStatesReader::next(FrameData& f) {
       if (state > static_cast<std::uint8_t>(content::FighterState::recovering)) in.ok = false;
       p.state = static_cast<content::FighterState>(state);
       p.character = in.get<std::int32_t>();
-      p.joints.resize(in.count());
+      p.joints.resize(in.count(24));
       for (auto& j : p.joints) j = in.v3();
-      p.local_rotations.resize(in.count());
+      p.local_rotations.resize(in.count(32));
       for (auto& q : p.local_rotations) q = in.q();
       p.root_joint = in.v3();
       if (in.u8()) p.target = in.v3();
@@ -333,7 +335,7 @@ bool FrameStatesReader::next(FrameData& f) {
         v.lost = in.u8() != 0;
         r.visitor_near_wall = v;
       }
-      r.events.resize(in.count());
+      r.events.resize(in.count(100));  // an event's fields: ~120 bytes
       // An enum's byte, checked against its last value.
       const auto enum_of = [&](auto last) {
         const auto v = in.u8();
@@ -372,7 +374,7 @@ bool FrameStatesReader::next(FrameData& f) {
         e.outside = in.u8() != 0;
         e.lost = in.u8() != 0;
       }
-      r.items.resize(in.count());
+      r.items.resize(in.count(77));  // 16 + 3 floats and a byte
       for (DrawItem& it : r.items) {
         for (int c = 0; c < 4; ++c)
           for (int rr = 0; rr < 4; ++rr) it.model[c][rr] = in.f();

@@ -36,6 +36,7 @@ class FixedHeadInput final : public TrackingInput {
   }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return "none (" + why_ + ")"; }
+  std::string none_why() const override { return why_; }
   bool has_tracker() const override { return false; }
 
  private:
@@ -584,12 +585,12 @@ std::string Installation::camera_name(std::size_t i) const {
   return i < names.size() ? names[i] : fmt::format("cam{}", i);
 }
 
-ConsoleState Installation::console() const {
+ConsoleState Installation::console(const FrameData& shown) const {
   ConsoleState c;
   const TrackingSnapshot& snap = input_.tracking;
   c.fps = dt_filtered_ > 0 ? 1.0 / dt_filtered_ : 0;
   c.frame_cpu_ms = frame_cpu_ms_;
-  c.tracking = describe(snap, tracking_->describe());
+  c.tracking = describe(snap, tracking_->none_why());
   c.tracking_source = describe(snap.source);
   for (std::size_t i = 0; i < snap.cameras.size(); ++i) {
     const CameraView& v = snap.cameras[i];
@@ -615,7 +616,7 @@ ConsoleState Installation::console() const {
                                                                             last->distance_m);
   }
   for (const auto& e : recent_) c.recent.push_back(event_line(e));
-  for (const auto& e : frame_.events) c.frame_events.push_back(event_text(e));
+  for (const auto& e : shown.events) c.frame_events.push_back(event_text(e));
 
   c.problems = problems();
   return c;
@@ -628,7 +629,7 @@ std::vector<std::string> Installation::problems() const {
   if (const auto s = source_problem(snap.source)) p.push_back(*s);
   if (!frame_.head_live && config_.tracking.source != TrackingSource::none && !loading)
     p.push_back(fmt::format("head not tracked ({}): walls drawn from the last good head position",
-                            describe(snap, tracking_->describe())));
+                            describe(snap, tracking_->none_why())));
   if (!loading)
     for (std::size_t i = 0; i < snap.cameras.size(); ++i)
       if (snap.cameras[i].state != CameraState::ok)

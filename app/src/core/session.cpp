@@ -507,11 +507,12 @@ void SessionRecorder::run() {
         encode_frame_state(item.state, first_of_character, state_record_);
         if (first_of_character) skeletons_written_.push_back(p.character);
       }
+      const bool is_start = item.start.has_value();  // read before the slot is given back
       tail_.store(t + 1, std::memory_order_release);  // the slot is read: the frame loop may reuse it
       text = j.dump();
       text += '\n';
       if (!error_.empty() || budget_reached_.load(std::memory_order_relaxed)) continue;
-      const std::size_t state_bytes = item.start ? 0 : state_record_.size() + (states_fd_ < 0 ? kFrameStatesHeader.size() : 0);
+      const std::size_t state_bytes = is_start ? 0 : state_record_.size() + (states_fd_ < 0 ? kFrameStatesHeader.size() : 0);
       if (bytes_.load(std::memory_order_relaxed) + text.size() + state_bytes > budget_bytes_) {
         budget_reached_.store(true, std::memory_order_relaxed);
         spdlog::warn("record: {}: the disk budget of {:g} MB is spent: recording stopped after {} frames (the session "
@@ -522,7 +523,7 @@ void SessionRecorder::run() {
       try {
         // The state first: a frame whose line is in session.jsonl has its state in states.bin
         // (a kill between the two leaves one state more, which the replay does not reach).
-        if (!item.start) write_state_record();
+        if (!is_start) write_state_record();
         write_line(text);
       } catch (const std::exception& e) {
         error_ = e.what();  // said at close(); later frames are not written (the file would have a hole)
@@ -978,15 +979,15 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
   // The recorded state of `frame` (nullptr: none, said once).
   const auto recorded_state = [&](std::uint64_t frame) -> FrameData* {
     if (!states) return nullptr;
-    if (states->next(recorded) && recorded.frame == frame) return &recorded;
+    const bool read = states->next(recorded);
+    if (read && recorded.frame == frame) return &recorded;
     rep.notes.push_back(
-        !states->problem().empty()
+        read ? fmt::format("{}: holds frame {} where frame {} was due: later frames are checked by their hashes alone",
+                           (dir / "states.bin").string(), recorded.frame, frame)
+        : !states->problem().empty()
             ? states->problem() + ": later frames are checked by their hashes alone"
-            : recorded.frame != frame && states->frames_read() > 0
-                  ? fmt::format("{}: holds frame {} where frame {} was due: later frames are checked by their hashes "
-                                "alone", (dir / "states.bin").string(), recorded.frame, frame)
-                  : fmt::format("{}: ends before frame {}: later frames are checked by their hashes alone",
-                                (dir / "states.bin").string(), frame));
+            : fmt::format("{}: ends before frame {}: later frames are checked by their hashes alone",
+                          (dir / "states.bin").string(), frame));
     states.reset();
     return nullptr;
   };
@@ -1081,6 +1082,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       // The time the frame predicts the head to, as Installation::update_head does.
       const Timestamp seen_at = std::max(input.now, input.shown_at) + loaded.config.display_latency_ms * 1e-3;
       read_tracker(rt->tracker, rt->head, input.now, seen_at, false, rt->reading, input.tracking);
+      input.tracking.source.retracked = true;
     }
     const bool shown = !from_s || input.now - start >= *from_s;
     if (shown && !rep.from_frame) {
@@ -1093,7 +1095,9 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       std::this_thread::sleep_until(pace0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                                                 std::chrono::duration<double>(input.now - pace_now0)));
     const FrameData& f = inst->replay(input);
-    if (shown && options.on_frame) options.on_frame(f);
+    // The frame as recorded (states.bin; nullptr: none), read once for the presenter and the check.
+    FrameData* was = recorded_state(frame);
+    if (shown && options.on_frame) options.on_frame(options.show_recorded && was ? *was : f);
     if (shown && options.stop_requested && options.stop_requested()) stop_after = frame;
     if (rep.frames_replayed == 0) first_now = input.now;
     last_now = input.now;
@@ -1115,7 +1119,6 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       bool same = true;
       for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
         same = same && want.value(std::string(StateHashes::kFields[k]), "") == hex(got.value[k]);
-      FrameData* was = recorded_state(frame);
       // The live tracker's latency (its poses' publishing time) is a measurement of that run,
       // which re-tracking offline cannot make again: not compared.
       if (was) was->tracking_latency_ms = f.tracking_latency_ms;
@@ -1135,6 +1138,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       continue;
     }
     if (!rep.compared) continue;
+    if (rep.first_difference_frame) continue;  // show_recorded goes on past the first difference
     const StateHashes got = state_hashes(f, text_hash);
     const json& want = r.at(j, "hash", "hash");
     for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k) {
@@ -1147,14 +1151,14 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       }
     }
     // The whole state as recorded: every field (what was drawn included), by value.
-    if (const FrameData* was = recorded_state(frame))
+    if (was)
       if (auto detail = first_difference(*was, f)) {
         if (rep.identical) rep.first_difference_field = detail->substr(0, detail->find(':'));
         rep.identical = false;
         rep.first_difference_frame = frame;
         rep.first_difference_detail = std::move(*detail);
       }
-    if (!rep.identical) break;
+    if (!rep.identical && !options.show_recorded) break;
   }
   if (!inst) throw file_error("replay", "session", session_path.string(), 1, "start", "no start line: nothing recorded");
   if (options.on_end) options.on_end(*inst);

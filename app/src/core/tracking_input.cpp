@@ -242,6 +242,7 @@ std::string describe(const TrackingSnapshot& s, std::string_view none_why) {
 }
 
 std::string describe(const SourceStats& src) {
+  if (src.retracked) return "re-tracked from the session's camera frames (cameras.bin)";
   if (!src.recording) return {};
   if (src.loading)
     return src.to_load > 0 ? fmt::format("recording: loading {} of {} frame sets into memory", src.loaded, src.to_load)

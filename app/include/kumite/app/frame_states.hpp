@@ -12,11 +12,15 @@
 //     head_live; eyes (left xyz, right xyz); u32 walls, per wall and eye the frustum (6 f64),
 //     view and projection (16 f64 each, column-major), u8 valid; f64 pose_age_ms,
 //     pose_measured_at, tracking_latency_ms, latch_ms, predicted_ahead_ms; the fighter: u8
-//     present, u8 state, i32 character, u32 joints, joints (xyz each), local rotations (wxyz
-//     each), root_joint xyz, u8 has target (+ xyz), root xyz, heading_rad; u8 visitor near
-//     wall (+ i32 wall, f64 distance_m, u8 outside, u8 lost); u32 events, each u8 type,
-//     string order, string text, f64 distance_m, time_s; u32 draw items, each the model
-//     matrix (16 f32), colour (3 f32), u8 mesh.
+//     present, u8 state, i32 character, u32 joints, joints (xyz each), u32 rotations, local
+//     rotations (wxyz each), root_joint xyz, u8 has target (+ xyz), root xyz, heading_rad; u8
+//     visitor near wall (+ i32 wall, f64 distance_m, u8 outside, u8 lost); u32 events, each:
+//     u8 type, u8 has order, the order (f64 time, u8 kind, i32 character), f64 distance_m,
+//     time_s, u8 cause, the fighter's event (f64 time, u8 kind, its order as above, u8 reason,
+//     f64 distance_m, target xyz, i32 segment, start_frame, contact_frame, f64
+//     contact_distance_m, u8 out_of_reach, i32 character_count), i32 wall, u8 outside, u8 lost;
+//     u32 draw items, each the model matrix (16 f32), colour (3 f32), u8 mesh.
+// Every f64 and f32 must be finite; counts no larger than the record's bytes can hold.
 // Little-endian, numbers exactly as computed. One record is written whole with one write(2):
 // a recorder killed mid-write leaves whole records and at most one cut one, which the reader
 // reports and stops at.

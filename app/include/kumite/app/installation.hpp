@@ -45,6 +45,7 @@ std::string_view to_string(TrackerState state);
 /// The frame source's counters as numbers (text: describe(SourceStats)).
 struct SourceStats {
   bool recording = false;        ///< false: live cameras, or no source
+  bool retracked = false;        ///< a replay's re-tracking from the session's camera frames (not recorded)
   bool loading = false;          ///< a recording's preload is under way
   std::uint64_t loaded = 0;      ///< frame sets preloaded so far
   std::uint64_t to_load = 0;     ///< frame sets to preload (0: decoding the first set from disk)
@@ -93,6 +94,8 @@ class TrackingInput {
   /// The clock the tracker's timestamps use, so pose age can be measured (s).
   virtual Timestamp clock() const = 0;
   virtual std::string describe() const = 0;
+  /// The console's tracking line when there is no tracker (TrackerState::none).
+  virtual std::string none_why() const { return "no tracking"; }
   /// The cameras' names, in the order of TrackingSnapshot::cameras (fixed once it is made).
   virtual const std::vector<std::string>& camera_names() const {
     static const std::vector<std::string> none;
@@ -330,7 +333,9 @@ class Installation {
 
   const FrameData& frame() const { return frame_; }
   /// The console's text for the last frame, made now (a presenter's call, not the step's).
-  ConsoleState console() const;
+  ConsoleState console() const { return console(frame_); }
+  /// The same, with `shown`'s events as the frame's own (a replay showing a recorded frame).
+  ConsoleState console(const FrameData& shown) const;
   /// An event's line for people ("target at (0.57, 1.61, 0.48) m", "135_06_punch_left_3
   /// (frames 20->50): touched the visitor (0.0 cm from the target)", ...), and the whole line
   /// the log and console show ("   12.34 s  hit punch_right: ...").

@@ -224,6 +224,11 @@ struct ReplayOptions {
   bool retrack = false;
   /// Called with each frame from `from` on (a presenter; nullptr: none).
   std::function<void(const FrameData&)> on_frame;
+  /// on_frame gets the frame as it was recorded (states.bin) where the session has it, not
+  /// the frame made again, and the replay goes on past a difference (the first is still
+  /// reported): a presenter then shows what the visitors saw, whatever this build makes of
+  /// the session. Without states (version 2), the frames made again.
+  bool show_recorded = false;
   /// Called once with the replay's installation, before its first frame (a presenter sets
   /// itself up with its walls and config; nullptr: none).
   std::function<void(const Installation&)> on_start;

@@ -228,11 +228,11 @@ class Behaviour {
     Order order{};
     std::optional<Eigen::Vector3d> target_room_m;
   };
-  std::vector<QueuedOrder> orders_;
-  std::vector<QueuedOrder> taking_;
+  std::vector<QueuedOrder> orders_;  ///< queued for the next update (deferred ones first)
+  std::vector<QueuedOrder> taking_;  ///< the orders handle_orders() is taking (room kept)
   /// A decoded pose for the strike's start (reach error, traversal, support foot): one at a
   /// time, reused so that starting a strike allocates nothing once warm.
-  mutable CanonicalPose scratch_pose_;  ///< the orders handle_orders() is taking (room kept)
+  mutable CanonicalPose scratch_pose_;
   std::uint64_t next_request_ = 1;
   /// A strike order sent to the planner, waiting for its plan.
   struct PendingStrike {
