@@ -114,7 +114,7 @@ TEST(Retrack, TheSessionsCameraFramesReTrackBitForBit) {
 
   // The recorded poses replay bit for bit (as always) ...
   const ReplayReport plain = replay_session(tmp.path / "session");
-  EXPECT_TRUE(plain.identical) << plain.first_difference_field;
+  EXPECT_TRUE(plain.identical) << plain.first_difference_field << ": " << plain.first_difference_detail;
   // ... and so do the camera frames through the tracker, with the recorded poses set aside.
   ReplayOptions ro;
   ro.retrack = true;
@@ -124,7 +124,8 @@ TEST(Retrack, TheSessionsCameraFramesReTrackBitForBit) {
   EXPECT_EQ(rep.frames_replayed, 120u);
   EXPECT_GT(rep.retrack->sets, 60u) << "the head was re-tracked from the frame sets, not taken from the recording";
   EXPECT_EQ(rep.retrack->frames_identical, rep.retrack->frames_compared)
-      << "first difference: frame " << rep.first_difference_frame.value_or(0) << ", " << rep.first_difference_field;
+      << "first difference: frame " << rep.first_difference_frame.value_or(0) << ", " << rep.first_difference_field
+      << ": " << rep.first_difference_detail;
   EXPECT_EQ(rep.retrack->head_max_m, 0.0);
   EXPECT_EQ(rep.retrack->status_differs, 0u);
   EXPECT_NE(read(tmp.path / "session/session.jsonl").find("\"status\":1,"), std::string::npos) << "the head was tracked";
