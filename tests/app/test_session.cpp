@@ -99,6 +99,27 @@ void record(const fs::path& config_path, const fs::path& orders, const fs::path&
   EXPECT_EQ(rec.dropped(), 0u);
 }
 
+/// The usual session: the test config, a punch at 0.2 s, `frames` frames recorded into
+/// `dir`/s (record()). Returns the config's path.
+fs::path record_punch(const fs::path& dir, int frames) {
+  const fs::path config = write_config(dir);
+  const fs::path orders = dir / "orders.csv";
+  std::ofstream(orders) << "time_s,order\n0.2,punch_right\n";
+  record(config, orders, dir / "s", frames);
+  return config;
+}
+
+/// `config` with the fighter told to strike from 0.6 m instead of 0.9 m, written to `out`
+/// (a change to the step a replay must catch). Fails the test when the key is not there.
+fs::path with_strike_distance_0_6(const fs::path& config, const fs::path& out) {
+  std::string text = read(config);
+  const auto at = text.find("strike_distance_m = ");
+  EXPECT_NE(at, std::string::npos) << config;
+  if (at != std::string::npos) text.replace(at, text.find('\n', at) - at, "strike_distance_m = 0.6");
+  std::ofstream(out) << text;
+  return out;
+}
+
 }  // namespace
 
 TEST(Session, ARecordedSessionReplaysBitForBit) {
@@ -440,10 +461,7 @@ TEST(Session, TheRecordKeyStartsAndStopsRecordings) {
 // the run drew them, and logs those frames; PNGs are named by the session's frame numbers.
 TEST(Session, AReplayDrawsTheMomentAskedFor) {
   Tmp tmp;
-  const fs::path config = write_config(tmp.path);
-  const fs::path orders = tmp.path / "orders.csv";
-  std::ofstream(orders) << "time_s,order\n0.2,punch_right\n";
-  record(config, orders, tmp.path / "s", 150);
+  const fs::path config = record_punch(tmp.path, 150);
   ReplayOptions ro;
   ro.from = "1.0";
   HeadlessOptions ho;
@@ -524,10 +542,7 @@ TEST(FrameStates, EveryFrameIsKeptWholeAsTheStepMadeIt) {
 
 TEST(FrameStates, AKilledRecorderLeavesWholeFramesAndTheReplaySaysSo) {
   Tmp tmp;
-  const fs::path config = write_config(tmp.path);
-  const fs::path orders = tmp.path / "orders.csv";
-  std::ofstream(orders) << "time_s,order\n0.2,punch_right\n";
-  record(config, orders, tmp.path / "s", 120);
+  const fs::path config = record_punch(tmp.path, 120);
   // Cut in the middle of a record, as a kill mid-write leaves it.
   const fs::path states = tmp.path / "s/states.bin";
   fs::resize_file(states, fs::file_size(states) - 1500);
@@ -556,19 +571,10 @@ TEST(FrameStates, AKilledRecorderLeavesWholeFramesAndTheReplaySaysSo) {
 
 TEST(FrameStates, AReplayThatDiffersSaysWhereByValue) {
   Tmp tmp;
-  const fs::path config = write_config(tmp.path);
-  const fs::path orders = tmp.path / "orders.csv";
-  std::ofstream(orders) << "time_s,order\n0.2,punch_right\n";
-  record(config, orders, tmp.path / "s", 120);
+  const fs::path config = record_punch(tmp.path, 120);
   // The same session replayed with the fighter told to strike from 0.6 m, not 0.9 m.
-  std::string text = read(config);
-  const auto at = text.find("strike_distance_m = ");
-  ASSERT_NE(at, std::string::npos);
-  text.replace(at, text.find('\n', at) - at, "strike_distance_m = 0.6");
-  const fs::path changed = tmp.path / "changed.toml";
-  std::ofstream(changed) << text;
   ReplayOptions ro;
-  ro.config_override = changed;
+  ro.config_override = with_strike_distance_0_6(config, tmp.path / "changed.toml");
   const ReplayReport rep = replay_session(tmp.path / "s", ro);
   EXPECT_FALSE(rep.identical);
   ASSERT_TRUE(rep.first_difference_frame);
@@ -584,10 +590,7 @@ TEST(ReplayWindows, ShowsTheRecordedFramesAndTheViewerCanEndIt) {
   const char* display = std::getenv("DISPLAY");
   if (!display || !*display) GTEST_SKIP() << "no display (ctest runs this under xvfb-run: ReplayWindows.UnderXvfb)";
   Tmp tmp;
-  const fs::path config = write_config(tmp.path);
-  const fs::path orders = tmp.path / "orders.csv";
-  std::ofstream(orders) << "time_s,order\n0.2,punch_right\n";
-  record(config, orders, tmp.path / "s", 90);
+  const fs::path config = record_punch(tmp.path, 90);
   std::atomic<int> stop{0};
   ReplayOptions ro;
   int shown = 0;
@@ -615,17 +618,9 @@ TEST(ReplayWindows, ShowsTheRecordedFramesAndTheViewerCanEndIt) {
 // build makes: --replay --windows and --replay --out do.
 TEST(FrameStates, AReplayCanShowTheRecordedFramesPastADifference) {
   Tmp tmp;
-  const fs::path config = write_config(tmp.path);
-  const fs::path orders = tmp.path / "orders.csv";
-  std::ofstream(orders) << "time_s,order\n0.2,punch_right\n";
-  record(config, orders, tmp.path / "s", 120);
-  std::string text = read(config);
-  const auto at = text.find("strike_distance_m = ");
-  ASSERT_NE(at, std::string::npos);
-  text.replace(at, text.find('\n', at) - at, "strike_distance_m = 0.6");
-  std::ofstream(tmp.path / "changed.toml") << text;
+  const fs::path config = record_punch(tmp.path, 120);
   ReplayOptions ro;
-  ro.config_override = tmp.path / "changed.toml";
+  ro.config_override = with_strike_distance_0_6(config, tmp.path / "changed.toml");
   ro.show_recorded = true;
   std::vector<FrameData> shown;
   ro.on_frame = [&](const FrameData& f) { shown.push_back(f); };
