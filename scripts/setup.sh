@@ -18,6 +18,8 @@ PACKAGES=(
   libeigen3-dev libglm-dev libopencv-dev libopencv-contrib-dev libapriltag-dev libceres-dev
   # config, CLI, logging, JSON; zlib (session recordings: the frames' states compressed)
   libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev zlib1g-dev
+  # lock-free queues (header-only boost::lockfree: pose samples to the recognition thread)
+  libboost-dev
   # graphics: windows, headless EGL (Mesa llvmpipe), operator console
   libglfw3-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev
   xvfb xauth

@@ -34,6 +34,25 @@ std::optional<LimbKind> limb_kind_from_string(std::string_view s) {
   if (s == "foot") return LimbKind::foot;
   return std::nullopt;
 }
+std::string_view to_string(Action a) {
+  switch (a) {
+    case Action::other: return "other";
+    case Action::straight_punch: return "straight_punch";
+    case Action::hook: return "hook";
+    case Action::uppercut: return "uppercut";
+    case Action::front_kick: return "front_kick";
+    case Action::side_kick: return "side_kick";
+    case Action::roundhouse_kick: return "roundhouse_kick";
+  }
+  return "other";
+}
+Action action_from_string(std::string_view name) {
+  for (Action a : {Action::straight_punch, Action::hook, Action::uppercut, Action::front_kick, Action::side_kick,
+                   Action::roundhouse_kick})
+    if (to_string(a) == name) return a;
+  return Action::other;
+}
+
 std::string_view to_string(EventType t) {
   switch (t) {
     case EventType::begin: return "begin";

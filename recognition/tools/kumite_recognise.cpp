@@ -96,6 +96,19 @@ int main(int argc, char** argv) {
   pz->add_option("--out", poses_out, "poses.csv")->required();
   double stop_at = -1;
   pz->add_option("--stop-at", stop_at, "s: cut the recording here (a stream that stops mid-strike)");
+  double from_s = 0;
+  pz->add_option("--from", from_s, "s: start the recording here (times then count from 0)")->check(CLI::NonNegativeNumber);
+  std::vector<double> place;
+  pz->add_option("--place", place, "x,z (m): where the head stands on average (every body moved with it)")
+      ->expected(2)->delimiter(',');
+  double hz = 0;
+  pz->add_option("--hz", hz, "Hz: rows at this rate (as a tracker at that rate would give them; 0 = every clip frame)")
+      ->check(CLI::Range(1.0, 1000.0));
+  double stay_s = 0;
+  pz->add_option("--stay", stay_s,
+                 "s: keep the visitor near its place: the head's floor travel averaged over this window is taken "
+                 "out of every body (a lunging clip punching on the spot; labelled in the file)")
+      ->check(CLI::Range(0.0, 60.0));
 
   CLI11_PARSE(app, argc, argv);
   try {
@@ -128,7 +141,7 @@ int main(int argc, char** argv) {
     } else if (run->parsed()) {
       const bool learned = recogniser == "learned";
       if (given_model.empty()) given_model = learned ? default_learned_model() : model_path;
-      const offline::PosesFile pf = offline::read_poses_csv(poses);
+      const recognition::PosesFile pf = recognition::read_poses_csv(poses);
       std::vector<Event> ev;
       long loops = 0;
       auto feed = [&](auto& rec) {
@@ -195,7 +208,25 @@ int main(int argc, char** argv) {
       auto r = offline::recording_from_clip(clip);
       if (stop_at >= 0)
         std::erase_if(r.samples, [&](const PoseSample& s) { return s.t > stop_at; });
-      write_file_atomically(poses_out, offline::format_poses_csv(r.samples));
+      std::erase_if(r.samples, [&](const PoseSample& s) { return s.t < from_s - 1e-9; });
+      for (PoseSample& s : r.samples) s.t -= from_s;
+      if (hz > 0) {  // per role, the first sample at or after each tick
+        std::array<double, kRoleCount> due{};
+        std::erase_if(r.samples, [&](const PoseSample& s) {
+          double& d = due[static_cast<std::size_t>(s.role)];
+          if (s.t < d - 1e-6) return true;
+          d = std::max(d + 1 / hz, s.t + 0.5 / hz);
+          return false;
+        });
+      }
+      std::string note = fmt::format("# {}: {}{}\n", bvh.filename().string(),
+                                     from_s > 0 || stop_at >= 0 ? fmt::format("{:.2f} s to {}, ", from_s, stop_at >= 0 ? fmt::format("{:.2f} s", stop_at) : std::string("the end")) : std::string(),
+                                     "the head, wrists (hands) and ankles (feet) of the clip as tracked bodies");
+      offline::place_visitor(r.samples, place.size() == 2 ? std::optional<std::array<double, 2>>({place[0], place[1]}) : std::nullopt, stay_s);
+      if (stay_s > 0)
+        note += fmt::format("# SYNTHETIC placement: the head's floor travel averaged over {:.1f} s taken out of every body\n", stay_s);
+      if (place.size() == 2) note += fmt::format("# placed: the head on average at x = {:.2f}, z = {:.2f} m\n", place[0], place[1]);
+      write_file_atomically(poses_out, note + recognition::format_poses_csv(r.samples));
       std::cout << nlohmann::json{{"out", poses_out.string()}, {"samples", r.samples.size()}}.dump() << "\n";
     }
   } catch (const kumite::Error& e) {

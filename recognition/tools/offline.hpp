@@ -11,6 +11,7 @@
 
 #include "kumite/content/skeleton.hpp"
 #include "kumite/recognition/learned.hpp"
+#include "kumite/recognition/poses_file.hpp"
 #include "kumite/recognition/recognition.hpp"
 
 namespace kumite::recognition::offline {
@@ -107,23 +108,11 @@ struct LearnedOverrides {
 nlohmann::json evaluate_learned(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
                                 const std::filesystem::path& dir, const LearnedOverrides& ov = {});
 
-// ---- poses.csv ------------------------------------------------------------------------------
-
-/// The columns of poses.csv (kumite-track --out, issue 14): one row per body per frame set.
-inline constexpr const char* kPosesHeader =
-    "frame,timestamp_s,body,status,x,y,z,qw,qx,qy,qz,markers,cameras,latency_ms";
-struct PosesFile {
-  std::vector<PoseSample> samples;  ///< known roles only, file order
-  int ignored_rows = 0;             ///< rows of bodies that are no role (ignored)
-};
-/// Parses poses.csv: the header line first ('#' lines and blank lines skipped), then rows.
-/// body = its name (head, left_hand, ...; other names are ignored); status tracked | coasting
-/// | lost (lost = no pose); every number checked finite and in range, timestamps never going
-/// back. Throws kumite::Error "file:line: column: message".
-PosesFile parse_poses_csv(std::string_view text, std::string_view source);
-PosesFile read_poses_csv(const std::filesystem::path& path);
-/// The samples as poses.csv (frame = index of the sample's timestamp among distinct ones).
-std::string format_poses_csv(const std::vector<PoseSample>& samples);
+/// Moves a mocap visitor's samples on the floor (every body alike): with `stay_s` > 0 the head's
+/// floor position averaged over a centred window of stay_s seconds is taken out (the visitor
+/// stays near one spot while limbs keep their motion but for that slow drift: SYNTHETIC); then
+/// the whole is shifted so that the head's mean floor position is `place` (x, z; m).
+void place_visitor(std::vector<PoseSample>& samples, std::optional<std::array<double, 2>> place, double stay_s);
 
 // ---- SYNTHETIC visitors (tests and benchmarks only) -----------------------------------------
 

@@ -189,34 +189,34 @@ TEST(RecognitionModel, RefusesBadNumbersEvenWithAValidChecksum) {
 }
 
 TEST(RecognitionPoses, ParsesAndIgnoresUnknownBodies) {
-  const std::string csv = std::string(offline::kPosesHeader) +
+  const std::string csv = std::string(recognition::kPosesHeader) +
                           "\n0,1.000,head,tracked,0,1.6,0,1,0,0,0,4,3,5.1\n"
                           "0,1.000,prop,tracked,1,1,1,1,0,0,0,4,3,5.1\n"
                           "1,1.008,right_hand,lost,0,0,0,1,0,0,0,0,0,-1\n";
-  const auto pf = offline::parse_poses_csv(csv, "p.csv");
+  const auto pf = recognition::parse_poses_csv(csv, "p.csv");
   ASSERT_EQ(pf.samples.size(), 2u);
   EXPECT_EQ(pf.ignored_rows, 1);
   EXPECT_EQ(pf.samples[1].role, Role::right_hand);
   EXPECT_FALSE(pf.samples[1].tracked);
   // Round trip through the writer.
-  const auto back = offline::parse_poses_csv(offline::format_poses_csv(pf.samples), "w.csv");
+  const auto back = recognition::parse_poses_csv(recognition::format_poses_csv(pf.samples), "w.csv");
   ASSERT_EQ(back.samples.size(), 2u);
   EXPECT_DOUBLE_EQ(back.samples[0].position[1], 1.6);
 }
 
 TEST(RecognitionPoses, MalformedLinesNameFileAndLine) {
-  const std::string h = std::string(offline::kPosesHeader) + "\n";
-  EXPECT_EQ(error_of([&] { offline::parse_poses_csv(h + "0,1,head,tracked,0,nan,0,1,0,0,0,4,3,5\n", "p.csv"); }),
+  const std::string h = std::string(recognition::kPosesHeader) + "\n";
+  EXPECT_EQ(error_of([&] { recognition::parse_poses_csv(h + "0,1,head,tracked,0,nan,0,1,0,0,0,4,3,5\n", "p.csv"); }),
             "p.csv:2: y: nan is outside [-100, 100]");
-  EXPECT_EQ(error_of([&] { offline::parse_poses_csv(h + "0,1,head,tracked,0,1\n", "p.csv"); }).rfind("p.csv:2: row: 6 columns", 0), 0u);
-  EXPECT_EQ(error_of([&] { offline::parse_poses_csv(h + "0,1,head,flying,0,1,0,1,0,0,0,4,3,5\n", "p.csv"); }),
+  EXPECT_EQ(error_of([&] { recognition::parse_poses_csv(h + "0,1,head,tracked,0,1\n", "p.csv"); }).rfind("p.csv:2: row: 6 columns", 0), 0u);
+  EXPECT_EQ(error_of([&] { recognition::parse_poses_csv(h + "0,1,head,flying,0,1,0,1,0,0,0,4,3,5\n", "p.csv"); }),
             "p.csv:2: status: 'flying' is not tracked, coasting or lost");
   EXPECT_EQ(error_of([&] {
-              offline::parse_poses_csv(h + "0,2,head,tracked,0,1,0,1,0,0,0,4,3,5\n1,1,head,tracked,0,1,0,1,0,0,0,4,3,5\n", "p.csv");
+              recognition::parse_poses_csv(h + "0,2,head,tracked,0,1,0,1,0,0,0,4,3,5\n1,1,head,tracked,0,1,0,1,0,0,0,4,3,5\n", "p.csv");
             }),
             "p.csv:3: timestamp_s: 1 goes back in time (previous row 2)");
-  EXPECT_EQ(error_of([&] { offline::parse_poses_csv("frame,t\n", "p.csv"); }).rfind("p.csv:1: header:", 0), 0u);
-  const std::string empty = error_of([&] { offline::parse_poses_csv("", "p.csv"); });
+  EXPECT_EQ(error_of([&] { recognition::parse_poses_csv("frame,t\n", "p.csv"); }).rfind("p.csv:1: header:", 0), 0u);
+  const std::string empty = error_of([&] { recognition::parse_poses_csv("", "p.csv"); });
   EXPECT_EQ(empty.rfind("p.csv:", 0), 0u) << empty;
   EXPECT_NE(empty.find("header: no header line"), std::string::npos) << empty;
 }

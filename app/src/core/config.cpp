@@ -148,7 +148,7 @@ class Reader {
 
 void Reader::parse(const toml::table& root) {
   only_keys(root, "", {"display_rate_hz", "late_latch", "display_latency_ms", "data_dir", "windows", "walls", "stereo", "viewer",
-                       "projection", "keys", "characters", "fighter", "tracking", "orders", "health", "safety", "record", "console", "log"});
+                       "projection", "keys", "characters", "fighter", "tracking", "recognition", "orders", "health", "safety", "record", "console", "log"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
   boolean(root, "late_latch", "", cfg_.late_latch);
   number(root, "display_latency_ms", "", cfg_.display_latency_ms);
@@ -166,6 +166,10 @@ void Reader::parse(const toml::table& root) {
   parse_characters(root);
   parse_fighter(root);
   parse_tracking(root);
+  if (const auto* r = table(root, "recognition", "", false)) {
+    only_keys(*r, "recognition", {"model"});
+    path(*r, "model", "recognition", cfg_.recognition.model);
+  }
   if (const auto* o = table(root, "orders", "", false)) {
     only_keys(*o, "orders", {"script"});
     std::filesystem::path s;
@@ -327,7 +331,7 @@ void Reader::parse_tracking(const toml::table& root) {
   const auto* t = table(root, "tracking", "", false);
   if (!t) return;
   only_keys(*t, "tracking",
-            {"source", "calibration", "tracking", "recording", "head_body", "lost_after_s",
+            {"source", "calibration", "tracking", "recording", "poses", "poses_loop", "head_body", "lost_after_s",
              "recording_preload", "decode_threads", "realtime_priority"});
   auto& c = cfg_.tracking;
   std::string src;
@@ -335,13 +339,16 @@ void Reader::parse_tracking(const toml::table& root) {
     if (src == "none") c.source = TrackingSource::none;
     else if (src == "recording") c.source = TrackingSource::recording;
     else if (src == "live") c.source = TrackingSource::live;
+    else if (src == "poses") c.source = TrackingSource::poses;
     else
       fail("unknown_source", cfg_.line_of("tracking.source"), "tracking.source",
-           fmt::format("unknown tracking source \"{}\" (none, recording, live)", src));
+           fmt::format("unknown tracking source \"{}\" (none, recording, live, poses)", src));
   }
   path(*t, "calibration", "tracking", c.calibration);
   path(*t, "tracking", "tracking", c.tracking);
   path(*t, "recording", "tracking", c.recording);
+  path(*t, "poses", "tracking", c.poses);
+  boolean(*t, "poses_loop", "tracking", c.poses_loop);
   if (int hb = 0; integer(*t, "head_body", "tracking", hb)) c.head_body = hb;
   number(*t, "lost_after_s", "tracking", c.lost_after_s);
   integer(*t, "recording_preload", "tracking", c.recording_preload);
@@ -395,6 +402,7 @@ std::string_view to_string(TrackingSource s) {
     case TrackingSource::none: return "none";
     case TrackingSource::recording: return "recording";
     case TrackingSource::live: return "live";
+    case TrackingSource::poses: return "poses";
   }
   return "?";
 }
@@ -467,7 +475,7 @@ bool InstallationConfig::operator==(const InstallationConfig& o) const {
          display_latency_ms == o.display_latency_ms && windows == o.windows && walls == o.walls &&
          stereo == o.stereo && viewer == o.viewer && projection == o.projection &&
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
-         tracking == o.tracking && orders_script == o.orders_script && data_dir == o.data_dir &&
+         tracking == o.tracking && recognition == o.recognition && orders_script == o.orders_script && data_dir == o.data_dir &&
          health == o.health && safety == o.safety && record_budget_mb == o.record_budget_mb &&
          console == o.console && frames_log_budget_mb == o.frames_log_budget_mb;
 }
@@ -591,7 +599,7 @@ void validate(const InstallationConfig& c) {
   if (c.fighter.z_limits_m[0] >= c.fighter.z_limits_m[1])
     fail_at(c, "range", "fighter.z_limits_m", "need min < max");
   const auto& t = c.tracking;
-  if (t.source != TrackingSource::none) {
+  if (t.source == TrackingSource::recording || t.source == TrackingSource::live) {
     if (t.calibration.empty())
       fail_at(c, "missing_key", "tracking", "tracking.calibration is needed for source = \"" +
                                                 std::string(to_string(t.source)) + "\"");
@@ -600,13 +608,16 @@ void validate(const InstallationConfig& c) {
   }
   if (t.source == TrackingSource::recording && t.recording.empty())
     fail_at(c, "missing_key", "tracking", "tracking.recording is needed for source = \"recording\"");
+  if (t.source == TrackingSource::poses && t.poses.empty())
+    fail_at(c, "missing_key", "tracking", "tracking.poses (a poses.csv) is needed for source = \"poses\"");
   if (t.head_body && *t.head_body < 0) fail_at(c, "range", "tracking.head_body", "must be >= 0");
   if (t.recording_preload < 0) fail_at(c, "range", "tracking.recording_preload", "must be >= 0");
   // "${data_dir}" needs a data folder from somewhere.
   if (c.data_root().empty()) {
     std::vector<std::pair<std::string, std::filesystem::path>> paths{
         {"fighter.database", c.fighter.database}, {"tracking.calibration", t.calibration},
-        {"tracking.tracking", t.tracking}, {"tracking.recording", t.recording}};
+        {"tracking.tracking", t.tracking}, {"tracking.recording", t.recording}, {"tracking.poses", t.poses},
+        {"recognition.model", c.recognition.model}};
     for (std::size_t i = 0; i < c.characters.size(); ++i)
       paths.emplace_back(fmt::format("characters[{}].bvh", i), c.characters[i].bvh);
     if (c.orders_script) paths.emplace_back("orders.script", *c.orders_script);
@@ -748,7 +759,11 @@ std::string to_toml(const InstallationConfig& c) {
   if (!t.calibration.empty()) tracking.insert("calibration", t.calibration.generic_string());
   if (!t.tracking.empty()) tracking.insert("tracking", t.tracking.generic_string());
   if (!t.recording.empty()) tracking.insert("recording", t.recording.generic_string());
+  if (!t.poses.empty()) tracking.insert("poses", t.poses.generic_string());
+  if (!t.poses_loop) tracking.insert("poses_loop", false);
   root.insert("tracking", std::move(tracking));
+  if (!c.recognition.model.empty())
+    root.insert("recognition", toml::table{{"model", c.recognition.model.generic_string()}});
   if (c.orders_script) root.insert("orders", toml::table{{"script", c.orders_script->generic_string()}});
   if (c.health.file || c.health.interval_s != HealthConfig{}.interval_s) {
     toml::table health{{"interval_s", c.health.interval_s}};

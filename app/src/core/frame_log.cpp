@@ -88,6 +88,13 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
     if (k < c.frame_events.size() && !c.frame_events[k].empty()) ev["text"] = c.frame_events[k];
     if (is_strike_outcome(e.type) || e.type == EventType::visitor_near_wall || e.type == EventType::visitor_clear)
       ev["distance_m"] = e.distance_m;
+    if (e.type == EventType::visitor_strike) {
+      const VisitorStrike& st = e.strike;
+      ev["strike"] = {{"type", recognition::to_string(st.type)}, {"limb", recognition::to_string(st.limb)},
+                      {"action", recognition::to_string(st.action)}, {"progress", st.progress},
+                      {"confidence", st.confidence}, {"impact", st.impact}, {"t", st.t},
+                      {"decided_ms", st.decided_at >= 0 ? json((st.decided_at - st.t) * 1e3) : json(nullptr)}};
+    }
     events.push_back(ev);
   }
   j["events"] = events;

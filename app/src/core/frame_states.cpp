@@ -219,6 +219,17 @@ void encode_frame_state(const FrameData& f, bool with_skeleton, std::string& out
       o.put(static_cast<std::int32_t>(e.wall));
       o.u8(e.outside);
       o.u8(e.lost);
+      if (e.type == EventType::visitor_strike) {  // version 2
+        const VisitorStrike& k = e.strike;
+        o.d(k.t);
+        o.d(k.decided_at);
+        o.u8(static_cast<std::uint8_t>(k.type));
+        o.u8(static_cast<std::uint8_t>(k.limb));
+        o.u8(static_cast<std::uint8_t>(k.action));
+        o.d(k.progress);
+        o.d(k.confidence);
+        for (const double v : k.impact) o.d(v);
+      }
     }
     o.u32(f.items.size());
     for (const DrawItem& it : f.items) {
@@ -234,11 +245,12 @@ FrameStatesReader::FrameStatesReader(const std::filesystem::path& file) : path_(
   if (!in_) throw file_error("replay", "io", file.string(), 0, "", "cannot open the frame states");
   std::string first(kFrameStatesHeader.size(), '\0');
   in_.read(first.data(), static_cast<std::streamsize>(first.size()));
-  if (in_.gcount() != static_cast<std::streamsize>(first.size()) || first != kFrameStatesHeader) {
+  if (in_.gcount() != static_cast<std::streamsize>(first.size()) ||
+      (first != kFrameStatesHeader && first != kFrameStatesHeaderV1)) {
     const bool newer = first.rfind("kumite-frame-states ", 0) == 0;
     throw file_error("replay", "format", file.string(), 1, "",
-                     newer ? "frame states from a newer version (this build reads version 1)"
-                           : "not a frame states file (no \"kumite-frame-states 1\" line)");
+                     newer ? "frame states from a newer version (this build reads versions 1 and 2)"
+                           : "not a frame states file (no \"kumite-frame-states 2\" line)");
   }
   offset_ = first.size();
 }
@@ -350,7 +362,7 @@ bool FrameStatesReader::next(FrameData& f) {
         return o;
       };
       for (FrameEvent& e : r.events) {
-        e.type = enum_of(EventType::visitor_clear);
+        e.type = enum_of(EventType::visitor_strike);
         const bool has_order = in.u8() != 0;
         const Order order = order_of();
         if (has_order) e.order = order;
@@ -373,6 +385,17 @@ bool FrameStatesReader::next(FrameData& f) {
         e.wall = in.get<std::int32_t>();
         e.outside = in.u8() != 0;
         e.lost = in.u8() != 0;
+        if (e.type == EventType::visitor_strike) {
+          VisitorStrike& k = e.strike;
+          k.t = in.d();
+          k.decided_at = in.d();
+          k.type = enum_of(recognition::EventType::cancel);
+          k.limb = enum_of(recognition::Role::right_foot);
+          k.action = enum_of(recognition::Action::roundhouse_kick);
+          k.progress = in.d();
+          k.confidence = in.d();
+          for (double& v : k.impact) v = in.d();
+        }
       }
       r.items.resize(in.count(77));  // 16 + 3 floats and a byte
       for (DrawItem& it : r.items) {
@@ -487,7 +510,7 @@ std::optional<std::string> first_difference(const FrameData& a, const FrameData&
                                      same(x.order->time, y.order->time))) &&
                        same(x.distance_m, y.distance_m) && same(x.time_s, y.time_s) && x.cause == y.cause &&
                        x.wall == y.wall && x.outside == y.outside && x.lost == y.lost;
-    if (!equal || !(x.fighter == y.fighter))
+    if (!equal || !(x.fighter == y.fighter) || !(x.strike == y.strike))
       return fmt::format("events[{}]: recorded {} ({:.3f} s, {:.4f} m), now {} ({:.3f} s, {:.4f} m)", k, event_name(x),
                          x.time_s, x.distance_m, event_name(y), y.time_s, y.distance_m);
   }

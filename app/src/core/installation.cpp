@@ -140,6 +140,7 @@ std::string_view to_string(EventType type) {
     case EventType::warning: return "warning";
     case EventType::visitor_near_wall: return "visitor_near_wall";
     case EventType::visitor_clear: return "visitor_clear";
+    case EventType::visitor_strike: return "visitor_strike";
   }
   return "?";
 }
@@ -147,7 +148,7 @@ std::string_view to_string(EventType type) {
 std::optional<EventType> parse_event_type(std::string_view text) {
   for (const EventType t : {EventType::order, EventType::order_ignored, EventType::hit, EventType::dodged, EventType::miss,
                             EventType::character_changed, EventType::warning, EventType::visitor_near_wall,
-                            EventType::visitor_clear})
+                            EventType::visitor_clear, EventType::visitor_strike})
     if (to_string(t) == text) return t;
   return std::nullopt;
 }
@@ -452,6 +453,16 @@ const FrameData& Installation::step(Timestamp now, Timestamp shown_at) {
   frame_.now = now;
   frame_.time_s = now - start_;
   update_head(now, shown_at);
+  // The visitor's strikes the recognition thread published since the last frame (issue 14):
+  // events of this frame, for the log, the console and, next, the fighter's answers.
+  for (const VisitorStrike& k : input_.tracking.strikes) {
+    FrameEvent e;
+    e.type = EventType::visitor_strike;
+    e.cause = EventCause::visitor;
+    e.time_s = now - start_;
+    e.strike = k;
+    note(e);
+  }
   // A wall whose plane an eye is on or behind keeps its last good view (kept_walls_: said
   // by the console).
   plan_views(walls_, frame_.eyes, config_.projection.near_m, config_.projection.far_m, frame_.views, kept_walls_);
@@ -555,6 +566,7 @@ std::string Installation::event_text(const FrameEvent& e) const {
       return fmt::format("character {} \"{}\" is not loaded (its file is missing)", character + 1,
                          character_name(character));
     case EventCause::visitor:
+      if (e.type == EventType::visitor_strike) return describe(e.strike);
       if (e.type == EventType::visitor_clear)
         return fmt::format("the visitor is clear of the walls again ({:.2f} m from the nearest, {})", e.distance_m,
                            wall_name(e.wall));
@@ -653,6 +665,9 @@ std::vector<std::string> Installation::problems() const {
                              : fmt::format("visitor: {:.2f} m from wall {}", v->distance_m, wall));
   }
   if (recorder_ && (recorder_->dropped() > 0 || recorder_->budget_reached())) p.push_back(recorder_->status_line());
+  if (const RecognitionStats& r = snap.recognition; r.running && (r.dropped > 0 || r.events_dropped > 0))
+    p.push_back(fmt::format("recognition: behind: {} pose samples and {} events dropped of {} and {}", r.dropped,
+                            r.events_dropped, r.samples + r.dropped, r.events + r.events_dropped));
   return p;
 }
 

@@ -94,6 +94,16 @@ json input_json(const FrameInput& in) {
                    {"from_memory", src.from_memory}, {"decode_ms", src.decode_ms}, {"rates", src.rates},
                    {"totals", src.totals}};
   }
+  if (!s.strikes.empty()) {
+    json strikes = json::array();
+    for (const VisitorStrike& k : s.strikes)
+      strikes.push_back({{"t", k.t}, {"decided_at", k.decided_at}, {"type", recognition::to_string(k.type)},
+                         {"limb", recognition::to_string(k.limb)}, {"action", recognition::to_string(k.action)},
+                         {"progress", k.progress}, {"confidence", k.confidence}, {"impact", k.impact}});
+    t["strikes"] = std::move(strikes);
+  }
+  if (s.recognition.running)
+    t["recognition"] = {s.recognition.samples, s.recognition.dropped, s.recognition.events, s.recognition.events_dropped};
   return {{"now", in.now},     {"shown_at", in.shown_at}, {"keyed", keyed}, {"tracking", t}, {"clock", in.tracking_clock},
           {"latch_ms", in.latch_ms}};
 }
@@ -165,6 +175,44 @@ FrameInput parse_input(const json& j, const LineReader& r) {
       if (!totals.is_array() || totals.size() != 3) r.fail("input.tracking.source.totals", "expected 3 counts");
       for (std::size_t k = 0; k < 3; ++k) o.totals[k] = count(totals[k], "input.tracking.source.totals");
     }
+  }
+  if (t.contains("strikes")) {  // the visitor's strikes (issue 14; any version may have them)
+    const json& all = t["strikes"];
+    if (!all.is_array()) r.fail("input.tracking.strikes", "not an array");
+    for (const json& k : all) {
+      VisitorStrike v;
+      const auto text = [&](const char* key) {
+        const json& x = r.at(k, key, std::string("input.tracking.strikes.") + key);
+        if (!x.is_string()) r.fail(std::string("input.tracking.strikes.") + key, "not a string");
+        return x.get<std::string>();
+      };
+      v.t = r.num(r.at(k, "t", "input.tracking.strikes.t"), "input.tracking.strikes.t");
+      v.decided_at = r.num(r.at(k, "decided_at", "input.tracking.strikes.decided_at"), "input.tracking.strikes.decided_at");
+      const std::string type = text("type");
+      bool known = false;
+      for (const auto et : {recognition::EventType::begin, recognition::EventType::switch_, recognition::EventType::end,
+                            recognition::EventType::cancel})
+        if (recognition::to_string(et) == type) v.type = et, known = true;
+      if (!known) r.fail("input.tracking.strikes.type", fmt::format("unknown event type \"{}\"", type));
+      const std::string limb = text("limb");
+      const auto role = recognition::role_from_string(limb);
+      if (!role || *role == recognition::Role::head) r.fail("input.tracking.strikes.limb", fmt::format("not a limb: \"{}\"", limb));
+      v.limb = *role;
+      v.action = recognition::action_from_string(text("action"));
+      v.progress = r.num(r.at(k, "progress", "input.tracking.strikes.progress"), "input.tracking.strikes.progress");
+      v.confidence = r.num(r.at(k, "confidence", "input.tracking.strikes.confidence"), "input.tracking.strikes.confidence");
+      v.impact = r.nums<3>(r.at(k, "impact", "input.tracking.strikes.impact"), "input.tracking.strikes.impact");
+      in.tracking.strikes.push_back(v);
+    }
+  }
+  if (t.contains("recognition")) {
+    const json& c = t["recognition"];
+    if (!c.is_array() || c.size() != 4) r.fail("input.tracking.recognition", "expected [samples, dropped, events, events_dropped]");
+    RecognitionStats& st = in.tracking.recognition;
+    st.running = true;
+    std::uint64_t* fields[4] = {&st.samples, &st.dropped, &st.events, &st.events_dropped};
+    for (std::size_t k = 0; k < 4; ++k)
+      *fields[k] = static_cast<std::uint64_t>(r.whole(c[k], "input.tracking.recognition", 0, 9007199254740992.0));
   }
   const json& h = r.at(t, "head", "input.tracking.head");
   if (!h.is_null()) {
@@ -268,6 +316,17 @@ StateHashes state_hashes(const FrameData& f, const std::function<std::string(con
       ev.i(x.wall);
       ev.i(x.outside);
       ev.i(x.lost);
+      if (x.type == EventType::visitor_strike) {
+        const VisitorStrike& k = x.strike;
+        ev.d(k.t);
+        ev.d(k.decided_at);
+        ev.i(static_cast<int>(k.type));
+        ev.i(static_cast<int>(k.limb));
+        ev.i(static_cast<int>(k.action));
+        ev.d(k.progress);
+        ev.d(k.confidence);
+        for (const double c : k.impact) ev.d(c);
+      }
     }
     ev.d(x.distance_m);
     ev.d(x.time_s);
@@ -407,6 +466,8 @@ void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const S
   item.input.tracking.frame_sets = input.tracking.frame_sets;
   item.input.tracking.cameras.assign(input.tracking.cameras.begin(), input.tracking.cameras.end());
   item.input.tracking.source = input.tracking.source;
+  item.input.tracking.strikes.assign(input.tracking.strikes.begin(), input.tracking.strikes.end());
+  item.input.tracking.recognition = input.tracking.recognition;
   item.input.tracking_clock = input.tracking_clock;
   item.input.latch_ms = input.latch_ms;
   item.hashes = hashes;

@@ -11,12 +11,17 @@
 #include <mutex>
 
 #include <array>
+#include <condition_variable>
+#include <thread>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/common/latest.hpp"
+#include "kumite/recognition/poses_file.hpp"
 #include "kumite/tracking/camera_frames.hpp"
+#include "kumite/tracking/pipeline.hpp"
 #include "kumite/tracking/tracker.hpp"
 
 namespace kumite::app {
@@ -37,10 +42,36 @@ auto at_key(const InstallationConfig& c, const char* key, F&& open) {
 class TrackerInput final : public TrackingInput {
  public:
   TrackerInput(const InstallationConfig& c, tracking::RigCalibration rig,
-               tracking::TrackingConfig tc, std::unique_ptr<tracking::FrameSource> source)
-      : preload_(c.tracking.recording_preload), tracker_(rig, tc), head_(head_body_index(c, tc)),
-        source_(c.tracking.source) {
+               tracking::TrackingConfig tc, std::unique_ptr<tracking::FrameSource> source,
+               std::unique_ptr<StrikeRecognition> recognition)
+      : preload_(c.tracking.recording_preload), recognition_(std::move(recognition)), tracker_(rig, tc),
+        head_(head_body_index(c, tc)), source_(c.tracking.source) {
     tracker_.set_realtime_priority(c.tracking.realtime_priority);
+    // Every filtered pose of the bodies named by a role goes to the recognition thread, on
+    // the tracker's thread as each frame set is done (a lock-free push: never waits).
+    if (recognition_) {
+      std::vector<std::pair<int, recognition::Role>> roles;
+      for (std::size_t b = 0; b < tc.bodies.size(); ++b)
+        if (const auto r = recognition::role_from_string(tc.bodies[b].name))
+          roles.emplace_back(static_cast<int>(b), *r);
+      if (std::none_of(roles.begin(), roles.end(), [](const auto& r) { return r.second != recognition::Role::head; }))
+        spdlog::warn("recognition: {} names no glove or shoe body (left_hand, right_hand, left_foot, right_foot): "
+                     "no strike can be recognised",
+                     c.resolve(c.tracking.tracking).string());
+      tracker_.on_frame([this, roles](const tracking::FrameResult& r) {
+        for (const auto& [b, role] : roles) {
+          if (b >= static_cast<int>(r.filtered.size())) continue;
+          const BodyPose& p = r.filtered[static_cast<std::size_t>(b)];
+          recognition::PoseSample s;
+          s.t = r.timestamp;
+          s.role = role;
+          s.position = p.position;
+          s.orientation = p.orientation;
+          s.tracked = p.status != TrackingStatus::lost;
+          recognition_->push(s);
+        }
+      });
+    }
     // Camera frame sets to a session recorder while one records (record_frame_sets). The
     // tracker thread takes this lock once per set; the frame loop only to swap the recorder.
     // Until the installation starts (or a recorder attaches, if earlier), the sets are kept,
@@ -81,11 +112,17 @@ class TrackerInput final : public TrackingInput {
       what_ = "live cameras";
     }
   }
-  ~TrackerInput() override { tracker_.stop(); }
+  ~TrackerInput() override { tracker_.stop(); }  // before recognition_: its hook pushes there
 
   void poll(Timestamp now_s, Timestamp display_time, TrackingSnapshot& s) override {
     read_tracker(tracker_, head_, now_s, display_time, true, reading_, s);
     if (counters_) describe_recording(now_s, s);
+    s.strikes.clear();
+    s.recognition = {};
+    if (recognition_) {
+      recognition_->take(s.strikes);
+      s.recognition = recognition_->stats();
+    }
   }
   Timestamp clock() const override { return now(); }
   void record_frame_sets(SessionRecorder* recorder) override {
@@ -157,6 +194,7 @@ class TrackerInput final : public TrackingInput {
   std::shared_ptr<tracking::RecordingOptions::Counters> counters_;
   PoseClock pose_clock_;  // when the next pose should be out (late latching)
   int preload_ = 0;
+  std::unique_ptr<StrikeRecognition> recognition_;  // before tracker_: destroyed after its thread stopped
   TrackerReading reading_;
   Timestamp rate_t0_ = -1;
   std::array<std::uint64_t, 3> rate_n0_{0, 0, 0};
@@ -167,6 +205,187 @@ class TrackerInput final : public TrackingInput {
   std::vector<std::string> names_;
   std::string what_;
 };
+
+
+/// A poses.csv played on its own timestamps, as if tracked (`[tracking] source = "poses"`): a
+/// thread hands each row over at its time (the file's first row at the input's start; looped
+/// when poses_loop), the head's rows to the frame (a latest-value slot), every row to the
+/// recognition thread. poll() extrapolates the newest head row to the display time (its
+/// velocity from the row before, at most 0.1 s ahead), as the tracker predicts its filter.
+class PosesInput final : public TrackingInput {
+ public:
+  PosesInput(const InstallationConfig& c, recognition::PosesFile file, std::unique_ptr<StrikeRecognition> rec)
+      : file_(std::move(file)), loop_(c.tracking.poses_loop), recognition_(std::move(rec)) {
+    std::size_t heads = 0;
+    for (const auto& smp : file_.samples) heads += smp.role == recognition::Role::head ? 1 : 0;
+    const double span = file_.samples.empty() ? 0.0 : file_.samples.back().t - file_.samples.front().t;
+    what_ = fmt::format("poses file {} ({} rows, {} of the head, {:.1f} s{})", c.resolve(c.tracking.poses).string(),
+                        file_.samples.size(), heads, span, loop_ ? ", looped" : "");
+    if (heads == 0)
+      spdlog::warn("tracking: {} has no row of a body named head: the head stays at its default",
+                   c.resolve(c.tracking.poses).string());
+    if (file_.ignored_rows > 0)
+      spdlog::info("tracking: {}: {} rows of bodies that are no role (head, left_hand, right_hand, left_foot, "
+                   "right_foot) ignored",
+                   c.resolve(c.tracking.poses).string(), file_.ignored_rows);
+    thread_ = std::thread([this] { run(); });
+  }
+  ~PosesInput() override {
+    {
+      const std::lock_guard lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_all();
+    thread_.join();
+  }
+
+  void poll(Timestamp now_s, Timestamp display_time, TrackingSnapshot& s) override {
+    s.head.reset();
+    s.measured_at = -1;
+    s.measured_ready_at = -1;
+    s.cameras.clear();
+    s.source = {};
+    s.frame_sets = frame_sets_.load(std::memory_order_acquire);
+    const auto h = head_.read();
+    if (!h) {
+      s.state = TrackerState::waiting;
+    } else {
+      BodyPose p = h->last;
+      const bool seen = p.status != TrackingStatus::lost;
+      const double age = now_s - h->last.timestamp;
+      // Extrapolated only while fresh (a file that ended, or a gap, holds the last row).
+      if (seen && age <= kMaxGap_s && h->has_prev && h->prev.status != TrackingStatus::lost) {
+        const double dt = p.timestamp - h->prev.timestamp;
+        if (dt > 1e-4 && dt <= kMaxGap_s) {
+          const double ahead = std::clamp(display_time - p.timestamp, 0.0, kMaxGap_s);
+          for (int k = 0; k < 3; ++k)
+            p.position[k] += (h->last.position[k] - h->prev.position[k]) / dt * ahead;
+        }
+      }
+      p.status = !seen ? TrackingStatus::lost : age <= kMaxGap_s ? TrackingStatus::tracked : TrackingStatus::coasting;
+      s.head = p;
+      if (seen) {
+        s.measured_at = h->last.timestamp;
+        s.measured_ready_at = h->last.ready_at;
+      }
+      s.state = p.status == TrackingStatus::tracked    ? TrackerState::tracked
+                : p.status == TrackingStatus::coasting ? TrackerState::coasting
+                                                       : TrackerState::lost;
+    }
+    if (ended_.load(std::memory_order_acquire)) s.state = TrackerState::stopped;
+    s.strikes.clear();
+    s.recognition = {};
+    if (recognition_) {
+      recognition_->take(s.strikes);
+      s.recognition = recognition_->stats();
+    }
+  }
+  Timestamp clock() const override { return now(); }
+  std::string describe() const override { return what_; }
+  PoseTiming pose_timing(Timestamp t) override {
+    PoseTiming p;
+    if (const auto h = head_.read()) {
+      pose_clock_.observe(h->last.frame, h->last.timestamp, h->last.ready_at);
+      p.newest = h->last.frame + 1;
+      p.newest_at = h->last.timestamp;
+    }
+    p.next_ready = pose_clock_.next_ready(t);
+    p.period_s = pose_clock_.period_s();
+    return p;
+  }
+
+ private:
+  static constexpr double kMaxGap_s = 0.1;  // s: a head row older than this is coasting; no extrapolation past it
+  struct Head {
+    BodyPose last, prev;
+    bool has_prev = false;
+  };
+
+  void run() {
+    const auto& rows = file_.samples;
+    if (rows.empty()) {
+      ended_.store(true, std::memory_order_release);
+      return;
+    }
+    const Timestamp t0 = now();
+    const double first = rows.front().t;
+    // One loop lasts the file's span plus one row interval (the first row again a period after the last).
+    double step = 1.0 / 60;
+    for (std::size_t i = 1; i < rows.size(); ++i)
+      if (rows[i].t > rows[i - 1].t) {
+        step = rows[i].t - rows[i - 1].t;
+        break;
+      }
+    const double period = rows.back().t - first + step;
+    Head head;
+    std::uint64_t frame = 0;
+    for (double offset = 0;; offset += period) {
+      for (std::size_t i = 0; i < rows.size(); ++i) {
+        const Timestamp due = t0 + offset + (rows[i].t - first);
+        if (!wait_until(due)) return;
+        if (i > 0 && rows[i].t > rows[i - 1].t) {
+          ++frame;
+          frame_sets_.store(frame, std::memory_order_release);
+        }
+        recognition::PoseSample smp = rows[i];
+        smp.t = due;
+        if (smp.role == recognition::Role::head) {
+          head.prev = head.last;
+          head.has_prev = head.last.timestamp > 0;
+          head.last = BodyPose{};
+          head.last.timestamp = due;
+          head.last.frame = frame;
+          head.last.status = smp.tracked ? TrackingStatus::tracked : TrackingStatus::lost;
+          head.last.position = smp.position;
+          head.last.orientation = smp.orientation;
+          head.last.markers = smp.tracked ? 4 : 0;
+          head.last.ready_at = now();
+          head_.publish(head);
+        }
+        if (recognition_) recognition_->push(smp);
+      }
+      if (!loop_) break;
+      ++frame;
+      if (recognition_) recognition_->restart(t0 + offset + period);
+    }
+    if (recognition_) recognition_->restart(now());  // the stream ended: strikes under way are cancelled
+    ended_.store(true, std::memory_order_release);
+  }
+
+  /// Sleeps until `due` (the clock's seconds); false when asked to stop.
+  bool wait_until(Timestamp due) {
+    std::unique_lock lock(mutex_);
+    for (Timestamp t = now(); t < due && !stop_; t = now())
+      wake_.wait_for(lock, std::chrono::duration<double>(std::min(due - t, 0.05)));
+    return !stop_;
+  }
+
+  recognition::PosesFile file_;
+  bool loop_ = true;
+  std::unique_ptr<StrikeRecognition> recognition_;
+  LatestValue<Head> head_;
+  std::atomic<std::uint64_t> frame_sets_{0};
+  std::atomic<bool> ended_{false};
+  PoseClock pose_clock_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  bool stop_ = false;  // guarded by mutex_
+  std::string what_;
+  std::thread thread_;  // last: started once everything above is made
+};
+
+/// The recognition thread [recognition] asks for (nullptr: none).
+std::unique_ptr<StrikeRecognition> make_recognition(const InstallationConfig& c) {
+  if (c.recognition.model.empty()) return nullptr;
+  if (c.tracking.source == TrackingSource::none) {
+    spdlog::warn("recognition: {}: recognition.model is set but tracking.source = \"none\": no pose to recognise",
+                 c.file.string());
+    return nullptr;
+  }
+  const auto path = c.resolve(c.recognition.model);
+  auto model = at_key(c, "recognition.model", [&] { return recognition::read_model(path); });
+  return std::make_unique<StrikeRecognition>(std::move(model), path.string());
+}
 
 }  // namespace
 
@@ -268,18 +487,24 @@ std::optional<std::string> source_problem(const SourceStats& src) {
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config) {
   if (config.tracking.source == TrackingSource::none)
     return make_fixed_head_input("tracking.source = \"none\"");
+  if (config.tracking.source == TrackingSource::poses) {
+    auto file = at_key(config, "tracking.poses",
+                       [&] { return recognition::read_poses_csv(config.resolve(config.tracking.poses)); });
+    return std::make_unique<PosesInput>(config, std::move(file), make_recognition(config));
+  }
   auto rig = at_key(config, "tracking.calibration",
                     [&] { return tracking::read_calibration(config.resolve(config.tracking.calibration)); });
   auto tc = at_key(config, "tracking.tracking",
                    [&] { return tracking::read_tracking_config(config.resolve(config.tracking.tracking)); });
-  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), nullptr);
+  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), nullptr, make_recognition(config));
 }
 
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config,
                                                    std::unique_ptr<tracking::FrameSource> source) {
   auto rig = tracking::read_calibration(config.resolve(config.tracking.calibration));
   auto tc = tracking::read_tracking_config(config.resolve(config.tracking.tracking));
-  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), std::move(source));
+  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), std::move(source),
+                                        make_recognition(config));
 }
 
 }  // namespace kumite::app

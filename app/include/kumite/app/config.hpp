@@ -132,7 +132,10 @@ struct FighterSection {
   bool operator==(const FighterSection&) const = default;
 };
 
-enum class TrackingSource { none, recording, live };
+/// none: the head at its default; recording: the tracker on recorded camera frames; live: on
+/// the cameras; poses: a poses.csv (kumite-track --out, or a room's own tracker) played on its
+/// timestamps as if tracked (issue 14).
+enum class TrackingSource { none, recording, live, poses };
 std::string_view to_string(TrackingSource s);
 
 struct TrackingConfig {
@@ -140,6 +143,8 @@ struct TrackingConfig {
   std::filesystem::path calibration;  ///< rig calibration (OpenCV YAML), as written
   std::filesystem::path tracking;     ///< tracking.toml, as written
   std::filesystem::path recording;    ///< recording folder (source = "recording")
+  std::filesystem::path poses;        ///< poses.csv (source = "poses")
+  bool poses_loop = true;             ///< source = "poses": start the file again at its end
   /// The glasses' body: by default the body tracking.toml names by its role, `head` (body 0,
   /// said once, when none is named so); `head_body = N` picks body N by its index instead.
   std::optional<int> head_body;
@@ -155,6 +160,16 @@ struct TrackingConfig {
   /// CAP_SYS_NICE or an rtprio limit; without them the tracker says so and runs normally.
   int realtime_priority = 0;
   bool operator==(const TrackingConfig&) const = default;
+};
+
+/// [recognition]: the visitor's strikes recognised from the tracked bodies (issue 14). Every
+/// pose sample of the bodies named by a role (head, left_hand, right_hand, left_foot,
+/// right_foot) goes to a recognition thread; its events enter the frame (TrackingSnapshot::strikes).
+struct RecognitionConfig {
+  /// The recogniser's model (.krec, kumite-recognise train; the shipped one is
+  /// recognition/models/strikes.krec); empty: no recognition.
+  std::filesystem::path model;
+  bool operator==(const RecognitionConfig&) const = default;
 };
 
 /// [safety]: the visitor near a wall (or out of the tracked area): a glow on that wall and an
@@ -202,6 +217,7 @@ struct InstallationConfig {
   std::vector<CharacterConfig> characters;
   FighterSection fighter;
   TrackingConfig tracking;
+  RecognitionConfig recognition;
   std::optional<std::filesystem::path> orders_script;  ///< `time_s,order` rows, as written
   HealthConfig health;
   SafetyConfig safety;

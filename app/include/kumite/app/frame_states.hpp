@@ -37,7 +37,10 @@
 
 namespace kumite::app {
 
-inline constexpr std::string_view kFrameStatesHeader = "kumite-frame-states 1\n";
+/// Version 2: a visitor_strike event carries its recognition event (version 1 files, which
+/// have none, still read).
+inline constexpr std::string_view kFrameStatesHeader = "kumite-frame-states 2\n";
+inline constexpr std::string_view kFrameStatesHeaderV1 = "kumite-frame-states 1\n";
 
 /// Appends the records for `frame` to `out`: its character's skeleton first when `with_skeleton`
 /// (the writer's first frame of that character), then the frame. `out`'s room is reused.

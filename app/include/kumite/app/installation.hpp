@@ -16,6 +16,7 @@
 #include "kumite/app/frame_pacer.hpp"
 #include "kumite/app/orders.hpp"
 #include "kumite/app/scene.hpp"
+#include "kumite/app/visitor_strikes.hpp"
 #include "kumite/common/wire.hpp"
 #include "kumite/content/fighter.hpp"
 
@@ -76,6 +77,10 @@ struct TrackingSnapshot {
   std::uint64_t frame_sets = 0;      ///< frame sets the tracker has processed
   std::vector<CameraView> cameras;   ///< per camera, in the rig's order
   SourceStats source;
+  /// The visitor's strike events the recognition thread published since the last poll, in
+  /// order (empty without [recognition]); a replay takes them from the session.
+  std::vector<VisitorStrike> strikes;
+  RecognitionStats recognition;
 };
 /// The tracking line of the console: "tracked, 1200 frame sets", "tracker stopped, 30 frame
 /// sets", or `none_why` when there is no tracker.
@@ -119,10 +124,11 @@ std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why);
 enum class EventType : std::uint8_t {
   order, order_ignored, hit, dodged, miss, character_changed, warning,
   visitor_near_wall,  ///< the tracked head came within [safety] wall_distance_m of a wall, or left the tracked area
-  visitor_clear       ///< back in the room's safe area (tracked, clear of every wall)
+  visitor_clear,      ///< back in the room's safe area (tracked, clear of every wall)
+  visitor_strike      ///< the recogniser's event about a strike of the visitor's (FrameEvent::strike)
 };
 /// "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning",
-/// "visitor_near_wall", "visitor_clear".
+/// "visitor_near_wall", "visitor_clear", "visitor_strike".
 std::string_view to_string(EventType type);
 /// The text form back (reading logs); std::nullopt when it is none of them.
 std::optional<EventType> parse_event_type(std::string_view text);
@@ -133,7 +139,7 @@ enum class EventCause : std::uint8_t {
   no_fighter,            ///< an order ignored: no fighter (its database or characters missing)
   no_such_character,     ///< an order ignored: that character does not exist
   character_not_loaded,  ///< an order ignored: that character's file is missing
-  visitor,               ///< the visitor's safety (visitor_near_wall / visitor_clear)
+  visitor,               ///< the visitor's safety (visitor_near_wall / visitor_clear) or strikes (visitor_strike)
 };
 
 /// One event of a frame, as data: no text (the log and console make it: event_text).
@@ -148,6 +154,7 @@ struct FrameEvent {
   int wall = -1;         ///< visitor events: the wall concerned (-1: none)
   bool outside = false;  ///< visitor_near_wall: beyond the wall's plane
   bool lost = false;     ///< visitor_near_wall: tracking lost near the wall
+  VisitorStrike strike;  ///< visitor_strike: the recogniser's event
   bool operator==(const FrameEvent&) const = default;
 };
 /// A strike's outcome at contact: "hit" (touched the visitor), "dodged" (reached its target,

@@ -62,6 +62,12 @@ struct PoseSample {
   bool tracked = true;
 };
 
+/// The strike kinds the project knows (an event's `action` as text; templates may name others:
+/// Action::other). Hooks and uppercuts have no training data yet (recognition/README.md).
+enum class Action : std::uint8_t { other, straight_punch, hook, uppercut, front_kick, side_kick, roundhouse_kick };
+std::string_view to_string(Action a);             ///< "straight_punch", ...; "other"
+Action action_from_string(std::string_view name);  ///< Action::other for a name it does not know
+
 enum class EventType : std::uint8_t { begin, switch_, end, cancel };
 std::string_view to_string(EventType t);  ///< "begin" | "switch" | "end" | "cancel"
 

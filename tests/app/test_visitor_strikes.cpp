@@ -1,0 +1,217 @@
+// Issue 14 in the installation: a poses.csv played as if tracked (`[tracking] source = "poses"`),
+// every pose sample to the recognition thread, its events in the frame (FrameEvent
+// visitor_strike), recorded and replayed. The recognition thread's events are checked against
+// the recognition library run over the same samples in one batch (recognition::recognise), an
+// independent path. Data: config/visitor-135_06.poses.csv (CMU 135_06, a kata, placed in the
+// room: SYNTHETIC placement, see its header).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include <unistd.h>
+
+#include <fmt/format.h>
+
+#include "kumite/app/config.hpp"
+#include "kumite/app/installation.hpp"
+#include "kumite/app/session.hpp"
+#include "kumite/app/tracking_input.hpp"
+#include "kumite/app/visitor_strikes.hpp"
+#include "kumite/common/error.hpp"
+#include "kumite/recognition/poses_file.hpp"
+
+using namespace kumite::app;
+namespace fs = std::filesystem;
+namespace rec = kumite::recognition;
+
+namespace {
+
+const char* kVisitor = KUMITE_SOURCE_DIR "/config/visitor-135_06.poses.csv";
+const char* kModel = KUMITE_SOURCE_DIR "/recognition/models/strikes.krec";
+
+const char* kRoom = R"(
+[[walls]]
+name = "front"
+lower_left = [-1.5, 0.0, -1.5]
+lower_right = [1.5, 0.0, -1.5]
+upper_left = [-1.5, 2.4, -1.5]
+[fighter]
+database = "/nonexistent/fighter.kdb"
+)";
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const kumite::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+
+}  // namespace
+
+TEST(PosesSource, ConfigKeysAreReadCheckedAndWrittenBack) {
+  const std::string poses = std::string(kRoom) +
+                            "[tracking]\nsource = \"poses\"\nposes = \"v.csv\"\nposes_loop = false\n"
+                            "[recognition]\nmodel = \"m.krec\"\n";
+  const auto c = parse_installation_config(poses, "room.toml");
+  EXPECT_EQ(c.tracking.source, TrackingSource::poses);
+  EXPECT_EQ(c.tracking.poses, "v.csv");
+  EXPECT_FALSE(c.tracking.poses_loop);
+  EXPECT_EQ(c.recognition.model, "m.krec");
+  EXPECT_EQ(parse_installation_config(to_toml(c), "back.toml"), c) << to_toml(c);
+  // No calibration is needed for a poses file; the file itself is.
+  const std::string missing =
+      error_of([&] { parse_installation_config(std::string(kRoom) + "[tracking]\nsource = \"poses\"\n", "room.toml"); });
+  EXPECT_EQ(missing.rfind("room.toml:", 0), 0u) << missing;
+  EXPECT_NE(missing.find("tracking.poses (a poses.csv) is needed"), std::string::npos) << missing;
+  EXPECT_NE(error_of([&] { parse_installation_config(std::string(kRoom) + "[recognition]\nmodle = \"m\"\n", "room.toml"); })
+                .find("modle"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { parse_installation_config(std::string(kRoom) + "[tracking]\nsource = \"gloves\"\n", "room.toml"); })
+                .find("none, recording, live, poses"),
+            std::string::npos);
+}
+
+TEST(StrikeRecognition, TheThreadGivesTheEventsOfTheRecogniserRunInOneBatch) {
+  const auto file = rec::read_poses_csv(kVisitor);
+  ASSERT_GT(file.samples.size(), 3000u);
+  const rec::Model model = rec::read_model(kModel);
+  const std::vector<rec::Event> batch = rec::recognise(model, file.samples);
+  ASSERT_GE(std::count_if(batch.begin(), batch.end(), [](const auto& e) { return e.type == rec::EventType::begin; }), 4)
+      << "the kata's first 12 s hold several strikes";
+  StrikeRecognition thread(model, "test");
+  for (const auto& s : file.samples) thread.push(s);
+  thread.restart(file.samples.back().t);  // as recognise() finishes at its last sample
+  thread.drain_for_tests();
+  std::vector<VisitorStrike> got;
+  thread.take(got);
+  ASSERT_EQ(got.size(), batch.size());
+  for (std::size_t k = 0; k < got.size(); ++k) {
+    SCOPED_TRACE(k);
+    EXPECT_EQ(got[k].t, batch[k].t);
+    EXPECT_EQ(got[k].type, batch[k].type);
+    EXPECT_EQ(got[k].limb, batch[k].limb);
+    EXPECT_EQ(rec::to_string(got[k].action), batch[k].action);
+    EXPECT_EQ(got[k].progress, batch[k].progress);
+    EXPECT_EQ(got[k].confidence, batch[k].confidence);
+    EXPECT_EQ(got[k].impact, batch[k].impact);
+    EXPECT_GE(got[k].decided_at, 0);
+  }
+  const RecognitionStats st = thread.stats();
+  EXPECT_EQ(st.samples, file.samples.size());
+  EXPECT_EQ(st.dropped, 0u);
+  EXPECT_EQ(st.events, batch.size());
+}
+
+TEST(PosesSource, PlaysTheFileOnItsTimestampsAsIfTracked) {
+  // SYNTHETIC: a head walking along +x at 0.5 m/s for 0.6 s at 60 Hz (a glove body of no
+  // role is ignored), then the file ends (no loop): the tracker has stopped.
+  const fs::path dir = fs::temp_directory_path() / fmt::format("kumite-poses-{}", ::getpid());
+  fs::create_directories(dir);
+  {
+    std::ofstream out(dir / "walk.csv");
+    out << "# SYNTHETIC\n" << rec::kPosesHeader << "\n";
+    for (int i = 0; i <= 36; ++i) {
+      const double t = 100 + i / 60.0;  // the file's own clock: played from the input's start
+      out << fmt::format("{},{:.6f},head,tracked,{:.5f},1.6,0,1,0,0,0,4,4,1\n", i, t, 0.5 * (t - 100));
+      out << fmt::format("{},{:.6f},stick,tracked,0,1,0,1,0,0,0,4,4,1\n", i, t);
+    }
+  }
+  auto cfg = parse_installation_config(std::string(kRoom) + "[tracking]\nsource = \"poses\"\nposes = \"" +
+                                           (dir / "walk.csv").string() + "\"\nposes_loop = false\n",
+                                       "room.toml");
+  const kumite::Timestamp t0 = kumite::now();
+  auto input = make_tracking_input(cfg);
+  EXPECT_NE(input->describe().find("37 of the head"), std::string::npos) << input->describe();
+  TrackingSnapshot s;
+  int tracked = 0;
+  double worst = 0;
+  while (kumite::now() - t0 < 1.2) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    const kumite::Timestamp now = kumite::now();
+    input->poll(now, now, s);
+    if (s.state != TrackerState::tracked) continue;
+    ++tracked;
+    ASSERT_TRUE(s.head);
+    // Played from about t0 (the input's start), predicted to now: x = 0.5 m/s x (now - start).
+    const double want = 0.5 * std::min(now - t0, 0.6);
+    worst = std::max(worst, std::abs(s.head->position[0] - want));
+    EXPECT_NEAR(s.head->position[1], 1.6, 1e-9);
+    EXPECT_GE(s.measured_at, t0);
+    EXPECT_LE(s.measured_at, now);
+  }
+  EXPECT_GT(tracked, 20) << "played over ~0.6 s, polled every 10 ms";
+  EXPECT_LT(worst, 0.05) << "m: the head where the file has it at the moment (a few ms of start-up; 0.1 s late at most)";
+  EXPECT_EQ(s.state, TrackerState::stopped) << describe(s);
+  EXPECT_NEAR(s.head->position[0], 0.3, 0.01);
+  EXPECT_EQ(s.frame_sets, 36u);
+  // A broken file is one line naming the config key, the file and its line.
+  {
+    std::ofstream(dir / "bad.csv") << rec::kPosesHeader << "\n0,0,head,tracked,0,nan,0,1,0,0,0,4,4,1\n";
+  }
+  cfg.tracking.poses = dir / "bad.csv";
+  const std::string e = error_of([&] { (void)make_tracking_input(cfg); });
+  EXPECT_NE(e.find("tracking.poses"), std::string::npos) << e;
+  EXPECT_NE(e.find("bad.csv:2: y:"), std::string::npos) << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos) << e;
+  fs::remove_all(dir);
+}
+
+TEST(PosesSource, TheInstallationLogsTheVisitorsStrikesAndAReplayGivesThemBack) {
+  // The mocap visitor through the installation in real time (3.3 s: the kata's first punch and
+  // front kick), recorded; the strike events the frames got are the batch recogniser's on the
+  // same file (times in the file's clock + the run's offset), and the session replays them.
+  const fs::path dir = fs::temp_directory_path() / fmt::format("kumite-visitor-{}", ::getpid());
+  fs::remove_all(dir);
+  fs::create_directories(dir.string() + "-config");
+  const fs::path config_file = dir.string() + "-config/room.toml";
+  std::ofstream(config_file) << kRoom << "[tracking]\nsource = \"poses\"\nposes = \"" << kVisitor
+                             << "\"\nposes_loop = false\n[recognition]\nmodel = \"" << kModel << "\"\n";
+  const auto cfg = load_installation_config(config_file);
+  const auto file = rec::read_poses_csv(kVisitor);
+  const auto batch = rec::recognise(rec::read_model(kModel), file.samples);
+  std::vector<FrameEvent> seen;
+  {
+    Installation inst(cfg, make_tracking_input(cfg), InstallationOptions{});
+    SessionRecorder recorder(dir, session_info(cfg, {}));
+    inst.record_to(&recorder);
+    const kumite::Timestamp t0 = kumite::now();
+    inst.start(t0);
+    while (kumite::now() - t0 < 3.3) {
+      const FrameData& f = inst.step(kumite::now());
+      for (const auto& e : f.events)
+        if (e.type == EventType::visitor_strike) seen.push_back(e);
+      std::this_thread::sleep_for(std::chrono::milliseconds(16));
+    }
+    EXPECT_TRUE(inst.problems().empty() || inst.problems().front().find("recognition") == std::string::npos);
+    inst.record_to(nullptr);
+    recorder.close();
+  }
+  ASSERT_GE(seen.size(), 3u) << "a front kick and a punch begin by 2.4 s, the kick ends by 3.0 s";
+  // The run's clock = the file's + one offset (the input's start): the same for every event.
+  const double offset = seen.front().strike.t - batch.front().t;
+  for (std::size_t k = 0; k < seen.size(); ++k) {
+    SCOPED_TRACE(k);
+    ASSERT_LT(k, batch.size());
+    const VisitorStrike& s = seen[k].strike;
+    EXPECT_EQ(s.type, batch[k].type);
+    EXPECT_EQ(s.limb, batch[k].limb);
+    EXPECT_EQ(rec::to_string(s.action), batch[k].action);
+    EXPECT_NEAR(s.progress, batch[k].progress, 1e-12);
+    EXPECT_NEAR(s.t - offset, batch[k].t, 1e-6);
+    EXPECT_GE(s.decided_at, s.t);
+    EXPECT_LT(s.decided_at - s.t, 0.5) << "s: decided well within a frame or so (the recogniser's loop)";
+  }
+  EXPECT_EQ(batch.front().limb, rec::Role::right_foot);
+  const ReplayReport r = replay_session(dir);
+  EXPECT_TRUE(r.identical) << r.first_difference_detail;
+  EXPECT_GT(r.frames_replayed, 100u);
+  fs::remove_all(dir);
+  fs::remove_all(dir.string() + "-config");
+}
