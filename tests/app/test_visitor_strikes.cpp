@@ -23,6 +23,10 @@
 #include "kumite/app/visitor_strikes.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/recognition/poses_file.hpp"
+#include "kumite/tracking/calibration_file.hpp"
+#include "kumite/tracking/config.hpp"
+#include "kumite/tracking/synth.hpp"
+#include "kumite/tracking/tracker.hpp"
 
 using namespace kumite::app;
 namespace fs = std::filesystem;
@@ -214,4 +218,102 @@ TEST(PosesSource, TheInstallationLogsTheVisitorsStrikesAndAReplayGivesThemBack) 
   EXPECT_GT(r.frames_replayed, 100u);
   fs::remove_all(dir);
   fs::remove_all(dir.string() + "-config");
+}
+
+namespace {
+/// SYNTHETIC camera frame sets of the mocap visitor's glasses, gloves and shoes
+/// (config/tracking-gloves.toml), every 1/60 s of the file up to `until_s`, on the file's own
+/// clock (+1000 s: far from now(), so the tracker takes the sets' times as its clock and
+/// processes every set as fast as it can: the same sets whatever the machine's speed).
+class MocapVisitorFrames final : public kumite::tracking::FrameSource {
+ public:
+  MocapVisitorFrames(const kumite::tracking::RigCalibration& rig, const kumite::tracking::TrackingConfig& tc,
+                     const rec::PosesFile& file, double until_s)
+      : renderer_(rig, tc.bodies, {}), until_s_(until_s) {
+    for (const auto& b : tc.bodies) roles_.push_back(rec::role_from_string(b.name));
+    for (const auto& s : file.samples) by_role_[static_cast<std::size_t>(s.role)].push_back(s);
+  }
+  bool next(kumite::tracking::FrameSet& out, double) override {
+    const double t = static_cast<double>(n_) / 60;
+    if (t > until_s_) {
+      ended_ = true;
+      return false;
+    }
+    std::vector<std::optional<kumite::tracking::TrajectoryPoint>> poses(roles_.size());
+    for (std::size_t b = 0; b < roles_.size(); ++b) {
+      if (!roles_[b]) continue;
+      const auto& v = by_role_[static_cast<std::size_t>(*roles_[b])];
+      // The file is at 60 Hz from t = 0: its row n is this set's.
+      if (n_ >= v.size() || !v[n_].tracked) continue;
+      kumite::tracking::TrajectoryPoint p;
+      p.t = t;
+      p.position = {v[n_].position[0], v[n_].position[1], v[n_].position[2]};
+      const auto& q = v[n_].orientation;
+      p.orientation = Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+      poses[b] = p;
+    }
+    out = renderer_.render(n_, 1000 + t, poses);
+    ++n_;
+    return true;
+  }
+  bool end_of_stream() const override { return ended_; }
+
+ private:
+  kumite::tracking::SyntheticRenderer renderer_;
+  std::vector<std::optional<rec::Role>> roles_;
+  std::array<std::vector<rec::PoseSample>, rec::kRoleCount> by_role_;
+  double until_s_;
+  std::size_t n_ = 0;
+  bool ended_ = false;
+};
+}  // namespace
+
+TEST(VisitorStrikes, GlovesTrackedFromCameraFramesGiveTheMocapsStrikes) {
+  // The whole path but the frame loop's clock: camera frame sets of the mocap visitor (3.4 s of
+  // the kata: a front kick and a lunge punch) -> the real tracker with five bodies -> the
+  // recognition thread. Beside it the recogniser on the mocap poses themselves: the strikes
+  // it begins must be begun from the tracked gloves too (tracking noise may add a little).
+  auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  cfg.tracking.tracking = KUMITE_SOURCE_DIR "/config/tracking-gloves.toml";
+  cfg.recognition.model = kModel;
+  const auto rig = kumite::tracking::read_calibration(cfg.resolve(cfg.tracking.calibration));
+  const auto tc = kumite::tracking::read_tracking_config(cfg.tracking.tracking);
+  ASSERT_EQ(tc.bodies.size(), 5u);
+  const auto file = rec::read_poses_csv(kVisitor);
+  constexpr double kUntil = 3.4;
+  std::vector<rec::PoseSample> truth;
+  for (const auto& s : file.samples)
+    if (s.t <= kUntil) truth.push_back(s);
+  const auto batch = rec::recognise(rec::read_model(kModel), truth);
+  auto input = make_tracking_input(cfg, std::make_unique<MocapVisitorFrames>(rig, tc, file, kUntil));
+  TrackingSnapshot s;
+  std::vector<VisitorStrike> got;
+  const kumite::Timestamp give_up = kumite::now() + 300;
+  do {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    input->poll(kumite::now(), kumite::now(), s);
+    got.insert(got.end(), s.strikes.begin(), s.strikes.end());
+  } while (s.state != TrackerState::stopped && kumite::now() < give_up);
+  ASSERT_EQ(s.state, TrackerState::stopped) << "every set tracked within 300 s";
+  input.reset();  // the tracker and the recognition thread stopped: every sample recognised
+  EXPECT_EQ(s.frame_sets, static_cast<std::uint64_t>(kUntil * 60) + 1);
+  EXPECT_EQ(s.recognition.dropped, 0u);
+  EXPECT_GE(s.recognition.samples, 4 * s.frame_sets) << "the gloves and shoes of nearly every set";
+  std::string seen;
+  for (const auto& e : got)
+    seen += fmt::format("{} {} {} {:.2f}; ", rec::to_string(e.type), rec::to_string(e.limb), rec::to_string(e.action), e.t - 1000);
+  int truth_begins = 0;
+  for (const auto& b : batch) {
+    if (b.type != rec::EventType::begin) continue;
+    ++truth_begins;
+    // The same limb and action begun within 0.1 s of the mocap's.
+    const bool found = std::any_of(got.begin(), got.end(), [&](const VisitorStrike& e) {
+      return e.type == rec::EventType::begin && e.limb == b.limb && rec::to_string(e.action) == b.action &&
+             std::abs((e.t - 1000) - b.t) <= 0.1;
+    });
+    EXPECT_TRUE(found) << rec::to_string(b.limb) << " " << b.action << " at " << b.t << " s; tracked: " << seen;
+  }
+  EXPECT_EQ(truth_begins, 2) << "the kata's first kick and punch";
+  const auto begins = std::count_if(got.begin(), got.end(), [](const auto& e) { return e.type == rec::EventType::begin; });
+  EXPECT_LE(begins, truth_begins + 1) << "at most one begin more than on the mocap itself: " << seen;
 }

@@ -109,10 +109,16 @@ TrajectoryPoint sample(const std::vector<TrajectoryPoint>& tr, Timestamp t) {
 // ---------------------------------------------------------------------------------------
 
 SyntheticRenderer::SyntheticRenderer(const RigCalibration& rig, const BodyConfig& body, SynthOptions options)
-    : rig_(rig), body_(body), options_(std::move(options)), rng_(options_.seed) {
-  centroid_.setZero();
-  for (const auto& m : body_.markers) centroid_ += m;
-  centroid_ /= static_cast<double>(body_.markers.size());
+    : SyntheticRenderer(rig, std::vector<BodyConfig>{body}, std::move(options)) {}
+
+SyntheticRenderer::SyntheticRenderer(const RigCalibration& rig, std::vector<BodyConfig> bodies, SynthOptions options)
+    : rig_(rig), bodies_(std::move(bodies)), options_(std::move(options)), rng_(options_.seed) {
+  if (bodies_.empty()) throw Error("synth", "range", "synthetic renderer: no body to draw");
+  for (const BodyConfig& b : bodies_) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (const auto& m : b.markers) c += m;
+    centroids_.push_back(c / static_cast<double>(std::max<std::size_t>(1, b.markers.size())));
+  }
   std::uniform_real_distribution<double> u(0, 1);
   for (const auto& cam : rig_.cameras) {
     std::vector<cv::Mat> bgs;
@@ -132,8 +138,12 @@ SyntheticRenderer::SyntheticRenderer(const RigCalibration& rig, const BodyConfig
 }
 
 std::vector<Eigen::Vector3d> SyntheticRenderer::marker_positions(const TrajectoryPoint& pose) const {
+  return marker_positions(0, pose);
+}
+
+std::vector<Eigen::Vector3d> SyntheticRenderer::marker_positions(std::size_t body, const TrajectoryPoint& pose) const {
   std::vector<Eigen::Vector3d> out;
-  for (const auto& m : body_.markers) out.push_back(pose.position + pose.orientation * (m - centroid_));
+  for (const auto& m : bodies_.at(body).markers) out.push_back(pose.position + pose.orientation * (m - centroids_[body]));
   return out;
 }
 
@@ -154,24 +164,40 @@ void SyntheticRenderer::draw_spot(cv::Mat& img, double x, double y, double sigma
 }
 
 FrameSet SyntheticRenderer::render(std::uint64_t frame, const TrajectoryPoint& pose) {
+  const std::optional<TrajectoryPoint> one[1] = {pose};
+  return render(frame, pose.t, one);
+}
+
+FrameSet SyntheticRenderer::render(std::uint64_t frame, Timestamp t, std::span<const std::optional<TrajectoryPoint>> poses) {
   FrameSet set;
   set.frame = frame;
-  set.timestamp = pose.t;
+  set.timestamp = t;
   set.images.resize(rig_.cameras.size());
-  set.camera_times.assign(rig_.cameras.size(), pose.t);
-  const auto markers = marker_positions(pose);
+  set.camera_times.assign(rig_.cameras.size(), t);
+  // Every drawn body's markers; hidden_markers are body 0's.
+  std::vector<Eigen::Vector3d> markers;
+  std::vector<int> hideable;  // body 0's model index, -1 for other bodies' markers
+  for (std::size_t b = 0; b < bodies_.size() && b < poses.size(); ++b) {
+    if (!poses[b]) continue;
+    const auto m = marker_positions(b, *poses[b]);
+    for (std::size_t k = 0; k < m.size(); ++k) {
+      markers.push_back(m[k]);
+      hideable.push_back(b == 0 ? static_cast<int>(k) : -1);
+    }
+  }
   std::uniform_real_distribution<double> u(0, 1);
   std::normal_distribution<double> jitter(0, std::max(options_.centroid_sigma_px, 1e-12));
   for (std::size_t c = 0; c < rig_.cameras.size(); ++c) {
-    const bool dead = static_cast<int>(c) == options_.dead_camera && pose.t >= options_.dead_after_s;
+    const bool dead = static_cast<int>(c) == options_.dead_camera && t >= options_.dead_after_s;
     const bool dropped = options_.drop_probability > 0 && u(rng_) < options_.drop_probability;
     if (dead || dropped) continue;
     const CameraModel cam(rig_.cameras[c]);
     cv::Mat img = backgrounds_[c][frame % backgrounds_[c].size()].clone();
     for (std::size_t m = 0; m < markers.size(); ++m) {
-      const bool hiding = pose.t >= options_.hide_from_s && pose.t < options_.hide_until_s;
-      if (hiding && std::find(options_.hidden_markers.begin(), options_.hidden_markers.end(), static_cast<int>(m)) !=
-                        options_.hidden_markers.end()) {
+      const bool hiding = t >= options_.hide_from_s && t < options_.hide_until_s;
+      if (hiding && hideable[m] >= 0 &&
+          std::find(options_.hidden_markers.begin(), options_.hidden_markers.end(), hideable[m]) !=
+              options_.hidden_markers.end()) {
         continue;
       }
       Eigen::Vector2d px;
@@ -195,18 +221,33 @@ FrameSet SyntheticRenderer::render(std::uint64_t frame, const TrajectoryPoint& p
 void write_synthetic_recording(const fs::path& dir, const RigCalibration& rig, const BodyConfig& body,
                                const std::vector<TrajectoryPoint>& trajectory, const SynthOptions& options,
                                const std::string& description) {
+  std::vector<Timestamp> times;
+  std::vector<std::vector<std::optional<TrajectoryPoint>>> poses;
+  for (const TrajectoryPoint& p : trajectory) {
+    times.push_back(p.t);
+    poses.push_back({p});
+  }
+  write_synthetic_recording(dir, rig, std::vector<BodyConfig>{body}, times, poses, options, description);
+}
+
+void write_synthetic_recording(const fs::path& dir, const RigCalibration& rig, const std::vector<BodyConfig>& bodies,
+                               const std::vector<Timestamp>& times,
+                               const std::vector<std::vector<std::optional<TrajectoryPoint>>>& poses,
+                               const SynthOptions& options, const std::string& description) {
+  if (times.size() != poses.size())
+    throw Error("synth", "range", fmt::format("synthetic recording: {} times for {} frame sets", times.size(), poses.size()));
   if (fs::exists(dir) && !fs::is_empty(dir)) {
     throw Error("synth", "exists", fmt::format("{}: exists and is not empty (will not overwrite a recording)", dir.string()));
   }
   fs::create_directories(dir);
   for (const auto& cam : rig.cameras) fs::create_directories(dir / cam.name);
-  SyntheticRenderer renderer(rig, body, options);
+  SyntheticRenderer renderer(rig, bodies, options);
   std::vector<FrameRow> frames;
   std::vector<TruthRow> truth;
+  std::string all_truth = "frame,timestamp_s,body,x,y,z,qw,qx,qy,qz\n";
   const std::vector<int> png{cv::IMWRITE_PNG_COMPRESSION, 1};
-  for (std::size_t i = 0; i < trajectory.size(); ++i) {
-    const TrajectoryPoint& p = trajectory[i];
-    const FrameSet set = renderer.render(i, p);
+  for (std::size_t i = 0; i < times.size(); ++i) {
+    const FrameSet set = renderer.render(i, times[i], poses[i]);
     for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
       if (set.images[c].empty()) continue;
       const fs::path file = dir / rig.cameras[c].name / frame_file_name(i);
@@ -214,12 +255,21 @@ void write_synthetic_recording(const fs::path& dir, const RigCalibration& rig, c
         throw Error("synth", "write", fmt::format("{}: cannot write", file.string()));
       }
     }
-    frames.push_back({i, p.t});
-    truth.push_back({i, p.t, p.position.x(), p.position.y(), p.position.z(), p.orientation.w(), p.orientation.x(),
-                     p.orientation.y(), p.orientation.z()});
+    frames.push_back({i, times[i]});
+    for (std::size_t b = 0; b < bodies.size() && b < poses[i].size(); ++b) {
+      const auto& p = poses[i][b];
+      if (!p) continue;
+      if (b == 0)
+        truth.push_back({i, times[i], p->position.x(), p->position.y(), p->position.z(), p->orientation.w(),
+                         p->orientation.x(), p->orientation.y(), p->orientation.z()});
+      all_truth += fmt::format("{},{:.6f},{},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", i, times[i], bodies[b].name,
+                               p->position.x(), p->position.y(), p->position.z(), p->orientation.w(), p->orientation.x(),
+                               p->orientation.y(), p->orientation.z());
+    }
   }
   write_frames_csv(dir / "frames.csv", frames);
   write_truth_csv(dir / "truth.csv", truth);
+  if (bodies.size() > 1) write_file_atomically(dir / "truth-bodies.csv", all_truth);
   std::string hidden;
   for (int h : options.hidden_markers) hidden += fmt::format("{}{}", hidden.empty() ? "" : ",", h);
   if (!hidden.empty() && (options.hide_from_s > 0 || options.hide_until_s < 1e299)) {
@@ -227,16 +277,19 @@ void write_synthetic_recording(const fs::path& dir, const RigCalibration& rig, c
   }
   const std::string dead = options.dead_camera < 0 ? std::string("none")
                                                    : fmt::format("{} from {} s on", options.dead_camera, options.dead_after_s);
+  std::string names;
+  for (const auto& b : bodies) names += fmt::format("{}{} ({} markers)", names.empty() ? "" : ", ", b.name, b.markers.size());
   write_file_atomically(dir / "README.txt",
                         fmt::format("SYNTHETIC recording written by kumite-track synth (not camera data).\n"
-                                    "{}\nbody: {} ({} markers), {} frame sets at {} Hz, {} cameras\n"
+                                    "{}\nbodies: {}; {} frame sets at {} Hz, {} cameras\n"
                                     "centroid noise sigma {} px per axis, image noise {} grey levels, hidden markers: [{}], "
                                     "spurious blobs/camera: {}, static lamps/camera: {}, dead camera: {}, "
                                     "drop probability: {}, seed {}\n"
-                                    "truth.csv is the trajectory the frames were drawn from (body centroid, body->room).\n",
-                                    description, body.name, body.markers.size(), trajectory.size(), options.fps,
-                                    rig.cameras.size(), options.centroid_sigma_px, options.image_noise, hidden,
-                                    options.spurious_blobs, options.static_lamps, dead, options.drop_probability, options.seed));
+                                    "truth.csv is the trajectory body {} was drawn from (body centroid, body->room){}.\n",
+                                    description, names, times.size(), options.fps, rig.cameras.size(),
+                                    options.centroid_sigma_px, options.image_noise, hidden, options.spurious_blobs,
+                                    options.static_lamps, dead, options.drop_probability, options.seed, bodies.front().name,
+                                    bodies.size() > 1 ? "; truth-bodies.csv every body's, by name" : ""));
 }
 
 RigCalibration corner_rig(double side_m, double height_m, int width, int height, double focal_px) {
@@ -274,9 +327,9 @@ namespace {
 
 class SyntheticLiveSource final : public FrameSource {
  public:
-  SyntheticLiveSource(const RigCalibration& rig, const BodyConfig& body,
-                      std::function<TrajectoryPoint(Timestamp)> trajectory, double rate_hz, SynthOptions options)
-      : renderer_(rig, body, std::move(options)), trajectory_(std::move(trajectory)), period_s_(1.0 / rate_hz) {}
+  SyntheticLiveSource(const RigCalibration& rig, std::vector<BodyConfig> bodies, BodyPoses poses, double rate_hz,
+                      SynthOptions options)
+      : renderer_(rig, std::move(bodies), std::move(options)), poses_(std::move(poses)), period_s_(1.0 / rate_hz) {}
   bool next(FrameSet& out, double) override {
     if (n_ == 0) start_ = now();
     // As cameras do for a consumer that is behind: the sets it was too slow for are gone, and
@@ -286,7 +339,8 @@ class SyntheticLiveSource final : public FrameSource {
     if (late > period_s_) n_ += static_cast<std::uint64_t>(late / period_s_);
     const Timestamp due = start_ + static_cast<double>(n_) * period_s_;
     sleep_until(due);
-    out = renderer_.render(n_, trajectory_(due - start_));
+    poses_(due - start_, now_poses_);
+    out = renderer_.render(n_, due, now_poses_);
     out.timestamp = due;
     out.camera_times.assign(out.images.size(), due);
     ++n_;
@@ -296,7 +350,8 @@ class SyntheticLiveSource final : public FrameSource {
 
  private:
   SyntheticRenderer renderer_;
-  std::function<TrajectoryPoint(Timestamp)> trajectory_;
+  BodyPoses poses_;
+  std::vector<std::optional<TrajectoryPoint>> now_poses_;
   double period_s_;
   std::uint64_t n_ = 0;
   Timestamp start_ = 0;
@@ -309,7 +364,19 @@ std::unique_ptr<FrameSource> synthetic_live_source(const RigCalibration& rig, co
                                                    double rate_hz, SynthOptions options) {
   if (!(std::isfinite(rate_hz) && rate_hz > 0 && rate_hz <= 1000))
     throw Error("synth", "range", fmt::format("synthetic live source: rate {} Hz: must be in (0, 1000]", rate_hz));
-  return std::make_unique<SyntheticLiveSource>(rig, body, std::move(trajectory), rate_hz, std::move(options));
+  return synthetic_live_source(
+      rig, std::vector<BodyConfig>{body},
+      [trajectory = std::move(trajectory)](Timestamp t, std::vector<std::optional<TrajectoryPoint>>& out) {
+        out.assign(1, trajectory(t));
+      },
+      rate_hz, std::move(options));
+}
+
+std::unique_ptr<FrameSource> synthetic_live_source(const RigCalibration& rig, std::vector<BodyConfig> bodies,
+                                                   BodyPoses poses, double rate_hz, SynthOptions options) {
+  if (!(std::isfinite(rate_hz) && rate_hz > 0 && rate_hz <= 1000))
+    throw Error("synth", "range", fmt::format("synthetic live source: rate {} Hz: must be in (0, 1000]", rate_hz));
+  return std::make_unique<SyntheticLiveSource>(rig, std::move(bodies), std::move(poses), rate_hz, std::move(options));
 }
 
 }  // namespace kumite::tracking

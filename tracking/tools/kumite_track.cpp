@@ -28,6 +28,7 @@
 #include "kumite/tracking/config.hpp"
 #include "kumite/tracking/pipeline.hpp"
 #include "kumite/tracking/recording.hpp"
+#include "kumite/recognition/poses_file.hpp"
 #include "kumite/tracking/synth.hpp"
 #include "kumite/tracking/tracker.hpp"
 
@@ -51,7 +52,7 @@ struct RunOptions {
 };
 
 struct SynthCli {
-  std::string calibration, config, out, trajectory = "scripted";
+  std::string calibration, config, out, trajectory = "scripted", poses;
   double duration_s = 10;
   SynthOptions options;
   std::string hidden;
@@ -358,6 +359,54 @@ int run_synth(SynthCli s) {
   std::vector<TrajectoryPoint> trajectory;
   std::string description;
   const int frames = std::max(1, static_cast<int>(std::lround(s.duration_s * s.options.fps)));
+  if (!s.poses.empty()) {
+    // A mocap visitor (issue 14): every body of tracking.toml named like a body of the poses
+    // file (head, left_hand, ...) drawn where the file has it, linearly interpolated.
+    const auto file = recognition::read_poses_csv(s.poses);
+    if (file.samples.empty()) throw Error("cli", "args", fmt::format("--poses: {}: no rows of a known body", s.poses));
+    std::vector<std::vector<recognition::PoseSample>> per_body(config.bodies.size());
+    std::string drawn;
+    for (std::size_t b = 0; b < config.bodies.size(); ++b) {
+      const auto role = recognition::role_from_string(config.bodies[b].name);
+      if (!role) continue;
+      for (const auto& smp : file.samples)
+        if (smp.role == *role) per_body[b].push_back(smp);
+      if (!per_body[b].empty()) drawn += fmt::format("{}{}", drawn.empty() ? "" : ", ", config.bodies[b].name);
+    }
+    if (drawn.empty())
+      throw Error("cli", "args", fmt::format("--poses: {} has no body that {} names", s.poses, s.config));
+    const double t0 = file.samples.front().t, t1 = file.samples.back().t;
+    std::vector<Timestamp> times;
+    std::vector<std::vector<std::optional<TrajectoryPoint>>> poses;
+    for (int i = 0; i < frames && t0 + i / s.options.fps <= t1 + 1e-9; ++i) {
+      const double t = t0 + i / s.options.fps;
+      times.push_back(t - t0);
+      auto& row = poses.emplace_back(config.bodies.size());
+      for (std::size_t b = 0; b < per_body.size(); ++b) {
+        const auto& v = per_body[b];
+        if (v.size() < 2 || t < v.front().t || t > v.back().t) continue;
+        const auto it = std::upper_bound(v.begin(), v.end(), t, [](double x, const recognition::PoseSample& q) { return x < q.t; });
+        const auto& hi = it == v.end() ? v.back() : *it;
+        const auto& lo = it == v.begin() ? v.front() : *(it - 1);
+        if (!lo.tracked || !hi.tracked) continue;
+        const double f = hi.t > lo.t ? (t - lo.t) / (hi.t - lo.t) : 0;
+        TrajectoryPoint p;
+        p.t = t - t0;
+        for (int k = 0; k < 3; ++k)
+          p.position[k] = lo.position[static_cast<std::size_t>(k)] + f * (hi.position[static_cast<std::size_t>(k)] - lo.position[static_cast<std::size_t>(k)]);
+        const Eigen::Quaterniond qa(lo.orientation[0], lo.orientation[1], lo.orientation[2], lo.orientation[3]);
+        const Eigen::Quaterniond qb(hi.orientation[0], hi.orientation[1], hi.orientation[2], hi.orientation[3]);
+        p.orientation = qa.normalized().slerp(f, qb.normalized());
+        row[b] = p;
+      }
+    }
+    description = fmt::format("mocap visitor: {} (bodies drawn: {}; {} at {} Hz)", s.poses, drawn,
+                              fmt::format("{:.2f} s", times.size() / s.options.fps), s.options.fps);
+    write_synthetic_recording(s.out, rig, config.bodies, times, poses, s.options, description);
+    std::printf("wrote SYNTHETIC recording %s: %zu frame sets x %zu cameras (%s)\n", s.out.c_str(), times.size(),
+                rig.cameras.size(), description.c_str());
+    return 0;
+  }
   if (s.trajectory == "scripted" || s.trajectory == "static") {
     for (int i = 0; i < frames; ++i) {
       const double t = i / s.options.fps;
@@ -404,6 +453,10 @@ int main(int argc, char** argv) {
   sc->add_option("--config", synth.config, "tracking.toml (its first body is drawn)")->required()->check(CLI::ExistingFile);
   sc->add_option("--out", synth.out, "recording folder to create (must not exist or be empty)")->required();
   sc->add_option("--trajectory", synth.trajectory, "scripted, static, or a CSV timestamp_s,x,y,z,qw,qx,qy,qz")->capture_default_str();
+  sc->add_option("--poses", synth.poses,
+                 "a mocap visitor instead: a poses.csv (kumite-recognise poses --bvh); every body of --config "
+                 "named like one of its bodies (head, left_hand, ...) is drawn, for --duration s at most")
+      ->check(CLI::ExistingFile);
   sc->add_option("--duration", synth.duration_s, "seconds")->capture_default_str()->check(CLI::Range(0.001, 3600.0));
   sc->add_option("--fps", synth.options.fps, "frame sets per second")->capture_default_str()->check(CLI::Range(1.0, 1000.0));
   sc->add_option("--noise-px", synth.options.centroid_sigma_px, "jitter of each spot centre: sigma per image axis (px)")->capture_default_str();

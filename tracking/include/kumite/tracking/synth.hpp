@@ -8,7 +8,9 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <random>
+#include <span>
 #include <vector>
 
 #include <Eigen/Core>
@@ -63,18 +65,25 @@ class FrameSource;  // tracker.hpp
 class SyntheticRenderer {
  public:
   SyntheticRenderer(const RigCalibration& rig, const BodyConfig& body, SynthOptions options);
-  /// Renders one frame set (images empty for a dead camera / dropped frame).
+  /// Several bodies (the visitor's glasses, gloves, shoes) in the same images; options'
+  /// hidden_markers are body 0's. Throws kumite::Error for no body.
+  SyntheticRenderer(const RigCalibration& rig, std::vector<BodyConfig> bodies, SynthOptions options);
+  /// Renders one frame set (images empty for a dead camera / dropped frame) of body 0.
   FrameSet render(std::uint64_t frame, const TrajectoryPoint& pose);
-  /// The room positions of the body's markers at `pose`.
+  /// Renders one frame set at time t (s) with each body where `poses` has it (per body, in
+  /// the constructor's order; nullopt or missing: not drawn).
+  FrameSet render(std::uint64_t frame, Timestamp t, std::span<const std::optional<TrajectoryPoint>> poses);
+  /// The room positions of body 0's markers at `pose` (of body `body`: the second form).
   std::vector<Eigen::Vector3d> marker_positions(const TrajectoryPoint& pose) const;
+  std::vector<Eigen::Vector3d> marker_positions(std::size_t body, const TrajectoryPoint& pose) const;
   const SynthOptions& options() const { return options_; }
 
  private:
   void draw_spot(cv::Mat& img, double x, double y, double sigma, double peak);
 
   RigCalibration rig_;
-  BodyConfig body_;
-  Eigen::Vector3d centroid_;
+  std::vector<BodyConfig> bodies_;
+  std::vector<Eigen::Vector3d> centroids_;
   SynthOptions options_;
   std::mt19937 rng_;
   std::vector<std::vector<cv::Mat>> backgrounds_;   // per camera, a few noise images
@@ -85,6 +94,13 @@ class SyntheticRenderer {
 /// <camera>/NNNNNN.png, truth.csv and a README.txt saying it is synthetic and how it was made.
 void write_synthetic_recording(const std::filesystem::path& dir, const RigCalibration& rig,
                                const BodyConfig& body, const std::vector<TrajectoryPoint>& trajectory,
+                               const SynthOptions& options, const std::string& description);
+/// Several bodies: frame set i at `times[i]` (s) with each body where `poses[i]` has it (per body,
+/// nullopt: not drawn). truth.csv holds body 0's poses where drawn; with more than one body,
+/// truth-bodies.csv holds every drawn body's (frame,timestamp_s,body,x,y,z,qw,qx,qy,qz; body by name).
+void write_synthetic_recording(const std::filesystem::path& dir, const RigCalibration& rig,
+                               const std::vector<BodyConfig>& bodies, const std::vector<Timestamp>& times,
+                               const std::vector<std::vector<std::optional<TrajectoryPoint>>>& poses,
                                const SynthOptions& options, const std::string& description);
 
 /// The shipped default rig: 4 cameras, 1280x1024, high (2.6 m) in the corners of a 3 m x 3 m
@@ -100,5 +116,11 @@ RigCalibration corner_rig(double side_m = 3.0, double height_m = 2.6, int width 
 std::unique_ptr<FrameSource> synthetic_live_source(const RigCalibration& rig, const BodyConfig& body,
                                                    std::function<TrajectoryPoint(Timestamp)> trajectory,
                                                    double rate_hz = 60, SynthOptions options = {});
+/// The poses of several bodies at t (s since the first frame set), written over `out` (one per
+/// body, nullopt: not drawn).
+using BodyPoses = std::function<void(Timestamp t, std::vector<std::optional<TrajectoryPoint>>& out)>;
+/// The same with several bodies (a mocap visitor's glasses, gloves and shoes).
+std::unique_ptr<FrameSource> synthetic_live_source(const RigCalibration& rig, std::vector<BodyConfig> bodies,
+                                                   BodyPoses poses, double rate_hz = 60, SynthOptions options = {});
 
 }  // namespace kumite::tracking
