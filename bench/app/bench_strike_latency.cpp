@@ -1,15 +1,17 @@
 // kumite_app_strike_latency (issue 14): the visitor's strikes end to end, camera frame to event.
 // A mocap visitor (a poses.csv: config/visitor-135_06.poses.csv by default, CMU 135_06 placed in
-// the room) drawn as SYNTHETIC camera frames, every body with its own markers
-// (config/tracking-gloves.toml: glasses, two gloves, two shoes), handed over at 60 Hz on the real
-// clock as cameras would; the real tracker; the recognition thread; a frame loop polling at
-// 60 Hz as the installation does. Prints JSON: per event, camera time of the frame set that
+// the room) drawn as a SYNTHETIC camera recording (every body with its own markers,
+// config/tracking-gloves.toml: glasses, two gloves, two shoes; written once to --recording),
+// preloaded into memory and handed over at 60 Hz on the real clock as cameras deliver (as the
+// demo plays its recording: drawing the images live takes ~30 ms a set here, slower than a
+// camera); the real tracker; the recognition thread; a frame loop polling at 60 Hz as the
+// installation does. Prints JSON: per event, camera time of the frame set that
 // decided it -> published by the recognition thread ("decided") and -> taken by a frame
 // ("taken"), p50/p99/max, beside the head pose's own latency (frame set -> pose published:
 // what the synthetic rendering and the tracker take); the bodies' tracked share and error against the mocap; the events
 // beside the recogniser run on the mocap poses themselves (what tracking changed).
 //
-//   kumite_app_strike_latency [--poses FILE] [--seconds S] [--out report.json]
+//   kumite_app_strike_latency [--poses FILE] [--seconds S] [--recording DIR] [--out report.json]
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -72,15 +74,16 @@ struct Visitor {
 
 int main(int argc, char** argv) {
   std::string poses = KUMITE_SOURCE_DIR "/config/visitor-135_06.poses.csv";
-  std::string out;
+  std::string out, recording = "/tmp/kumite-strike-latency-recording";
   double seconds = 12;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     if (a == "--poses" && i + 1 < argc) poses = argv[++i];
     else if (a == "--seconds" && i + 1 < argc) seconds = std::atof(argv[++i]);
     else if (a == "--out" && i + 1 < argc) out = argv[++i];
+    else if (a == "--recording" && i + 1 < argc) recording = argv[++i];
     else {
-      std::fprintf(stderr, "usage: kumite_app_strike_latency [--poses FILE] [--seconds S] [--out report.json]\n");
+      std::fprintf(stderr, "usage: kumite_app_strike_latency [--poses FILE] [--seconds S] [--recording DIR] [--out report.json]\n");
       return 2;
     }
   }
@@ -91,8 +94,9 @@ int main(int argc, char** argv) {
   try {
     // The demo's room and rig, the gloves' tracking config, the shipped model.
     auto cfg = app::load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
-    cfg.tracking.source = app::TrackingSource::live;  // replaced by the synthetic source below
+    cfg.tracking.source = app::TrackingSource::recording;
     cfg.tracking.tracking = KUMITE_SOURCE_DIR "/config/tracking-gloves.toml";
+    cfg.tracking.recording = recording;
     cfg.recognition.model = KUMITE_SOURCE_DIR "/recognition/models/strikes.krec";
     const auto rig = tracking::read_calibration(cfg.resolve(cfg.tracking.calibration));
     const auto tc = tracking::read_tracking_config(cfg.tracking.tracking);
@@ -104,15 +108,27 @@ int main(int argc, char** argv) {
     v.last = file.samples.back().t;
     std::vector<std::optional<rec::Role>> roles;
     for (const auto& b : tc.bodies) roles.push_back(rec::role_from_string(b.name));
-    // SYNTHETIC cameras: each body where the mocap has it, t seconds into the file.
-    auto source = tracking::synthetic_live_source(
-        rig, tc.bodies, [&](Timestamp t, std::vector<std::optional<tracking::TrajectoryPoint>>& o) {
-          o.assign(roles.size(), std::nullopt);
-          for (std::size_t b = 0; b < roles.size(); ++b)
-            if (roles[b]) o[b] = v.at(*roles[b], v.first + t);
-        });
-    // The tracker's own view of each body, for the error against the mocap.
-    auto input = app::make_tracking_input(cfg, std::move(source));
+    const int sets = static_cast<int>(std::min(seconds, v.last - v.first) * 60);
+    if (!std::filesystem::exists(recording / std::filesystem::path("frames.csv"))) {
+      std::fprintf(stderr, "writing the SYNTHETIC recording %s (%d frame sets; once)\n", recording.c_str(), sets);
+      std::vector<Timestamp> times;
+      std::vector<std::vector<std::optional<tracking::TrajectoryPoint>>> drawn;
+      for (int i = 0; i < sets; ++i) {
+        times.push_back(i / 60.0);
+        auto& row = drawn.emplace_back(roles.size());
+        for (std::size_t b = 0; b < roles.size(); ++b)
+          if (roles[b]) row[b] = v.at(*roles[b], v.first + i / 60.0);
+      }
+      tracking::write_synthetic_recording(recording, rig, tc.bodies, times, drawn, {},
+                                          "mocap visitor " + poses + " (kumite_app_strike_latency)");
+    }
+    cfg.tracking.recording_preload = sets;
+    cfg.tracking.decode_threads = 2;
+    cfg.tracking.realtime_priority = 0;
+    auto input = app::make_tracking_input(cfg);
+    while (input->loading()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    std::fprintf(stderr, "preloaded; playing %.1f s\n", sets / 60.0);
+    seconds = sets / 60.0;
     app::TrackingSnapshot snap;
     std::vector<app::VisitorStrike> events;
     std::vector<double> taken_ms, tracking_ms;
@@ -133,12 +149,13 @@ int main(int argc, char** argv) {
       std::this_thread::sleep_for(std::chrono::microseconds(16667));
     }
     const app::RecognitionStats stats = snap.recognition;
-    const std::uint64_t sets = snap.frame_sets;
+    const std::uint64_t sets_tracked = snap.frame_sets;
+    const app::SourceStats source_stats = snap.source;
     input.reset();  // stops the tracker and the recognition thread
     // The recogniser on the mocap poses themselves, over the same span of the file.
     std::vector<rec::PoseSample> truth;
-    for (const auto& s : file.samples)
-      if (s.t - v.first <= seconds) truth.push_back(s);
+    for (const auto& smp : file.samples)
+      if (smp.t - v.first <= seconds) truth.push_back(smp);
     const auto batch = rec::recognise(rec::read_model(cfg.recognition.model), truth);
     std::vector<double> decided_ms;
     nlohmann::json ev = nlohmann::json::array();
@@ -163,7 +180,9 @@ int main(int argc, char** argv) {
         {"begins", begins(events, [](const app::VisitorStrike& e) { return e.type; })},
         {"begins_on_the_mocap_itself", begins(batch, [](const rec::Event& e) { return e.type; })},
         {"camera_to_decided_ms", {{"p50", pct(decided_ms, 0.5)}, {"p99", pct(decided_ms, 0.99)}, {"max", pct(decided_ms, 1.0)}}},
-        {"frame_sets_tracked_per_s", static_cast<double>(sets) / seconds},
+        {"frame_sets_tracked_per_s", static_cast<double>(sets_tracked) / seconds},
+        {"recording_sets_delivered_skipped_dropped", source_stats.totals},
+        {"decode_ms_per_set", source_stats.decode_ms},
         {"camera_to_head_pose_ms", {{"p50", pct(tracking_ms, 0.5)}, {"p99", pct(tracking_ms, 0.99)}, {"max", pct(tracking_ms, 1.0)}}},
         {"camera_to_frame_ms", {{"p50", pct(taken_ms, 0.5)}, {"p99", pct(taken_ms, 0.99)}, {"max", pct(taken_ms, 1.0)}}},
         {"recognition", {{"samples", stats.samples}, {"dropped", stats.dropped}, {"events_dropped", stats.events_dropped}}},

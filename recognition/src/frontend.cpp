@@ -81,25 +81,41 @@ Vec3 to_room_displacement(const Frame& f, const std::array<float, 3>& local, boo
 
 Frontend::Frontend(FrontendSettings s) : s_(s) {}
 
-void Frontend::push(const PoseSample& s, std::vector<Frame>& out) {
-  if (!std::isfinite(s.t)) return;
+void Frontend::run_through(Timestamp u, std::vector<Frame>& out) {
   const double period = 1.0 / s_.loop_hz;
-  if (!started_) {
-    started_ = true;
-    next_tick_ = s.t;
-  }
-  // Loops strictly before this sample: every sample with an earlier time has been applied.
-  if (s.t - next_tick_ > 1.0) {  // a jump in time: one loop (everything goes stale), then resync
-    out.push_back(make_frame(next_tick_));
-    next_tick_ = s.t;
-  }
   // At most ~loop_hz loops here; the bound also stops times so large that adding a period
-  // no longer changes them.
-  for (int n = 0; next_tick_ < s.t && n <= static_cast<int>(s_.loop_hz) + 1; ++n) {
+  // no longer changes them. A tick up to 0.1 ms after u counts as at u (times written with 6
+  // decimals, clocks on another origin: the same stream gives the same loops).
+  constexpr double kSame_s = 1e-4;
+  int n = 0;
+  for (; next_tick_ <= u + kSame_s && n <= static_cast<int>(s_.loop_hz) + 1; ++n) {
     out.push_back(make_frame(next_tick_));
     next_tick_ += period;
   }
-  if (next_tick_ < s.t) next_tick_ = s.t;
+  if (next_tick_ <= u + kSame_s) next_tick_ = u + period;
+}
+
+void Frontend::end_of_set(Timestamp t, std::vector<Frame>& out) {
+  if (!started_ || !std::isfinite(t)) return;
+  run_through(std::min(t, newest_), out);
+}
+
+void Frontend::push(const PoseSample& s, std::vector<Frame>& out) {
+  if (!std::isfinite(s.t)) return;
+  if (!started_) {
+    started_ = true;
+    next_tick_ = s.t;
+    newest_ = s.t;
+  }
+  if (s.t > newest_) {
+    // Every sample up to the newest time before this one is in: the loops up to it.
+    run_through(newest_, out);
+    if (s.t - next_tick_ > 1.0) {  // a jump in time: one loop (everything goes stale), then resync
+      out.push_back(make_frame(next_tick_));
+      next_tick_ = s.t;
+    }
+    newest_ = s.t;
+  }
   RoleState& r = roles_[static_cast<std::size_t>(s.role)];
   if (r.have && s.t < r.last_t) return;  // out of order: ignored
   const bool ok = s.tracked && finite3(s.position) &&
@@ -113,14 +129,25 @@ void Frontend::push(const PoseSample& s, std::vector<Frame>& out) {
   }
   if (!r.have || !r.tracked || s.t - r.last_t > s_.max_gap_s) {
     r.smoothed = s.position;
-  } else {
+    r.has_prev = false;
+  } else if (s.t > r.last_t) {
+    r.prev = r.smoothed;
+    r.prev_t = r.last_t;
+    r.has_prev = true;
     const double a = 1 - std::exp(-(s.t - r.last_t) / s_.smoothing_tau_s);
     for (int i = 0; i < 3; ++i) r.smoothed[i] += a * (s.position[i] - r.smoothed[i]);
-  }
+  }  // the same time again: as before (the smoothing weight of no time is 0)
   r.q = s.orientation;
   r.tracked = true;
   r.have = true;
   r.last_t = s.t;
+}
+
+Vec3 Frontend::position_at(const RoleState& r, Timestamp t) const {
+  if (!r.has_prev || !(r.last_t > r.prev_t)) return r.smoothed;
+  const double f = std::clamp((t - r.prev_t) / (r.last_t - r.prev_t), 0.0, 2.0);
+  return {r.prev[0] + f * (r.smoothed[0] - r.prev[0]), r.prev[1] + f * (r.smoothed[1] - r.prev[1]),
+          r.prev[2] + f * (r.smoothed[2] - r.prev[2])};
 }
 
 Frame Frontend::make_frame(Timestamp t) {
@@ -131,7 +158,7 @@ Frame Frontend::make_frame(Timestamp t) {
   const RoleState& head = roles_[0];
   f.head_valid = live(head);
   if (f.head_valid) {
-    f.head = head.smoothed;
+    f.head = position_at(head, t);
     Vec3 fw = rotate_forward(head.q);
     const double n = std::hypot(fw[0], fw[2]);
     if (n > 0.2) {
@@ -152,7 +179,7 @@ Frame Frontend::make_frame(Timestamp t) {
         }
       }
     }
-    const double y = std::clamp(head.smoothed[1], 0.8, 2.3);
+    const double y = std::clamp(f.head[1], 0.8, 2.3);
     if (!have_height_) {
       head_height_ = y;
       have_height_ = true;
@@ -172,8 +199,8 @@ Frame Frontend::make_frame(Timestamp t) {
       last_valid_[static_cast<std::size_t>(l)] = false;
       continue;
     }
-    lf.room = rs.smoothed;
-    const Vec3 d{rs.smoothed[0] - f.head[0], rs.smoothed[1] - f.head[1], rs.smoothed[2] - f.head[2]};
+    lf.room = position_at(rs, t);
+    const Vec3 d{lf.room[0] - f.head[0], lf.room[1] - f.head[1], lf.room[2] - f.head[2]};
     const Vec3 local{d[0] * r[0] + d[2] * r[2], d[1], d[0] * b[0] + d[2] * b[2]};
     Vec3 vel{0, 0, 0};
     if (last_valid_[static_cast<std::size_t>(l)]) {

@@ -298,6 +298,17 @@ void LearnedRecogniser::push(const PoseSample& s, std::vector<Event>& out) {
   frames_.clear();
   frontend_.push(s, frames_);
   now_ = s.t;
+  run_frames(out);
+}
+
+void LearnedRecogniser::end_of_set(Timestamp t, std::vector<Event>& out) {
+  frames_.clear();
+  frontend_.end_of_set(t, frames_);
+  now_ = std::max(now_, t);
+  run_frames(out);
+}
+
+void LearnedRecogniser::run_frames(std::vector<Event>& out) {
   for (const Frame& f : frames_) {
     if (timing_) {
       const double t0 = thread_cpu_time();

@@ -17,6 +17,17 @@ void Recogniser::push(const PoseSample& s, std::vector<Event>& out) {
   frames_.clear();
   frontend_.push(s, frames_);
   now_ = s.t;
+  run_frames(out);
+}
+
+void Recogniser::end_of_set(Timestamp t, std::vector<Event>& out) {
+  frames_.clear();
+  frontend_.end_of_set(t, frames_);
+  now_ = std::max(now_, t);
+  run_frames(out);
+}
+
+void Recogniser::run_frames(std::vector<Event>& out) {
   for (const Frame& f : frames_) {
     if (timing_) {
       const double t0 = thread_cpu_time();
@@ -227,7 +238,10 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
 std::vector<Event> recognise(const Model& model, std::span<const PoseSample> samples) {
   Recogniser r(model);
   std::vector<Event> out;
-  for (const PoseSample& s : samples) r.push(s, out);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    r.push(samples[i], out);
+    if (i + 1 == samples.size() || samples[i + 1].t != samples[i].t) r.end_of_set(samples[i].t, out);
+  }
   r.finish(samples.empty() ? 0 : samples.back().t, out);
   return out;
 }

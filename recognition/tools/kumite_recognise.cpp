@@ -58,6 +58,11 @@ int main(int argc, char** argv) {
   eval->add_option("--motions", motions, "annotations (motions.toml)")->check(CLI::ExistingFile);
   eval->add_option("--mocap", mocap, "development mocap folder (boxer, Sony, walks); skipped when absent");
   eval->add_option("--out", report_out, "report (JSON)")->required();
+  double test_hz = 0;
+  eval->add_option("--tracker-hz", test_hz,
+                   "resample every recording's pose stream at exactly this rate before training and testing (as a "
+                   "tracker at that rate delivers: samples on a fixed grid), instead of the mocap's own frames")
+      ->check(CLI::Range(10.0, 1000.0));
   fs::path learned_folds = default_learned_folds();
   eval->add_option("--learned", learned_folds, "the learned recogniser's fold models (train_touche.py --eval-dir); "
                    "the learned side is left out when absent");
@@ -145,8 +150,12 @@ int main(int argc, char** argv) {
       std::vector<Event> ev;
       long loops = 0;
       auto feed = [&](auto& rec) {
-        for (const PoseSample& s : pf.samples) rec.push(s, ev);
-        rec.finish(pf.samples.empty() ? 0 : pf.samples.back().t, ev);
+        const auto& v = pf.samples;
+        for (std::size_t i = 0; i < v.size(); ++i) {
+          rec.push(v[i], ev);
+          if (i + 1 == v.size() || v[i + 1].t != v[i].t) rec.end_of_set(v[i].t, ev);  // a frame set is whole
+        }
+        rec.finish(v.empty() ? 0 : v.back().t, ev);
         loops = rec.loops();
       };
       if (learned) {
@@ -165,11 +174,16 @@ int main(int argc, char** argv) {
                        .dump()
                 << "\n";
     } else if (eval->parsed()) {
-      const auto trainable = offline::load_motions(motions);
+      auto trainable = offline::load_motions(motions);
       std::vector<offline::Recording> external;
       if (fs::exists(mocap)) external = offline::load_external(mocap);
       else std::cerr << "eval: no development mocap at " << mocap.string() << ": boxer, Sony and walks left out\n";
+      if (test_hz > 0) {
+        for (auto& r : trainable) r.samples = offline::resample(r.samples, test_hz);
+        for (auto& r : external) r.samples = offline::resample(r.samples, test_hz);
+      }
       nlohmann::json report;
+      if (test_hz > 0) report["tracker_hz"] = test_hz;
       report["what"] = "the two strike recognisers side by side, on the same held-out actors (see recognition/README.md)";
       report["dtw"] = offline::evaluate(trainable, external, rs, ts);
       if (fs::exists(learned_folds / "all.klearn")) report["learned"] = offline::evaluate_learned(trainable, external, learned_folds, lov);

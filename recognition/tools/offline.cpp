@@ -251,7 +251,10 @@ std::vector<Recording> load_external(const std::filesystem::path& mocap_dir) {
 std::vector<Frame> frontend_frames(const Recording& r, const FrontendSettings& s) {
   Frontend fe(s);
   std::vector<Frame> frames;
-  for (const PoseSample& p : r.samples) fe.push(p, frames);
+  for (std::size_t i = 0; i < r.samples.size(); ++i) {
+    fe.push(r.samples[i], frames);
+    if (i + 1 == r.samples.size() || r.samples[i + 1].t != r.samples[i].t) fe.end_of_set(r.samples[i].t, frames);
+  }
   return frames;
 }
 
@@ -441,7 +444,10 @@ using RunnerFactory =
 template <class R>
 void run_recogniser(R& rec, const Recording& r, std::vector<Event>& ev, std::vector<double>& loop_us) {
   rec.set_timing(true);
-  for (const PoseSample& s : r.samples) rec.push(s, ev);
+  for (std::size_t i = 0; i < r.samples.size(); ++i) {
+    rec.push(r.samples[i], ev);
+    if (i + 1 == r.samples.size() || r.samples[i + 1].t != r.samples[i].t) rec.end_of_set(r.samples[i].t, ev);
+  }
   rec.finish(r.samples.empty() ? 0 : r.samples.back().t, ev);
   for (double t : rec.loop_times()) loop_us.push_back(t * 1e6);
 }
@@ -694,6 +700,45 @@ nlohmann::json learned_dataset(const std::vector<Recording>& recs, const Fronten
                    "kind: ignored) and progress (0 at the onset, 1 at the hit, -1 for none)"},
           {"loop_hz", fs.loop_hz}, {"velocity_weight", fs.velocity_weight}, {"frontend", {{"smoothing_tau_s", fs.smoothing_tau_s}, {"heading_tau_s", fs.heading_tau_s}, {"height_tau_s", fs.height_tau_s}, {"max_gap_s", fs.max_gap_s}}},
           {"classes", classes}, {"recordings", std::move(out_recs)}};
+}
+
+std::vector<PoseSample> resample(const std::vector<PoseSample>& samples, double hz) {
+  if (samples.empty() || !(hz > 0)) return samples;
+  std::array<std::vector<const PoseSample*>, kRoleCount> by_role;
+  for (const PoseSample& s : samples) by_role[static_cast<std::size_t>(s.role)].push_back(&s);
+  const double t0 = samples.front().t, t1 = samples.back().t;
+  std::vector<PoseSample> out;
+  std::array<std::size_t, kRoleCount> at{};
+  for (long k = 0;; ++k) {
+    const double t = t0 + static_cast<double>(k) / hz;
+    if (t > t1 + 1e-9) break;
+    for (int r = 0; r < kRoleCount; ++r) {
+      const auto& v = by_role[static_cast<std::size_t>(r)];
+      if (v.empty() || t < v.front()->t || t > v.back()->t) continue;
+      std::size_t& i = at[static_cast<std::size_t>(r)];
+      while (i + 1 < v.size() && v[i + 1]->t <= t) ++i;
+      const PoseSample& a = *v[i];
+      const PoseSample& b = i + 1 < v.size() ? *v[i + 1] : a;
+      PoseSample s = a;
+      s.t = t;
+      s.tracked = a.tracked && b.tracked;
+      const double f = b.t > a.t ? (t - a.t) / (b.t - a.t) : 0;
+      for (std::size_t c = 0; c < 3; ++c) s.position[c] = a.position[c] + f * (b.position[c] - a.position[c]);
+      double dot = 0;
+      for (std::size_t c = 0; c < 4; ++c) dot += a.orientation[c] * b.orientation[c];
+      const double sign = dot < 0 ? -1 : 1;
+      double n = 0;
+      for (std::size_t c = 0; c < 4; ++c) {
+        s.orientation[c] = a.orientation[c] + f * (sign * b.orientation[c] - a.orientation[c]);
+        n += s.orientation[c] * s.orientation[c];
+      }
+      n = std::sqrt(n);
+      if (n > 1e-9)
+        for (double& q : s.orientation) q /= n;
+      out.push_back(s);
+    }
+  }
+  return out;
 }
 
 void place_visitor(std::vector<PoseSample>& samples, std::optional<std::array<double, 2>> place, double stay_s) {

@@ -108,6 +108,11 @@ struct LearnedOverrides {
 nlohmann::json evaluate_learned(const std::vector<Recording>& trainable, const std::vector<Recording>& external,
                                 const std::filesystem::path& dir, const LearnedOverrides& ov = {});
 
+/// The samples as a tracker at `hz` would deliver them: every role at t0 + k / hz exactly (t0 =
+/// the first sample's time), positions linearly interpolated between the two samples around
+/// it, orientations normalised-lerped; a role lost at either side is lost there.
+std::vector<PoseSample> resample(const std::vector<PoseSample>& samples, double hz);
+
 /// Moves a mocap visitor's samples on the floor (every body alike): with `stay_s` > 0 the head's
 /// floor position averaged over a centred window of stay_s seconds is taken out (the visitor
 /// stays near one spot while limbs keep their motion but for that slow drift: SYNTHETIC); then

@@ -90,7 +90,13 @@ TEST(StrikeRecognition, TheThreadGivesTheEventsOfTheRecogniserRunInOneBatch) {
   ASSERT_GE(std::count_if(batch.begin(), batch.end(), [](const auto& e) { return e.type == rec::EventType::begin; }), 4)
       << "the kata's first 12 s hold several strikes";
   StrikeRecognition thread(model, "test");
-  for (const auto& s : file.samples) thread.push(s);
+  for (std::size_t i = 0; i < file.samples.size(); ++i) {
+    thread.push(file.samples[i]);
+    if (i + 1 == file.samples.size() || file.samples[i + 1].t != file.samples[i].t) thread.end_of_set(file.samples[i].t);
+    // A tracker hands over 5 samples a frame set, 60 sets a second; this loop, all 12 s at
+    // once: it lets the thread catch up now and then (its queue holds ~14 s: not all of it).
+    if (i % 1000 == 999) thread.drain_for_tests();
+  }
   thread.restart(file.samples.back().t);  // as recognise() finishes at its last sample
   thread.drain_for_tests();
   std::vector<VisitorStrike> got;
@@ -208,7 +214,10 @@ TEST(PosesSource, TheInstallationLogsTheVisitorsStrikesAndAReplayGivesThemBack) 
     EXPECT_EQ(s.limb, batch[k].limb);
     EXPECT_EQ(rec::to_string(s.action), batch[k].action);
     EXPECT_NEAR(s.progress, batch[k].progress, 1e-12);
-    EXPECT_NEAR(s.t - offset, batch[k].t, 1e-6);
+    // The same loop may run at the end of its frame set or at the next set's first sample when
+    // a row falls within rounding of a loop tick (the file's rows drift against 60 Hz): the
+    // same values, stamped one set apart at most.
+    EXPECT_NEAR(s.t - offset, batch[k].t, 0.03);
     EXPECT_GE(s.decided_at, s.t);
     EXPECT_LT(s.decided_at - s.t, 0.5) << "s: decided well within a frame or so (the recogniser's loop)";
   }

@@ -70,6 +70,7 @@ class TrackerInput final : public TrackingInput {
           s.tracked = p.status != TrackingStatus::lost;
           recognition_->push(s);
         }
+        recognition_->end_of_set(r.timestamp);
       });
     }
     // Camera frame sets to a session recorder while one records (record_frame_sets). The
@@ -342,7 +343,10 @@ class PosesInput final : public TrackingInput {
           head.last.ready_at = now();
           head_.publish(head);
         }
-        if (recognition_) recognition_->push(smp);
+        if (recognition_) {
+          recognition_->push(smp);
+          if (i + 1 == rows.size() || rows[i + 1].t != rows[i].t) recognition_->end_of_set(due);
+        }
       }
       if (!loop_) break;
       ++frame;

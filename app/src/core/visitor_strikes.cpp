@@ -13,8 +13,13 @@ namespace kumite::app {
 
 namespace {
 struct Item {
+  enum class Kind : std::uint8_t {
+    sample,      ///< a pose sample
+    end_of_set,  ///< every sample up to sample.t is in (a frame set is whole)
+    restart,     ///< the stream jumps at sample.t: cancel and start afresh
+  };
   recognition::PoseSample sample;
-  bool restart = false;  ///< the stream jumps at sample.t: cancel and start afresh
+  Kind kind = Kind::sample;
 };
 constexpr std::size_t kSamples = 4096;  // ~14 s of five bodies at 60 Hz
 constexpr std::size_t kEvents = 256;
@@ -61,14 +66,21 @@ struct StrikeRecognition::Impl {
       while (in.pop(it)) {
         any = true;
         now_events.clear();
-        if (it.restart) {
-          rec->finish(it.sample.t, now_events);
-          publish(now_events);
-          rec = std::make_unique<recognition::Recogniser>(model);
-        } else {
-          rec->push(it.sample, now_events);
-          samples.fetch_add(1, std::memory_order_relaxed);
-          publish(now_events);
+        switch (it.kind) {
+          case Item::Kind::restart:
+            rec->finish(it.sample.t, now_events);
+            publish(now_events);
+            rec = std::make_unique<recognition::Recogniser>(model);
+            break;
+          case Item::Kind::end_of_set:
+            rec->end_of_set(it.sample.t, now_events);
+            publish(now_events);
+            break;
+          case Item::Kind::sample:
+            rec->push(it.sample, now_events);
+            samples.fetch_add(1, std::memory_order_relaxed);
+            publish(now_events);
+            break;
         }
         done.fetch_add(1, std::memory_order_release);
         done.notify_all();
@@ -101,12 +113,21 @@ StrikeRecognition::~StrikeRecognition() {
   impl_->thread.join();
 }
 
-void StrikeRecognition::push(const recognition::PoseSample& sample) noexcept { impl_->enqueue(Item{sample, false}); }
+void StrikeRecognition::push(const recognition::PoseSample& sample) noexcept {
+  impl_->enqueue(Item{sample, Item::Kind::sample});
+}
+
+void StrikeRecognition::end_of_set(Timestamp t) noexcept {
+  Item it;
+  it.sample.t = t;
+  it.kind = Item::Kind::end_of_set;
+  impl_->enqueue(it);
+}
 
 void StrikeRecognition::restart(Timestamp t) noexcept {
   Item it;
   it.sample.t = t;
-  it.restart = true;
+  it.kind = Item::Kind::restart;
   impl_->enqueue(it);
 }
 

@@ -55,6 +55,9 @@ class StrikeRecognition {
 
   /// Producer: one pose sample (time order per role). A full queue drops it (counted).
   void push(const recognition::PoseSample& sample) noexcept;
+  /// Producer: every sample up to `t` was pushed (the tracker's frame set is whole): the
+  /// recogniser's loops up to t run now rather than at the next set's first sample.
+  void end_of_set(Timestamp t) noexcept;
   /// Producer: the stream ended or jumps (a looped poses file starts again) at `t`: strikes
   /// under way are cancelled and the recogniser starts afresh.
   void restart(Timestamp t) noexcept;

@@ -89,6 +89,8 @@ class LearnedRecogniser {
  public:
   explicit LearnedRecogniser(LearnedModel model);
   void push(const PoseSample& s, std::vector<Event>& out);
+  /// Every sample up to t was pushed: the loops up to t now (as Recogniser::end_of_set).
+  void end_of_set(Timestamp t, std::vector<Event>& out);
   void finish(Timestamp t, std::vector<Event>& out);
   const LearnedModel& model() const { return model_; }
   long loops() const { return loops_; }
@@ -107,6 +109,7 @@ class LearnedRecogniser {
     Vec3 impact{0, 0, 0};
   };
   void loop(const Frame& f, std::vector<Event>& out);
+  void run_frames(std::vector<Event>& out);  ///< loops over frames_
   Event event(const Frame& f, int limb, EventType type, const LearnedNet& net, int cls);
   Event cancel_event(int limb, const LimbState& st, Timestamp t) const;
 

@@ -136,9 +136,13 @@ inline Feature make_feature(const LimbFrame& lf, const Float3& origin, double ab
 class Frontend {
  public:
   explicit Frontend(FrontendSettings s = {});
-  /// Feeds one sample (any rate, time order per role; older samples are ignored). Appends a
-  /// Frame for every 60 Hz loop tick up to the sample's time.
+  /// Feeds one sample (any rate, time order; older samples of a role are ignored). A sample
+  /// newer than every one before completes the samples of the time before it: appends a Frame
+  /// for every 60 Hz loop tick up to that time (each role's position interpolated at the tick).
   void push(const PoseSample& s, std::vector<Frame>& out);
+  /// Every sample up to time t has been pushed (a tracker's frame set is whole): appends the
+  /// Frames of the ticks up to t now instead of at the next, newer sample.
+  void end_of_set(Timestamp t, std::vector<Frame>& out);
   const FrontendSettings& settings() const { return s_; }
 
  private:
@@ -147,12 +151,23 @@ class Frontend {
     Timestamp last_t = 0;
     Vec3 smoothed{0, 0, 0};
     std::array<double, 4> q{1, 0, 0, 0};
+    bool has_prev = false;    ///< the sample before the last, in the same tracked run
+    Timestamp prev_t = 0;
+    Vec3 prev{0, 0, 0};       ///< its smoothed position
   };
+  /// The role's smoothed position at loop time t: interpolated between its last two samples,
+  /// or extrapolated from them by at most one sample interval (first order: a loop's value
+  /// moves continuously with the samples' timing, so a tracker whose samples fall on the loop's
+  /// ticks, give or take rounding, gives the same features as one between them).
+  Vec3 position_at(const RoleState& r, Timestamp t) const;
   Frame make_frame(Timestamp t);
   FrontendSettings s_;
   std::array<RoleState, kRoleCount> roles_{};
+  /// The loops for every tick up to u (at most ~loop_hz of them).
+  void run_through(Timestamp u, std::vector<Frame>& out);
   bool started_ = false;
   Timestamp next_tick_ = 0;
+  Timestamp newest_ = 0;  ///< the newest sample time pushed
   bool have_heading_ = false, have_height_ = false;
   Vec3 forward_{0, 0, -1};
   double head_height_ = 1.6;
@@ -279,6 +294,9 @@ class Recogniser {
   explicit Recogniser(Model model);
   /// Feeds one sample; appends the events it caused. Cheap: one loop per 60 Hz tick.
   void push(const PoseSample& s, std::vector<Event>& out);
+  /// Every sample up to t was pushed (the tracker's frame set is whole): the loops up to t run
+  /// now (Frontend::end_of_set), their events stamped t.
+  void end_of_set(Timestamp t, std::vector<Event>& out);
   /// The stream ended (or the tracker stopped) at time t: active strikes are cancelled.
   void finish(Timestamp t, std::vector<Event>& out);
   const Model& model() const { return model_; }
@@ -306,6 +324,7 @@ class Recogniser {
     Vec3 impact{0, 0, 0};
   };
   void loop(const Frame& f, std::vector<Event>& out);
+  void run_frames(std::vector<Event>& out);  ///< loops over frames_
   void limb_loop(const Frame& f, int limb, std::vector<Event>& out);
   struct Best { int index = -1; double distance = 1e30; int end = 0; };
   Best classify(int limb, int exclude = -1);
@@ -328,7 +347,8 @@ class Recogniser {
   std::vector<double> loop_times_;
 };
 
-/// Runs a recogniser over samples (sorted by time) and finishes at the last one.
+/// Runs a recogniser over samples (sorted by time; end_of_set after each time's samples) and
+/// finishes at the last one.
 std::vector<Event> recognise(const Model& model, std::span<const PoseSample> samples);
 
 }  // namespace kumite::recognition
