@@ -617,6 +617,7 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     js["source_frames"] = {q.source_range.first, q.source_range.last};
     js["speed_scale"] = q.speed_scale;
     js["rate"] = rec.strike.rate;
+    js["rate_lead_frames"] = rec.strike.rate_lead_updates;
     js["reachable"] = rec.strike.contact_reached;
     js["hit"] = rec.strike.hit;
     js["solver_reach_error_m"] = rec.strike.contact_distance_m;
@@ -1027,6 +1028,7 @@ int run_bench(const BenchArgs& a) {
   const kumite::OrderKind kinds[4] = {kumite::OrderKind::punch_right, kumite::OrderKind::punch_left,
                                       kumite::OrderKind::kick_right, kumite::OrderKind::kick_left};
   // Each order on every character 8 times, targets drawn from `r`: every update's time (us).
+  std::vector<double> rate_solve_us;  // the strikes' playback rates, found between updates
   const auto time_strikes = [&](const FighterConfig& fighter, std::mt19937& r, int& strikes) {
     std::vector<double> us;
     for (int rep = 0; rep < 8; ++rep) {
@@ -1037,6 +1039,7 @@ int run_bench(const BenchArgs& a) {
           const Eigen::Vector3d target(0.15 * u(r), (kick ? 0.6 : 0.9) * h, 0.38 * h);
           const StrikeRecording rec = record_strike(db, rig, kind, target, fighter);
           us.insert(us.end(), rec.update_us.begin(), rec.update_us.end());
+          if (rec.rate_solve_us > 0) rate_solve_us.push_back(rec.rate_solve_us);
           ++strikes;
         }
       }
@@ -1047,9 +1050,12 @@ int run_bench(const BenchArgs& a) {
   const std::vector<double> adapt_us = a.skip_adaptation ? std::vector<double>{} : time_strikes(g_fighter, rng, strikes);
   j["adaptation_us_per_frame"] = stats_json(adapt_us);
   j["adaptation_strikes"] = strikes;
+  // Finding each strike's playback rate (StrikeRateSolver): off the frame (the Fighter's worker
+  // thread; record_strike between updates), so not in adaptation_us_per_frame.
+  if (!rate_solve_us.empty()) j["strike_rate_solve_us"] = stats_json(rate_solve_us);
   if (!a.skip_adaptation && g_fighter.behaviour.min_strike_rate >= 1) {
-    // The same strikes with the playback rate on (BehaviourTunables::min_strike_rate): what
-    // finding the rate costs the frame that starts each strike.
+    // The same strikes with the playback rate on (BehaviourTunables::min_strike_rate), as it
+    // was turned on before it was on by default.
     FighterConfig with_rate = g_fighter;
     with_rate.behaviour.min_strike_rate = 0.6;
     with_rate.behaviour.blend_time_s = 0.25;
