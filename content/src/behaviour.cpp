@@ -260,7 +260,8 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now, double dt) {
     job.release_end_s = strike_.release_end_s;
     job.turn = strike_.turn;
     job.stretch = strike_.stretch;
-    pending_rate_ = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment};
+    job.target_room_m = strike_.target_room_m;
+    pending_rate_ = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment, character_};
     submit_rate_(job);
   }
   (void)now;
@@ -269,7 +270,9 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now, double dt) {
 void Behaviour::apply_strike_rate() {
   // The rate found for this strike (a late solver is waited for: the update it enters on
   // depends on the inputs alone). The blend into the strike eases the change of rate in;
-  // then d(t) and its release are found again at that rate.
+  // then d(t) and its release are those at that rate: d(t) as the solver found it from this
+  // update's state (the same operations compute_reach_error() does here, so the same
+  // numbers), unless the character changed since the strike started.
   const PendingRate due = *pending_rate_;
   pending_rate_.reset();
   const std::optional<StrikeRateResult> r = poll_rate_();
@@ -280,7 +283,13 @@ void Behaviour::apply_strike_rate() {
   strike_.rate_update = updates_;
   strike_.rate_lead_updates = updates_ - strike_.start_update;
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
-  compute_reach_error(strike_.contact_time_s);
+  if (r->has_reach && character_ == due.character) {
+    strike_.error_m = r->error_m;
+    strike_.turn = r->turn;
+    strike_.stretch = r->stretch;
+  } else {
+    compute_reach_error(strike_.contact_time_s);
+  }
 }
 
 void Behaviour::compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose,
@@ -313,29 +322,36 @@ void Behaviour::compute_reach_error(double at_time_s) {
   prev.time_s += ahead_wall * prev.rate;
   MkmFrame b, pose;
   compose(cur, prev, blend_elapsed_s_ + ahead_wall, b, pose);
-  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
+  // scratch_pose_ keeps its room: a strike's start allocates nothing.
+  const ReachCorrection r = reach_correction(characters_[static_cast<std::size_t>(character_)], strike_.effector,
+                                             strike_.target_room_m, pose, scratch_pose_);
+  strike_.error_m = r.error_m;
+  strike_.turn = r.turn;
+  strike_.stretch = r.stretch;
+}
+
+namespace behaviour_detail {
+ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vector3d& target, const MkmFrame& pose,
+                                 CanonicalPose& c) {
   decode_canonical(rig, pose, c);
-  const Vector3d effector = at(c, strike_.effector.joint());
-  strike_.error_m = strike_.target_room_m - effector;
+  ReachCorrection r;
+  r.error_m = target - at(c, eff.joint());
   // The correction turns and stretches the limb about its root (shoulder or hip) so that it
   // points at the target: the whole limb aims, instead of the wrist alone being pushed.
-  const CJ root = strike_.effector.leg ? (strike_.effector.side == kLeft ? CJ::l_hip : CJ::r_hip)
-                                       : (strike_.effector.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+  const CJ root = eff.leg ? (eff.side == kLeft ? CJ::l_hip : CJ::r_hip) : (eff.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
   // The limb vector as AdaptJob turns it: the motion's own (root -> root + limb_n * length),
   // not the decoded end, which IK clamps where the motion over-extends the limb by a hair.
-  const int side = strike_.effector.side;
-  const Vector3d from = strike_.effector.leg ? Vector3d(pose.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side))
-                                             : Vector3d(pose.arm_n[static_cast<std::size_t>(side)] * rig.morphology.arm_length(side));
-  const Vector3d to = strike_.target_room_m - at(c, root);
+  const int side = eff.side;
+  const Vector3d from = eff.leg ? Vector3d(pose.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side))
+                                : Vector3d(pose.arm_n[static_cast<std::size_t>(side)] * rig.morphology.arm_length(side));
+  const Vector3d to = target - at(c, root);
   if (from.norm() > 1e-6 && to.norm() > 1e-6) {
-    strike_.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
-    strike_.stretch = to.norm() / from.norm();
-  } else {
-    strike_.turn = Eigen::Quaterniond::Identity();
-    strike_.stretch = 1;
+    r.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
+    r.stretch = to.norm() / from.norm();
   }
+  return r;
 }
+}  // namespace behaviour_detail
 
 void Behaviour::update_follow(double dt, const Vector3d& head) {
   const Vector2d head_xz(head.x(), head.z());

@@ -80,6 +80,17 @@ inline double reach_ramp_in(double start_s, double contact_s, double t) {
 inline double reach_ramp_out(double contact_s, double release_end_s, double t) {
   return 1 - smoothstep((t - contact_s) / std::max(1e-6, release_end_s - contact_s));
 }
+/// d(t) at contact: the gap from the effector to the target, and the turn and stretch of the
+/// limb about its root (shoulder or hip) that point it at the target, for `pose` (composed as
+/// the update at contact will compose it) decoded on `rig` (into `scratch`).
+struct ReachCorrection {
+  Eigen::Vector3d error_m{0, 0, 0};
+  Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
+  double stretch = 1;
+};
+ReachCorrection reach_correction(const Rig& rig, const Effector& effector, const Eigen::Vector3d& target_room_m,
+                                 const MkmFrame& pose, CanonicalPose& scratch);
+
 /// d(t) at weight `ramp` of its full turn and stretch.
 inline ReachGoal reach_goal_at(const Effector& effector, const Eigen::Quaterniond& turn, double stretch, double ramp) {
   ReachGoal goal;

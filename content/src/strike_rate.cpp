@@ -104,6 +104,27 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     if (next >= rate) break;
     rate = next;
   }
+  if (rate < 1) {
+    // d(t) at contact at this rate, found as Behaviour::compute_reach_error() finds it on the
+    // update the rate enters on (job.lead_s after the start at the clip's own rate), with the
+    // same operations in the same order: the same numbers.
+    PlaybackSource cur = job.current, prev = job.previous;
+    cur.time_s += job.lead_s * 1.0;
+    prev.time_s += job.lead_s * prev.rate;
+    const double blend_elapsed_s = job.blend_elapsed_s + job.lead_s;
+    cur.rate = rate;
+    const double ahead = job.contact_time_s - cur.time_s;
+    const double ahead_wall = ahead / cur.rate;
+    cur.time_s += ahead;
+    prev.time_s += ahead_wall * prev.rate;
+    MkmFrame b, pose;
+    play.compose(cur, prev, blend_elapsed_s + ahead_wall, tun_.blend_time_s, b, pose);
+    const ReachCorrection r = reach_correction(rig, job.effector, job.target_room_m, pose, canonical_);
+    result.has_reach = true;
+    result.error_m = r.error_m;
+    result.turn = r.turn;
+    result.stretch = r.stretch;
+  }
   return done(rate);
 }
 

@@ -242,7 +242,7 @@ void add_strike(CLI::App& app, StrikeArgs& a) {
   cmd->add_option("--out", a.out, "strike.bvh (the adapted motion, character skeleton, source units)")->required();
   cmd->add_option("--report", a.report, "strike.json")->required();
   cmd->add_option("--trace", a.trace,
-                  "trace.csv: per frame the fighter state, d(t) weight, and per foot the planting phase, the "
+                  "trace.csv: per frame the fighter state, d(t) weight, the update's µs, and per foot the planting phase, the "
                   "motion's contact, the hold (weight, m) and the drawn ankle (m)");
 }
 
@@ -305,13 +305,15 @@ int run_strike(const StrikeArgs& a) {
   j["events"] = rec.events;
   kumite::write_file_atomically(a.report, j.dump(2) + "\n");
   if (!a.trace.empty()) {
-    std::string csv = "frame,state,ramp,root_drop_m";
+    std::string csv = "frame,state,ramp,root_drop_m,update_us";
     for (const char* side : {"l", "r"})
       csv += fmt::format(",{0}_phase,{0}_planted,{0}_lock_w,{0}_lock_x,{0}_lock_y,{0}_lock_z,{0}_ankle_x,{0}_ankle_y,{0}_ankle_z", side);
     csv += "\n";
     for (std::size_t f = 0; f < rec.trace.size(); ++f) {
       const auto& r = rec.trace[f];
-      csv += fmt::format("{},{},{:.4f},{:.4f}", f, kumite::content::to_string(r.state), r.ramp, r.root_drop_m);
+      // Frame 0 (the rest pose at the origin) is not timed; frame f > 0 is update_us[f - 1].
+      const double us_f = f > 0 && f - 1 < rec.update_us.size() ? rec.update_us[f - 1] : 0.0;
+      csv += fmt::format("{},{},{:.4f},{:.4f},{:.2f}", f, kumite::content::to_string(r.state), r.ramp, r.root_drop_m, us_f);
       for (std::size_t s = 0; s < 2; ++s) {
         static constexpr const char* kPhase[] = {"free", "held", "swinging", "stepping", "landing"};
         csv += fmt::format(",{},{:.2f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}", kPhase[static_cast<int>(r.phase[s])],

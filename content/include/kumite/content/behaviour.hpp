@@ -117,10 +117,18 @@ struct StrikeRateJob {
   double start_time_s = 0, contact_time_s = 0, release_end_s = 0;  ///< segment times (s)
   Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t) at contact
   double stretch = 1;
+  Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, the strike's frozen target
 };
 struct StrikeRateResult {
   std::uint64_t id = 0;  ///< StrikeRateJob::id
   double rate = 1;       ///< segment seconds per second, in [min_strike_rate, 1]
+  /// rate < 1: d(t) at contact found again at that rate from the state of the update the rate
+  /// enters on (as Behaviour's compute_reach_error would find it there), so that update
+  /// decodes nothing.
+  bool has_reach = false;
+  Eigen::Vector3d error_m{0, 0, 0};
+  Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
+  double stretch = 1;
   double solve_us = 0;   ///< µs the solve took (on whatever thread ran it)
 };
 
@@ -138,6 +146,7 @@ class StrikeRateSolver {
   std::shared_ptr<const Database> db_;
   BehaviourTunables tun_;
   EasedTravelCache eased_;
+  CanonicalPose canonical_;
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> positions_;
 };
@@ -329,7 +338,9 @@ class Behaviour {
   struct SwingPath {
     int segment = -1;        ///< -1: none
     int character = -1;
-    double land_t = 0;       ///< s, segment time of the landing
+    /// The segment frame of the landing (its time clamped to the clip: a foot that stays up to
+    /// the clip's end lands on its last frame, whatever the rate the rest after it is played at).
+    int land_frame = 0;
     GroundFrame placement;
     Eigen::Vector2d anchor_xz_m{0, 0};
     Source::Travel travel;
@@ -358,6 +369,7 @@ class Behaviour {
     std::uint64_t job = 0;
     int due_update = 0;
     int segment = -1;
+    int character = 0;  ///< the character the job was made for
   };
   std::optional<PendingRate> pending_rate_;
   Eigen::Vector3d root_joint_{0, 0, 0};
