@@ -8,6 +8,7 @@
 #include <cassert>
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 #include "behaviour_internal.hpp"
 #include "kumite/common/error.hpp"
@@ -37,14 +38,14 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   global_.resize(max_joints);
   rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
-  scratch_local_.resize(max_joints);
-  scratch_global_.resize(max_joints);
-  scratch_positions_.resize(max_joints);
   switch_offset_.assign(max_joints, Vector3d::Zero());
   eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames: no allocation while playing
   spot_xz_m_ = {config.home.x(), config.home.z()};
   facing_rad_ = 0;
   use_synchronous_planner(std::make_shared<StrikePlanner>(db_, config.retrieval));
+  sync_rate_solver_ = std::make_shared<StrikeRateSolver>(db_, tun_);
+  submit_rate_ = [this](const StrikeRateJob& job) { sync_rate_result_ = sync_rate_solver_->solve(job); };
+  poll_rate_ = [this] { return std::exchange(sync_rate_result_, std::nullopt); };
   start_rest(0);
   blend_elapsed_s_ = 1e9;
 }
@@ -63,6 +64,11 @@ void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> pla
     sync_results_.pop_front();
     return p;
   };
+}
+
+void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
+  submit_rate_ = std::move(submit);
+  poll_rate_ = std::move(poll);
 }
 
 void Behaviour::order(const Order& o) { orders_.push_back({o, std::nullopt}); }
@@ -207,7 +213,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   taking_.clear();
 }
 
-void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
+void Behaviour::start_strike(const StrikePlan& plan, Timestamp now, double dt) {
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   const GroundFrame g_char = ground_frame_of(pose_);
   const GroundFrame g_clip = ground_frame_of(seg.frames[static_cast<std::size_t>(plan.start_frame)]);
@@ -232,46 +238,71 @@ void Behaviour::start_strike(const StrikePlan& plan, Timestamp now) {
   strike_.contact_time_s = plan.contact_frame * seg.frame_time_s;
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
+  strike_.start_update = updates_;
   enter(FighterState::striking);
   compute_reach_error(strike_.contact_time_s);
-  // A correction that lengthens the hit point's way plays the strike slower (the blend into
-  // it eases the change of rate in); then d(t) and its release are found again at that rate.
-  current_.rate = strike_rate();
-  strike_.rate = current_.rate;
-  if (current_.rate != 1) {
-    strike_.release_end_s = release_end_s(strike_.contact_time_s);
-    compute_reach_error(strike_.contact_time_s);
+  // A correction that lengthens the hit point's way plays the strike slower. Finding how much
+  // slower decodes the whole way (~0.2-0.3 ms): it is a job for the solver (the Fighter's
+  // worker thread), applied kStrikeRateDelayUpdates updates from now (apply_strike_rate()).
+  pending_rate_.reset();
+  if (tun_.min_strike_rate < 1) {
+    StrikeRateJob job;
+    job.id = next_rate_job_++;
+    job.rig = &characters_[static_cast<std::size_t>(character_)];
+    job.stride_scale = stride_scale();
+    job.current = current_;
+    job.previous = previous_;
+    job.blend_elapsed_s = blend_elapsed_s_;
+    job.lead_s = kStrikeRateDelayUpdates * std::max(0.0, dt);
+    job.effector = strike_.effector;
+    job.start_time_s = strike_.start_time_s;
+    job.contact_time_s = strike_.contact_time_s;
+    job.release_end_s = strike_.release_end_s;
+    job.turn = strike_.turn;
+    job.stretch = strike_.stretch;
+    job.target_room_m = strike_.target_room_m;
+    pending_rate_ = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment, character_};
+    submit_rate_(job);
   }
   (void)now;
 }
 
-void Behaviour::compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose,
-                        MkmFrame& out) const {
-  sample(cur, cur_pose);
-  if (prev.segment >= 0 && blend_elapsed_s < tun_.blend_time_s) {
-    MkmFrame prev_pose;
-    sample(prev, prev_pose);
-    blend_mkm(prev_pose, cur_pose, smoothstep(blend_elapsed_s / tun_.blend_time_s), out);
+void Behaviour::apply_strike_rate() {
+  // The rate found for this strike (a late solver is waited for: the update it enters on
+  // depends on the inputs alone). The blend into the strike eases the change of rate in;
+  // then d(t) and its release are those at that rate: d(t) as the solver found it from this
+  // update's state (the same operations compute_reach_error() does here, so the same
+  // numbers), unless the character changed since the strike started.
+  const PendingRate due = *pending_rate_;
+  pending_rate_.reset();
+  const std::optional<StrikeRateResult> r = poll_rate_();
+  if (!r || r->id != due.job || !(r->rate > 0) || r->rate >= 1) return;
+  if (state_ != FighterState::striking || strike_.contact_done || current_.segment != due.segment) return;
+  current_.rate = r->rate;
+  strike_.rate = r->rate;
+  strike_.rate_update = updates_;
+  strike_.rate_lead_updates = updates_ - strike_.start_update;
+  strike_.release_end_s = release_end_s(strike_.contact_time_s);
+  if (r->has_reach && character_ == due.character) {
+    strike_.error_m = r->error_m;
+    strike_.turn = r->turn;
+    strike_.stretch = r->stretch;
   } else {
-    out = cur_pose;
+    compute_reach_error(strike_.contact_time_s);
   }
 }
 
-double Behaviour::ramp_in(double t) const {
-  return smoothstep((t - strike_.start_time_s) / std::max(1e-6, strike_.contact_time_s - strike_.start_time_s));
+void Behaviour::compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose,
+                        MkmFrame& out) const {
+  Playback{*db_, stride_scale(), eased_}.compose(cur, prev, blend_elapsed_s, tun_.blend_time_s, cur_pose, out);
 }
 
-double Behaviour::ramp_out(double t) const {
-  return 1 - smoothstep((t - strike_.contact_time_s) / std::max(1e-6, strike_.release_end_s - strike_.contact_time_s));
-}
+double Behaviour::ramp_in(double t) const { return reach_ramp_in(strike_.start_time_s, strike_.contact_time_s, t); }
+
+double Behaviour::ramp_out(double t) const { return reach_ramp_out(strike_.contact_time_s, strike_.release_end_s, t); }
 
 ReachGoal Behaviour::reach_goal(double ramp) const {
-  ReachGoal goal;
-  goal.effector = strike_.effector;
-  goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, strike_.turn);
-  goal.stretch = 1 + ramp * (strike_.stretch - 1);
-  goal.pin = ramp;
-  return goal;
+  return reach_goal_at(strike_.effector, strike_.turn, strike_.stretch, ramp);
 }
 
 double Behaviour::release_end_s(double contact_time_s) const {
@@ -291,95 +322,36 @@ void Behaviour::compute_reach_error(double at_time_s) {
   prev.time_s += ahead_wall * prev.rate;
   MkmFrame b, pose;
   compose(cur, prev, blend_elapsed_s_ + ahead_wall, b, pose);
-  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
+  // scratch_pose_ keeps its room: a strike's start allocates nothing.
+  const ReachCorrection r = reach_correction(characters_[static_cast<std::size_t>(character_)], strike_.effector,
+                                             strike_.target_room_m, pose, scratch_pose_);
+  strike_.error_m = r.error_m;
+  strike_.turn = r.turn;
+  strike_.stretch = r.stretch;
+}
+
+namespace behaviour_detail {
+ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vector3d& target, const MkmFrame& pose,
+                                 CanonicalPose& c) {
   decode_canonical(rig, pose, c);
-  const Vector3d effector = at(c, strike_.effector.joint());
-  strike_.error_m = strike_.target_room_m - effector;
+  ReachCorrection r;
+  r.error_m = target - at(c, eff.joint());
   // The correction turns and stretches the limb about its root (shoulder or hip) so that it
   // points at the target: the whole limb aims, instead of the wrist alone being pushed.
-  const CJ root = strike_.effector.leg ? (strike_.effector.side == kLeft ? CJ::l_hip : CJ::r_hip)
-                                       : (strike_.effector.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+  const CJ root = eff.leg ? (eff.side == kLeft ? CJ::l_hip : CJ::r_hip) : (eff.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
   // The limb vector as AdaptJob turns it: the motion's own (root -> root + limb_n * length),
   // not the decoded end, which IK clamps where the motion over-extends the limb by a hair.
-  const int side = strike_.effector.side;
-  const Vector3d from = strike_.effector.leg ? Vector3d(pose.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side))
-                                             : Vector3d(pose.arm_n[static_cast<std::size_t>(side)] * rig.morphology.arm_length(side));
-  const Vector3d to = strike_.target_room_m - at(c, root);
+  const int side = eff.side;
+  const Vector3d from = eff.leg ? Vector3d(pose.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side))
+                                : Vector3d(pose.arm_n[static_cast<std::size_t>(side)] * rig.morphology.arm_length(side));
+  const Vector3d to = target - at(c, root);
   if (from.norm() > 1e-6 && to.norm() > 1e-6) {
-    strike_.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
-    strike_.stretch = to.norm() / from.norm();
-  } else {
-    strike_.turn = Eigen::Quaterniond::Identity();
-    strike_.stretch = 1;
+    r.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
+    r.stretch = to.norm() / from.norm();
   }
+  return r;
 }
-
-double Behaviour::strike_rate() {
-  // The hit point's way as it will be drawn (the blend out of the previous motion, the strike
-  // with its scaled travel and d(t) ramped as update() ramps them, decoded on the character)
-  // beside the source clip's own hit path scaled to the character, from the strike start to
-  // the end of d(t)'s release, both sampled at 60 Hz. When the drawn peak speed exceeds
-  // max_strike_speed_ratio times the source's, the strike is played slower (refined twice:
-  // the blend runs in wall time, so the drawn speed is not quite proportional to the rate).
-  if (tun_.min_strike_rate >= 1) return 1;  // off (the default: see BehaviourTunables)
-  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
-  if (seg.hit_path_m.size() != seg.frames.size() || seg.frame_count() < 2) return 1;
-  constexpr double h = 1.0 / 60;  // s between samples
-  const int first = std::clamp(static_cast<int>(std::lround(strike_.start_time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
-  const int last = std::clamp(static_cast<int>(std::lround(strike_.release_end_s / seg.frame_time_s)), first, seg.frame_count() - 1);
-  const auto path_at = [&](double t) {
-    const auto [i0, a] = frame_pair(seg, t);
-    return Vector3d(((1 - a) * seg.hit_path_m[i0] + a * seg.hit_path_m[i0 + 1]).cast<double>());
-  };
-  double src_peak = 0;
-  for (double t = first * seg.frame_time_s + h; t <= last * seg.frame_time_s + 1e-9; t += h)
-    src_peak = std::max(src_peak, (path_at(t) - path_at(t - h)).norm() / h);
-  src_peak *= stride_scale();
-  if (!(src_peak > 1e-9)) return 1;
-
-  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  const auto n = static_cast<std::size_t>(rig.joint_count());
-  const auto effector = static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()));
-  const auto drawn_peak = [&](double rate) {
-    Source cur = current_, prev = previous_;
-    cur.rate = rate;
-    const double t0 = current_.time_s, p0 = previous_.time_s;
-    double peak = 0;
-    Vector3d last_p = Vector3d::Zero();
-    MkmFrame b, pose;
-    for (int k = 0;; ++k) {
-      const double w = k * h;
-      cur.time_s = t0 + rate * w;
-      if (cur.time_s > strike_.release_end_s + 1e-9) break;
-      prev.time_s = p0 + prev.rate * w;
-      compose(cur, prev, blend_elapsed_s_ + w, b, pose);
-      const double t = cur.time_s;
-      const ReachGoal goal = reach_goal(t <= strike_.contact_time_s ? ramp_in(t) : ramp_out(t));
-      AdaptJob job;
-      job.rig = &rig;
-      job.pose = &pose;
-      job.reach = &goal;
-      job.local_rotations = std::span(scratch_local_).first(n);
-      job.global_rotations = std::span(scratch_global_).first(n);
-      job.global_positions = std::span(scratch_positions_).first(n);
-      if (!job.Run()) return 0.0;
-      const Vector3d p = scratch_positions_[effector];
-      if (k > 0) peak = std::max(peak, (p - last_p).norm() / h);
-      last_p = p;
-    }
-    return peak;
-  };
-  double rate = 1;
-  for (int refine = 0; refine < 2; ++refine) {
-    const double peak = drawn_peak(rate);
-    if (!(peak > tun_.max_strike_speed_ratio * src_peak)) break;
-    const double next = std::clamp(rate * tun_.max_strike_speed_ratio * src_peak / peak, tun_.min_strike_rate, 1.0);
-    if (next >= rate) break;
-    rate = next;
-  }
-  return rate;
-}
+}  // namespace behaviour_detail
 
 void Behaviour::update_follow(double dt, const Vector3d& head) {
   const Vector2d head_xz(head.x(), head.z());
@@ -476,11 +448,13 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       if (p->segment < 0) {
         emit(FighterEvent::Kind::warning, now, pending_->order, FighterEvent::Reason::no_strike);
       } else {
-        start_strike(*p, now);
+        start_strike(*p, now, dt);
       }
       pending_.reset();
     }
   }
+
+  if (pending_rate_ && updates_ >= pending_rate_->due_update) apply_strike_rate();
 
   // Advance the clocks by the whole frame: the contact frame is the first frame at or past the
   // planned contact time, a real frame of motion (no sub-frame hold, no copy of the last).

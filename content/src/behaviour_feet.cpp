@@ -79,17 +79,19 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     if (!f.planted && !current_.loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
       // Where the motion puts this foot down next, and the horizontal way its ankle still goes.
       const double land_t = current_.time_s + f.swing_left_s * current_.rate;
+      const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+      const int land = std::min(static_cast<int>(std::lround(land_t / seg.frame_time_s)), seg.frame_count() - 1);
       const Vector3d now_m = mkm_ankle(rig, cur, s);
       SwingPath& sp = swing_paths_[us];
-      const bool same = sp.segment == current_.segment && sp.character == character_ && std::abs(sp.land_t - land_t) < 1e-9 &&
+      // The walk depends on the landing frame only (a strike's rate entering mid-swing moves
+      // the landing time of a foot that stays up past the clip's end, not its frame).
+      const bool same = sp.segment == current_.segment && sp.character == character_ && sp.land_frame == land &&
                         sp.placement.origin_xz == current_.placement.origin_xz && sp.placement.yaw_rad == current_.placement.yaw_rad &&
                         sp.anchor_xz_m == current_.anchor_xz_m && sp.travel == current_.travel;
       if (same) {
         sp.way_left_m = std::max(0.0, sp.way_left_m - Eigen::Vector2d(now_m.x() - sp.last_m.x(), now_m.z() - sp.last_m.z()).norm());
       } else {
         // The source's own frames from now to the landing (swing_left_s ends on a frame).
-        const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
-        const int land = std::min(static_cast<int>(std::lround(land_t / seg.frame_time_s)), seg.frame_count() - 1);
         MkmFrame g;
         Vector3d last = now_m;
         double path = 0;
@@ -99,7 +101,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
           path += Eigen::Vector2d(p.x() - last.x(), p.z() - last.z()).norm();
           last = p;
         }
-        sp = SwingPath{current_.segment, character_, land_t, current_.placement, current_.anchor_xz_m, current_.travel, last, now_m, path};
+        sp = SwingPath{current_.segment, character_, land, current_.placement, current_.anchor_xz_m, current_.travel, last, now_m, path};
       }
       sp.last_m = now_m;
       f.has_landing = true;

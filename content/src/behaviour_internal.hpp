@@ -55,5 +55,50 @@ inline std::optional<Effector> effector_of(OrderKind k) {
   }
 }
 
+/// Playing a PlaybackSource: sampling a segment at a time and placing it in the room (with a
+/// strike's scaled travel and pelvis rise), for whichever thread owns `eased` (Behaviour's
+/// update thread, or a StrikeRateSolver's). Nothing else is written.
+struct Playback {
+  const Database& db;
+  double stride_scale = 1;     ///< character leg / actor leg
+  EasedTravelCache& eased;
+
+  void sample(const PlaybackSource& s, MkmFrame& out) const;
+  void place_sample(const PlaybackSource& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const;
+  Vector2d scaled_travel(const PlaybackSource& s, const MotionSegment& seg, double t) const;
+  /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into a blend of
+  /// `blend_time_s` (cur_pose: `cur` alone), as Behaviour::update() composes every frame.
+  void compose(const PlaybackSource& cur, const PlaybackSource& prev, double blend_elapsed_s, double blend_time_s,
+               MkmFrame& cur_pose, MkmFrame& out) const;
+};
+
+/// d(t)'s weight at segment time t: in from the strike's start to contact, out from contact
+/// to the end of its release.
+inline double reach_ramp_in(double start_s, double contact_s, double t) {
+  return smoothstep((t - start_s) / std::max(1e-6, contact_s - start_s));
+}
+inline double reach_ramp_out(double contact_s, double release_end_s, double t) {
+  return 1 - smoothstep((t - contact_s) / std::max(1e-6, release_end_s - contact_s));
+}
+/// d(t) at contact: the gap from the effector to the target, and the turn and stretch of the
+/// limb about its root (shoulder or hip) that point it at the target, for `pose` (composed as
+/// the update at contact will compose it) decoded on `rig` (into `scratch`).
+struct ReachCorrection {
+  Eigen::Vector3d error_m{0, 0, 0};
+  Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
+  double stretch = 1;
+};
+ReachCorrection reach_correction(const Rig& rig, const Effector& effector, const Eigen::Vector3d& target_room_m,
+                                 const MkmFrame& pose, CanonicalPose& scratch);
+
+/// d(t) at weight `ramp` of its full turn and stretch.
+inline ReachGoal reach_goal_at(const Effector& effector, const Eigen::Quaterniond& turn, double stretch, double ramp) {
+  ReachGoal goal;
+  goal.effector = effector;
+  goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, turn);
+  goal.stretch = 1 + ramp * (stretch - 1);
+  goal.pin = ramp;
+  return goal;
+}
 
 }  // namespace kumite::content::behaviour_detail

@@ -2,7 +2,10 @@
 // goes into a one-slot mailbox at update N; its plan is taken at update N + delay exactly
 // (kRetrievalDelayUpdates), waiting for the worker only if it is late, so the frame a strike
 // starts on depends on the inputs, never on thread timing. The behaviour keeps animating
-// rest / blends meanwhile.
+// rest / blends meanwhile. The same worker finds a started strike's playback rate
+// (StrikeRateJob, sent on the update the strike starts, applied kStrikeRateDelayUpdates later
+// by Behaviour, again waiting only if the worker is late): the frame never decodes the whole
+// strike's way.
 #include "kumite/content/fighter.hpp"
 
 #include <algorithm>
@@ -80,12 +83,14 @@ namespace {
 /// Plans strikes on its own thread. A request submitted at update N is handed back at update
 /// N + delay exactly: poll() returns nothing before, and at N + delay waits for the plan if the
 /// worker is not done yet (retrieval takes ~20 µs; a frame is ~16 ms). One request at a time:
-/// Behaviour waits for a plan before it asks for the next.
+/// Behaviour waits for a plan before it asks for the next. A strike's rate job has a slot of
+/// its own (one at a time as well: Behaviour polls it before the strike can end).
 class RetrievalWorker {
  public:
   using PlanFn = std::function<StrikePlan(const StrikeRequest&)>;
-  RetrievalWorker(PlanFn plan, int delay_updates)
-      : plan_(std::move(plan)), delay_(delay_updates), thread_([this] { run(); }) {}
+  using RateFn = std::function<StrikeRateResult(const StrikeRateJob&)>;
+  RetrievalWorker(PlanFn plan, RateFn rate, int delay_updates)
+      : plan_(std::move(plan)), rate_(std::move(rate)), delay_(delay_updates), thread_([this] { run(); }) {}
   ~RetrievalWorker() {
     {
       std::lock_guard lock(mutex_);
@@ -125,37 +130,81 @@ class RetrievalWorker {
     outstanding_.reset();
     return r;
   }
+  /// A strike's rate job (update thread): copied into its slot, nothing allocated.
+  void submit_rate(const StrikeRateJob& job) {
+    {
+      std::lock_guard lock(mutex_);
+      rate_job_ = job;
+      rate_result_.reset();
+    }
+    rate_outstanding_ = job.id;
+    ++stats_.rate_jobs;
+    cv_.notify_all();
+  }
+  /// Called by Behaviour on the update the job is due: its result, waiting if the worker is late.
+  std::optional<StrikeRateResult> poll_rate() {
+    if (!rate_outstanding_) return std::nullopt;
+    std::unique_lock lock(mutex_);
+    const auto ready = [&] { return rate_result_ && rate_result_->id == *rate_outstanding_; };
+    if (!ready()) {
+      const auto t0 = std::chrono::steady_clock::now();
+      done_.wait(lock, ready);
+      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      ++stats_.waits;
+      stats_.wait_total_ms += ms;
+      stats_.wait_max_ms = std::max(stats_.wait_max_ms, ms);
+    }
+    auto r = rate_result_;
+    rate_result_.reset();
+    rate_outstanding_.reset();
+    stats_.rate_solve_max_us = std::max(stats_.rate_solve_max_us, r->solve_us);
+    return r;
+  }
   const RetrievalTiming& stats() const { return stats_; }
 
  private:
   void run() {
     for (;;) {
-      StrikeRequest r;
+      std::optional<StrikeRequest> r;
+      std::optional<StrikeRateJob> job;
       {
         std::unique_lock lock(mutex_);
-        cv_.wait(lock, [&] { return stop_ || request_.has_value(); });
+        cv_.wait(lock, [&] { return stop_ || request_.has_value() || rate_job_.has_value(); });
         if (stop_) return;
-        r = *request_;
-        request_.reset();
+        std::swap(r, request_);
+        std::swap(job, rate_job_);
       }
-      StrikePlan p = plan_(r);
-      {
-        std::lock_guard lock(mutex_);
-        result_ = std::move(p);
+      if (job) {
+        StrikeRateResult res = rate_(*job);
+        {
+          std::lock_guard lock(mutex_);
+          rate_result_ = res;
+        }
+        done_.notify_all();
       }
-      done_.notify_all();
+      if (r) {
+        StrikePlan p = plan_(*r);
+        {
+          std::lock_guard lock(mutex_);
+          result_ = std::move(p);
+        }
+        done_.notify_all();
+      }
     }
   }
   PlanFn plan_;
+  RateFn rate_;
   int delay_;
   std::mutex mutex_;
   std::condition_variable cv_, done_;
   std::optional<StrikeRequest> request_;  // guarded by mutex_
   std::optional<StrikePlan> result_;      // guarded by mutex_
+  std::optional<StrikeRateJob> rate_job_;        // guarded by mutex_
+  std::optional<StrikeRateResult> rate_result_;  // guarded by mutex_
   bool stop_ = false;                     // guarded by mutex_
   // The update thread's own.
   std::uint64_t update_ = 0, due_ = 0;
-  std::optional<std::uint64_t> outstanding_;
+  std::optional<std::uint64_t> outstanding_, rate_outstanding_;
   RetrievalTiming stats_;
   std::thread thread_;  // last: starts after the members above exist
 };
@@ -164,15 +213,21 @@ class FighterImpl final : public Fighter {
  public:
   FighterImpl(std::shared_ptr<const Database> db, std::vector<Rig> rigs, const FighterConfig& config,
               FighterOptions options)
-      : behaviour_(db, std::move(rigs), config), planner_(std::make_shared<StrikePlanner>(db, config.retrieval)) {
+      : behaviour_(db, std::move(rigs), config), planner_(std::make_shared<StrikePlanner>(db, config.retrieval)),
+        rate_solver_(std::make_shared<StrikeRateSolver>(db, config.behaviour)) {
     if (options.retrieval_delay_updates < 0)
       throw Error("fighter", "config", "fighter: retrieval_delay_updates must be >= 0");
     RetrievalWorker::PlanFn plan = [planner = planner_, hook = std::move(options.plan)](const StrikeRequest& r) {
       return hook ? hook(*planner, r) : planner->plan(r);
     };
-    worker_ = std::make_unique<RetrievalWorker>(std::move(plan), options.retrieval_delay_updates);
+    RetrievalWorker::RateFn rate = [solver = rate_solver_, hook = std::move(options.rate)](const StrikeRateJob& job) {
+      return hook ? hook(*solver, job) : solver->solve(job);
+    };
+    worker_ = std::make_unique<RetrievalWorker>(std::move(plan), std::move(rate), options.retrieval_delay_updates);
     behaviour_.set_planner([this](const StrikeRequest& r) { worker_->submit(r); },
                            [this] { return worker_->poll(); });
+    behaviour_.set_rate_solver([this](const StrikeRateJob& job) { worker_->submit_rate(job); },
+                               [this] { return worker_->poll_rate(); });
   }
   void order(const Order& order) override { behaviour_.order(order); }
   void keep_away(bool on) override { behaviour_.keep_away(on); }
@@ -200,6 +255,7 @@ class FighterImpl final : public Fighter {
  private:
   Behaviour behaviour_;
   std::shared_ptr<const StrikePlanner> planner_;
+  std::shared_ptr<StrikeRateSolver> rate_solver_;  // the worker's alone
   std::uint64_t updates_ = 0;
   std::unique_ptr<RetrievalWorker> worker_;  // declared last: joins first on destruction
 };

@@ -25,13 +25,13 @@ double Behaviour::stride_scale() const {
 
 GroundFrame Behaviour::ground() const { return ground_frame_of(pose_); }
 
-Vector2d Behaviour::scaled_travel(const Source& s, const MotionSegment& seg, double t) const {
+Vector2d Playback::scaled_travel(const PlaybackSource& s, const MotionSegment& seg, double t) const {
   // The part of the clip's root travel that Source::Travel scales, at segment time t: all of it
   // from `from_s` to contact, then weighted by 1 - smoothstep over `release_s` (the extra
   // travel stops smoothly, with the clip's own motion, not at once). The root is linear within
   // a frame, so the weighted travel is exact per frame; its running sums at contact and at each
   // frame after it are kept for the strike being played (one pass per strike, O(1) per call).
-  const Source::Travel& tr = s.travel;
+  const PlaybackSource::Travel& tr = s.travel;
   if (t <= tr.from_s) return Vector2d::Zero();
   const double tc = std::max(tr.from_s, tr.contact_s);
   Vector2d g = root_at(seg, std::min(t, tc)) - root_at(seg, tr.from_s);
@@ -45,20 +45,20 @@ Vector2d Behaviour::scaled_travel(const Source& s, const MotionSegment& seg, dou
     const Vector2d v = (root_at(seg, b) - root_at(seg, a)) / (b - a);
     return Vector2d(v * tr.release_s * (eased_integral((b - tc) / tr.release_s) - eased_integral((a - tc) / tr.release_s)));
   };
-  if (eased_.segment != s.segment || !(eased_.travel == tr)) {
-    eased_.segment = s.segment;
-    eased_.travel = tr;
-    eased_.cum.clear();
-    eased_.cum.push_back(Vector2d::Zero());
-    for (std::size_t i = 1; knot(i - 1) < end; ++i) eased_.cum.push_back(eased_.cum.back() + part(knot(i - 1), knot(i)));
+  if (eased.segment != s.segment || !(eased.travel == tr)) {
+    eased.segment = s.segment;
+    eased.travel = tr;
+    eased.cum.clear();
+    eased.cum.push_back(Vector2d::Zero());
+    for (std::size_t i = 1; knot(i - 1) < end; ++i) eased.cum.push_back(eased.cum.back() + part(knot(i - 1), knot(i)));
   }
-  if (t >= end) return g + eased_.cum.back();
-  const std::size_t i = t < first ? 0 : std::min(eased_.cum.size() - 1, 1 + static_cast<std::size_t>((t - first) / h));
-  return g + eased_.cum[i] + part(knot(i), t);
+  if (t >= end) return g + eased.cum.back();
+  const std::size_t i = t < first ? 0 : std::min(eased.cum.size() - 1, 1 + static_cast<std::size_t>((t - first) / h));
+  return g + eased.cum[i] + part(knot(i), t);
 }
 
-void Behaviour::sample(const Source& s, MkmFrame& out) const {
-  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+void Playback::sample(const PlaybackSource& s, MkmFrame& out) const {
+  const MotionSegment& seg = db.segments[static_cast<std::size_t>(s.segment)];
   const double period = (seg.frame_count() - 1) * seg.frame_time_s;
   double t = s.time_s;
   if (s.loop && seg.kind != SegmentKind::rest) t = 0;  // no rest clip: hold the first frame
@@ -79,15 +79,39 @@ void Behaviour::sample_frame(const Source& s, int frame, MkmFrame& out) const {
   place_sample(s, seg, frame * seg.frame_time_s, f, out);
 }
 
-void Behaviour::place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const {
+void Playback::place_sample(const PlaybackSource& s, const MotionSegment& seg, double t, MkmFrame& mixed,
+                            MkmFrame& out) const {
   if (!s.loop && s.travel.scale != 1) mixed.root_xz_m += (s.travel.scale - 1) * scaled_travel(s, seg, t);
   if (!s.loop && s.travel.rise_n != 0) {
-    const Source::Travel& tr = s.travel;
+    const PlaybackSource::Travel& tr = s.travel;
     const double w = t <= tr.contact_s ? smoothstep((t - tr.from_s) / std::max(1e-6, tr.contact_s - tr.from_s))
                                        : 1 - smoothstep((t - tr.contact_s) / std::max(1e-6, tr.release_s));
     mixed.root_height_n += w * tr.rise_n;
   }
-  place_mkm(mixed, s.placement, s.anchor_xz_m, stride_scale(), out);
+  place_mkm(mixed, s.placement, s.anchor_xz_m, stride_scale, out);
+}
+
+void Playback::compose(const PlaybackSource& cur, const PlaybackSource& prev, double blend_elapsed_s,
+                       double blend_time_s, MkmFrame& cur_pose, MkmFrame& out) const {
+  sample(cur, cur_pose);
+  if (prev.segment >= 0 && blend_elapsed_s < blend_time_s) {
+    MkmFrame prev_pose;
+    sample(prev, prev_pose);
+    blend_mkm(prev_pose, cur_pose, smoothstep(blend_elapsed_s / blend_time_s), out);
+  } else {
+    out = cur_pose;
+  }
+}
+
+// Behaviour's own sources play on its update thread, with its own cache.
+void Behaviour::sample(const Source& s, MkmFrame& out) const { Playback{*db_, stride_scale(), eased_}.sample(s, out); }
+
+Vector2d Behaviour::scaled_travel(const Source& s, const MotionSegment& seg, double t) const {
+  return Playback{*db_, stride_scale(), eased_}.scaled_travel(s, seg, t);
+}
+
+void Behaviour::place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const {
+  Playback{*db_, stride_scale(), eased_}.place_sample(s, seg, t, mixed, out);
 }
 
 void Behaviour::start_rest(Timestamp) {

@@ -384,7 +384,11 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
   q.speed_scale = in.speed_scale;
   if (!std::isfinite(in.rate) || in.rate <= 0 || in.rate > 1)
     throw Error("content", "argument", fmt::format("motion quality: playback rate {} is not in (0, 1]", in.rate));
-  const auto source_of = [&](int k) { return in.source_first + static_cast<int>(std::lround(in.rate * (k - in.output_first))); };
+  const auto source_of = [&](int k) {
+    const int j = k - in.output_first;
+    if (j <= in.rate_lead) return in.source_first + j;
+    return in.source_first + in.rate_lead + static_cast<int>(std::lround(in.rate * (j - in.rate_lead)));
+  };
   q.output_range = clamp_range(out, {in.output_first, in.output_last});
   q.source_range = {in.source_first, source_of(q.output_range.last)};
   q.source_range = clamp_range(src, q.source_range);
@@ -445,18 +449,26 @@ StrikeComparisonInput strike_comparison_input(const Database& db, const StrikeRe
       rec.strike.plan.segment >= static_cast<int>(db.segments.size()))
     throw Error("content", "argument", "motion quality: the recording holds no strike");
   const MotionSegment& seg = db.segments[static_cast<std::size_t>(rec.strike.plan.segment)];
-  // Played at rate r, the contact comes on the first frame at or past the contact time.
+  // Played at rate r after `lead` frames at the clip's own rate, the contact comes on the first
+  // frame at or past the contact time.
   const double r = rec.strike.rate;
-  const int first = rec.contact_frame -
-                    static_cast<int>(std::ceil((rec.strike.plan.contact_frame - rec.strike.plan.start_frame) / r - 1e-9));
+  const int lead = r != 1 ? std::max(0, rec.strike.rate_lead_updates) : 0;
+  const auto frames_to = [&](int source_frames) {  // output frames to show that many source frames
+    if (source_frames <= lead) return source_frames;
+    return lead + static_cast<int>(std::ceil((source_frames - lead) / r - 1e-9));
+  };
+  const int first = rec.contact_frame - frames_to(rec.strike.plan.contact_frame - rec.strike.plan.start_frame);
   const int seg_last = seg.source_first_frame + seg.frame_count() - 1;
+  const int to_last = seg_last - rec.source_start_frame;  // source frames from the start to the segment's end
+  const int last_j = to_last <= lead ? to_last : lead + static_cast<int>(std::floor((to_last - lead) / r));
   StrikeComparisonInput in;
   in.output = &output;
   in.source = &source;
   in.output_first = first;
-  in.output_last = std::min(output.frame_count - 1, first + static_cast<int>(std::floor((seg_last - rec.source_start_frame) / r)));
+  in.output_last = std::min(output.frame_count - 1, first + last_j);
   in.source_first = rec.source_start_frame;
   in.rate = r;
+  in.rate_lead = lead;
   in.contact_frame = rec.contact_frame;
   in.effector = effector_of_order(order);
   in.target_m = rec.strike.target_room_m;

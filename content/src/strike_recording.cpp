@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <utility>
 
 #include "behaviour_internal.hpp"
 #include "kumite/common/error.hpp"
@@ -36,6 +37,12 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
   std::optional<StrikePlan> result;
   b.set_planner([&](const StrikeRequest& r) { request = r; },
                 [&]() -> std::optional<StrikePlan> { auto r = result; result.reset(); return r; });
+  // The strike's playback rate too, between updates (as the Fighter's worker does it).
+  StrikeRateSolver rate_solver(db, config.behaviour);
+  std::optional<StrikeRateJob> rate_job;
+  std::optional<StrikeRateResult> rate_result;
+  b.set_rate_solver([&](const StrikeRateJob& job) { rate_job = job; },
+                    [&] { return std::exchange(rate_result, std::nullopt); });
   StrikeRecording rec;
   const Rig& rig = character;
   const auto n = static_cast<std::size_t>(rig.joint_count());
@@ -83,6 +90,11 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
       rec.events.push_back(std::string(to_string(e.kind)) + ": " + b.describe(e));
     record();
     t += dt;
+    if (rate_job) {
+      rate_result = rate_solver.solve(*rate_job);
+      rec.rate_solve_us = rate_result->solve_us;
+      rate_job.reset();
+    }
   };
   b.update(t, 0, head);  // the rest pose at the origin
   b.take_events();

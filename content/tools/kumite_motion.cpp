@@ -242,7 +242,7 @@ void add_strike(CLI::App& app, StrikeArgs& a) {
   cmd->add_option("--out", a.out, "strike.bvh (the adapted motion, character skeleton, source units)")->required();
   cmd->add_option("--report", a.report, "strike.json")->required();
   cmd->add_option("--trace", a.trace,
-                  "trace.csv: per frame the fighter state, d(t) weight, and per foot the planting phase, the "
+                  "trace.csv: per frame the fighter state, d(t) weight, the update's µs, and per foot the planting phase, the "
                   "motion's contact, the hold (weight, m) and the drawn ankle (m)");
 }
 
@@ -305,13 +305,15 @@ int run_strike(const StrikeArgs& a) {
   j["events"] = rec.events;
   kumite::write_file_atomically(a.report, j.dump(2) + "\n");
   if (!a.trace.empty()) {
-    std::string csv = "frame,state,ramp,root_drop_m";
+    std::string csv = "frame,state,ramp,root_drop_m,update_us";
     for (const char* side : {"l", "r"})
       csv += fmt::format(",{0}_phase,{0}_planted,{0}_lock_w,{0}_lock_x,{0}_lock_y,{0}_lock_z,{0}_ankle_x,{0}_ankle_y,{0}_ankle_z", side);
     csv += "\n";
     for (std::size_t f = 0; f < rec.trace.size(); ++f) {
       const auto& r = rec.trace[f];
-      csv += fmt::format("{},{},{:.4f},{:.4f}", f, kumite::content::to_string(r.state), r.ramp, r.root_drop_m);
+      // Frame 0 (the rest pose at the origin) is not timed; frame f > 0 is update_us[f - 1].
+      const double us_f = f > 0 && f - 1 < rec.update_us.size() ? rec.update_us[f - 1] : 0.0;
+      csv += fmt::format("{},{},{:.4f},{:.4f},{:.2f}", f, kumite::content::to_string(r.state), r.ramp, r.root_drop_m, us_f);
       for (std::size_t s = 0; s < 2; ++s) {
         static constexpr const char* kPhase[] = {"free", "held", "swinging", "stepping", "landing"};
         csv += fmt::format(",{},{:.2f},{:.3f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f}", kPhase[static_cast<int>(r.phase[s])],
@@ -617,6 +619,7 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     js["source_frames"] = {q.source_range.first, q.source_range.last};
     js["speed_scale"] = q.speed_scale;
     js["rate"] = rec.strike.rate;
+    js["rate_lead_frames"] = rec.strike.rate_lead_updates;
     js["reachable"] = rec.strike.contact_reached;
     js["hit"] = rec.strike.hit;
     js["solver_reach_error_m"] = rec.strike.contact_distance_m;
@@ -1027,6 +1030,7 @@ int run_bench(const BenchArgs& a) {
   const kumite::OrderKind kinds[4] = {kumite::OrderKind::punch_right, kumite::OrderKind::punch_left,
                                       kumite::OrderKind::kick_right, kumite::OrderKind::kick_left};
   // Each order on every character 8 times, targets drawn from `r`: every update's time (us).
+  std::vector<double> rate_solve_us;  // the strikes' playback rates, found between updates
   const auto time_strikes = [&](const FighterConfig& fighter, std::mt19937& r, int& strikes) {
     std::vector<double> us;
     for (int rep = 0; rep < 8; ++rep) {
@@ -1037,6 +1041,7 @@ int run_bench(const BenchArgs& a) {
           const Eigen::Vector3d target(0.15 * u(r), (kick ? 0.6 : 0.9) * h, 0.38 * h);
           const StrikeRecording rec = record_strike(db, rig, kind, target, fighter);
           us.insert(us.end(), rec.update_us.begin(), rec.update_us.end());
+          if (rec.rate_solve_us > 0) rate_solve_us.push_back(rec.rate_solve_us);
           ++strikes;
         }
       }
@@ -1047,9 +1052,12 @@ int run_bench(const BenchArgs& a) {
   const std::vector<double> adapt_us = a.skip_adaptation ? std::vector<double>{} : time_strikes(g_fighter, rng, strikes);
   j["adaptation_us_per_frame"] = stats_json(adapt_us);
   j["adaptation_strikes"] = strikes;
+  // Finding each strike's playback rate (StrikeRateSolver): off the frame (the Fighter's worker
+  // thread; record_strike between updates), so not in adaptation_us_per_frame.
+  if (!rate_solve_us.empty()) j["strike_rate_solve_us"] = stats_json(rate_solve_us);
   if (!a.skip_adaptation && g_fighter.behaviour.min_strike_rate >= 1) {
-    // The same strikes with the playback rate on (BehaviourTunables::min_strike_rate): what
-    // finding the rate costs the frame that starts each strike.
+    // The same strikes with the playback rate on (BehaviourTunables::min_strike_rate), as it
+    // was turned on before it was on by default.
     FighterConfig with_rate = g_fighter;
     with_rate.behaviour.min_strike_rate = 0.6;
     with_rate.behaviour.blend_time_s = 0.25;

@@ -3,6 +3,11 @@
 // target is reachable, and planted feet stay put (<= 2 mm per frame).
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <optional>
+#include <thread>
+#include <utility>
+
 #include "fighter_fixtures.hpp"
 #include "kumite/content/behaviour.hpp"
 
@@ -154,4 +159,84 @@ TEST(BehaviourShipped, AKickOrderedMidStepStillReachesItsTarget) {
                                            << b.strike().contact_distance_m << " m from the target";
   }
   EXPECT_GE(tried, 1) << "no foot was ever caught mid-step: the test did not test anything";
+}
+
+// The strike's playback rate (BehaviourTunables::min_strike_rate, on by default) is found off
+// the frame: the update that starts the strike only sends a StrikeRateJob (a copy of its start
+// state), and the rate enters exactly kStrikeRateDelayUpdates later, whoever solves it and
+// whenever: the frames are the same bit for bit. Bruno's left punch at his own head height
+// (the shipped mid punch must rise and lunge more than captured: played slower).
+TEST(BehaviourShipped, AStrikesPlaybackRateIsFoundOffTheFrameAndEntersAtAFixedUpdate) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& bruno = rigs[1];
+  FighterConfig cfg;
+  cfg.home = Vector3d::Zero();
+  ASSERT_LT(cfg.behaviour.min_strike_rate, 1) << "the playback rate is on by default";
+  const Vector3d target(0.074, 1.786, 0.966);
+  enum class Solve { in_frame, at_submit, thread_late, at_poll };
+  struct Run {
+    std::vector<std::vector<Vector3d>> joints;
+    std::vector<int> submitted, polled;  // updates
+    Behaviour::StrikeInfo strike;
+    int job_segment = -1;
+  };
+  const auto play = [&](Solve how) {
+    Run out;
+    Behaviour b(set.db, {bruno}, cfg);
+    StrikeRateSolver solver(set.db, cfg.behaviour);
+    std::optional<StrikeRateJob> job;
+    std::optional<StrikeRateResult> result;
+    std::thread worker;
+    if (how != Solve::in_frame) {
+      b.set_rate_solver(
+          [&](const StrikeRateJob& j) {
+            out.submitted.push_back(b.update_count());
+            out.job_segment = j.current.segment;
+            job = j;
+            if (how == Solve::at_submit) result = solver.solve(j);
+            if (how == Solve::thread_late)
+              worker = std::thread([&solver, &result, j] {
+                std::this_thread::sleep_for(std::chrono::milliseconds(30));
+                result = solver.solve(j);
+              });
+          },
+          [&]() -> std::optional<StrikeRateResult> {
+            out.polled.push_back(b.update_count());
+            if (how == Solve::thread_late) worker.join();
+            if (how == Solve::at_poll) result = solver.solve(*job);
+            return std::exchange(result, std::nullopt);
+          });
+    }
+    const double dt = 1.0 / 60;
+    double t = 0;
+    const Vector3d head = target;
+    b.update(t, 0, head);
+    b.order_strike(Order{t, OrderKind::punch_left}, target);
+    for (int i = 0; i < 150; ++i) {
+      b.update(t += dt, dt, head);
+      out.joints.emplace_back(b.joint_positions().begin(), b.joint_positions().end());
+    }
+    out.strike = b.strike();
+    return out;
+  };
+  const Run a = play(Solve::at_submit);
+  ASSERT_TRUE(a.strike.contact_done);
+  ASSERT_EQ(a.submitted.size(), 1u);
+  EXPECT_EQ(a.submitted[0], a.strike.start_update);  // sent by the update that starts the strike
+  EXPECT_EQ(a.job_segment, a.strike.plan.segment);
+  ASSERT_EQ(a.polled.size(), 1u);
+  EXPECT_EQ(a.polled[0], a.strike.start_update + kStrikeRateDelayUpdates);
+  EXPECT_EQ(a.strike.rate_update, a.strike.start_update + kStrikeRateDelayUpdates);
+  EXPECT_EQ(a.strike.rate_lead_updates, kStrikeRateDelayUpdates);
+  EXPECT_LT(a.strike.rate, 0.9);
+  EXPECT_GE(a.strike.rate, cfg.behaviour.min_strike_rate);
+  for (Solve how : {Solve::in_frame, Solve::thread_late, Solve::at_poll}) {
+    const Run b = play(how);
+    EXPECT_EQ(b.strike.rate, a.strike.rate);
+    ASSERT_EQ(b.joints.size(), a.joints.size());
+    for (std::size_t i = 0; i < a.joints.size(); ++i)
+      for (std::size_t j = 0; j < a.joints[i].size(); ++j)
+        ASSERT_EQ(b.joints[i][j], a.joints[i][j]) << "solve " << static_cast<int>(how) << " update " << i + 2 << " joint " << j;
+  }
 }

@@ -133,6 +133,13 @@ TEST(Fighter, SameInputsGiveTheSameFramesWhateverTheWorkersTiming) {
       std::this_thread::sleep_for(std::chrono::microseconds((*rng >> 8) % 6000));
       return p.plan(r);
     };
+    // The strikes' playback rates as well: a worker up to 20 ms late (an update here takes far
+    // less), so the rate's update waits for it.
+    opt.rate = [rng](StrikeRateSolver& solver, const StrikeRateJob& job) {
+      *rng = *rng * 1664525u + 1013904223u;
+      std::this_thread::sleep_for(std::chrono::microseconds((*rng >> 8) % 20000));
+      return solver.solve(job);
+    };
     auto fighter = Fighter::create(cfg, opt);
     Run out;
     double t = 0;
@@ -180,6 +187,9 @@ TEST(Fighter, SameInputsGiveTheSameFramesWhateverTheWorkersTiming) {
   // The slow planner was late at least once (the waits were exercised).
   EXPECT_GE(a.stats.waits + b.stats.waits, 1u);
   EXPECT_EQ(a.stats.requests, b.stats.requests);
+  // Every strike started sent its rate job (the rate is on by default).
+  EXPECT_EQ(a.stats.rate_jobs, a.strike_starts.size());
+  EXPECT_EQ(a.stats.rate_jobs, b.stats.rate_jobs);
   ASSERT_EQ(a.joints.size(), b.joints.size());
   for (std::size_t i = 0; i < a.joints.size(); ++i) {
     ASSERT_EQ(a.states[i], b.states[i]) << "update " << i + 1;

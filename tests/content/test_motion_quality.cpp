@@ -396,7 +396,7 @@ TEST(MotionQualityShipped, AStrikeWhoseCorrectionLengthensItsWayIsPlayedSlowerNo
   // Bruno's left punch at his own head height, half his stature in front: the shipped mid
   // punch (135_06) must rise ~0.3 m more in a lunge compressed to a near target. Played at
   // the clip's rate, the drawn joints (the BVH read back) are ~1.5x as fast as the source
-  // clip's over the same frames; strike_rate() plays it slower so they stay near the source's.
+  // clip's over the same frames; StrikeRateSolver plays it slower so they stay near the source's.
   const auto& set = kumite::content::testing::shipped_database();
   const auto rigs = kumite::content::testing::shipped_characters();
   const Rig& bruno = rigs[1];
@@ -413,10 +413,10 @@ TEST(MotionQualityShipped, AStrikeWhoseCorrectionLengthensItsWayIsPlayedSlowerNo
     EXPECT_LT(q.output_contact.end_to_target_m, 0.002);
     return q.output.speed.p99_mps / q.source.speed.p99_mps;
   };
-  FighterConfig clip_rate;  // the default: the rate is off
-  FighterConfig slower;
-  slower.behaviour.min_strike_rate = 0.6;
-  slower.behaviour.blend_time_s = 0.25;
+  FighterConfig clip_rate;  // the rate off
+  clip_rate.behaviour.min_strike_rate = 1;
+  const FighterConfig slower;  // the default: the rate on (found between updates, applied
+                               // kStrikeRateDelayUpdates after the strike starts)
   double rate_fixed = 0, rate = 0;
   const double fixed = p99_ratio(clip_rate, rate_fixed);
   const double slowed = p99_ratio(slower, rate);

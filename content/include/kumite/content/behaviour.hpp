@@ -62,11 +62,104 @@ class StrikePlanner {
 };
 
 
+/// A motion being played: a database segment at a segment time, placed in the room (the
+/// current source and the one it cross-fades from). Plain data: a copy can be played on another
+/// thread (StrikeRateSolver) with its own EasedTravelCache.
+struct PlaybackSource {
+  int segment = -1;
+  double time_s = 0;
+  GroundFrame placement;
+  Eigen::Vector2d anchor_xz_m{0, 0};
+  bool loop = false;
+  /// Segment seconds played per second (a strike whose correction lengthens its way is
+  /// played slower: StrikeRateSolver). Times inside the segment stay segment times.
+  double rate = 1;
+  /// A strike's floor travel scaled (a shorter or longer lunge): the root moves `scale` times
+  /// the clip's own travel from `from_s` to `contact_s`, then eases back to the clip's own
+  /// speed over `release_s` (position and speed continuous). 1: the clip as captured.
+  struct Travel {
+    double scale = 1;
+    double from_s = 0;     ///< s, segment time where the scaling starts
+    double contact_s = 0;  ///< s, segment time of contact
+    double release_s = 0.25;
+    double rise_n = 0;     ///< pelvis raised by this (/ leg length) at contact, eased in from
+                           ///< `from_s` and out over `release_s` (a high target)
+    bool operator==(const Travel&) const = default;
+  } travel;
+};
+
+/// The strike's eased travel after contact (PlaybackSource::Travel), summed per frame: cum[0] =
+/// 0 at contact, cum[i] at the i-th knot (each frame time, then the release's end). Filled by
+/// the first sample of a strike that scales its travel; one per thread that samples.
+struct EasedTravelCache {
+  int segment = -1;
+  PlaybackSource::Travel travel;
+  std::vector<Eigen::Vector2d> cum;
+};
+
+/// Updates between the update that starts a strike and the one its playback rate is applied
+/// on (BehaviourTunables::min_strike_rate): the rate is found off the frame (the retrieval
+/// worker, or between updates in the tools), from the strike's start state, and enters at
+/// exactly that update whatever the thread's timing, so the same inputs give the same frames.
+/// The strike plays its first kStrikeRateDelayUpdates updates at the clip's own rate (inside
+/// the blend into it, where the strike's weight is still near 0).
+constexpr int kStrikeRateDelayUpdates = 1;
+
+/// What finding a strike's playback rate needs: the strike's start state, copied.
+struct StrikeRateJob {
+  std::uint64_t id = 0;
+  const Rig* rig = nullptr;  ///< the character (Behaviour's: immutable while it lives)
+  double stride_scale = 1;   ///< character leg / actor leg
+  PlaybackSource current, previous;  ///< at the strike's start (before its first advance)
+  double blend_elapsed_s = 0;        ///< s into the cross-fade previous -> current
+  double lead_s = 0;  ///< s played at the clip's own rate before the rate applies
+  Effector effector;
+  double start_time_s = 0, contact_time_s = 0, release_end_s = 0;  ///< segment times (s)
+  Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t) at contact
+  double stretch = 1;
+  Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, the strike's frozen target
+};
+struct StrikeRateResult {
+  std::uint64_t id = 0;  ///< StrikeRateJob::id
+  double rate = 1;       ///< segment seconds per second, in [min_strike_rate, 1]
+  /// rate < 1: d(t) at contact found again at that rate from the state of the update the rate
+  /// enters on (as Behaviour's compute_reach_error would find it there), so that update
+  /// decodes nothing.
+  bool has_reach = false;
+  Eigen::Vector3d error_m{0, 0, 0};
+  Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
+  double stretch = 1;
+  double solve_us = 0;   ///< µs the solve took (on whatever thread ran it)
+};
+
+/// Finds a strike's playback rate: the hit point's way as it will be drawn (the blend out of
+/// the previous motion, the strike with its scaled travel and d(t) ramped, decoded on the
+/// character: AdaptJob at 60 Hz, up to 3 times) beside the source clip's own hit path scaled
+/// to the character. ~0.2-0.3 ms. One thread at a time per solver; it allocates only its
+/// scratch, on the first solve (or a larger character).
+class StrikeRateSolver {
+ public:
+  StrikeRateSolver(std::shared_ptr<const Database> db, const BehaviourTunables& tunables);
+  StrikeRateResult solve(const StrikeRateJob& job);
+
+ private:
+  std::shared_ptr<const Database> db_;
+  BehaviourTunables tun_;
+  EasedTravelCache eased_;
+  CanonicalPose canonical_;
+  std::vector<Eigen::Quaterniond> local_, global_;
+  std::vector<Eigen::Vector3d> positions_;
+};
+
 /// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
 class Behaviour {
  public:
   using Submit = std::function<void(const StrikeRequest&)>;
   using Poll = std::function<std::optional<StrikePlan>()>;
+  using SubmitRate = std::function<void(const StrikeRateJob&)>;
+  /// Called on the update the job is due (kStrikeRateDelayUpdates after its submission): the
+  /// job's result, waiting for it if the solver is late (nullopt: play at the clip's rate).
+  using PollRate = std::function<std::optional<StrikeRateResult>()>;
 
   /// Tunables from config.behaviour (and config.retrieval for the synchronous planner);
   /// throws kumite::Error when they are out of range (validate()).
@@ -75,6 +168,10 @@ class Behaviour {
   /// Where plans come from. Default: synchronous planning inside update() via `planner`.
   void set_planner(Submit submit, Poll poll);
   void use_synchronous_planner(std::shared_ptr<const StrikePlanner> planner);
+  /// Who finds a strike's playback rate (StrikeRateJob, sent on the update the strike starts,
+  /// polled kStrikeRateDelayUpdates later). Default: a StrikeRateSolver run inside update()
+  /// at the submission (the frame pays ~0.2-0.3 ms); the Fighter runs it on its worker thread.
+  void set_rate_solver(SubmitRate submit, PollRate poll);
 
   /// Queue an order (processed at the next update).
   void order(const Order& order);
@@ -128,7 +225,12 @@ class Behaviour {
     Eigen::Vector3d error_m{0, 0, 0};  ///< m: target - effector at contact, before d(t)
     Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t): limb turn at contact
     double stretch = 1;                ///< full d(t): limb length factor at contact
-    double rate = 1;                   ///< segment seconds played per second (strike_rate())
+    double rate = 1;                   ///< segment seconds played per second (StrikeRateSolver)
+    int start_update = -1;             ///< update counter at the strike's start
+    int rate_update = -1;              ///< update counter the rate was applied on (-1: not)
+    /// Updates played at the clip's own rate after the start before `rate` applied (0 when
+    /// rate == 1): the quality comparison maps output frames to source frames through it.
+    int rate_lead_updates = 0;
     bool contact_done = false;
     double contact_distance_m = -1;
     bool contact_reached = true;   ///< the limb (after the trunk fallback) could reach
@@ -143,30 +245,10 @@ class Behaviour {
   GroundFrame ground() const;
 
  private:
-  struct Source {
-    int segment = -1;
-    double time_s = 0;
-    GroundFrame placement;
-    Eigen::Vector2d anchor_xz_m{0, 0};
-    bool loop = false;
-    /// Segment seconds played per second (a strike whose correction lengthens its way is
-    /// played slower: strike_rate()). Times inside the segment stay segment times.
-    double rate = 1;
-    /// A strike's floor travel scaled (a shorter or longer lunge): the root moves `scale` times
-    /// the clip's own travel from `from_s` to `contact_s`, then eases back to the clip's own
-    /// speed over `release_s` (position and speed continuous). 1: the clip as captured.
-    struct Travel {
-      double scale = 1;
-      double from_s = 0;     ///< s, segment time where the scaling starts
-      double contact_s = 0;  ///< s, segment time of contact
-      double release_s = 0.25;
-      double rise_n = 0;     ///< pelvis raised by this (/ leg length) at contact, eased in from
-                             ///< `from_s` and out over `release_s` (a high target)
-      bool operator==(const Travel&) const = default;
-    } travel;
-  };
+  using Source = PlaybackSource;
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
-  void start_strike(const StrikePlan& plan, Timestamp now);
+  void start_strike(const StrikePlan& plan, Timestamp now, double dt);
+  void apply_strike_rate();
   void place_strike_travel(Source& s, double contact_time_s) const;
   void select_character(int index, Timestamp now);
   void sample(const Source& s, MkmFrame& out) const;
@@ -178,7 +260,6 @@ class Behaviour {
   void update_follow(double dt, const Eigen::Vector3d& head);
   void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
   void compute_reach_error(double at_time_s);
-  double strike_rate();
   /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into the blend (cur_pose: `cur`
   /// alone), as update() composes every frame.
   void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out) const;
@@ -257,7 +338,9 @@ class Behaviour {
   struct SwingPath {
     int segment = -1;        ///< -1: none
     int character = -1;
-    double land_t = 0;       ///< s, segment time of the landing
+    /// The segment frame of the landing (its time clamped to the clip: a foot that stays up to
+    /// the clip's end lands on its last frame, whatever the rate the rest after it is played at).
+    int land_frame = 0;
     GroundFrame placement;
     Eigen::Vector2d anchor_xz_m{0, 0};
     Source::Travel travel;
@@ -266,15 +349,8 @@ class Behaviour {
     double way_left_m = 0;               ///< m, horizontal path from last_m to the landing
   };
   std::array<SwingPath, 2> swing_paths_{};
-  /// The strike's eased travel after contact (Source::Travel), summed per frame: cum[0] = 0 at
-  /// contact, cum[i] at the i-th knot (each frame time, then the release's end). Filled by the
-  /// first sample() of a strike that scales its travel; Behaviour is single-threaded.
-  struct EasedTravel {
-    int segment = -1;
-    Source::Travel travel;
-    std::vector<Eigen::Vector2d> cum;
-  };
-  mutable EasedTravel eased_;
+  /// The strike's eased travel (EasedTravelCache) for this thread's sampling.
+  mutable EasedTravelCache eased_;
 
   // Switch easing: per joint of the current rig, an offset fading to zero.
   std::vector<Eigen::Vector3d> switch_offset_;
@@ -283,8 +359,19 @@ class Behaviour {
 
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> rig_positions_, positions_;
-  std::vector<Eigen::Quaterniond> scratch_local_, scratch_global_;  // strike_rate()'s decodes
-  std::vector<Eigen::Vector3d> scratch_positions_;
+  // The strike's playback rate (StrikeRateJob): who solves it, and the job out.
+  SubmitRate submit_rate_;
+  PollRate poll_rate_;
+  std::shared_ptr<StrikeRateSolver> sync_rate_solver_;
+  std::optional<StrikeRateResult> sync_rate_result_;
+  std::uint64_t next_rate_job_ = 1;
+  struct PendingRate {
+    std::uint64_t job = 0;
+    int due_update = 0;
+    int segment = -1;
+    int character = 0;  ///< the character the job was made for
+  };
+  std::optional<PendingRate> pending_rate_;
   Eigen::Vector3d root_joint_{0, 0, 0};
   AdaptReport report_;
   std::vector<FighterEvent> events_;
@@ -308,6 +395,7 @@ struct StrikeRecording {
   bool mirrored = false;
   double retrieval_us = 0;               ///< µs, planning (features + search)
   std::vector<double> update_us;         ///< µs per frame: blend + retarget + reach + feet
+  double rate_solve_us = 0;              ///< µs, finding the playback rate (between updates; 0: none)
   double max_foot_slide_m = 0;           ///< m per frame, held ankles
   std::vector<std::string> events;       ///< event texts in order
   /// One row per recorded frame: what drove it (for `kumite-motion strike --trace`).

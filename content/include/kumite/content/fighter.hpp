@@ -110,6 +110,9 @@ struct FighterFrame {
 struct StrikeRequest;  // behaviour.hpp
 struct StrikePlan;
 class StrikePlanner;
+struct StrikeRateJob;
+struct StrikeRateResult;
+class StrikeRateSolver;
 
 /// Updates between a strike's order and the update its plan is applied on: an order taken
 /// at update N starts its strike at update N + kRetrievalDelayUpdates (at 60 Hz: 16.7 ms
@@ -121,15 +124,19 @@ constexpr int kRetrievalDelayUpdates = 1;
 /// How the fighter's retrieval worker kept to its deadline (the update each plan is due on).
 struct RetrievalTiming {
   std::uint64_t requests = 0;  ///< strike plans asked for
-  std::uint64_t waits = 0;     ///< updates that had to wait for the worker (plan not ready on time)
+  std::uint64_t rate_jobs = 0; ///< strikes' playback rates asked for (StrikeRateJob)
+  std::uint64_t waits = 0;     ///< updates that had to wait for the worker (plan or rate not ready on time)
   double wait_max_ms = 0;      ///< ms, the longest such wait
   double wait_total_ms = 0;    ///< ms, all waits together
+  double rate_solve_max_us = 0;  ///< µs, the longest rate solve on the worker
 };
 
 struct FighterOptions {
   int retrieval_delay_updates = kRetrievalDelayUpdates;  ///< >= 0 (0: plan applied on the order's update)
   /// Runs a plan on the worker thread instead of planner.plan(request) (tests: a slow planner).
   std::function<StrikePlan(const StrikePlanner& planner, const StrikeRequest& request)> plan;
+  /// Runs a rate job on the worker thread instead of solver.solve(job) (tests: a slow solver).
+  std::function<StrikeRateResult(StrikeRateSolver& solver, const StrikeRateJob& job)> rate;
 };
 
 class Fighter {

@@ -217,9 +217,12 @@ struct StrikeComparisonInput {
   const JointTrack* source = nullptr;
   int output_first = 0, output_last = 0;  ///< output frames compared
   int source_first = 0;                   ///< source frame of output_first
-  /// Source frames per output frame (a strike played slower: Behaviour::strike_rate()).
-  /// Output frame k shows source frame source_first + round(rate * (k - output_first)).
+  /// Source frames per output frame (a strike played slower: StrikeRateSolver), after the
+  /// first `rate_lead` frames played at the clip's own rate (kStrikeRateDelayUpdates). Output
+  /// frame k = output_first + j shows source frame source_first + j for j <= rate_lead, then
+  /// source_first + rate_lead + round(rate * (j - rate_lead)).
   double rate = 1;
+  int rate_lead = 0;
   int contact_frame = 0;                  ///< output frame of contact
   Effector effector;
   Eigen::Vector3d target_m{0, 0, 0};      ///< room frame of the output

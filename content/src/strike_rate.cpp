@@ -1,0 +1,131 @@
+// StrikeRateSolver: how much slower a strike is played so that its correction (d(t), a scaled
+// lunge, a raised pelvis) does not move its hit point faster than max_strike_speed_ratio times
+// the source clip's own peak speed. Runs on the Fighter's retrieval worker (or between updates
+// in the tools) over a copy of the strike's start state: nothing of Behaviour is shared but the
+// database and the character, both immutable.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "behaviour_internal.hpp"
+#include "kumite/content/behaviour.hpp"
+
+namespace kumite::content {
+
+using namespace behaviour_detail;
+using Eigen::Vector3d;
+
+StrikeRateSolver::StrikeRateSolver(std::shared_ptr<const Database> db, const BehaviourTunables& tunables)
+    : db_(std::move(db)), tun_(tunables) {
+  eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames
+}
+
+StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
+  // The hit point's way as it will be drawn (the blend out of the previous motion, the strike
+  // with its scaled travel and d(t) ramped as Behaviour::update() ramps them, decoded on the
+  // character) beside the source clip's own hit path scaled to the character, from the strike
+  // start to the end of d(t)'s release, both sampled at 60 Hz. The strike plays job.lead_s at
+  // the clip's own rate before the rate applies (kStrikeRateDelayUpdates). When the drawn peak
+  // speed exceeds max_strike_speed_ratio times the source's, the strike is played slower
+  // (refined twice: the blend runs in wall time, so the drawn speed is not quite proportional
+  // to the rate).
+  const auto t_start = std::chrono::steady_clock::now();
+  StrikeRateResult result;
+  result.id = job.id;
+  const auto done = [&](double rate) {
+    result.rate = rate;
+    result.solve_us = std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t_start).count();
+    return result;
+  };
+  if (tun_.min_strike_rate >= 1 || !job.rig || job.current.segment < 0 ||
+      job.current.segment >= static_cast<int>(db_->segments.size()))
+    return done(1);
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(job.current.segment)];
+  if (seg.hit_path_m.size() != seg.frames.size() || seg.frame_count() < 2) return done(1);
+  constexpr double h = 1.0 / 60;  // s between samples
+  const int first = std::clamp(static_cast<int>(std::lround(job.start_time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
+  const int last = std::clamp(static_cast<int>(std::lround(job.release_end_s / seg.frame_time_s)), first, seg.frame_count() - 1);
+  const auto path_at = [&](double t) {
+    const auto [i0, a] = frame_pair(seg, t);
+    return Vector3d(((1 - a) * seg.hit_path_m[i0] + a * seg.hit_path_m[i0 + 1]).cast<double>());
+  };
+  double src_peak = 0;
+  for (double t = first * seg.frame_time_s + h; t <= last * seg.frame_time_s + 1e-9; t += h)
+    src_peak = std::max(src_peak, (path_at(t) - path_at(t - h)).norm() / h);
+  src_peak *= job.stride_scale;
+  if (!(src_peak > 1e-9)) return done(1);
+
+  const Rig& rig = *job.rig;
+  const auto n = static_cast<std::size_t>(rig.joint_count());
+  if (local_.size() < n) {
+    local_.resize(n);
+    global_.resize(n);
+    positions_.resize(n);
+  }
+  const auto effector = static_cast<std::size_t>(rig.skeleton.index(job.effector.joint()));
+  const Playback play{*db_, job.stride_scale, eased_};
+  const auto drawn_peak = [&](double rate) {
+    PlaybackSource cur = job.current, prev = job.previous;
+    cur.rate = rate;
+    const double t0 = job.current.time_s, p0 = job.previous.time_s;
+    double peak = 0;
+    Vector3d last_p = Vector3d::Zero();
+    MkmFrame b, pose;
+    for (int k = 0;; ++k) {
+      const double w = k * h;
+      // The clip's own rate for the lead, then `rate`.
+      cur.time_s = t0 + std::min(w, job.lead_s) + rate * std::max(0.0, w - job.lead_s);
+      if (cur.time_s > job.release_end_s + 1e-9) break;
+      prev.time_s = p0 + prev.rate * w;
+      play.compose(cur, prev, job.blend_elapsed_s + w, tun_.blend_time_s, b, pose);
+      const double t = cur.time_s;
+      const ReachGoal goal = reach_goal_at(job.effector, job.turn, job.stretch,
+                                           t <= job.contact_time_s ? reach_ramp_in(job.start_time_s, job.contact_time_s, t)
+                                                                   : reach_ramp_out(job.contact_time_s, job.release_end_s, t));
+      AdaptJob adapt;
+      adapt.rig = &rig;
+      adapt.pose = &pose;
+      adapt.reach = &goal;
+      adapt.local_rotations = std::span(local_).first(n);
+      adapt.global_rotations = std::span(global_).first(n);
+      adapt.global_positions = std::span(positions_).first(n);
+      if (!adapt.Run()) return 0.0;
+      const Vector3d p = positions_[effector];
+      if (k > 0) peak = std::max(peak, (p - last_p).norm() / h);
+      last_p = p;
+    }
+    return peak;
+  };
+  double rate = 1;
+  for (int refine = 0; refine < 2; ++refine) {
+    const double peak = drawn_peak(rate);
+    if (!(peak > tun_.max_strike_speed_ratio * src_peak)) break;
+    const double next = std::clamp(rate * tun_.max_strike_speed_ratio * src_peak / peak, tun_.min_strike_rate, 1.0);
+    if (next >= rate) break;
+    rate = next;
+  }
+  if (rate < 1) {
+    // d(t) at contact at this rate, found as Behaviour::compute_reach_error() finds it on the
+    // update the rate enters on (job.lead_s after the start at the clip's own rate), with the
+    // same operations in the same order: the same numbers.
+    PlaybackSource cur = job.current, prev = job.previous;
+    cur.time_s += job.lead_s * 1.0;
+    prev.time_s += job.lead_s * prev.rate;
+    const double blend_elapsed_s = job.blend_elapsed_s + job.lead_s;
+    cur.rate = rate;
+    const double ahead = job.contact_time_s - cur.time_s;
+    const double ahead_wall = ahead / cur.rate;
+    cur.time_s += ahead;
+    prev.time_s += ahead_wall * prev.rate;
+    MkmFrame b, pose;
+    play.compose(cur, prev, blend_elapsed_s + ahead_wall, tun_.blend_time_s, b, pose);
+    const ReachCorrection r = reach_correction(rig, job.effector, job.target_room_m, pose, canonical_);
+    result.has_reach = true;
+    result.error_m = r.error_m;
+    result.turn = r.turn;
+    result.stretch = r.stretch;
+  }
+  return done(rate);
+}
+
+}  // namespace kumite::content
