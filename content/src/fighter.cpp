@@ -154,10 +154,10 @@ class RetrievalWorker {
       stats_.wait_total_ms += ms;
       stats_.wait_max_ms = std::max(stats_.wait_max_ms, ms);
     }
-    auto r = rate_result_;
+    const StrikeRateResult r = *rate_result_;  // ready(): it holds the job's result
     rate_result_.reset();
     rate_outstanding_.reset();
-    stats_.rate_solve_max_us = std::max(stats_.rate_solve_max_us, r->solve_us);
+    stats_.rate_solve_max_us = std::max(stats_.rate_solve_max_us, r.solve_us);
     return r;
   }
   const RetrievalTiming& stats() const { return stats_; }
