@@ -242,6 +242,7 @@ void Console::frame(const Installation& inst, const FrameData& f, Installation* 
   ImGui::TextColored(kAmber, "Tracking");
   ImGui::TextColored(loading ? kAmber : c.head_live ? kGreen : kRed, "head: %s", loading ? "loading" : c.tracking.c_str());
   if (!c.tracking_source.empty()) ImGui::TextWrapped("%s", c.tracking_source.c_str());
+  if (!c.recognition.empty()) ImGui::TextWrapped("%s", c.recognition.c_str());
   ImGui::Text("head  [%.2f, %.2f, %.2f] m   markers %d", f.head.position.x, f.head.position.y,
               f.head.position.z, c.markers_seen);
   if (c.pose_age_ms >= 0 && c.tracking_latency_ms >= 0) {

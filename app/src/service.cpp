@@ -57,7 +57,7 @@ struct RunMonitor::Snapshot {
   double fps = 0;
   double frame_cpu_ms = 0;
   bool ready = false;
-  std::string tracking, tracking_source;
+  std::string tracking, tracking_source, recognition;
   bool head_live = false;
   double pose_age_ms = -1;
   int head_body = 0;
@@ -139,6 +139,7 @@ void RunMonitor::take_snapshot(const Installation& inst, const FrameData& f, Sna
   s.state = inst.tracking_loading() ? "loading" : "running";
   s.tracking = c.tracking;
   s.tracking_source = c.tracking_source;
+  s.recognition = c.recognition;
   s.head_live = c.head_live;
   s.pose_age_ms = c.pose_age_ms;
   s.head_body = inst.config().tracking.head_body.value_or(-1);  // -1: the body named "head"
@@ -266,6 +267,7 @@ json RunMonitor::to_json(const Snapshot& s) const {
   j["ready"] = s.ready;
   j["watchdog_s"] = notifier_.watchdog_s() ? json(*notifier_.watchdog_s()) : json(nullptr);
   j["tracking"] = {{"status", s.tracking}, {"source", s.tracking_source}, {"markers_seen", s.markers_seen}};
+  if (!s.recognition.empty()) j["tracking"]["recognition"] = s.recognition;
   j["tracking"]["bodies"] = json::array({json{{"body", s.head_body >= 0 ? json(s.head_body) : json(nullptr)},  // null: by its role
                                               {"role", "head"},
                                               {"status", s.tracking},

@@ -110,6 +110,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
     cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"since_last_ms", cam.since_last_ms}});
   j["console"] = {{"tracking", c.tracking},
                   {"tracking_source", c.tracking_source},
+                  {"recognition", c.recognition},
                   {"markers_seen", c.markers_seen},
                   {"cameras", cams},
                   {"paused", c.paused},

@@ -604,6 +604,11 @@ ConsoleState Installation::console(const FrameData& shown) const {
   c.frame_cpu_ms = frame_cpu_ms_;
   c.tracking = describe(snap, tracking_->none_why());
   c.tracking_source = describe(snap.source);
+  if (const RecognitionStats& r = snap.recognition; r.running)
+    c.recognition = fmt::format("strike recognition: {} pose samples, {} events{}", r.samples, r.events,
+                                r.dropped + r.events_dropped > 0
+                                    ? fmt::format(" ({} samples, {} events dropped)", r.dropped, r.events_dropped)
+                                    : std::string());
   for (std::size_t i = 0; i < snap.cameras.size(); ++i) {
     const CameraView& v = snap.cameras[i];
     c.cameras.push_back({camera_name(i), v.state, std::string(to_string(v.state)), v.blobs, v.since_last_ms});

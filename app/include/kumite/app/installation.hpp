@@ -179,6 +179,8 @@ struct ConsoleState {
   double frame_cpu_ms = 0;         ///< ms, CPU of the last frame's step()
   std::string tracking;            ///< "tracked, 120 frame sets", "lost, ...", "no tracking", ...
   std::string tracking_source;     ///< the frame source: frame sets per second, skipped, dropped
+  /// "strike recognition: 7200 pose samples, 12 events" ("" without [recognition])
+  std::string recognition;
   std::vector<ConsoleCamera> cameras;
   int markers_seen = 0;
   bool head_live = false;          ///< false: using the last good (or default) head
