@@ -27,7 +27,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const kumite::Error&) {
   }
   try {
-    const auto pf = recognition::parse_poses_csv(text, "fuzz.csv");
+    const auto pf = kumite::recognition::parse_poses_csv(text, "fuzz.csv");
     (void)recognise(synthetic, pf.samples);
   } catch (const kumite::Error&) {
   }
