@@ -119,7 +119,12 @@ int main(int argc, char** argv) {
         for (std::size_t b = 0; b < roles.size(); ++b)
           if (roles[b]) row[b] = v.at(*roles[b], v.first + i / 60.0);
       }
-      tracking::write_synthetic_recording(recording, rig, tc.bodies, times, drawn, {},
+      // As the demo's recording (scripts/make-demo-data.sh): no sensor noise, so the preload
+      // packs each image to its spots and playback keeps up at 60 Hz (with noise 2 the
+      // unpacking alone took ~60 ms a set here); spot centres still jitter 0.3 px.
+      tracking::SynthOptions o;
+      o.image_noise = 0;
+      tracking::write_synthetic_recording(recording, rig, tc.bodies, times, drawn, o,
                                           "mocap visitor " + poses + " (kumite_app_strike_latency)");
     }
     cfg.tracking.recording_preload = sets;
