@@ -350,6 +350,7 @@ class PosesInput final : public TrackingInput {
       }
       if (!loop_) break;
       ++frame;
+      head.last.timestamp = 0;  // the file starts again elsewhere: no velocity across the seam
       if (recognition_) recognition_->restart(t0 + offset + period);
     }
     if (recognition_) recognition_->restart(now());  // the stream ended: strikes under way are cancelled
