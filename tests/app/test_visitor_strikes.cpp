@@ -329,3 +329,54 @@ TEST(VisitorStrikes, GlovesTrackedFromCameraFramesGiveTheMocapsStrikes) {
   const auto begins = std::count_if(got.begin(), got.end(), [](const auto& e) { return e.type == rec::EventType::begin; });
   EXPECT_LE(begins, truth_begins + 1) << "at most one begin more than on the mocap itself: " << seen;
 }
+
+TEST(PosesSource, AFileThatStopsMidStrikeCancelsIt) {
+  // The mocap visitor cut at 2.9 s of its file: the front kick and the lunge punch begun at
+  // ~2.5 s are under way when the rows stop (no loop): both end in `cancel`, nothing stalls.
+  const fs::path dir = fs::temp_directory_path() / fmt::format("kumite-cut-{}", ::getpid());
+  fs::create_directories(dir);
+  {
+    std::ifstream in(kVisitor);
+    std::ofstream out(dir / "cut.csv");
+    for (std::string line; std::getline(in, line);) {
+      if (!line.empty() && line[0] != '#' && line.rfind("frame,", 0) != 0) {
+        const auto a = line.find(','), b = line.find(',', a + 1);
+        if (std::stod(line.substr(a + 1, b - a - 1)) > 2.9) break;
+      }
+      out << line << "\n";
+    }
+  }
+  const auto cfg = parse_installation_config(std::string(kRoom) + "[tracking]\nsource = \"poses\"\nposes = \"" +
+                                                 (dir / "cut.csv").string() + "\"\nposes_loop = false\n[recognition]\nmodel = \"" +
+                                                 kModel + "\"\n",
+                                             "room.toml");
+  auto input = make_tracking_input(cfg);
+  TrackingSnapshot s;
+  std::vector<VisitorStrike> got;
+  const kumite::Timestamp give_up = kumite::now() + 30;
+  do {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    input->poll(kumite::now(), kumite::now(), s);
+    got.insert(got.end(), s.strikes.begin(), s.strikes.end());
+  } while (s.state != TrackerState::stopped && kumite::now() < give_up);
+  ASSERT_EQ(s.state, TrackerState::stopped);
+  // The cancels are published by the recognition thread just after the file's end.
+  for (int i = 0; i < 50 && std::none_of(got.begin(), got.end(), [](const auto& e) { return e.type == rec::EventType::cancel; }); ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    input->poll(kumite::now(), kumite::now(), s);
+    got.insert(got.end(), s.strikes.begin(), s.strikes.end());
+  }
+  std::string seen;
+  for (const auto& e : got) seen += fmt::format("{} {}; ", rec::to_string(e.type), rec::to_string(e.limb));
+  int begins = 0, cancels = 0;
+  for (const auto& e : got) {
+    if (e.type == rec::EventType::begin) ++begins;
+    if (e.type != rec::EventType::cancel) continue;
+    ++cancels;
+    EXPECT_TRUE(std::any_of(got.begin(), got.end(), [&](const auto& b) { return b.type == rec::EventType::begin && b.limb == e.limb; }))
+        << "a cancel ends a strike that began: " << seen;
+  }
+  EXPECT_GE(begins, 2) << seen;
+  EXPECT_EQ(cancels, begins) << "every strike under way at the cut is cancelled, none ended: " << seen;
+  fs::remove_all(dir);
+}
