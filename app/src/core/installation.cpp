@@ -12,6 +12,7 @@
 #include <spdlog/spdlog.h>
 
 #include "kumite/common/error.hpp"
+#include "kumite/content/behaviour.hpp"
 #include "kumite/content/fighter.hpp"
 
 namespace kumite::app {
@@ -429,9 +430,11 @@ void Installation::copy_pose(const content::FighterFrame& f, int character, Figh
 
 void log_retrieval_timing(const Installation& inst) {
   const content::RetrievalTiming t = inst.retrieval_timing();
-  spdlog::info("fighter: {} strike plan(s), each applied {} update(s) after its order; {} update(s) waited for the "
-               "retrieval worker (longest {:.3f} ms, {:.3f} ms in all)",
-               t.requests, content::kRetrievalDelayUpdates, t.waits, t.wait_max_ms, t.wait_total_ms);
+  spdlog::info("fighter: {} strike plan(s), each applied {} update(s) after its order; {} playback rate(s), each {} "
+               "update(s) after its strike began (longest solve {:.0f} µs); {} update(s) waited for the retrieval "
+               "worker (longest {:.3f} ms, {:.3f} ms in all)",
+               t.requests, content::kRetrievalDelayUpdates, t.rate_jobs, content::kStrikeRateDelayUpdates,
+               t.rate_solve_max_us, t.waits, t.wait_max_ms, t.wait_total_ms);
 }
 
 content::RetrievalTiming Installation::retrieval_timing() const {
