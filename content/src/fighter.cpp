@@ -117,14 +117,7 @@ class RetrievalWorker {
     if (!outstanding_ || update_ < due_) return std::nullopt;
     std::unique_lock lock(mutex_);
     const auto ready = [&] { return result_ && result_->id == *outstanding_; };
-    if (!ready()) {
-      const auto t0 = std::chrono::steady_clock::now();
-      done_.wait(lock, ready);
-      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      ++stats_.waits;
-      stats_.wait_total_ms += ms;
-      stats_.wait_max_ms = std::max(stats_.wait_max_ms, ms);
-    }
+    wait_counted(lock, ready);
     auto r = std::move(result_);
     result_.reset();
     outstanding_.reset();
@@ -146,14 +139,7 @@ class RetrievalWorker {
     if (!rate_outstanding_) return std::nullopt;
     std::unique_lock lock(mutex_);
     const auto ready = [&] { return rate_result_ && rate_result_->id == *rate_outstanding_; };
-    if (!ready()) {
-      const auto t0 = std::chrono::steady_clock::now();
-      done_.wait(lock, ready);
-      const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      ++stats_.waits;
-      stats_.wait_total_ms += ms;
-      stats_.wait_max_ms = std::max(stats_.wait_max_ms, ms);
-    }
+    wait_counted(lock, ready);
     const StrikeRateResult r = *rate_result_;  // ready(): it holds the job's result
     rate_result_.reset();
     rate_outstanding_.reset();
@@ -161,6 +147,17 @@ class RetrievalWorker {
     return r;
   }
   const RetrievalTiming& stats() const { return stats_; }
+  /// Waits (lock held) until `ready`, counting a wait in stats_ when it was not ready at once.
+  template <class Ready>
+  void wait_counted(std::unique_lock<std::mutex>& lock, Ready ready) {
+    if (ready()) return;
+    const auto t0 = std::chrono::steady_clock::now();
+    done_.wait(lock, ready);
+    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    ++stats_.waits;
+    stats_.wait_total_ms += ms;
+    stats_.wait_max_ms = std::max(stats_.wait_max_ms, ms);
+  }
 
  private:
   void run() {

@@ -39,6 +39,30 @@ auto at_key(const InstallationConfig& c, const char* key, F&& open) {
   }
 }
 
+/// The strikes the recognition thread published since the last poll, and its counters, over
+/// the snapshot's (none without recognition).
+void take_strikes(StrikeRecognition* recognition, TrackingSnapshot& s) {
+  s.strikes.clear();
+  s.recognition = {};
+  if (recognition) {
+    recognition->take(s.strikes);
+    s.recognition = recognition->stats();
+  }
+}
+
+/// Late latching's view of the newest head pose out (`newest`: none yet when nullopt).
+PoseTiming timing_of(PoseClock& clock, const std::optional<BodyPose>& newest, Timestamp t) {
+  PoseTiming p;
+  if (newest) {
+    clock.observe(newest->frame, newest->timestamp, newest->ready_at);
+    p.newest = newest->frame + 1;  // 0 means none
+    p.newest_at = newest->timestamp;
+  }
+  p.next_ready = clock.next_ready(t);
+  p.period_s = clock.period_s();
+  return p;
+}
+
 class TrackerInput final : public TrackingInput {
  public:
   TrackerInput(const InstallationConfig& c, tracking::RigCalibration rig,
@@ -118,12 +142,7 @@ class TrackerInput final : public TrackingInput {
   void poll(Timestamp now_s, Timestamp display_time, TrackingSnapshot& s) override {
     read_tracker(tracker_, head_, now_s, display_time, true, reading_, s);
     if (counters_) describe_recording(now_s, s);
-    s.strikes.clear();
-    s.recognition = {};
-    if (recognition_) {
-      recognition_->take(s.strikes);
-      s.recognition = recognition_->stats();
-    }
+    take_strikes(recognition_.get(), s);
   }
   Timestamp clock() const override { return now(); }
   void record_frame_sets(SessionRecorder* recorder) override {
@@ -145,17 +164,7 @@ class TrackerInput final : public TrackingInput {
   bool loading() const override { return counters_ && !counters_->playing.load(); }
   std::string describe() const override { return what_; }
   const std::vector<std::string>& camera_names() const override { return names_; }
-  PoseTiming pose_timing(Timestamp t) override {
-    PoseTiming p;
-    if (const auto latest = tracker_.latest(head_)) {
-      pose_clock_.observe(latest->frame, latest->timestamp, latest->ready_at);
-      p.newest = latest->frame + 1;  // 0 means none
-      p.newest_at = latest->timestamp;
-    }
-    p.next_ready = pose_clock_.next_ready(t);
-    p.period_s = pose_clock_.period_s();
-    return p;
-  }
+  PoseTiming pose_timing(Timestamp t) override { return timing_of(pose_clock_, tracker_.latest(head_), t); }
 
  private:
   /// The recording's rates over the last second or so, and a problem when it cannot keep up.
@@ -274,25 +283,13 @@ class PosesInput final : public TrackingInput {
                                                        : TrackerState::lost;
     }
     if (ended_.load(std::memory_order_acquire)) s.state = TrackerState::stopped;
-    s.strikes.clear();
-    s.recognition = {};
-    if (recognition_) {
-      recognition_->take(s.strikes);
-      s.recognition = recognition_->stats();
-    }
+    take_strikes(recognition_.get(), s);
   }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return what_; }
   PoseTiming pose_timing(Timestamp t) override {
-    PoseTiming p;
-    if (const auto h = head_.read()) {
-      pose_clock_.observe(h->last.frame, h->last.timestamp, h->last.ready_at);
-      p.newest = h->last.frame + 1;
-      p.newest_at = h->last.timestamp;
-    }
-    p.next_ready = pose_clock_.next_ready(t);
-    p.period_s = pose_clock_.period_s();
-    return p;
+    const auto h = head_.read();
+    return timing_of(pose_clock_, h ? std::optional<BodyPose>(h->last) : std::nullopt, t);
   }
 
  private:
