@@ -327,6 +327,10 @@ int TrackFigures::elbow_flips() const {
   return static_cast<int>(std::count_if(flips.begin(), flips.end(), [](const LimbFlip& f) { return !f.leg; }));
 }
 double TrackFigures::max_slide_mps() const { return nan_max(slide[0].max_mps, slide[1].max_mps); }
+double TrackFigures::max_lifted_mps() const { return nan_max(lifted[0].max_mps, lifted[1].max_mps); }
+double TrackFigures::max_slide_source_contacts_mps() const {
+  return nan_max(slide_source_contacts[0].max_mps, slide_source_contacts[1].max_mps);
+}
 double TrackFigures::max_stepping_mps() const { return nan_max(stepping[0].max_mps, stepping[1].max_mps); }
 
 TrackFigures track_figures(const JointTrack& track, FrameRange range, const FootContacts& contacts, double scale,
@@ -410,6 +414,42 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
   FigureOptions o = options;
   if (in.effector.leg) o.stepping_feet[static_cast<std::size_t>(in.effector.side)] = false;
   q.output = track_figures(out, q.output_range, mapped, 1, o);
+  {
+    // The output foot down (ankle or toe near the output's own lowest levels over the
+    // compared frames): a source-contact frame with the output foot down is a skate if it
+    // moves; with it off the floor, a step the source does not make (`lifted`).
+    const ContactOptions co;
+    const int h = speed_half_window(out.frame_time_s, o.window_s);
+    for (int side = 0; side < 2; ++side) {
+      const auto si = static_cast<std::size_t>(side);
+      const int ankle = require(*out.skeleton, side == kLeft ? CJ::l_ankle : CJ::r_ankle);
+      const int toe = require(*out.skeleton, side == kLeft ? CJ::l_toe : CJ::r_toe);
+      double fa = std::numeric_limits<double>::infinity(), ft = fa;
+      for (int f = q.output_range.first; f <= q.output_range.last; ++f) {
+        fa = std::min(fa, out.at(f, ankle).y());
+        ft = std::min(ft, out.at(f, toe).y());
+      }
+      std::vector<std::uint8_t> down(mapped.contact[si]), up(mapped.contact[si]);
+      for (int f = 0; f < out.frame_count; ++f) {
+        // Down: heel or toes on the floor (a raised heel still stands on the ball of the foot,
+        // and a foot standing on it that moves is skating); lifted: the whole foot in the air.
+        const bool low = out.at(f, ankle).y() <= fa + co.down_tolerance_m || out.at(f, toe).y() <= ft + co.down_tolerance_m;
+        down[static_cast<std::size_t>(f)] &= low ? 1 : 0;
+        up[static_cast<std::size_t>(f)] &= low ? 0 : 1;
+      }
+      q.output.slide_source_contacts[si] = q.output.slide[si];
+      q.output.slide[si] = support_foot_slide(out, side, down, q.output_range, h, 1);
+      // Any frame of the window lifted counts (a foot that lifts for a frame or two).
+      q.output.lifted[si] = foot_figure(out, side, q.output_range, h, 1, true, [&](int f) {
+        bool any = false;
+        for (int k = f - h; k <= f + h; ++k) {
+          if (!in_contact(mapped.contact[si], k)) return false;
+          any = any || in_contact(up, k);
+        }
+        return any;
+      });
+    }
+  }
   const FootContacts own = detect_foot_contacts(out);
   q.whole = track_figures(out, {0, out.frame_count - 1}, own, 1, o);
   q.tail_range = {q.output_range.last + 1, out.frame_count - 1};

@@ -409,6 +409,8 @@ nlohmann::json figures_json(const TrackFigures& f, const Skeleton& s, double fra
                            {"fastest_joints", fastest}}},
           {"snaps", f.snaps.size()}, {"snap_list", snaps},
           {"support_slide", {{"left", foot(f.slide[0])}, {"right", foot(f.slide[1])}}},
+          {"lifted_where_source_stands", {{"left", foot(f.lifted[0])}, {"right", foot(f.lifted[1])}}},
+          {"support_slide_source_contacts", {{"left", foot(f.slide_source_contacts[0])}, {"right", foot(f.slide_source_contacts[1])}}},
           {"stepping_peak", {{"left", foot(f.stepping[0])}, {"right", foot(f.stepping[1])}}},
           {"knee_flips", f.knee_flips()}, {"elbow_flips", f.elbow_flips()}, {"flip_list", flips},
           {"max_elbow_turn_deg", f.max_turn_deg[0]}, {"max_knee_turn_deg", f.max_turn_deg[1]}};
@@ -429,6 +431,8 @@ struct QualityTotals {
   int elbow_above_head_out = 0, elbow_above_head_src = 0;
   int knee_flip_out = 0, knee_flip_src = 0, elbow_flip_out = 0, elbow_flip_src = 0;
   int reachable = 0, hits = 0;
+  int slide_over_source = 0, lifted_strikes = 0;  ///< slide > source's + 0.3 m/s; a foot lifted where the source stands
+  std::vector<double> lifted_out, slide_any_out, step_ratio_stepped, unsourced_step;
   std::vector<double> p99_ratio, p99_out, p99_src, max_out, max_src, slide_out, slide_src, step_out, step_src,
       step_ratio, reach_m, elev_out, elev_src, ext_out, ext_src, whole_slide, tail_slide, whole_step, tail_step,
       knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src, hook_out, hook_src;
@@ -474,9 +478,33 @@ struct QualityTotals {
     max_src.push_back(q.source.speed.max_mps);
     slide_out.push_back(q.output.max_slide_mps());
     slide_src.push_back(q.source.max_slide_mps());
+    slide_any_out.push_back(q.output.max_slide_source_contacts_mps());
+    lifted_out.push_back(q.output.max_lifted_mps());
+    lifted_strikes += std::isfinite(q.output.max_lifted_mps());
+    // Per foot: its slide against the source's same foot over the same frames (issue 12: never
+    // more than 0.3 m/s above it).
+    bool over = false;
+    for (int s = 0; s < 2; ++s) {
+      const double o = q.output.slide[static_cast<std::size_t>(s)].max_mps, r = q.source.slide[static_cast<std::size_t>(s)].max_mps;
+      if (std::isfinite(o) && o > (std::isfinite(r) ? r : 0.0) + 0.3) over = true;
+    }
+    slide_over_source += over;
     step_out.push_back(q.output.max_stepping_mps());
     step_src.push_back(q.source.max_stepping_mps());
     step_ratio.push_back(q.output.max_stepping_mps() / q.source.max_stepping_mps());
+    // Per foot: where the source steps it (its peak >= kSourceSteps_mps), the ratio of the
+    // drawn foot's peak to the source's; where the source does not, the drawn foot's peak (a
+    // step the source has none of: back to the rest stance, into a strike's stance).
+    constexpr double kSourceSteps_mps = 0.5;
+    for (int s = 0; s < 2; ++s) {
+      const double o = q.output.stepping[static_cast<std::size_t>(s)].max_mps, r = q.source.stepping[static_cast<std::size_t>(s)].max_mps;
+      if (!std::isfinite(o)) continue;
+      if (std::isfinite(r) && r >= kSourceSteps_mps) {
+        step_ratio_stepped.push_back(o / r);
+      } else {
+        unsourced_step.push_back(o);
+      }
+    }
     (kick ? kick_ext_out : ext_out).push_back(q.output_contact.extension);
     (kick ? kick_ext_src : ext_src).push_back(q.source_contact.extension);
     reach_m.push_back(reach);
@@ -496,8 +524,16 @@ struct QualityTotals {
             {"joint_speed_p99_ratio", dist_json(p99_ratio)},
             {"joint_speed_max_mps", dist_json(max_out)}, {"source_joint_speed_max_mps", dist_json(max_src)},
             {"support_slide_mps", dist_json(slide_out)}, {"source_support_slide_mps", dist_json(slide_src)},
+            {"strikes_slide_over_source_plus_0_3", slide_over_source},
+            {"support_slide_source_contacts_mps", dist_json(slide_any_out)},
+            {"strikes_lifted_where_source_stands", lifted_strikes},
+            {"lifted_where_source_stands_mps", dist_json(lifted_out)},
             {"stepping_peak_mps", dist_json(step_out)}, {"source_stepping_peak_mps", dist_json(step_src)},
             {"stepping_peak_ratio", dist_json(step_ratio)},
+            {"stepping_peak_ratio_where_source_steps", dist_json(step_ratio_stepped)},
+            {"feet_where_source_steps_over_1_2x",
+             std::count_if(step_ratio_stepped.begin(), step_ratio_stepped.end(), [](double r) { return r > 1.2; })},
+            {"stepping_peak_where_source_does_not_step_mps", dist_json(unsourced_step)},
             {"folded_punches", folded_punch_out}, {"source_folded_punches", folded_punch_src},
             {"elbow_above_head", elbow_above_head_out}, {"source_elbow_above_head", elbow_above_head_src},
             {"folded_kicks", folded_kick_out}, {"source_folded_kicks", folded_kick_src},
@@ -527,11 +563,15 @@ struct QualityTotals {
                d("joint_speed_p99_ratio", "p50"), d("joint_speed_p99_ratio", "p95"), d("joint_speed_p99_ratio", "max"),
                d("joint_speed_max_mps", "p50"), d("joint_speed_max_mps", "max"), d("source_joint_speed_max_mps", "p50"),
                d("source_joint_speed_max_mps", "max"));
-    fmt::print("support-foot slide (source contacts): p50 {:.2f} p95 {:.2f} max {:.2f} m/s; source p50 {:.2f} p95 {:.2f} "
-               "max {:.2f} m/s\n",
+    fmt::print("support-foot slide (source contacts, the drawn foot down): p50 {:.2f} p95 {:.2f} max {:.2f} m/s; source "
+               "p50 {:.2f} p95 {:.2f} max {:.2f} m/s; strikes more than 0.3 m/s above the source's: {}\n",
                d("support_slide_mps", "p50"), d("support_slide_mps", "p95"), d("support_slide_mps", "max"),
                d("source_support_slide_mps", "p50"), d("source_support_slide_mps", "p95"),
-               d("source_support_slide_mps", "max"));
+               d("source_support_slide_mps", "max"), slide_over_source);
+    fmt::print("  a foot off the floor where the source stands (a step or late landing): {} strikes, horizontal speed p50 "
+               "{:.2f} max {:.2f} m/s; every source-contact frame (lifted or down): p95 {:.2f} max {:.2f} m/s\n",
+               lifted_strikes, d("lifted_where_source_stands_mps", "p50"), d("lifted_where_source_stands_mps", "max"),
+               d("support_slide_source_contacts_mps", "p95"), d("support_slide_source_contacts_mps", "max"));
     fmt::print("whole BVH, geometric contacts: support-foot slide p50 {:.2f} p95 {:.2f} max {:.2f} m/s, stepping-foot peak "
                "p50 {:.2f} max {:.2f} m/s; tail only: slide p95 {:.2f}, stepping max {:.2f} m/s ({} strikes with a tail)\n",
                d("whole_bvh_support_slide_mps", "p50"), d("whole_bvh_support_slide_mps", "p95"),
@@ -541,6 +581,12 @@ struct QualityTotals {
     fmt::print("stepping-foot peak: p50 {:.2f} max {:.2f} m/s; source p50 {:.2f} max {:.2f} m/s; ratio p50 {:.2f} max {:.2f}\n",
                d("stepping_peak_mps", "p50"), d("stepping_peak_mps", "max"), d("source_stepping_peak_mps", "p50"),
                d("source_stepping_peak_mps", "max"), d("stepping_peak_ratio", "p50"), d("stepping_peak_ratio", "max"));
+    fmt::print("  feet the source steps (its peak >= 0.5 m/s): {} , ratio p50 {:.2f} p95 {:.2f} max {:.2f}, {} over 1.2x; "
+               "feet the source does not step: {}, drawn peak p50 {:.2f} max {:.2f} m/s\n",
+               j["stepping_peak_ratio_where_source_steps"]["n"].get<int>(), d("stepping_peak_ratio_where_source_steps", "p50"),
+               d("stepping_peak_ratio_where_source_steps", "p95"), d("stepping_peak_ratio_where_source_steps", "max"),
+               j["feet_where_source_steps_over_1_2x"].get<int>(), j["stepping_peak_where_source_does_not_step_mps"]["n"].get<int>(),
+               d("stepping_peak_where_source_does_not_step_mps", "p50"), d("stepping_peak_where_source_does_not_step_mps", "max"));
     fmt::print("folded at contact: punches {} of {} (elbow above head {}), kicks {} of {}; source: punches {} (elbow above "
                "head {}), kicks {}\n",
                folded_punch_out, punches, elbow_above_head_out, folded_kick_out, kicks, folded_punch_src,

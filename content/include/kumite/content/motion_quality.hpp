@@ -104,6 +104,9 @@ std::vector<Snap> find_snaps(const JointTrack& track, FrameRange range, const Sn
 
 struct ContactOptions {
   double height_tolerance_m = 0.015;
+  /// m: compare_strike counts an output foot as down (standing, so a horizontal speed is a
+  /// skate) while its ankle or its toe is within this of the output's own lowest level.
+  double down_tolerance_m = 0.03;
   double max_speed_mps = 2.0;
   double window_s = 1.0 / 30;
 };
@@ -175,11 +178,19 @@ struct TrackFigures {
   SpeedStats speed;
   std::vector<Snap> snaps;
   std::array<FootFigure, 2> slide{}, stepping{};  ///< [side]
+  /// compare_strike's output only: horizontal speed of a foot the source has standing flat
+  /// while the output has it off the floor (a step or a late landing the source does not
+  /// make: not a skate, but the foot is not where the source has it). `slide` then counts the
+  /// frames where the output foot is down too; `slide_source_contacts` every source-contact
+  /// frame (both together: lifted or skating), as the figure was first defined.
+  std::array<FootFigure, 2> lifted{}, slide_source_contacts{};
   std::vector<LimbFlip> flips;
   std::array<double, 2> max_turn_deg{0, 0};  ///< [0] elbows, [1] knees (max_limb_turn_deg)
   int knee_flips() const;
   int elbow_flips() const;
   double max_slide_mps() const;     ///< max over both feet (NaN when neither qualified)
+  double max_lifted_mps() const;    ///< the same of `lifted`
+  double max_slide_source_contacts_mps() const;  ///< the same of `slide_source_contacts`
   double max_stepping_mps() const;  ///< max over the given feet (NaN when none qualified)
 };
 struct FigureOptions {
