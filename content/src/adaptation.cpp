@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "kumite/common/error.hpp"
 #include "kumite/content/ik.hpp"
@@ -200,7 +201,19 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
         break;
       }
       case Role::knee: rot = aim(ankle_goal[s] - pos); break;
-      case Role::ankle: rot = aim(f.foot_dir[s]); break;
+      case Role::ankle: {
+        Vector3d dir = f.foot_dir[s];
+        if (job.feet && job.feet->heading_weight[s] > 0) {
+          const Eigen::Vector2d& h = job.feet->heading_xz[s];
+          const double from = std::atan2(dir.x(), dir.z()), to = std::atan2(h.x(), h.y());
+          if (std::hypot(dir.x(), dir.z()) > 1e-6 && h.squaredNorm() > 1e-12) {
+            double turn = std::remainder(to - from, 2 * std::numbers::pi) * std::clamp(job.feet->heading_weight[s], 0.0, 1.0);
+            dir = Eigen::AngleAxisd(turn, Vector3d::UnitY()) * dir;
+          }
+        }
+        rot = aim(dir);
+        break;
+      }
       case Role::none: break;
     }
     rot.normalize();

@@ -39,7 +39,11 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
   switch_offset_.assign(max_joints, Vector3d::Zero());
-  eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames: no allocation while playing
+  eased_.cum.reserve(256);
+  // Orders swap between these two each update; an order taken again after stepping in is
+  // queued from inside update(): room kept in both, so that allocates nothing.
+  orders_.reserve(16);
+  taking_.reserve(16);  // a release of 0.25 s holds ~32 frames: no allocation while playing
   spot_xz_m_ = {config.home.x(), config.home.z()};
   facing_rad_ = 0;
   use_synchronous_planner(std::make_shared<StrikePlanner>(db_, config.retrieval));
@@ -69,6 +73,10 @@ void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> pla
 void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
   submit_rate_ = std::move(submit);
   poll_rate_ = std::move(poll);
+}
+
+bool Behaviour::strike_pending() const {
+  return pending_ || approach_ || std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.stepped_in; });
 }
 
 void Behaviour::order(const Order& o) { orders_.push_back({o, std::nullopt}); }
@@ -173,7 +181,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
       default: break;
     }
     const auto eff = effector_of(o.kind);
-    if (state_ == FighterState::striking || pending_) {
+    if (state_ == FighterState::striking || pending_ || approach_) {
       emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::mid_strike);  // the event names the order
       continue;
     }
@@ -206,28 +214,72 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     r.dt_s = last_dt_;
     r.target_local_m = ground().to_local(target);
     r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
-    pending_ = PendingStrike{r.id, o, target};
-    emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
+    pending_ = PendingStrike{r.id, o, target, queued.stepped_in};
+    // Taken again after stepping in: accepted already.
+    if (!queued.stepped_in) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
     submit_(r);
   }
   taking_.clear();
 }
 
-void Behaviour::start_strike(const StrikePlan& plan, Timestamp now, double dt) {
+Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, double& shortfall_m) const {
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   const GroundFrame g_char = ground_frame_of(pose_);
   const GroundFrame g_clip = ground_frame_of(seg.frames[static_cast<std::size_t>(plan.start_frame)]);
+  Source s;
+  s.segment = plan.segment;
+  s.time_s = plan.start_frame * seg.frame_time_s;
+  s.placement.origin_xz = g_char.origin_xz;
+  s.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
+  s.anchor_xz_m = g_clip.origin_xz;
+  align_to_support_foot(s, plan.contact_frame * seg.frame_time_s);
+  shortfall_m = place_strike_travel(s, plan.contact_frame * seg.frame_time_s);
+  return s;
+}
+
+bool Behaviour::begin_step_in(double shortfall_m, Timestamp now) {
+  // Toward the target by the distance missing; at least far enough that the feet step (a
+  // body moved over feet that stay would meet the same limit), at most max_step_in_m, and
+  // never out of the fighter's area ([fighter] min/max x/z): where that leaves less than
+  // step_in_min_m to gain, the strike goes ahead from here (false).
+  const Vector3d& target = pending_->target_room_m;
+  Vector2d dir(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
+  if (dir.norm() < 1e-9) return false;
+  dir.normalize();
+  const double d = std::min(std::max(shortfall_m, feet_.tunables().step_threshold_m + 0.02), tun_.max_step_in_m);
+  Vector2d goal = spot_xz_m_ + dir * d;
+  goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
+  goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
+  if ((goal - spot_xz_m_).dot(dir) < tun_.step_in_min_m) return false;
+  approach_ = Approach{pending_->order, target, goal, 0, 0};
+  FighterEvent& e = emit(FighterEvent::Kind::stepping_in, now, pending_->order, FighterEvent::Reason::none, (goal - spot_xz_m_).norm());
+  e.target = target;
+  return true;
+}
+
+void Behaviour::update_step_in(double dt) {
+  // Stepped in once the spot is reached and both feet stand where they should (each step
+  // done); a fighter turning to follow a moving visitor may keep stepping, so after
+  // kSettle_s at the spot both feet on the floor will do, and after kStepInWait_s anything:
+  // the order is taken again, with its frozen target, as if just given (it does not step in
+  // twice).
+  constexpr double kStepInWait_s = 1.5, kSettle_s = 0.3;
+  if (!approach_) return;
+  approach_->elapsed_s += dt;
+  const bool at_spot = state_ == FighterState::resting && (spot_xz_m_ - approach_->goal_xz).norm() <= tun_.arrive_tolerance_m;
+  approach_->at_spot_s = at_spot ? approach_->at_spot_s + dt : 0;
+  const bool arrived = at_spot && ((feet_.settled(kLeft) && feet_.settled(kRight)) ||
+                                   (approach_->at_spot_s >= kSettle_s && feet_.held(kLeft) && feet_.held(kRight)));
+  if (!arrived && approach_->elapsed_s < kStepInWait_s) return;
+  orders_.insert(orders_.begin(), QueuedOrder{approach_->order, approach_->target_room_m, true});
+  approach_.reset();
+}
+
+void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Timestamp now, double dt) {
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   previous_ = current_;
   blend_elapsed_s_ = 0;
-  current_ = Source{};
-  current_.segment = plan.segment;
-  current_.time_s = plan.start_frame * seg.frame_time_s;
-  current_.placement.origin_xz = g_char.origin_xz;
-  current_.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
-  current_.anchor_xz_m = g_clip.origin_xz;
-  strike_target_ = pending_->target_room_m;
-  align_to_support_foot(current_);
-  place_strike_travel(current_, plan.contact_frame * seg.frame_time_s);
+  current_ = source;
   const Order order = pending_->order;
   strike_ = StrikeInfo{};
   strike_.order = order;
@@ -360,6 +412,11 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   Vector2d goal = spot_xz_m_;
   if (dist > 1e-6) goal = head_xz - to_head / dist * config_.strike_distance_m;
   if (recentre_goal_) goal = *recentre_goal_;
+  if (approach_) {
+    goal = approach_->goal_xz;  // stepping in before a strike
+  } else if (strike_pending()) {
+    goal = spot_xz_m_;  // a strike about to start (its plan placed from where the feet stand now)
+  }
   // A visitor near a wall: back off (further from the visitor than the strike distance), so
   // nobody is drawn toward the wall by the fighter.
   if (keep_away_ && dist > 1e-6) goal = head_xz - to_head / dist * (config_.strike_distance_m + tun_.keep_away_extra_m);
@@ -368,10 +425,10 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   if (paused_) goal = spot_xz_m_;
   const Vector2d off = goal - spot_xz_m_;
   bool following = state_ == FighterState::following;
-  if (!following && off.norm() > tun_.follow_tolerance_m) following = true;
+  if (!following && (off.norm() > tun_.follow_tolerance_m || (approach_ && off.norm() > tun_.arrive_tolerance_m))) following = true;
   spot_velocity_.setZero();
   if (following) {
-    const double step = std::min(off.norm(), tun_.walk_speed_mps * dt);
+    const double step = std::min(off.norm(), (approach_ ? tun_.step_in_speed_mps : tun_.walk_speed_mps) * dt);
     if (off.norm() > 1e-9) spot_xz_m_ += off / off.norm() * step;
     if (off.norm() > 1e-9 && dt > 0) spot_velocity_ = off / off.norm() * step / dt;
     if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m) {
@@ -448,7 +505,11 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       if (p->segment < 0) {
         emit(FighterEvent::Kind::warning, now, pending_->order, FighterEvent::Reason::no_strike);
       } else {
-        start_strike(*p, now, dt);
+        strike_target_ = pending_->target_room_m;
+        double shortfall_m = 0;
+        const Source s = strike_source(*p, shortfall_m);
+        if (pending_->stepped_in || tun_.max_step_in_m <= 0 || shortfall_m < tun_.step_in_min_m || !begin_step_in(shortfall_m, now))
+          start_strike(*p, s, now, dt);
       }
       pending_.reset();
     }
@@ -475,6 +536,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     enter(FighterState::resting);
   }
   if (state_ == FighterState::resting || state_ == FighterState::following) update_follow(dt, head);
+  update_step_in(dt);
 
   // Compose the pose: cross-fade previous -> current.
   pose_before_ = pose_;
@@ -514,11 +576,15 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
 
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   const auto n = static_cast<std::size_t>(rig.joint_count());
-  // The pelvis drop for held feet changes at a bounded rate: a foot lifted or put down never
-  // moves the whole body in one frame.
+  // The pelvis drop for held feet changes at a bounded rate and a bounded acceleration: a foot
+  // lifted or put down never moves the whole body in one frame, and a foot held for a single
+  // update (landing, lifted again) does not flick the pelvis down and up (the knees popped).
   const double last_drop = have_pose_ ? report_.root_drop_m : 0.0;
-  locks_.min_root_drop_m = std::max(0.0, last_drop - tun_.max_drop_rate_mps * dt);
-  locks_.max_root_drop_m = std::min(tun_.max_root_drop_m, last_drop + tun_.max_drop_rate_mps * dt);
+  const double v = have_pose_ ? drop_rate_mps_ : 0.0;
+  const double v_lo = std::max(-tun_.max_drop_rate_mps, v - tun_.max_drop_accel_mps2 * dt);
+  const double v_hi = std::min(tun_.max_drop_rate_mps, v + tun_.max_drop_accel_mps2 * dt);
+  locks_.min_root_drop_m = std::clamp(last_drop + v_lo * dt, 0.0, tun_.max_root_drop_m);
+  locks_.max_root_drop_m = std::clamp(last_drop + v_hi * dt, locks_.min_root_drop_m, tun_.max_root_drop_m);
   AdaptJob job;
   job.rig = &rig;
   job.pose = &pose_;
@@ -530,6 +596,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.root_position = &root_joint_;
   job.report = &report_;
   job.Run();
+  drop_rate_mps_ = have_pose_ && dt > 0 ? (report_.root_drop_m - last_drop) / dt : 0.0;
   have_pose_ = true;
   last_dt_ = dt > 0 ? dt : last_dt_;
 
@@ -576,6 +643,7 @@ FighterFrame Behaviour::frame() const {
   f.joints = std::span<const Vector3d>(positions_).first(n);
   f.parents = rig.skeleton.parents;
   f.joint_radii_m = rig.joint_radii_m;
+  if (approach_) f.target = approach_->target_room_m;
   if (strike_.active || pending_) f.target = pending_ ? pending_->target_room_m : strike_.target_room_m;
   f.root = Vector3d(pose_.root_xz_m.x(), 0, pose_.root_xz_m.y());
   f.heading_rad = facing_rad_;

@@ -109,6 +109,13 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
       f.source_path_left_m = sp.way_left_m;
     }
     f.drawn_ankle_m = rig_positions_[ankle];
+    {
+      const Vector3d toe = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_toe : CJ::r_toe))];
+      const Vector2d h(toe.x() - f.drawn_ankle_m.x(), toe.z() - f.drawn_ankle_m.z());
+      if (h.norm() > 1e-6) f.drawn_heading_xz = h.normalized();
+      const Vector2d m(pose_.foot_dir[us].x(), pose_.foot_dir[us].z());
+      f.motion_heading_xz = m.norm() > 1e-6 ? Vector2d(m.normalized()) : f.drawn_heading_xz;
+    }
     f.hip_m = rig_positions_[hip];
     f.leg_length_m = rig.morphology.limb_leg_length(s);
     f.standing_ankle_y_m = at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle).y() - rest_floor_y(rig);

@@ -119,20 +119,27 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
     encode_mkm(poses[static_cast<std::size_t>(f)], m, floor_y, f > 0 ? &seg.frames[static_cast<std::size_t>(f - 1)] : nullptr, fr);
     fr.root_xz_m *= scale;
   }
-  // Planted feet: ankle low (relative to its lowest point in the segment) and slow.
+  // Planted feet: the ankle low (relative to its lowest point in the segment) and slow, or the
+  // toes low and slow (the heel raised onto the ball of the foot, as the back foot of a lunge
+  // before it steps: the foot is still down, turning about its toes).
   for (int s = 0; s < 2; ++s) {
     const CJ ankle = s == kLeft ? CJ::l_ankle : CJ::r_ankle;
-    double low = std::numeric_limits<double>::infinity();
-    for (const auto& p : poses) low = std::min(low, at(p, ankle).y());
-    for (int f = 0; f < n; ++f) {
+    const CJ toe = s == kLeft ? CJ::l_toe : CJ::r_toe;
+    double low_ankle = std::numeric_limits<double>::infinity(), low_toe = low_ankle;
+    for (const auto& p : poses) {
+      low_ankle = std::min(low_ankle, at(p, ankle).y());
+      low_toe = std::min(low_toe, at(p, toe).y());
+    }
+    const auto low_and_slow = [&](CJ j, double low, int f) {
       const int a = std::max(0, f - 1), b = std::min(n - 1, f + 1);
-      const double speed = b > a ? (at(poses[static_cast<std::size_t>(b)], ankle) - at(poses[static_cast<std::size_t>(a)], ankle)).norm() /
+      const double speed = b > a ? (at(poses[static_cast<std::size_t>(b)], j) - at(poses[static_cast<std::size_t>(a)], j)).norm() /
                                        ((b - a) * clip.frame_time_s)
                                  : 0.0;
-      const double h = at(poses[static_cast<std::size_t>(f)], ankle).y() - low;
+      return at(poses[static_cast<std::size_t>(f)], j).y() - low < o.plant_height_m && speed < o.plant_speed_mps;
+    };
+    for (int f = 0; f < n; ++f)
       seg.frames[static_cast<std::size_t>(f)].planted[static_cast<std::size_t>(s)] =
-          (h < o.plant_height_m && speed < o.plant_speed_mps) ? 1.0 : 0.0;
-    }
+          low_and_slow(ankle, low_ankle, f) || low_and_slow(toe, low_toe, f) ? 1.0 : 0.0;
   }
   const int seg_index = static_cast<int>(db.segments.size());
   if (src.kind == SegmentKind::strike) {

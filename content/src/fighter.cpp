@@ -40,6 +40,7 @@ std::string_view to_string(FighterEvent::Kind k) {
     case FighterEvent::Kind::miss: return "miss";
     case FighterEvent::Kind::character_changed: return "character_changed";
     case FighterEvent::Kind::warning: return "warning";
+    case FighterEvent::Kind::stepping_in: return "stepping_in";
   }
   return "?";
 }
@@ -62,6 +63,9 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
     }
     case K::character_changed:
       return fmt::format("character {} ({})", e.order.character + 1, character_name(e.order.character));
+    case K::stepping_in:
+      return fmt::format("{:.0f} cm in first: the target at ({:.2f}, {:.2f}, {:.2f}) m is beyond the strike's reach from here",
+                         e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
     default: break;
   }
   switch (e.reason) {

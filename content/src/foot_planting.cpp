@@ -16,6 +16,8 @@ double smoothstep(double x) {
 /// A lifted foot sheds at most this share of the motion's own foot travel per update (on top
 /// of that travel): its speed stays within (1 + this) x the source's.
 constexpr double kShedPerTravel = 0.5;
+/// m/s^2: how fast a foot returning through the air to the motion's changes its velocity.
+constexpr double kReturnAccel_mps2 = 40;
 }  // namespace
 
 void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bool may_step,
@@ -29,9 +31,10 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.lock.y() = std::max(in.standing_ankle_y_m + in.source_lift_m, f.lock.y() - fall);
     f.offset = f.lock - in.free_ankle_m;
   };
-  const auto hold = [&](Foot& f, const Vector3d& at) {
+  const auto hold = [&](Foot& f, const Vector3d& at, const Eigen::Vector2d& heading) {
     f.phase = Phase::held;
     f.lock = at;
+    f.heading = heading;
   };
   // Lifted (by the motion or a kick) from wherever the foot is: it carries its gap to the
   // motion's foot, and starts a new way to its landing.
@@ -45,6 +48,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     Foot& f = feet_[static_cast<std::size_t>(s)];
     const FootSample& in = samples[static_cast<std::size_t>(s)];
     const Foot& other = feet_[static_cast<std::size_t>(1 - s)];
+    f.wants_step = false;
+    const Vector3d lock_before = f.lock;
     // The motion's contact counts only for a foot that is down: a cross-fade from a kick into
     // a standing motion says "planted" while the foot is still in the air.
     const double floor_y = in.standing_ankle_y_m + in.source_lift_m;  // the ankle's height when down now
@@ -52,7 +57,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     const auto near_floor = [&](const Vector3d& ankle) { return ankle.y() <= floor_y + tun_.landing_window_m; };
     switch (f.phase) {
       case Phase::free:
-        if (in.planted && !in.effector && down(in.drawn_ankle_m)) hold(f, in.drawn_ankle_m);  // moves nothing
+        if (in.planted && !in.effector && down(in.drawn_ankle_m)) hold(f, in.drawn_ankle_m, in.drawn_heading_xz);  // moves nothing
         break;
       case Phase::held: {
         if (!in.planted || in.effector) {
@@ -75,8 +80,13 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // Land ahead of the body: half a step's worth of its current velocity.
         Vector3d target = in.free_ankle_m + Vector3d(body_velocity_xz.x(), 0, body_velocity_xz.y()) * (0.5 * tun_.step_time_s);
         target.y() = floor_y;
-        const bool lagging = other.phase != Phase::stepping && (target - f.lock).norm() > tun_.step_threshold_m;
+        const double turned = std::abs(std::remainder(std::atan2(in.motion_heading_xz.x(), in.motion_heading_xz.y()) -
+                                                          std::atan2(f.heading.x(), f.heading.y()),
+                                                      2 * std::numbers::pi));
+        const bool lagging = other.phase != Phase::stepping && ((target - f.lock).norm() > tun_.step_threshold_m || turned > tun_.max_heading_lag_rad);
         const double stretch = (f.lock - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
+        f.wants_step = (target - f.lock).norm() > tun_.step_threshold_m || turned > tun_.max_heading_lag_rad ||
+                       stretch > tun_.max_leg_stretch || !in.reached;
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the
         // other stands on the floor (both off it is a hop).
@@ -92,15 +102,21 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // Shed the offset by the time the motion plants the foot again, but never faster than
         // a share of the motion's own foot travel (a foot the motion barely moves stays put).
         if (in.planted && !in.effector && down(in.drawn_ankle_m)) {
-          hold(f, in.drawn_ankle_m);  // down where it is drawn (a kicking foot was drawn off its lock)
+          hold(f, in.drawn_ankle_m, in.drawn_heading_xz);  // down where it is drawn (a kicking foot was drawn off its lock)
           break;
         }
         if (in.planted && !in.effector && !near_floor(f.lock)) {
           // The motion has the foot down but it is still well up (a kick handing over to the
-          // rest motion): it goes back to where the motion has it at a foot's pace.
+          // rest motion): it goes back to where the motion has it at a foot's pace, turning
+          // and speeding up from the way it was going at a foot's acceleration (not at once:
+          // the knee follows the ankle's turn several times over).
           const Vector3d to = in.free_ankle_m - f.lock;
           const double d = to.norm(), step = tun_.return_speed_mps * dt;
-          f.lock += d > step ? Vector3d(to * (step / d)) : to;
+          const Vector3d want = d > step ? Vector3d(to * (step / d)) : to;
+          Vector3d change = want - f.last_move;
+          const double most = kReturnAccel_mps2 * dt * dt;
+          if (change.norm() > most) change *= most / change.norm();
+          f.lock += f.last_move + change;
           f.offset = f.lock - in.free_ankle_m;
           break;
         }
@@ -124,7 +140,21 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           const double travel = (in.free_ankle_m - (f.lock - f.offset)).norm();
           const double shed = std::min(norm * std::min(1.0, dt / left), kShedPerTravel * travel);
           if (norm > 1e-12) f.offset *= (norm - shed) / norm;
-          f.lock = in.free_ankle_m + f.offset;
+          Vector3d next = in.free_ankle_m + f.offset;
+          if (std::min(next.y(), f.lock.y()) < in.standing_ankle_y_m + tun_.landing_height_m) {
+            // Still on the floor: it moves along it no faster than the source's own foot (a
+            // kick lifts the foot before it drives it forward; d(t) and a scaled travel pushed
+            // it along the floor first). The way held back is carried as offset and shed in the air.
+            Eigen::Vector2d along(next.x() - f.lock.x(), next.z() - f.lock.z());
+            const double cap = Eigen::Vector2d(in.source_step_m.x(), in.source_step_m.z()).norm();
+            if (along.norm() > cap) {
+              along *= cap / along.norm();
+              next.x() = f.lock.x() + along.x();
+              next.z() = f.lock.z() + along.y();
+            }
+          }
+          f.lock = next;
+          f.offset = f.lock - in.free_ankle_m;
           break;
         }
         const double step_h = Eigen::Vector2d(in.source_step_m.x(), in.source_step_m.z()).norm();
@@ -170,7 +200,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           break;
         }
         come_down(f, in, dt);
-        if (f.lock.y() <= floor_y + 1e-9 || down(in.drawn_ankle_m)) hold(f, Vector3d(f.lock.x(), std::min(f.lock.y(), in.drawn_ankle_m.y()), f.lock.z()));
+        if (f.lock.y() <= floor_y + 1e-9 || down(in.drawn_ankle_m)) hold(f, Vector3d(f.lock.x(), std::min(f.lock.y(), in.drawn_ankle_m.y()), f.lock.z()), in.drawn_heading_xz);
         break;
       }
       case Phase::stepping:
@@ -185,12 +215,24 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // not a slide (travel over the middle 70 % of the step, lift over all of it).
         f.lock = f.step_from + (f.step_to - f.step_from) * smoothstep((f.step_t - 0.15) / 0.7) +
                  Vector3d::UnitY() * tun_.step_height_m * std::sin(std::numbers::pi * std::min(1.0, f.step_t));
-        if (f.step_t >= 1) hold(f, f.step_to);
+        if (f.step_t >= 1) hold(f, f.step_to, in.drawn_heading_xz);
         break;
     }
+    f.last_move = f.phase == Phase::free ? Vector3d::Zero() : Vector3d(f.lock - lock_before);
     out.weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : 1.0;
     out.supporting[static_cast<std::size_t>(s)] = f.phase == Phase::held || f.phase == Phase::landing;
     out.ankle_m[static_cast<std::size_t>(s)] = f.lock;
+    // The heading is kept whole while held; lifted, the foot turns to the motion's heading
+    // over heading_release_s (a procedural step: over the step), never in one frame.
+    if (f.phase == Phase::held) {
+      f.heading_hold = 1;
+    } else if (f.phase == Phase::stepping) {
+      f.heading_hold = std::min(f.heading_hold, 1 - smoothstep(f.step_t));
+    } else {
+      f.heading_hold = std::max(0.0, f.heading_hold - dt / tun_.heading_release_s);
+    }
+    out.heading_weight[static_cast<std::size_t>(s)] = f.phase == Phase::stepping ? f.heading_hold : smoothstep(f.heading_hold);
+    out.heading_xz[static_cast<std::size_t>(s)] = f.heading;
   }
 }
 

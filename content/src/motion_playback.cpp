@@ -127,7 +127,7 @@ void Behaviour::start_rest(Timestamp) {
   current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
 }
 
-void Behaviour::align_to_support_foot(Source& s) const {
+void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
   // The clip is placed by its pelvis; shift it on the floor so that its support foot (planted
   // at the start and staying down longest) lands where that foot is held now: the motion then
   // swings its other foot and moves its body around a foot that does not have to move, as in
@@ -151,8 +151,14 @@ void Behaviour::align_to_support_foot(Source& s) const {
   const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
   Vector2d shift(held.x() - at(c, ankle).x(), held.z() - at(c, ankle).z());
   // Along the line to the target: never back away for it (the held foot then steps up to where
-  // the clip has it, rather than the whole strike landing short).
-  if (strike_target_) {
+  // the clip has it, rather than the whole strike landing short) -- except for a lunge (a clip
+  // whose body travels to contact): its support foot is the back foot the lunge pushes off,
+  // and the stance is only the captured one when that foot stands where the clip has it (a
+  // strike that then lands short steps in first: place_strike_travel).
+  const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, seg.frame_count() - 1);
+  const bool lunge = (seg.frames[static_cast<std::size_t>(contact)].root_xz_m - seg.frames[static_cast<std::size_t>(first)].root_xz_m).norm() *
+                         stride_scale() >= tun_.min_scaled_travel_m;
+  if (strike_target_ && !lunge) {
     Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
     if (dir.norm() > 1e-6) {
       dir.normalize();
@@ -165,7 +171,7 @@ void Behaviour::align_to_support_foot(Source& s) const {
   s.placement.origin_xz += shift;
 }
 
-void Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
+double Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
   // A lunge travels a fixed distance in the clip; the target is nearer or farther. Scale the
   // clip's floor travel up to contact (a shorter or longer lunge: Source::Travel) so that at
   // contact the limb's root (shoulder / hip) is as far from the target as the clip has it from
@@ -173,17 +179,19 @@ void Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
   // instead of folding a straight punch up onto a near head or stretching it to a far one.
   // Clips that hardly travel keep their travel; the pelvis always stays min_contact_distance_m
   // short of the target at contact.
+  // Returns how much farther (m) the limb's root would have to be carried toward the target
+  // for the limb, as extended as captured, to reach it: 0 when it does.
   s.travel = Source::Travel{};
-  if (!strike_target_) return;
+  if (!strike_target_) return 0;
   Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
-  if (dir.norm() < 1e-6) return;
+  if (dir.norm() < 1e-6) return 0;
   dir.normalize();
   s.travel.from_s = s.time_s;
   s.travel.contact_s = contact_time_s;
   s.travel.release_s = tun_.release_time_s;
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
   const auto eff = seg.effector();
-  if (!eff) return;
+  if (!eff) return 0;
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   Source at_contact = s;
   at_contact.time_s = contact_time_s;
@@ -224,16 +232,47 @@ void Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
       const double ahead = (Vector2d(target.x(), target.z()) - contact_pose.root_xz_m).dot(dir);
       k = std::min(k, (ahead - tun_.min_contact_distance_m) / td);
     }
+    // A foot the clip keeps down from now through contact (the back foot of a lunge) is held
+    // where it stands: at contact the hip stays within the leg's reach of it. A longer lunge
+    // would drag the foot along the floor, or sink the pelvis to keep it (and a punch at head
+    // height then goes up, its elbow above the head): the fighter steps in first instead
+    // (the distance returned), or the arm reaches on as far as it goes.
+    const int from = std::clamp(static_cast<int>(std::floor(s.time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
+    // (down up to the frame before contact: a back foot the clip lifts at contact, to step
+    // after the hit, still holds the stance until then)
+    const int to = std::clamp(static_cast<int>(std::floor(contact_time_s / seg.frame_time_s)) - 1, from, seg.frame_count() - 1);
+    for (int side = 0; side < 2; ++side) {
+      if (!feet_.held(side) || (eff->leg && eff->side == side)) continue;
+      bool down = true;
+      for (int f = from; f <= to && down; ++f) down = seg.frames[static_cast<std::size_t>(f)].planted[static_cast<std::size_t>(side)] >= 0.5;
+      if (!down) continue;
+      const CJ ankle = side == kLeft ? CJ::l_ankle : CJ::r_ankle;
+      Vector3d a = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
+      a.y() = std::max(a.y(), at(c, ankle).y());  // a heel the clip raises by contact
+      Vector3d h0 = at(c, side == kLeft ? CJ::l_hip : CJ::r_hip);
+      h0.y() += s.travel.rise_n * leg;
+      const Vector3d d0 = h0 - a;
+      const double r = feet_.tunables().max_leg_stretch * rig.morphology.limb_leg_length(side);
+      const double b = T.dot(d0), cc = d0.squaredNorm() - r * r;
+      const double disc2 = b * b - tt * cc;
+      k = std::min(k, disc2 >= 0 ? (-b + std::sqrt(disc2)) / tt : -b / tt);
+    }
     k = std::max(k, tun_.min_travel_scale - 1);
+    limb_root += k * T;
   } else {
     // No travel to scale: keep the pelvis short of the target by moving the clip back, at most
     // max_support_shift_m (as far as any placement shift goes: a target behind the fighter is
     // not a reason to slide the whole strike away from it).
     const double ahead = (Vector2d(target.x(), target.z()) - contact_pose.root_xz_m).dot(dir);
-    if (ahead < tun_.min_contact_distance_m)
-      s.placement.origin_xz -= std::min(tun_.min_contact_distance_m - ahead, tun_.max_support_shift_m) * dir;
+    if (ahead < tun_.min_contact_distance_m) {
+      const double back = std::min(tun_.min_contact_distance_m - ahead, tun_.max_support_shift_m);
+      s.placement.origin_xz -= back * dir;
+      limb_root -= back * Vector3d(dir.x(), 0, dir.y());
+    }
   }
   s.travel.scale = 1 + k;
+  const Vector3d u = target - limb_root;
+  return std::max(0.0, u.norm() - reach);
 }
 
 }  // namespace kumite::content

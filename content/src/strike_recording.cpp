@@ -100,17 +100,22 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
   b.take_events();
   record();
   b.order_strike(Order{t, order}, target);
-  timed_update();  // sends the request
-  if (request) {
+  // Plans each request as the next update polls (the order's, and again after stepping in).
+  const auto plan_request = [&] {
+    if (!request) return;
     const StrikePlan p = planner.plan(*request);
+    request.reset();
     rec.retrieval_us = p.retrieval_us;
     result = p;
     if (p.segment >= 0) dt = db->segments[static_cast<std::size_t>(p.segment)].frame_time_s;
-  }
+  };
+  timed_update();  // sends the request
+  plan_request();
   for (int i = 0; i < 100000; ++i) {
     timed_update();
+    plan_request();
     if (b.strike().contact_done && b.state() == FighterState::resting) break;
-    if (!b.strike().active && !b.strike().contact_done && i > 2) break;  // nothing to strike with
+    if (!b.strike().active && !b.strike().contact_done && !b.strike_pending() && i > 2) break;  // nothing to strike with
   }
   rec.motion.frame_time_s = dt;
   rec.strike = b.strike();

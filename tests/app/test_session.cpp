@@ -89,7 +89,7 @@ void record(const fs::path& config_path, const fs::path& orders, const fs::path&
   const double t0 = 5000.0;
   inst.start(t0);
   for (int i = 0; i < frames; ++i) {
-    if (i == 100) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));  // the punch is over by then
+    if (i == 130) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));  // the punch (stepped in for) is over by then
     if (i == 140) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
     inst.step(t0 + i / 60.0 + (i % 3) * 1e-4);  // uneven frame times, as a real loop has
   }
@@ -149,10 +149,10 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
     std::string moved;
     while (std::getline(in, line)) {
       auto j = nlohmann::json::parse(line);
-      if (j.contains("frame") && j["frame"] == 100) {
+      if (j.contains("frame") && j["frame"] == 130) {
         moved = j["input"]["keyed"].dump();
         j["input"]["keyed"] = nlohmann::json::array();
-      } else if (j.contains("frame") && j["frame"] == 101) {
+      } else if (j.contains("frame") && j["frame"] == 131) {
         j["input"]["keyed"] = nlohmann::json::parse(moved);
       }
       out += j.dump() + "\n";
@@ -162,7 +162,7 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
     const ReplayReport d = replay_session(tmp.path / "changed");
     EXPECT_FALSE(d.identical);
     ASSERT_TRUE(d.first_difference_frame);
-    EXPECT_EQ(*d.first_difference_frame, 100u);
+    EXPECT_EQ(*d.first_difference_frame, 130u);
     EXPECT_EQ(d.first_difference_field, "fighter");  // the kick not ordered there: no target frozen
   }
 
@@ -504,7 +504,7 @@ TEST(FrameStates, EveryFrameIsKeptWholeAsTheStepMadeIt) {
   inst.start(t0);
   std::vector<FrameData> made;
   for (int i = 0; i < 240; ++i) {
-    if (i == 100) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));
+    if (i == 130) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));
     if (i == 140) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
     made.push_back(inst.step(t0 + i / 60.0));
   }

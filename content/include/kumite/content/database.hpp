@@ -57,8 +57,8 @@ struct BuildOptions {
                                       ///< (>= blend time + window_before_s: the limb must travel)
   double window_before_s = 0.04;      ///< s before the hit frame where contact may happen
   double window_after_s = 0.08;       ///< s after the hit frame where contact may happen
-  double plant_height_m = 0.05;       ///< m above the segment's lowest ankle: foot may be planted
-  double plant_speed_mps = 0.30;      ///< m/s: slower ankles are planted (when low enough)
+  double plant_height_m = 0.05;       ///< m above the segment's lowest ankle (or toes): foot may be planted
+  double plant_speed_mps = 0.30;      ///< m/s: slower ankles (or toes) are planted (when low enough)
   double velocity_weight_s = 0.10;    ///< s: feature velocities count as displacement over this
   int clusters_per_group = 0;         ///< k of k-means per effector group (0: ~sqrt(rows))
   std::function<void(std::string_view what, double fraction)> progress;  ///< optional

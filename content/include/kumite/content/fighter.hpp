@@ -53,7 +53,9 @@ std::string_view to_string(FighterState s);
 struct FighterEvent {
   /// hit: touched the visitor; dodged: reached its target, but the visitor had moved away;
   /// miss: fell short of its target (out of reach) and did not touch the visitor.
-  enum class Kind : std::uint8_t { order_accepted, order_ignored, hit, dodged, miss, character_changed, warning };
+  /// stepping_in: an accepted strike's target is beyond what the strike reaches from where
+  /// the fighter stands: it steps in by `distance_m` first, then strikes at `target`.
+  enum class Kind : std::uint8_t { order_accepted, order_ignored, hit, dodged, miss, character_changed, warning, stepping_in };
   /// What an accepted order did, why one was ignored, what a warning is about.
   enum class Reason : std::uint8_t {
     none,
@@ -71,7 +73,8 @@ struct FighterEvent {
   Order order{};              ///< the order concerned (a strike's outcome: the strike's)
   Reason reason = Reason::none;
   double distance_m = 0;      ///< hit / dodged / miss: m from the hit point to the visitor's
-                              ///< body surface at contact (0 when touching)
+                              ///< body surface at contact (0 when touching); stepping_in: m
+                              ///< the fighter steps in
   Eigen::Vector3d target{0, 0, 0};  ///< m, room frame: an accepted strike's frozen target
   int segment = -1;           ///< hit / dodged / miss: the database segment played
   int start_frame = 0, contact_frame = 0;  ///< its frames (start, contact)

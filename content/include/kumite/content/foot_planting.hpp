@@ -37,6 +37,12 @@ struct FootSample {
   Eigen::Vector3d landing_ankle_m{0, 0, 0};
   double source_path_left_m = 0;
   Eigen::Vector3d drawn_ankle_m{0, 0, 0};  ///< m, room: where the ankle was drawn at the last update
+  /// Unit room x/z direction from the drawn ankle to the drawn toes at the last update (a foot
+  /// put down keeps this heading while held).
+  Eigen::Vector2d drawn_heading_xz{0, 1};
+  /// Unit room x/z direction the motion has this foot pointing now: a held foot turned more
+  /// than max_heading_lag_rad away from it steps (the body turned over it).
+  Eigen::Vector2d motion_heading_xz{0, 1};
   Eigen::Vector3d hip_m{0, 0, 0};          ///< m, room: the hip drawn at the last update
   double leg_length_m = 1;         ///< m, thigh + shin
   double standing_ankle_y_m = 0.08;  ///< m, the ankle's height above the floor when standing
@@ -66,17 +72,24 @@ class FootPlanter {
   Phase phase(int side) const { return feet_[static_cast<std::size_t>(side)].phase; }
   /// The ankle is held still this update (held, not lifted or stepping).
   bool held(int side) const { return phase(side) == Phase::held; }
+  /// Held where it should stand: not lagging behind the body, within the leg's reach (a foot
+  /// that would step if it could is not settled).
+  bool settled(int side) const { return held(side) && !feet_[static_cast<std::size_t>(side)].wants_step; }
   const FootPlantingTunables& tunables() const { return tun_; }
 
  private:
   struct Foot {
     Phase phase = Phase::free;
     Eigen::Vector3d lock{0, 0, 0};    ///< m, room: where the ankle is held
+    Eigen::Vector2d heading{0, 1};    ///< room x/z unit: the held foot's heading (put down with it)
+    double heading_hold = 0;          ///< 0..1: how far that heading is still kept (eased out when lifted)
     Eigen::Vector3d offset{0, 0, 0};  ///< m: swinging: lock - free ankle, shed over the swing
     double step_t = 0;                ///< stepping: 0..1
     double swing_way_m = -1;          ///< swinging toward a landing: its way along the floor (m), -1 unknown
     double swing_progress = 0;        ///< swinging: share of that way covered, 0..1 (never decreases)
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
+    bool wants_step = false;          ///< held: lagging or over-stretched at the last update
+    Eigen::Vector3d last_move{0, 0, 0};  ///< m: how far the lock moved at the last update
   };
   FootPlantingTunables tun_;
   std::array<Foot, 2> feet_{};

@@ -20,6 +20,8 @@
 namespace kumite::content {
 
 struct FootPlantingTunables {
+  double max_heading_lag_rad = 0.6;  ///< rad: a held foot steps when the motion turns it this far
+  double heading_release_s = 0.2;  ///< s: a lifted foot turns from its held heading to the motion's over this
   double step_threshold_m = 0.12;  ///< m: a held foot steps when its free place is this far
   double max_leg_stretch = 0.97;   ///< hip->held ankle / leg length beyond which the foot steps
   double step_time_s = 0.30;       ///< s per procedural step
@@ -58,6 +60,7 @@ struct BehaviourTunables {
   double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
   double max_root_drop_m = 0.30;      ///< m: the most the pelvis is lowered for held feet (a knee bend)
   double max_drop_rate_mps = 2.0;     ///< m/s: how fast that drop may change
+  double max_drop_accel_mps2 = 60;    ///< m/s^2: how fast that rate may change
   double keep_away_extra_m = 0.8;     ///< m: how much further than the strike distance the fighter
                                       ///< stands while the visitor is near a wall
   double release_time_s = 0.25;       ///< s: the shortest time d(t) takes to return to zero after
@@ -70,6 +73,14 @@ struct BehaviourTunables {
   double max_travel_scale = 1.5;      ///< fit the target, within these factors (a shorter or
                                       ///< longer lunge)
   double min_scaled_travel_m = 0.12;  ///< m: clips that travel less to contact keep their travel
+  /// A target farther than the strike clip reaches with its support foot where it stands (the
+  /// hip at contact beyond the leg's reach of that foot: the foot would be dragged, or the
+  /// pelvis sink and a punch go up with its elbow above the head): the fighter first steps in
+  /// by the distance missing, at least step_in_min_m and at most max_step_in_m (0: never
+  /// steps in; the lunge is then only as long as the foot allows and the arm reaches on).
+  double step_in_min_m = 0.05;
+  double max_step_in_m = 0.8;
+  double step_in_speed_mps = 1.5;     ///< m/s of the root while stepping in (faster than following)
   double max_strike_rise_m = 0.12;    ///< m: the most the pelvis is raised toward standing for a
                                       ///< target above the clip's own hit
   double max_punch_elevation_deg = 20;  ///< a punch aims at most this steeply upward before the
