@@ -3,7 +3,10 @@
 // target is reachable, and planted feet stay put (<= 2 mm per frame).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <array>
 #include <chrono>
+#include <cmath>
 #include <optional>
 #include <thread>
 #include <utility>
@@ -238,5 +241,75 @@ TEST(BehaviourShipped, AStrikesPlaybackRateIsFoundOffTheFrameAndEntersAtAFixedUp
     for (std::size_t i = 0; i < a.joints.size(); ++i)
       for (std::size_t j = 0; j < a.joints[i].size(); ++j)
         ASSERT_EQ(b.joints[i][j], a.joints[i][j]) << "solve " << static_cast<int>(how) << " update " << i + 2 << " joint " << j;
+  }
+}
+
+// A punch whose target the lunge would only reach by dragging its back foot (kenji's left
+// punch at his head height, 0.44 x stature ahead: the shipped lunge's back foot stands farther
+// back in the rest stance than in the clip) steps in first: a stepping_in event, then the
+// strike, which lands on the target with every held foot still (<= 3 mm a frame along the
+// floor) and each held foot keeping its heading (the toes do not swivel about a held ankle),
+// through the recovery into the rest motion too.
+// With step-ins off (max_step_in_m 0) the same order strikes at once.
+TEST(BehaviourShipped, AStrikeBeyondTheLungesReachStepsInFirstAndKeepsItsFeet) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& kenji = rigs[2];
+  ASSERT_EQ(kenji.name, "kenji");
+  const Vector3d target(0.0374, 1.5834, 0.7125);  // the quality grid's first left punch target
+  for (const double max_step_in : {0.8, 0.0}) {
+    FighterConfig cfg;
+    cfg.home = Vector3d::Zero();
+    cfg.behaviour.max_step_in_m = max_step_in;
+    cfg.min_x_m = cfg.min_z_m = -3;  // room to step in (the default area ends at the home spot's z)
+    cfg.max_x_m = cfg.max_z_m = 3;
+    Behaviour b(set.db, {kenji}, cfg);
+    const double dt = 1.0 / 120;
+    double t = 0;
+    b.update(t, 0, target);
+    for (int i = 0; i < 30; ++i) b.update(t += dt, dt, target);  // standing, feet held
+    b.order_strike(Order{t, OrderKind::punch_left}, target);
+    const int first_update = b.update_count();
+    const int ankle[2] = {kenji.skeleton.index(CJ::l_ankle), kenji.skeleton.index(CJ::r_ankle)};
+    const int toe[2] = {kenji.skeleton.index(CJ::l_toe), kenji.skeleton.index(CJ::r_toe)};
+    std::vector<FighterEvent> events;
+    int start_update = -1;
+    double worst_slide = 0, worst_turn_deg = 0;
+    // Through the strike and its recovery into the rest motion (where the feet turned).
+    for (int i = 0; i < 900 && !(b.strike().contact_done && b.state() == FighterState::resting); ++i) {
+      const auto held_before = b.feet_locked();
+      std::array<Vector3d, 2> a0, t0;
+      for (int s = 0; s < 2; ++s) {
+        a0[static_cast<std::size_t>(s)] = b.rig_positions()[static_cast<std::size_t>(ankle[s])];
+        t0[static_cast<std::size_t>(s)] = b.rig_positions()[static_cast<std::size_t>(toe[s])];
+      }
+      b.update(t += dt, dt, target);
+      for (auto& e : b.take_events()) events.push_back(e);
+      if (start_update < 0 && b.state() == FighterState::striking) start_update = b.update_count();
+      const auto held = b.feet_locked();
+      for (int s = 0; s < 2; ++s) {
+        const auto us = static_cast<std::size_t>(s);
+        if (!(held[us] && held_before[us])) continue;
+        const Vector3d a1 = b.rig_positions()[static_cast<std::size_t>(ankle[s])];
+        const Vector3d t1 = b.rig_positions()[static_cast<std::size_t>(toe[s])];
+        worst_slide = std::max(worst_slide, std::hypot(a1.x() - a0[us].x(), a1.z() - a0[us].z()));
+        const double h0 = std::atan2(t0[us].x() - a0[us].x(), t0[us].z() - a0[us].z());
+        const double h1 = std::atan2(t1.x() - a1.x(), t1.z() - a1.z());
+        worst_turn_deg = std::max(worst_turn_deg, std::abs(std::remainder(h1 - h0, 2 * M_PI)) * 180 / M_PI);
+      }
+    }
+    ASSERT_TRUE(b.strike().contact_done) << "max_step_in_m " << max_step_in;
+    const auto stepped = std::count_if(events.begin(), events.end(), [](const FighterEvent& e) { return e.kind == FighterEvent::Kind::stepping_in; });
+    if (max_step_in > 0) {
+      EXPECT_EQ(stepped, 1);
+      EXPECT_GT(start_update - first_update, 30) << "the strike starts once the fighter has stepped in";
+      EXPECT_LT(b.strike().contact_distance_m, 2e-3);
+      EXPECT_TRUE(b.strike().target_reached);
+      EXPECT_LT(worst_slide, 3e-3);
+      EXPECT_LT(worst_turn_deg, 1.0) << "a held foot turned on its ankle";
+    } else {
+      EXPECT_EQ(stepped, 0);
+      EXPECT_LE(start_update - first_update, 1) << "without step-ins the strike starts on its plan";
+    }
   }
 }

@@ -2,6 +2,7 @@
 // truncated and old-version files with one-line errors naming the file.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -102,4 +103,20 @@ TEST(Database, AnnotationsOutsideTheClipAreRejectedNamingTheSegment) {
   EXPECT_THROW(build_database(src, {}), Error);
   src = {{&c, "no_effector", 0, 20, SegmentKind::strike, std::nullopt, 10}};
   EXPECT_THROW(build_database(src, {}), Error);
+}
+
+// The back foot of a lunge rolls onto its toes before it steps: CMU 135_06 (kata move 16, the
+// left lunge punch), clip frames 2107-2127: the right heel rises ~4 cm (ankle 0.25-0.38 m/s)
+// while the toes stay within 2 cm (read off the raw BVH with scripts/judge-bvh.py's FK). The
+// foot is planted there (toes low and slow), not lifted: lifted, the planter let the lunging
+// hip drag it 15 cm along the floor.
+TEST(Database, AFootOnItsToesIsPlanted) {
+  const Database& db = *kumite::content::testing::shipped_database().db;
+  const auto it = std::find_if(db.segments.begin(), db.segments.end(), [](const MotionSegment& s) { return s.name == "135_06_punch_left_3"; });
+  ASSERT_NE(it, db.segments.end());
+  const int first = it->source_first_frame;  // 2074
+  for (int f = 2107; f <= 2127; ++f)
+    EXPECT_GE(it->frames[static_cast<std::size_t>(f - first)].planted[kRight], 0.5) << "clip frame " << f;
+  // And it is lifted once it steps (clip frame 2137 on: toes moving at 2+ m/s).
+  EXPECT_LT(it->frames[static_cast<std::size_t>(2140 - first)].planted[kRight], 0.5);
 }
