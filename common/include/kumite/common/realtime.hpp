@@ -20,7 +20,8 @@ std::string run_this_thread_realtime(int priority);
 /// from memory already mapped. Without it each set cost mmap/munmap calls and fresh page
 /// faults, which the tracker thread, even at real-time priority, can stall behind: in a
 /// kumite_app_pose_age run without it two frame sets took 22 and 31 ms to process (1-2 ms
-/// as a rule); in the same run with it, none took over 5 ms.
+/// as a rule); in the same run with it, none took over 5 ms. It also bounds the allocator to a
+/// few arenas, each of which would keep its own freed memory (realtime.cpp: kArenaMax).
 /// Returns false if the allocator refused (the program runs on, just with those stalls).
 bool keep_freed_memory();
 
