@@ -39,11 +39,11 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
   switch_offset_.assign(max_joints, Vector3d::Zero());
-  eased_.cum.reserve(256);
+  eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames: no allocation while playing
   // Orders swap between these two each update; an order taken again after stepping in is
   // queued from inside update(): room kept in both, so that allocates nothing.
   orders_.reserve(16);
-  taking_.reserve(16);  // a release of 0.25 s holds ~32 frames: no allocation while playing
+  taking_.reserve(16);
   spot_xz_m_ = {config.home.x(), config.home.z()};
   facing_rad_ = 0;
   use_synchronous_planner(std::make_shared<StrikePlanner>(db_, config.retrieval));

@@ -83,10 +83,11 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         const double turned = std::abs(std::remainder(std::atan2(in.motion_heading_xz.x(), in.motion_heading_xz.y()) -
                                                           std::atan2(f.heading.x(), f.heading.y()),
                                                       2 * std::numbers::pi));
-        const bool lagging = other.phase != Phase::stepping && ((target - f.lock).norm() > tun_.step_threshold_m || turned > tun_.max_heading_lag_rad);
+        // Out of place: behind where it should land, or turned away from the motion's heading.
+        const bool out_of_place = (target - f.lock).norm() > tun_.step_threshold_m || turned > tun_.max_heading_lag_rad;
+        const bool lagging = other.phase != Phase::stepping && out_of_place;
         const double stretch = (f.lock - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
-        f.wants_step = (target - f.lock).norm() > tun_.step_threshold_m || turned > tun_.max_heading_lag_rad ||
-                       stretch > tun_.max_leg_stretch || !in.reached;
+        f.wants_step = out_of_place || stretch > tun_.max_leg_stretch || !in.reached;
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the
         // other stands on the floor (both off it is a hop).

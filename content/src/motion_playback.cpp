@@ -155,9 +155,8 @@ void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
   // whose body travels to contact): its support foot is the back foot the lunge pushes off,
   // and the stance is only the captured one when that foot stands where the clip has it (a
   // strike that then lands short steps in first: place_strike_travel).
-  const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, seg.frame_count() - 1);
-  const bool lunge = (seg.frames[static_cast<std::size_t>(contact)].root_xz_m - seg.frames[static_cast<std::size_t>(first)].root_xz_m).norm() *
-                         stride_scale() >= tun_.min_scaled_travel_m;
+  MkmFrame contact_pose;
+  const bool lunge = strike_travel(s, contact_time_s, contact_pose).norm() >= tun_.min_scaled_travel_m;
   if (strike_target_ && !lunge) {
     Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
     if (dir.norm() > 1e-6) {
@@ -169,6 +168,15 @@ void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
   const double limit = tun_.max_support_shift_m;
   if (shift.norm() > limit) shift *= limit / shift.norm();
   s.placement.origin_xz += shift;
+}
+
+Vector2d Behaviour::strike_travel(const Source& s, double contact_time_s, MkmFrame& contact_pose) const {
+  Source at_contact = s;
+  at_contact.time_s = contact_time_s;
+  MkmFrame start_pose;
+  sample(s, start_pose);
+  sample(at_contact, contact_pose);
+  return contact_pose.root_xz_m - start_pose.root_xz_m;
 }
 
 double Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
@@ -193,12 +201,8 @@ double Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
   const auto eff = seg.effector();
   if (!eff) return 0;
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  Source at_contact = s;
-  at_contact.time_s = contact_time_s;
-  MkmFrame start_pose, contact_pose;
-  sample(s, start_pose);
-  sample(at_contact, contact_pose);
-  const Vector2d travel2 = contact_pose.root_xz_m - start_pose.root_xz_m;
+  MkmFrame contact_pose;
+  const Vector2d travel2 = strike_travel(s, contact_time_s, contact_pose);
   const Vector3d target = *strike_target_;
   double k = 0;  // scale - 1
   const double leg = rig.morphology.leg_length_m;

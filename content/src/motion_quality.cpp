@@ -414,21 +414,18 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
   FigureOptions o = options;
   if (in.effector.leg) o.stepping_feet[static_cast<std::size_t>(in.effector.side)] = false;
   q.output = track_figures(out, q.output_range, mapped, 1, o);
+  const int h = speed_half_window(out.frame_time_s, o.window_s);
   {
     // The output foot down (ankle or toe near the output's own lowest levels over the
     // compared frames): a source-contact frame with the output foot down is a skate if it
     // moves; with it off the floor, a step the source does not make (`lifted`).
     const ContactOptions co;
-    const int h = speed_half_window(out.frame_time_s, o.window_s);
+    const FootContacts levels = detect_foot_contacts(out, co, q.output_range);  // its floor levels
     for (int side = 0; side < 2; ++side) {
       const auto si = static_cast<std::size_t>(side);
       const int ankle = require(*out.skeleton, side == kLeft ? CJ::l_ankle : CJ::r_ankle);
       const int toe = require(*out.skeleton, side == kLeft ? CJ::l_toe : CJ::r_toe);
-      double fa = std::numeric_limits<double>::infinity(), ft = fa;
-      for (int f = q.output_range.first; f <= q.output_range.last; ++f) {
-        fa = std::min(fa, out.at(f, ankle).y());
-        ft = std::min(ft, out.at(f, toe).y());
-      }
+      const double fa = levels.ankle_floor_m[si], ft = levels.toe_floor_m[si];
       std::vector<std::uint8_t> down(mapped.contact[si]), up(mapped.contact[si]);
       for (int f = 0; f < out.frame_count; ++f) {
         // Down: heel or toes on the floor (a raised heel still stands on the ball of the foot,
@@ -455,7 +452,6 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
   q.tail_range = {q.output_range.last + 1, out.frame_count - 1};
   if (q.tail_range.count() > 0) q.tail = track_figures(out, q.tail_range, own, 1, o);
   q.source = track_figures(src, q.source_range, src_contacts, in.speed_scale, o);
-  const int h = speed_half_window(out.frame_time_s, o.window_s);
   q.output_contact = limb_at_contact(out, in.effector, in.contact_frame, in.target_m, h);
   const int src_contact = std::clamp(source_of(in.contact_frame), 0, src.frame_count - 1);
   const Limb l = limb_of(in.effector.side, in.effector.leg);

@@ -278,6 +278,20 @@ class MocapVisitorFrames final : public kumite::tracking::FrameSource {
   std::size_t n_ = 0;
   bool ended_ = false;
 };
+
+/// Polls `input` every `period` until its tracker stops or `limit_s` pass: every visitor strike
+/// it handed over; `s` is the last snapshot (its state says whether it stopped).
+std::vector<VisitorStrike> strikes_until_stopped(TrackingInput& input, TrackingSnapshot& s, std::chrono::milliseconds period,
+                                                 double limit_s) {
+  std::vector<VisitorStrike> got;
+  const kumite::Timestamp give_up = kumite::now() + limit_s;
+  do {
+    std::this_thread::sleep_for(period);
+    input.poll(kumite::now(), kumite::now(), s);
+    got.insert(got.end(), s.strikes.begin(), s.strikes.end());
+  } while (s.state != TrackerState::stopped && kumite::now() < give_up);
+  return got;
+}
 }  // namespace
 
 TEST(VisitorStrikes, GlovesTrackedFromCameraFramesGiveTheMocapsStrikes) {
@@ -299,13 +313,7 @@ TEST(VisitorStrikes, GlovesTrackedFromCameraFramesGiveTheMocapsStrikes) {
   const auto batch = rec::recognise(rec::read_model(kModel), truth);
   auto input = make_tracking_input(cfg, std::make_unique<MocapVisitorFrames>(rig, tc, file, kUntil));
   TrackingSnapshot s;
-  std::vector<VisitorStrike> got;
-  const kumite::Timestamp give_up = kumite::now() + 300;
-  do {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    input->poll(kumite::now(), kumite::now(), s);
-    got.insert(got.end(), s.strikes.begin(), s.strikes.end());
-  } while (s.state != TrackerState::stopped && kumite::now() < give_up);
+  std::vector<VisitorStrike> got = strikes_until_stopped(*input, s, std::chrono::milliseconds(50), 300);
   ASSERT_EQ(s.state, TrackerState::stopped) << "every set tracked within 300 s";
   input.reset();  // the tracker and the recognition thread stopped: every sample recognised
   EXPECT_EQ(s.frame_sets, static_cast<std::uint64_t>(kUntil * 60) + 1);
@@ -352,13 +360,7 @@ TEST(PosesSource, AFileThatStopsMidStrikeCancelsIt) {
                                              "room.toml");
   auto input = make_tracking_input(cfg);
   TrackingSnapshot s;
-  std::vector<VisitorStrike> got;
-  const kumite::Timestamp give_up = kumite::now() + 30;
-  do {
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-    input->poll(kumite::now(), kumite::now(), s);
-    got.insert(got.end(), s.strikes.begin(), s.strikes.end());
-  } while (s.state != TrackerState::stopped && kumite::now() < give_up);
+  std::vector<VisitorStrike> got = strikes_until_stopped(*input, s, std::chrono::milliseconds(20), 30);
   ASSERT_EQ(s.state, TrackerState::stopped);
   // The cancels are published by the recognition thread just after the file's end.
   for (int i = 0; i < 50 && std::none_of(got.begin(), got.end(), [](const auto& e) { return e.type == rec::EventType::cancel; }); ++i) {

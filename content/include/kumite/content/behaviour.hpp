@@ -257,6 +257,10 @@ class Behaviour {
   /// Places a strike's travel (motion_playback.cpp); returns the distance (m) the fighter
   /// would have to step in for the limb to reach the target as extended as captured.
   double place_strike_travel(Source& s, double contact_time_s) const;
+  /// The floor travel (m, room) of a strike source's root from its time to contact_time_s, as
+  /// placed with its travel as it is (a lunge's: the clip travels at least
+  /// min_scaled_travel_m); `contact_pose`: the pose at contact.
+  Eigen::Vector2d strike_travel(const Source& s, double contact_time_s, MkmFrame& contact_pose) const;
   /// The strike's source as start_strike() plays it: placed on the character, aligned to the
   /// support foot, its travel fitted to strike_target_; `shortfall_m`: place_strike_travel's.
   Source strike_source(const StrikePlan& plan, double& shortfall_m) const;
