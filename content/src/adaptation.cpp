@@ -60,6 +60,12 @@ constexpr double kTrunkZone = 0.05;
 /// that (4 mm) short of its lock, instead of the knee popping straight in one frame.
 constexpr double kLegSoftness = 0.015;
 
+/// Share of the arm's length over which the striking arm straightens softly (see the
+/// shoulder in decode_pass): 0.8 %, ~5 mm on a 0.6 m arm. A goal at full extension is then
+/// drawn at most 0.37 of that short (under 2 mm on the longest arm); the trunk lean keeps
+/// goals below the soft zone wherever its limits allow.
+constexpr double kArmSoftness = 0.008;
+
 /// m, a 1.75 m person's head drawn as a capsule (scaled with height like the bones).
 constexpr double kHeadRadius_m = 0.075;
 
@@ -163,7 +169,15 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
         }
         const Vector3d axis = (goal - pos).normalized();
         const Vector3d pole = kept_pole(turn * f.arm_n[s], axis, turn * (chest_world * arm_swivel_reference(s)), f.arm_swivel_rad[s]);
-        const TwoBoneResult r = solve_two_bone(pos, goal, m.upper_arm_m[s], m.forearm_m[s], pole);
+        // The striking arm straightens softly (as a held foot's leg does): near full extension
+        // two-bone IK moves the elbow centimetres for the last millimetres, and a goal that
+        // comes back within reach the frame after contact popped the elbow (5.6 cm in a frame).
+        // The trunk lean keeps a goal at contact within (1 - kTrunkZone) of the arm, below the
+        // soft zone, so the reach there is exact unless the trunk's limits stop it.
+        const double softness = job.reach && !job.reach->effector.leg && job.reach->effector.side == s
+                                    ? kArmSoftness * (m.upper_arm_m[s] + m.forearm_m[s])
+                                    : 0.0;
+        const TwoBoneResult r = solve_two_bone_soft(pos, goal, m.upper_arm_m[s], m.forearm_m[s], pole, softness);
         wrist_goal[s] = r.end;
         out.arm_reached[s] = r.reached;
         rot = aim(r.middle - pos);

@@ -43,6 +43,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.offset = f.lock - in.free_ankle_m;
     f.swing_way_m = -1;
     f.swing_progress = 0;
+    f.swing_from = f.lock;
+    f.source_rise_m = 0;
   };
   for (int s = 0; s < 2; ++s) {
     Foot& f = feet_[static_cast<std::size_t>(s)];
@@ -134,6 +136,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // motion has it by the time the source plants it again, never faster than a share of
         // the source's own travel (a foot the source barely moves stays put).
         const double left = std::max(in.swing_left_s, tun_.min_swing_s);
+        f.source_rise_m += in.source_step_m.y();
         if (in.effector) {
           // The kicking foot goes where the composed motion and d(t) send it; only the gap it
           // had when it left its hold is carried and shed.
@@ -142,7 +145,12 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           const double shed = std::min(norm * std::min(1.0, dt / left), kShedPerTravel * travel);
           if (norm > 1e-12) f.offset *= (norm - shed) / norm;
           Vector3d next = in.free_ankle_m + f.offset;
-          if (std::min(next.y(), f.lock.y()) < in.standing_ankle_y_m + tun_.landing_height_m) {
+          // The floor it left (its hold's height: a heel raised on the toes, a character whose
+          // standing ankle sits higher than its rest pose's), or the standing height when it was
+          // taken from the air.
+          const bool from_floor = f.swing_from.y() <= in.standing_ankle_y_m + tun_.landing_height_m;
+          const double left_floor_y = from_floor ? std::max(in.standing_ankle_y_m, f.swing_from.y()) : in.standing_ankle_y_m;
+          if (std::min(next.y(), f.lock.y()) < left_floor_y + tun_.landing_height_m) {
             // Still on the floor: it moves along it no faster than the source's own foot (a
             // kick lifts the foot before it drives it forward; d(t) and a scaled travel pushed
             // it along the floor first). The way held back is carried as offset and shed in the air.
@@ -153,6 +161,11 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
               next.x() = f.lock.x() + along.x();
               next.z() = f.lock.z() + along.y();
             }
+            // ...and it leaves the floor before it travels (kept low by the blend from a standing
+            // motion, it slid flat along it): it rises at least as far as the source's ankle has
+            // since it was lifted, and at least as far as it has gone along the floor.
+            const double gone = Eigen::Vector2d(next.x() - f.swing_from.x(), next.z() - f.swing_from.z()).norm();
+            if (from_floor) next.y() = std::max(next.y(), f.swing_from.y() + std::max(f.source_rise_m, gone));
           }
           f.lock = next;
           f.offset = f.lock - in.free_ankle_m;

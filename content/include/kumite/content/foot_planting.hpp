@@ -87,6 +87,8 @@ class FootPlanter {
     double step_t = 0;                ///< stepping: 0..1
     double swing_way_m = -1;          ///< swinging toward a landing: its way along the floor (m), -1 unknown
     double swing_progress = 0;        ///< swinging: share of that way covered, 0..1 (never decreases)
+    Eigen::Vector3d swing_from{0, 0, 0};  ///< m, room: swinging: the lock when it was lifted
+    double source_rise_m = 0;         ///< m: swinging: how far the source has raised this ankle since then
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
     bool wants_step = false;          ///< held: lagging or over-stretched at the last update
     Eigen::Vector3d last_move{0, 0, 0};  ///< m: how far the lock moved at the last update
