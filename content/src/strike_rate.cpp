@@ -15,6 +15,7 @@ namespace kumite::content {
 using namespace behaviour_detail;
 using Eigen::Vector3d;
 
+
 StrikeRateSolver::StrikeRateSolver(std::shared_ptr<const Database> db, const BehaviourTunables& tunables)
     : db_(std::move(db)), tun_(tunables) {
   eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames
@@ -63,13 +64,25 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     positions_.resize(n);
   }
   const auto effector = static_cast<std::size_t>(rig.skeleton.index(job.effector.joint()));
+  if (last_positions_.size() < n) last_positions_.resize(n);
+  // The striking limb's joints: the limb's root (shoulder or hip) and everything below it.
+  const int limb_root = rig.skeleton.index(job.effector.leg ? (job.effector.side == kLeft ? CanonicalJoint::l_hip : CanonicalJoint::r_hip)
+                                                            : (job.effector.side == kLeft ? CanonicalJoint::l_shoulder : CanonicalJoint::r_shoulder));
+  in_limb_.assign(n, 0);
+  for (std::size_t j = 0; j < n; ++j) {
+    const int p = rig.skeleton.parents[j];
+    in_limb_[j] = static_cast<int>(j) == limb_root || (p >= 0 && in_limb_[static_cast<std::size_t>(p)]);
+  }
   const Playback play{*db_, job.stride_scale, eased_};
-  const auto drawn_peak = [&](double rate) {
-    PlaybackSource cur = job.current, prev = job.previous;
+  // Peak speeds over the way, sampled every h: the hit point's, and each joint's of the
+  // striking limb (a toe, a finger: the limb's end swings faster than the hit point when d(t)
+  // turns the limb about its root).
+  if (peaks_.size() < n) peaks_.resize(n);
+  const auto decode_peaks = [&](PlaybackSource cur, PlaybackSource prev, double rate, bool drawn, std::span<double> joint_peak) {
     cur.rate = rate;
     const double t0 = job.current.time_s, p0 = job.previous.time_s;
-    double peak = 0;
-    Vector3d last_p = Vector3d::Zero();
+    double effector_peak = 0;
+    std::fill(joint_peak.begin(), joint_peak.end(), 0.0);
     MkmFrame b, pose;
     for (int k = 0;; ++k) {
       const double w = k * h;
@@ -77,7 +90,8 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
       cur.time_s = t0 + std::min(w, job.lead_s) + rate * std::max(0.0, w - job.lead_s);
       if (cur.time_s > job.release_end_s + 1e-9) break;
       prev.time_s = p0 + prev.rate * w;
-      play.compose(cur, prev, job.blend_elapsed_s + w, tun_.blend_time_s, b, pose);
+      // The source alone (no blend from the motion before, no d(t)), or as it will be drawn.
+      play.compose(cur, prev, drawn ? job.blend_elapsed_s + w : tun_.blend_time_s, tun_.blend_time_s, b, pose);
       const double t = cur.time_s;
       const ReachGoal goal = reach_goal_at(job.effector, job.turn, job.stretch,
                                            t <= job.contact_time_s ? reach_ramp_in(job.start_time_s, job.contact_time_s, t)
@@ -85,22 +99,43 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
       AdaptJob adapt;
       adapt.rig = &rig;
       adapt.pose = &pose;
-      adapt.reach = &goal;
+      adapt.reach = drawn ? &goal : nullptr;
       adapt.local_rotations = std::span(local_).first(n);
       adapt.global_rotations = std::span(global_).first(n);
       adapt.global_positions = std::span(positions_).first(n);
-      if (!adapt.Run()) return 0.0;
-      const Vector3d p = positions_[effector];
-      if (k > 0) peak = std::max(peak, (p - last_p).norm() / h);
-      last_p = p;
+      if (!adapt.Run()) return -1.0;
+      if (k > 0) {
+        effector_peak = std::max(effector_peak, (positions_[effector] - last_positions_[effector]).norm() / h);
+        for (std::size_t j = 0; j < n; ++j)
+          if (in_limb_[j]) joint_peak[j] = std::max(joint_peak[j], (positions_[j] - last_positions_[j]).norm() / h);
+      }
+      std::copy_n(positions_.begin(), n, last_positions_.begin());
     }
-    return peak;
+    return effector_peak;
   };
+  // The source's own limb over the same segment frames at the clip's rate, decoded on the
+  // character (its size), its travel as captured.
+  PlaybackSource plain = job.current;
+  plain.travel = {};
+  if (src_peaks_.size() < n) src_peaks_.resize(n);
+  const std::span<double> src_joint = std::span(src_peaks_).first(n), drawn_joint = std::span(peaks_).first(n);
+  if (decode_peaks(plain, job.previous, 1.0, false, src_joint) < 0) return done(1);
+  const double src_limb_peak = *std::max_element(src_joint.begin(), src_joint.end());
   double rate = 1;
   for (int refine = 0; refine < 2; ++refine) {
-    const double peak = drawn_peak(rate);
-    if (!(peak > tun_.max_strike_speed_ratio * src_peak)) break;
-    const double next = std::clamp(rate * tun_.max_strike_speed_ratio * src_peak / peak, tun_.min_strike_rate, 1.0);
+    const double peak = decode_peaks(job.current, job.previous, rate, true, drawn_joint);
+    if (peak < 0) return done(1);
+    // The slowest of the rates that bring each peak within max_strike_speed_ratio.
+    double want = 1;
+    if (peak > tun_.max_strike_speed_ratio * src_peak) want = tun_.max_strike_speed_ratio * src_peak / peak;
+    // The limb's fastest joint against the source limb's fastest (per joint, a joint turned
+    // faster than its source's, e.g. the knee of a kick aimed higher, slowed most strikes of the
+    // grid to min_strike_rate: played slower than their mocap, p99 joint speed / source p50 0.85).
+    const double limb_peak = *std::max_element(drawn_joint.begin(), drawn_joint.end());
+    if (src_limb_peak > 1e-9 && limb_peak > tun_.max_strike_speed_ratio * src_limb_peak)
+      want = std::min(want, tun_.max_strike_speed_ratio * src_limb_peak / limb_peak);
+    if (!(want < 1)) break;
+    const double next = std::clamp(rate * want, tun_.min_strike_rate, 1.0);
     if (next >= rate) break;
     rate = next;
   }

@@ -519,3 +519,23 @@ TEST(MotionQualityShipped, TheArmDoesNotPopStraightTheFrameAfterAFullStretchCont
     }
   }
 }
+
+TEST(MotionQualityShipped, AKickWhoseToesOutrunTheSourcesIsPlayedSlower) {
+  // Bruno's right kick (135_07) at his torso height: d(t) turns the leg up about the hip, and
+  // the toes (the leg's end, past the ankle the rate solver once watched alone) swung faster
+  // than the source's: played at the clip's rate, p99 joint speed 1.26 x the source's over the
+  // same frames. The rate solver now also compares the striking limb's fastest joint with the
+  // source limb's. Judged on the BVH read back.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& bruno = rigs[1];
+  ASSERT_EQ(bruno.name, "bruno");
+  const StrikeRecording rec = record_strike(set.db, bruno, OrderKind::kick_right, Vector3d(-0.03, 1.336, 1.161));
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::kick_right, "bruno");
+  const double ratio = judged.q.output.speed.p99_mps / judged.q.source.speed.p99_mps;
+  std::printf("%s: rate %.2f, p99 joint speed / source %.2f\n", rec.source_clip.c_str(), rec.strike.rate, ratio);
+  EXPECT_LT(rec.strike.rate, 1.0);
+  EXPECT_LT(ratio, 1.2);
+  EXPECT_TRUE(judged.q.output.snaps.empty());
+}

@@ -148,7 +148,9 @@ class StrikeRateSolver {
   EasedTravelCache eased_;
   CanonicalPose canonical_;
   std::vector<Eigen::Quaterniond> local_, global_;
-  std::vector<Eigen::Vector3d> positions_;
+  std::vector<Eigen::Vector3d> positions_, last_positions_;
+  std::vector<char> in_limb_;  ///< [joint] part of the striking limb
+  std::vector<double> peaks_, src_peaks_;  ///< m/s [joint]: drawn and source peak speeds
 };
 
 /// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
