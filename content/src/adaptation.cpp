@@ -159,24 +159,27 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
         break;
       }
       case Role::shoulder: {
-        Vector3d goal = pos + f.arm_n[s] * m.arm_length(s);
-        Quaterniond turn = Quaterniond::Identity();
-        if (job.reach && !job.reach->effector.leg && job.reach->effector.side == s) {
+        const bool striking = job.reach && !job.reach->effector.leg && job.reach->effector.side == s;
+        // The other arm leans with the trunk (a bent trunk carries both arms; held in the room
+        // frame, the guard arm's elbow flipped as the lean eased out after contact).
+        Quaterniond turn = striking ? Quaterniond::Identity() : trunk;
+        Vector3d goal = pos + turn * f.arm_n[s] * m.arm_length(s);
+        if (striking) {
           turn = job.reach->turn;
           goal = pos + job.reach->stretch * (turn * (goal - pos)) + job.reach->offset_m;
           if (td.fixed_goal) goal = td.pin * td.goal + (1 - td.pin) * goal;
           out.effector_goal = goal;
         }
         const Vector3d axis = (goal - pos).normalized();
-        const Vector3d pole = kept_pole(turn * f.arm_n[s], axis, turn * (chest_world * arm_swivel_reference(s)), f.arm_swivel_rad[s]);
+        // (chest_world already carries the trunk's rotations: the guard arm's reference is not turned again.)
+        const Quaterniond ref_turn = striking ? turn : Quaterniond::Identity();
+        const Vector3d pole = kept_pole(turn * f.arm_n[s], axis, ref_turn * (chest_world * arm_swivel_reference(s)), f.arm_swivel_rad[s]);
         // The striking arm straightens softly (as a held foot's leg does): near full extension
         // two-bone IK moves the elbow centimetres for the last millimetres, and a goal that
         // comes back within reach the frame after contact popped the elbow (5.6 cm in a frame).
         // The trunk lean keeps a goal at contact within (1 - kTrunkZone) of the arm, below the
         // soft zone, so the reach there is exact unless the trunk's limits stop it.
-        const double softness = job.reach && !job.reach->effector.leg && job.reach->effector.side == s
-                                    ? kArmSoftness * (m.upper_arm_m[s] + m.forearm_m[s])
-                                    : 0.0;
+        const double softness = striking ? kArmSoftness * (m.upper_arm_m[s] + m.forearm_m[s]) : 0.0;
         const TwoBoneResult r = solve_two_bone_soft(pos, goal, m.upper_arm_m[s], m.forearm_m[s], pole, softness);
         wrist_goal[s] = r.end;
         out.arm_reached[s] = r.reached;
@@ -311,6 +314,19 @@ bool AdaptJob::Run() const {
   TrunkDeltas td;
   PassOut out;
   decode_pass(*this, td, out);
+  if (reach && !reach->effector.leg && !reach->lean.identity()) {
+    // The planned lean: the body leans, the goal stays where the plain pose put it (pinned as
+    // d(t) pins it: at contact the target itself).
+    td.spine = reach->lean.spine;
+    td.chest = reach->lean.chest;
+    td.clavicle = reach->lean.clavicle;
+    td.clavicle_side = reach->effector.side;
+    td.fixed_goal = true;
+    td.pin = std::clamp(reach->pin, 0.0, 1.0);
+    td.goal = out.effector_goal;
+    out = PassOut{};
+    decode_pass(*this, td, out);
+  }
   if (feet) {
     // Held feet the legs cannot reach: lower the pelvis just enough (a knee bend) rather
     // than let the feet slide. Each foot asks for its drop times its hold weight, so the
@@ -332,28 +348,57 @@ bool AdaptJob::Run() const {
     drop = std::clamp(drop, std::max(0.0, feet->min_root_drop_m), std::max(feet->min_root_drop_m, feet->max_root_drop_m));
     if (drop > 0) {
       td.root_drop_m = drop;
-      td.fixed_goal = reach != nullptr;
-      td.pin = reach ? std::clamp(reach->pin, 0.0, 1.0) : 0.0;
-      td.goal = out.effector_goal;
+      if (!td.fixed_goal) {
+        td.fixed_goal = reach != nullptr;
+        td.pin = reach ? std::clamp(reach->pin, 0.0, 1.0) : 0.0;
+        td.goal = out.effector_goal;
+      }
       out = PassOut{};
       decode_pass(*this, td, out);
     }
   }
   const bool arm_reach = reach && !reach->effector.leg;
   bool trunk_used = false;
+  TrunkLean fallback;  // the fallback's rotations this frame (identity: none)
+  // Pins the effector goal for the passes that bend the trunk (it must not move with it).
+  const auto pin_goal = [&] {
+    if (!td.fixed_goal || td.pin < 1) {
+      td.fixed_goal = true;
+      td.pin = 1;
+      td.goal = out.effector_goal;
+    }
+  };
+  const auto bend = [&](const TrunkLean& by, int s) {
+    td.spine = by.spine * td.spine;
+    td.chest = by.chest * td.chest;
+    td.clavicle = by.clavicle * (td.clavicle_side == s ? td.clavicle : Quaterniond::Identity());
+    td.clavicle_side = s;
+    fallback.spine = by.spine * fallback.spine;
+    fallback.chest = by.chest * fallback.chest;
+    fallback.clavicle = by.clavicle * fallback.clavicle;
+  };
+  if (arm_reach && min_trunk_fallback && !min_trunk_fallback->identity()) {
+    // The least fallback the caller asks for (the last frame's, going out over frames) first;
+    // the CCD below adds only what the goal needs beyond it.
+    bend(*min_trunk_fallback, reach->effector.side);
+    pin_goal();
+    out = PassOut{};
+    decode_pass(*this, td, out);
+    trunk_used = true;
+  }
   // The trunk joins in over the last kTrunkZone of the arm's reach (weight 0 -> 1 as the goal
   // goes from (1 - kTrunkZone) x to 1 x the arm's length from the shoulder), not only once the
   // arm falls short: a nearly straight arm leans the body in a little instead of raising its
-  // elbow (strike grid: punches with the elbow above the head at contact 15 -> 4 of 120).
-  // Still not smooth in time: a goal far beyond reach at contact that is back within reach the
-  // next frame (the source arm retracting) drops the lean in one frame (issue 12 note).
+  // elbow (strike grid: punches with the elbow above the head at contact 15 -> 4 of 120). In
+  // time it is smooth only as the caller bounds it (max_trunk_weight, min_trunk_fallback).
   double trunk_w = 0;
   if (arm_reach) {
     const int s = reach->effector.side;
     const double arm = rig->morphology.arm_length(s);
     const double d = (out.effector_goal - joint_pos(*this, kShoulder[s])).norm();
-    const double x = std::clamp((d - (1 - kTrunkZone) * arm) / (kTrunkZone * arm), 0.0, 1.0);
-    trunk_w = out.arm_reached[s] ? x * x * (3 - 2 * x) : 1.0;
+    const double share = std::clamp(trunk_target_share, 0.5, 0.999);
+    const double x = std::clamp((d - share * arm) / ((1 - share) * arm), 0.0, 1.0);
+    trunk_w = std::min(out.arm_reached[s] ? x * x * (3 - 2 * x) : 1.0, std::clamp(max_trunk_weight, 0.0, 1.0));
   }
   if (trunk_w > 0) {
     // Bend spine/chest/clavicle (CCD) to bring the shoulder within (1 - kTrunkZone) of the
@@ -372,25 +417,30 @@ bool AdaptJob::Run() const {
     }
     chain.limb_root = joint_pos(*this, kShoulder[s]);
     std::array<Quaterniond, 4> deltas;
-    const double reach_m = rig->morphology.arm_length(s) * (1 - kTrunkZone);
+    const double reach_m = rig->morphology.arm_length(s) * std::clamp(trunk_target_share, 0.5, 0.999);
     solve_ccd_reach(chain, out.effector_goal, reach_m, trunk.iterations, deltas);
     for (auto& q : deltas) q = Quaterniond::Identity().slerp(trunk_w, q);
-    if (slot[0] >= 0) td.spine = deltas[slot[0]];
-    if (slot[1] >= 0) td.chest = deltas[slot[1]];
-    if (slot[2] >= 0) { td.clavicle = deltas[slot[2]]; td.clavicle_side = s; }
-    // The spine delta rotates about the spine joint, the chest delta about the chest: that
-    // is what the decode pass does when it applies them to the aimed directions/frames.
-    if (!td.fixed_goal || td.pin < 1) {
-      td.fixed_goal = true;
-      td.pin = 1;
-      td.goal = out.effector_goal;
-    }
+    // On top of a planned lean and the caller's least fallback (solved from that pose):
+    // composed, not replaced. The spine delta rotates about the spine joint, the chest delta
+    // about the chest: that is what the decode pass does when it applies them to the aimed
+    // directions/frames.
+    TrunkLean by;
+    if (slot[0] >= 0) by.spine = deltas[slot[0]];
+    if (slot[1] >= 0) by.chest = deltas[slot[1]];
+    if (slot[2] >= 0) by.clavicle = deltas[slot[2]];
+    bend(by, s);
+    pin_goal();
     out = PassOut{};
     decode_pass(*this, td, out);
     trunk_used = true;
   }
   if (report) {
     report->trunk_used = trunk_used;
+    report->trunk_weight = trunk_used ? trunk_w : 0.0;
+    report->trunk_fallback = fallback;
+    report->trunk.spine = td.spine;
+    report->trunk.chest = td.chest;
+    report->trunk.clavicle = td.clavicle_side >= 0 ? td.clavicle : Quaterniond::Identity();
     report->foot_reached = out.leg_reached;
     report->root_drop_m = td.root_drop_m;
     if (reach) {

@@ -22,6 +22,16 @@ using CJ = CanonicalJoint;
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
+namespace {
+/// s: the trunk fallback's weight rises from 0 to 1 over this at the quickest (AdaptJob::max_trunk_weight).
+constexpr double kTrunkFallbackIn_s = 0.1;
+/// s: ...and falls back to none over this at the quickest (AdaptJob::min_trunk_fallback).
+constexpr double kTrunkFallbackOut_s = 0.15;
+/// A punch's planned lean brings the target within this share of the arm at contact (the
+/// frames' fallback: AdaptJob's default 0.95).
+constexpr double kPlannedLeanShare = 0.9;
+}  // namespace
+
 // ---- Behaviour --------------------------------------------------------------------------
 
 Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config)
@@ -339,6 +349,7 @@ void Behaviour::apply_strike_rate() {
     strike_.error_m = r->error_m;
     strike_.turn = r->turn;
     strike_.stretch = r->stretch;
+    strike_.lean = r->lean;
   } else {
     compute_reach_error(strike_.contact_time_s);
   }
@@ -354,7 +365,7 @@ double Behaviour::ramp_in(double t) const { return reach_ramp_in(strike_.start_t
 double Behaviour::ramp_out(double t) const { return reach_ramp_out(strike_.contact_time_s, strike_.release_end_s, t); }
 
 ReachGoal Behaviour::reach_goal(double ramp) const {
-  return reach_goal_at(strike_.effector, strike_.turn, strike_.stretch, ramp);
+  return reach_goal_at(strike_.effector, strike_.turn, strike_.stretch, ramp, strike_.lean);
 }
 
 double Behaviour::release_end_s(double contact_time_s) const {
@@ -380,6 +391,7 @@ void Behaviour::compute_reach_error(double at_time_s) {
   strike_.error_m = r.error_m;
   strike_.turn = r.turn;
   strike_.stretch = r.stretch;
+  strike_.lean = r.lean;
 }
 
 namespace behaviour_detail {
@@ -400,6 +412,32 @@ ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vect
   if (from.norm() > 1e-6 && to.norm() > 1e-6) {
     r.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
     r.stretch = to.norm() / from.norm();
+  }
+  if (!eff.leg) {
+    // The trunk lean the contact needs: the pose at contact adapted with the whole d(t), its
+    // trunk fallback's rotations kept. Played eased in and out with d(t), the body leans into
+    // the punch over its way; found each frame at full stretch instead, it came in and went
+    // out in one frame (the head 10 cm in a frame in the bout).
+    const auto n = static_cast<std::size_t>(rig.joint_count());
+    thread_local std::vector<Eigen::Quaterniond> local, global;
+    thread_local std::vector<Vector3d> pos;
+    local.resize(n);
+    global.resize(n);
+    pos.resize(n);
+    const ReachGoal goal = reach_goal_at(eff, r.turn, r.stretch, 1.0);
+    AdaptReport report;
+    AdaptJob job;
+    job.rig = &rig;
+    job.pose = &pose;
+    job.reach = &goal;
+    job.local_rotations = local;
+    job.global_positions = pos;
+    job.global_rotations = global;
+    job.report = &report;
+    // With a margin: the frames' poses differ from this one (held feet lower the body), and
+    // what the plan leaves the frames' fallback must still bring in, over frames.
+    job.trunk_target_share = kPlannedLeanShare;
+    if (job.Run() && report.trunk_used) r.lean = report.trunk;
   }
   return r;
 }
@@ -553,8 +591,12 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     const Source& s = state_ == FighterState::striking ? current_ : previous_;
     const double t = s.time_s;
     if (contact_now) {
-      // The error of this very frame, so the contact frame lands on the target.
+      // The error of this very frame, so the contact frame lands on the target. The trunk lean
+      // stays the one planned (eased in since the start: found anew here it would jump; the
+      // trunk fallback takes what is left).
+      const TrunkLean planned = strike_.lean;
       compute_reach_error(current_.time_s);
+      strike_.lean = planned;
       strike_.contact_time_s = current_.time_s;
       strike_.release_end_s = release_end_s(strike_.contact_time_s);
       ramp = 1;
@@ -594,6 +636,23 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.global_rotations = std::span(global_).first(n);
   job.global_positions = std::span(rig_positions_).first(n);
   job.root_position = &root_joint_;
+  // The trunk fallback comes in over kTrunkFallbackIn_s at the quickest (a planned lean carries
+  // a punch's lean; this is the rest, which jumped from nothing to full in one frame at 60 Hz).
+  job.max_trunk_weight = have_pose_ && dt > 0 ? report_.trunk_weight + dt / kTrunkFallbackIn_s : 1.0;
+  // ...and goes out over kTrunkFallbackOut_s at the quickest: the last frame's rotations eased
+  // toward none are the least applied (a punch's only; a new strike starts without).
+  const double keep = dt > 0 ? std::max(0.0, 1 - dt / kTrunkFallbackOut_s) : 0.0;
+  trunk_floor_.spine = Eigen::Quaterniond::Identity().slerp(keep, report_.trunk_fallback.spine);
+  trunk_floor_.chest = Eigen::Quaterniond::Identity().slerp(keep, report_.trunk_fallback.chest);
+  trunk_floor_.clavicle = Eigen::Quaterniond::Identity().slerp(keep, report_.trunk_fallback.clavicle);
+  // A strike whose d(t) has been released while the fallback is still going out keeps its arm
+  // as the effector (d(t) at nothing) until it is out.
+  ReachGoal released;
+  if (!reach && have_pose_ && !strike_.effector.leg && !trunk_floor_.identity()) {
+    released = reach_goal_at(strike_.effector, Eigen::Quaterniond::Identity(), 1.0, 0.0);
+    job.reach = &released;
+  }
+  job.min_trunk_fallback = have_pose_ && job.reach && !strike_.effector.leg ? &trunk_floor_ : nullptr;
   job.report = &report_;
   job.Run();
   drop_rate_mps_ = have_pose_ && dt > 0 ? (report_.root_drop_m - last_drop) / dt : 0.0;

@@ -87,17 +87,24 @@ struct ReachCorrection {
   Eigen::Vector3d error_m{0, 0, 0};
   Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
   double stretch = 1;
+  /// A punch's trunk lean at contact: what AdaptJob's trunk fallback bends to bring the target
+  /// within the arm's reach (identity when the arm reaches alone, and for kicks).
+  TrunkLean lean;
 };
 ReachCorrection reach_correction(const Rig& rig, const Effector& effector, const Eigen::Vector3d& target_room_m,
                                  const MkmFrame& pose, CanonicalPose& scratch);
 
 /// d(t) at weight `ramp` of its full turn and stretch.
-inline ReachGoal reach_goal_at(const Effector& effector, const Eigen::Quaterniond& turn, double stretch, double ramp) {
+inline ReachGoal reach_goal_at(const Effector& effector, const Eigen::Quaterniond& turn, double stretch, double ramp,
+                               const TrunkLean& lean = {}) {
   ReachGoal goal;
   goal.effector = effector;
   goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, turn);
   goal.stretch = 1 + ramp * (stretch - 1);
   goal.pin = ramp;
+  goal.lean.spine = Eigen::Quaterniond::Identity().slerp(ramp, lean.spine);
+  goal.lean.chest = Eigen::Quaterniond::Identity().slerp(ramp, lean.chest);
+  goal.lean.clavicle = Eigen::Quaterniond::Identity().slerp(ramp, lean.clavicle);
   return goal;
 }
 

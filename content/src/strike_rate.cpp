@@ -159,6 +159,7 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     result.error_m = r.error_m;
     result.turn = r.turn;
     result.stretch = r.stretch;
+    result.lean = r.lean;
   }
   return done(rate);
 }

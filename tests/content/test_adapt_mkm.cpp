@@ -281,3 +281,58 @@ TEST(Adapt, TheTrunkFadesInAsTheGoalNearsTheArmsReach) {
   std::printf("worst shoulder step %.2f x the goal's\n", worst);
   EXPECT_LT(worst, 3.0);
 }
+
+TEST(Adapt, TheTrunkFallbackComesInAndGoesOutOverFramesWhenTheCallerBoundsIt) {
+  // SYNTHETIC punch pose. Frame sequence as a fighter at 60 Hz draws it: the wrist goal at
+  // 90 % of the arm, then at 110 % (beyond: the trunk bends), then back at 90 %. Unbounded, the
+  // fallback jumps in and out in one frame (the shoulder steps centimetres); with the caller's
+  // bounds (max_trunk_weight = last weight + dt / 0.1 s, min_trunk_fallback = the last frame's
+  // eased toward none over 0.15 s) the shoulder moves at most a fraction of that per frame.
+  const Skeleton s = synthetic::make_skeleton({});
+  const Rig rig = make_rig(s, {}, "c");
+  Buffers b(rig);
+  const MkmFrame f = punch_pose(s, rig, 20);
+  ASSERT_TRUE(b.job(rig, f).Run());
+  const Vector3d shoulder0 = b.at_joint(rig, CJ::r_shoulder);
+  const Vector3d wrist0 = b.at_joint(rig, CJ::r_wrist);
+  const Vector3d out = (wrist0 - shoulder0).normalized();
+  const double arm = rig.morphology.arm_length(kRight), dt = 1.0 / 60;
+  const std::vector<double> ks{0.9, 0.9, 1.1, 1.1, 1.1, 1.1, 1.1, 1.1, 1.1, 1.1, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9};
+  const auto worst_step = [&](bool bounded, double& reach_at_end_of_stretch) {
+    AdaptReport last;
+    Vector3d prev = shoulder0;
+    double worst = 0;
+    for (std::size_t i = 0; i < ks.size(); ++i) {
+      ReachGoal goal;
+      goal.effector = {kRight, false};
+      goal.offset_m = shoulder0 + out * (ks[i] * arm) - wrist0;
+      TrunkLean floor;
+      const double keep = 1 - dt / 0.15;
+      floor.spine = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.spine);
+      floor.chest = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.chest);
+      floor.clavicle = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.clavicle);
+      AdaptReport rep;
+      AdaptJob job = b.job(rig, f);
+      job.reach = &goal;
+      job.report = &rep;
+      if (bounded && i > 0) {
+        job.max_trunk_weight = last.trunk_weight + dt / 0.1;
+        job.min_trunk_fallback = &floor;
+      }
+      EXPECT_TRUE(job.Run());
+      const Vector3d sh = b.at_joint(rig, CJ::r_shoulder);
+      worst = std::max(worst, (sh - prev).norm());
+      prev = sh;
+      if (i == 9) reach_at_end_of_stretch = rep.reach_error_m;
+      last = rep;
+    }
+    return worst;
+  };
+  double reach_free = 0, reach_bounded = 0;
+  const double free = worst_step(false, reach_free), bounded = worst_step(true, reach_bounded);
+  std::printf("largest shoulder step in a frame: %.1f mm unbounded, %.1f mm bounded (reach at full stretch %.2f / %.2f mm)\n",
+              free * 1000, bounded * 1000, reach_free * 1000, reach_bounded * 1000);
+  EXPECT_GT(free, 0.03);  // the problem: the trunk springs in or out in one frame
+  EXPECT_LT(bounded, free / 3);
+  EXPECT_LT(reach_bounded, reach_free + 1e-3);  // in by the end of the stretch as far as unbounded
+}

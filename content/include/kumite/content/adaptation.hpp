@@ -54,6 +54,19 @@ struct Effector {
   CanonicalJoint joint() const;
 };
 
+/// The trunk's rotations toward a punch's target (room-frame rotations about the spine, the
+/// chest and the striking side's clavicle, as AdaptJob's trunk fallback applies them).
+/// Identity: upright as the motion has it.
+struct TrunkLean {
+  Eigen::Quaterniond spine = Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond chest = Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond clavicle = Eigen::Quaterniond::Identity();
+  bool identity() const {
+    return spine.isApprox(Eigen::Quaterniond::Identity(), 0) && chest.isApprox(Eigen::Quaterniond::Identity(), 0) &&
+           clavicle.isApprox(Eigen::Quaterniond::Identity(), 0);
+  }
+};
+
 /// d(t): how the effector's limb is moved toward a target this frame. The limb vector (limb
 /// root -> decoded effector) is turned by `turn` and scaled by `stretch` about the limb's root
 /// (the whole limb aims, a folded limb stays folded), then `offset_m` is added.
@@ -66,6 +79,10 @@ struct ReachGoal {
   /// effector keeps its goal; 0: it moves down with the body like every other joint. The
   /// fighter sets d(t)'s ramp here, so the effector rejoins the body as d(t) is released.
   double pin = 1;
+  /// A punch's planned trunk lean at this frame (the lean its contact needs, eased in and out
+  /// with d(t) by the caller): applied before the arm is solved, so the body leans into the
+  /// punch over its whole way instead of the trunk fallback snapping in at full stretch.
+  TrunkLean lean;
 };
 
 /// Planted feet: per side a weight in [0, 1] pulling the decoded ankle onto `ankle_m`.
@@ -96,6 +113,9 @@ struct AdaptReport {
   double reach_error_m = 0;                   ///< |goal - reached|
   bool reached = true;                        ///< goal within the limb's reach (after CCD)
   bool trunk_used = false;                    ///< the CCD fallback bent the trunk
+  TrunkLean trunk;                            ///< the trunk rotations applied (lean and fallback)
+  double trunk_weight = 0;                    ///< the trunk fallback's weight used (0..1)
+  TrunkLean trunk_fallback;                   ///< the fallback's own rotations (on top of the lean)
   std::array<bool, 2> foot_reached{true, true};  ///< locked ankle within the leg's reach
   double root_drop_m = 0;                     ///< m the pelvis was lowered for held feet
 };
@@ -114,6 +134,19 @@ struct AdaptJob {
   const ReachGoal* reach = nullptr;     ///< optional
   const FootLocks* feet = nullptr;      ///< optional
   TrunkLimits trunk{};
+  /// At most this weight of the trunk fallback (0..1). A caller drawing frames in sequence
+  /// passes the last frame's weight plus what may come in over one frame: the fallback's need
+  /// jumps where the arm goes from within its reach to full stretch in one frame.
+  double max_trunk_weight = 1;
+  /// The share of the arm's length the trunk fallback brings the goal within (its weight rises
+  /// from 0 at this share to 1 at the full length). A punch's planned lean is found with a
+  /// smaller share than the frames' fallback, so the frames rarely need the fallback at all.
+  double trunk_target_share = 0.95;
+  /// Optional: the least trunk fallback to apply (rotations on top of the planned lean, e.g.
+  /// the last frame's eased toward none). A caller drawing frames in sequence passes it so the
+  /// fallback goes out over frames: the frame after a full-stretch contact the goal is back
+  /// within reach, the fallback's need drops to nothing and the body sprang up in one frame.
+  const TrunkLean* min_trunk_fallback = nullptr;
   std::span<Eigen::Quaterniond> local_rotations;   ///< out, joint_count
   std::span<Eigen::Vector3d> global_positions;     ///< out, m, room frame, joint_count
   std::span<Eigen::Quaterniond> global_rotations;  ///< out, joint_count

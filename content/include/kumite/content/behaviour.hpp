@@ -129,6 +129,7 @@ struct StrikeRateResult {
   Eigen::Vector3d error_m{0, 0, 0};
   Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
   double stretch = 1;
+  TrunkLean lean;        ///< a punch's trunk lean at contact (reach_correction)
   double solve_us = 0;   ///< µs the solve took (on whatever thread ran it)
 };
 
@@ -230,6 +231,7 @@ class Behaviour {
     Eigen::Vector3d error_m{0, 0, 0};  ///< m: target - effector at contact, before d(t)
     Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t): limb turn at contact
     double stretch = 1;                ///< full d(t): limb length factor at contact
+    TrunkLean lean;                    ///< full d(t): a punch's trunk lean at contact
     double rate = 1;                   ///< segment seconds played per second (StrikeRateSolver)
     int start_update = -1;             ///< update counter at the strike's start
     int rate_update = -1;              ///< update counter the rate was applied on (-1: not)
@@ -403,6 +405,7 @@ class Behaviour {
   std::optional<PendingRate> pending_rate_;
   Eigen::Vector3d root_joint_{0, 0, 0};
   AdaptReport report_;
+  TrunkLean trunk_floor_;  ///< the least trunk fallback this frame (the last frame's, easing out)
   std::vector<FighterEvent> events_;
   Timestamp time_ = 0;
   int updates_ = 0;
