@@ -50,6 +50,30 @@ MkmFrame punch_pose(const Skeleton& s, const Rig& rig, int frame) {
   return f;
 }
 
+/// The SYNTHETIC punch pose (frame 20) drawn plain, and wrist goals on the line straight out
+/// from its right shoulder through its wrist, at k x the arm's length.
+struct PunchLine {
+  Skeleton s = synthetic::make_skeleton({});
+  Rig rig = make_rig(s, {}, "c");
+  Buffers b{rig};
+  MkmFrame f = punch_pose(s, rig, 20);
+  Vector3d shoulder0, wrist0, out;
+  double arm = 0;
+  PunchLine() {
+    EXPECT_TRUE(b.job(rig, f).Run());
+    shoulder0 = b.at_joint(rig, CJ::r_shoulder);
+    wrist0 = b.at_joint(rig, CJ::r_wrist);
+    out = (wrist0 - shoulder0).normalized();
+    arm = rig.morphology.arm_length(kRight);
+  }
+  ReachGoal goal_at(double k) const {
+    ReachGoal goal;
+    goal.effector = {kRight, false};
+    goal.offset_m = shoulder0 + out * (k * arm) - wrist0;  // added to the motion's own wrist
+    return goal;
+  }
+};
+
 }  // namespace
 
 TEST(Mkm, EncodeDecodeOnTheSameSkeletonReproducesEveryCanonicalJoint) {
@@ -251,23 +275,16 @@ TEST(Adapt, TheTrunkFadesInAsTheGoalNearsTheArmsReach) {
   // only once the arm falls short: a nearly straight arm leans the body in rather than lifting
   // the elbow), and the drawn shoulder moves continuously with the goal (no step of it more
   // than 3 x the goal's), the wrist always on its goal.
-  const Skeleton s = synthetic::make_skeleton({});
-  const Rig rig = make_rig(s, {}, "c");
-  Buffers b(rig);
-  const MkmFrame f = punch_pose(s, rig, 20);
-  ASSERT_TRUE(b.job(rig, f).Run());
-  const Vector3d shoulder0 = b.at_joint(rig, CJ::r_shoulder);
-  const Vector3d wrist0 = b.at_joint(rig, CJ::r_wrist);
-  const Vector3d out = (wrist0 - shoulder0).normalized();
-  const double arm = rig.morphology.arm_length(kRight), step = 0.002;
-  Vector3d last = shoulder0;
+  PunchLine line;
+  Buffers& b = line.b;
+  const Rig& rig = line.rig;
+  const double step = 0.002;
+  Vector3d last = line.shoulder0;
   double worst = 0;
-  for (double k = 0.90; k <= 1.10; k += step / arm) {
-    ReachGoal goal;
-    goal.effector = {kRight, false};
-    goal.offset_m = shoulder0 + out * (k * arm) - wrist0;  // added to the motion's own wrist
+  for (double k = 0.90; k <= 1.10; k += step / line.arm) {
+    const ReachGoal goal = line.goal_at(k);
     AdaptReport rep;
-    AdaptJob job = b.job(rig, f);
+    AdaptJob job = b.job(rig, line.f);
     job.reach = &goal;
     job.report = &rep;
     ASSERT_TRUE(job.Run());
@@ -288,31 +305,24 @@ TEST(Adapt, TheTrunkFallbackComesInAndGoesOutOverFramesWhenTheCallerBoundsIt) {
   // fallback jumps in and out in one frame (the shoulder steps centimetres); with the caller's
   // bounds (max_trunk_weight = last weight + dt / 0.1 s, min_trunk_fallback = the last frame's
   // eased toward none over 0.15 s) the shoulder moves at most a fraction of that per frame.
-  const Skeleton s = synthetic::make_skeleton({});
-  const Rig rig = make_rig(s, {}, "c");
-  Buffers b(rig);
-  const MkmFrame f = punch_pose(s, rig, 20);
-  ASSERT_TRUE(b.job(rig, f).Run());
-  const Vector3d shoulder0 = b.at_joint(rig, CJ::r_shoulder);
-  const Vector3d wrist0 = b.at_joint(rig, CJ::r_wrist);
-  const Vector3d out = (wrist0 - shoulder0).normalized();
-  const double arm = rig.morphology.arm_length(kRight), dt = 1.0 / 60;
+  PunchLine line;
+  Buffers& b = line.b;
+  const Rig& rig = line.rig;
+  const double dt = 1.0 / 60;
   const std::vector<double> ks{0.9, 0.9, 1.1, 1.1, 1.1, 1.1, 1.1, 1.1, 1.1, 1.1, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9, 0.9};
   const auto worst_step = [&](bool bounded, double& reach_at_end_of_stretch) {
     AdaptReport last;
-    Vector3d prev = shoulder0;
+    Vector3d prev = line.shoulder0;
     double worst = 0;
     for (std::size_t i = 0; i < ks.size(); ++i) {
-      ReachGoal goal;
-      goal.effector = {kRight, false};
-      goal.offset_m = shoulder0 + out * (ks[i] * arm) - wrist0;
+      const ReachGoal goal = line.goal_at(ks[i]);
       TrunkLean floor;
       const double keep = 1 - dt / 0.15;
       floor.spine = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.spine);
       floor.chest = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.chest);
       floor.clavicle = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.clavicle);
       AdaptReport rep;
-      AdaptJob job = b.job(rig, f);
+      AdaptJob job = b.job(rig, line.f);
       job.reach = &goal;
       job.report = &rep;
       if (bounded && i > 0) {
