@@ -324,9 +324,6 @@ int run_replay(const Args& a, const std::atomic<int>& stop) {
 int main(int argc, char** argv) {
   const kumite::Timestamp process_started = kumite::now();  // uptime and the time to READY count from here
   kumite::keep_freed_memory();  // before any thread: frame-sized buffers are reused, not remapped
-  // ...and what is kept free is handed back every 30 s (off the frame loop): RSS stays bounded
-  // by use, not by the highest transient peak a loaded machine ever brought about.
-  const kumite::FreedMemoryReturner returner(std::chrono::seconds(30));
   CLI::App app{"kumite: the installation (walls in stereo, the fighter, the supervisor console)"};
   Args a;
   app.add_option("--config", a.config, "installation file (TOML)")->capture_default_str();

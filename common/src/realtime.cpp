@@ -44,42 +44,6 @@ std::string run_this_thread_realtime(int priority) {
   return err == 0 ? std::string() : std::string(std::strerror(err));
 }
 
-FreedMemoryReturner::FreedMemoryReturner(std::chrono::milliseconds every)
-    : thread_([this, every] { run(every); }) {}
-
-FreedMemoryReturner::~FreedMemoryReturner() {
-  {
-    std::lock_guard lock(mutex_);
-    stop_ = true;
-  }
-  cv_.notify_all();
-  thread_.join();
-}
-
-std::uint64_t FreedMemoryReturner::trims() const {
-  std::lock_guard lock(mutex_);
-  return trims_;
-}
-
-double FreedMemoryReturner::last_trim_ms() const {
-  std::lock_guard lock(mutex_);
-  return last_ms_;
-}
-
-void FreedMemoryReturner::run(std::chrono::milliseconds every) {
-  lower_this_thread_priority(10);
-  std::unique_lock lock(mutex_);
-  while (!cv_.wait_for(lock, every, [this] { return stop_; })) {
-    lock.unlock();
-    const auto t0 = std::chrono::steady_clock::now();
-    malloc_trim(0);
-    const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-    lock.lock();
-    ++trims_;
-    last_ms_ = ms;
-  }
-}
-
 bool keep_freed_memory() {
   const bool a = mallopt(M_MMAP_THRESHOLD, kMmapThreshold) == 1;
   const bool b = mallopt(M_TRIM_THRESHOLD, kTrimThreshold) == 1;

@@ -1,9 +1,6 @@
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <filesystem>
-#include <memory>
-#include <vector>
 #include <fstream>
 #include <sstream>
 #include <thread>
@@ -12,7 +9,6 @@
 #include "kumite/common/error.hpp"
 #include "kumite/common/image_file.hpp"
 #include "kumite/common/latest.hpp"
-#include "kumite/common/realtime.hpp"
 #include "kumite/common/wire.hpp"
 
 namespace fs = std::filesystem;
@@ -181,46 +177,4 @@ TEST(LatestValue, ReaderNeverSeesATornValue) {
   writer.join();
   EXPECT_GE(reads.load(), kMinReads);
   EXPECT_EQ(slot.read()->frame, published.load());
-}
-
-namespace {
-double rss_mb() {
-  std::ifstream in("/proc/self/status");
-  for (std::string line; std::getline(in, line);)
-    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
-  return -1;
-}
-}  // namespace
-
-TEST(FreedMemoryReturner, HandsKeptFreeMemoryBackToTheKernelOnItsThread) {
-  // The allocator set up as kumite's (freed memory kept), 64 MB allocated in 256 kB blocks,
-  // touched, then freed but the last block (it pins the heap's top: nothing is trimmed from
-  // the top, only a trim inside the heap gives the pages back). RSS stays up until the
-  // returner has run.
-#if defined(__SANITIZE_ADDRESS__)
-  GTEST_SKIP() << "AddressSanitizer's allocator: neither mallopt nor malloc_trim act on it";
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-  GTEST_SKIP() << "AddressSanitizer's allocator: neither mallopt nor malloc_trim act on it";
-#endif
-#endif
-  ASSERT_TRUE(kumite::keep_freed_memory());
-  std::vector<std::unique_ptr<char[]>> blocks;
-  for (int i = 0; i < 256; ++i) {
-    blocks.emplace_back(new char[256 * 1024]);
-    std::memset(blocks.back().get(), 1, 256 * 1024);
-  }
-  const double full = rss_mb();
-  for (std::size_t i = 0; i + 1 < blocks.size(); ++i) blocks[i].reset();
-  const double kept = rss_mb();
-  EXPECT_GT(kept, full - 8);  // kept by the allocator
-  {
-    const kumite::FreedMemoryReturner returner(std::chrono::milliseconds(20));
-    for (int i = 0; i < 200 && returner.trims() == 0; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    EXPECT_GE(returner.trims(), 1u);
-    EXPECT_GE(returner.last_trim_ms(), 0.0);
-  }  // stops and joins at once
-  const double returned = rss_mb();
-  std::printf("RSS %.1f MB with 64 MB in use, %.1f MB freed and kept, %.1f MB after a trim\n", full, kept, returned);
-  EXPECT_LT(returned, kept - 40);
 }

@@ -1,13 +1,8 @@
 #pragma once
 // Scheduling and memory settings for the programs that run the tracker in real time
 // (kumite, kumite-track, the pose-age bench). Linux.
-#include <chrono>
-#include <condition_variable>
-#include <cstdint>
-#include <mutex>
 #include <optional>
 #include <string>
-#include <thread>
 
 namespace kumite {
 
@@ -29,32 +24,5 @@ std::string run_this_thread_realtime(int priority);
 /// few arenas, each of which would keep its own freed memory (realtime.cpp: kArenaMax).
 /// Returns false if the allocator refused (the program runs on, just with those stalls).
 bool keep_freed_memory();
-
-/// Hands the allocator's free pages back to the kernel (malloc_trim), every `every` on a
-/// thread of its own at lowered priority, for a program that keeps freed memory. What is kept
-/// then stays bounded by what the program uses: an hour's soak of the headless demo under a
-/// loaded machine (CI beside it) kept the high-water mark of the software renderer's
-/// transient buffers (Mesa llvmpipe, through Renderer::draw: 155 MB of a 215 MB heap peak
-/// in heaptrack), RSS 263 -> 431 MB. The pages come back by page faults when reused: one
-/// slower frame set per `every` at most. Not the frame loop's thread: a trim walks the heap
-/// under the allocator's lock (measured per call: `trims()`, `last_trim_ms()`).
-class FreedMemoryReturner {
- public:
-  explicit FreedMemoryReturner(std::chrono::milliseconds every);
-  ~FreedMemoryReturner();
-  FreedMemoryReturner(const FreedMemoryReturner&) = delete;
-  FreedMemoryReturner& operator=(const FreedMemoryReturner&) = delete;
-  std::uint64_t trims() const;
-  double last_trim_ms() const;
-
- private:
-  void run(std::chrono::milliseconds every);
-  mutable std::mutex mutex_;
-  std::condition_variable cv_;
-  bool stop_ = false;
-  std::uint64_t trims_ = 0;
-  double last_ms_ = 0;
-  std::thread thread_;
-};
 
 }  // namespace kumite
