@@ -16,25 +16,28 @@ namespace {
 constexpr const char* kLitVertex = R"(#version 330 core
 layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
-uniform mat4 u_model;
+layout(location = 2) in mat4 a_model;   // per instance (locations 2-5)
+layout(location = 6) in vec3 a_colour;  // per instance
 uniform mat4 u_view_projection;
 out vec3 v_normal;
+flat out vec3 v_colour;
 void main() {
-  v_normal = transpose(inverse(mat3(u_model))) * a_normal;
-  gl_Position = u_view_projection * (u_model * vec4(a_position, 1.0));
+  v_normal = transpose(inverse(mat3(a_model))) * a_normal;
+  v_colour = a_colour;
+  gl_Position = u_view_projection * (a_model * vec4(a_position, 1.0));
 }
 )";
 
 constexpr const char* kLitFragment = R"(#version 330 core
 in vec3 v_normal;
-uniform vec3 u_colour;
+flat in vec3 v_colour;
 out vec4 o_colour;
 void main() {
   // A key light from above-front-left and a dimmer fill from behind: shapes read in 3D.
   vec3 n = normalize(v_normal);
   float key = max(dot(n, normalize(vec3(-0.4, 0.8, 0.6))), 0.0);
   float fill = max(dot(n, normalize(vec3(0.5, 0.2, -0.8))), 0.0);
-  o_colour = vec4(u_colour * (0.30 + 0.70 * key + 0.25 * fill), 1.0);
+  o_colour = vec4(v_colour * (0.30 + 0.70 * key + 0.25 * fill), 1.0);
 }
 )";
 
@@ -85,8 +88,12 @@ GLuint program(const char* vs, const char* fs) {
 
 struct MeshBuffers {
   GLuint vao = 0, vbo = 0, ebo = 0;
+  GLuint instances = 0;  ///< per-instance model matrix (16 floats) and colour (3)
   GLsizei count = 0;
 };
+
+/// Floats per instance: the model matrix (column-major) and the colour.
+constexpr int kInstanceFloats = 19;
 
 /// Interleaved position + normal, indexed triangles.
 MeshBuffers upload(const std::vector<float>& vertices, const std::vector<unsigned>& indices) {
@@ -106,6 +113,19 @@ MeshBuffers upload(const std::vector<float>& vertices, const std::vector<unsigne
                         reinterpret_cast<const void*>(3 * sizeof(float)));
   glEnableVertexAttribArray(0);
   glEnableVertexAttribArray(1);
+  // Drawn instanced: one draw per mesh and view, each body part an instance (one draw per
+  // part made llvmpipe, the VM's software renderer, keep per-draw state for every part).
+  glGenBuffers(1, &m.instances);
+  glBindBuffer(GL_ARRAY_BUFFER, m.instances);
+  constexpr GLsizei stride = kInstanceFloats * sizeof(float);
+  for (GLuint c = 0; c < 4; ++c) {
+    glVertexAttribPointer(2 + c, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(4 * c * sizeof(float)));
+    glVertexAttribDivisor(2 + c, 1);
+    glEnableVertexAttribArray(2 + c);
+  }
+  glVertexAttribPointer(6, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(16 * sizeof(float)));
+  glVertexAttribDivisor(6, 1);
+  glEnableVertexAttribArray(6);
   glBindVertexArray(0);
   m.count = static_cast<GLsizei>(indices.size());
   return m;
@@ -152,8 +172,9 @@ MeshBuffers make_cylinder(int slices) {
 
 struct Renderer::Impl {
   GLuint lit = 0, lines = 0;
-  GLint lit_model = -1, lit_vp = -1, lit_colour = -1, lines_vp = -1;
+  GLint lit_vp = -1, lines_vp = -1;
   MeshBuffers sphere, cylinder;
+  std::vector<float> sphere_instances, cylinder_instances;  ///< kept: a warm frame allocates nothing
   GLuint line_vao = 0, line_vbo = 0;
   GLsizei line_count = 0;
 };
@@ -166,9 +187,7 @@ Renderer::Renderer(std::span<const WallFrame> walls) : impl_(std::make_unique<Im
     throw Error("gl", "version", "OpenGL 3.3 is needed; the context has " + gl_description());
   auto& m = *impl_;
   m.lit = program(kLitVertex, kLitFragment);
-  m.lit_model = glGetUniformLocation(m.lit, "u_model");
   m.lit_vp = glGetUniformLocation(m.lit, "u_view_projection");
-  m.lit_colour = glGetUniformLocation(m.lit, "u_colour");
   m.lines = program(kLineVertex, kLineFragment);
   m.lines_vp = glGetUniformLocation(m.lines, "u_view_projection");
   // Fine enough that where a joint's sphere cuts a bone the seam reads as a smooth circle at
@@ -196,6 +215,7 @@ Renderer::~Renderer() {
   for (auto* b : {&m.sphere, &m.cylinder}) {
     glDeleteBuffers(1, &b->vbo);
     glDeleteBuffers(1, &b->ebo);
+    glDeleteBuffers(1, &b->instances);
     glDeleteVertexArrays(1, &b->vao);
   }
   glDeleteBuffers(1, &m.line_vbo);
@@ -226,12 +246,22 @@ void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
   glDrawArrays(GL_LINES, 0, m.line_count);
   glUseProgram(m.lit);
   glUniformMatrix4fv(m.lit_vp, 1, GL_FALSE, glm::value_ptr(vp));
+  m.sphere_instances.clear();
+  m.cylinder_instances.clear();
   for (const auto& item : items) {
-    const MeshBuffers& mesh = item.mesh == Mesh::sphere ? m.sphere : m.cylinder;
-    glUniformMatrix4fv(m.lit_model, 1, GL_FALSE, glm::value_ptr(item.model));
-    glUniform3fv(m.lit_colour, 1, glm::value_ptr(item.colour));
-    glBindVertexArray(mesh.vao);
-    glDrawElements(GL_TRIANGLES, mesh.count, GL_UNSIGNED_INT, nullptr);
+    std::vector<float>& out = item.mesh == Mesh::sphere ? m.sphere_instances : m.cylinder_instances;
+    const float* model = glm::value_ptr(item.model);
+    out.insert(out.end(), model, model + 16);
+    out.insert(out.end(), {item.colour.x, item.colour.y, item.colour.z});
+  }
+  for (const auto& [mesh, data] : {std::pair<const MeshBuffers*, const std::vector<float>*>{&m.sphere, &m.sphere_instances},
+                                   {&m.cylinder, &m.cylinder_instances}}) {
+    if (data->empty()) continue;
+    glBindBuffer(GL_ARRAY_BUFFER, mesh->instances);
+    glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(data->size() * sizeof(float)), data->data(), GL_STREAM_DRAW);
+    glBindVertexArray(mesh->vao);
+    glDrawElementsInstanced(GL_TRIANGLES, mesh->count, GL_UNSIGNED_INT, nullptr,
+                            static_cast<GLsizei>(data->size() / kInstanceFloats));
   }
   glBindVertexArray(0);
 }
