@@ -259,8 +259,12 @@ TEST(Adapt, SoftTwoBoneStraightensWithoutAPop) {
     const TwoBoneResult s = solve_two_bone_soft(root, goal, l1, l2, pole, soft);
     worst_hard = std::max(worst_hard, (h.middle - last_h.middle).norm() / step);
     worst_soft = std::max(worst_soft, (s.middle - last_s.middle).norm() / step);
-    if (d <= L - soft) EXPECT_LT((s.end - goal).norm(), 1e-9);
-    if (std::abs(d - L) < step / 2) EXPECT_LT((s.end - goal).norm(), 0.37 * soft + 1e-6);
+    if (d <= L - soft) {
+      EXPECT_LT((s.end - goal).norm(), 1e-9);
+    }
+    if (std::abs(d - L) < step / 2) {
+      EXPECT_LT((s.end - goal).norm(), 0.37 * soft + 1e-6);
+    }
     EXPECT_EQ(s.reached, d <= L + 1e-9);
     last_h = h;
     last_s = s;
@@ -291,8 +295,12 @@ TEST(Adapt, TheTrunkFadesInAsTheGoalNearsTheArmsReach) {
     const Vector3d sh = b.at_joint(rig, CJ::r_shoulder);
     if (k > 0.9) worst = std::max(worst, (sh - last).norm() / step);
     last = sh;
-    if (k < 0.949) EXPECT_FALSE(rep.trunk_used) << k;
-    if (k > 0.96) EXPECT_TRUE(rep.trunk_used) << k;
+    if (k < 0.949) {
+      EXPECT_FALSE(rep.trunk_used) << k;
+    }
+    if (k > 0.96) {
+      EXPECT_TRUE(rep.trunk_used) << k;
+    }
     EXPECT_LT(rep.reach_error_m, 1e-6) << k;
   }
   std::printf("worst shoulder step %.2f x the goal's\n", worst);
