@@ -51,8 +51,6 @@ constexpr std::array<RoleSpec, 17> kRoles{{
 constexpr std::array<CJ, 2> kShoulder{CJ::l_shoulder, CJ::r_shoulder};
 constexpr std::array<CJ, 2> kClavicle{CJ::l_clavicle, CJ::r_clavicle};
 
-/// Share of the arm's length over which the trunk fallback fades in (see AdaptJob::Run).
-constexpr double kTrunkZone = 0.05;
 
 /// Share of the leg's length over which a held foot's leg straightens its knee softly
 /// (solve_two_bone_soft, scaled by the hold's weight so taking a hold is continuous): 1.5 %
@@ -177,7 +175,7 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
         // The striking arm straightens softly (as a held foot's leg does): near full extension
         // two-bone IK moves the elbow centimetres for the last millimetres, and a goal that
         // comes back within reach the frame after contact popped the elbow (5.6 cm in a frame).
-        // The trunk lean keeps a goal at contact within (1 - kTrunkZone) of the arm, below the
+        // The trunk lean keeps a goal at contact within trunk_target_share of the arm, below the
         // soft zone, so the reach there is exact unless the trunk's limits stop it.
         const double softness = striking ? kArmSoftness * (m.upper_arm_m[s] + m.forearm_m[s]) : 0.0;
         const TwoBoneResult r = solve_two_bone_soft(pos, goal, m.upper_arm_m[s], m.forearm_m[s], pole, softness);
@@ -386,23 +384,23 @@ bool AdaptJob::Run() const {
     decode_pass(*this, td, out);
     trunk_used = true;
   }
-  // The trunk joins in over the last kTrunkZone of the arm's reach (weight 0 -> 1 as the goal
-  // goes from (1 - kTrunkZone) x to 1 x the arm's length from the shoulder), not only once the
+  // The trunk joins in over the arm's last (1 - trunk_target_share) of reach (weight 0 -> 1 as
+  // the goal goes from that share to 1 x the arm's length from the shoulder), not only once the
   // arm falls short: a nearly straight arm leans the body in a little instead of raising its
   // elbow (strike grid: punches with the elbow above the head at contact 15 -> 4 of 120). In
   // time it is smooth only as the caller bounds it (max_trunk_weight, min_trunk_fallback).
+  const double share = std::clamp(trunk_target_share, 0.5, 0.999);
   double trunk_w = 0;
   if (arm_reach) {
     const int s = reach->effector.side;
     const double arm = rig->morphology.arm_length(s);
     const double d = (out.effector_goal - joint_pos(*this, kShoulder[s])).norm();
-    const double share = std::clamp(trunk_target_share, 0.5, 0.999);
     const double x = std::clamp((d - share * arm) / ((1 - share) * arm), 0.0, 1.0);
     trunk_w = std::min(out.arm_reached[s] ? x * x * (3 - 2 * x) : 1.0, std::clamp(max_trunk_weight, 0.0, 1.0));
   }
   if (trunk_w > 0) {
-    // Bend spine/chest/clavicle (CCD) to bring the shoulder within (1 - kTrunkZone) of the
-    // arm's length, that much of it by trunk_w, then decode again with those rotations.
+    // Bend spine/chest/clavicle (CCD) to bring the shoulder within `share` of the arm's
+    // length, that much of it by trunk_w, then decode again with those rotations.
     const int s = reach->effector.side;
     CcdChain chain;
     const CJ pivots[3] = {CJ::spine, CJ::chest, kClavicle[s]};
@@ -417,7 +415,7 @@ bool AdaptJob::Run() const {
     }
     chain.limb_root = joint_pos(*this, kShoulder[s]);
     std::array<Quaterniond, 4> deltas;
-    const double reach_m = rig->morphology.arm_length(s) * std::clamp(trunk_target_share, 0.5, 0.999);
+    const double reach_m = rig->morphology.arm_length(s) * share;
     solve_ccd_reach(chain, out.effector_goal, reach_m, trunk.iterations, deltas);
     for (auto& q : deltas) q = Quaterniond::Identity().slerp(trunk_w, q);
     // On top of a planned lean and the caller's least fallback (solved from that pose):

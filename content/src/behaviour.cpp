@@ -372,7 +372,7 @@ double Behaviour::release_end_s(double contact_time_s) const {
   return std::max(contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s * current_.rate);
 }
 
-void Behaviour::compute_reach_error(double at_time_s) {
+void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   // The pose at segment time `at_time_s`, composed exactly as update() will compose it then
   // (same sources, same blend weight), decoded without the offset: d(t) must close exactly
   // that gap.
@@ -387,16 +387,16 @@ void Behaviour::compute_reach_error(double at_time_s) {
   compose(cur, prev, blend_elapsed_s_ + ahead_wall, b, pose);
   // scratch_pose_ keeps its room: a strike's start allocates nothing.
   const ReachCorrection r = reach_correction(characters_[static_cast<std::size_t>(character_)], strike_.effector,
-                                             strike_.target_room_m, pose, scratch_pose_);
+                                             strike_.target_room_m, pose, scratch_pose_, plan_lean);
   strike_.error_m = r.error_m;
   strike_.turn = r.turn;
   strike_.stretch = r.stretch;
-  strike_.lean = r.lean;
+  if (plan_lean) strike_.lean = r.lean;
 }
 
 namespace behaviour_detail {
 ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vector3d& target, const MkmFrame& pose,
-                                 CanonicalPose& c) {
+                                 CanonicalPose& c, bool plan_lean) {
   decode_canonical(rig, pose, c);
   ReachCorrection r;
   r.error_m = target - at(c, eff.joint());
@@ -413,7 +413,7 @@ ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vect
     r.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
     r.stretch = to.norm() / from.norm();
   }
-  if (!eff.leg) {
+  if (plan_lean && !eff.leg) {
     // The trunk lean the contact needs: the pose at contact adapted with the whole d(t), its
     // trunk fallback's rotations kept. Played eased in and out with d(t), the body leans into
     // the punch over its way; found each frame at full stretch instead, it came in and went
@@ -594,9 +594,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       // The error of this very frame, so the contact frame lands on the target. The trunk lean
       // stays the one planned (eased in since the start: found anew here it would jump; the
       // trunk fallback takes what is left).
-      const TrunkLean planned = strike_.lean;
-      compute_reach_error(current_.time_s);
-      strike_.lean = planned;
+      compute_reach_error(current_.time_s, false);
       strike_.contact_time_s = current_.time_s;
       strike_.release_end_s = release_end_s(strike_.contact_time_s);
       ramp = 1;
@@ -640,11 +638,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // a punch's lean; this is the rest, which jumped from nothing to full in one frame at 60 Hz).
   job.max_trunk_weight = have_pose_ && dt > 0 ? report_.trunk_weight + dt / kTrunkFallbackIn_s : 1.0;
   // ...and goes out over kTrunkFallbackOut_s at the quickest: the last frame's rotations eased
-  // toward none are the least applied (a punch's only; a new strike starts without).
-  const double keep = dt > 0 ? std::max(0.0, 1 - dt / kTrunkFallbackOut_s) : 0.0;
-  trunk_floor_.spine = Eigen::Quaterniond::Identity().slerp(keep, report_.trunk_fallback.spine);
-  trunk_floor_.chest = Eigen::Quaterniond::Identity().slerp(keep, report_.trunk_fallback.chest);
-  trunk_floor_.clavicle = Eigen::Quaterniond::Identity().slerp(keep, report_.trunk_fallback.clavicle);
+  // toward none are the least applied (a punch's only).
+  trunk_floor_ = report_.trunk_fallback.scaled(dt > 0 ? std::max(0.0, 1 - dt / kTrunkFallbackOut_s) : 0.0);
   // A strike whose d(t) has been released while the fallback is still going out keeps its arm
   // as the effector (d(t) at nothing) until it is out.
   ReachGoal released;

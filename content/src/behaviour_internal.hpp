@@ -92,7 +92,7 @@ struct ReachCorrection {
   TrunkLean lean;
 };
 ReachCorrection reach_correction(const Rig& rig, const Effector& effector, const Eigen::Vector3d& target_room_m,
-                                 const MkmFrame& pose, CanonicalPose& scratch);
+                                 const MkmFrame& pose, CanonicalPose& scratch, bool plan_lean = true);
 
 /// d(t) at weight `ramp` of its full turn and stretch.
 inline ReachGoal reach_goal_at(const Effector& effector, const Eigen::Quaterniond& turn, double stretch, double ramp,
@@ -102,9 +102,7 @@ inline ReachGoal reach_goal_at(const Effector& effector, const Eigen::Quaternion
   goal.turn = Eigen::Quaterniond::Identity().slerp(ramp, turn);
   goal.stretch = 1 + ramp * (stretch - 1);
   goal.pin = ramp;
-  goal.lean.spine = Eigen::Quaterniond::Identity().slerp(ramp, lean.spine);
-  goal.lean.chest = Eigen::Quaterniond::Identity().slerp(ramp, lean.chest);
-  goal.lean.clavicle = Eigen::Quaterniond::Identity().slerp(ramp, lean.clavicle);
+  goal.lean = lean.scaled(ramp);
   return goal;
 }
 

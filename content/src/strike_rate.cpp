@@ -15,7 +15,6 @@ namespace kumite::content {
 using namespace behaviour_detail;
 using Eigen::Vector3d;
 
-
 StrikeRateSolver::StrikeRateSolver(std::shared_ptr<const Database> db, const BehaviourTunables& tunables)
     : db_(std::move(db)), tun_(tunables) {
   eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames
@@ -74,15 +73,16 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     in_limb_[j] = static_cast<int>(j) == limb_root || (p >= 0 && in_limb_[static_cast<std::size_t>(p)]);
   }
   const Playback play{*db_, job.stride_scale, eased_};
-  // Peak speeds over the way, sampled every h: the hit point's, and each joint's of the
-  // striking limb (a toe, a finger: the limb's end swings faster than the hit point when d(t)
-  // turns the limb about its root).
-  if (peaks_.size() < n) peaks_.resize(n);
-  const auto decode_peaks = [&](PlaybackSource cur, PlaybackSource prev, double rate, bool drawn, std::span<double> joint_peak) {
+  // Peak speeds over the way, sampled every h: the hit point's, and the striking limb's fastest
+  // joint's (a toe, a finger: the limb's end swings faster than the hit point when d(t) turns
+  // the limb about its root). Negative: the decode failed.
+  struct Peaks {
+    double effector = 0, limb = 0;  ///< m/s
+  };
+  const auto decode_peaks = [&](PlaybackSource cur, PlaybackSource prev, double rate, bool drawn) {
     cur.rate = rate;
     const double t0 = job.current.time_s, p0 = job.previous.time_s;
-    double effector_peak = 0;
-    std::fill(joint_peak.begin(), joint_peak.end(), 0.0);
+    Peaks peaks;
     MkmFrame b, pose;
     for (int k = 0;; ++k) {
       const double w = k * h;
@@ -103,37 +103,34 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
       adapt.local_rotations = std::span(local_).first(n);
       adapt.global_rotations = std::span(global_).first(n);
       adapt.global_positions = std::span(positions_).first(n);
-      if (!adapt.Run()) return -1.0;
+      if (!adapt.Run()) return Peaks{-1, -1};
       if (k > 0) {
-        effector_peak = std::max(effector_peak, (positions_[effector] - last_positions_[effector]).norm() / h);
+        peaks.effector = std::max(peaks.effector, (positions_[effector] - last_positions_[effector]).norm() / h);
         for (std::size_t j = 0; j < n; ++j)
-          if (in_limb_[j]) joint_peak[j] = std::max(joint_peak[j], (positions_[j] - last_positions_[j]).norm() / h);
+          if (in_limb_[j]) peaks.limb = std::max(peaks.limb, (positions_[j] - last_positions_[j]).norm() / h);
       }
       std::copy_n(positions_.begin(), n, last_positions_.begin());
     }
-    return effector_peak;
+    return peaks;
   };
   // The source's own limb over the same segment frames at the clip's rate, decoded on the
   // character (its size), its travel as captured.
   PlaybackSource plain = job.current;
   plain.travel = {};
-  if (src_peaks_.size() < n) src_peaks_.resize(n);
-  const std::span<double> src_joint = std::span(src_peaks_).first(n), drawn_joint = std::span(peaks_).first(n);
-  if (decode_peaks(plain, job.previous, 1.0, false, src_joint) < 0) return done(1);
-  const double src_limb_peak = *std::max_element(src_joint.begin(), src_joint.end());
+  const double src_limb_peak = decode_peaks(plain, job.previous, 1.0, false).limb;
+  if (src_limb_peak < 0) return done(1);
   double rate = 1;
   for (int refine = 0; refine < 2; ++refine) {
-    const double peak = decode_peaks(job.current, job.previous, rate, true, drawn_joint);
-    if (peak < 0) return done(1);
+    const Peaks peaks = decode_peaks(job.current, job.previous, rate, true);
+    if (peaks.effector < 0) return done(1);
     // The slowest of the rates that bring each peak within max_strike_speed_ratio.
     double want = 1;
-    if (peak > tun_.max_strike_speed_ratio * src_peak) want = tun_.max_strike_speed_ratio * src_peak / peak;
+    if (peaks.effector > tun_.max_strike_speed_ratio * src_peak) want = tun_.max_strike_speed_ratio * src_peak / peaks.effector;
     // The limb's fastest joint against the source limb's fastest (per joint, a joint turned
     // faster than its source's, e.g. the knee of a kick aimed higher, slowed most strikes of the
     // grid to min_strike_rate: played slower than their mocap, p99 joint speed / source p50 0.85).
-    const double limb_peak = *std::max_element(drawn_joint.begin(), drawn_joint.end());
-    if (src_limb_peak > 1e-9 && limb_peak > tun_.max_strike_speed_ratio * src_limb_peak)
-      want = std::min(want, tun_.max_strike_speed_ratio * src_limb_peak / limb_peak);
+    if (src_limb_peak > 1e-9 && peaks.limb > tun_.max_strike_speed_ratio * src_limb_peak)
+      want = std::min(want, tun_.max_strike_speed_ratio * src_limb_peak / peaks.limb);
     if (!(want < 1)) break;
     const double next = std::clamp(rate * want, tun_.min_strike_rate, 1.0);
     if (next >= rate) break;

@@ -324,11 +324,7 @@ TEST(Adapt, TheTrunkFallbackComesInAndGoesOutOverFramesWhenTheCallerBoundsIt) {
     double worst = 0;
     for (std::size_t i = 0; i < ks.size(); ++i) {
       const ReachGoal goal = line.goal_at(ks[i]);
-      TrunkLean floor;
-      const double keep = 1 - dt / 0.15;
-      floor.spine = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.spine);
-      floor.chest = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.chest);
-      floor.clavicle = Eigen::Quaterniond::Identity().slerp(keep, last.trunk_fallback.clavicle);
+      const TrunkLean floor = last.trunk_fallback.scaled(1 - dt / 0.15);
       AdaptReport rep;
       AdaptJob job = b.job(rig, line.f);
       job.reach = &goal;

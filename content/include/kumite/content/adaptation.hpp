@@ -61,6 +61,11 @@ struct TrunkLean {
   Eigen::Quaterniond spine = Eigen::Quaterniond::Identity();
   Eigen::Quaterniond chest = Eigen::Quaterniond::Identity();
   Eigen::Quaterniond clavicle = Eigen::Quaterniond::Identity();
+  /// This lean at `w` of its rotations (0: none, 1: whole).
+  TrunkLean scaled(double w) const {
+    return {Eigen::Quaterniond::Identity().slerp(w, spine), Eigen::Quaterniond::Identity().slerp(w, chest),
+            Eigen::Quaterniond::Identity().slerp(w, clavicle)};
+  }
   bool identity() const {
     return spine.isApprox(Eigen::Quaterniond::Identity(), 0) && chest.isApprox(Eigen::Quaterniond::Identity(), 0) &&
            clavicle.isApprox(Eigen::Quaterniond::Identity(), 0);

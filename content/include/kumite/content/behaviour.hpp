@@ -151,7 +151,6 @@ class StrikeRateSolver {
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> positions_, last_positions_;
   std::vector<char> in_limb_;  ///< [joint] part of the striking limb
-  std::vector<double> peaks_, src_peaks_;  ///< m/s [joint]: drawn and source peak speeds
 };
 
 /// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
@@ -277,7 +276,9 @@ class Behaviour {
   void start_rest(Timestamp now);
   void update_follow(double dt, const Eigen::Vector3d& head);
   void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
-  void compute_reach_error(double at_time_s);
+  /// d(t) at contact from the pose at segment time `at_time_s`; `plan_lean`: also the punch's
+  /// trunk lean (not at the contact frame itself: the lean eased in since the start stays).
+  void compute_reach_error(double at_time_s, bool plan_lean = true);
   /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into the blend (cur_pose: `cur`
   /// alone), as update() composes every frame.
   void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out) const;
