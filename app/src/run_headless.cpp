@@ -72,11 +72,14 @@ class HeadlessPresenter {
     }
     for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
     log_->write(f, inst.console(f), names_, stereo_);
+    bound_frames_in_flight();
   }
 
   /// Writes what is queued and closes the log. Throws kumite::Error on a failed write.
   void finish() {
     glFinish();
+    if (in_flight_ != nullptr) glDeleteSync(in_flight_);
+    in_flight_ = nullptr;
     pngs_->flush();
     for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
     log_->close();
@@ -85,6 +88,21 @@ class HeadlessPresenter {
   const PngWriter& pngs() const { return *pngs_; }
 
  private:
+  /// At most one frame's drawing queued behind the one just submitted, as a display's swap
+  /// chain allows: without a swap nothing else throttles the driver, and Mesa's software
+  /// renderer (the headless demo's, CI's) keeps every scene it ever had to queue when its
+  /// threads fell behind (the soak's RSS stepped up whenever the machine got loaded).
+  void bound_frames_in_flight() {
+    GLsync next = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    if (in_flight_ != nullptr) {
+      // 10 s: a driver that never signals must not hang the run (the watchdog sees a slow frame).
+      if (glClientWaitSync(in_flight_, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ULL) == GL_WAIT_FAILED)
+        spdlog::warn("headless: waiting for the previous frame's drawing failed (GL error 0x{:x})", glGetError());
+      glDeleteSync(in_flight_);
+    }
+    in_flight_ = next;
+  }
+
   std::filesystem::path out_;
   int save_every_ = 1;
   std::unique_ptr<HeadlessContext> context_;
@@ -96,6 +114,7 @@ class HeadlessPresenter {
   std::unique_ptr<PngWriter> pngs_;
   std::vector<std::uint8_t> pixels_;
   double render_s_ = 0;
+  GLsync in_flight_ = nullptr;  ///< the last frame's fence (bound_frames_in_flight)
 };
 
 int run_headless(Installation& inst, const HeadlessOptions& opt) {
