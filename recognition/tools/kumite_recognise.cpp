@@ -63,6 +63,11 @@ int main(int argc, char** argv) {
                    "resample every recording's pose stream at exactly this rate before training and testing (as a "
                    "tracker at that rate delivers: samples on a fixed grid), instead of the mocap's own frames")
       ->check(CLI::Range(10.0, 1000.0));
+  bool development_actors = false;
+  eval->add_flag("--train-on-development-actors", development_actors,
+                 "also train on the development-only boxer and Sony punches (tests only, never shipped): they join "
+                 "the leave-one-actor-out folds as actors of their own, so every punch actor is tested against a "
+                 "model of the others (DTW only; the shipped model never holds them)");
   fs::path learned_folds = default_learned_folds();
   eval->add_option("--learned", learned_folds, "the learned recogniser's fold models (train_touche.py --eval-dir); "
                    "the learned side is left out when absent");
@@ -178,6 +183,25 @@ int main(int argc, char** argv) {
       std::vector<offline::Recording> external;
       if (fs::exists(mocap)) external = offline::load_external(mocap);
       else std::cerr << "eval: no development mocap at " << mocap.string() << ": boxer, Sony and walks left out\n";
+      if (development_actors) {
+        // Their strikes join the folds (each of boxer, sony an actor of its own); the strike-free
+        // external recordings (walk, run) stay external, scored by the model of every actor.
+        std::vector<offline::Recording> rest;
+        int moved = 0;
+        for (auto& r : external) {
+          if (r.strikes.empty()) {
+            rest.push_back(std::move(r));
+          } else {
+            trainable.push_back(std::move(r));
+            ++moved;
+          }
+        }
+        external = std::move(rest);
+        if (moved == 0) {
+          std::cerr << "eval: --train-on-development-actors: no boxer or Sony recordings under " << mocap.string() << "\n";
+          return 1;
+        }
+      }
       if (test_hz > 0) {
         for (auto& r : trainable) r.samples = offline::resample(r.samples, test_hz);
         for (auto& r : external) r.samples = offline::resample(r.samples, test_hz);
@@ -186,7 +210,14 @@ int main(int argc, char** argv) {
       if (test_hz > 0) report["tracker_hz"] = test_hz;
       report["what"] = "the two strike recognisers side by side, on the same held-out actors (see recognition/README.md)";
       report["dtw"] = offline::evaluate(trainable, external, rs, ts);
-      if (fs::exists(learned_folds / "all.klearn")) report["learned"] = offline::evaluate_learned(trainable, external, learned_folds, lov);
+      if (development_actors) {
+        report["development_actors_trained_on"] = true;
+        report["dtw"]["what"] = std::string(report["dtw"]["what"]) +
+                                "; --train-on-development-actors: the boxer and Sony punches are actors of the folds "
+                                "too (trained on when another actor is held out; never in a shipped model)";
+        std::cerr << "eval: --train-on-development-actors: the learned side is left out (its fold models are of "
+                     "content/motions only)\n";
+      } else if (fs::exists(learned_folds / "all.klearn")) report["learned"] = offline::evaluate_learned(trainable, external, learned_folds, lov);
       else std::cerr << "eval: no learned fold models in " << learned_folds.string()
                      << " (recognition/train/train_touche.py --eval-dir): the learned side is left out\n";
       report["motions"] = motions.string();
