@@ -126,12 +126,15 @@ double dtw_full(std::span<const Feature> a, std::span<const Feature> b,
 
 std::vector<Template> build_templates(std::span<const Trial> trials, const RecogniserSettings& rs,
                                       const TrainSettings& s) {
-  std::map<std::pair<LimbKind, std::string>, std::vector<const Trial*>> groups;
+  std::map<std::tuple<LimbKind, std::string, std::string>, std::vector<const Trial*>> styled;
   for (const Trial& t : trials) {
     if (t.frames.size() < 2 || t.hit < 0 || t.hit >= static_cast<int>(t.frames.size()))
       throw Error("recognition", "trial", "trial " + t.source + ": fewer than 2 frames or hit outside");
-    groups[{t.kind, t.action}].push_back(&t);
+    const bool per_style = s.template_per_style && t.action != kNoneAction && t.kind == LimbKind::hand;
+    styled[{t.kind, t.action, per_style ? t.style : std::string()}].push_back(&t);
   }
+  std::vector<std::pair<std::pair<LimbKind, std::string>, std::vector<const Trial*>>> groups;
+  for (auto& [k, g] : styled) groups.push_back({{std::get<0>(k), std::get<1>(k)}, std::move(g)});
   std::vector<Template> out;
   std::vector<double> scratch;
   for (const auto& [key, group] : groups) {

@@ -213,9 +213,11 @@ void Recogniser::limb_loop(const Frame& f, int l, std::vector<Event>& out) {
       const double cur_rel = cm.distance / cur.threshold_at(static_cast<int>(st.buffer.size()));
       if (other.index >= 0 && (cur_rel >= 1 || other.distance < s.switch_margin * cur_rel)) {
         const Template& t = model_.templates[static_cast<std::size_t>(other.index)];
+        const bool same_action = t.action == cur.action;  // another style of the same strike
         st.current = other.index;
-        out.push_back(make_event(f, l, EventType::switch_, other.index,
-                                 DtwMatch{other.distance * t.threshold_at(static_cast<int>(st.buffer.size())), other.end}));
+        const Event e = make_event(f, l, EventType::switch_, other.index,
+                                   DtwMatch{other.distance * t.threshold_at(static_cast<int>(st.buffer.size())), other.end});
+        if (!same_action) out.push_back(e);
       } else if (cur_rel >= 1) {
         out.push_back(make_event(f, l, EventType::cancel, st.current, cm));
         st.state = State::discard;

@@ -83,6 +83,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 20.0));
   eval->add_option("--threshold-factor", threshold_factor, "template threshold / worst training distance")
       ->check(CLI::Range(1.0, 10.0));
+  bool per_style = false;
+  eval->add_flag("--template-per-style", per_style,
+                 "hand strikes: one template per action and actor (style) instead of one mean per action "
+                 "(evaluation only: a model file holds one template per action)");
   RecogniserSettings rs;
   for (auto* sc : {train, eval}) {
     sc->add_option("--velocity-weight", rs.frontend.velocity_weight, "feature weight of velocity")->check(CLI::Range(0.0, 10.0));
@@ -124,6 +128,7 @@ int main(int argc, char** argv) {
   try {
     TrainSettings ts;
     ts.threshold_factor = threshold_factor;
+    ts.template_per_style = per_style;
     if (train->parsed()) {
       const auto recs = offline::load_motions(motions);
       std::vector<const offline::Recording*> p;

@@ -279,6 +279,7 @@ std::vector<Trial> trials_of(const std::vector<const Recording*>& recs, const Re
       if (!t) continue;
       t->action = st.action;
       t->source = st.name;
+      t->style = r->actor;
       out.push_back(std::move(*t));
     }
   }

@@ -254,3 +254,75 @@ TEST(RecognitionFrontend, TimeJumpsAndHugeTimesDoNotStall) {
   EXPECT_LT(frames.size(), 400u);
   EXPECT_GT(frames.size(), 2u);
 }
+
+TEST(RecognitionSynthetic, TemplatesPerStyleSplitHandStrikesAndNeverSwitchWithinAnAction) {
+  // SYNTHETIC: two "actors" punching at different speeds (their styles), one kicking.
+  std::vector<offline::Recording> recs;
+  for (double speed : {0.7, 0.8, 0.9, 1.2, 1.3, 1.4})
+    for (double scale : {0.92, 1.08})
+      for (SynthMove mv : {SynthMove::straight_punch, SynthMove::front_kick}) {
+        const Role limb = mv == SynthMove::front_kick ? Role::right_foot : Role::right_hand;
+        const auto syn = offline::synthesise(
+            {{SynthMove::idle, limb, 0.5, 1}, {mv, limb, 1.2, speed}, {SynthMove::idle, limb, 0.5, 1}}, 120, scale);
+        offline::Recording r;
+        r.name = "synthetic";
+        r.actor = speed < 1 ? "slow" : "quick";
+        r.fps = 120;
+        r.frames = static_cast<int>(syn.samples.size() / kRoleCount);
+        r.samples = syn.samples;
+        r.strikes = syn.strikes;
+        recs.push_back(std::move(r));
+      }
+  std::vector<const offline::Recording*> p;
+  for (const auto& r : recs) p.push_back(&r);
+  RecogniserSettings rs;
+  TrainSettings ts;
+  ts.template_per_style = true;
+  Model m;
+  m.settings = rs;
+  m.templates = build_templates(offline::trials_of(p, rs, ts), rs, ts);
+  int punch = 0, kick = 0;
+  for (const auto& t : m.templates) {
+    punch += t.action == "straight_punch";
+    kick += t.action == "front_kick";
+  }
+  EXPECT_EQ(punch, 2) << "one per style";
+  EXPECT_EQ(kick, 1) << "kicks keep one mean template";
+  // A punch between the two styles' speeds: one begin, one end, and no switch between the two
+  // punch templates (the same strike, whichever style fits best as it goes on).
+  for (double speed : {0.8, 1.05, 1.3}) {
+    const auto syn = offline::synthesise({{SynthMove::idle, Role::right_hand, 0.6, 1},
+                                          {SynthMove::straight_punch, Role::right_hand, 1.4, speed},
+                                          {SynthMove::idle, Role::right_hand, 0.5, 1}},
+                                         120, 1.0);
+    const auto ev = recognise(m, syn.samples);
+    ASSERT_EQ(of_type(ev, EventType::begin).size(), 1u) << speed;
+    EXPECT_EQ(of_type(ev, EventType::begin)[0].action, "straight_punch");
+    EXPECT_TRUE(of_type(ev, EventType::switch_).empty()) << speed;
+    EXPECT_EQ(of_type(ev, EventType::end).size(), 1u) << speed;
+  }
+}
+
+TEST(RecognitionSynthetic, AnotherTemplateOfTheSameActionTakesOverWithoutASwitchEvent) {
+  // Two punch templates (SYNTHETIC, the same shape): A matches loosely over the first loops and
+  // not at all later, B as trained. The punch begins on A; when A stops matching, B carries
+  // on: the same strike, so no switch event (a switch tells the opponent the strike changed).
+  Model m = synth_model();
+  const auto punch = std::find_if(m.templates.begin(), m.templates.end(), [](const Template& t) { return t.action == "straight_punch"; });
+  ASSERT_NE(punch, m.templates.end());
+  Template a = *punch;
+  a.thresholds.assign(static_cast<std::size_t>(m.settings.max_frames), 0);
+  for (int n = 1; n <= m.settings.max_frames; ++n)
+    a.thresholds[static_cast<std::size_t>(n - 1)] = punch->threshold_at(n) * (n <= m.settings.main_frames + 2 ? 4.0 : 0.01);
+  m.templates.insert(m.templates.begin(), a);
+  const auto syn = offline::synthesise({{SynthMove::idle, Role::right_hand, 0.6, 1},
+                                        {SynthMove::straight_punch, Role::right_hand, 1.4, 1.0},
+                                        {SynthMove::idle, Role::right_hand, 0.5, 1}},
+                                       120, 1.0);
+  const auto ev = recognise(m, syn.samples);
+  ASSERT_EQ(of_type(ev, EventType::begin).size(), 1u);
+  EXPECT_EQ(of_type(ev, EventType::begin)[0].action, "straight_punch");
+  EXPECT_TRUE(of_type(ev, EventType::switch_).empty());
+  EXPECT_TRUE(of_type(ev, EventType::cancel).empty()) << "B carried the strike on";
+  EXPECT_EQ(of_type(ev, EventType::end).size(), 1u);
+}

@@ -255,6 +255,7 @@ struct Trial {
   std::vector<Feature> frames;
   int hit = 0;
   std::string source;  ///< e.g. "135_04_kick_right_1"
+  std::string style;   ///< who performed it (the actor): TrainSettings::template_per_style groups by it
 };
 
 inline constexpr std::string_view kNoneAction = "none";
@@ -266,6 +267,11 @@ struct TrainSettings {
   /// threshold(n) = factor x the largest distance of a training trial's n-frame prefix to the
   /// template (n = main buffer .. supplementary buffer; made non-decreasing in n)
   double threshold_factor = 1.3;
+  /// Hand strikes: one template per (action, style) instead of per action, so a lunge from the
+  /// hip and a straight from a guard are not averaged into one shape (evaluation only: the
+  /// model file holds one template per action). Kicks keep one mean: per style, CMU 135's
+  /// 3-trial front kick matched the same actor's kata steps (false triggers 2.6 -> 6.2 / min).
+  bool template_per_style = false;
 };
 
 /// Mean templates per (kind, action): the medoid trial refined by DTW barycentre averaging;
