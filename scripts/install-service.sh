@@ -96,5 +96,5 @@ echo "installed $DIR/$NAME.service"
 systemctl --user daemon-reload
 systemctl --user enable "$NAME.service"
 if [[ $START == 1 ]]; then systemctl --user restart "$NAME.service"; fi
-echo "started at the user's login; at boot too after: loginctl enable-linger $USER"
+echo "started at the user's login; at boot too after: loginctl enable-linger ${USER:-$(id -un)}"
 echo "logs: journalctl --user -u $NAME -f    status: $KUMITE status --config $CONFIG"
