@@ -250,6 +250,9 @@ LimbAtContact limb_at_contact(const JointTrack& track, const Effector& e, int fr
   if (back < frame) {
     const Vector3d v = (pe - track.at(back, en)) / ((frame - back) * track.frame_time_s);
     out.approach_elevation_deg = std::atan2(v.y(), Eigen::Vector2d(v.x(), v.z()).norm()) * 180 / std::numbers::pi;
+    const Vector3d line = pe - pr;
+    out.approach_above_line_deg =
+        out.approach_elevation_deg - std::atan2(line.y(), Eigen::Vector2d(line.x(), line.z()).norm()) * 180 / std::numbers::pi;
   }
   const int lookback = static_cast<int>(std::lround(0.1 / track.frame_time_s));
   for (int f = std::max(1, frame - lookback); f <= frame; ++f) {

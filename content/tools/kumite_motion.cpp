@@ -418,7 +418,7 @@ nlohmann::json figures_json(const TrackFigures& f, const Skeleton& s, double fra
 
 nlohmann::json limb_json(const LimbAtContact& l) {
   return {{"extension", l.extension}, {"end_ahead_m", l.end_ahead_m}, {"folded", l.folded},
-          {"elbow_above_head", l.elbow_above_head}, {"approach_elevation_deg", l.approach_elevation_deg},
+          {"elbow_above_head", l.elbow_above_head}, {"approach_elevation_deg", l.approach_elevation_deg}, {"approach_above_line_deg", l.approach_above_line_deg},
           {"approach_max_elevation_deg", l.approach_max_elevation_deg},
           {"end_to_target_m", l.end_to_target_m}};
 }
@@ -435,7 +435,8 @@ struct QualityTotals {
   std::vector<double> lifted_out, slide_any_out, step_ratio_stepped, unsourced_step;
   std::vector<double> p99_ratio, p99_out, p99_src, max_out, max_src, slide_out, slide_src, step_out, step_src,
       step_ratio, reach_m, elev_out, elev_src, ext_out, ext_src, whole_slide, tail_slide, whole_step, tail_step,
-      knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src, hook_out, hook_src;
+      knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src, hook_out, hook_src,
+      above_line_out, above_line_src;
 
   void add(const StrikeQuality& q, bool kick, bool reached, bool hit, double reach) {
     ++strikes;
@@ -464,6 +465,8 @@ struct QualityTotals {
       elbow_above_head_src += q.source_contact.elbow_above_head;
       elev_out.push_back(q.output_contact.approach_elevation_deg);
       elev_src.push_back(q.source_contact.approach_elevation_deg);
+      above_line_out.push_back(q.output_contact.approach_above_line_deg);
+      above_line_src.push_back(q.source_contact.approach_above_line_deg);
       hook_out.push_back(q.output_contact.approach_max_elevation_deg);
       hook_src.push_back(q.source_contact.approach_max_elevation_deg);
     }
@@ -541,6 +544,8 @@ struct QualityTotals {
             {"strikes_with_elbow_flip", elbow_flip_out}, {"source_strikes_with_elbow_flip", elbow_flip_src},
             {"punch_approach_elevation_deg", dist_json(elev_out)},
             {"source_punch_approach_elevation_deg", dist_json(elev_src)},
+            {"punch_approach_above_arm_line_deg", dist_json(above_line_out)},
+            {"source_punch_approach_above_arm_line_deg", dist_json(above_line_src)},
             {"punch_approach_max_elevation_deg", dist_json(hook_out)},
             {"source_punch_approach_max_elevation_deg", dist_json(hook_src)},
             {"punch_extension_at_contact", dist_json(ext_out)}, {"source_punch_extension_at_contact", dist_json(ext_src)},
@@ -608,6 +613,10 @@ struct QualityTotals {
                d("source_punch_approach_elevation_deg", "p50"), d("source_punch_approach_elevation_deg", "p95"),
                d("punch_extension_at_contact", "p50"), d("source_punch_extension_at_contact", "p50"),
                d("kick_extension_at_contact", "p50"), d("source_kick_extension_at_contact", "p50"));
+    fmt::print("punch approach above the arm's line at contact (last 33 ms; 0 = along the arm): p50 {:.0f} p95 {:.0f} deg "
+               "(source p50 {:.0f} p95 {:.0f})\n",
+               d("punch_approach_above_arm_line_deg", "p50"), d("punch_approach_above_arm_line_deg", "p95"),
+               d("source_punch_approach_above_arm_line_deg", "p50"), d("source_punch_approach_above_arm_line_deg", "p95"));
     fmt::print("reach (hit point to target, read back): p50 {:.1f} mm, max {:.1f} mm; reachable {:.1f} % (solver), hits "
                "{:.1f} %\n",
                d("reach_m", "p50") * 1000, d("reach_m", "max") * 1000, j["reachable_pct"].get<double>(),

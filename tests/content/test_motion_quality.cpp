@@ -220,6 +220,29 @@ TEST(MotionQuality, SyntheticFistHookingUpwardHasALargeApproachElevation) {
   EXPECT_NEAR(hk.approach_max_elevation_deg, std::atan2(0.02, 0.005) * 180 / 3.14159265358979323846, 1e-9);  // ...the hook is not
 }
 
+TEST(MotionQuality, SyntheticPunchAimedUpAlongItsArmIsOnTheLineAFistRisingAcrossALevelArmIsNot) {
+  const double pi = 3.14159265358979323846, up = 30 * pi / 180;
+  const Vector3d shoulder(0.2, 1.4, 0.0), dir(0, std::sin(up), std::cos(up));
+  // A straight punch at a high target: the fist extends along the shoulder->target line, 30 deg up.
+  Sequence along(10);
+  for (int f = 0; f < 10; ++f) {
+    along.at(f, CJ::l_shoulder) = shoulder;
+    along.at(f, CJ::l_wrist) = shoulder + dir * (0.3 + 0.03 * f);
+  }
+  const LimbAtContact a = limb_at_contact(along.track(), Effector{kLeft, false}, 9, shoulder + dir * 0.6, 2);
+  EXPECT_NEAR(a.approach_elevation_deg, 30, 1e-9);
+  EXPECT_NEAR(a.approach_above_line_deg, 0, 1e-9);
+  // A level arm whose fist comes up from below onto the line: all of its rise crosses the line.
+  Sequence across(10);
+  for (int f = 0; f < 10; ++f) {
+    across.at(f, CJ::l_shoulder) = shoulder;
+    across.at(f, CJ::l_wrist) = shoulder + Vector3d(0, -0.02 * (9 - f), 0.55);
+  }
+  const LimbAtContact c = limb_at_contact(across.track(), Effector{kLeft, false}, 9, shoulder + Vector3d(0, 0, 0.6), 2);
+  EXPECT_NEAR(c.approach_elevation_deg, 90, 1e-9);
+  EXPECT_NEAR(c.approach_above_line_deg, 90, 1e-9);
+}
+
 TEST(MotionQuality, SyntheticElbowFlipIsDetectedSlowSwivelAndStraightLimbAreNot) {
   // The left arm bent 90 deg; its elbow swivels about the shoulder -> wrist axis (+Z).
   auto arm = [](double swivel_rad, Sequence& s, int f) {

@@ -146,6 +146,10 @@ struct LimbAtContact {
   bool folded = false;          ///< end_ahead_m < 0, or (arms) elbow above the head
   bool elbow_above_head = false;
   double approach_elevation_deg = 0;  ///< of the end joint's velocity over the window before contact
+  /// The same minus the elevation of the limb's line (root -> end) at contact: how far the
+  /// end's last approach rises across the line it strikes along (0: it travels along the arm,
+  /// a straight punch; a punch aimed higher has a steeper line, not a larger figure here).
+  double approach_above_line_deg = 0;
   /// Largest elevation of the end joint's velocity (over the speed window) at any frame of
   /// the 0.1 s before contact while it moves faster than 1 m/s: a hook shows here even when
   /// the last window is level. 0 when it never moves that fast.
