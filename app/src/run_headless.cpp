@@ -96,8 +96,11 @@ class HeadlessPresenter {
     GLsync next = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
     if (in_flight_ != nullptr) {
       // 10 s: a driver that never signals must not hang the run (the watchdog sees a slow frame).
-      if (glClientWaitSync(in_flight_, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ULL) == GL_WAIT_FAILED)
+      const GLenum waited = glClientWaitSync(in_flight_, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ULL);
+      if (waited == GL_WAIT_FAILED)
         spdlog::warn("headless: waiting for the previous frame's drawing failed (GL error 0x{:x})", glGetError());
+      else if (waited == GL_TIMEOUT_EXPIRED)
+        spdlog::warn("headless: the previous frame's drawing took over 10 s; going on without it");
       glDeleteSync(in_flight_);
     }
     in_flight_ = next;
