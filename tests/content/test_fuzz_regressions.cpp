@@ -4,6 +4,7 @@
 
 #include <string>
 
+#include "kumite/common/error.hpp"
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/character.hpp"
 
@@ -51,6 +52,28 @@ TEST(FuzzRegressions, AnnotationValuesThatRoundToZeroAreWrittenAsAFixedPoint) {
     const std::string out = format_annotations(parse_annotations(text, "motions.toml"));
     EXPECT_EQ(format_annotations(parse_annotations(out, "motions-out.toml")), out) << line;
   }
+}
+
+// fuzz_motions (corpus_fuzz_motions/regression-extension-1e281): extension = 0.1e282 was
+// read (only >= 0 was checked) and written back as a 282-digit literal, which the reader then
+// refused. Both informational numbers are read within a range now, naming file, line and key.
+TEST(FuzzRegressions, AnnotationSpeedsAndExtensionsOutOfAnyBodysRangeAreRefused) {
+  const std::string head = "version = 1\n[[clip]]\nfile = \"a.bvh\"\n[[clip.motion]]\nname = \"a_rest\"\n"
+                           "semantics = \"rest\"\nframes = [0, 10]\n";
+  for (const char* line : {"extension = 0.1e282\n", "extension = 2.5\n", "peak_speed_mps = 1e300\n", "peak_speed_mps = 120\n"}) {
+    try {
+      (void)parse_annotations(head + line, "motions.toml");
+      ADD_FAILURE() << "accepted " << line;
+    } catch (const kumite::Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("motions.toml:8"), std::string::npos) << what;
+      EXPECT_NE(what.find(std::string(line).substr(0, std::string(line).find(' '))), std::string::npos) << what;
+    }
+  }
+  // In range: read, and written back as a fixed point.
+  const std::string out = format_annotations(parse_annotations(head + "extension = 1.02\npeak_speed_mps = 14.5\n", "motions.toml"));
+  EXPECT_NE(out.find("extension = 1.020\n"), std::string::npos) << out;
+  EXPECT_EQ(format_annotations(parse_annotations(out, "motions-out.toml")), out);
 }
 
 // fuzz_characters (regression-scale-precision.toml): shoulder_width = 1.0001 was written as
