@@ -72,14 +72,18 @@ class HeadlessPresenter {
     }
     for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
     log_->write(f, inst.console(f), names_, stereo_);
-    bound_frames_in_flight();
+    // Nothing queued behind the frame just drawn: without a swap chain nothing else throttles
+    // the driver, and Mesa's software renderer (the headless demo's, CI's) keeps every scene it
+    // ever had to queue when its threads fell behind (the soak's RSS stepped up whenever the
+    // machine got loaded: 263 -> 384 MB). A fence per frame (one frame in flight) did the same,
+    // but a soak with it crashed after 40 minutes in malloc (heap corruption, cause not found):
+    // glFinish is the path every other frame loop here takes (late latch, windows).
+    glFinish();
   }
 
   /// Writes what is queued and closes the log. Throws kumite::Error on a failed write.
   void finish() {
     glFinish();
-    if (in_flight_ != nullptr) glDeleteSync(in_flight_);
-    in_flight_ = nullptr;
     pngs_->flush();
     for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
     log_->close();
@@ -88,24 +92,6 @@ class HeadlessPresenter {
   const PngWriter& pngs() const { return *pngs_; }
 
  private:
-  /// At most one frame's drawing queued behind the one just submitted, as a display's swap
-  /// chain allows: without a swap nothing else throttles the driver, and Mesa's software
-  /// renderer (the headless demo's, CI's) keeps every scene it ever had to queue when its
-  /// threads fell behind (the soak's RSS stepped up whenever the machine got loaded).
-  void bound_frames_in_flight() {
-    GLsync next = glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
-    if (in_flight_ != nullptr) {
-      // 10 s: a driver that never signals must not hang the run (the watchdog sees a slow frame).
-      const GLenum waited = glClientWaitSync(in_flight_, GL_SYNC_FLUSH_COMMANDS_BIT, 10'000'000'000ULL);
-      if (waited == GL_WAIT_FAILED)
-        spdlog::warn("headless: waiting for the previous frame's drawing failed (GL error 0x{:x})", glGetError());
-      else if (waited == GL_TIMEOUT_EXPIRED)
-        spdlog::warn("headless: the previous frame's drawing took over 10 s; going on without it");
-      glDeleteSync(in_flight_);
-    }
-    in_flight_ = next;
-  }
-
   std::filesystem::path out_;
   int save_every_ = 1;
   std::unique_ptr<HeadlessContext> context_;
@@ -117,7 +103,6 @@ class HeadlessPresenter {
   std::unique_ptr<PngWriter> pngs_;
   std::vector<std::uint8_t> pixels_;
   double render_s_ = 0;
-  GLsync in_flight_ = nullptr;  ///< the last frame's fence (bound_frames_in_flight)
 };
 
 int run_headless(Installation& inst, const HeadlessOptions& opt) {
