@@ -19,6 +19,7 @@
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -181,6 +182,18 @@ int main(int argc, char** argv) {
   result["show_s_asked"] = show_s;
   result["frames_asked"] = frames;
   result["exit_status"] = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  // How the run ended, in words: a kumite killed by a signal it was not sent is a crash, the
+  // soak's worst finding (exit_status 139 alone was easy to read past).
+  std::string ended;
+  if (WIFSIGNALED(status)) {
+    ended = std::string(forwarded ? "stopped" : "CRASHED") + ": killed by signal " + std::to_string(WTERMSIG(status)) +
+            " (" + strsignal(WTERMSIG(status)) + ")";
+  } else if (WIFEXITED(status)) {
+    ended = WEXITSTATUS(status) == 0 ? "complete" : "exit " + std::to_string(WEXITSTATUS(status));
+    if (forwarded) ended = "stopped (SIGTERM forwarded), " + ended;
+  }
+  result["ended"] = ended;
+  if (WIFSIGNALED(status) && !forwarded) std::cerr << "kumite_app_soak: kumite " << ended << "\n";
   result["wall_s"] = wall_s;
   result["peak_rss_mb"] = peak_mb;
   result["samples_taken"] = samples.size();
