@@ -126,25 +126,25 @@ double dtw_full(std::span<const Feature> a, std::span<const Feature> b,
 
 std::vector<Template> build_templates(std::span<const Trial> trials, const RecogniserSettings& rs,
                                       const TrainSettings& s) {
-  std::map<std::tuple<LimbKind, std::string, std::string>, std::vector<const Trial*>> styled;
+  // (kind, action, style): the style is empty unless templates are kept per style.
+  std::map<std::tuple<LimbKind, std::string, std::string>, std::vector<const Trial*>> groups;
   for (const Trial& t : trials) {
     if (t.frames.size() < 2 || t.hit < 0 || t.hit >= static_cast<int>(t.frames.size()))
       throw Error("recognition", "trial", "trial " + t.source + ": fewer than 2 frames or hit outside");
     const bool per_style = s.template_per_style && t.action != kNoneAction && t.kind == LimbKind::hand;
-    styled[{t.kind, t.action, per_style ? t.style : std::string()}].push_back(&t);
+    groups[{t.kind, t.action, per_style ? t.style : std::string()}].push_back(&t);
   }
-  std::vector<std::pair<std::pair<LimbKind, std::string>, std::vector<const Trial*>>> groups;
-  for (auto& [k, g] : styled) groups.push_back({{std::get<0>(k), std::get<1>(k)}, std::move(g)});
   std::vector<Template> out;
   std::vector<double> scratch;
   for (const auto& [key, group] : groups) {
-    if (key.second == kNoneAction) {
+    const auto& [kind, action, style] = key;
+    if (action == kNoneAction) {
       // Kept one by one (non-strikes have no common shape), evenly thinned.
       const std::size_t keep = std::min<std::size_t>(group.size(), static_cast<std::size_t>(std::max(0, s.max_none_templates)));
       for (std::size_t i = 0; i < keep; ++i) {
         const Trial* tr = group[i * group.size() / keep];
         Template t;
-        t.kind = key.first;
+        t.kind = kind;
         t.action = std::string(kNoneAction);
         t.frames.assign(tr->frames.begin(), tr->frames.begin() + std::min<std::ptrdiff_t>(static_cast<std::ptrdiff_t>(tr->frames.size()), s.none_frames));
         t.hit = static_cast<int>(t.frames.size()) - 1;
@@ -168,8 +168,8 @@ std::vector<Template> build_templates(std::span<const Trial> trials, const Recog
       }
     }
     Template t;
-    t.kind = key.first;
-    t.action = key.second;
+    t.kind = kind;
+    t.action = action;
     t.frames = group[medoid]->frames;
     t.hit = group[medoid]->hit;
     t.trials = static_cast<int>(k);
