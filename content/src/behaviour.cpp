@@ -86,7 +86,8 @@ void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
 }
 
 bool Behaviour::strike_pending() const {
-  return pending_ || approach_ || std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.stepped_in; });
+  return pending_ || approach_ || support_step_ ||
+         std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.stepped_in || q.support_stepped; });
 }
 
 void Behaviour::order(const Order& o) { orders_.push_back({o, std::nullopt}); }
@@ -191,7 +192,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
       default: break;
     }
     const auto eff = effector_of(o.kind);
-    if (state_ == FighterState::striking || pending_ || approach_) {
+    if (state_ == FighterState::striking || pending_ || approach_ || support_step_) {
       emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::mid_strike);  // the event names the order
       continue;
     }
@@ -224,9 +225,9 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     r.dt_s = last_dt_;
     r.target_local_m = ground().to_local(target);
     r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
-    pending_ = PendingStrike{r.id, o, target, queued.stepped_in};
-    // Taken again after stepping in: accepted already.
-    if (!queued.stepped_in) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
+    pending_ = PendingStrike{r.id, o, target, queued.stepped_in, queued.support_stepped};
+    // Taken again after stepping in (or a kick's support step): accepted already.
+    if (!queued.stepped_in && !queued.support_stepped) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
     submit_(r);
   }
   taking_.clear();
@@ -283,6 +284,50 @@ void Behaviour::update_step_in(double dt) {
   if (!arrived && approach_->elapsed_s < kStepInWait_s) return;
   orders_.insert(orders_.begin(), QueuedOrder{approach_->order, approach_->target_room_m, true});
   approach_.reset();
+}
+
+bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source) {
+  // A kick's support foot is the other foot. Where the clip, placed as it will be played, has
+  // that foot down first from the strike's start (the start itself, or where the clip sets it
+  // down a few frames in: a kick from a step) -- if that is more than kick_support_step_m
+  // from where the foot is held, the foot steps there first, at a procedural step's pace, while
+  // the kicking foot stands. Otherwise the leg would lose the held foot as the kick rises and
+  // the foot would be stepped with the kicking foot in the air (a hop), or carried faster than
+  // the clip's own foot.
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
+  const auto eff = seg.effector();
+  if (!eff || !eff->leg || tun_.kick_support_step_m <= 0 || !pending_) return false;
+  const int side = 1 - eff->side;
+  if (!feet_.held(side) || !feet_.held(eff->side)) return false;
+  int k = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
+  const int last = std::clamp(plan.contact_frame, k, seg.frame_count() - 1);
+  while (k < last && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] < 0.5) ++k;
+  if (seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] < 0.5) return false;
+  Source at_down = source;
+  at_down.time_s = k * seg.frame_time_s;
+  MkmFrame placed;
+  sample(at_down, placed);
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  CanonicalPose& c = scratch_pose_;
+  decode_canonical(rig, placed, c);
+  const CJ ankle = side == kLeft ? CJ::l_ankle : CJ::r_ankle;
+  const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
+  const Vector3d goal(at(c, ankle).x(), held.y(), at(c, ankle).z());
+  if (Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm() <= tun_.kick_support_step_m) return false;
+  if (!feet_.step_to(side, goal)) return false;
+  support_step_ = SupportStep{pending_->order, pending_->target_room_m, pending_->stepped_in, side, 0};
+  return true;
+}
+
+void Behaviour::update_support_step(double dt) {
+  // Done when the foot is down again (the step's own time), or after kWait_s in any case: the
+  // order is then taken again with its frozen target, as if just given (no second support step).
+  constexpr double kWait_s = 1.0;
+  if (!support_step_) return;
+  support_step_->elapsed_s += dt;
+  if (!feet_.held(support_step_->side) && support_step_->elapsed_s < kWait_s) return;
+  orders_.insert(orders_.begin(), QueuedOrder{support_step_->order, support_step_->target_room_m, support_step_->stepped_in, true});
+  support_step_.reset();
 }
 
 void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Timestamp now, double dt) {
@@ -546,7 +591,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
         strike_target_ = pending_->target_room_m;
         double shortfall_m = 0;
         const Source s = strike_source(*p, shortfall_m);
-        if (pending_->stepped_in || tun_.max_step_in_m <= 0 || shortfall_m < tun_.step_in_min_m || !begin_step_in(shortfall_m, now))
+        if ((pending_->stepped_in || tun_.max_step_in_m <= 0 || shortfall_m < tun_.step_in_min_m || !begin_step_in(shortfall_m, now)) &&
+            (pending_->support_stepped || !begin_support_step(*p, s)))
           start_strike(*p, s, now, dt);
       }
       pending_.reset();
@@ -575,6 +621,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   }
   if (state_ == FighterState::resting || state_ == FighterState::following) update_follow(dt, head);
   update_step_in(dt);
+  update_support_step(dt);
 
   // Compose the pose: cross-fade previous -> current.
   pose_before_ = pose_;
@@ -698,6 +745,7 @@ FighterFrame Behaviour::frame() const {
   f.parents = rig.skeleton.parents;
   f.joint_radii_m = rig.joint_radii_m;
   if (approach_) f.target = approach_->target_room_m;
+  if (support_step_) f.target = support_step_->target_room_m;
   if (strike_.active || pending_) f.target = pending_ ? pending_->target_room_m : strike_.target_room_m;
   f.root = Vector3d(pose_.root_xz_m.x(), 0, pose_.root_xz_m.y());
   f.heading_rad = facing_rad_;

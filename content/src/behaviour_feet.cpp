@@ -126,7 +126,11 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   // Steps also while recovering: a strike that ends in a long stance steps back under the
   // body instead of squatting into the rest motion's narrower one.
   // Not while d(t) still acts: the strike holds its stance until it has been taken back.
-  const bool may_step = state_ != FighterState::striking && ramp_ <= 0;
+  // Nor while a kick's support foot is set (its step and the kick it waits for): the other foot
+  // stands, and the set foot stays where the kick will turn on it.
+  const bool support_set = support_step_ || (pending_ && pending_->support_stepped) ||
+                           std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.support_stepped; });
+  const bool may_step = state_ != FighterState::striking && ramp_ <= 0 && !support_set;
   feet_.update(dt, in, may_step, spot_velocity_, locks_);
 }
 

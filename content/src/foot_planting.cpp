@@ -20,6 +20,16 @@ constexpr double kShedPerTravel = 0.5;
 constexpr double kReturnAccel_mps2 = 40;
 }  // namespace
 
+bool FootPlanter::step_to(int side, const Vector3d& to) {
+  Foot& f = feet_[static_cast<std::size_t>(side)];
+  if (f.phase != Phase::held || feet_[static_cast<std::size_t>(1 - side)].phase != Phase::held) return false;
+  f.phase = Phase::stepping;
+  f.step_t = 0;
+  f.step_from = f.lock;
+  f.step_to = to;
+  return true;
+}
+
 void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bool may_step,
                          const Eigen::Vector2d& body_velocity_xz, FootLocks& out) {
   // A foot the motion has down but that is still in the air drops vertically: at least at
@@ -71,7 +81,13 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // foot put down a little above the floor settles onto it.
         // It comes down only as far as the leg reaches with its knee still bent (a straight
         // knee moves centimetres per millimetre of ankle): else it waits on its toes.
-        double new_y = f.lock.y() + std::clamp(floor_y - f.lock.y(), -tun_.max_landing_speed_mps * dt, tun_.max_landing_speed_mps * dt);
+        // It rises and comes down no faster than the source's own ankle plus landing_speed_mps:
+        // a foot put down flat where the motion has the heel raised (a kick's support foot set
+        // down on its toes) lifts its heel at a foot's pace, not up to the raised heel in two
+        // frames, and a heel the blend into another motion lowers comes down as gently.
+        const double rise = std::min(tun_.max_landing_speed_mps * dt, std::max(0.0, in.source_step_m.y()) + tun_.landing_speed_mps * dt);
+        const double fall = std::min(tun_.max_landing_speed_mps * dt, std::max(0.0, -in.source_step_m.y()) + tun_.landing_speed_mps * dt);
+        double new_y = f.lock.y() + std::clamp(floor_y - f.lock.y(), -fall, rise);
         if (new_y < f.lock.y()) {
           const double reach = tun_.max_leg_stretch * in.leg_length_m;
           const double horiz = Eigen::Vector2d(f.lock.x() - in.hip_m.x(), f.lock.z() - in.hip_m.z()).norm();

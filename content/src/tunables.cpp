@@ -47,6 +47,7 @@ const std::vector<TunableKey>& fighter_tunable_keys() {
       b("step_in_min_m", "m", 0, 1, &B::step_in_min_m),
       b("max_step_in_m", "m", 0, 2, &B::max_step_in_m),
       b("step_in_speed_mps", "m/s", 0.05, 5, &B::step_in_speed_mps),
+      b("kick_support_step_m", "m", 0, 1, &B::kick_support_step_m),
       b("min_scaled_travel_m", "m", 0, 2, &B::min_scaled_travel_m),
       b("max_strike_rise_m", "m", 0, 0.5, &B::max_strike_rise_m),
       b("max_punch_elevation_deg", "deg", 0, 89, &B::max_punch_elevation_deg),

@@ -6,8 +6,10 @@
 // prints the figures and asserts no quality thresholds (the motion is being fixed elsewhere).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 
 #include "fighter_fixtures.hpp"
 #include "kumite/content/bvh.hpp"
@@ -561,4 +563,61 @@ TEST(MotionQualityShipped, AKickWhoseToesOutrunTheSourcesIsPlayedSlower) {
   EXPECT_LT(rec.strike.rate, 1.0);
   EXPECT_LT(ratio, 1.2);
   EXPECT_TRUE(judged.q.output.snaps.empty());
+}
+
+TEST(MotionQualityShipped, AKickSetsItsSupportFootFirstAndDoesNotHop) {
+  // Viktor's stance holds his back foot 51 cm behind the hip and his front foot well ahead;
+  // HDM05's front kicks (HDM_mm_024, and mirrored) put the support foot under the body. The
+  // support foot stayed where the stance had it, the leg lost it as the kick rose, and it was
+  // stepped with the kicking foot in the air (a hop): support-foot peak 2.9 m/s against the
+  // source's 0.55 (5.2 x), mirrored 1.2-1.5 m/s (2.1-2.6 x) on the 240-strike grid. The foot
+  // now steps under the body before the kick starts (BehaviourTunables::kick_support_step_m).
+  // Judged on the BVH read back: the support foot beside the source's over the same frames,
+  // and over the whole BVH, how fast the support foot moves while the kicking foot is up.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& viktor = rigs[4];
+  ASSERT_EQ(viktor.name, "viktor");
+  const struct {
+    OrderKind order;
+    Vector3d target;
+  } cases[] = {{OrderKind::kick_left, Vector3d(0.1528, 1.2692, 0.9924)},
+               {OrderKind::kick_right, Vector3d(-0.0096, 1.2692, 0.8674)}};
+  for (const auto& c : cases) {
+    const StrikeRecording rec = record_strike(set.db, viktor, c.order, c.target);
+    ASSERT_GE(rec.contact_frame, 0);
+    const Judged judged(*set.db, rec, c.order, "viktor");
+    const int support = c.order == OrderKind::kick_left ? kRight : kLeft;
+    const auto si = static_cast<std::size_t>(support);
+    const double out = judged.q.output.stepping[si].max_mps, src = judged.q.source.stepping[si].max_mps;
+    std::printf("%s %s: support foot peak %.2f m/s (source %.2f), strike from update %d\n",
+                std::string(to_string(c.order)).c_str(), rec.source_clip.c_str(), out, src, rec.strike.start_update);
+    // The support step takes its time before the strike (a kick without one starts on the
+    // update after its order's plan).
+    EXPECT_GT(rec.strike.start_update, 20) << to_string(c.order) << ": no support step";
+    if (std::isfinite(out) && std::isfinite(src)) {
+      EXPECT_LE(out, 1.2 * std::max(src, 0.5)) << to_string(c.order);
+    }
+    // While the kicking foot is off the floor (its ankle 10 cm above its own lowest level in
+    // this BVH), the support foot does not travel: its horizontal speed over +-2 frames stays
+    // under 0.5 m/s (the hop stepped it 34 cm at 2.7 m/s).
+    const Skeleton& sk = judged.back.skeleton;
+    const int kick_ankle = sk.index(support == kLeft ? CJ::r_ankle : CJ::l_ankle);
+    const int support_ankle = sk.index(support == kLeft ? CJ::l_ankle : CJ::r_ankle);
+    double floor = std::numeric_limits<double>::infinity();
+    for (int f = 0; f < judged.out.frame_count; ++f) floor = std::min(floor, judged.out.at(f, kick_ankle).y());
+    double fastest = 0;
+    int at = -1;
+    for (int f = 2; f + 2 < judged.out.frame_count; ++f) {
+      if (judged.out.at(f, kick_ankle).y() < floor + 0.10) continue;
+      const Vector3d d = judged.out.at(f + 2, support_ankle) - judged.out.at(f - 2, support_ankle);
+      const double v = std::hypot(d.x(), d.z()) / (4 * judged.out.frame_time_s);
+      if (v > fastest) {
+        fastest = v;
+        at = f;
+      }
+    }
+    EXPECT_LT(fastest, 0.5) << to_string(c.order) << ": the support foot moved at " << fastest
+                            << " m/s with the kicking foot in the air (frame " << at << ")";
+  }
 }

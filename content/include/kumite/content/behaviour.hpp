@@ -256,6 +256,10 @@ class Behaviour {
   void start_strike(const StrikePlan& plan, const PlaybackSource& source, Timestamp now, double dt);
   bool begin_step_in(double shortfall_m, Timestamp now);
   void update_step_in(double dt);
+  /// A kick's support foot stepped to where the clip puts it down, if it stands more than
+  /// kick_support_step_m from there (true: the strike waits for the step).
+  bool begin_support_step(const StrikePlan& plan, const Source& source);
+  void update_support_step(double dt);
   void apply_strike_rate();
   /// Places a strike's travel (motion_playback.cpp); returns the distance (m) the fighter
   /// would have to step in for the limb to reach the target as extended as captured.
@@ -328,6 +332,7 @@ class Behaviour {
     Order order{};
     std::optional<Eigen::Vector3d> target_room_m;
     bool stepped_in = false;  ///< taken again after stepping in for it (never steps in twice)
+    bool support_stepped = false;  ///< taken again after a kick's support step (never twice)
   };
   std::vector<QueuedOrder> orders_;  ///< queued for the next update (deferred ones first)
   std::vector<QueuedOrder> taking_;  ///< the orders handle_orders() is taking (room kept)
@@ -341,6 +346,7 @@ class Behaviour {
     Order order{};
     Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
     bool stepped_in = false;                 ///< QueuedOrder::stepped_in
+    bool support_stepped = false;            ///< QueuedOrder::support_stepped
   };
   std::optional<PendingStrike> pending_;
   /// A strike order whose target the strike would not reach from where the fighter stands:
@@ -353,6 +359,17 @@ class Behaviour {
     double at_spot_s = 0;  ///< s the spot has been at goal_xz (the feet may still be stepping)
   };
   std::optional<Approach> approach_;
+  /// A kick whose clip puts its support foot down out of where that foot stands: the foot
+  /// steps there first (FootPlanter::step_to), then the order is taken again
+  /// (update_support_step); no foot steps on its own meanwhile.
+  struct SupportStep {
+    Order order{};
+    Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
+    bool stepped_in = false;                 ///< QueuedOrder::stepped_in
+    int side = 0;                            ///< the support foot
+    double elapsed_s = 0;                    ///< s since the step began
+  };
+  std::optional<SupportStep> support_step_;
   std::optional<Eigen::Vector3d> strike_target_;  ///< m, room: the target of the strike being started
   StrikeInfo strike_;
 

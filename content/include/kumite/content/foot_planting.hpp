@@ -76,6 +76,10 @@ class FootPlanter {
   /// that would step if it could is not settled).
   bool settled(int side) const { return held(side) && !feet_[static_cast<std::size_t>(side)].wants_step; }
   const FootPlantingTunables& tunables() const { return tun_; }
+  /// A procedural step of a held foot to `to` (m, room; the floor height of the step's end),
+  /// starting now, while the other foot stands: the support foot set under a kick's body before
+  /// the kick (Behaviour). False, and nothing changes, unless both feet are held.
+  bool step_to(int side, const Eigen::Vector3d& to);
 
  private:
   struct Foot {

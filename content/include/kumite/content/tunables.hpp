@@ -81,6 +81,11 @@ struct BehaviourTunables {
   double step_in_min_m = 0.05;
   double max_step_in_m = 0.8;
   double step_in_speed_mps = 1.5;     ///< m/s of the root while stepping in (faster than following)
+  /// m: a kick whose clip puts its support foot down more than this far (on the floor) from
+  /// where that foot is held first steps the foot there (a procedural step while the kicking
+  /// foot stands), then starts: the kick then turns on a foot the leg reaches, instead of the
+  /// support foot being dragged or hopped under the rising body (0: never).
+  double kick_support_step_m = 0.25;
   double max_strike_rise_m = 0.12;    ///< m: the most the pelvis is raised toward standing for a
                                       ///< target above the clip's own hit
   double max_punch_elevation_deg = 20;  ///< a punch aims at most this steeply upward before the
