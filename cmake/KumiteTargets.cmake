@@ -9,15 +9,6 @@ if(KUMITE_SANITIZE OR KUMITE_FUZZ)
                       -fno-sanitize-recover=undefined)
   add_link_options(-fsanitize=address,undefined)
 endif()
-if(KUMITE_SANITIZE_THREAD)
-  if(KUMITE_SANITIZE OR KUMITE_FUZZ)
-    message(FATAL_ERROR "KUMITE_SANITIZE_THREAD cannot be combined with KUMITE_SANITIZE or KUMITE_FUZZ")
-  endif()
-  # Data races between the app's threads (tracking, recognition, retrieval, log writer) and the
-  # frame loop: see app/README "Threads under ThreadSanitizer".
-  add_compile_options(-fsanitize=thread -fno-omit-frame-pointer)
-  add_link_options(-fsanitize=thread)
-endif()
 if(KUMITE_FUZZ)
   # Instrument every library for coverage; the fuzz binaries add the libFuzzer main.
   add_compile_options(-fsanitize=fuzzer-no-link)
