@@ -18,6 +18,7 @@ using Eigen::Vector3d;
 StrikeRateSolver::StrikeRateSolver(std::shared_ptr<const Database> db, const BehaviourTunables& tunables)
     : db_(std::move(db)), tun_(tunables) {
   eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames
+  speeds_.reserve(8192);    // ~40 joints x ~2 s of way at 60 Hz
 }
 
 StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
@@ -76,14 +77,18 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
   // Peak speeds over the way, sampled every h: the hit point's, and the striking limb's fastest
   // joint's (a toe, a finger: the limb's end swings faster than the hit point when d(t) turns
   // the limb about its root). Negative: the decode failed.
+  // And the p99 of every joint's speed over the way (the figure the motion-quality check holds
+  // each strike to beside its source): a joint turned faster than its own source while the
+  // limb's fastest stays within its bound (the knee of a kick aimed higher than captured).
   struct Peaks {
-    double effector = 0, limb = 0;  ///< m/s
+    double effector = 0, limb = 0, p99 = 0;  ///< m/s
   };
   const auto decode_peaks = [&](PlaybackSource cur, PlaybackSource prev, double rate, bool drawn) {
     cur.rate = rate;
     const double t0 = job.current.time_s, p0 = job.previous.time_s;
     Peaks peaks;
     MkmFrame b, pose;
+    speeds_.clear();
     for (int k = 0;; ++k) {
       const double w = k * h;
       // The clip's own rate for the lead, then `rate`.
@@ -106,10 +111,18 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
       if (!adapt.Run()) return Peaks{-1, -1};
       if (k > 0) {
         peaks.effector = std::max(peaks.effector, (positions_[effector] - last_positions_[effector]).norm() / h);
-        for (std::size_t j = 0; j < n; ++j)
-          if (in_limb_[j]) peaks.limb = std::max(peaks.limb, (positions_[j] - last_positions_[j]).norm() / h);
+        for (std::size_t j = 0; j < n; ++j) {
+          const double v = (positions_[j] - last_positions_[j]).norm() / h;
+          if (in_limb_[j]) peaks.limb = std::max(peaks.limb, v);
+          speeds_.push_back(v);
+        }
       }
       std::copy_n(positions_.begin(), n, last_positions_.begin());
+    }
+    if (!speeds_.empty()) {
+      const auto at = speeds_.begin() + static_cast<std::ptrdiff_t>(0.99 * static_cast<double>(speeds_.size() - 1));
+      std::nth_element(speeds_.begin(), at, speeds_.end());
+      peaks.p99 = *at;
     }
     return peaks;
   };
@@ -117,7 +130,8 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
   // character (its size), its travel as captured.
   PlaybackSource plain = job.current;
   plain.travel = {};
-  const double src_limb_peak = decode_peaks(plain, job.previous, 1.0, false).limb;
+  const Peaks src = decode_peaks(plain, job.previous, 1.0, false);
+  const double src_limb_peak = src.limb;
   if (src_limb_peak < 0) return done(1);
   double rate = 1;
   for (int refine = 0; refine < 2; ++refine) {
@@ -131,6 +145,8 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     // grid to min_strike_rate: played slower than their mocap, p99 joint speed / source p50 0.85).
     if (src_limb_peak > 1e-9 && peaks.limb > tun_.max_strike_speed_ratio * src_limb_peak)
       want = std::min(want, tun_.max_strike_speed_ratio * src_limb_peak / peaks.limb);
+    if (src.p99 > 1e-9 && peaks.p99 > tun_.max_strike_speed_ratio * src.p99)
+      want = std::min(want, tun_.max_strike_speed_ratio * src.p99 / peaks.p99);
     if (!(want < 1)) break;
     const double next = std::clamp(rate * want, tun_.min_strike_rate, 1.0);
     if (next >= rate) break;

@@ -151,6 +151,7 @@ class StrikeRateSolver {
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> positions_, last_positions_;
   std::vector<char> in_limb_;  ///< [joint] part of the striking limb
+  std::vector<double> speeds_;  ///< m/s, every joint's speed at every sample of one way
 };
 
 /// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
