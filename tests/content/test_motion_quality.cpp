@@ -565,6 +565,27 @@ TEST(MotionQualityShipped, AKickWhoseToesOutrunTheSourcesIsPlayedSlower) {
   EXPECT_TRUE(judged.q.output.snaps.empty());
 }
 
+TEST(MotionQualityShipped, AKickWhoseKneeOutrunsItsSourceIsPlayedSlower) {
+  // Bruno's right kick from HDM_bd_003 (mirrored) at a grid target of his torso height: d(t)
+  // turns the leg up about the hip and the knee swings at 9.2 m/s where the source's moves at
+  // 5.5, while the leg's fastest joint (the toes) stays within its source's. Played at the
+  // clip's rate: p99 joint speed 1.36 x the source's over the same frames (the grid, 27 Nov).
+  // The rate solver now also holds the p99 of every joint's speed to the source's: 1.20.
+  // Judged on the BVH read back.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& bruno = rigs[1];
+  ASSERT_EQ(bruno.name, "bruno");
+  const StrikeRecording rec = record_strike(set.db, bruno, OrderKind::kick_right, Vector3d(-0.1142, 1.3364, 1.0962));
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::kick_right, "bruno");
+  const double ratio = judged.q.output.speed.p99_mps / judged.q.source.speed.p99_mps;
+  std::printf("%s: rate %.2f, p99 joint speed / source %.2f\n", rec.source_clip.c_str(), rec.strike.rate, ratio);
+  EXPECT_LT(rec.strike.rate, 0.97);
+  EXPECT_LT(ratio, 1.25);
+  EXPECT_TRUE(judged.q.output.snaps.empty());
+}
+
 TEST(MotionQualityShipped, AKickSetsItsSupportFootFirstAndDoesNotHop) {
   // Viktor's stance holds his back foot 51 cm behind the hip and his front foot well ahead;
   // HDM05's front kicks (HDM_mm_024, and mirrored) put the support foot under the body. The
