@@ -286,7 +286,7 @@ void Behaviour::update_step_in(double dt) {
   approach_.reset();
 }
 
-bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source) {
+bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source, Timestamp now) {
   // A kick's support foot is the other foot. Where the clip, placed as it will be played, has
   // that foot down first from the strike's start (the start itself, or where the clip sets it
   // down a few frames in: a kick from a step) -- if that is more than kick_support_step_m
@@ -316,6 +316,9 @@ bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source)
   if (Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm() <= tun_.kick_support_step_m) return false;
   if (!feet_.step_to(side, goal)) return false;
   support_step_ = SupportStep{pending_->order, pending_->target_room_m, pending_->stepped_in, side, 0};
+  FighterEvent& e = emit(FighterEvent::Kind::support_step, now, pending_->order, FighterEvent::Reason::none,
+                         Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm());
+  e.target = pending_->target_room_m;
   return true;
 }
 
@@ -592,7 +595,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
         double shortfall_m = 0;
         const Source s = strike_source(*p, shortfall_m);
         if ((pending_->stepped_in || tun_.max_step_in_m <= 0 || shortfall_m < tun_.step_in_min_m || !begin_step_in(shortfall_m, now)) &&
-            (pending_->support_stepped || !begin_support_step(*p, s)))
+            (pending_->support_stepped || !begin_support_step(*p, s, now)))
           start_strike(*p, s, now, dt);
       }
       pending_.reset();

@@ -41,6 +41,7 @@ std::string_view to_string(FighterEvent::Kind k) {
     case FighterEvent::Kind::character_changed: return "character_changed";
     case FighterEvent::Kind::warning: return "warning";
     case FighterEvent::Kind::stepping_in: return "stepping_in";
+    case FighterEvent::Kind::support_step: return "support_step";
   }
   return "?";
 }
@@ -66,6 +67,10 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
     case K::stepping_in:
       return fmt::format("{:.0f} cm in first: the target at ({:.2f}, {:.2f}, {:.2f}) m is beyond the strike's reach from here",
                          e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
+    case K::support_step:
+      return fmt::format("the {} foot steps {:.0f} cm first, to where the kick stands on it; the target at ({:.2f}, {:.2f}, {:.2f}) m",
+                         e.order.kind == OrderKind::kick_left ? "right" : "left", e.distance_m * 100, e.target.x(),
+                         e.target.y(), e.target.z());
     default: break;
   }
   switch (e.reason) {

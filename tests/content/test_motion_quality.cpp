@@ -616,6 +616,11 @@ TEST(MotionQualityShipped, AKickSetsItsSupportFootFirstAndDoesNotHop) {
     // The support step takes its time before the strike (a kick without one starts on the
     // update after its order's plan).
     EXPECT_GT(rec.strike.start_update, 20) << to_string(c.order) << ": no support step";
+    // And says so: one support_step event naming the support foot, before the strike.
+    const auto said = std::count_if(rec.events.begin(), rec.events.end(), [&](const std::string& e) {
+      return e.rfind("support_step: the " + std::string(support == kLeft ? "left" : "right") + " foot steps", 0) == 0;
+    });
+    EXPECT_EQ(said, 1) << to_string(c.order);
     if (std::isfinite(out) && std::isfinite(src)) {
       EXPECT_LE(out, 1.2 * std::max(src, 0.5)) << to_string(c.order);
     }

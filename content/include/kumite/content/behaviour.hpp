@@ -259,7 +259,7 @@ class Behaviour {
   void update_step_in(double dt);
   /// A kick's support foot stepped to where the clip puts it down, if it stands more than
   /// kick_support_step_m from there (true: the strike waits for the step).
-  bool begin_support_step(const StrikePlan& plan, const Source& source);
+  bool begin_support_step(const StrikePlan& plan, const Source& source, Timestamp now);
   void update_support_step(double dt);
   void apply_strike_rate();
   /// Places a strike's travel (motion_playback.cpp); returns the distance (m) the fighter
