@@ -30,6 +30,12 @@ constexpr double kTrunkFallbackOut_s = 0.15;
 /// A punch's planned lean brings the target within this share of the arm at contact (the
 /// frames' fallback: AdaptJob's default 0.95).
 constexpr double kPlannedLeanShare = 0.9;
+/// m: a punch's elbow stays at least this far below the head joint at contact (the head joint
+/// is the base of the skull: an elbow above it is a punch thrown over one's own head).
+constexpr double kElbowBelowHead_m = 0.03;
+/// A punch whose target lies at least this share of the arm's length from the shoulder lands
+/// with the arm (nearly) straight: its elbow lies on the line to the target.
+constexpr double kStraightArmShare = 0.9;
 }  // namespace
 
 // ---- Behaviour --------------------------------------------------------------------------
@@ -351,6 +357,7 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Times
   strike_.start_update = updates_;
   enter(FighterState::striking);
   compute_reach_error(strike_.contact_time_s);
+  if (!strike_.effector.leg) keep_elbow_below_head();
   // A correction that lengthens the hit point's way plays the strike slower. Finding how much
   // slower decodes the whole way (~0.2-0.3 ms): it is a job for the solver (the Fighter's
   // worker thread), applied kStrikeRateDelayUpdates updates from now (apply_strike_rate()).
@@ -440,6 +447,32 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   strike_.turn = r.turn;
   strike_.stretch = r.stretch;
   if (plan_lean) strike_.lean = r.lean;
+  contact_shoulder_m_ = r.shoulder_m;
+  contact_head_m_ = r.head_m;
+}
+
+void Behaviour::keep_elbow_below_head() {
+  // The straight arm from the contact pose's shoulder toward the target: its elbow rises
+  // upper_arm * sin(elevation) above the shoulder. The most elevation that keeps it
+  // kElbowBelowHead_m under the head joint sets the highest aim at this horizontal distance.
+  // The pose is the one with the planned lean (a far target leans the trunk, the head dips);
+  // a target nearer than the straight arm bends the arm (the elbow is not on the line).
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const int side = strike_.effector.side;
+  const Vector3d shoulder = contact_shoulder_m_, head = contact_head_m_;
+  const double upper = rig.morphology.upper_arm_m[static_cast<std::size_t>(side)];
+  if (!shoulder.allFinite() || !head.allFinite() || !(upper > 0)) return;
+  const Vector3d to = strike_.target_room_m - shoulder;
+  if (to.norm() < kStraightArmShare * rig.morphology.arm_length(side)) return;
+  const double rise = head.y() - kElbowBelowHead_m - shoulder.y();  // m the elbow may rise
+  if (rise >= upper) return;                                         // any elevation keeps it under
+  const double horizontal = Vector2d(to.x(), to.z()).norm();
+  const double s = std::max(0.0, rise / upper);
+  const double highest = horizontal * s / std::sqrt(1 - s * s);  // m above the shoulder
+  if (to.y() <= highest) return;
+  strike_.aim_lowered_m = to.y() - highest;
+  strike_.target_room_m.y() = shoulder.y() + highest;
+  compute_reach_error(strike_.contact_time_s);
 }
 
 namespace behaviour_detail {
@@ -485,7 +518,11 @@ ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vect
     // With a margin: the frames' poses differ from this one (held feet lower the body), and
     // what the plan leaves the frames' fallback must still bring in, over frames.
     job.trunk_target_share = kPlannedLeanShare;
-    if (job.Run() && report.trunk_used) r.lean = report.trunk;
+    if (job.Run()) {
+      if (report.trunk_used) r.lean = report.trunk;
+      r.shoulder_m = pos[static_cast<std::size_t>(rig.skeleton.index(root))];
+      r.head_m = pos[static_cast<std::size_t>(rig.skeleton.index(CJ::head))];
+    }
   }
   return r;
 }

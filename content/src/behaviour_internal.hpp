@@ -3,6 +3,7 @@
 //   behaviour.cpp        decisions: orders, the state machine, strikes, following, contact
 //   motion_playback.cpp  playing sources: sampling, placement, a strike's scaled travel
 //   behaviour_feet.cpp   what the motion says of each foot, for the FootPlanter
+#include <limits>
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -90,6 +91,10 @@ struct ReachCorrection {
   /// A punch's trunk lean at contact: what AdaptJob's trunk fallback bends to bring the target
   /// within the arm's reach (identity when the arm reaches alone, and for kicks).
   TrunkLean lean;
+  /// A punch's striking shoulder and head (m, room) at contact with the whole d(t) and the
+  /// planned lean applied (NaN unless the lean was planned).
+  Eigen::Vector3d shoulder_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector3d head_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
 };
 ReachCorrection reach_correction(const Rig& rig, const Effector& effector, const Eigen::Vector3d& target_room_m,
                                  const MkmFrame& pose, CanonicalPose& scratch, bool plan_lean = true);

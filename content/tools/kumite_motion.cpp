@@ -327,6 +327,7 @@ int run_strike(const StrikeArgs& a) {
   const Eigen::Vector3d hit = rec.strike.target_room_m;  // room = ground frame here
   (void)hit;
   j["reachable"] = rec.strike.contact_reached;
+  j["aim_lowered_m"] = rec.strike.aim_lowered_m;
   j["reach_error_m"] = rec.strike.contact_distance_m;
   j["hit"] = rec.strike.hit;
   j["target_reached"] = rec.strike.target_reached;
@@ -473,9 +474,10 @@ struct QualityTotals {
   std::vector<double> p99_ratio, p99_out, p99_src, max_out, max_src, slide_out, slide_src, step_out, step_src,
       step_ratio, reach_m, elev_out, elev_src, ext_out, ext_src, whole_slide, tail_slide, whole_step, tail_step,
       knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src, hook_out, hook_src,
-      above_line_out, above_line_src;
+      above_line_out, above_line_src, aim_lowered;  ///< aim_lowered: m, punches aimed below the ordered target
 
-  void add(const StrikeQuality& q, bool kick, bool reached, bool hit, double reach) {
+  void add(const StrikeQuality& q, bool kick, bool reached, bool hit, double reach, double aim_lowered_m) {
+    if (aim_lowered_m > 0) aim_lowered.push_back(aim_lowered_m);
     ++strikes;
     (kick ? kicks : punches)++;
     snaps_out += !q.output.snaps.empty();
@@ -590,6 +592,8 @@ struct QualityTotals {
             {"source_kick_extension_at_contact", dist_json(kick_ext_src)},
             {"reach_m", dist_json(reach_m)},
             {"reachable_pct", strikes ? 100.0 * reachable / strikes : 0.0},
+            {"punches_aimed_lower", aim_lowered.size()},
+            {"aim_lowered_m", dist_json(aim_lowered)},
             {"hit_pct", strikes ? 100.0 * hits / strikes : 0.0}};
   }
 
@@ -658,6 +662,10 @@ struct QualityTotals {
                "{:.1f} %\n",
                d("reach_m", "p50") * 1000, d("reach_m", "max") * 1000, j["reachable_pct"].get<double>(),
                j["hit_pct"].get<double>());
+    if (!aim_lowered.empty())
+      fmt::print("punches aimed below the ordered target (a straight arm to it lifts the elbow over the head; reach is "
+                 "to the aim): {} of {}, lowered p50 {:.0f} mm, max {:.0f} mm\n",
+                 aim_lowered.size(), punches, d("aim_lowered_m", "p50") * 1000, d("aim_lowered_m", "max") * 1000);
   }
 };
 
@@ -700,7 +708,8 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     const StrikeComparisonInput in = strike_comparison_input(
         *db, rec, sc.order, track, src_track, measure_proportions(back.skeleton).leg_m, src.leg_m);
     const StrikeQuality q = compare_strike(in);
-    totals.add(q, kick, rec.strike.contact_reached, rec.strike.hit, q.output_contact.end_to_target_m);
+    totals.add(q, kick, rec.strike.contact_reached, rec.strike.hit, q.output_contact.end_to_target_m,
+               rec.strike.aim_lowered_m);
     js["struck"] = true;
     js["segment"] = rec.segment_name;
     js["clip"] = rec.source_clip;
@@ -713,6 +722,7 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     js["rate"] = rec.strike.rate;
     js["rate_lead_frames"] = rec.strike.rate_lead_updates;
     js["reachable"] = rec.strike.contact_reached;
+    js["aim_lowered_m"] = rec.strike.aim_lowered_m;
     js["hit"] = rec.strike.hit;
     js["solver_reach_error_m"] = rec.strike.contact_distance_m;
     js["reach_m"] = q.output_contact.end_to_target_m;

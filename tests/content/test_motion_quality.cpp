@@ -590,6 +590,31 @@ TEST(MotionQualityShipped, AKickWhoseKneeOutrunsItsSourceIsPlayedSlower) {
   EXPECT_FALSE(k.snaps);
 }
 
+TEST(MotionQualityShipped, APunchAboveTheFightersHeadKeepsItsElbowBelowTheHead) {
+  // Viktor's left punch at the grid's farthest head-height target (his standing height, 1.12 m
+  // ahead): in his fighting stance the arm, straight toward it, with the trunk leaning in to
+  // reach, held the elbow 2.5 cm above his own head joint at contact (the grid's one folded
+  // punch, 27 Nov). The punch now aims lower (the visitor's neck or chest) where a straight
+  // arm would lift the elbow over the head. Judged on the BVH read back.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& viktor = rigs[4];
+  ASSERT_EQ(viktor.name, "viktor");
+  const Vector3d target(-0.0287, 1.7192, 1.1175);
+  const StrikeRecording rec = record_strike(set.db, viktor, OrderKind::punch_left, target);
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::punch_left, "viktor");
+  const auto& c = judged.q.output_contact;
+  std::printf("aimed %.0f mm lower; elbow above head %d, extension %.2f, fist %.3f m from the aim\n",
+              rec.strike.aim_lowered_m * 1000, c.elbow_above_head, c.extension, c.end_to_target_m);
+  EXPECT_GT(rec.strike.aim_lowered_m, 0.0);
+  EXPECT_LT(rec.strike.aim_lowered_m, 0.15);  // the neck, not the belly
+  EXPECT_FALSE(c.elbow_above_head);
+  EXPECT_FALSE(c.folded);
+  EXPECT_LT(c.end_to_target_m, 0.002);  // it reaches the aim
+  EXPECT_TRUE(rec.strike.hit);          // and the visitor standing there
+}
+
 TEST(MotionQualityShipped, AKickSetsItsSupportFootFirstAndDoesNotHop) {
   // Viktor's stance holds his back foot 51 cm behind the hip and his front foot well ahead;
   // HDM05's front kicks (HDM_mm_024, and mirrored) put the support foot under the body. The

@@ -7,6 +7,7 @@
 // Per update: sample the current motion (and the previous one while cross-fading) in MKM
 // form, place it in the room, blend, add the reach offset d(t), hold planted feet, and
 // decode onto the current character (AdaptJob).
+#include <limits>
 #include <array>
 #include <cstdint>
 #include <deque>
@@ -244,6 +245,9 @@ class Behaviour {
     bool hit = false;              ///< the hit point touched the visitor's body as tracked at contact
     bool target_reached = false;   ///< the hit point ended within hit_radius_m of the frozen target
     double body_distance_m = -1;   ///< m, hit point to the tracked body's surface at contact (<= 0: touching)
+    /// m the punch aims below the target frozen at the order (0: at it): a straight arm to it
+    /// would lift the elbow above the fighter's own head at contact (keep_elbow_below_head).
+    double aim_lowered_m = 0;
     int contact_update = -1;       ///< update counter at contact
   };
   const StrikeInfo& strike() const { return strike_; }
@@ -284,6 +288,10 @@ class Behaviour {
   /// d(t) at contact from the pose at segment time `at_time_s`; `plan_lean`: also the punch's
   /// trunk lean (not at the contact frame itself: the lean eased in since the start stays).
   void compute_reach_error(double at_time_s, bool plan_lean = true);
+  /// A punch at a target so high above the shoulder that the arm, straight toward it, would
+  /// hold the elbow above the fighter's own head at contact aims lower (the visitor's neck or
+  /// chest): on the pose compute_reach_error() last planned (contact_shoulder_m_, contact_head_m_).
+  void keep_elbow_below_head();
   /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into the blend (cur_pose: `cur`
   /// alone), as update() composes every frame.
   void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out) const;
@@ -340,6 +348,10 @@ class Behaviour {
   /// A decoded pose for the strike's start (reach error, traversal, support foot): one at a
   /// time, reused so that starting a strike allocates nothing once warm.
   mutable CanonicalPose scratch_pose_;
+  /// m, room: a punch's striking shoulder and head at contact with the whole d(t) and the planned
+  /// lean, as compute_reach_error() last planned them (NaN when it planned no lean).
+  Eigen::Vector3d contact_shoulder_m_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector3d contact_head_m_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   std::uint64_t next_request_ = 1;
   /// A strike order sent to the planner, waiting for its plan.
   struct PendingStrike {
