@@ -163,6 +163,16 @@ def judge(path, first=0, last=None):
     out = {"file": path, "frames": n, "dt": dt, "p99_joint_speed_mps": round(pct(speeds, 99), 3),
            "max_joint_speed_mps": round(fastest[0], 2), "fastest": f"{fastest[1]}@f{fastest[2]}",
            "snaps": len(snaps), "snap_list": snaps[:8]}
+    # Body size: the leg's two bones from the file's own offsets (thigh + shin), in metres, to
+    # compare speeds across bodies of different sizes (a joint moves faster on a longer limb).
+    legs = []
+    for ank_names, _ in FOOT_NAMES.values():
+        a = find(names, ank_names)
+        if a >= 0 and parents[a] >= 0:
+            k = parents[a]
+            legs.append((math.sqrt(sum(c * c for c in offsets[a])) + math.sqrt(sum(c * c for c in offsets[k]))) * unit)
+    if legs:
+        out["leg_m"] = round(sum(legs) / len(legs), 4)
     w = max(1, round(0.033 / dt))
     for side, (ank_names, toe_names) in FOOT_NAMES.items():
         a, t = find(names, ank_names), find(names, toe_names)

@@ -67,6 +67,14 @@ def main():
         return max(j.get("left_support_slide_mps", 0), j.get("right_support_slide_mps", 0))
     def peak(j):
         return max(j.get("left_peak_foot_speed_mps", 0), j.get("right_peak_foot_speed_mps", 0))
+    def size_scaled(rows):
+        v = [(r["out"]["p99_joint_speed_mps"] / max(1e-9, r["src"]["p99_joint_speed_mps"] * r["out"]["leg_m"] / r["src"]["leg_m"]), r["strike"])
+             for r in rows if r["out"].get("leg_m") and r["src"].get("leg_m")]
+        if not v:
+            return None
+        x = sorted(a for a, _ in v)
+        return {"strikes": len(v), "p50": round(judge_bvh.pct(x, 50), 3), "p95": round(judge_bvh.pct(x, 95), 3), "max": round(x[-1], 3),
+                "over_1_2": sum(1 for a in x if a > 1.2), "worst": [(round(a, 3), os.path.basename(s)) for a, s in sorted(v, reverse=True)[:3]]}
     slides = [slide(r["out"]) for r in ok]
     src_slides = [slide(r["src"]) for r in ok]
     summary = {
@@ -74,6 +82,9 @@ def main():
         "with_snaps": sum(1 for r in ok if r["out"]["snaps"] > 0),
         "source_with_snaps": sum(1 for r in ok if r["src"]["snaps"] > 0),
         "p99_speed_ratio_max": round(max(r["out"]["p99_joint_speed_mps"] / max(1e-9, r["src"]["p99_joint_speed_mps"]) for r in ok), 2),
+        # The same with the source's speeds scaled to the character's size (leg over leg, each
+        # from its file's own offsets): m/s compared across bodies of different sizes.
+        "p99_speed_ratio_size_scaled": size_scaled(ok),
         "support_slide_mps": {"p50": round(judge_bvh.pct(slides, 50), 3), "p95": round(judge_bvh.pct(slides, 95), 3), "max": round(max(slides), 3)},
         "source_support_slide_mps": {"p50": round(judge_bvh.pct(src_slides, 50), 3), "p95": round(judge_bvh.pct(src_slides, 95), 3), "max": round(max(src_slides), 3)},
         "slide_over_source_by_0_3": sum(1 for r in ok if slide(r["out"]) > slide(r["src"]) + 0.3),
