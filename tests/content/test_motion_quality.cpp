@@ -615,6 +615,35 @@ TEST(MotionQualityShipped, APunchAboveTheFightersHeadKeepsItsElbowBelowTheHead) 
   EXPECT_TRUE(rec.strike.hit);          // and the visitor standing there
 }
 
+TEST(MotionQualityShipped, AStrikePlannedAfterSteppingInThatFallsFarShortIsTheOneSteppedInFor) {
+  // Mei's left punch at a head above her own, 1.1 m ahead (the 20 s bout's one miss, 27 Nov):
+  // she stepped in 16 cm for 135_06's lunge punch with contact at frame 60; planned anew from
+  // there, the same lunge with contact at frame 54 kept the back foot down through contact,
+  // 56 cm behind the hip (the leg reaches 83), so the lunge was cut to 0.53 of its travel and
+  // the fist stopped 32.7 cm short with the arm straight and the elbow above the head. A new
+  // plan that falls that far short now gives way to the strike the fighter stepped in for.
+  // Judged on the BVH read back.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& mei = rigs[3];
+  ASSERT_EQ(mei.name, "mei");
+  const StrikeRecording rec = record_strike(set.db, mei, OrderKind::punch_left, Vector3d(0.1, 1.54, 1.1));
+  ASSERT_GE(rec.contact_frame, 0);
+  const auto stepped = std::count_if(rec.events.begin(), rec.events.end(),
+                                     [](const std::string& e) { return e.rfind("stepping_in:", 0) == 0; });
+  const Judged judged(*set.db, rec, OrderKind::punch_left, "mei");
+  const auto& c = judged.q.output_contact;
+  std::printf("%s contact frame %d: stepped in %d time(s), fist %.3f m from the aim, extension %.2f, folded %d\n",
+              rec.segment_name.c_str(), rec.strike.plan.contact_frame, static_cast<int>(stepped), c.end_to_target_m,
+              c.extension, c.folded);
+  EXPECT_EQ(stepped, 1);
+  EXPECT_TRUE(rec.strike.contact_reached);
+  EXPECT_LT(c.end_to_target_m, 0.002);
+  EXPECT_FALSE(c.folded);
+  EXPECT_TRUE(rec.strike.hit);
+  EXPECT_TRUE(judged.q.output.snaps.empty());
+}
+
 TEST(MotionQualityShipped, AKickSetsItsSupportFootFirstAndDoesNotHop) {
   // Viktor's stance holds his back foot 51 cm behind the hip and his front foot well ahead;
   // HDM05's front kicks (HDM_mm_024, and mirrored) put the support foot under the body. The

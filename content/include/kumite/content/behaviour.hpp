@@ -259,7 +259,7 @@ class Behaviour {
   using Source = PlaybackSource;
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
   void start_strike(const StrikePlan& plan, const PlaybackSource& source, Timestamp now, double dt);
-  bool begin_step_in(double shortfall_m, Timestamp now);
+  bool begin_step_in(const StrikePlan& plan, double shortfall_m, Timestamp now);
   void update_step_in(double dt);
   /// A kick's support foot stepped to where the clip puts it down, if it stands more than
   /// kick_support_step_m from there (true: the strike waits for the step).
@@ -342,6 +342,9 @@ class Behaviour {
     std::optional<Eigen::Vector3d> target_room_m;
     bool stepped_in = false;  ///< taken again after stepping in for it (never steps in twice)
     bool support_stepped = false;  ///< taken again after a kick's support step (never twice)
+    /// Taken again after stepping in: the plan it stepped in for, played instead of the new
+    /// plan where the new one falls shorter (another window, whose lunge the feet hold back).
+    std::optional<StrikePlan> plan;
   };
   std::vector<QueuedOrder> orders_;  ///< queued for the next update (deferred ones first)
   std::vector<QueuedOrder> taking_;  ///< the orders handle_orders() is taking (room kept)
@@ -360,6 +363,7 @@ class Behaviour {
     Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
     bool stepped_in = false;                 ///< QueuedOrder::stepped_in
     bool support_stepped = false;            ///< QueuedOrder::support_stepped
+    std::optional<StrikePlan> plan;          ///< QueuedOrder::plan
   };
   std::optional<PendingStrike> pending_;
   /// A strike order whose target the strike would not reach from where the fighter stands:
@@ -370,6 +374,7 @@ class Behaviour {
     Eigen::Vector2d goal_xz{0, 0};           ///< m, room: the spot stepped to
     double elapsed_s = 0;  ///< s since the step-in began
     double at_spot_s = 0;  ///< s the spot has been at goal_xz (the feet may still be stepping)
+    StrikePlan plan;       ///< the strike stepped in for
   };
   std::optional<Approach> approach_;
   /// A kick whose clip puts its support foot down out of where that foot stands: the foot
