@@ -490,6 +490,8 @@ Clip parse_bvh(std::string_view text, std::string_view source, const BvhReadOpti
 }
 
 Clip read_bvh(const std::filesystem::path& path, const BvhReadOptions& options) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw file_error("bvh", "io", path.string(), 0, "", "is a folder, not a file: give a .bvh file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw file_error("bvh", "io", path.string(), 0, "", "cannot open file");
   std::ostringstream ss;

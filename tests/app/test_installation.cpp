@@ -356,6 +356,13 @@ TEST(Orders, BadRowsNameFileAndLine) {
     EXPECT_EQ(msg(("0.5,pause\n" + std::string(t) + ",resume\n").c_str()),
               "o.csv:2: time_s: must be a finite number (found \"" + std::string(t) + "\")");
   EXPECT_NO_THROW(load_orders_script(KUMITE_SOURCE_DIR "/config/orders-demo.csv"));
+  // A folder read as an empty script: no orders and no word (rc 0).
+  try {
+    load_orders_script(KUMITE_SOURCE_DIR "/config");
+    FAIL();
+  } catch (const kumite::Error& e) {
+    EXPECT_EQ(std::string(e.what()), std::string(KUMITE_SOURCE_DIR "/config") + ": is a folder, not a file: give the orders script (.csv)");
+  }
 }
 
 TEST(Installation, ConsoleFrameRateFromFrameIntervals) {

@@ -227,6 +227,15 @@ TEST(Bvh, MissingFileNamesThePath) {
   } catch (const kumite::Error& e) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/x.bvh"), std::string::npos);
   }
+  // A folder (a character's `bvh` set to content/characters) is said as one: it read as an
+  // empty file ("HIERARCHY: unexpected end of file").
+  const auto dir = std::filesystem::temp_directory_path();
+  try {
+    read_bvh(dir);
+    FAIL();
+  } catch (const kumite::Error& e) {
+    EXPECT_EQ(std::string(e.what()), dir.string() + ": is a folder, not a file: give a .bvh file");
+  }
 }
 
 // ---- The development set -----------------------------------------------------------------

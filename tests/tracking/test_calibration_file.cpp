@@ -88,6 +88,9 @@ TEST(CalibrationFile, PositionIsMinusRtT) {
 TEST(CalibrationFile, MissingFileIsNamed) {
   EXPECT_NE(error_of("/nonexistent/cal.yaml").find("/nonexistent/cal.yaml: no such file"),
             std::string::npos);
+  // A folder was "not valid YAML: buf" (OpenCV's words).
+  const fs::path dir = temp_file("x").parent_path();
+  EXPECT_EQ(error_of(dir), dir.string() + ": is a folder, not a file: give the calibration .yaml");
 }
 
 TEST(CalibrationFile, BadFieldsAreNamed) {

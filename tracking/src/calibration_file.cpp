@@ -186,6 +186,9 @@ RigCalibration read_calibration_unchecked(const fs::path& path) {
   if (!fs::exists(path, ec)) {
     throw file_error("calibration", "missing", path.string(), 0, "", "no such file");
   }
+  if (fs::is_directory(path, ec)) {
+    throw file_error("calibration", "io", path.string(), 0, "", "is a folder, not a file: give the calibration .yaml");
+  }
   check_yaml_text(path);
   cv::FileStorage fsr;
   try {

@@ -52,6 +52,9 @@ std::vector<Order> parse_orders_script(std::string_view text, std::string_view f
 }
 
 std::vector<Order> load_orders_script(const std::filesystem::path& file) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(file, ec))
+    throw file_error("orders", "open", file.string(), 0, "", "is a folder, not a file: give the orders script (.csv)");
   std::ifstream in(file, std::ios::binary);
   if (!in) throw file_error("orders", "open", file.string(), 0, "", "cannot open the orders script");
   std::stringstream ss;
