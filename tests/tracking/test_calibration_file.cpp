@@ -93,6 +93,48 @@ TEST(CalibrationFile, MissingFileIsNamed) {
   EXPECT_EQ(error_of(dir), dir.string() + ": is a folder, not a file: give the calibration .yaml");
 }
 
+TEST(CalibrationFile, NonFiniteNumbersAreNamedWithTheirLine) {
+  // Every number read must be finite (issue 15): a .nan in a matrix said "non-finite value"
+  // without a line, and rms_px / per_view_errors_px took nan and inf as they came.
+  const fs::path good = temp_file("finite.yaml");
+  write_calibration(good, two_cameras());
+  std::ifstream in(good);
+  std::vector<std::string> lines;
+  for (std::string l; std::getline(in, l);) lines.push_back(l);
+  const auto line_of = [&](const std::string& text, std::size_t from = 0) {
+    for (std::size_t i = from; i < lines.size(); ++i)
+      if (lines[i].find(text) != std::string::npos) return i;
+    return lines.size();
+  };
+  const auto with = [&](std::size_t i, const std::string& from, const std::string& to) {
+    std::vector<std::string> v = lines;
+    const std::size_t at = v[i].find(from);
+    if (at == std::string::npos) return std::string();
+    v[i].replace(at, from.size(), to);
+    const fs::path p = temp_file("nonfinite.yaml");
+    std::string text;
+    for (const auto& l : v) text += l + "\n";
+    write_text(p, text);
+    return error_of(p);
+  };
+  const std::size_t k = line_of("camera_matrix");
+  const std::size_t data = line_of("data:", k);
+  ASSERT_LT(data, lines.size());
+  EXPECT_EQ(with(data, "900.", ".nan"), temp_file("nonfinite.yaml").string() + ":" + std::to_string(data + 1) +
+                                            ": cameras[0] (cam0).camera_matrix: must be a finite number");
+  const std::size_t rms = line_of("rms_px");
+  ASSERT_LT(rms, lines.size());
+  const std::string value = lines[rms].substr(lines[rms].find(':') + 1);
+  EXPECT_EQ(with(rms, value, " -.Inf"), temp_file("nonfinite.yaml").string() + ":" + std::to_string(rms + 1) +
+                                           ": cameras[0] (cam0).rms_px: must be a finite number");
+  const std::size_t errs = line_of("data:", line_of("per_view_errors_px"));
+  ASSERT_LT(errs, lines.size());
+  const std::size_t open = lines[errs].find("[ ") + 2;
+  const std::string first = lines[errs].substr(open, lines[errs].find(',', open) - open);  // the first error
+  EXPECT_EQ(with(errs, first, ".inf"), temp_file("nonfinite.yaml").string() + ":" + std::to_string(errs + 1) +
+                                           ": cameras[0] (cam0).per_view_errors_px: must be a finite number");
+}
+
 TEST(CalibrationFile, BadFieldsAreNamed) {
   const fs::path p = temp_file("bad.yaml");
   write_text(p, "%YAML:1.0\n---\ncameras:\n  - { name: camA, image_width: 640, image_height: 480 }\n");

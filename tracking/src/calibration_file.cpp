@@ -1,8 +1,10 @@
 #include "kumite/tracking/calibration_file.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <set>
+#include <string_view>
 #include <vector>
 
 #include <fmt/format.h>
@@ -25,6 +27,33 @@ namespace {
 
 [[noreturn]] void fail(const fs::path& path, const std::string& where, const std::string& what) {
   throw file_error("calibration", "invalid", path.string(), 0, where, what);
+}
+
+/// The first line holding one of YAML's non-finite numbers (.nan, .inf, +.inf, -.inf, in any
+/// case) as a value of its own; 0 where none is found. Read again only to say where a
+/// non-finite number stands (OpenCV's FileStorage gives no line).
+int nonfinite_line(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  for (int n = 1; std::getline(in, line); ++n) {
+    std::string lower(line);
+    for (char& ch : lower) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    for (const char* word : {".nan", ".inf"}) {
+      for (std::size_t at = lower.find(word); at != std::string::npos; at = lower.find(word, at + 1)) {
+        std::size_t before = at;
+        if (before > 0 && (lower[before - 1] == '-' || lower[before - 1] == '+')) --before;
+        const bool starts = before == 0 || std::string_view(" \t[,:").find(lower[before - 1]) != std::string_view::npos;
+        const std::size_t after = at + 4;
+        const bool ends = after == lower.size() || std::string_view(" \t],\r#").find(lower[after]) != std::string_view::npos;
+        if (starts && ends) return n;
+      }
+    }
+  }
+  return 0;
+}
+
+[[noreturn]] void fail_nonfinite(const fs::path& path, const std::string& where) {
+  throw file_error("calibration", "invalid", path.string(), nonfinite_line(path), where, "must be a finite number");
 }
 
 /// OpenCV allocates rows x cols before reading the data: refuse absurd sizes first (a
@@ -58,7 +87,7 @@ cv::Mat read_matrix(const cv::FileNode& cam, const char* key, int rows, int cols
   }
   m.convertTo(m, CV_64F);
   for (int i = 0; i < m.rows * m.cols; ++i) {
-    if (!std::isfinite(m.at<double>(i))) fail(path, where + "." + key, "non-finite value");
+    if (!std::isfinite(m.at<double>(i))) fail_nonfinite(path, where + "." + key);
   }
   return m;
 }
@@ -235,7 +264,13 @@ RigCalibration read_calibration_unchecked(const fs::path& path) {
            fmt::format("not a rotation (|R^T R - I| = {:.2g}, det = {:.4f})", orth,
                        cv::determinant(c.rotation)));
     }
-    if (!cam["rms_px"].empty()) c.rms_px = static_cast<double>(cam["rms_px"]);
+    if (const cv::FileNode rms = cam["rms_px"]; !rms.empty()) {
+      if (!rms.isReal() && !rms.isInt()) fail(path, where + ".rms_px", "must be a number");
+      const double v = static_cast<double>(rms);
+      if (!std::isfinite(v)) fail_nonfinite(path, where + ".rms_px");
+      if (v < 0) fail(path, where + ".rms_px", "must be >= 0");
+      c.rms_px = v;
+    }
     if (!cam["per_view_errors_px"].empty()) {
       cv::Mat e;
       check_matrix_size(cam["per_view_errors_px"], path, where + ".per_view_errors_px");
@@ -246,6 +281,10 @@ RigCalibration read_calibration_unchecked(const fs::path& path) {
       }
       e.convertTo(e, CV_64F);
       c.per_view_errors_px.assign(e.begin<double>(), e.end<double>());
+      for (const double v : c.per_view_errors_px) {
+        if (!std::isfinite(v)) fail_nonfinite(path, where + ".per_view_errors_px");
+        if (v < 0) fail(path, where + ".per_view_errors_px", "must be >= 0");
+      }
     }
     rig.cameras.push_back(std::move(c));
   }
