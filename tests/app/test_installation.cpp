@@ -574,3 +574,27 @@ TEST(Installation, TheHeadIsTheBodyNamedHead) {
       "[[bodies]]\nname = \"glasses\"\nmarkers = [[0,0,0],[0.1,0,0],[0,0.07,0]]\n", "t.toml");
   EXPECT_EQ(head_body_index(cfg, unnamed), 0) << "no body named head: body 0, said in the log";
 }
+
+TEST(Installation, ARecordingThatFallsBehindSaysWhichSideIsBehind) {
+  // The console advised "set tracking.recording_preload" to a run playing from memory, whose
+  // sets were dropped by a tracker behind on a loaded machine (the issue 15 audit, 27 Nov).
+  SourceStats s;
+  s.recording = true;
+  s.decode_ms = 49;
+  s.rates = {95, 3, 2};
+  EXPECT_FALSE(source_problem(s).has_value());  // 95 % reach the tracker
+  s.rates = {50, 10, 0};                         // from disk, the decoder behind
+  ASSERT_TRUE(source_problem(s).has_value());
+  EXPECT_EQ(*source_problem(s),
+            "recording: only 83% of frame sets reach the tracker (PNG decoding 49 ms per set): pose age grows; set "
+            "tracking.recording_preload to play from memory");
+  s.from_memory = true;  // looping from memory: nothing to decode, the tracker drops them
+  s.rates = {50, 0, 10};
+  ASSERT_TRUE(source_problem(s).has_value());
+  EXPECT_EQ(*source_problem(s),
+            "recording: only 83% of frame sets reach the tracker (10.0/s dropped: the tracker is behind, 0.0/s skipped "
+            "by the decoder): pose age grows; the machine is too busy for the cameras' rate");
+  s.from_memory = false;  // from disk but the tracker the one behind
+  s.rates = {50, 1, 9};
+  EXPECT_EQ(source_problem(s)->find("set tracking.recording_preload"), std::string::npos);
+}

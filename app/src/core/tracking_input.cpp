@@ -480,10 +480,17 @@ std::optional<std::string> source_problem(const SourceStats& src) {
   if (!src.recording || src.loading) return std::nullopt;
   const double all = src.rates[0] + src.rates[1] + src.rates[2];
   if (!(all > 0 && src.rates[0] < 0.9 * all)) return std::nullopt;
+  // Which side is behind: the decoder (sets skipped: reading PNGs from disk is too slow) or the
+  // tracker (sets dropped: the machine too loaded for the cameras' rate; a preload does not help).
+  if (src.rates[1] >= src.rates[2] && !src.from_memory)
+    return fmt::format(
+        "recording: only {:.0f}% of frame sets reach the tracker (PNG decoding {:.0f} ms per set): "
+        "pose age grows; set tracking.recording_preload to play from memory",
+        100 * src.rates[0] / all, src.decode_ms);
   return fmt::format(
-      "recording: only {:.0f}% of frame sets reach the tracker (PNG decoding {:.0f} ms per set): "
-      "pose age grows; set tracking.recording_preload to play from memory",
-      100 * src.rates[0] / all, src.decode_ms);
+      "recording: only {:.0f}% of frame sets reach the tracker ({:.1f}/s dropped: the tracker is behind, "
+      "{:.1f}/s skipped by the decoder): pose age grows; the machine is too busy for the cameras' rate",
+      100 * src.rates[0] / all, src.rates[2], src.rates[1]);
 }
 
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config) {
