@@ -146,6 +146,12 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
   const bool headless = a.headless || !kumite::app::display_available();
   if (headless) {
     kumite::app::make_output_folder(a.out, "--out " + a.out);
+    // Window options asked of a headless run (--headless, or no display) are not silently
+    // dropped: said once, with where the frames go instead.
+    for (const auto& [option, file] : {std::pair{"--log", a.log}, std::pair{"--screenshot", a.screenshot}})
+      if (!file.empty())
+        spdlog::warn("{} {}: for windowed runs; this run is headless and writes frames.jsonl and PNGs in --out {}",
+                     option, file, a.out);
   } else {
     for (const auto& [option, file] : {std::pair{"--log", a.log}, std::pair{"--screenshot", a.screenshot}}) {
       if (file.empty()) continue;

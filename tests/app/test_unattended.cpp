@@ -256,6 +256,28 @@ TEST(Unattended, KumiteRefusesAnOutputUnderAFileBeforeTheRun) {
   fs::remove_all(dir);
 }
 
+TEST(Unattended, WindowOptionsOfAHeadlessRunAreSaidNotDropped) {
+  // --log with --headless (or with no display) wrote nothing and said nothing (issue 15 audit).
+  const fs::path dir = fresh_dir("headlesslog");
+  std::ofstream(dir / "room.toml") << kConfig;
+  const pid_t pid = spawn_kumite({"--config", (dir / "room.toml").string(), "--headless", "--frames", "3", "-v", "0",
+                                  "--out", (dir / "out").string(), "--log", (dir / "log" / "frames.jsonl").string()},
+                                 dir / "console.txt");
+  ASSERT_GT(pid, 0);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  const std::string text = text_of(dir / "console.txt");
+  EXPECT_NE(text.find("--log " + (dir / "log" / "frames.jsonl").string() +
+                      ": for windowed runs; this run is headless and writes frames.jsonl and PNGs in --out " +
+                      (dir / "out").string()),
+            std::string::npos)
+      << text;
+  EXPECT_TRUE(fs::exists(dir / "out" / "frames.jsonl"));
+  fs::remove_all(dir);
+}
+
 // --- the service manager's side (sd_notify), without systemd --------------------------------
 
 namespace {
