@@ -17,6 +17,7 @@
 
 #include "kumite/calibration/commands.hpp"
 #include "kumite/calibration/detect.hpp"
+#include "kumite/calibration/intrinsics.hpp"
 #include "kumite/calibration/rig.hpp"
 #include "kumite/calibration/synthetic.hpp"
 #include "kumite/common/error.hpp"
@@ -36,7 +37,7 @@ struct ProjectedRig {
   std::vector<std::string> frame_names;
 };
 
-ProjectedRig projected_rig() {
+ProjectedRig projected_rig(int frames = kFrames, double noise_px = 0.2) {
   Board board;
   board.rows = 5;
   board.cols = 7;
@@ -51,7 +52,7 @@ ProjectedRig projected_rig() {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> ux(-0.8, 0.8), uy(0.7, 1.5), uyaw(0, 360), utilt(-30, 30), uaxis(0, 180);
   std::vector<syn::Pose> poses;
-  for (int f = 0; f < kFrames; ++f) {
+  for (int f = 0; f < frames; ++f) {
     const RigidPose face_up = floor_board_pose({0, 0, 0}, uyaw(rng));
     const double a = uaxis(rng) * CV_PI / 180;
     syn::Pose p;
@@ -61,7 +62,7 @@ ProjectedRig projected_rig() {
     poses.push_back(p);
   }
   ProjectedRig r;
-  r.views = syn::project_views(board, truth, poses, 0.2, 3);
+  r.views = syn::project_views(board, truth, poses, noise_px, 3);
   for (std::size_t c = 0; c < truth.size(); ++c) {
     CameraCalibration k;
     k.name = "cam" + std::to_string(c);
@@ -71,7 +72,7 @@ ProjectedRig projected_rig() {
     k.distortion = truth[c].dist;
     r.cams.push_back(k);
   }
-  for (int f = 0; f < kFrames; ++f) r.frame_names.push_back(fmt::format("{:06d}", f));
+  for (int f = 0; f < frames; ++f) r.frame_names.push_back(fmt::format("{:06d}", f));
   return r;
 }
 
@@ -142,6 +143,46 @@ TEST(RigCheck, ACameraMovedHalfwayIsBlamedAloneWithTheFramesItMovedBetween) {
   const std::string line = describe_check("cam2", k, check, rig.frame_names);
   EXPECT_NE(line.find(fmt::format("cam2 moved between views {:06d} and {:06d}", last_before, first_after)), std::string::npos)
       << line;
+}
+
+TEST(RigCheck, AMoveIsFoundInFewViewsWithIntrinsicsFromTheSameImages) {
+  // 24 views, cam2 knocked 12 px from view 12 on, and (as `extrinsics` does by default) each
+  // camera's intrinsics calibrated from its own views, the moved ones included: they absorb part
+  // of the move. The audit of issue 15 (27 Nov) saw "no one camera to blame" in this set-up with
+  // rendered views: the split explained 58 % of cam2's residual variance, under the 60 % then
+  // asked (now 45 %). These projected views (cam2: 73 %) pass with either: a check of the
+  // set-up, not of the threshold, whose evidence is the rendered rigs in rig_check.cpp.
+  constexpr int kViews = 24, kMovedFrom = 12;
+  ProjectedRig rig = projected_rig(kViews, 1.0);  // 1 px of corner noise (rendered views: ~0.2-2)
+  int last_before = -1, first_after = -1;
+  for (int f = 0; f < kViews; ++f) {
+    auto& d = rig.views[2][static_cast<std::size_t>(f)];
+    if (d.empty()) continue;
+    if (f < kMovedFrom) {
+      last_before = f;
+      continue;
+    }
+    if (first_after < 0) first_after = f;
+    for (auto& p : d.image_points) p += cv::Point2f(8.4f, 8.6f);
+  }
+  for (std::size_t c = 0; c < rig.cams.size(); ++c) {
+    const IntrinsicsResult in =
+        calibrate_intrinsics(rig.views[c], cv::Size(rig.cams[c].image_width, rig.cams[c].image_height));
+    rig.cams[c].camera_matrix = in.camera_matrix;
+    rig.cams[c].distortion = in.distortion;
+  }
+  const ExtrinsicsResult res = solve_extrinsics(rig.cams, rig.views);
+  const RigCheck check = check_rig(res.cameras, rig.views);
+  for (std::size_t c = 0; c < 4; ++c)
+    std::printf("cam%zu: against the others %.3f px, blamed %d, jump %.2f px, spread %.2f px, explains %.0f %%\n", c,
+                check.cameras[c].rms_all_px, static_cast<int>(check.cameras[c].blamed), check.cameras[c].jump_px,
+                check.cameras[c].spread_px, 100 * check.cameras[c].explained);
+  for (std::size_t c : {0U, 1U, 3U}) EXPECT_FALSE(check.cameras[c].moved_between.has_value()) << c;
+  const CameraCheck& k = check.cameras[2];
+  EXPECT_TRUE(k.blamed);
+  ASSERT_TRUE(k.moved_between.has_value());
+  EXPECT_EQ(k.moved_between->first, last_before);
+  EXPECT_EQ(k.moved_between->second, first_after);
 }
 
 // --- bad input -------------------------------------------------------------------------
