@@ -33,7 +33,7 @@ RigCalibration two_cameras() {
     c.translation = {0.1, -1.2, 2.5 + i};
     if (i == 0) {
       c.rms_px = 0.31;
-      c.per_view_errors_px = {0.2, 0.3, 0.4};
+      c.per_view_errors_px = {0.2, -1.0, 0.4};  // -1: a view without the board (as the tools write)
     }
     rig.cameras.push_back(c);
   }
@@ -69,7 +69,8 @@ TEST(CalibrationFile, RoundTrip) {
     EXPECT_LT(cv::norm(a.distortion - b.distortion), 1e-12);
   }
   EXPECT_DOUBLE_EQ(*back.cameras[0].rms_px, 0.31);
-  EXPECT_EQ(back.cameras[0].per_view_errors_px.size(), 3u);
+  ASSERT_EQ(back.cameras[0].per_view_errors_px.size(), 3u);
+  EXPECT_EQ(back.cameras[0].per_view_errors_px[1], -1.0);  // read back (session 18 refused it for a while)
   EXPECT_FALSE(back.cameras[1].rms_px);
   EXPECT_NE(back.find("cam1"), nullptr);
   EXPECT_EQ(back.find("cam9"), nullptr);
@@ -133,6 +134,9 @@ TEST(CalibrationFile, NonFiniteNumbersAreNamedWithTheirLine) {
   const std::string first = lines[errs].substr(open, lines[errs].find(',', open) - open);  // the first error
   EXPECT_EQ(with(errs, first, ".inf"), temp_file("nonfinite.yaml").string() + ":" + std::to_string(errs + 1) +
                                            ": cameras[0] (cam0).per_view_errors_px: must be a finite number");
+  // -1 is "board not seen in that view"; any other negative error is refused.
+  EXPECT_EQ(with(errs, first, "-0.5"), temp_file("nonfinite.yaml").string() +
+                                           ": cameras[0] (cam0).per_view_errors_px: must be >= 0 (or -1: board not seen)");
 }
 
 TEST(CalibrationFile, BadFieldsAreNamed) {

@@ -283,7 +283,8 @@ RigCalibration read_calibration_unchecked(const fs::path& path) {
       c.per_view_errors_px.assign(e.begin<double>(), e.end<double>());
       for (const double v : c.per_view_errors_px) {
         if (!std::isfinite(v)) fail_nonfinite(path, where + ".per_view_errors_px");
-        if (v < 0) fail(path, where + ".per_view_errors_px", "must be >= 0");
+        // -1: a view in which the camera did not see the board (what the calibration tools write).
+        if (v < 0 && v != -1.0) fail(path, where + ".per_view_errors_px", "must be >= 0 (or -1: board not seen)");
       }
     }
     rig.cameras.push_back(std::move(c));

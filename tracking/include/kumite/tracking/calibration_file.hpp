@@ -24,7 +24,7 @@ struct CameraCalibration {
   cv::Matx33d rotation = cv::Matx33d::eye();       ///< room -> camera
   cv::Vec3d translation{0, 0, 0};                  ///< m: x_cam = R x_room + t
   std::optional<double> rms_px;                    ///< reprojection RMS, when known
-  std::vector<double> per_view_errors_px;          ///< per calibration view, when known
+  std::vector<double> per_view_errors_px;          ///< px per calibration view, when known (-1: board not seen)
 
   /// Camera centre in the room frame (m): -R^T t.
   cv::Vec3d position() const { return -(rotation.t() * translation); }
