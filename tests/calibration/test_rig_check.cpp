@@ -76,6 +76,27 @@ ProjectedRig projected_rig(int frames = kFrames, double noise_px = 0.2) {
   return r;
 }
 
+struct Knock {
+  int last_before = -1, first_after = -1, moved = 0;  ///< cam2's last view before, first after, views moved
+};
+
+/// cam2 knocked 12 px (8.4 px right, 8.6 px down) from view `from` on.
+Knock knock_cam2(ProjectedRig& rig, int from) {
+  Knock k;
+  for (int f = 0; f < static_cast<int>(rig.views[2].size()); ++f) {
+    auto& d = rig.views[2][static_cast<std::size_t>(f)];
+    if (d.empty()) continue;
+    if (f < from) {
+      k.last_before = f;
+      continue;
+    }
+    if (k.first_after < 0) k.first_after = f;
+    ++k.moved;
+    for (auto& p : d.image_points) p += cv::Point2f(8.4f, 8.6f);
+  }
+  return k;
+}
+
 }  // namespace
 
 TEST(RigCheck, AnUntouchedRigBlamesNoCamera) {
@@ -96,18 +117,7 @@ TEST(RigCheck, ACameraMovedHalfwayIsBlamedAloneWithTheFramesItMovedBetween) {
   ProjectedRig rig = projected_rig();
   // cam2 knocked 12 px (8.4 px right, 8.6 px down) from frame 20 on.
   constexpr int kMovedFrom = 20;
-  int last_before = -1, first_after = -1, moved = 0;
-  for (int f = 0; f < kFrames; ++f) {
-    auto& d = rig.views[2][static_cast<std::size_t>(f)];
-    if (d.empty()) continue;
-    if (f < kMovedFrom) {
-      last_before = f;
-      continue;
-    }
-    if (first_after < 0) first_after = f;
-    ++moved;
-    for (auto& p : d.image_points) p += cv::Point2f(8.4f, 8.6f);
-  }
+  const auto [last_before, first_after, moved] = knock_cam2(rig, kMovedFrom);
   ASSERT_GE(last_before, 0);
   ASSERT_GE(first_after, 0);
   const ExtrinsicsResult res = solve_extrinsics(rig.cams, rig.views);
@@ -154,17 +164,8 @@ TEST(RigCheck, AMoveIsFoundInFewViewsWithIntrinsicsFromTheSameImages) {
   // set-up, not of the threshold, whose evidence is the rendered rigs in rig_check.cpp.
   constexpr int kViews = 24, kMovedFrom = 12;
   ProjectedRig rig = projected_rig(kViews, 1.0);  // 1 px of corner noise (rendered views: ~0.2-2)
-  int last_before = -1, first_after = -1;
-  for (int f = 0; f < kViews; ++f) {
-    auto& d = rig.views[2][static_cast<std::size_t>(f)];
-    if (d.empty()) continue;
-    if (f < kMovedFrom) {
-      last_before = f;
-      continue;
-    }
-    if (first_after < 0) first_after = f;
-    for (auto& p : d.image_points) p += cv::Point2f(8.4f, 8.6f);
-  }
+  const auto [last_before, first_after, moved] = knock_cam2(rig, kMovedFrom);
+  (void)moved;
   for (std::size_t c = 0; c < rig.cams.size(); ++c) {
     const IntrinsicsResult in =
         calibrate_intrinsics(rig.views[c], cv::Size(rig.cams[c].image_width, rig.cams[c].image_height));
