@@ -41,6 +41,18 @@ constexpr double kStraightArmShare = 0.9;
 /// shorter. The grid's 66 new plans after a step-in fell short by up to 0.28 m (p50 0.04) and
 /// all reached with the straight limb and the lean; the bout's that missed by 0.33 m, 0.55.
 constexpr double kReplanShortfall_m = 0.3;
+/// rad: a stance step is taken only while the fighter faces the visitor within this (else it
+/// turns first, following with procedural steps meanwhile).
+constexpr double kStanceStepOffAxis_rad = 0.35;
+/// s: the spot's speed (the visitor walking) is smoothed over about this.
+constexpr double kGoalSpeedSmoothing_s = 0.15;
+/// m/s: below this the visitor has stopped walking toward or away (a forward stance step may go).
+constexpr double kSettledGoalSpeed_mps = 0.25;
+/// m (at the database actor's size): a spot this far ahead is stepped to while the visitor
+/// still walks away (the stance steps travel 0.77-1.05 m in the mocap).
+constexpr double kWholeStep_m = 0.9;
+/// s: a stance step due waits at most this for both feet to be down (then procedural steps).
+constexpr double kStanceStepFeetWait_s = 0.5;
 }  // namespace
 
 // ---- Behaviour --------------------------------------------------------------------------
@@ -53,6 +65,17 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
   character_ = std::clamp(config.initial_character, 0, character_count() - 1);
   rest_segment_ = find_segment(*db_, SegmentKind::rest).value_or(0);
+  {
+    const MotionSegment& rest = db_->segments[static_cast<std::size_t>(rest_segment_)];
+    for (std::size_t i = 0; i < db_->segments.size(); ++i) {
+      const MotionSegment& s = db_->segments[i];
+      if (s.kind == SegmentKind::walk && s.frame_count() > 1) walk_segments_.push_back(static_cast<int>(i));
+      if (mirrored_rest_segment_ < 0 && rest.kind == SegmentKind::rest && s.kind == SegmentKind::rest &&
+          s.mirrored != rest.mirrored && s.source_clip == rest.source_clip && s.source_first_frame == rest.source_first_frame &&
+          s.frame_count() == rest.frame_count())
+        mirrored_rest_segment_ = static_cast<int>(i);
+    }
+  }
   std::size_t max_joints = 0;
   for (const Rig& r : characters_) max_joints = std::max(max_joints, static_cast<std::size_t>(r.joint_count()));
   local_.resize(max_joints);
@@ -98,7 +121,8 @@ void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
 
 bool Behaviour::strike_pending() const {
   return pending_ || approach_ || support_step_ ||
-         std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.stepped_in || q.support_stepped; });
+         std::any_of(orders_.begin(), orders_.end(),
+                     [](const QueuedOrder& q) { return q.stepped_in || q.support_stepped || q.after_stance_step; });
 }
 
 void Behaviour::order(const Order& o) { orders_.push_back({o, std::nullopt}); }
@@ -188,7 +212,10 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   for (const QueuedOrder& queued : taking_) {
     const Order& o = queued.order;
     const std::optional<Vector3d>& explicit_target = queued.target_room_m;
-    if (effector_of(o.kind) && state_ == FighterState::recovering) {
+    // So does one ordered while a stance step blends in or out (a strike started mid-blend
+    // would drop the motion it blends from in one frame).
+    if (effector_of(o.kind) && (state_ == FighterState::recovering || (queued.after_stance_step && stance_step_) ||
+                                (state_ != FighterState::striking && blend_elapsed_s_ < tun_.blend_time_s))) {
       orders_.push_back(queued);  // deferred, in order
       continue;
     }
@@ -203,7 +230,8 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
       default: break;
     }
     const auto eff = effector_of(o.kind);
-    if (state_ == FighterState::striking || pending_ || approach_ || support_step_) {
+    if (state_ == FighterState::striking || pending_ || approach_ || support_step_ ||
+        std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.after_stance_step; })) {
       emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::mid_strike);  // the event names the order
       continue;
     }
@@ -238,7 +266,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
     pending_ = PendingStrike{r.id, o, target, queued.stepped_in, queued.support_stepped, queued.plan};
     // Taken again after stepping in (or a kick's support step): accepted already.
-    if (!queued.stepped_in && !queued.support_stepped) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
+    if (!queued.stepped_in && !queued.support_stepped && !queued.after_stance_step) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
     submit_(r);
   }
   taking_.clear();
@@ -349,6 +377,7 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Times
   previous_ = current_;
   blend_elapsed_s_ = 0;
   current_ = source;
+  stance_step_.reset();  // a strike ordered mid-step starts from the step
   const Order order = pending_->order;
   strike_ = StrikeInfo{};
   strike_.order = order;
@@ -551,10 +580,55 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
   goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
   if (paused_) goal = spot_xz_m_;
+  spot_velocity_.setZero();
+  // How fast the spot to keep moves (the visitor walking), over ~kGoalSpeedSmoothing_s.
+  if (last_goal_ && last_goal_update_ == updates_ - 1 && dt > 0) {
+    const double a = std::min(1.0, dt / kGoalSpeedSmoothing_s);
+    goal_velocity_ += a * ((goal - *last_goal_) / dt - goal_velocity_);
+  }
+  last_goal_ = goal;
+  last_goal_update_ = updates_;
+  if (stance_step_) {
+    // A stance step from the mocap plays: its clip carries the body (and turns it); the rest
+    // motion takes over where it ends (end_stance_step).
+    enter(FighterState::following);
+    return;
+  }
   const Vector2d off = goal - spot_xz_m_;
   bool following = state_ == FighterState::following;
-  if (!following && (off.norm() > tun_.follow_tolerance_m || (approach_ && off.norm() > tun_.arrive_tolerance_m))) following = true;
-  spot_velocity_.setZero();
+  if (recentre_goal_ && !following && off.norm() <= tun_.follow_tolerance_m) recentre_goal_.reset();  // home already
+  // Forward or back: a stance step from the mocap where one fits (begin_stance_step); until
+  // the visitor stands stance_step_min_m farther than the strike distance, the fighter waits.
+  bool wait = false;
+  if (tun_.stance_step_min_m > 0 && !walk_segments_.empty() && !approach_ && !strike_pending() && !paused_ &&
+      dist > 0.05) {
+    const Vector2d fwd(std::sin(facing_rad_), std::cos(facing_rad_));
+    const double along = off.dot(fwd);
+    const double sideways = (off - along * fwd).norm();
+    const double off_axis = std::abs(wrap(std::atan2(to_head.x(), to_head.y()) - facing_rad_));
+    if (sideways <= tun_.follow_tolerance_m && off_axis <= kStanceStepOffAxis_rad) {
+      // Forward once the visitor stops walking away (one step for the whole way, not one
+      // begun mid-walk and a wait after), or once the spot is a whole step ahead; back at once
+      // (a visitor closing in).
+      const bool settled = std::abs(goal_velocity_.dot(fwd)) < kSettledGoalSpeed_mps;
+      const bool forward = along >= tun_.stance_step_min_m && (settled || along >= kWholeStep_m * stride_scale());
+      const bool back = along < 0 && off.norm() > tun_.follow_tolerance_m;
+      // A step starts from both feet on the floor: one still stepping (or landing) is waited
+      // for, a little (kStanceStepFeetWait_s), rather than following with procedural steps.
+      // (and from a blend done: one begun mid-blend would drop the motion blended from)
+      const bool feet_down = feet_.held(kLeft) && feet_.held(kRight) && blend_elapsed_s_ >= tun_.blend_time_s;
+      stance_wait_s_ = (forward || back) && !feet_down ? stance_wait_s_ + dt : 0;
+      if ((forward || back) && feet_down && begin_stance_step(goal)) {
+        enter(FighterState::following);
+        return;
+      }
+
+      // Until then it waits for a forward step (a visitor a little farther, or still walking).
+      wait = !following && ((along > 0 && !forward && !recentre_goal_) ||  // (walking home goes all the way)
+                            ((forward || back) && !feet_down && stance_wait_s_ < kStanceStepFeetWait_s));
+    }
+  }
+  if (!wait && !following && (off.norm() > tun_.follow_tolerance_m || (approach_ && off.norm() > tun_.arrive_tolerance_m))) following = true;
   if (following) {
     const double step = std::min(off.norm(), (approach_ ? tun_.step_in_speed_mps : tun_.walk_speed_mps) * dt);
     if (off.norm() > 1e-9) spot_xz_m_ += off / off.norm() * step;
@@ -572,7 +646,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   }
   const MotionSegment& rest = db_->segments[static_cast<std::size_t>(current_.segment)];
   current_.placement.origin_xz = spot_xz_m_;
-  current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
+  current_.placement.yaw_rad = wrap(facing_rad_ + rest_yaw_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
   enter(following ? FighterState::following : FighterState::resting);
 }
 
@@ -650,7 +724,14 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
             shortfall_m = old_shortfall_m;
           }
         }
-        if ((pending_->stepped_in || tun_.max_step_in_m <= 0 || shortfall_m < tun_.step_in_min_m || !begin_step_in(*p, shortfall_m, now)) &&
+        const bool step_in = !pending_->stepped_in && tun_.max_step_in_m > 0 && shortfall_m >= tun_.step_in_min_m;
+        if (step_in && stance_step_) {
+          // Short of its target from mid-step: planned again where the step ends (a step-in
+          // measured from here would be walked from there, the wrong way).
+          QueuedOrder again{pending_->order, pending_->target_room_m, false, pending_->support_stepped};
+          again.after_stance_step = true;
+          orders_.insert(orders_.begin(), again);
+        } else if ((!step_in || !begin_step_in(*p, shortfall_m, now)) &&
             (pending_->support_stepped || !begin_support_step(*p, s, now)))
           start_strike(*p, s, now, dt);
       }
@@ -678,6 +759,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       previous_.time_s >= strike_.release_end_s) {
     enter(FighterState::resting);
   }
+  // (not while a strike's plan is awaited: it starts from the step, not from a blend out of it)
+  if (stance_step_ && !pending_ && current_.time_s >= stance_step_->end_s) end_stance_step(now);
   if (state_ == FighterState::resting || state_ == FighterState::following) update_follow(dt, head);
   update_step_in(dt);
   update_support_step(dt);

@@ -31,16 +31,12 @@ double Behaviour::swing_left_s(int side) const {
   return ((n - 1) * seg.frame_time_s - current_.time_s) / current_.rate + tun_.blend_time_s;  // the rest motion after it
 }
 
-namespace {
-/// Where a placed MKM frame puts an ankle (m, room) on a rig, without decoding the whole pose:
-/// pelvis, the rest pose's hip offset turned with the pelvis frame, the leg vector.
-Vector3d mkm_ankle(const Rig& rig, const MkmFrame& f, int side) {
+Vector3d behaviour_detail::mkm_ankle(const Rig& rig, const MkmFrame& f, int side) {
   const Vector3d pelvis(f.root_xz_m.x(), f.root_height_n * rig.morphology.leg_length_m, f.root_xz_m.y());
   const CanonicalPose& rest = rig.rest_pose;
   const Vector3d hip_local = pelvis_frame(rest).conjugate() * (at(rest, side == kLeft ? CJ::l_hip : CJ::r_hip) - at(rest, CJ::pelvis));
   return pelvis + f.pelvis * hip_local + f.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side);
 }
-}  // namespace
 
 void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur) {
   if (!have_pose_) {
@@ -72,6 +68,12 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     // Contacts of the motion being blended TO: a cross-fade moves feet the new motion has
     // down elsewhere, and following the fade would slide them there along the floor.
     f.planted = planted[us] >= 0.5;
+    // A stance step stands on its support foot throughout: where the mocap turns on it (a
+    // heel raised, the foot pivoting) it stays held, not stepped to the clip's next contact.
+    if (stance_step_ && stance_step_->support == s) {
+      f.planted = true;
+      f.pivot = true;
+    }
     f.swing_left_s = swing_left_s(s);
     // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
     f.free_ankle_m = rig_positions_[hip] + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
@@ -130,7 +132,8 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   // stands, and the set foot stays where the kick will turn on it.
   const bool support_set = support_step_ || (pending_ && pending_->support_stepped) ||
                            std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.support_stepped; });
-  const bool may_step = state_ != FighterState::striking && ramp_ <= 0 && !support_set;
+  // Nor while a stance step plays: the clip steps the feet.
+  const bool may_step = state_ != FighterState::striking && ramp_ <= 0 && !support_set && !stance_step_;
   feet_.update(dt, in, may_step, spot_velocity_, locks_);
 }
 

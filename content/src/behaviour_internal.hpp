@@ -3,6 +3,7 @@
 //   behaviour.cpp        decisions: orders, the state machine, strikes, following, contact
 //   motion_playback.cpp  playing sources: sampling, placement, a strike's scaled travel
 //   behaviour_feet.cpp   what the motion says of each foot, for the FootPlanter
+//   behaviour_steps.cpp  following with stance steps cut from the mocap
 #include <limits>
 #include <algorithm>
 #include <cmath>
@@ -43,6 +44,9 @@ inline double rest_floor_y(const Rig& rig) {
   return std::min({at(r, CanonicalJoint::l_ankle).y(), at(r, CanonicalJoint::l_toe).y(), at(r, CanonicalJoint::r_ankle).y(),
                    at(r, CanonicalJoint::r_toe).y()});
 }
+/// Where a placed MKM frame puts an ankle (m, room) on a rig, without decoding the whole pose:
+/// pelvis, the rest pose's hip offset turned with the pelvis frame, the leg vector.
+Eigen::Vector3d mkm_ankle(const Rig& rig, const MkmFrame& f, int side);
 /// The integral of the release weight 1 - smoothstep(x) from 0 to x (x in [0, 1]).
 inline double eased_integral(double x) { return x - x * x * x + 0.5 * x * x * x * x; }
 inline int group_of(const Effector& e) { return e.side + 2 * (e.leg ? 1 : 0); }

@@ -18,6 +18,10 @@ double smoothstep(double x) {
 constexpr double kShedPerTravel = 0.5;
 /// m/s^2: how fast a foot returning through the air to the motion's changes its velocity.
 constexpr double kReturnAccel_mps2 = 40;
+/// A held leg may stretch this much beyond the motion's own (FootSample: a straight leg).
+constexpr double kStretchMargin = 0.01;
+/// rad/s: the most a pivoting held foot turns (FootSample::pivot).
+constexpr double kPivotRate_rad_s = 4.0;
 }  // namespace
 
 bool FootPlanter::step_to(int side, const Vector3d& to) {
@@ -95,6 +99,13 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           new_y = std::min(f.lock.y(), std::max(new_y, lowest));
         }
         f.lock.y() = new_y;
+        if (in.pivot) {
+          // Turning on the spot with the motion's foot, at most kPivotRate_rad_s.
+          const double have = std::atan2(f.heading.x(), f.heading.y());
+          const double want = std::atan2(in.motion_heading_xz.x(), in.motion_heading_xz.y());
+          const double turn = std::clamp(std::remainder(want - have, 2 * std::numbers::pi), -kPivotRate_rad_s * dt, kPivotRate_rad_s * dt);
+          f.heading = Eigen::Vector2d(std::sin(have + turn), std::cos(have + turn));
+        }
         // Land ahead of the body: half a step's worth of its current velocity.
         Vector3d target = in.free_ankle_m + Vector3d(body_velocity_xz.x(), 0, body_velocity_xz.y()) * (0.5 * tun_.step_time_s);
         target.y() = floor_y;
@@ -105,11 +116,16 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         const bool out_of_place = (target - f.lock).norm() > tun_.step_threshold_m || turned > tun_.max_heading_lag_rad;
         const bool lagging = other.phase != Phase::stepping && out_of_place;
         const double stretch = (f.lock - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
-        f.wants_step = out_of_place || stretch > tun_.max_leg_stretch || !in.reached;
+        // Over-stretched beyond max_leg_stretch, or beyond the motion's own leg if the motion
+        // holds it straighter (a front stance's straight back leg is the stance, not a reason
+        // to step the foot in place again and again).
+        const double motion_stretch = (in.free_ankle_m - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
+        const double max_stretch = std::max(tun_.max_leg_stretch, std::min(1.0, motion_stretch + kStretchMargin));
+        f.wants_step = out_of_place || stretch > max_stretch || !in.reached;
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the
         // other stands on the floor (both off it is a hop).
-        if ((other.phase == Phase::held && may_step && (lagging || stretch > tun_.max_leg_stretch)) || !in.reached) {
+        if ((other.phase == Phase::held && may_step && (lagging || stretch > max_stretch)) || !in.reached) {
           f.phase = Phase::stepping;
           f.step_t = 0;
           f.step_from = f.lock;

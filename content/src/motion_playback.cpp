@@ -114,16 +114,18 @@ void Behaviour::place_sample(const Source& s, const MotionSegment& seg, double t
   Playback{*db_, stride_scale(), eased_}.place_sample(s, seg, t, mixed, out);
 }
 
-void Behaviour::start_rest(Timestamp) {
-  const MotionSegment& rest = db_->segments[static_cast<std::size_t>(rest_segment_)];
+void Behaviour::start_rest(Timestamp, int segment) {
+  if (segment < 0) segment = rest_segment_;
+  const MotionSegment& rest = db_->segments[static_cast<std::size_t>(segment)];
   if (have_pose_) spot_xz_m_ = pose_.root_xz_m;
   previous_ = current_;
   blend_elapsed_s_ = 0;
   current_ = Source{};
-  current_.segment = rest_segment_;
+  current_.segment = segment;
   current_.loop = true;
   current_.anchor_xz_m = rest.frames[0].root_xz_m;
   current_.placement.origin_xz = spot_xz_m_;
+  rest_yaw_rad_ = 0;
   current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
 }
 

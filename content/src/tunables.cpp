@@ -47,6 +47,9 @@ const std::vector<TunableKey>& fighter_tunable_keys() {
       b("step_in_min_m", "m", 0, 1, &B::step_in_min_m),
       b("max_step_in_m", "m", 0, 2, &B::max_step_in_m),
       b("step_in_speed_mps", "m/s", 0.05, 5, &B::step_in_speed_mps),
+      b("stance_step_min_m", "m", 0, 2, &B::stance_step_min_m),
+      b("min_stance_step_scale", "", 0.3, 1, &B::min_stance_step_scale),
+      b("max_stance_step_scale", "", 1, 3, &B::max_stance_step_scale),
       b("kick_support_step_m", "m", 0, 1, &B::kick_support_step_m),
       b("min_scaled_travel_m", "m", 0, 2, &B::min_scaled_travel_m),
       b("max_strike_rise_m", "m", 0, 0.5, &B::max_strike_rise_m),
@@ -116,6 +119,10 @@ std::optional<TunableProblem> tunables_problem(const BehaviourTunables& bt, cons
   }
   if (bt.min_travel_scale > bt.max_travel_scale) {
     return TunableProblem{"behaviour.min_travel_scale", "range", "must not exceed max_travel_scale"};
+  }
+  if (bt.stance_step_min_m > 0 && bt.stance_step_min_m < bt.follow_tolerance_m) {
+    return TunableProblem{"behaviour.stance_step_min_m", "range",
+                          "must be 0 (no stance steps) or at least follow_tolerance_m"};
   }
   if (bt.feet.landing_speed_mps > bt.feet.max_landing_speed_mps) {
     return TunableProblem{"behaviour.feet.landing_speed_mps", "range", "must not exceed max_landing_speed_mps"};

@@ -798,6 +798,31 @@ Eigen::Vector3d synthetic_head(double t, const FighterConfig& config) {
   return {x, y, z};
 }
 
+/// SYNTHETIC: a visitor who walks toward the fighter and away in stages (no orders are
+/// given): forward and back walks of 0.3-1.1 m at ~0.8 m/s, each followed by a pause, and a
+/// slow sideways drift. For judging how the fighter follows (stance steps from the mocap).
+Eigen::Vector3d walking_head(double t, const FighterConfig& config) {
+  // (time s, distance walked away from the fighter m): straight walks between the knots.
+  static constexpr std::array<std::array<double, 2>, 15> kKnots = {{{0, 0},    {2, 0},    {3.0, 0.8},  {6, 0.8},
+                                                                    {7.3, -0.3}, {10, -0.3}, {10.5, 0.1}, {13, 0.1},
+                                                                    {14.4, 1.2}, {17, 1.2}, {18.2, 0.3}, {21, 0.3},
+                                                                    {22.3, -0.2}, {25, -0.2}, {26, 0.4}}};
+  const double tc = std::fmod(t, 28.0);
+  double d = kKnots.back()[1];
+  for (std::size_t i = 1; i < kKnots.size(); ++i) {
+    if (tc <= kKnots[i][0]) {
+      const double u = (tc - kKnots[i - 1][0]) / (kKnots[i][0] - kKnots[i - 1][0]);
+      const double w = u * u * (3 - 2 * u);  // eased walk
+      d = kKnots[i - 1][1] + w * (kKnots[i][1] - kKnots[i - 1][1]);
+      break;
+    }
+  }
+  const double pi = 3.14159265358979323846;
+  // Within the fighter's default depth limits: the spot it keeps (0.9 m short of the head)
+  // lies 0.6 m behind home at d = 0 and 0.9 m ahead of that at d = 1.2.
+  return {config.home.x() + 0.25 * std::sin(2 * pi * t / 23), 1.70, config.home.z() + 0.3 + d};
+}
+
 struct BoutOrder {
   double t;
   kumite::OrderKind kind;
@@ -818,7 +843,7 @@ struct BoutResult {
 
 /// Plays the bout. `out_bvh` empty: the runs' BVH are formatted and parsed back in memory.
 BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vector<Rig> rigs, double seconds,
-                             const std::string& out_bvh) {
+                             const std::string& out_bvh, bool walking_visitor = false) {
   const FighterConfig config = g_fighter;
   Behaviour b(db, rigs, config);  // rigs stay ours: the run skeletons come from them
   const double dt = 1.0 / 60;
@@ -847,12 +872,23 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
   std::vector<Eigen::Vector3d> drawn;
   std::vector<std::string> events;
   std::map<std::string, int> state_frames;
-  auto orders = bout_orders();
+  int stance_step_frames = 0;  // frames a stance step from the mocap played
+  struct StanceStepPlayed {
+    int update;       // stance_steps_begun() while it played
+    int segment;
+    int frame;        // bout frame it began
+    int run;          // run index, and the run's frame it began
+    int run_frame;
+    int frames;       // frames it played (until the rest motion took over, or a strike)
+    double scale;
+  };
+  std::vector<StanceStepPlayed> stance_steps;
+  auto orders = walking_visitor ? std::vector<BoutOrder>{} : bout_orders();
   std::size_t next_order = 0;
   const int frames = static_cast<int>(std::lround(seconds / dt));
   for (int i = 0; i < frames; ++i) {
     const double t = i * dt;
-    const Eigen::Vector3d head = synthetic_head(t, config);
+    const Eigen::Vector3d head = walking_visitor ? walking_head(t, config) : synthetic_head(t, config);
     while (next_order < orders.size() && orders[next_order].t <= t) {
       const BoutOrder& o = orders[next_order++];
       b.order(kumite::Order{t, o.kind, o.character});
@@ -883,6 +919,13 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     canonical_positions(rig.skeleton, frame.joints.first(n), cp);  // what is drawn (switch easing included)
     drawn.insert(drawn.end(), cp.begin(), cp.end());
     ++state_frames[std::string(to_string(frame.state))];
+    if (b.stance_step_segment() >= 0) {
+      ++stance_step_frames;
+      if (stance_steps.empty() || stance_steps.back().update != b.stance_steps_begun())
+        stance_steps.push_back({b.stance_steps_begun(), b.stance_step_segment(), i, static_cast<int>(runs.size()) - 1,
+                                run.clip.frame_count - 1, 0, b.stance_step_scale()});
+      ++stance_steps.back().frames;
+    }
     for (const auto& e : b.take_events()) {
       events.push_back(fmt::format("{:.3f} s: {}: {}", t, to_string(e.kind), b.describe(e)));
       if ((e.kind == FighterEvent::Kind::hit || e.kind == FighterEvent::Kind::miss) && frame.target)
@@ -947,12 +990,24 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     ds.push_back({{"frame", drawn_snaps[i].frame}, {"joint", canon.names[static_cast<std::size_t>(drawn_snaps[i].joint)]},
                   {"step_mm", drawn_snaps[i].step_m * 1000}, {"rule", std::string(1, drawn_snaps[i].rule)}});
   auto mx = [](const std::vector<double>& v) { return num(dist_json(v)["max"].get<double>()); };
+  nlohmann::json js = nlohmann::json::array();
+  for (const StanceStepPlayed& st : stance_steps) {
+    const MotionSegment& seg = db->segments[static_cast<std::size_t>(st.segment)];
+    js.push_back({{"segment", seg.name}, {"source_clip", seg.source_clip}, {"source_first_frame", seg.source_first_frame},
+                  {"source_frames", seg.frame_count()}, {"source_frame_time_s", seg.frame_time_s}, {"mirrored", seg.mirrored},
+                  {"travel_scale", st.scale}, {"frame", st.frame}, {"run", st.run + 1}, {"run_frame", st.run_frame},
+                  {"frames_played", st.frames}});
+  }
   result.report = {
-      {"visitor", "SYNTHETIC head trajectory (synthetic_head in kumite_motion.cpp): side to side, closer/farther, a "
-                  "crouch at 8-10.5 s, a dodge at 13.5-14.3 s"},
+      {"stance_step_list", js},
+      {"visitor", walking_visitor ? "SYNTHETIC walking visitor (walking_head in kumite_motion.cpp): walks of 0.3-1.1 m "
+                                    "toward and away, pauses between, no orders"
+                                  : "SYNTHETIC head trajectory (synthetic_head in kumite_motion.cpp): side to side, "
+                                    "closer/farther, a crouch at 8-10.5 s, a dodge at 13.5-14.3 s"},
       {"seconds", seconds}, {"frame_time_s", dt}, {"frames", frames}, {"state_frames", state_frames},
       {"summary",
-       {{"runs", runs.size()}, {"strikes", strikes}, {"hits", hits}, {"snaps_in_bvh_runs", snaps},
+       {{"runs", runs.size()}, {"strikes", strikes}, {"hits", hits}, {"stance_steps", b.stance_steps_begun()},
+        {"stance_step_frames", stance_step_frames}, {"snaps_in_bvh_runs", snaps},
         {"drawn_snaps_whole_bout", drawn_snaps.size()}, {"drawn_joint_speed_p99_mps", drawn_speed.p99_mps},
         {"drawn_joint_speed_max_mps", drawn_speed.max_mps},
         {"drawn_joint_speed_max_joint", canon.names[static_cast<std::size_t>(std::max(0, drawn_speed.max_joint))]},
@@ -967,6 +1022,7 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
 struct BoutArgs {
   std::string db, out, report;
   double seconds = 20;
+  std::string visitor = "bout";
   std::vector<std::string> characters = all_character_names();
 };
 
@@ -979,13 +1035,16 @@ void add_bout(CLI::App& app, BoutArgs& a) {
   cmd->add_option("--seconds", a.seconds, "length of the bout (s)")->capture_default_str()->check(CLI::Range(1.0, 600.0));
   cmd->add_option("--characters", a.characters, "character names or BVH files (order = select_character index)")
       ->delimiter(',')->capture_default_str();
+  cmd->add_option("--visitor", a.visitor,
+                  "bout: the scripted bout (orders, switches); walk: a visitor walking toward and away, no orders (one character)")
+      ->check(CLI::IsMember({"bout", "walk"}))->capture_default_str();
 }
 
 int run_bout(const BoutArgs& a) {
   prepare_output("--out", a.out);
   prepare_output("--report", a.report);
   auto db = std::make_shared<const Database>(load_database(a.db));
-  const BoutResult r = run_bout_scenario(db, load_rigs(a.characters), a.seconds, a.out);
+  const BoutResult r = run_bout_scenario(db, load_rigs(a.characters), a.seconds, a.out, a.visitor == "walk");
   kumite::write_file_atomically(a.report, r.report.dump(2) + "\n");
   fmt::print("{}\nwrote {} and {} character runs beside {}\n", r.report["summary"].dump(2), a.report, r.runs.size(), a.out);
   return 0;

@@ -54,8 +54,12 @@ Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) 
   }
   // Then a second at rest: both feet back on the floor, held (a kicking foot never hangs in
   // the air after the strike, and never both feet off the floor at once).
-  for (int i = 0; i < 120; ++i) {
+  // (or longer, up to 3 s more, while the fighter follows the visitor after a lunge, with a
+  // stance step or procedural steps: its feet are judged once it has rested 0.5 s)
+  int resting = 0;  // updates in a row at rest
+  for (int i = 0; i < 480 && (i < 120 || resting < 60); ++i) {
     b.update(t += dt, dt, head);
+    resting = b.state() == FighterState::resting && b.stance_step_segment() < 0 ? resting + 1 : 0;
     const auto locked = b.feet_locked();
     if (!locked[0] && !locked[1]) ++o.frames_both_feet_off;
   }
@@ -81,6 +85,8 @@ TEST(BehaviourShipped, EveryCharacterReachesTargetsAroundHeadHeight) {
   const auto rigs = kumite::content::testing::shipped_characters();
   FighterConfig cfg;
   cfg.home = Vector3d::Zero();
+  cfg.min_z_m = -3;  // home inside the area (the default depth limits lie behind it:
+  cfg.max_z_m = 3;   // the fighter would walk away from the strike being judged)
   for (std::size_t c = 0; c < rigs.size(); ++c) {
     const double h = rigs[c].morphology.height_m;
     int reached = 0, total = 0;
@@ -175,6 +181,8 @@ TEST(BehaviourShipped, AStrikesPlaybackRateIsFoundOffTheFrameAndEntersAtAFixedUp
   const Rig& bruno = rigs[1];
   FighterConfig cfg;
   cfg.home = Vector3d::Zero();
+  cfg.min_z_m = -3;  // home inside the area (the default depth limits lie behind it:
+  cfg.max_z_m = 3;   // the fighter would walk away from the strike being judged)
   ASSERT_LT(cfg.behaviour.min_strike_rate, 1) << "the playback rate is on by default";
   const Vector3d target(0.074, 1.786, 0.966);
   enum class Solve { in_frame, at_submit, thread_late, at_poll };
@@ -295,7 +303,10 @@ TEST(BehaviourShipped, AStrikeBeyondTheLungesReachStepsInFirstAndKeepsItsFeet) {
         worst_slide = std::max(worst_slide, std::hypot(a1.x() - a0[us].x(), a1.z() - a0[us].z()));
         const double h0 = std::atan2(t0[us].x() - a0[us].x(), t0[us].z() - a0[us].z());
         const double h1 = std::atan2(t1.x() - a1.x(), t1.z() - a1.z());
-        worst_turn_deg = std::max(worst_turn_deg, std::abs(std::remainder(h1 - h0, 2 * M_PI)) * 180 / M_PI);
+        // (a stance step's support foot turns on the spot with the mocap's: FootSample::pivot;
+        // the fighter steps back out after the strike stepped in)
+        if (b.stance_step_segment() < 0)
+          worst_turn_deg = std::max(worst_turn_deg, std::abs(std::remainder(h1 - h0, 2 * M_PI)) * 180 / M_PI);
       }
     }
     ASSERT_TRUE(b.strike().contact_done) << "max_step_in_m " << max_step_in;
@@ -310,6 +321,81 @@ TEST(BehaviourShipped, AStrikeBeyondTheLungesReachStepsInFirstAndKeepsItsFeet) {
     } else {
       EXPECT_EQ(stepped, 0);
       EXPECT_LE(start_update - first_update, 1) << "without step-ins the strike starts on its plan";
+    }
+  }
+}
+
+// Following with stance steps cut from the mocap (issue 12, item 3; [fighter.behaviour]
+// stance_step_min_m > 0): a visitor who walks 0.8 m away and stops is followed with one
+// karate step from a `walk` segment of motions.toml (not with procedural steps), its stepping
+// foot in the air as the clip has it, the foot it stands on held without sliding, never both
+// feet off the floor, and the fighter ends resting within follow_tolerance_m of its spot at
+// the strike distance. A visitor who comes 0.4 m closer makes it step back. Off (the default,
+// 0): the same walk is followed with procedural steps only.
+TEST(BehaviourShipped, FollowsAVisitorWalkingAwayWithAStanceStepFromTheMocap) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  for (const double min_m : {0.5, 0.0}) {
+    FighterConfig cfg;
+    cfg.home = Vector3d::Zero();
+    cfg.min_x_m = cfg.min_z_m = -3;
+    cfg.max_x_m = cfg.max_z_m = 3;
+    cfg.behaviour.stance_step_min_m = min_m;
+    Behaviour b(set.db, {rigs[0]}, cfg);
+    const Rig& rig = b.character(0);
+    const int ankle[2] = {rig.skeleton.index(CJ::l_ankle), rig.skeleton.index(CJ::r_ankle)};
+    const double dt = 1.0 / 60;
+    double t = 0;
+    Vector3d head(0, 1.6, cfg.strike_distance_m);
+    for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);  // standing, feet held
+    const Vector3d start = b.frame().root;
+    std::vector<int> walk_segments;
+    int both_off = 0, procedural_starts = 0;
+    double worst_slide = 0;
+    const auto run = [&](double seconds, double walk_to_z) {
+      const double z0 = head.z();
+      for (int i = 0; i < static_cast<int>(seconds / dt); ++i) {
+        head.z() = z0 + (walk_to_z - z0) * std::min(1.0, i * dt / 1.0);  // a 1 s walk, then standing
+        const auto held_before = b.feet_locked();
+        const auto phase_before = std::array{b.foot_planter().phase(0), b.foot_planter().phase(1)};
+        std::array<Vector3d, 2> before;
+        for (int s = 0; s < 2; ++s) before[static_cast<std::size_t>(s)] = b.rig_positions()[static_cast<std::size_t>(ankle[s])];
+        b.update(t += dt, dt, head);
+        const int seg = b.stance_step_segment();
+        if (seg >= 0 && (walk_segments.empty() || walk_segments.back() != seg)) walk_segments.push_back(seg);
+        const auto held = b.feet_locked();
+        if (!held[0] && !held[1]) ++both_off;
+        for (int s = 0; s < 2; ++s) {
+          const auto us = static_cast<std::size_t>(s);
+          if (b.foot_planter().phase(s) == FootPlanter::Phase::stepping && phase_before[us] != FootPlanter::Phase::stepping) ++procedural_starts;
+          if (!(held[us] && held_before[us])) continue;
+          const Vector3d d = b.rig_positions()[static_cast<std::size_t>(ankle[s])] - before[us];
+          worst_slide = std::max(worst_slide, std::hypot(d.x(), d.z()));
+        }
+      }
+    };
+    run(4.0, head.z() + 0.8);  // walks 0.8 m away (+Z) in 1 s, then stands
+    const Vector3d after_forward = b.frame().root;
+    const std::size_t forward_steps = walk_segments.size();
+    run(4.0, head.z() - 0.4);  // comes 0.4 m closer
+    const Vector3d after_back = b.frame().root;
+    EXPECT_EQ(b.state(), FighterState::resting) << "stance_step_min_m " << min_m;
+    EXPECT_GT(after_forward.z() - start.z(), 0.55) << "stance_step_min_m " << min_m;
+    EXPECT_LT(after_back.z() - after_forward.z(), -0.2) << "stance_step_min_m " << min_m;
+    EXPECT_LT(worst_slide, 0.002) << "held feet do not slide (m per update), stance_step_min_m " << min_m;
+    const Vector3d root = b.frame().root;
+    EXPECT_NEAR(std::hypot(head.x() - root.x(), head.z() - root.z()), cfg.strike_distance_m, 0.5) << min_m;
+    if (min_m > 0) {
+      ASSERT_EQ(forward_steps, 1u) << "one stance step for the walk away";
+      ASSERT_EQ(walk_segments.size(), 2u) << "and one back";
+      for (const int s : walk_segments) EXPECT_EQ(set.db->segments[static_cast<std::size_t>(s)].kind, SegmentKind::walk);
+      EXPECT_EQ(b.stance_steps_begun(), 2);
+      EXPECT_EQ(both_off, 0) << "never both feet off the floor";
+      EXPECT_LE(procedural_starts, 4) << "a few procedural steps at most (settling into the rest stance)";
+    } else {
+      EXPECT_TRUE(walk_segments.empty());
+      EXPECT_EQ(b.stance_steps_begun(), 0);
+      EXPECT_GT(procedural_starts, 2) << "off: the walk is followed with procedural steps";
     }
   }
 }

@@ -42,6 +42,7 @@ TEST(Tunables, PrintedDefaultsAndChangedValuesReadBackTheSame) {
     (k.behaviour ? b2.*k.behaviour : k.feet ? b2.feet.*k.feet : r2.*k.retrieval) = v;
   }
   b2.arrive_tolerance_m = 0.01;  // keep the relations between keys true
+  b2.stance_step_min_m = 1.0;
   b2.feet.landing_speed_mps = 0.5;
   BehaviourTunables b3;
   RetrievalTunables r3;

@@ -200,6 +200,10 @@ class Behaviour {
   /// A strike order is under way before its strike: waiting for its plan, stepping in, or
   /// stepped in and queued to be taken again.
   bool strike_pending() const;
+  /// The walk segment of the stance step playing now (-1: none), and how many were begun.
+  int stance_step_segment() const { return stance_step_ ? stance_step_->segment : -1; }
+  int stance_steps_begun() const { return stance_steps_; }
+  double stance_step_scale() const { return stance_step_ ? stance_step_->scale : 1.0; }  ///< its floor travel's scale
 
   /// The pose of the last update on the current character (for tools/tests).
   std::span<const Eigen::Quaterniond> local_rotations() const { return local_; }
@@ -282,8 +286,17 @@ class Behaviour {
   void sample_frame(const Source& s, int frame, MkmFrame& out) const;
   void place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const;
   double stride_scale() const;
-  void start_rest(Timestamp now);
+  void start_rest(Timestamp now, int segment = -1);
   void update_follow(double dt, const Eigen::Vector3d& head);
+  /// Following `off` (m, room, from the spot) with a stance step from the mocap: the walk
+  /// segment whose start stance fits the feet drawn now and whose scaled travel fits `off`
+  /// along the facing direction; false where none fits (behaviour_steps.cpp).
+  bool begin_stance_step(const Eigen::Vector2d& off);
+  /// The stance step's clip is ending: the rest motion (or its mirror, whichever fits the
+  /// stance the step ends in) takes over where the body stands.
+  void end_stance_step(Timestamp now);
+  /// The rest segment (rest_segment_ or its mirror) whose stance fits the feet drawn now best.
+  int rest_for_stance() const;
   void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
   /// d(t) at contact from the pose at segment time `at_time_s`; `plan_lean`: also the punch's
   /// trunk lean (not at the contact frame itself: the lean eased in since the start stays).
@@ -330,10 +343,32 @@ class Behaviour {
   int rest_segment_ = 0;
   Source current_, previous_;
   double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
-  double facing_rad_ = 0;
+  double facing_rad_ = 0;  ///< rad: the way the fighter faces (toward the visitor)
+  /// rad: the rest motion's hips (its first frame's ground yaw) turned this far off facing_rad_
+  /// (0: the default rest; after a stance step, its stance's own hips).
+  double rest_yaw_rad_ = 0;
   Eigen::Vector2d spot_xz_m_{0, 0};  ///< m, where the rest motion is anchored (room)
   Eigen::Vector2d spot_velocity_{0, 0};  ///< m/s of the rest spot while following
   std::optional<Eigen::Vector2d> recentre_goal_;
+  /// rest_segment_'s mirrored copy (the other foot leading; -1: none in the database), and the
+  /// `walk` segments stance steps are cut from.
+  int mirrored_rest_segment_ = -1;
+  std::vector<int> walk_segments_;
+  /// A stance step from the mocap playing while following: current_ plays `segment` from its
+  /// first frame (floor travel scaled by Source::Travel); at `end_s` (segment s) the rest
+  /// motion blends in.
+  struct StanceStep {
+    int segment = -1;
+    double end_s = 0;  ///< s, segment time the rest motion starts blending in
+    double scale = 1;  ///< its floor travel's scale
+    int support = 0;   ///< the foot it stands on (held throughout: the clip steps the other)
+  };
+  std::optional<StanceStep> stance_step_;
+  std::optional<Eigen::Vector2d> last_goal_;   ///< m, room: the spot to keep at the last follow update
+  double stance_wait_s_ = 0;                   ///< s a stance step due has waited for both feet down
+  int last_goal_update_ = -1;                  ///< the update it was taken (following resumed: speed anew)
+  Eigen::Vector2d goal_velocity_{0, 0};        ///< m/s: how fast it moves (smoothed)
+  int stance_steps_ = 0;  ///< stance steps begun so far
 
   /// An order queued for the next update; a strike's explicit room target (tools, tests) or
   /// none (the visitor's head at that update).
@@ -345,6 +380,9 @@ class Behaviour {
     /// Taken again after stepping in: the plan it stepped in for, played instead of the new
     /// plan where the new one falls shorter (another window, whose lunge the feet hold back).
     std::optional<StrikePlan> plan;
+    /// Accepted and planned while a stance step played, short of its target: planned again
+    /// once the step has ended (from where it ends, not from mid-step; accepted once).
+    bool after_stance_step = false;
   };
   std::vector<QueuedOrder> orders_;  ///< queued for the next update (deferred ones first)
   std::vector<QueuedOrder> taking_;  ///< the orders handle_orders() is taking (room kept)

@@ -52,6 +52,10 @@ struct FootSample {
   double source_lift_m = 0;
   bool reached = true;             ///< the held ankle was within the leg's reach at the last solve
   bool effector = false;           ///< the kicking foot while d(t) acts on it: never held down anew
+  /// Held, and turning with the motion (a stance step's support foot, which the mocap turns on
+  /// its ball): its heading follows motion_heading_xz at most at kPivotRate_rad_s, in place,
+  /// instead of lagging until the foot has to step to turn.
+  bool pivot = false;
 };
 
 class FootPlanter {

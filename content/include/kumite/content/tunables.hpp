@@ -81,6 +81,17 @@ struct BehaviourTunables {
   double step_in_min_m = 0.05;
   double max_step_in_m = 0.8;
   double step_in_speed_mps = 1.5;     ///< m/s of the root while stepping in (faster than following)
+  /// Following forward or back uses a stance step cut from the mocap (a `walk` segment of
+  /// motions.toml: a karate step in stance, its floor travel scaled to the distance within
+  /// [min, max]_stance_step_scale, the rest motion or its mirror after, whichever stance the
+  /// step ends in); a spot off mostly sideways, or one a step cannot reach, is followed with
+  /// procedural steps. Forward the fighter lets the visitor stand up to stance_step_min_m
+  /// farther than strike_distance_m before it steps (a real step is longer than
+  /// follow_tolerance_m); a visitor closer than follow_tolerance_m makes it step back at once
+  /// (a whole step, farther than needed where the distance is short). 0: procedural only.
+  double stance_step_min_m = 0;
+  double min_stance_step_scale = 0.85;
+  double max_stance_step_scale = 1.1;
   /// m: a kick whose clip puts its support foot down more than this far (on the floor) from
   /// where that foot is held first steps the foot there (a procedural step while the kicking
   /// foot stands), then starts: the kick then turns on a foot the leg reaches, instead of the
