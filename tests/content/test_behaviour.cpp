@@ -278,6 +278,24 @@ TEST(Behaviour, FollowsTheVisitorWithPlantedFeetThatDoNotSlide) {
   EXPECT_LT(run.max_slide_m, 0.002);  // 2 mm per update for held feet
 }
 
+// A recentre ordered while the fighter already stands at home (within follow_tolerance_m) is
+// done at once: afterwards the fighter follows the visitor again. (It used to keep the home
+// spot as its goal for good: the order was only ever cleared on arriving from afar.)
+TEST(Behaviour, ARecentreAtHomeIsDoneAndTheFighterFollowsTheVisitorAgain) {
+  Behaviour b = make_behaviour(1);
+  Script run;
+  run.step(b, 30);
+  b.order(Order{run.t, OrderKind::recentre});
+  run.step(b, 30);
+  EXPECT_EQ(b.state(), FighterState::resting);
+  const Vector3d start = b.frame().root;
+  run.head = Vector3d(1.0, 1.7, 1.2);  // the visitor steps aside
+  run.step(b, 600);
+  EXPECT_GT((b.frame().root - start).norm(), 0.5) << "followed the visitor after the recentre";
+  const Vector3d root = b.frame().root;
+  EXPECT_NEAR(Eigen::Vector2d(run.head.x() - root.x(), run.head.z() - root.z()).norm(), test_config().strike_distance_m, 0.3);
+}
+
 namespace {
 // A visitor standing where a right punch of character 0 can reach: the head itself is the
 // target (local: shoulder height, 0.75 arm length + 10 cm ahead).
