@@ -96,6 +96,17 @@ int Behaviour::rest_for_stance() const {
   return best;
 }
 
+bool Behaviour::rest_with(int segment) {
+  if (segment < 0 || segment >= static_cast<int>(db_->segments.size()) ||
+      db_->segments[static_cast<std::size_t>(segment)].kind != SegmentKind::rest)
+    return false;
+  stance_step_.reset();
+  start_rest(time_, segment);
+  blend_elapsed_s_ = 1e9;
+  feet_.reset();
+  return true;
+}
+
 bool Behaviour::begin_stance_step(const Vector2d& goal) {
   if (walk_segments_.empty() || tun_.stance_step_min_m <= 0 || !have_pose_) return false;
   if (!feet_.held(kLeft) || !feet_.held(kRight)) return false;

@@ -24,13 +24,23 @@ using Eigen::Vector2d;
 using Eigen::Vector3d;
 
 StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& character, OrderKind order,
-                              const Vector3d& target, const FighterConfig& config_in) {
+                              const Vector3d& target, const FighterConfig& config_in, std::string_view rest_segment) {
   FighterConfig config = config_in;
   config.home = Vector3d::Zero();
   config.initial_character = 0;
   config.min_x_m = config.min_z_m = -1e3;
   config.max_x_m = config.max_z_m = 1e3;
   Behaviour b(db, {character}, config);
+  if (!rest_segment.empty()) {
+    int found = -1;
+    for (std::size_t i = 0; i < db->segments.size() && found < 0; ++i)
+      if (db->segments[i].name == rest_segment) found = static_cast<int>(i);
+    if (found < 0) throw Error("fighter", "rest", fmt::format("no segment '{}' in the database", rest_segment));
+    if (!b.rest_with(found))
+      throw Error("fighter", "rest",
+                  fmt::format("segment '{}' is a {}, not a rest", rest_segment,
+                              to_string(db->segments[static_cast<std::size_t>(found)].kind)));
+  }
   // Plan outside update() so the per-frame timings hold adaptation only.
   const StrikePlanner planner(db, config.retrieval);
   std::optional<StrikeRequest> request;

@@ -672,7 +672,7 @@ struct QualityTotals {
 /// Runs the quality grid: record_strike, write (or format) the BVH, read it back, compare
 /// with the source clip. Returns one JSON object per strike.
 nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std::vector<Rig>& rigs, int targets,
-                            const std::string& bvh_dir, QualityTotals& totals) {
+                            const std::string& bvh_dir, QualityTotals& totals, const std::string& rest = {}) {
   nlohmann::json out = nlohmann::json::array();
   SourceClips sources;
   const auto grid = quality_grid(rigs, targets);
@@ -683,7 +683,7 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     const bool kick = sc.order == kumite::OrderKind::kick_left || sc.order == kumite::OrderKind::kick_right;
     nlohmann::json js{{"character", rig.name}, {"order", std::string(kumite::to_string(sc.order))},
                       {"target", {sc.target_m.x(), sc.target_m.y(), sc.target_m.z()}}};
-    const StrikeRecording rec = record_strike(db, rig, sc.order, sc.target_m, g_fighter);
+    const StrikeRecording rec = record_strike(db, rig, sc.order, sc.target_m, g_fighter, rest);
     if (rec.contact_frame < 0) {
       ++totals.no_strike;
       js["struck"] = false;
@@ -745,7 +745,7 @@ std::vector<Rig> load_rigs(const std::vector<std::string>& names) {
 }
 
 struct QualityArgs {
-  std::string db, out, bvh_dir;
+  std::string db, out, bvh_dir, rest;
   std::vector<std::string> characters = all_character_names();
   int targets = 12;
 };
@@ -757,6 +757,9 @@ void add_quality(CLI::App& app, QualityArgs& a) {
   cmd->add_option("--out", a.out, "quality.json")->required();
   cmd->add_option("--characters", a.characters, "character names or BVH files")->delimiter(',')->capture_default_str();
   cmd->add_option("--targets", a.targets, "targets per character and order")->capture_default_str()->check(CLI::Range(1, 1000));
+  cmd->add_option("--rest", a.rest,
+                  "the rest segment each strike starts from (default: the database's first; e.g. its ':mirror', or the "
+                  "rest a stance step ends in, 135_03_rest_3)");
   cmd->add_option("--bvh-dir", a.bvh_dir, "also write each strike's BVH here (read back from the file)");
 }
 
@@ -766,7 +769,7 @@ int run_quality(const QualityArgs& a) {
   auto db = std::make_shared<const Database>(load_database(a.db));
   const std::vector<Rig> rigs = load_rigs(a.characters);
   QualityTotals totals;
-  nlohmann::json strikes = measure_grid(db, rigs, a.targets, a.bvh_dir, totals);
+  nlohmann::json strikes = measure_grid(db, rigs, a.targets, a.bvh_dir, totals, a.rest);
   nlohmann::json j;
   j["database"] = a.db;
   j["characters"] = a.characters;

@@ -12,6 +12,7 @@
 #include <limits>
 
 #include "fighter_fixtures.hpp"
+#include "kumite/common/error.hpp"
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
 #include "kumite/content/motion_quality.hpp"
@@ -703,5 +704,39 @@ TEST(MotionQualityShipped, AKickSetsItsSupportFootFirstAndDoesNotHop) {
     }
     EXPECT_LT(fastest, 0.5) << to_string(c.order) << ": the support foot moved at " << fastest
                             << " m/s with the kicking foot in the air (frame " << at << ")";
+  }
+}
+
+TEST(MotionQualityShipped, AStrikeCanBeRecordedFromAnotherRestStance) {
+  // `kumite-motion quality --rest NAME`: the grid from the stances a stance step ends in (the
+  // default rest's mirror, a 135_03 rest). The recording starts in that stance (the lead foot
+  // mirrored: the other foot in front), lands, and a name that is no rest is one clear error.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& kenji = rigs[2];
+  const auto first_rest = find_segment(*set.db, SegmentKind::rest);
+  ASSERT_TRUE(first_rest);
+  const std::string rest = set.db->segments[static_cast<std::size_t>(*first_rest)].name;
+  const Vector3d target(0.0, 1.45, 0.75);
+  // Which foot leads (nearer the target along +Z) at the first frame.
+  const auto lead = [&](const StrikeRecording& r) {
+    Clip c = r.motion;
+    const auto p = all_joint_positions(c);  // frame 0 first
+    const double l = p[static_cast<std::size_t>(c.skeleton.index(CJ::l_ankle))].z();
+    const double rr = p[static_cast<std::size_t>(c.skeleton.index(CJ::r_ankle))].z();
+    return l > rr ? kLeft : kRight;
+  };
+  const StrikeRecording plain = record_strike(set.db, kenji, OrderKind::punch_right, target);
+  const StrikeRecording mirrored = record_strike(set.db, kenji, OrderKind::punch_right, target, {}, rest + ":mirror");
+  ASSERT_GE(plain.contact_frame, 0);
+  ASSERT_GE(mirrored.contact_frame, 0);
+  EXPECT_NE(lead(plain), lead(mirrored)) << "the mirrored rest leads with the other foot";
+  EXPECT_TRUE(mirrored.strike.contact_reached);
+  EXPECT_LT(mirrored.strike.contact_distance_m, 2e-3);
+  try {
+    (void)record_strike(set.db, kenji, OrderKind::punch_right, target, {}, "no_such_rest");
+    ADD_FAILURE() << "an unknown rest was taken";
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no segment 'no_such_rest'"), std::string::npos) << e.what();
   }
 }

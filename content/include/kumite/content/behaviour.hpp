@@ -203,6 +203,9 @@ class Behaviour {
   /// The walk segment of the stance step playing now (-1: none), and how many were begun.
   int stance_step_segment() const { return stance_step_ ? stance_step_->segment : -1; }
   int stance_steps_begun() const { return stance_steps_; }
+  /// Rests with this rest segment from now (tools and tests: strikes from another stance), at
+  /// once, without a blend. False (nothing changed) if it is not a rest segment.
+  bool rest_with(int segment);
   double stance_step_scale() const { return stance_step_ ? stance_step_->scale : 1.0; }  ///< its floor travel's scale
 
   /// The pose of the last update on the current character (for tools/tests).
@@ -517,8 +520,12 @@ struct StrikeRecording {
   };
   std::vector<TraceRow> trace;
 };
+/// `rest_segment`: the rest segment (by name) it starts from, instead of the database's first
+/// (a strike from another stance: the mirrored rest, the rest after a stance step); an unknown
+/// name or one that is not a rest throws kumite::Error.
 StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& character, OrderKind order,
-                              const Eigen::Vector3d& target_ground_m, const FighterConfig& config = {});
+                              const Eigen::Vector3d& target_ground_m, const FighterConfig& config = {},
+                              std::string_view rest_segment = {});
 
 /// Loads the characters of a FighterConfig (BVH, first frame = rest pose) into rigs.
 std::vector<Rig> load_character_rigs(const FighterConfig& config);
