@@ -220,7 +220,17 @@ void Installation::start(Timestamp t) {
 
 void Installation::order(const Order& o) { pending_.push_back(o); }
 
+FrameCapacity Installation::frame_capacity() const {
+  FrameCapacity c;
+  c.joints = fighter_ ? fighter_->most_joints() : 0;
+  c.items = most_fighter_items(c.joints) + kMostWallGlowItems;
+  c.walls = walls_.size();
+  c.cameras = tracking_->camera_names().size();
+  return c;
+}
+
 void Installation::record_to(SessionRecorder* recorder) {
+  if (recorder && recorder != recorder_) recorder->reserve(frame_capacity());
   if (recorder && recorder != recorder_ && started_) recorder->started(start_, tracking_->has_tracker(), steps_, tracking_->camera_names());
   tracking_->record_frame_sets(recorder);
   recorder_ = recorder;

@@ -476,6 +476,23 @@ void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const S
   head_.store(h + 1, std::memory_order_release);
 }
 
+void SessionRecorder::reserve(const FrameCapacity& c) {
+  // The slots from head to tail + size are the frame loop's (the others wait for the writer).
+  const std::uint64_t h = head_.load(std::memory_order_relaxed);
+  const std::uint64_t t = tail_.load(std::memory_order_acquire);
+  for (std::uint64_t k = h; k < t + slots_.size(); ++k) {
+    Item& item = slots_[k % slots_.size()];
+    item.input.keyed.reserve(c.keyed);
+    item.input.tracking.cameras.reserve(c.cameras);
+    item.input.tracking.strikes.reserve(c.strikes);
+    item.state.views.reserve(c.walls);
+    item.state.items.reserve(c.items);
+    item.state.events.reserve(c.events);
+    item.state.fighter.joints.reserve(c.joints);
+    item.state.fighter.local_rotations.reserve(c.joints);
+  }
+}
+
 void SessionRecorder::push_frame_set(const tracking::FrameSet& set) {
   if (budget_reached_.load(std::memory_order_relaxed) || stop_.load(std::memory_order_relaxed)) return;
   const std::uint64_t h = set_head_.load(std::memory_order_relaxed);

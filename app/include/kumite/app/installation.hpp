@@ -269,6 +269,22 @@ struct FrameData {
   std::optional<VisitorNearWall> visitor_near_wall;
 };
 
+/// The most one frame's vectors hold in this installation: a session recorder reserves its
+/// ring's slots to it up front (SessionRecorder::reserve), so that copying a frame into a slot
+/// never allocates on the frame thread, whichever character is drawn or glow shown.
+/// Counts, not bytes; a frame beyond one (more events than `events`) still works: that slot
+/// then grows once.
+struct FrameCapacity {
+  std::size_t joints = 0;   ///< the largest character's joints
+  std::size_t items = 0;    ///< draw items: the largest character's capsules and target, one wall glow
+  std::size_t walls = 0;    ///< views: one per wall
+  std::size_t cameras = 0;  ///< the tracker's cameras
+  std::size_t events = 16;  ///< events of one frame (a frame has 0-3)
+  std::size_t keyed = 8;    ///< orders keyed in one frame
+  std::size_t strikes = 16; ///< visitor strike events polled in one frame
+  bool operator==(const FrameCapacity&) const = default;
+};
+
 /// What one frame took from outside (issue 13): with the same config, orders script and
 /// fighter data, the same FrameInputs give the same frames (Installation::replay). Orders of
 /// the script are not in it: they follow from the times.
@@ -330,7 +346,10 @@ class Installation {
   /// Every step from now on hands its input and its state's hashes to `recorder` (never
   /// waiting on it); nullptr stops. The recorder must outlive the steps. Given after start(),
   /// the recording begins at the next frame (the record key).
+  /// The recorder's ring is reserved to frame_capacity() here (once per recorder).
   void record_to(SessionRecorder* recorder);
+  /// What this installation's frames may hold at most (its characters, walls, cameras).
+  FrameCapacity frame_capacity() const;
   const SessionRecorder* recorder() const { return recorder_; }
   /// The record key (KeyAction::Kind::record): calls what on_record_key() set, if anything.
   void record_key() {

@@ -51,6 +51,12 @@ inline constexpr glm::vec3 kTargetColour{0.95f, 0.1f, 0.1f};
 void plan_fighter(const content::FighterFrame& fighter, glm::vec3 colour,
                   std::vector<DrawItem>& items);
 
+/// The most items plan_fighter appends for a skeleton of `joints` joints (a sphere per
+/// joint, a bone and a rounded end per non-root joint, the target).
+constexpr std::size_t most_fighter_items(std::size_t joints) { return 3 * joints + 1; }
+/// The most bars plan_wall_glow appends (1.6 m at 0.2 m: at most 9 each way).
+constexpr std::size_t kMostWallGlowItems = 18;
+
 /// The boundary glow of a wall the visitor is close to: a grid of thin bars (0.2 m apart)
 /// 1 cm in front of `wall`, over a 1.6 m square round `near` (the head) projected onto it and
 /// kept within the wall; amber to red as `strength` (0..1) grows. Appended to `items`.

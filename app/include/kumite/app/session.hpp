@@ -99,6 +99,10 @@ class SessionRecorder {
   /// From the frame loop: queues a copy, never waits for the disk (full queue: dropped, counted).
   /// The frame's state is copied whole for states.bin (frame_states.hpp).
   void push(std::uint64_t frame, const FrameInput& input, const StateHashes& hashes, const FrameData& state);
+  /// Gives every free slot of the ring room for frames up to `capacity` (from the frame
+  /// loop's thread, as push; Installation::record_to does it): a frame that fits is then
+  /// copied without an allocation, even the first time a slot holds the largest character.
+  void reserve(const FrameCapacity& capacity);
   /// From the tracker thread: queues the frame set (its images shared, not copied: sources
   /// hand over fresh images), never waiting; the writer packs and appends it to cameras.bin.
   /// A full queue drops the set (counted: a re-track then misses it).

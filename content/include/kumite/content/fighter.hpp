@@ -169,6 +169,8 @@ class Fighter {
   virtual std::string describe(const FighterEvent& event) const = 0;
   virtual int character_count() const = 0;
   virtual std::string character_name(int index) const = 0;
+  /// The most joints any of its characters has (what a frame's joints may grow to).
+  virtual std::size_t most_joints() const = 0;
   virtual RetrievalTiming retrieval_timing() const = 0;
 };
 
