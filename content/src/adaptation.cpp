@@ -375,10 +375,11 @@ bool AdaptJob::Run() const {
     fallback.chest = by.chest * fallback.chest;
     fallback.clavicle = by.clavicle * fallback.clavicle;
   };
-  if (arm_reach && min_trunk_fallback && !min_trunk_fallback->identity()) {
+  if (min_trunk_fallback && !min_trunk_fallback->identity() && (arm_reach || (reach && min_trunk_fallback_side >= 0))) {
     // The least fallback the caller asks for (the last frame's, going out over frames) first;
-    // the CCD below adds only what the goal needs beyond it.
-    bend(*min_trunk_fallback, reach->effector.side);
+    // the CCD below adds only what the goal needs beyond it. (With a leg's reach: a punch's
+    // fallback going on out under a kick; dropped there, the trunk sprang up in one frame.)
+    bend(*min_trunk_fallback, arm_reach ? reach->effector.side : min_trunk_fallback_side);
     pin_goal();
     out = PassOut{};
     decode_pass(*this, td, out);

@@ -832,13 +832,18 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // A strike whose d(t) has been released while the fallback is still going out keeps its arm
   // as the effector (d(t) at nothing) until it is out.
   ReachGoal released;
-  if (!reach && have_pose_ && !strike_.effector.leg && !trunk_floor_.identity()) {
-    released = reach_goal_at(strike_.effector, Eigen::Quaterniond::Identity(), 1.0, 0.0);
+  // A kick started while it goes out carries it on too (on the punch's side), and so does the
+  // kick's own release: dropped at the kick's start, the trunk sprang up 7 cm at the head in
+  // one frame (found in the bout).
+  if (!reach && have_pose_ && !trunk_floor_.identity() && trunk_floor_side_ >= 0) {
+    released = reach_goal_at(Effector{trunk_floor_side_, false}, Eigen::Quaterniond::Identity(), 1.0, 0.0);
     job.reach = &released;
   }
-  job.min_trunk_fallback = have_pose_ && job.reach && !strike_.effector.leg ? &trunk_floor_ : nullptr;
+  job.min_trunk_fallback = have_pose_ && job.reach && trunk_floor_side_ >= 0 ? &trunk_floor_ : nullptr;
+  job.min_trunk_fallback_side = trunk_floor_side_;
   job.report = &report_;
   job.Run();
+  if (job.reach && !job.reach->effector.leg) trunk_floor_side_ = job.reach->effector.side;  // the fallback's arm
   drop_rate_mps_ = have_pose_ && dt > 0 ? (report_.root_drop_m - last_drop) / dt : 0.0;
   have_pose_ = true;
   last_dt_ = dt > 0 ? dt : last_dt_;

@@ -307,6 +307,52 @@ TEST(Adapt, TheTrunkFadesInAsTheGoalNearsTheArmsReach) {
   EXPECT_LT(worst, 3.0);
 }
 
+TEST(Adapt, AKicksReachCarriesOnThePunchsTrunkFallbackWhenGivenItsSide) {
+  // SYNTHETIC punch pose: the wrist goal at 110 % of the arm for 8 frames (the trunk bends),
+  // then a kick's reach (the left foot, d(t) at nothing) from the next frame, the last frame's
+  // fallback eased toward none passed as the least. Given the punch's side, the kick's frame
+  // keeps that lean (the shoulder moves as the fallback eases); without it (a leg's reach
+  // ignored the fallback before) the trunk springs up in one frame.
+  PunchLine line;
+  Buffers& b = line.b;
+  const Rig& rig = line.rig;
+  const double dt = 1.0 / 60;
+  const auto kick_step = [&](int side) {
+    AdaptReport last;
+    for (int i = 0; i < 8; ++i) {
+      const ReachGoal goal = line.goal_at(1.1);
+      const TrunkLean floor = last.trunk_fallback.scaled(1 - dt / 0.15);
+      AdaptReport rep;
+      AdaptJob job = b.job(rig, line.f);
+      job.reach = &goal;
+      job.report = &rep;
+      if (i > 0) {
+        job.max_trunk_weight = last.trunk_weight + dt / 0.1;
+        job.min_trunk_fallback = &floor;
+      }
+      EXPECT_TRUE(job.Run());
+      last = rep;
+    }
+    EXPECT_FALSE(last.trunk_fallback.identity()) << "the punch bent the trunk";
+    const Vector3d prev = b.at_joint(rig, CJ::r_shoulder);
+    ReachGoal kick;
+    kick.effector = {kLeft, true};
+    const TrunkLean floor = last.trunk_fallback.scaled(1 - dt / 0.15);
+    AdaptReport rep;
+    AdaptJob job = b.job(rig, line.f);
+    job.reach = &kick;
+    job.report = &rep;
+    job.min_trunk_fallback = &floor;
+    job.min_trunk_fallback_side = side;
+    EXPECT_TRUE(job.Run());
+    return (b.at_joint(rig, CJ::r_shoulder) - prev).norm();
+  };
+  const double carried = kick_step(kRight), dropped = kick_step(-1);
+  std::printf("shoulder step at the kick's first frame: %.1f mm carried, %.1f mm dropped\n", carried * 1000, dropped * 1000);
+  EXPECT_GT(dropped, 0.03);  // the problem: dropped, the trunk springs up in one frame
+  EXPECT_LT(carried, 0.015);  // the fallback easing out by one frame's share
+}
+
 TEST(Adapt, TheTrunkFallbackComesInAndGoesOutOverFramesWhenTheCallerBoundsIt) {
   // SYNTHETIC punch pose. Frame sequence as a fighter at 60 Hz draws it: the wrist goal at
   // 90 % of the arm, then at 110 % (beyond: the trunk bends), then back at 90 %. Unbounded, the

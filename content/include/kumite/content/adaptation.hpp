@@ -152,6 +152,10 @@ struct AdaptJob {
   /// fallback goes out over frames: the frame after a full-stretch contact the goal is back
   /// within reach, the fallback's need drops to nothing and the body sprang up in one frame.
   const TrunkLean* min_trunk_fallback = nullptr;
+  /// The arm (kLeft / kRight) whose strike the min_trunk_fallback comes from: with a leg's
+  /// reach (a kick started while a punch's fallback still goes out) it is applied too, its
+  /// clavicle turn on this arm's side (-1: applied only with an arm's reach, on that arm).
+  int min_trunk_fallback_side = -1;
   std::span<Eigen::Quaterniond> local_rotations;   ///< out, joint_count
   std::span<Eigen::Vector3d> global_positions;     ///< out, m, room frame, joint_count
   std::span<Eigen::Quaterniond> global_rotations;  ///< out, joint_count

@@ -483,6 +483,7 @@ class Behaviour {
   Eigen::Vector3d root_joint_{0, 0, 0};
   AdaptReport report_;
   TrunkLean trunk_floor_;  ///< the least trunk fallback this frame (the last frame's, easing out)
+  int trunk_floor_side_ = -1;  ///< the arm whose strike made it (-1: no punch yet)
   std::vector<FighterEvent> events_;
   Timestamp time_ = 0;
   int updates_ = 0;

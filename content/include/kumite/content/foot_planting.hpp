@@ -58,6 +58,11 @@ struct FootSample {
   bool pivot = false;
 };
 
+/// A held leg may stretch this much (share of its length) beyond the motion's own: a
+/// stance's straight leg is the motion, not a reason to step (FootPlanter), nor a limit on a
+/// lunge's travel (Behaviour::place_strike_travel).
+constexpr double kLegStretchMargin = 0.01;
+
 class FootPlanter {
  public:
   /// free: not held (no hold yet); held: still where it was put down; swinging: lifted by the
