@@ -17,6 +17,9 @@ constexpr double kMoveSpreadFactor = 2.0;  // the jump must exceed this x the sp
 // views, intrinsics calibrated from the same images): a camera moved half-way 58-69 %, every
 // camera not moved 2-29 % (unmoved rigs at most 23 %); 0.6 missed the 24-view rig's move (58 %).
 constexpr double kMoveExplained = 0.45;
+// A view is clearly on one side of a move when its mean residual lies within this share of the
+// jump from that side's mean (along the line between the two runs' means).
+constexpr double kClearShare = 0.25;
 
 RigidPose camera_pose(const tracking::CameraCalibration& c) { return {c.rotation, c.translation}; }
 
@@ -248,11 +251,23 @@ RigCheck check_rig(const std::vector<tracking::CameraCalibration>& cameras,
     total /= static_cast<double>(means.size());
     k.explained = total > 0 ? 1.0 - s.spread * s.spread / total : 0.0;
     if (s.jump < kMoveMinPx || s.jump < kMoveSpreadFactor * s.spread || k.explained < kMoveExplained) continue;
-    k.moved_between = std::make_pair(static_cast<int>(frames[s.at - 1]), static_cast<int>(frames[s.at]));
+    // Views next to the split whose mean residual lies well between the two runs' (a camera
+    // still moving, or settling) cannot be told to either side: the move is said to lie between
+    // the last view clearly before and the first clearly after, and those views are flagged.
+    // (40-view rig, cam1 moved at view 20, views 18-19 without the board: view 17 sat at -0.5 px
+    // between runs at -7.5 and +6 px, and the split alone said "between 16 and 17".)
+    const cv::Vec2d axis = s.mean_b - s.mean_a;
+    const double axis2 = axis.dot(axis);
+    const auto share = [&](std::size_t i) { return axis2 > 0 ? (means[i] - s.mean_a).dot(axis) / axis2 : 0.0; };
+    std::size_t last_a = s.at - 1, first_b = s.at;
+    while (last_a > 0 && share(last_a) > kClearShare) --last_a;
+    while (first_b + 1 < frames.size() && share(first_b) < 1 - kClearShare) ++first_b;
+    k.moved_between = std::make_pair(static_cast<int>(frames[last_a]), static_cast<int>(frames[first_b]));
     k.blamed = k.blamed || k.rms_all_px > kBlameFloorPx;
-    // The cluster further from the calibration is the one to flag.
+    // The cluster further from the calibration is the one to flag, and the views in between.
     const bool second = cv::norm(s.mean_b) >= cv::norm(s.mean_a);
-    for (std::size_t i = 0; i < frames.size(); ++i) k.flagged[frames[i]] = (i >= s.at) == second;
+    for (std::size_t i = 0; i < frames.size(); ++i)
+      k.flagged[frames[i]] = (i > last_a && i < first_b) || (i >= s.at) == second;
   }
   return out;
 }

@@ -262,3 +262,29 @@ TEST(CalibrationInput, BoardNumbersAreFiniteAndMinusZeroIsZero) {
   const std::string e = error_of([&] { (void)parse_board(base + "gap_m = nan\n", "b.toml"); });
   EXPECT_NE(e.find("b.toml:6: gap_m: must be a finite number"), std::string::npos) << e;
 }
+
+TEST(RigCheck, AViewCaughtMidMoveWidensTheRangeAndIsFlagged) {
+  // SYNTHETIC: cam2 knocked 12 px from frame 20 on, and the last view it saw before that caught
+  // it half-way (6 px: the camera still moving). That view fits neither run: the move is said to
+  // lie between the view before it and the first moved one, and it is flagged with the moved
+  // run (the audit's 40-view rig: "between 16 and 17" for a camera moved at 20).
+  ProjectedRig rig = projected_rig();
+  constexpr int kMovedFrom = 20;
+  const auto [last_before, first_after, moved] = knock_cam2(rig, kMovedFrom);
+  ASSERT_GE(last_before, 1);
+  int before_that = -1;
+  for (int f = last_before - 1; f >= 0 && before_that < 0; --f)
+    if (!rig.views[2][static_cast<std::size_t>(f)].empty()) before_that = f;
+  ASSERT_GE(before_that, 0);
+  for (auto& p : rig.views[2][static_cast<std::size_t>(last_before)].image_points) p += cv::Point2f(4.2f, 4.3f);
+  const ExtrinsicsResult res = solve_extrinsics(rig.cams, rig.views);
+  const RigCheck check = check_rig(res.cameras, rig.views);
+  const CameraCheck& k = check.cameras[2];
+  ASSERT_TRUE(k.moved_between.has_value());
+  EXPECT_EQ(k.moved_between->first, before_that);
+  EXPECT_EQ(k.moved_between->second, first_after);
+  EXPECT_TRUE(k.flagged[static_cast<std::size_t>(last_before)]) << "the view caught mid-move is left out";
+  const std::string line = describe_check("cam2", k, check, rig.frame_names);
+  EXPECT_NE(line.find(fmt::format("cam2 moved between views {:06d} and {:06d}", before_that, first_after)), std::string::npos)
+      << line;
+}

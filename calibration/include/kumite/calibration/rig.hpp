@@ -71,12 +71,14 @@ struct CameraCheck {
   bool blamed = false;
   /// Moved: the residuals split at a frame into two clusters whose mean residuals differ by
   /// jump_px (>= kMoveMinPx and well outside the spread within each cluster): the last frame
-  /// before and the first after (indices into the frame list).
+  /// clearly before and the first clearly after (indices into the frame list; views between
+  /// them, whose mean residual lies well between the clusters', are flagged).
   std::optional<std::pair<int, int>> moved_between;
   double jump_px = 0;    ///< px: the best split's jump in the mean residual (also when not a move)
   double spread_px = 0;  ///< px: RMS spread of the mean residuals around their run's mean
   double explained = 0;  ///< fraction of the mean residuals' variance the split explains
-  /// Per frame: true for the views of the cluster that disagrees more with the calibration.
+  /// Per frame: true for the views of the cluster that disagrees more with the calibration,
+  /// and those between the clusters.
   std::vector<bool> flagged;
 };
 struct RigCheck {
