@@ -73,6 +73,13 @@ class FootPlanter {
   explicit FootPlanter(FootPlantingTunables tunables = {}) : tun_(tunables) {}
   /// Forget every foot (a new body: character switch, first frame).
   void reset() { feet_ = {}; }
+  /// A new body with the same feet on the floor (a character switch): a held foot stays held
+  /// where it stands (a foot its new leg cannot reach steps, as any does); the others are
+  /// forgotten (free).
+  void keep_held_only() {
+    for (auto& f : feet_)
+      if (f.phase != Phase::held) f = Foot{};
+  }
   /// `may_step`: steps for a lagging or over-stretched foot allowed (resting, following); a foot
   /// the leg cannot reach steps in any case. `body_velocity_xz` (m/s) is
   /// where the body is going, so a step lands ahead of it.
