@@ -11,8 +11,11 @@
 #include <thread>
 #include <utility>
 
+#include <fmt/format.h>
+
 #include "fighter_fixtures.hpp"
 #include "kumite/content/behaviour.hpp"
+#include "kumite/content/mkm.hpp"
 
 using namespace kumite;
 using namespace kumite::content;
@@ -398,4 +401,69 @@ TEST(BehaviourShipped, FollowsAVisitorWalkingAwayWithAStanceStepFromTheMocap) {
       EXPECT_GT(procedural_starts, 2) << "off: the walk is followed with procedural steps";
     }
   }
+}
+
+// A character switch at rest between every two shipped characters keeps the feet held where
+// they stand (FootPlanter::keep_held_only): whatever the sizes, never both feet off the floor
+// (a foot the new legs cannot reach steps alone) and no drawn joint snaps (a step over 5 cm and
+// 3x both neighbouring steps: motion_quality's rule). Mid-strike switches: the scripted bout
+// (test content.kumite_motion_bout).
+TEST(BehaviourShipped, ASwitchBetweenAnyTwoCharactersAtRestKeepsAFootOnTheFloor) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const double dt = 1.0 / 60;
+  int snaps = 0, worst_both_off = 0;
+  std::string first_snap;
+  {
+    for (std::size_t a = 0; a < rigs.size(); ++a) {
+      for (std::size_t c = 0; c < rigs.size(); ++c) {
+        if (a == c) continue;
+        const std::string pair = rigs[a].name + " -> " + rigs[c].name;
+        FighterConfig cfg;
+        cfg.home = Vector3d::Zero();
+        cfg.min_x_m = cfg.min_z_m = -3;
+        cfg.max_x_m = cfg.max_z_m = 3;
+        cfg.initial_character = static_cast<int>(a);
+        Behaviour b(set.db, rigs, cfg);
+        double t = 0;
+        const Vector3d head(0, 1.6, 1.2);
+        b.update(t, 0, head);
+        for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);
+        // The drawn canonical joints from the frame before the switch on.
+        std::vector<std::vector<Vector3d>> track;
+        const auto keep = [&] {
+          const Rig& rig = b.character(b.current_character());
+          CanonicalPose now;
+          canonical_positions(rig.skeleton, b.joint_positions().first(static_cast<std::size_t>(rig.joint_count())), now);
+          track.emplace_back(now.begin(), now.end());
+        };
+        keep();
+        b.order(Order{t, OrderKind::select_character, static_cast<std::int32_t>(c)});
+        int both_off = 0;
+        for (int i = 0; i < 120; ++i) {
+          b.update(t += dt, dt, head);
+          ASSERT_EQ(b.current_character(), static_cast<int>(c)) << pair;
+          const auto held = b.feet_locked();
+          if (!held[0] && !held[1]) ++both_off;
+          keep();
+        }
+        for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
+          const auto step = [&](std::size_t k) { return (track[k][j] - track[k - 1][j]).norm(); };
+          for (std::size_t k = 2; k + 1 < track.size(); ++k) {
+            if (!track[k][j].allFinite() || !track[k - 1][j].allFinite() || !track[k - 2][j].allFinite() || !track[k + 1][j].allFinite()) continue;
+            const double s = step(k);
+            if (s > 0.05 && s > 3 * step(k - 1) && s > 3 * step(k + 1)) {
+              ++snaps;
+              if (first_snap.empty()) first_snap = pair + fmt::format(": joint {} {:.0f} mm at frame {}", j, s * 1000, k - 1);
+            }
+          }
+        }
+        EXPECT_EQ(both_off, 0) << pair;
+        worst_both_off = std::max(worst_both_off, both_off);
+      }
+    }
+  }
+  std::printf("switches between every two characters: %d snaps (%s), both feet off at most %d frames\n", snaps,
+              first_snap.c_str(), worst_both_off);
+  EXPECT_EQ(snaps, 0) << first_snap;
 }
