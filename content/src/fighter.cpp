@@ -253,11 +253,7 @@ class FighterImpl final : public Fighter {
   std::vector<FighterEvent> take_events() override { return behaviour_.take_events(); }
   std::string describe(const FighterEvent& event) const override { return behaviour_.describe(event); }
   int character_count() const override { return behaviour_.character_count(); }
-  std::size_t most_joints() const override {
-    std::size_t most = 0;
-    for (int i = 0; i < character_count(); ++i) most = std::max(most, behaviour_.character(i).skeleton.names.size());
-    return most;
-  }
+  std::size_t most_joints() const override { return behaviour_.most_joints(); }
   std::string character_name(int index) const override {
     if (index < 0 || index >= character_count()) return {};
     return behaviour_.character(index).name;

@@ -420,10 +420,9 @@ void Installation::copy_pose(const content::FighterFrame& f, int character, Figh
   }
   if (pose.skeleton != skeleton) {  // a switch: room for the largest character once
     pose.skeleton = skeleton;
-    std::size_t most = 0;
-    for (const auto& s : skeletons_) most = std::max(most, s ? s->joint_names.size() : 0);
-    pose.joints.reserve(std::max(most, f.joints.size()));
-    pose.local_rotations.reserve(std::max(most, f.joints.size()));
+    const std::size_t most = std::max(fighter_ ? fighter_->most_joints() : 0, f.joints.size());
+    pose.joints.reserve(most);
+    pose.local_rotations.reserve(most);
   }
   pose.state = f.state;
   pose.character = character;

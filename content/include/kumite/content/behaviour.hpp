@@ -194,6 +194,8 @@ class Behaviour {
   /// characters' names).
   std::string describe(const FighterEvent& event) const;
   int character_count() const { return static_cast<int>(characters_.size()); }
+  /// The most joints any of its characters has (its per-joint buffers are sized to it).
+  std::size_t most_joints() const { return positions_.size(); }
   const Rig& character(int i) const { return characters_[static_cast<std::size_t>(i)]; }
   int current_character() const { return character_; }
   FighterState state() const { return state_; }
