@@ -118,7 +118,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // holds it straighter (a front stance's straight back leg is the stance, not a reason
         // to step the foot in place again and again).
         const double motion_stretch = (in.free_ankle_m - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
-        const double max_stretch = std::max(tun_.max_leg_stretch, std::min(1.0, motion_stretch + kLegStretchMargin));
+        const double max_stretch = allowed_leg_stretch(tun_.max_leg_stretch, motion_stretch);
         f.wants_step = out_of_place || stretch > max_stretch || !in.reached;
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the

@@ -262,7 +262,7 @@ double Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
       // it straighter (a lunge's straight back leg), as the foot planter allows.
       const double leg_length = rig.morphology.limb_leg_length(side);
       const double clip_stretch = (at(c, side == kLeft ? CJ::l_hip : CJ::r_hip) - at(c, ankle)).norm() / std::max(1e-6, leg_length);
-      const double r = std::max(feet_.tunables().max_leg_stretch, std::min(1.0, clip_stretch + kLegStretchMargin)) * leg_length;
+      const double r = allowed_leg_stretch(feet_.tunables().max_leg_stretch, clip_stretch) * leg_length;
       const double b = T.dot(d0), cc = d0.squaredNorm() - r * r;
       const double disc2 = b * b - tt * cc;
       k = std::min(k, disc2 >= 0 ? (-b + std::sqrt(disc2)) / tt : -b / tt);

@@ -7,6 +7,7 @@
 // that lags behind the body or that the leg can no longer reach takes a procedural step.
 //
 // Single-threaded; no allocation. Lengths in metres (room frame), times in seconds.
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <limits>
@@ -62,6 +63,12 @@ struct FootSample {
 /// stance's straight leg is the motion, not a reason to step (FootPlanter), nor a limit on a
 /// lunge's travel (Behaviour::place_strike_travel).
 constexpr double kLegStretchMargin = 0.01;
+/// How straight a held leg may be (hip to ankle / leg length): `max_leg_stretch`, or the
+/// motion's own leg (`motion_stretch`) + kLegStretchMargin where the motion holds it straighter,
+/// never beyond 1.
+inline double allowed_leg_stretch(double max_leg_stretch, double motion_stretch) {
+  return std::max(max_leg_stretch, std::min(1.0, motion_stretch + kLegStretchMargin));
+}
 
 class FootPlanter {
  public:
