@@ -364,13 +364,24 @@ SessionInfo session_info(const InstallationConfig& config, const InstallationOpt
 /// One queued camera frame set (images shared with the tracker's: sources hand over fresh ones).
 struct SessionRecorder::SetSlot {
   tracking::FrameSet set;
+  std::size_t bytes = 0;  ///< the images' pixels, counted in queued_set_bytes_ until released
 };
 
+namespace {
+std::size_t image_bytes(const tracking::FrameSet& set) {
+  std::size_t n = 0;
+  for (const auto& im : set.images) n += im.total() * im.elemSize();
+  return n;
+}
+}  // namespace
+
 // Frame sets queued for the writer (default 60: 1 s at 60 Hz). Each holds its images (4 x 1.3
-// MB for the demo's cameras) until packed, so the queue bounds that memory (~310 MB when full).
+// MB for the demo's cameras) until packed; the queue is bounded by their bytes too (default
+// 100 MB): 60 full slots were 310 MB on a machine too loaded for the writer to keep up.
 SessionRecorder::SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames,
-                                 std::size_t queue_sets)
-    : dir_(std::move(dir)), info_(std::move(info)), slots_(std::max<std::size_t>(queue_frames, 2)) {
+                                 std::size_t queue_sets, std::size_t queue_set_bytes)
+    : dir_(std::move(dir)), info_(std::move(info)), slots_(std::max<std::size_t>(queue_frames, 2)),
+      set_bytes_limit_(queue_set_bytes) {
   for (std::size_t i = 0; i < std::max<std::size_t>(queue_sets, 2); ++i) set_slots_.push_back(std::make_unique<SetSlot>());
   make_output_folder(dir_, "--record " + dir_.string());
   {
@@ -496,11 +507,20 @@ void SessionRecorder::reserve(const FrameCapacity& c) {
 void SessionRecorder::push_frame_set(const tracking::FrameSet& set) {
   if (budget_reached_.load(std::memory_order_relaxed) || stop_.load(std::memory_order_relaxed)) return;
   const std::uint64_t h = set_head_.load(std::memory_order_relaxed);
-  if (h - set_tail_.load(std::memory_order_acquire) >= set_slots_.size()) {
+  const std::uint64_t queued = h - set_tail_.load(std::memory_order_acquire);
+  const std::size_t bytes = image_bytes(set);
+  // (the writer subtracts a set's bytes as it releases its images, before it frees the slot)
+  const std::uint64_t held = queued_set_bytes_.load(std::memory_order_acquire);
+  if (queued >= set_slots_.size() || (queued > 0 && held + bytes > set_bytes_limit_)) {
     sets_dropped_.fetch_add(1, std::memory_order_relaxed);
     return;
   }
-  tracking::FrameSet& slot = set_slots_[h % set_slots_.size()]->set;
+  SetSlot& s = *set_slots_[h % set_slots_.size()];
+  s.bytes = bytes;
+  const std::uint64_t now_held = queued_set_bytes_.fetch_add(bytes, std::memory_order_acq_rel) + bytes;
+  if (now_held > peak_queued_set_bytes_.load(std::memory_order_relaxed))
+    peak_queued_set_bytes_.store(now_held, std::memory_order_relaxed);  // the one producer writes it
+  tracking::FrameSet& slot = s.set;
   slot.frame = set.frame;
   slot.timestamp = set.timestamp;
   slot.images.assign(set.images.begin(), set.images.end());  // headers: the pixels are shared
@@ -636,6 +656,7 @@ void SessionRecorder::run() {
         }
       }
       for (auto& im : set.images) im.release();  // the tracker's pixels are not held longer than needed
+      queued_set_bytes_.fetch_sub(set_slots_[st % set_slots_.size()]->bytes, std::memory_order_acq_rel);
       set_tail_.store(st + 1, std::memory_order_release);
     }
     if (stopping) return;  // everything pushed before stop was written
@@ -725,8 +746,9 @@ void SessionRecorder::close() {
   if (dropped_ > 0)
     spdlog::warn("record: {} frame(s) dropped (the writer was behind): a replay stops at the first", dropped_.load());
   if (sets_dropped_ > 0)
-    spdlog::warn("record: {} camera frame set(s) dropped (the writer was behind): a re-track misses them",
-                 sets_dropped_.load());
+    spdlog::warn("record: {} camera frame set(s) dropped (the writer was behind; its queue held at most {:.0f} MB of "
+                 "images, bounded at {:.0f} MB): a re-track misses them",
+                 sets_dropped_.load(), peak_queued_set_bytes_.load() / 1e6, set_bytes_limit_ / 1e6);
   spdlog::info("record: {} frames, {} camera frame sets, {:.2f} MB -> {}", written_.load(), sets_written_.load(),
                bytes_.load() / 1e6, dir_.string());
 }

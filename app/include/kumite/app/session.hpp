@@ -84,10 +84,14 @@ class SessionRecorder {
  public:
   /// Creates DIR (or uses an empty existing one), copies the snapshot and writes the first
   /// manifest. Throws kumite::Error("io", ...) naming the path.
-  /// `queue_sets`: camera frame sets that may wait for the writer (each holds its images until
-  /// packed: the queue bounds that memory); more are dropped and counted.
+  /// `queue_sets`: camera frame sets that may wait for the writer, and `queue_set_bytes` the
+  /// most their images may hold together (each set holds its images until packed: the demo's
+  /// 4 × 1.3 MB a set would take 310 MB in 60 slots while a loaded machine starves the writer);
+  /// a set past either is dropped and counted (one set is always let in, whatever its size).
   SessionRecorder(std::filesystem::path dir, SessionInfo info, std::size_t queue_frames = 512,
-                  std::size_t queue_sets = 60);
+                  std::size_t queue_sets = 60, std::size_t queue_set_bytes = kDefaultQueueSetBytes);
+  /// bytes: the images the camera frame set queue may hold (~19 of the demo's sets, 0.3 s).
+  static constexpr std::size_t kDefaultQueueSetBytes = 100'000'000;
   ~SessionRecorder();  ///< close() if not done (errors then only logged)
   SessionRecorder(const SessionRecorder&) = delete;
   SessionRecorder& operator=(const SessionRecorder&) = delete;
@@ -174,6 +178,9 @@ class SessionRecorder {
   struct SetSlot;
   std::vector<std::unique_ptr<SetSlot>> set_slots_;
   std::atomic<std::uint64_t> set_head_{0}, set_tail_{0};
+  std::size_t set_bytes_limit_ = 0;                  // bytes of images the queued sets may hold
+  std::atomic<std::uint64_t> queued_set_bytes_{0};  // bytes of images the queued sets hold now
+  std::atomic<std::uint64_t> peak_queued_set_bytes_{0};
   std::atomic<std::uint64_t> sets_written_{0}, sets_dropped_{0}, set_bytes_{0};
   int frames_fd_ = -1;  // cameras.bin, opened at the first set (the writer's)
   // states.bin: every frame's state whole (the writer's, as the two below)
