@@ -854,7 +854,7 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     int frame;
     Effector effector;
     Eigen::Vector3d target;
-    bool hit;
+    FighterEvent::Kind outcome;  ///< hit, dodged or miss
   };
   struct Run {
     int character;
@@ -931,15 +931,17 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     }
     for (const auto& e : b.take_events()) {
       events.push_back(fmt::format("{:.3f} s: {}: {}", t, to_string(e.kind), b.describe(e)));
-      if ((e.kind == FighterEvent::Kind::hit || e.kind == FighterEvent::Kind::miss) && frame.target)
-        run.contacts.push_back({run.clip.frame_count - 1, effector_of_order(e.order.kind), *frame.target,
-                                e.kind == FighterEvent::Kind::hit});
+      // Every strike that came to contact is judged there, a dodged one too: the visitor sees
+      // its limb at full extension all the same.
+      if ((e.kind == FighterEvent::Kind::hit || e.kind == FighterEvent::Kind::dodged ||
+           e.kind == FighterEvent::Kind::miss) && frame.target)
+        run.contacts.push_back({run.clip.frame_count - 1, effector_of_order(e.order.kind), *frame.target, e.kind});
     }
   }
   BoutResult result;
   nlohmann::json jr = nlohmann::json::array();
   std::vector<double> slide_max, slide_p95, slide_p50, step_max;
-  int snaps = 0, knee_flips = 0, elbow_flips = 0, folded = 0, strikes = 0, hits = 0;
+  int snaps = 0, knee_flips = 0, elbow_flips = 0, folded = 0, strikes = 0, hits = 0, dodged = 0, misses = 0;
   for (Run& run : runs) {
     Clip back;
     std::string file;
@@ -961,10 +963,13 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
       const LimbAtContact l = limb_at_contact(track, c.effector, c.frame, c.target, h);
       folded += l.folded;
       ++strikes;
-      hits += c.hit;
+      hits += c.outcome == FighterEvent::Kind::hit;
+      dodged += c.outcome == FighterEvent::Kind::dodged;
+      misses += c.outcome == FighterEvent::Kind::miss;
       nlohmann::json x = limb_json(l);
       x["frame"] = c.frame;
-      x["hit"] = c.hit;
+      x["hit"] = c.outcome == FighterEvent::Kind::hit;
+      x["outcome"] = to_string(c.outcome);
       x["limb"] = fmt::format("{} {}", c.effector.side == kLeft ? "left" : "right", c.effector.leg ? "leg" : "arm");
       jc.push_back(x);
     }
@@ -1009,7 +1014,8 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
                                     "closer/farther, a crouch at 8-10.5 s, a dodge at 13.5-14.3 s"},
       {"seconds", seconds}, {"frame_time_s", dt}, {"frames", frames}, {"state_frames", state_frames},
       {"summary",
-       {{"runs", runs.size()}, {"strikes", strikes}, {"hits", hits}, {"stance_steps", b.stance_steps_begun()},
+       {{"runs", runs.size()}, {"strikes", strikes}, {"hits", hits}, {"dodged", dodged}, {"misses", misses},
+        {"stance_steps", b.stance_steps_begun()},
         {"stance_step_frames", stance_step_frames}, {"snaps_in_bvh_runs", snaps},
         {"drawn_snaps_whole_bout", drawn_snaps.size()}, {"drawn_joint_speed_p99_mps", drawn_speed.p99_mps},
         {"drawn_joint_speed_max_mps", drawn_speed.max_mps},

@@ -23,6 +23,13 @@ for r in off on; do
   [ -n "$snaps" ] || fail "$r.json has no drawn_snaps_whole_bout"
   [ "$snaps" -eq 0 ] || fail "bout ($r): $snaps drawn snaps: $(sed -n '/"drawn_snap_list"/,/\]/p' $r.json | tr -d ' \n')"
 done
+# The shipped bout: no arm or leg folded at contact, every strike that came to contact judged
+# (hit, dodged or miss). With steps on it still folds 2 (content/README: the stance a step leaves).
+folded=$(sed -n 's/^ *"folded_at_contact": \([0-9]*\),*$/\1/p' off.json | head -n 1)
+strikes=$(sed -n 's/^ *"strikes": \([0-9]*\),*$/\1/p' off.json | head -n 1)
+[ -n "$folded" ] && [ -n "$strikes" ] || fail "off.json has no folded_at_contact or strikes"
+[ "$strikes" -gt 0 ] || fail "the shipped bout came to contact with no strike"
+[ "$folded" -eq 0 ] || fail "bout (off): $folded of $strikes strikes folded at contact"
 steps=$(sed -n 's/^ *"stance_steps": \([0-9]*\),*$/\1/p' on.json | head -n 1)
 [ "${steps:-0}" -gt 0 ] || fail "the bout with stance steps on took none"
-echo "kumite-motion bout: no drawn snaps, shipped and with $steps stance steps"
+echo "kumite-motion bout: no drawn snaps, shipped and with $steps stance steps; shipped: none of $strikes strikes folded"
