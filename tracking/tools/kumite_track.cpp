@@ -276,6 +276,7 @@ int run_tracker(const RunOptions& o) {
   // reconnects), and for live cameras a reminder every 2 s while one is not ok.
   std::vector<CameraState> shown(rig.cameras.size(), CameraState::ok);
   std::vector<std::string> problems(rig.cameras.size());  // for the summary
+  std::vector<bool> problem_open(rig.cameras.size(), false);  // its last span has not ended
   const auto report_cameras = [&](bool remind) {
     if (tracker.frames_processed() == 0) return;
     // Live: against now (all cameras may have stopped). A recording: against its latest frame
@@ -287,6 +288,12 @@ int run_tracker(const RunOptions& o) {
       // A camera that has not delivered its first image is only reported once the others
       // have run for camera_timeout_s (a dropped first frame is not news).
       if (cams[c].since_last_s < 0 && collector.elapsed_s() <= config.camera_timeout_s) continue;
+      if (problem_open[c] && cams[c].state != CameraState::blind) {
+        // The span ends: the summary says when (a camera blind for the first seconds only is
+        // not reported as if it still were).
+        problems[c] += fmt::format(" to {:.1f} s)", collector.elapsed_s());
+        problem_open[c] = false;
+      }
       if (cams[c].state == CameraState::ok) {
         spdlog::info("camera {}: ok again", rig.cameras[c].name);
       } else if (cams[c].state == CameraState::blind) {
@@ -294,7 +301,9 @@ int run_tracker(const RunOptions& o) {
         // knocked out of place): a problem, said once when it starts and in the summary.
         spdlog::warn("camera {}: {}", rig.cameras[c].name, describe(cams[c]));
         const double from = collector.elapsed_s() - cams[c].blind_s;
-        problems[c] = fmt::format("{} (from {:.1f} s)", to_string(cams[c].state), std::max(0.0, from));
+        problems[c] += fmt::format("{}{} (from {:.1f} s", problems[c].empty() ? "" : "; ", to_string(cams[c].state),
+                                   std::max(0.0, from));
+        problem_open[c] = true;
       } else if (cams[c].since_last_s < 0) {
         spdlog::warn("camera {}: {} (no frame yet)", rig.cameras[c].name, to_string(cams[c].state));
       } else {
@@ -312,6 +321,8 @@ int run_tracker(const RunOptions& o) {
     report_cameras(remind);
   }
   report_cameras(false);
+  for (std::size_t c = 0; c < problems.size(); ++c)
+    if (problem_open[c]) problems[c] += " to the end)";
   tracker.stop();
   skipped = sink_count->load();
   collector.write(o.out);
