@@ -1,5 +1,6 @@
 // sd_notify readiness and watchdog pings, and the health report (see service.hpp).
 #include "kumite/app/service.hpp"
+#include "kumite/app/session.hpp"
 
 #include <systemd/sd-daemon.h>
 #include <unistd.h>
@@ -71,6 +72,7 @@ struct RunMonitor::Snapshot {
   double last_problem_wall = 0;
   std::map<std::string, std::uint64_t> events;
   std::string last_order, last_outcome;
+  std::string session_dir, session_status;  ///< the session recorder attached now ("" = none): its folder and line
   std::string state = "running";  ///< running | loading | stopped
   std::string stop_reason;
 };
@@ -154,6 +156,14 @@ void RunMonitor::take_snapshot(const Installation& inst, const FrameData& f, Sna
   s.events = events_;
   s.last_order = c.last_order;
   s.last_outcome = c.last_outcome;
+  // A session recorded now (--record, or the record key mid-run): what the console shows of it.
+  if (const SessionRecorder* r = inst.recorder()) {
+    s.session_dir = r->dir().string();
+    s.session_status = r->status_line();
+  } else {
+    s.session_dir.clear();
+    s.session_status.clear();
+  }
 }
 
 void RunMonitor::frame_done(const Installation& inst, const FrameData& f) {
@@ -283,9 +293,15 @@ json RunMonitor::to_json(const Snapshot& s) const {
   j["last_problem"] = s.last_problem.empty() ? json(nullptr)
                                              : json{{"text", s.last_problem}, {"at", s.last_problem_wall}};
   j["events"] = s.events;
+  // `session`: the folder a session is recorded into now (the record key starts and stops one
+  // mid-run), else the one the run was started with; `session_status`: its console line.
+  const bool session_now = !s.session_dir.empty();
   j["recording"] = {{"frames_log", info_.frames_log ? json(info_.frames_log->string()) : json(nullptr)},
-                    {"session", info_.session ? json(info_.session->string()) : json(nullptr)},
-                    {"active", s.state != "stopped" && (info_.frames_log || info_.session)}};
+                    {"session", session_now    ? json(s.session_dir)
+                                : info_.session ? json(info_.session->string())
+                                                : json(nullptr)},
+                    {"session_status", session_now ? json(s.session_status) : json(nullptr)},
+                    {"active", s.state != "stopped" && (info_.frames_log || info_.session || session_now)}};
   return j;
 }
 
@@ -343,13 +359,24 @@ StatusLine read_status(const std::filesystem::path& file, double now_s) {
     }
   const std::string tracking = j.contains("tracking") ? j["tracking"].value("status", "?") : "?";
   const std::string fighter = j.contains("fighter") ? j["fighter"].value("state", "?") : "?";
-  const bool recording = j.contains("recording") && j["recording"].value("active", false);
+  const bool recording = j.contains("recording") && j["recording"].is_object() && j["recording"].value("active", false);
+  // What is written: a session (its console line), the frames log alone, or nothing.
+  std::string recorded = recording ? "recording on" : "recording off";
+  if (recording) {
+    const json& r = j["recording"];
+    if (r.contains("session_status") && r["session_status"].is_string())
+      recorded = r["session_status"].get<std::string>();
+    else if (r.contains("session") && r["session"].is_string())
+      recorded = "recording " + r["session"].get<std::string>();
+    else if (r.contains("frames_log") && r["frames_log"].is_string())
+      recorded = "frames logged, no session recorded";
+  }
   const auto problems = j.contains("problems") && j["problems"].is_array() ? j["problems"].size() : 0;
   std::string text = fmt::format("kumite {} (pid {}): up {}, frame {}, {:.1f} fps, tracking {}", state,
                                  j.value("pid", 0L), duration(num("uptime_s")), j.value("frames", 0UL), num("fps"),
                                  tracking.substr(0, tracking.find(',')));
   if (all > 0) text += fmt::format(", cameras {}/{} ok", ok, all);
-  text += fmt::format(", fighter {}, recording {}", fighter, recording ? "on" : "off");
+  text += fmt::format(", fighter {}, {}", fighter, recorded);
   if (problems > 0) text += fmt::format(", {} problem{}: {}", problems, problems == 1 ? "" : "s", j["problems"][0].get<std::string>());
   else if (j.contains("last_problem") && j["last_problem"].is_object())
     text += fmt::format(", last problem {} ago: {}", ago(now_s - j["last_problem"].value("at", now_s)),

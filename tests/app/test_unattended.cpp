@@ -412,6 +412,7 @@ TEST(Service, HealthReportSaysRunningThenStaleWhenTheLoopHangsThenStopped) {
   const auto line = read_status(report, unix_now());
   EXPECT_EQ(line.exit_code, 1) << line.text;
   EXPECT_TRUE(has(line.text, "kumite running") && has(line.text, "1 problem: no fighter")) << line.text;
+  EXPECT_TRUE(has(line.text, "frames logged, no session recorded")) << line.text;  // not "recording on"
   // Hung after 120 frames (2 s): no new report; 3 x 0.2 s + 2 s later it is stale.
   const auto hung_until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (!has(text_of(dir / "console.txt"), "the frame loop hangs now") &&
@@ -433,6 +434,37 @@ TEST(Service, HealthReportSaysRunningThenStaleWhenTheLoopHangsThenStopped) {
   const int rc = std::system(cmd.c_str());
   EXPECT_EQ(WEXITSTATUS(rc), 1) << text_of(dir / "status.txt");
   EXPECT_TRUE(has(text_of(dir / "status.txt"), "kumite stopped")) << text_of(dir / "status.txt");
+}
+
+TEST(Service, HealthReportSaysWhichSessionIsRecordedAndHowFar) {
+  // "recording on" said the same of a frames log and of a session; the report now names the
+  // session folder a recorder writes now, with the console's line for it.
+  const fs::path dir = fresh_dir("health_record");
+  std::ofstream(dir / "room.toml") << kConfig << "[health]\nfile = \"health.json\"\ninterval_s = 0.2\n";
+  const fs::path report = dir / "health.json";
+  const pid_t pid = spawn_kumite({"--config", (dir / "room.toml").string(), "--headless", "--frames", "100000",
+                                  "--save-every", "0", "--record", (dir / "session").string()},
+                                 dir / "console.txt");
+  ASSERT_GT(pid, 0);
+  nlohmann::json j;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    j = nlohmann::json::parse(text_of(report), nullptr, false);
+    if (!j.is_discarded() && j.value("state", "") == "running" && j.value("frames", 0) > 10 &&
+        j["recording"]["session_status"].is_string())
+      break;
+  }
+  const auto line = read_status(report, unix_now());
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_FALSE(j.is_discarded()) << text_of(dir / "console.txt");
+  EXPECT_EQ(j["recording"].value("session", ""), (dir / "session").string()) << j.dump();
+  ASSERT_TRUE(j["recording"]["session_status"].is_string()) << j.dump();
+  const std::string want = "recording " + (dir / "session").string() + ": ";
+  EXPECT_TRUE(has(j["recording"]["session_status"].get<std::string>(), want)) << j.dump();
+  EXPECT_TRUE(has(line.text, want) && has(line.text, " frames, ")) << line.text;
 }
 
 TEST(Service, StatusIsZeroOnlyWhenFreshRunningAndWithoutProblems) {
