@@ -329,6 +329,20 @@ class NotifySocket {
 
 bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
 
+/// The health report as soon as it is running with more than 10 frames and `also` holds, or
+/// the last one read after 30 s (discarded when never readable).
+nlohmann::json wait_for_running_report(const fs::path& report,
+                                       const std::function<bool(const nlohmann::json&)>& also = {}) {
+  nlohmann::json j;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < until) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    j = nlohmann::json::parse(text_of(report), nullptr, false);
+    if (!j.is_discarded() && j.value("state", "") == "running" && j.value("frames", 0) > 10 && (!also || also(j))) break;
+  }
+  return j;
+}
+
 }  // namespace
 
 TEST(Service, ReadyThenWatchdogPingsWhileFramesAdvanceAndNoneOnceTheLoopHangs) {
@@ -393,13 +407,7 @@ TEST(Service, HealthReportSaysRunningThenStaleWhenTheLoopHangsThenStopped) {
                                  dir / "console.txt");
   ASSERT_GT(pid, 0);
   // Running: a fresh report with frames counting up.
-  nlohmann::json j;
-  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (std::chrono::steady_clock::now() < until) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    j = nlohmann::json::parse(text_of(report), nullptr, false);
-    if (!j.is_discarded() && j.value("state", "") == "running" && j.value("frames", 0) > 10) break;
-  }
+  nlohmann::json j = wait_for_running_report(report);
   ASSERT_FALSE(j.is_discarded()) << text_of(dir / "console.txt");
   EXPECT_EQ(j.value("state", ""), "running") << j.dump();
   EXPECT_EQ(j.value("mode", ""), "headless");
@@ -446,15 +454,9 @@ TEST(Service, HealthReportSaysWhichSessionIsRecordedAndHowFar) {
                                   "--save-every", "0", "--record", (dir / "session").string()},
                                  dir / "console.txt");
   ASSERT_GT(pid, 0);
-  nlohmann::json j;
-  const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-  while (std::chrono::steady_clock::now() < until) {
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    j = nlohmann::json::parse(text_of(report), nullptr, false);
-    if (!j.is_discarded() && j.value("state", "") == "running" && j.value("frames", 0) > 10 &&
-        j["recording"]["session_status"].is_string())
-      break;
-  }
+  nlohmann::json j = wait_for_running_report(report, [](const nlohmann::json& r) {
+    return r.contains("recording") && r["recording"].contains("session_status") && r["recording"]["session_status"].is_string();
+  });
   const auto line = read_status(report, unix_now());
   ::kill(pid, SIGTERM);
   int status = 0;
