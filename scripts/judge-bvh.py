@@ -138,13 +138,53 @@ def pct(v, p):
     return s[min(len(s) - 1, int(p / 100 * (len(s) - 1)))]
 
 
-def judge(path, first=0, last=None):
+def leg_length(names, parents, offsets, unit):
+    """m: the leg's two bones from the file's own offsets (thigh + shin), mean of both sides."""
+    legs = []
+    for ank_names, _ in FOOT_NAMES.values():
+        a = find(names, ank_names)
+        if a >= 0 and parents[a] >= 0:
+            k = parents[a]
+            legs.append((math.sqrt(sum(c * c for c in offsets[a])) + math.sqrt(sum(c * c for c in offsets[k]))) * unit)
+    return sum(legs) / len(legs) if legs else None
+
+
+def lay_on_bones(P, parents, lengths, root_scale):
+    """Each bone of the joint positions P (frames x joints, m) laid along its own direction at
+    lengths[j] (m), the root's way scaled by root_scale: the same motion on another body."""
+    out = []
+    for fr in P:
+        q = []
+        for j, p in enumerate(parents):
+            if p < 0:
+                q.append(tuple(c * root_scale for c in fr[j]))
+                continue
+            d = [fr[j][a] - fr[p][a] for a in range(3)]
+            n = math.sqrt(sum(c * c for c in d))
+            u = [c / n for c in d] if n > 1e-9 else [0.0, 0.0, 0.0]
+            q.append(tuple(q[p][a] + u[a] * lengths[j] for a in range(3)))
+        out.append(q)
+    return out
+
+
+def judge(path, first=0, last=None, bones=None):
+    """bones: another BVH (a character) with the same joints; the p99 joint speed is also given
+    with this file's motion laid on its bones (p99_joint_speed_on_bones_mps)."""
     names, parents, offsets, channels, dt, frames = parse_bvh(path)
     frames = frames[first:last]
     P = [fk(names, parents, offsets, channels, f) for f in frames]
     unit = guess_unit(P[0], names)
     P = [[tuple(c * unit for c in p) for p in fr] for fr in P]
     n, J = len(P), len(names)
+    on_bones = None
+    if bones:
+        bn, bp, bo, bc, _, bf = parse_bvh(bones)
+        if bp == parents:
+            bunit = guess_unit(fk(bn, bp, bo, bc, bf[0]), bn)
+            own_leg, their_leg = leg_length(names, parents, offsets, unit), leg_length(bn, bp, bo, bunit)
+            if own_leg and their_leg:
+                L = lay_on_bones(P, parents, [math.sqrt(sum(c * c for c in o)) * bunit for o in bo], their_leg / own_leg)
+                on_bones = [dist(L[i + 1][j], L[i][j]) / dt for j in range(J) for i in range(n - 1)]
     snaps = []
     speeds = []
     fastest = (0.0, "", 0)
@@ -165,14 +205,11 @@ def judge(path, first=0, last=None):
            "snaps": len(snaps), "snap_list": snaps[:8]}
     # Body size: the leg's two bones from the file's own offsets (thigh + shin), in metres, to
     # compare speeds across bodies of different sizes (a joint moves faster on a longer limb).
-    legs = []
-    for ank_names, _ in FOOT_NAMES.values():
-        a = find(names, ank_names)
-        if a >= 0 and parents[a] >= 0:
-            k = parents[a]
-            legs.append((math.sqrt(sum(c * c for c in offsets[a])) + math.sqrt(sum(c * c for c in offsets[k]))) * unit)
-    if legs:
-        out["leg_m"] = round(sum(legs) / len(legs), 4)
+    leg = leg_length(names, parents, offsets, unit)
+    if leg:
+        out["leg_m"] = round(leg, 4)
+    if on_bones:
+        out["p99_joint_speed_on_bones_mps"] = round(pct(on_bones, 99), 3)
     w = max(1, round(0.033 / dt))
     for side, (ank_names, toe_names) in FOOT_NAMES.items():
         a, t = find(names, ank_names), find(names, toe_names)

@@ -56,9 +56,10 @@ def main():
                 rep = json.load(open(stem + ".json"))
                 out = judge_bvh.judge(stem + ".bvh")
                 clip = os.path.join("content", "motions", rep["clip"] + ".bvh")
-                key = (clip, rep["start_frame"], rep["frames"])
+                key = (clip, rep["start_frame"], rep["frames"], name)
                 if key not in src_cache:
-                    src_cache[key] = judge_bvh.judge(clip, rep["start_frame"], rep["start_frame"] + rep["frames"])
+                    # bones: the source also laid on the character's bones (same joints only)
+                    src_cache[key] = judge_bvh.judge(clip, rep["start_frame"], rep["start_frame"] + rep["frames"], bones=stem + ".bvh")
                 src = src_cache[key]
                 rows.append({"strike": stem, "segment": rep["segment"], "reach_error_m": rep["reach_error_m"],
                              "reachable": rep["reachable"], "out": out, "src": src})
@@ -75,6 +76,14 @@ def main():
         x = sorted(a for a, _ in v)
         return {"strikes": len(v), "p50": round(judge_bvh.pct(x, 50), 3), "p95": round(judge_bvh.pct(x, 95), 3), "max": round(x[-1], 3),
                 "over_1_2": sum(1 for a in x if a > 1.2), "worst": [(round(a, 3), os.path.basename(s)) for a, s in sorted(v, reverse=True)[:3]]}
+    def on_bones(rows):
+        v = [(r["out"]["p99_joint_speed_mps"] / max(1e-9, r["src"]["p99_joint_speed_on_bones_mps"]), r["strike"])
+             for r in rows if r["src"].get("p99_joint_speed_on_bones_mps")]
+        if not v:
+            return None
+        x = sorted(a for a, _ in v)
+        return {"strikes": len(v), "p50": round(judge_bvh.pct(x, 50), 3), "p95": round(judge_bvh.pct(x, 95), 3), "max": round(x[-1], 3),
+                "over_1_2": sum(1 for a in x if a > 1.2), "worst": [(round(a, 3), os.path.basename(s)) for a, s in sorted(v, reverse=True)[:3]]}
     slides = [slide(r["out"]) for r in ok]
     src_slides = [slide(r["src"]) for r in ok]
     summary = {
@@ -85,6 +94,10 @@ def main():
         # The same with the source's speeds scaled to the character's size (leg over leg, each
         # from its file's own offsets): m/s compared across bodies of different sizes.
         "p99_speed_ratio_size_scaled": size_scaled(ok),
+        # And with the source laid on the character's own bones (each source bone along its own
+        # direction at the character's bone length, the root's way scaled leg over leg): a
+        # character whose arms are long for its legs moves its fists faster on the same angles.
+        "p99_speed_ratio_on_character_bones": on_bones(ok),
         "support_slide_mps": {"p50": round(judge_bvh.pct(slides, 50), 3), "p95": round(judge_bvh.pct(slides, 95), 3), "max": round(max(slides), 3)},
         "source_support_slide_mps": {"p50": round(judge_bvh.pct(src_slides, 50), 3), "p95": round(judge_bvh.pct(src_slides, 95), 3), "max": round(max(src_slides), 3)},
         "slide_over_source_by_0_3": sum(1 for r in ok if slide(r["out"]) > slide(r["src"]) + 0.3),

@@ -380,6 +380,35 @@ std::vector<StrikeCase> quality_grid(std::span<const Rig> characters, int target
   return out;
 }
 
+std::vector<Vector3d> lay_on_bones(const JointTrack& source, const Skeleton& bones, double root_scale, FrameRange range) {
+  const Skeleton& s = *source.skeleton;
+  if (s.parents != bones.parents || s.end_site != bones.end_site ||
+      bones.offsets.size() != static_cast<std::size_t>(bones.joint_count()))
+    return {};
+  for (int j = 0; j < s.joint_count(); ++j)
+    if (s.parents[static_cast<std::size_t>(j)] >= j) return {};  // a parent after its child: not a BVH order
+  range = clamp_range(source, range);
+  const int n = source.joint_count();
+  std::vector<Vector3d> out(static_cast<std::size_t>(source.frame_count) * static_cast<std::size_t>(n), Vector3d::Zero());
+  for (int f = range.first; f <= range.last; ++f) {
+    const std::size_t row = static_cast<std::size_t>(f) * static_cast<std::size_t>(n);
+    for (int j = 0; j < n; ++j) {
+      const int p = s.parents[static_cast<std::size_t>(j)];
+      if (p < 0) {
+        out[row + static_cast<std::size_t>(j)] = source.at(f, j) * root_scale;
+        continue;
+      }
+      // Parents come before their children in a BVH's joint order.
+      const Vector3d d = source.at(f, j) - source.at(f, p);
+      const double len = d.norm();
+      const Vector3d u = len > 1e-9 ? Vector3d(d / len) : Vector3d::Zero();
+      out[row + static_cast<std::size_t>(j)] =
+          out[row + static_cast<std::size_t>(p)] + u * bones.offsets[static_cast<std::size_t>(j)].norm();
+    }
+  }
+  return out;
+}
+
 StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOptions& options) {
   const JointTrack& out = *in.output;
   const JointTrack& src = *in.source;
@@ -455,6 +484,12 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
   q.tail_range = {q.output_range.last + 1, out.frame_count - 1};
   if (q.tail_range.count() > 0) q.tail = track_figures(out, q.tail_range, own, 1, o);
   q.source = track_figures(src, q.source_range, src_contacts, in.speed_scale, o);
+  q.source_speed_leg_scaled = q.source.speed;
+  if (const std::vector<Vector3d> laid = lay_on_bones(src, *out.skeleton, in.speed_scale, q.source_range); !laid.empty()) {
+    const JointTrack on_bones{out.skeleton, laid, src.frame_count, src.frame_time_s};
+    q.source.speed = joint_speeds(on_bones, q.source_range, 1);
+    q.source_speed_on_output_bones = true;
+  }
   q.output_contact = limb_at_contact(out, in.effector, in.contact_frame, in.target_m, h);
   const int src_contact = std::clamp(source_of(in.contact_frame), 0, src.frame_count - 1);
   const Limb l = limb_of(in.effector.side, in.effector.leg);

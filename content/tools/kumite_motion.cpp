@@ -471,6 +471,8 @@ struct QualityTotals {
   int reachable = 0, hits = 0;
   int slide_over_source = 0, lifted_strikes = 0;  ///< slide > source's + 0.3 m/s; a foot lifted where the source stands
   std::vector<double> lifted_out, slide_any_out, step_ratio_stepped, unsourced_step;
+  int src_speed_on_bones = 0;  ///< strikes whose source speeds were measured on the character's bones
+  std::vector<double> p99_ratio_leg_scaled;  ///< against the source's speeds scaled by leg length alone
   std::vector<double> p99_ratio, p99_out, p99_src, max_out, max_src, slide_out, slide_src, step_out, step_src,
       step_ratio, reach_m, elev_out, elev_src, ext_out, ext_src, whole_slide, tail_slide, whole_step, tail_step,
       knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src, hook_out, hook_src,
@@ -516,6 +518,8 @@ struct QualityTotals {
     p99_out.push_back(q.output.speed.p99_mps);
     p99_src.push_back(q.source.speed.p99_mps);
     p99_ratio.push_back(q.output.speed.p99_mps / std::max(1e-9, q.source.speed.p99_mps));
+    p99_ratio_leg_scaled.push_back(q.output.speed.p99_mps / std::max(1e-9, q.source_speed_leg_scaled.p99_mps));
+    src_speed_on_bones += q.source_speed_on_output_bones;
     max_out.push_back(q.output.speed.max_mps);
     max_src.push_back(q.source.speed.max_mps);
     slide_out.push_back(q.output.max_slide_mps());
@@ -564,6 +568,8 @@ struct QualityTotals {
             {"max_elbow_turn_deg", dist_json(elbow_turn_out)}, {"source_max_elbow_turn_deg", dist_json(elbow_turn_src)},
             {"joint_speed_p99_mps", dist_json(p99_out)}, {"source_joint_speed_p99_mps", dist_json(p99_src)},
             {"joint_speed_p99_ratio", dist_json(p99_ratio)},
+            {"joint_speed_p99_ratio_leg_scaled", dist_json(p99_ratio_leg_scaled)},
+            {"source_speeds_on_character_bones", src_speed_on_bones},
             {"joint_speed_max_mps", dist_json(max_out)}, {"source_joint_speed_max_mps", dist_json(max_src)},
             {"support_slide_mps", dist_json(slide_out)}, {"source_support_slide_mps", dist_json(slide_src)},
             {"strikes_slide_over_source_plus_0_3", slide_over_source},
@@ -604,9 +610,12 @@ struct QualityTotals {
     fmt::print("strikes with a one-frame snap: {} of {} over the compared frames (source clips, same frames: {}); "
                "{} over the whole BVH, {} in the tail after the strike\n",
                snaps_out, strikes, snaps_src, snaps_whole, snaps_tail);
-    fmt::print("joint speed p99 output/source: p50 {:.2f} p95 {:.2f} max {:.2f}; max joint speed p50 {:.1f} max {:.1f} m/s "
-               "(source p50 {:.1f} max {:.1f})\n",
+    fmt::print("joint speed p99 output/source (the source laid on the character's bones, {} of {} strikes; the rest "
+               "scaled by leg length): p50 {:.2f} p95 {:.2f} max {:.2f} (source scaled by leg length alone: p95 {:.2f} max "
+               "{:.2f}); max joint speed p50 {:.1f} max {:.1f} m/s (source p50 {:.1f} max {:.1f})\n",
+               src_speed_on_bones, strikes,
                d("joint_speed_p99_ratio", "p50"), d("joint_speed_p99_ratio", "p95"), d("joint_speed_p99_ratio", "max"),
+               d("joint_speed_p99_ratio_leg_scaled", "p95"), d("joint_speed_p99_ratio_leg_scaled", "max"),
                d("joint_speed_max_mps", "p50"), d("joint_speed_max_mps", "max"), d("source_joint_speed_max_mps", "p50"),
                d("source_joint_speed_max_mps", "max"));
     fmt::print("support-foot slide (source contacts, the drawn foot down): p50 {:.2f} p95 {:.2f} max {:.2f} m/s; source "
@@ -719,6 +728,8 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     js["output_frames"] = {q.output_range.first, q.output_range.last};
     js["source_frames"] = {q.source_range.first, q.source_range.last};
     js["speed_scale"] = q.speed_scale;
+    js["source_speed_baseline"] = q.source_speed_on_output_bones ? "source laid on the character's bones" : "source x speed_scale";
+    js["source_p99_mps_leg_scaled"] = q.source_speed_leg_scaled.p99_mps;
     js["rate"] = rec.strike.rate;
     js["rate_lead_frames"] = rec.strike.rate_lead_updates;
     js["reachable"] = rec.strike.contact_reached;
