@@ -19,6 +19,7 @@
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/common/realtime.hpp"
 
 namespace kumite::app {
 
@@ -75,6 +76,7 @@ struct RunMonitor::Snapshot {
   std::string session_dir, session_status;  ///< the session recorder attached now ("" = none): its folder and line
   std::string state = "running";  ///< running | loading | stopped
   std::string stop_reason;
+  kumite::MemoryFigures memory;  ///< taken on the report's thread when it is written
 };
 
 RunMonitor::RunMonitor(RunInfo info, RunMonitorOptions options)
@@ -246,6 +248,7 @@ void RunMonitor::write_loop() {
     if (closing) {
       last.state = "stopped";
       last.stop_reason = stop_reason_;
+      last.memory = kumite::memory_figures();
       last.wall = unix_now();
       last.uptime_s = now() - started_;
       write_report(last);
@@ -253,7 +256,10 @@ void RunMonitor::write_loop() {
     }
     // No new frame since the last report: the file says so by its frame time (written_at
     // stays the frame's), so `kumite status` sees a hung loop as stale.
-    if (s) write_report(last);
+    if (s) {
+      last.memory = kumite::memory_figures();  // here, off the frame thread
+      write_report(last);
+    }
     if (std::chrono::steady_clock::now() > next + interval) next = std::chrono::steady_clock::now();
   }
 }
@@ -293,6 +299,11 @@ json RunMonitor::to_json(const Snapshot& s) const {
   j["last_problem"] = s.last_problem.empty() ? json(nullptr)
                                              : json{{"text", s.last_problem}, {"at", s.last_problem_wall}};
   j["events"] = s.events;
+  // The resident set beside what the allocator has in use: freed memory is kept for reuse
+  // (keep_freed_memory), so RSS is the high-water mark of transient peaks; in_use_mb is live.
+  if (s.memory.rss_mb > 0)
+    j["memory"] = {{"rss_mb", s.memory.rss_mb}, {"in_use_mb", s.memory.in_use_mb},
+                   {"held_mb", s.memory.held_mb}, {"took_ms", s.memory.took_ms}};
   // `session`: the folder a session is recorded into now (the record key starts and stops one
   // mid-run), else the one the run was started with; `session_status`: its console line.
   const bool session_now = !s.session_dir.empty();

@@ -41,6 +41,7 @@ namespace {
 struct Sample {
   double wall_s = 0;      ///< since the start
   double rss_mb = 0;
+  double in_use_mb = -1;  ///< the health report's memory.in_use_mb (allocated now); -1 = none
   double show_s = 0;      ///< the run's show time (frames / rate)
   std::uint64_t frames = 0;
   double fps = 0;         ///< the health report's rolling rate
@@ -155,6 +156,7 @@ int main(int argc, char** argv) {
       s.fps = h.value("fps", 0.0);
       if (h.contains("events")) s.events = h["events"];
       s.state = h.value("state", "");
+      if (h.contains("memory") && h["memory"].is_object()) s.in_use_mb = h["memory"].value("in_use_mb", -1.0);
     }
     if (::waitpid(pid, &status, WNOHANG) == pid) break;
     if (g_stop && !forwarded) {
@@ -205,41 +207,70 @@ int main(int argc, char** argv) {
     result["stopped_early"] = forwarded;
     result["events"] = last.events;
   }
-  if (steady.size() >= 3) {
-    // Least squares RSS = a + b * show time over the steady samples.
-    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0, lo = 1e300, hi = 0;
+  // Least squares y = a + b * show time over the steady samples: the slope (MB per show hour)
+  // and the change it makes over them as a percentage of its value at their start.
+  struct Trend {
+    double start = 0, end = 0, lo = 1e300, hi = 0, slope = 0, change_pct = 0;
+    int n = 0;
+  };
+  const auto trend = [&](double Sample::*field) {
+    Trend t;
+    double n = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
     for (const Sample* s : steady) {
-      const double x = s->show_s / 3600, y = s->rss_mb;
+      const double x = s->show_s / 3600, y = s->*field;
+      if (y < 0) continue;
+      if (t.n++ == 0) t.start = y;
+      t.end = y;
       n += 1;
       sx += x;
       sy += y;
       sxx += x * x;
       sxy += x * y;
-      lo = std::min(lo, y);
-      hi = std::max(hi, y);
+      t.lo = std::min(t.lo, y);
+      t.hi = std::max(t.hi, y);
     }
-    const double b = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-    const double a = (sy - b * sx) / n;
+    if (t.n < 3) return t;
+    t.slope = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+    const double a = (sy - t.slope * sx) / n;
     const double x0 = steady.front()->show_s / 3600, x1 = steady.back()->show_s / 3600;
-    const double at_start = a + b * x0;
+    const double at_start = a + t.slope * x0;
+    t.change_pct = at_start > 0 ? 100 * t.slope * (x1 - x0) / at_start : 1e9;
+    return t;
+  };
+  if (steady.size() >= 3) {
+    const Trend r = trend(&Sample::rss_mb);
     result["steady"] = {{"from_show_s", steady.front()->show_s},
                         {"to_show_s", steady.back()->show_s},
                         {"samples", steady.size()},
-                        {"rss_start_mb", steady.front()->rss_mb},
-                        {"rss_end_mb", steady.back()->rss_mb},
-                        {"rss_min_mb", lo},
-                        {"rss_max_mb", hi},
-                        {"rss_slope_mb_per_show_hour", b},
-                        {"rss_change_pct", at_start > 0 ? 100 * b * (x1 - x0) / at_start : 0},
-                        {"rss_spread_pct", lo > 0 ? 100 * (hi - lo) / lo : 0}};
-    result["flat_within_5pct"] = std::abs(at_start > 0 ? 100 * b * (x1 - x0) / at_start : 1e9) <= 5;
+                        {"rss_start_mb", r.start},
+                        {"rss_end_mb", r.end},
+                        {"rss_min_mb", r.lo},
+                        {"rss_max_mb", r.hi},
+                        {"rss_slope_mb_per_show_hour", r.slope},
+                        {"rss_change_pct", r.change_pct},
+                        {"rss_spread_pct", r.lo > 0 ? 100 * (r.hi - r.lo) / r.lo : 0}};
+    result["flat_within_5pct"] = std::abs(r.change_pct) <= 5;
+    // What the allocator has in use (the health report's memory.in_use_mb): kumite keeps freed
+    // memory for reuse, so RSS is the high-water mark of transient peaks (a software GL
+    // driver's per-draw allocations among them) and may step up where nothing leaks; a leak
+    // shows here as a slope. It swings from sample to sample with those transients.
+    const Trend u = trend(&Sample::in_use_mb);
+    if (u.n >= 3) {
+      result["steady"]["in_use_samples"] = u.n;
+      result["steady"]["in_use_start_mb"] = u.start;
+      result["steady"]["in_use_end_mb"] = u.end;
+      result["steady"]["in_use_min_mb"] = u.lo;
+      result["steady"]["in_use_max_mb"] = u.hi;
+      result["steady"]["in_use_slope_mb_per_show_hour"] = u.slope;
+      result["steady"]["in_use_change_pct"] = u.change_pct;
+    }
   } else {
     result["steady"] = nullptr;
     result["note"] = "fewer than 3 samples after the warm-up: no slope";
   }
   json series = json::array();
   for (const auto& s : samples)
-    series.push_back({{"t_s", s.wall_s}, {"rss_mb", s.rss_mb}, {"show_s", s.show_s}, {"fps", s.fps}});
+    series.push_back({{"t_s", s.wall_s}, {"rss_mb", s.rss_mb}, {"in_use_mb", s.in_use_mb}, {"show_s", s.show_s}, {"fps", s.fps}});
   result["samples"] = series;
   std::cout << result.dump(2) << "\n";
   if (own_out) fs::remove_all(out);

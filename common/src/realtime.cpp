@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <chrono>
+#include <cstdio>
 #include <cstring>
 
 #include <malloc.h>
@@ -49,6 +51,23 @@ bool keep_freed_memory() {
   const bool b = mallopt(M_TRIM_THRESHOLD, kTrimThreshold) == 1;
   const bool c = mallopt(M_ARENA_MAX, kArenaMax) == 1;
   return a && b && c;
+}
+
+MemoryFigures memory_figures() {
+  const auto t0 = std::chrono::steady_clock::now();
+  MemoryFigures m;
+  constexpr double kMb = 1024.0 * 1024.0;
+  if (std::FILE* f = std::fopen("/proc/self/statm", "r")) {
+    unsigned long size = 0, resident = 0;
+    if (std::fscanf(f, "%lu %lu", &size, &resident) == 2)
+      m.rss_mb = static_cast<double>(resident) * static_cast<double>(::sysconf(_SC_PAGESIZE)) / kMb;
+    std::fclose(f);
+  }
+  const struct mallinfo2 mi = ::mallinfo2();
+  m.in_use_mb = static_cast<double>(mi.uordblks + mi.hblkhd) / kMb;
+  m.held_mb = static_cast<double>(mi.arena + mi.hblkhd) / kMb;
+  m.took_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return m;
 }
 
 }  // namespace kumite

@@ -416,6 +416,21 @@ TEST(Service, HealthReportSaysRunningThenStaleWhenTheLoopHangsThenStopped) {
     EXPECT_TRUE(j.contains(key)) << key << " missing: " << j.dump();
   EXPECT_EQ(j["tracking"]["bodies"][0].value("role", ""), "head");
   EXPECT_EQ(j["recording"].value("active", false), true);  // frames.jsonl is being written
+  // Memory: the resident set (read here from /proc as well) beside what the allocator has in
+  // use and holds (in use <= held <= resident).
+  ASSERT_TRUE(j.contains("memory") && j["memory"].is_object()) << j.dump();
+  {
+    const double rss = j["memory"].value("rss_mb", -1.0), in_use = j["memory"].value("in_use_mb", -1.0),
+                 held = j["memory"].value("held_mb", -1.0);
+    EXPECT_GT(in_use, 1.0) << j.dump();
+    EXPECT_LE(in_use, held) << j.dump();
+    EXPECT_LE(held, rss) << j.dump();
+    std::ifstream status_file("/proc/" + std::to_string(pid) + "/status");
+    double vm_rss_mb = -1;
+    for (std::string l; std::getline(status_file, l);)
+      if (l.rfind("VmRSS:", 0) == 0) vm_rss_mb = std::atof(l.c_str() + 6) / 1024.0;
+    EXPECT_NEAR(rss, vm_rss_mb, 0.25 * vm_rss_mb) << j.dump();  // 0.2 s apart, both of one process
+  }
   // This room has no fighter database: running, with that problem (exit 1).
   const auto line = read_status(report, unix_now());
   EXPECT_EQ(line.exit_code, 1) << line.text;

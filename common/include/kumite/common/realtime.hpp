@@ -25,4 +25,17 @@ std::string run_this_thread_realtime(int priority);
 /// Returns false if the allocator refused (the program runs on, just with those stalls).
 bool keep_freed_memory();
 
+/// This process's memory as the allocator sees it beside the kernel's count: with
+/// keep_freed_memory() the resident set is the high-water mark of what was ever in use (freed
+/// memory is kept for reuse), so a growing RSS alone does not tell a leak from a rarer
+/// transient peak; `in_use_mb` is what is allocated now. mallinfo2() walks every arena under its
+/// lock: call it about once a second at most, off the frame thread (~`took_ms`).
+struct MemoryFigures {
+  double rss_mb = 0;      ///< MB (2^20 B), resident set (/proc/self/statm); 0 when unreadable
+  double in_use_mb = 0;   ///< MB, allocated and not freed (mallinfo2: uordblks + hblkhd)
+  double held_mb = 0;     ///< MB, the allocator's arenas and mmapped blocks (arena + hblkhd)
+  double took_ms = 0;     ///< ms, the time these took
+};
+MemoryFigures memory_figures();
+
 }  // namespace kumite
