@@ -58,6 +58,11 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.swing_from = f.lock;
     f.source_rise_m = 0;
   };
+  // A held foot the leg no longer reaches must step now; the other foot's step that is only
+  // due (behind its spot, a leg stretched past the motion's) waits for it to land: both
+  // starting in one update is a hop (the walk bout's, 13 frames with both feet off at 3.42 s).
+  const bool must_step[2] = {feet_[0].phase == Phase::held && !samples[0].reached,
+                             feet_[1].phase == Phase::held && !samples[1].reached};
   for (int s = 0; s < 2; ++s) {
     Foot& f = feet_[static_cast<std::size_t>(s)];
     const FootSample& in = samples[static_cast<std::size_t>(s)];
@@ -123,7 +128,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the
         // other stands on the floor (both off it is a hop).
-        if ((other.phase == Phase::held && may_step && (lagging || stretch > max_stretch)) || !in.reached) {
+        if ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || stretch > max_stretch)) || !in.reached) {
           f.phase = Phase::stepping;
           f.step_t = 0;
           f.step_from = f.lock;

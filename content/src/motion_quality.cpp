@@ -380,6 +380,30 @@ std::vector<StrikeCase> quality_grid(std::span<const Rig> characters, int target
   return out;
 }
 
+std::vector<FrameRange> both_feet_off(const JointTrack& track, FrameRange range, double tolerance_m) {
+  range = clamp_range(track, range);
+  std::vector<FrameRange> out;
+  if (range.count() <= 0) return out;
+  const Skeleton& sk = *track.skeleton;
+  const int joints[4] = {require(sk, CJ::l_ankle), require(sk, CJ::l_toe), require(sk, CJ::r_ankle), require(sk, CJ::r_toe)};
+  double lowest[4];
+  for (int k = 0; k < 4; ++k) {
+    lowest[k] = track.at(range.first, joints[k]).y();
+    for (int f = range.first; f <= range.last; ++f) lowest[k] = std::min(lowest[k], track.at(f, joints[k]).y());
+  }
+  for (int f = range.first; f <= range.last; ++f) {
+    bool off = true;
+    for (int k = 0; k < 4 && off; ++k) off = track.at(f, joints[k]).y() > lowest[k] + tolerance_m;
+    if (!off) continue;
+    if (!out.empty() && out.back().last == f - 1) {
+      out.back().last = f;
+    } else {
+      out.push_back({f, f});
+    }
+  }
+  return out;
+}
+
 std::vector<Vector3d> lay_on_bones(const JointTrack& source, const Skeleton& bones, double root_scale, FrameRange range) {
   const Skeleton& s = *source.skeleton;
   if (s.parents != bones.parents || s.end_site != bones.end_site ||

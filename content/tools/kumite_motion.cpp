@@ -953,6 +953,7 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
   nlohmann::json jr = nlohmann::json::array();
   std::vector<double> slide_max, slide_p95, slide_p50, step_max;
   int snaps = 0, knee_flips = 0, elbow_flips = 0, folded = 0, strikes = 0, hits = 0, dodged = 0, misses = 0;
+  int both_off_frames = 0;  // frames with both feet off the floor (the drawn joints, each run's own floor)
   for (Run& run : runs) {
     Clip back;
     std::string file;
@@ -968,6 +969,11 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     const JointTrack track{&back.skeleton, positions, back.frame_count, back.frame_time_s};
     const FootContacts contacts = detect_foot_contacts(track);
     const TrackFigures f = track_figures(track, {0, back.frame_count - 1}, contacts, 1);
+    nlohmann::json off_json = nlohmann::json::array();
+    for (const FrameRange& r : both_feet_off(track, {0, back.frame_count - 1})) {
+      both_off_frames += r.count();
+      off_json.push_back({{"t_s", (run.first_frame + r.first) * dt}, {"frames", r.count()}});
+    }
     nlohmann::json jc = nlohmann::json::array();
     const int h = speed_half_window(back.frame_time_s);
     for (const Contact& c : run.contacts) {
@@ -996,7 +1002,7 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     nlohmann::json j{{"character", rigs[static_cast<std::size_t>(run.character)].name}, {"first_frame", run.first_frame},
                      {"frames", back.frame_count}, {"figures", figures_json(f, back.skeleton, back.frame_time_s)},
                      {"low_fast_frames", {contacts.low_fast_frames[0], contacts.low_fast_frames[1]}},
-                     {"contacts", jc}};
+                     {"contacts", jc}, {"both_feet_off", off_json}};
     if (!file.empty()) j["bvh"] = file;
     jr.push_back(j);
     result.runs.push_back(std::move(back));
@@ -1034,7 +1040,8 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
         {"drawn_joint_speed_max_frame", drawn_speed.max_frame},
         {"support_slide_max_mps", mx(slide_max)}, {"support_slide_p95_mps_worst_run", mx(slide_p95)},
         {"support_slide_p50_mps_worst_run", mx(slide_p50)}, {"stepping_peak_max_mps", mx(step_max)},
-        {"knee_flips", knee_flips}, {"elbow_flips", elbow_flips}, {"folded_at_contact", folded}}},
+        {"knee_flips", knee_flips}, {"elbow_flips", elbow_flips}, {"folded_at_contact", folded},
+        {"both_feet_off_frames", both_off_frames}}},
       {"drawn_snap_list", ds}, {"runs", jr}, {"events", events}};
   return result;
 }

@@ -32,4 +32,12 @@ strikes=$(sed -n 's/^ *"strikes": \([0-9]*\),*$/\1/p' off.json | head -n 1)
 [ "$folded" -eq 0 ] || fail "bout (off): $folded of $strikes strikes folded at contact"
 steps=$(sed -n 's/^ *"stance_steps": \([0-9]*\),*$/\1/p' on.json | head -n 1)
 [ "${steps:-0}" -gt 0 ] || fail "the bout with stance steps on took none"
-echo "kumite-motion bout: no drawn snaps, shipped and with $steps stance steps; shipped: none of $strikes strikes folded"
+# Following a walking visitor for 56 s (the shipped behaviour: procedural steps): never both
+# feet off the floor (27 Nov: a hop of 13 frames at 3.42 s, a back foot that had to step again
+# in the update the front foot's step fell due). Judged on the drawn joints (each run's floor).
+"$tool" bout --visitor walk --seconds 56 --db fighter.kdb --out walk.bvh --report walk.json >/dev/null 2>err.txt \
+  || fail "walk bout exited $?: $(cat err.txt)"
+off=$(sed -n 's/^ *"both_feet_off_frames": \([0-9]*\),*$/\1/p' walk.json | head -n 1)
+[ -n "$off" ] || fail "walk.json has no both_feet_off_frames"
+[ "$off" -eq 0 ] || fail "walk bout: $off frames with both feet off the floor: $(grep -A3 '"both_feet_off"' walk.json | tr -d ' \n')"
+echo "kumite-motion bout: no drawn snaps, shipped and with $steps stance steps; shipped: none of $strikes strikes folded; walking: never both feet off"

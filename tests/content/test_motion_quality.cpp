@@ -375,6 +375,23 @@ TEST(MotionQuality, LayOnBonesMovesTheSourceOnTheOtherBodysBoneLengths) {
   EXPECT_TRUE(lay_on_bones(st, other, 1.0, {0, 39}).empty());
 }
 
+TEST(MotionQuality, BothFeetOffIsEveryFrameWithBothFeetAboveTheirFloor) {
+  // SYNTHETIC: the left foot up 5 cm over frames 10..30, the right foot over 20..40: both off
+  // over 20..30 only; a foot 2 cm up (under the 3 cm tolerance) does not count as off.
+  Sequence s(60);
+  for (int f = 10; f <= 30; ++f) s.move_foot(f, 0, Vector3d(0, 0.05, 0));
+  for (int f = 20; f <= 40; ++f) s.move_foot(f, 1, Vector3d(0, 0.05, 0));
+  for (int f = 45; f <= 50; ++f) {
+    s.move_foot(f, 0, Vector3d(0, 0.02, 0));
+    s.move_foot(f, 1, Vector3d(0, 0.05, 0));
+  }
+  const auto off = both_feet_off(s.track(), {0, 59});
+  ASSERT_EQ(off.size(), 1u);
+  EXPECT_EQ(off[0].first, 20);
+  EXPECT_EQ(off[0].last, 30);
+  EXPECT_TRUE(both_feet_off(s.track(), {0, 15}).empty());
+}
+
 TEST(MotionQuality, GridPutsPunchesAtHeadHeightKicksAtTheTorsoInFront) {
   const auto rigs = kumite::content::testing::shipped_characters();
   const auto grid = quality_grid(std::span<const Rig>(rigs).first(2), 12);

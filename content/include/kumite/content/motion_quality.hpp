@@ -120,6 +120,11 @@ struct FootContacts {
 FootContacts detect_foot_contacts(const JointTrack& track, const ContactOptions& options = {},
                                   FrameRange level_range = {0, -1});
 
+/// Spans of frames in `range` with both feet off the floor: the ankle and the toe of each foot
+/// more than `tolerance_m` above their own lowest level over `range` (a hop, or a jump; a
+/// fighter following the visitor never has one). Each span [first, last].
+std::vector<FrameRange> both_feet_off(const JointTrack& track, FrameRange range, double tolerance_m = 0.03);
+
 /// Midpoint of ankle and toe of `side` at `frame` (m).
 Eigen::Vector3d foot_point(const JointTrack& track, int side, int frame);
 /// Foot point speed (m/s) at frame f over [f-h, f+h]; horizontal only when `horizontal`.

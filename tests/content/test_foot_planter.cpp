@@ -1,0 +1,83 @@
+// FootPlanter on SYNTHETIC samples (no motion): which foot steps when.
+#include <array>
+
+#include <gtest/gtest.h>
+
+#include "kumite/content/adaptation.hpp"
+#include "kumite/content/foot_planting.hpp"
+
+namespace {
+
+using Eigen::Vector3d;
+using kumite::content::FootLocks;
+using kumite::content::FootPlanter;
+using kumite::content::FootSample;
+using Phase = FootPlanter::Phase;
+
+constexpr double kDt = 1.0 / 60;
+
+/// Both feet standing where the motion has them: ankles 8 cm up, 0.2 m apart, hips above.
+std::array<FootSample, 2> standing() {
+  std::array<FootSample, 2> s;
+  for (int side = 0; side < 2; ++side) {
+    FootSample& f = s[static_cast<std::size_t>(side)];
+    const double x = side == 0 ? 0.1 : -0.1;
+    f.planted = true;
+    f.free_ankle_m = Vector3d(x, 0.08, 0);
+    f.drawn_ankle_m = f.free_ankle_m;
+    f.hip_m = Vector3d(x, 0.9, 0);
+    f.leg_length_m = 0.85;
+    f.standing_ankle_y_m = 0.08;
+  }
+  return s;
+}
+
+TEST(FootPlanter, AFootThatMustStepGoesAloneTheOtherFootsDueStepWaitsForItsLanding) {
+  // The walk bout's hop (27 Nov): a back foot set down at full stretch is out of the leg's
+  // reach the next update (it must step at once) in the very update the front foot's step
+  // falls due (its spot half a metre ahead): both lifted together, 13 frames with both feet
+  // off the floor. The foot that must step goes; the step that is only due waits.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::held);
+  ASSERT_EQ(planter.phase(1), Phase::held);
+  // The left foot's spot 0.5 m ahead (a due step); the right leg cannot reach its held ankle.
+  s[0].free_ankle_m.z() += 0.5;
+  s[1].reached = false;
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  EXPECT_EQ(planter.phase(1), Phase::stepping);
+  EXPECT_EQ(planter.phase(0), Phase::held) << "both feet lifted in one update: a hop";
+  // Stepping, the right foot is reached again; the left foot steps once it has landed, and at
+  // no update are both feet stepping.
+  s[1].reached = true;
+  int both = 0, updates = 0;
+  bool right_landed = false, left_stepped = false;
+  for (; updates < 120 && !left_stepped; ++updates) {
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    both += planter.phase(0) == Phase::stepping && planter.phase(1) == Phase::stepping;
+    right_landed = right_landed || planter.phase(1) == Phase::held;
+    if (planter.phase(0) == Phase::stepping) {
+      left_stepped = true;
+      EXPECT_TRUE(right_landed) << "the left foot stepped before the right one landed";
+    }
+  }
+  EXPECT_TRUE(left_stepped) << "the due step never came";
+  EXPECT_EQ(both, 0);
+}
+
+TEST(FootPlanter, TwoFeetThatMustBothStepStepTogether) {
+  // Neither leg reaches its held ankle (the body was moved away): each foot steps at once,
+  // whatever the other does (held there it would be dragged along the floor).
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  s[0].reached = s[1].reached = false;
+  planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  EXPECT_EQ(planter.phase(0), Phase::stepping);
+  EXPECT_EQ(planter.phase(1), Phase::stepping);
+}
+
+}  // namespace
