@@ -302,8 +302,10 @@ json RunMonitor::to_json(const Snapshot& s) const {
   // The resident set beside what the allocator has in use: freed memory is kept for reuse
   // (keep_freed_memory), so RSS is the high-water mark of transient peaks; in_use_mb is live.
   if (s.memory.rss_mb > 0)
-    j["memory"] = {{"rss_mb", s.memory.rss_mb}, {"in_use_mb", s.memory.in_use_mb},
-                   {"held_mb", s.memory.held_mb}, {"took_ms", s.memory.took_ms}};
+    j["memory"] = {{"rss_mb", s.memory.rss_mb},
+                   {"in_use_mb", s.memory.allocator_known ? json(s.memory.in_use_mb) : json(nullptr)},
+                   {"held_mb", s.memory.allocator_known ? json(s.memory.held_mb) : json(nullptr)},
+                   {"took_ms", s.memory.took_ms}};  // null: the allocator does not say (sanitizer builds)
   // `session`: the folder a session is recorded into now (the record key starts and stops one
   // mid-run), else the one the run was started with; `session_status`: its console line.
   const bool session_now = !s.session_dir.empty();

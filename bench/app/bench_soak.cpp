@@ -156,7 +156,9 @@ int main(int argc, char** argv) {
       s.fps = h.value("fps", 0.0);
       if (h.contains("events")) s.events = h["events"];
       s.state = h.value("state", "");
-      if (h.contains("memory") && h["memory"].is_object()) s.in_use_mb = h["memory"].value("in_use_mb", -1.0);
+      if (h.contains("memory") && h["memory"].is_object() && h["memory"].contains("in_use_mb") &&
+          h["memory"]["in_use_mb"].is_number())
+        s.in_use_mb = h["memory"]["in_use_mb"].get<double>();
     }
     if (::waitpid(pid, &status, WNOHANG) == pid) break;
     if (g_stop && !forwarded) {

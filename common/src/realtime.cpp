@@ -64,6 +64,7 @@ MemoryFigures memory_figures() {
     std::fclose(f);
   }
   const struct mallinfo2 mi = ::mallinfo2();
+  m.allocator_known = mi.arena != 0 || mi.hblkhd != 0 || mi.uordblks != 0;
   m.in_use_mb = static_cast<double>(mi.uordblks + mi.hblkhd) / kMb;
   m.held_mb = static_cast<double>(mi.arena + mi.hblkhd) / kMb;
   m.took_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();

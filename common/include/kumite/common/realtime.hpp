@@ -34,6 +34,9 @@ struct MemoryFigures {
   double rss_mb = 0;      ///< MB (2^20 B), resident set (/proc/self/statm); 0 when unreadable
   double in_use_mb = 0;   ///< MB, allocated and not freed (mallinfo2: uordblks + hblkhd)
   double held_mb = 0;     ///< MB, the allocator's arenas and mmapped blocks (arena + hblkhd)
+  /// false: the allocator does not say (mallinfo2 all zero: a sanitizer's allocator replaces
+  /// glibc's); in_use_mb and held_mb are then 0 and mean nothing.
+  bool allocator_known = false;
   double took_ms = 0;     ///< ms, the time these took
 };
 MemoryFigures memory_figures();
