@@ -213,6 +213,7 @@ int main(int argc, char** argv) {
   // and the change it makes over them as a percentage of its value at their start.
   struct Trend {
     double start = 0, end = 0, lo = 1e300, hi = 0, slope = 0, change_pct = 0;
+    double fitted_start = 0;  ///< the fit at the first steady sample; <= 0: no change to speak of
     int n = 0;
   };
   const auto trend = [&](double Sample::*field) {
@@ -236,7 +237,8 @@ int main(int argc, char** argv) {
     const double a = (sy - t.slope * sx) / n;
     const double x0 = steady.front()->show_s / 3600, x1 = steady.back()->show_s / 3600;
     const double at_start = a + t.slope * x0;
-    t.change_pct = at_start > 0 ? 100 * t.slope * (x1 - x0) / at_start : 1e9;
+    t.fitted_start = at_start;
+    t.change_pct = at_start > 0 ? 100 * t.slope * (x1 - x0) / at_start : 0;
     return t;
   };
   if (steady.size() >= 3) {
@@ -251,7 +253,7 @@ int main(int argc, char** argv) {
                         {"rss_slope_mb_per_show_hour", r.slope},
                         {"rss_change_pct", r.change_pct},
                         {"rss_spread_pct", r.lo > 0 ? 100 * (r.hi - r.lo) / r.lo : 0}};
-    result["flat_within_5pct"] = std::abs(r.change_pct) <= 5;
+    result["flat_within_5pct"] = r.fitted_start > 0 && std::abs(r.change_pct) <= 5;
     // What the allocator has in use (the health report's memory.in_use_mb): kumite keeps freed
     // memory for reuse, so RSS is the high-water mark of transient peaks (a software GL
     // driver's per-draw allocations among them) and may step up where nothing leaks; a leak

@@ -380,17 +380,14 @@ std::vector<StrikeCase> quality_grid(std::span<const Rig> characters, int target
   return out;
 }
 
-std::vector<FrameRange> both_feet_off(const JointTrack& track, FrameRange range, double tolerance_m) {
+std::vector<FrameRange> both_feet_off(const JointTrack& track, FrameRange range, const FootContacts& levels,
+                                      double tolerance_m) {
   range = clamp_range(track, range);
   std::vector<FrameRange> out;
   if (range.count() <= 0) return out;
   const Skeleton& sk = *track.skeleton;
   const int joints[4] = {require(sk, CJ::l_ankle), require(sk, CJ::l_toe), require(sk, CJ::r_ankle), require(sk, CJ::r_toe)};
-  double lowest[4];
-  for (int k = 0; k < 4; ++k) {
-    lowest[k] = track.at(range.first, joints[k]).y();
-    for (int f = range.first; f <= range.last; ++f) lowest[k] = std::min(lowest[k], track.at(f, joints[k]).y());
-  }
+  const double lowest[4] = {levels.ankle_floor_m[0], levels.toe_floor_m[0], levels.ankle_floor_m[1], levels.toe_floor_m[1]};
   for (int f = range.first; f <= range.last; ++f) {
     bool off = true;
     for (int k = 0; k < 4 && off; ++k) off = track.at(f, joints[k]).y() > lowest[k] + tolerance_m;

@@ -970,7 +970,7 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     const FootContacts contacts = detect_foot_contacts(track);
     const TrackFigures f = track_figures(track, {0, back.frame_count - 1}, contacts, 1);
     nlohmann::json off_json = nlohmann::json::array();
-    for (const FrameRange& r : both_feet_off(track, {0, back.frame_count - 1})) {
+    for (const FrameRange& r : both_feet_off(track, {0, back.frame_count - 1}, contacts)) {
       both_off_frames += r.count();
       off_json.push_back({{"t_s", (run.first_frame + r.first) * dt}, {"frames", r.count()}});
     }

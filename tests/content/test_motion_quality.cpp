@@ -385,11 +385,11 @@ TEST(MotionQuality, BothFeetOffIsEveryFrameWithBothFeetAboveTheirFloor) {
     s.move_foot(f, 0, Vector3d(0, 0.02, 0));
     s.move_foot(f, 1, Vector3d(0, 0.05, 0));
   }
-  const auto off = both_feet_off(s.track(), {0, 59});
+  const auto off = both_feet_off(s.track(), {0, 59}, detect_foot_contacts(s.track()));
   ASSERT_EQ(off.size(), 1u);
   EXPECT_EQ(off[0].first, 20);
   EXPECT_EQ(off[0].last, 30);
-  EXPECT_TRUE(both_feet_off(s.track(), {0, 15}).empty());
+  EXPECT_TRUE(both_feet_off(s.track(), {0, 15}, detect_foot_contacts(s.track(), {}, {0, 15})).empty());
 }
 
 TEST(MotionQuality, GridPutsPunchesAtHeadHeightKicksAtTheTorsoInFront) {

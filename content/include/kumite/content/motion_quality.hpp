@@ -121,9 +121,11 @@ FootContacts detect_foot_contacts(const JointTrack& track, const ContactOptions&
                                   FrameRange level_range = {0, -1});
 
 /// Spans of frames in `range` with both feet off the floor: the ankle and the toe of each foot
-/// more than `tolerance_m` above their own lowest level over `range` (a hop, or a jump; a
-/// fighter following the visitor never has one). Each span [first, last].
-std::vector<FrameRange> both_feet_off(const JointTrack& track, FrameRange range, double tolerance_m = 0.03);
+/// more than `tolerance_m` above their own lowest level (`levels`' ankle_floor_m / toe_floor_m:
+/// detect_foot_contacts over the same track) — a hop, or a jump; a fighter following the
+/// visitor never has one. Each span [first, last].
+std::vector<FrameRange> both_feet_off(const JointTrack& track, FrameRange range, const FootContacts& levels,
+                                      double tolerance_m = 0.03);
 
 /// Midpoint of ankle and toe of `side` at `frame` (m).
 Eigen::Vector3d foot_point(const JointTrack& track, int side, int frame);
