@@ -51,13 +51,6 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   earlier.time_s -= dt * current_.rate;
   sample(earlier, before);
 
-  // The motion's own ankle heights (without a strike's pelvis rise): a heel it raises.
-  MkmFrame unraised = cur;
-  if (current_.travel.rise_n != 0) {
-    Source plain = current_;
-    plain.travel.rise_n = 0;
-    sample(plain, unraised);
-  }
   constexpr double kLiftDeadband_m = 0.01;
   std::array<FootSample, 2> in;
   for (int s = 0; s < 2; ++s) {
@@ -122,7 +115,19 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     f.leg_length_m = rig.morphology.limb_leg_length(s);
     f.standing_ankle_y_m = at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle).y() - rest_floor_y(rig);
     f.reached = report_.foot_reached[us];
-    if (f.planted) f.source_lift_m = std::max(0.0, mkm_ankle(rig, unraised, s).y() - f.standing_ankle_y_m - kLiftDeadband_m);
+    // A heel the source raises, as the mocap itself has it (its ankle above its own lowest, in
+    // leg lengths): the ankle decoded on this body stood 6-7 cm up on a kick's straight support
+    // leg where the actor stands flat (bruno's HDM_mm_024 kick: the held foot floated flat for 0.7 s).
+    // And at least as high as keeps the toes on the floor with the foot pitched as the motion
+    // has it (drawn that way: adaptation aims the foot along foot_dir): a blend can pitch the
+    // foot onto its toes while its ankle stays low (aiko's recovery in the scripted bout: the
+    // toes 6 cm through the floor). Both of the pose as drawn (the cross-fade's), not of the
+    // motion faded to.
+    if (f.planted) {
+      const Vector3d rest_foot = at(rig.rest_pose, s == kLeft ? CJ::l_toe : CJ::r_toe) - at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle);
+      const double toes_down_m = rest_foot.y() - pose_.foot_dir[us].y() * rest_foot.norm();
+      f.source_lift_m = std::max(0.0, std::max(pose_.ankle_lift_n[us] * rig.morphology.leg_length_m, toes_down_m) - kLiftDeadband_m);
+    }
     f.effector = reach && strike_.effector.leg && strike_.effector.side == s && state_ == FighterState::striking;
   }
   // Steps also while recovering: a strike that ends in a long stance steps back under the
@@ -133,7 +138,12 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   const bool support_set = support_step_ || (pending_ && pending_->support_stepped) ||
                            std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.support_stepped; });
   // Nor while a stance step plays: the clip steps the feet.
-  const bool may_step = state_ != FighterState::striking && ramp_ <= 0 && !support_set && !stance_step_;
+  // Nor while a strike is being planned (its plan in flight, or an order taken again after
+  // stepping in): it is planned around the feet as they stand. A step begun between a
+  // step-in's arrival and the plan left the back foot of kenji's lunge punch on the grid
+  // 13 cm ahead of where the lunge holds it: out of reach, it stepped back and forth in the air.
+  const bool planning = pending_ || std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.stepped_in || q.waited_for_feet; });
+  const bool may_step = state_ != FighterState::striking && ramp_ <= 0 && !support_set && !stance_step_ && !planning;
   feet_.update(dt, in, may_step, spot_velocity_, locks_);
 }
 

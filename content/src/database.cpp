@@ -137,9 +137,11 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
                                  : 0.0;
       return at(poses[static_cast<std::size_t>(f)], j).y() - low < o.plant_height_m && speed < o.plant_speed_mps;
     };
-    for (int f = 0; f < n; ++f)
-      seg.frames[static_cast<std::size_t>(f)].planted[static_cast<std::size_t>(s)] =
-          low_and_slow(ankle, low_ankle, f) || low_and_slow(toe, low_toe, f) ? 1.0 : 0.0;
+    for (int f = 0; f < n; ++f) {
+      MkmFrame& fr = seg.frames[static_cast<std::size_t>(f)];
+      fr.planted[static_cast<std::size_t>(s)] = low_and_slow(ankle, low_ankle, f) || low_and_slow(toe, low_toe, f) ? 1.0 : 0.0;
+      fr.ankle_lift_n[static_cast<std::size_t>(s)] = (at(poses[static_cast<std::size_t>(f)], ankle).y() - low_ankle) / m.leg_length_m;
+    }
   }
   const int seg_index = static_cast<int>(db.segments.size());
   if (src.kind == SegmentKind::strike) {
@@ -261,6 +263,7 @@ void put_frame(Writer& w, const MkmFrame& f) {
   for (int s = 0; s < 2; ++s) {
     w.v3(f.clavicle_dir[s]); w.v3(f.arm_n[s]); w.put(f.arm_swivel_rad[s]);
     w.v3(f.leg_n[s]); w.put(f.leg_swivel_rad[s]); w.v3(f.foot_dir[s]); w.put(f.planted[s]);
+    w.put(f.ankle_lift_n[s]);
   }
 }
 MkmFrame get_frame(Reader& r) {
@@ -271,6 +274,8 @@ MkmFrame get_frame(Reader& r) {
     f.clavicle_dir[s] = r.v3("frame"); f.arm_n[s] = r.v3("frame"); f.arm_swivel_rad[s] = r.f("frame");
     f.leg_n[s] = r.v3("frame"); f.leg_swivel_rad[s] = r.f("frame"); f.foot_dir[s] = r.v3("frame");
     f.planted[s] = r.f("frame");
+    f.ankle_lift_n[s] = r.f("frame");
+    if (f.ankle_lift_n[s] < 0 || f.ankle_lift_n[s] > 2) r.fail("corrupt", fmt::format("frame: ankle lift {} leg lengths (0..2)", f.ankle_lift_n[s]));
   }
   return f;
 }

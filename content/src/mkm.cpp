@@ -261,6 +261,7 @@ void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out) {
     out.leg_swivel_rad[s] = angle(a.leg_swivel_rad[s], b.leg_swivel_rad[s]);
     out.foot_dir[s] = nlerp(a.foot_dir[s], b.foot_dir[s]);
     out.planted[s] = u * a.planted[s] + w * b.planted[s];
+    out.ankle_lift_n[s] = u * a.ankle_lift_n[s] + w * b.ankle_lift_n[s];
   }
 }
 
@@ -283,6 +284,7 @@ void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Ve
     out.leg_swivel_rad[s] = in.leg_swivel_rad[s];
     out.foot_dir[s] = r * in.foot_dir[s];
     out.planted[s] = in.planted[s];
+    out.ankle_lift_n[s] = in.ankle_lift_n[s];
   }
 }
 

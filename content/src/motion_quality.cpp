@@ -501,6 +501,19 @@ StrikeQuality compare_strike(const StrikeComparisonInput& in, const FigureOption
     }
   }
   const FootContacts own = detect_foot_contacts(out);
+  const auto seconds_off = [](const std::vector<FrameRange>& spans, double ft) {
+    int n = 0;
+    for (const FrameRange& r : spans) n += r.count();
+    return n * ft;
+  };
+  q.output_both_feet_off_s = seconds_off(both_feet_off(out, q.output_range, own), out.frame_time_s);
+  q.source_both_feet_off_s = seconds_off(both_feet_off(src, q.source_range, src_contacts), src.frame_time_s);
+  q.both_feet_off_excess_s = q.output_both_feet_off_s - q.source_both_feet_off_s / in.rate;
+  for (int side = 0; side < 2; ++side) {
+    const int toe = require(*out.skeleton, side == kLeft ? CJ::l_toe : CJ::r_toe);
+    for (int f = q.output_range.first; f <= q.output_range.last; ++f)
+      q.toe_below_standing_m = std::max(q.toe_below_standing_m, out.at(0, toe).y() - out.at(f, toe).y());
+  }
   q.whole = track_figures(out, {0, out.frame_count - 1}, own, 1, o);
   q.tail_range = {q.output_range.last + 1, out.frame_count - 1};
   if (q.tail_range.count() > 0) q.tail = track_figures(out, q.tail_range, own, 1, o);

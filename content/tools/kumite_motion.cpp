@@ -477,9 +477,13 @@ struct QualityTotals {
       step_ratio, reach_m, elev_out, elev_src, ext_out, ext_src, whole_slide, tail_slide, whole_step, tail_step,
       knee_turn_out, knee_turn_src, elbow_turn_out, elbow_turn_src, kick_ext_out, kick_ext_src, hook_out, hook_src,
       above_line_out, above_line_src, aim_lowered;  ///< aim_lowered: m, punches aimed below the ordered target
+  /// s: StrikeQuality::both_feet_off_excess_s of punches / kicks; m: toe_below_standing_m
+  std::vector<double> off_excess_punch, off_excess_kick, toe_below;
 
   void add(const StrikeQuality& q, bool kick, bool reached, bool hit, double reach, double aim_lowered_m) {
     if (aim_lowered_m > 0) aim_lowered.push_back(aim_lowered_m);
+    (kick ? off_excess_kick : off_excess_punch).push_back(q.both_feet_off_excess_s);
+    toe_below.push_back(q.toe_below_standing_m);
     ++strikes;
     (kick ? kicks : punches)++;
     snaps_out += !q.output.snaps.empty();
@@ -575,6 +579,12 @@ struct QualityTotals {
             {"strikes_slide_over_source_plus_0_3", slide_over_source},
             {"support_slide_source_contacts_mps", dist_json(slide_any_out)},
             {"strikes_lifted_where_source_stands", lifted_strikes},
+            {"punch_both_feet_off_excess_s", dist_json(off_excess_punch)},
+            {"kick_both_feet_off_excess_s", dist_json(off_excess_kick)},
+            {"punches_both_feet_off_over_source_0_1s", std::count_if(off_excess_punch.begin(), off_excess_punch.end(), [](double e) { return e > 0.1; })},
+            {"kicks_both_feet_off_over_source_0_1s", std::count_if(off_excess_kick.begin(), off_excess_kick.end(), [](double e) { return e > 0.1; })},
+            {"toe_below_standing_m", dist_json(toe_below)},
+            {"strikes_toe_below_standing_over_2cm", std::count_if(toe_below.begin(), toe_below.end(), [](double t) { return t > 0.02; })},
             {"lifted_where_source_stands_mps", dist_json(lifted_out)},
             {"stepping_peak_mps", dist_json(step_out)}, {"source_stepping_peak_mps", dist_json(step_src)},
             {"stepping_peak_ratio", dist_json(step_ratio)},
@@ -627,6 +637,13 @@ struct QualityTotals {
                "{:.2f} max {:.2f} m/s; every source-contact frame (lifted or down): p95 {:.2f} max {:.2f} m/s\n",
                lifted_strikes, d("lifted_where_source_stands_mps", "p50"), d("lifted_where_source_stands_mps", "max"),
                d("support_slide_source_contacts_mps", "p95"), d("support_slide_source_contacts_mps", "max"));
+    fmt::print("  both feet off the floor beyond the source (at the rate played) over the same frames: punches {} of {} "
+               "more than 0.1 s (p95 {:.2f} max {:.2f} s), kicks {} of {} (p95 {:.2f} max {:.2f} s); toes below where "
+               "they stand: p95 {:.3f} max {:.3f} m, {} strikes over 2 cm\n",
+               j["punches_both_feet_off_over_source_0_1s"].get<int>(), punches, d("punch_both_feet_off_excess_s", "p95"),
+               d("punch_both_feet_off_excess_s", "max"), j["kicks_both_feet_off_over_source_0_1s"].get<int>(), kicks,
+               d("kick_both_feet_off_excess_s", "p95"), d("kick_both_feet_off_excess_s", "max"),
+               d("toe_below_standing_m", "p95"), d("toe_below_standing_m", "max"), j["strikes_toe_below_standing_over_2cm"].get<int>());
     fmt::print("whole BVH, geometric contacts: support-foot slide p50 {:.2f} p95 {:.2f} max {:.2f} m/s, stepping-foot peak "
                "p50 {:.2f} max {:.2f} m/s; tail only: slide p95 {:.2f}, stepping max {:.2f} m/s ({} strikes with a tail)\n",
                d("whole_bvh_support_slide_mps", "p50"), d("whole_bvh_support_slide_mps", "p95"),
@@ -743,6 +760,8 @@ nlohmann::json measure_grid(const std::shared_ptr<const Database>& db, const std
     js["tail_frames"] = {q.tail_range.first, q.tail_range.last};
     if (q.tail_range.count() > 0) js["tail"] = figures_json(q.tail, back.skeleton, back.frame_time_s);
     js["output_contact"] = limb_json(q.output_contact);
+    js["both_feet_off_s"] = {{"output", q.output_both_feet_off_s}, {"source", q.source_both_feet_off_s}, {"excess", q.both_feet_off_excess_s}};
+    js["toe_below_standing_m"] = q.toe_below_standing_m;
     js["source_contact"] = limb_json(q.source_contact);
     out.push_back(js);
   }

@@ -90,8 +90,8 @@ void record(const fs::path& config_path, const fs::path& orders, const fs::path&
   const double t0 = 5000.0;
   inst.start(t0);
   for (int i = 0; i < frames; ++i) {
-    if (i == 130) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));  // the punch (stepped in for) is over by then
-    if (i == 140) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
+    if (i == 145) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));  // the punch (stepped in for) is over by then (frame 135)
+    if (i == 155) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
     inst.step(t0 + i / 60.0 + (i % 3) * 1e-4);  // uneven frame times, as a real loop has
   }
   inst.record_to(nullptr);
@@ -150,10 +150,10 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
     std::string moved;
     while (std::getline(in, line)) {
       auto j = nlohmann::json::parse(line);
-      if (j.contains("frame") && j["frame"] == 130) {
+      if (j.contains("frame") && j["frame"] == 145) {
         moved = j["input"]["keyed"].dump();
         j["input"]["keyed"] = nlohmann::json::array();
-      } else if (j.contains("frame") && j["frame"] == 131) {
+      } else if (j.contains("frame") && j["frame"] == 146) {
         j["input"]["keyed"] = nlohmann::json::parse(moved);
       }
       out += j.dump() + "\n";
@@ -163,7 +163,7 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
     const ReplayReport d = replay_session(tmp.path / "changed");
     EXPECT_FALSE(d.identical);
     ASSERT_TRUE(d.first_difference_frame);
-    EXPECT_EQ(*d.first_difference_frame, 130u);
+    EXPECT_EQ(*d.first_difference_frame, 145u);
     EXPECT_EQ(d.first_difference_field, "fighter");  // the kick not ordered there: no target frozen
   }
 
@@ -242,7 +242,7 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
   }
 
   // A character missing from the snapshot and from its source: said, and the difference caught
-  // (character 2 is switched to at frame 140).
+  // (character 2 is switched to at frame 155).
   {
     copy_session(tmp.path / "s", tmp.path / "nochar");
     fs::remove(tmp.path / "nochar/snapshot/characters/2.bvh");
@@ -543,8 +543,8 @@ TEST(FrameStates, EveryFrameIsKeptWholeAsTheStepMadeIt) {
   inst.start(t0);
   std::vector<FrameData> made;
   for (int i = 0; i < 240; ++i) {
-    if (i == 130) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));
-    if (i == 140) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
+    if (i == 145) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));
+    if (i == 155) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
     made.push_back(inst.step(t0 + i / 60.0));
   }
   inst.record_to(nullptr);
@@ -610,7 +610,7 @@ TEST(FrameStates, AKilledRecorderLeavesWholeFramesAndTheReplaySaysSo) {
 
 TEST(FrameStates, AReplayThatDiffersSaysWhereByValue) {
   Tmp tmp;
-  const fs::path config = record_punch(tmp.path, 120);
+  const fs::path config = record_punch(tmp.path, 180);  // the punch stepped in for, then following again (where the two strike distances differ)
   // The same session replayed with the fighter told to strike from 0.6 m, not 0.9 m.
   ReplayOptions ro;
   ro.config_override = with_strike_distance_0_6(config, tmp.path / "changed.toml");
@@ -657,7 +657,7 @@ TEST(ReplayWindows, ShowsTheRecordedFramesAndTheViewerCanEndIt) {
 // build makes: --replay --windows and --replay --out do.
 TEST(FrameStates, AReplayCanShowTheRecordedFramesPastADifference) {
   Tmp tmp;
-  const fs::path config = record_punch(tmp.path, 120);
+  const fs::path config = record_punch(tmp.path, 180);  // the punch stepped in for, then following again (where the two strike distances differ)
   ReplayOptions ro;
   ro.config_override = with_strike_distance_0_6(config, tmp.path / "changed.toml");
   ro.show_recorded = true;
@@ -666,8 +666,8 @@ TEST(FrameStates, AReplayCanShowTheRecordedFramesPastADifference) {
   const ReplayReport rep = replay_session(tmp.path / "s", ro);
   EXPECT_FALSE(rep.identical);
   ASSERT_TRUE(rep.first_difference_frame);
-  EXPECT_EQ(rep.frames_replayed, 120u) << "on past the first difference";
-  ASSERT_EQ(shown.size(), 120u);
+  EXPECT_EQ(rep.frames_replayed, 180u) << "on past the first difference";
+  ASSERT_EQ(shown.size(), 180u);
   FrameStatesReader reader(tmp.path / "s/states.bin");
   FrameData f;
   for (std::size_t k = 0; k < shown.size(); ++k) {

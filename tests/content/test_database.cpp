@@ -120,3 +120,25 @@ TEST(Database, AFootOnItsToesIsPlanted) {
   // And it is lifted once it steps (clip frame 2137 on: toes moving at 2+ m/s).
   EXPECT_LT(it->frames[static_cast<std::size_t>(2140 - first)].planted[kRight], 0.5);
 }
+
+// The same heel's rise, stored as the source measured it (MkmFrame::ankle_lift_n: the ankle
+// above its lowest in the segment, in leg lengths). Expected values read off the raw BVH with
+// an independent FK (numpy, session 23; not the content library): the right ankle above its lowest over
+// clip frames 2074-2149, over the rest pose's root height above its lowest foot joint):
+// 0.002 at 2080, 0.000 at 2100, 0.019 at 2112, 0.033 at 2117, 0.047 at 2127 (the two leg
+// lengths differ by definition by a few per cent).
+TEST(Database, AHeelTheSourceRaisesIsStoredAsTheSourceRaisesIt) {
+  const Database& db = *kumite::content::testing::shipped_database().db;
+  const auto it = std::find_if(db.segments.begin(), db.segments.end(), [](const MotionSegment& s) { return s.name == "135_06_punch_left_3"; });
+  ASSERT_NE(it, db.segments.end());
+  const int first = it->source_first_frame;
+  const auto lift = [&](int clip_frame) { return it->frames[static_cast<std::size_t>(clip_frame - first)].ankle_lift_n[kRight]; };
+  EXPECT_LT(lift(2080), 0.006);
+  EXPECT_LT(lift(2100), 0.004);
+  EXPECT_NEAR(lift(2112), 0.0194, 0.004);
+  EXPECT_NEAR(lift(2117), 0.0334, 0.005);
+  EXPECT_NEAR(lift(2127), 0.0466, 0.006);
+  for (const MotionSegment& s : db.segments)
+    for (const MkmFrame& f : s.frames)
+      for (double l : f.ankle_lift_n) ASSERT_TRUE(l >= 0 && l < 2) << s.name;
+}

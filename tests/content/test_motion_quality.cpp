@@ -817,3 +817,97 @@ TEST(MotionQualityShipped, AStrikeCanBeRecordedFromAnotherRestStance) {
     EXPECT_NE(std::string(e.what()).find("no segment 'no_such_rest'"), std::string::npos) << e.what();
   }
 }
+
+TEST(MotionQualityShipped, AFootTheSourceStandsFlatOnIsDrawnOnTheFloor) {
+  // Bruno's right kick from the grid plays HDM05 actor mm's left kick mirrored: its support
+  // foot stands flat throughout. Its height was taken from the ankle decoded on bruno's
+  // proportions (pelvis height in leg lengths + bruno's leg): 6-7 cm up on the straight support
+  // leg, so the held foot floated flat, both feet off the floor for 0.7 s. The heel's rise now
+  // comes from the mocap's own ankle (MkmFrame::ankle_lift_n). Judged on the BVH read back.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& bruno = rigs[1];
+  ASSERT_EQ(bruno.name, "bruno");
+  const StrikeRecording rec = record_strike(set.db, bruno, OrderKind::kick_right, Vector3d(0.0422, 1.3364, 0.8039));
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::kick_right, "bruno");
+  const StrikeQuality& q = judged.q;
+  std::printf("%s%s: both feet off %.3f s (source %.3f s at rate %.2f), toes below standing %.3f m\n",
+              rec.source_clip.c_str(), rec.mirrored ? " mirrored" : "", q.output_both_feet_off_s,
+              q.source_both_feet_off_s, rec.strike.rate, q.toe_below_standing_m);
+  EXPECT_EQ(rec.source_clip, "HDM_mm_kickLFront1Reps_024_120");
+  EXPECT_LE(q.both_feet_off_excess_s, 0.05);
+  // The support (left) foot: wherever the source has it down, the drawn one is down too
+  // (heel or toes within 3 cm of the floor).
+  EXPECT_EQ(q.output.lifted[kLeft].frames, 0);
+  EXPECT_LE(q.toe_below_standing_m, 0.02);
+}
+
+TEST(MotionQualityShipped, ALungeAfterSteppingInKeepsItsBackFootOnTheFloor) {
+  // Kenji's left punch at head height from the grid steps in 21 cm, then lunges (135_06's
+  // right lunge punch, mirrored). A foot began a step in the two updates between the step-in's
+  // arrival and the plan; the lunge was planned without it, and its back foot, set down 13 cm
+  // ahead of where the lunge holds it, was out of reach: it stepped back and forth in the air
+  // (both feet off for 0.45 s where the source stands). No step begins while a strike is planned.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& kenji = rigs[2];
+  ASSERT_EQ(kenji.name, "kenji");
+  const StrikeRecording rec = record_strike(set.db, kenji, OrderKind::punch_left, Vector3d(0.1121, 1.5834, 0.7701));
+  ASSERT_GE(rec.contact_frame, 0);
+  const auto stepped_in = std::count_if(rec.events.begin(), rec.events.end(), [](const std::string& e) { return e.rfind("stepping_in", 0) == 0; });
+  EXPECT_EQ(stepped_in, 1);
+  const Judged judged(*set.db, rec, OrderKind::punch_left, "kenji");
+  const StrikeQuality& q = judged.q;
+  std::printf("%s%s: both feet off %.3f s (source %.3f s), back foot lifted where the source stands %d frames\n",
+              rec.source_clip.c_str(), rec.mirrored ? " mirrored" : "", q.output_both_feet_off_s,
+              q.source_both_feet_off_s, q.output.lifted[kRight].frames);
+  EXPECT_LE(q.both_feet_off_excess_s, 0.02);
+  EXPECT_EQ(q.output.lifted[kRight].frames, 0);
+}
+
+TEST(MotionQualityShipped, ToesStayAboveTheFloorWhenTheFootPitches) {
+  // Viktor's right punch at head height (135_06's left lunge punch, mirrored): the blend out of
+  // the lunge pitches the back foot onto its toes while its ankle was held at the source's
+  // decoded height: the toes went 8.7 cm through the floor. The held ankle now rises at least
+  // as far as keeps the toes on the floor at the pitch drawn.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& viktor = rigs[4];
+  ASSERT_EQ(viktor.name, "viktor");
+  const StrikeRecording rec = record_strike(set.db, viktor, OrderKind::punch_right, Vector3d(-0.1099, 1.7192, 1.0550));
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::punch_right, "viktor");
+  std::printf("%s%s: toes below standing %.3f m\n", rec.source_clip.c_str(), rec.mirrored ? " mirrored" : "",
+              judged.q.toe_below_standing_m);
+  EXPECT_LE(judged.q.toe_below_standing_m, 0.02);
+}
+
+TEST(MotionQualityShipped, AKickAfterSteppingInSetsItsSupportFootAfterTheStepIn) {
+  // Aiko's left kick from the grid (HDM_bd_001): a support step, then a 14 cm step-in whose
+  // steps put the support foot back into the rest stance, then the kick planned while a foot
+  // was still stepping: no support step, the support foot 38 cm behind where the clip stands
+  // on it, caught up in a hop (both feet off 118 frames, 0.98 s; the source 0.33 s). The kick
+  // now waits for the feet to stand and sets its support foot again.
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& aiko = rigs[0];
+  ASSERT_EQ(aiko.name, "aiko");
+  const StrikeRecording rec = record_strike(set.db, aiko, OrderKind::kick_left, Vector3d(0.09013, 1.06042, 0.95431));
+  ASSERT_GE(rec.contact_frame, 0);
+  int last_step_in = -1, last_support = -1;
+  for (std::size_t i = 0; i < rec.events.size(); ++i) {
+    if (rec.events[i].rfind("stepping_in", 0) == 0) last_step_in = static_cast<int>(i);
+    if (rec.events[i].rfind("support_step", 0) == 0) last_support = static_cast<int>(i);
+  }
+  ASSERT_GE(last_step_in, 0) << "the case no longer steps in";
+  EXPECT_GT(last_support, last_step_in) << "no support step after the step-in";
+  const Judged judged(*set.db, rec, OrderKind::kick_left, "aiko");
+  const StrikeQuality& q = judged.q;
+  std::printf("%s: both feet off %.3f s (source %.3f s at rate %.2f)\n", rec.source_clip.c_str(),
+              q.output_both_feet_off_s, q.source_both_feet_off_s, rec.strike.rate);
+  // The source's own hop, played at the kick's rate (0.46 s), and less than the 0.52 s more it
+  // had (0.30 s more now: the support foot lifts again after landing while the kicking foot is
+  // still coming down; content/README, session 23).
+  EXPECT_LE(q.both_feet_off_excess_s, 0.35);
+}

@@ -66,6 +66,10 @@ struct MkmFrame {
   std::array<double, 2> leg_swivel_rad{};   ///< knee about the hip->ankle axis [side]
   std::array<Eigen::Vector3d, 2> foot_dir{};  ///< unit, ankle -> toe [side]
   std::array<double, 2> planted{};  ///< 1 = foot planted on the floor, 0 = free [side]
+  /// The source's own ankle above its lowest in the segment / the source's leg length [side]:
+  /// a heel raised onto the toes, measured on the mocap itself (the ankle decoded on another
+  /// body's proportions is no measure: it stood 6-7 cm up on a straight support leg).
+  std::array<double, 2> ankle_lift_n{};
 };
 
 /// Lengths of a body, measured on its rest pose (m). Limb lengths are bone lengths, so they

@@ -269,6 +269,19 @@ struct StrikeQuality {
   /// contacts. Empty range (and default figures) when there is none.
   TrackFigures tail;
   LimbAtContact output_contact, source_contact;
+  /// s with both feet off the floor (both_feet_off, 3 cm): the output over the compared frames
+  /// against its floor levels over the whole BVH (it starts standing in the rest pose), the
+  /// source over its compared frames against its own levels there. A hop the source makes,
+  /// played at `rate`, lasts 1/rate as long; anything beyond is a foot held off the floor
+  /// where the source stands (a float).
+  double output_both_feet_off_s = 0, source_both_feet_off_s = 0;
+  /// output_both_feet_off_s - source_both_feet_off_s / rate: the time the output holds both
+  /// feet off that the source (at the rate played) does not.
+  double both_feet_off_excess_s = 0;
+  /// m: how far the output's toes go below where they stand at frame 0 (the rest pose, feet
+  /// flat) over the compared frames, the deeper foot: a foot pitched onto its toes while its
+  /// ankle is held low pushes them through the floor.
+  double toe_below_standing_m = 0;
   FrameRange output_range, source_range, tail_range;
   double speed_scale = 1;
 };
