@@ -18,6 +18,9 @@ double smoothstep(double x) {
 constexpr double kShedPerTravel = 0.5;
 /// m/s^2: how fast a foot returning through the air to the motion's changes its velocity.
 constexpr double kReturnAccel_mps2 = 40;
+/// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
+/// a step's length) while it is no farther out from the hip than this beyond the motion's foot.
+constexpr double kUnderHipSlack_m = 0.05;
 /// rad/s: the most a pivoting held foot turns (FootSample::pivot).
 constexpr double kPivotRate_rad_s = 4.0;
 }  // namespace
@@ -61,8 +64,21 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
   // A held foot the leg no longer reaches must step now; the other foot's step that is only
   // due (behind its spot, a leg stretched past the motion's) waits for it to land: both
   // starting in one update is a hop (the walk bout's, 13 frames with both feet off at 3.42 s).
-  const bool must_step[2] = {feet_[0].phase == Phase::held && !samples[0].reached,
-                             feet_[1].phase == Phase::held && !samples[1].reached};
+  // Not where the leg falls short straight above the foot (the pelvis high over it, as a kick's
+  // support leg after a hop): a step there lands where the foot stands, after a swing through
+  // the air (kenji's HDM_bd_001 kick: a 9 cm step up for 2 cm, both feet off 0.3 s); the foot
+  // is held until the body comes down to it.
+  const auto must = [&](int s) {
+    const Foot& f = feet_[static_cast<std::size_t>(s)];
+    const FootSample& in = samples[static_cast<std::size_t>(s)];
+    if (f.phase != Phase::held || in.reached) return false;
+    const Eigen::Vector2d from_hip(f.lock.x() - in.hip_m.x(), f.lock.z() - in.hip_m.z());
+    const Eigen::Vector2d motion(in.free_ankle_m.x() - in.hip_m.x(), in.free_ankle_m.z() - in.hip_m.z());
+    // Out of reach along the floor: farther from the hip than the motion's foot (a body moved
+    // away: held, it would be dragged), or far from where the motion has it.
+    return from_hip.norm() > motion.norm() + kUnderHipSlack_m || (from_hip - motion).norm() > tun_.step_threshold_m;
+  };
+  const bool must_step[2] = {must(0), must(1)};
   for (int s = 0; s < 2; ++s) {
     Foot& f = feet_[static_cast<std::size_t>(s)];
     const FootSample& in = samples[static_cast<std::size_t>(s)];
@@ -128,7 +144,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the
         // other stands on the floor (both off it is a hop).
-        if ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || stretch > max_stretch)) || !in.reached) {
+        if ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || stretch > max_stretch)) || must_step[s]) {
           f.phase = Phase::stepping;
           f.step_t = 0;
           f.step_from = f.lock;

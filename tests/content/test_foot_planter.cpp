@@ -43,9 +43,12 @@ TEST(FootPlanter, AFootThatMustStepGoesAloneTheOtherFootsDueStepWaitsForItsLandi
   planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
   ASSERT_EQ(planter.phase(0), Phase::held);
   ASSERT_EQ(planter.phase(1), Phase::held);
-  // The left foot's spot 0.5 m ahead (a due step); the right leg cannot reach its held ankle.
+  // The left foot's spot 0.5 m ahead (a due step); the right leg cannot reach its held ankle
+  // (the body, and the motion's right foot with it, 0.3 m to the side).
   s[0].free_ankle_m.z() += 0.5;
   s[1].reached = false;
+  s[1].hip_m.x() -= 0.3;
+  s[1].free_ankle_m.x() -= 0.3;
   planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
   EXPECT_EQ(planter.phase(1), Phase::stepping);
   EXPECT_EQ(planter.phase(0), Phase::held) << "both feet lifted in one update: a hop";
@@ -75,8 +78,39 @@ TEST(FootPlanter, TwoFeetThatMustBothStepStepTogether) {
   std::array<FootSample, 2> s = standing();
   planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
   s[0].reached = s[1].reached = false;
+  for (FootSample& f : s) {
+    f.hip_m.z() += 0.4;
+    f.free_ankle_m.z() += 0.4;
+  }
   planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
   EXPECT_EQ(planter.phase(0), Phase::stepping);
+  EXPECT_EQ(planter.phase(1), Phase::stepping);
+}
+
+
+TEST(FootPlanter, AFootTheLegFallsShortOfStraightAboveIsHeldNotStepped) {
+  // Kenji's HDM_bd_001 kick (the grid): the support foot lands from the hop with the pelvis
+  // still high over it; the leg falls 1.3 cm short of the ankle held where the motion has its
+  // foot. A step there lands where the foot stands after a swing through the air (9 cm up for
+  // 2 cm, both feet off 0.3 s with the kicking foot still up): the foot is held until the body
+  // comes down to it. A foot the motion has moved away (the body walked off) still steps.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(1), Phase::held);
+  s[1].hip_m.y() += 0.05;  // the pelvis high: the leg falls short straight above the foot
+  s[1].reached = false;
+  for (int i = 0; i < 10; ++i) {
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    EXPECT_EQ(planter.phase(1), Phase::held) << "update " << i;
+  }
+  EXPECT_NEAR(locks.ankle_m[1].x(), -0.1, 1e-12);
+  EXPECT_NEAR(locks.ankle_m[1].z(), 0.0, 1e-12);
+  // The body, and the motion's foot with it, 0.3 m away: out of reach along the floor, it steps.
+  s[1].hip_m.z() += 0.3;
+  s[1].free_ankle_m.z() += 0.3;
+  planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
   EXPECT_EQ(planter.phase(1), Phase::stepping);
 }
 
