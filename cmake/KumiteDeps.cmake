@@ -17,7 +17,10 @@ find_package(glm REQUIRED)
 find_package(glfw3 3.3 REQUIRED)
 find_package(OpenGL REQUIRED COMPONENTS OpenGL EGL)
 pkg_check_modules(IMGUI REQUIRED IMPORTED_TARGET imgui)
-pkg_check_modules(SYSTEMD REQUIRED IMPORTED_TARGET libsystemd)  # sd_notify: readiness and watchdog (app)
+pkg_check_modules(SYSTEMD REQUIRED IMPORTED_TARGET libsystemd)
+# libyaml: a calibration file is parsed by it before OpenCV's FileStorage, whose YAML parser
+# (4.6) loops forever on some malformed files (found by fuzzing, one pattern after another).
+pkg_check_modules(LIBYAML REQUIRED IMPORTED_TARGET yaml-0.1)  # sd_notify: readiness and watchdog (app)
 if(KUMITE_BUILD_TESTS)
   find_package(GTest REQUIRED)
   include(GoogleTest)

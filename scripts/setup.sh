@@ -16,8 +16,9 @@ PACKAGES=(
   build-essential cmake ninja-build pkg-config ccache clang libclang-rt-14-dev libfuzzer-14-dev
   # maths, vision, optimisation
   libeigen3-dev libglm-dev libopencv-dev libopencv-contrib-dev libapriltag-dev libceres-dev
-  # config, CLI, logging, JSON; zlib (session recordings: the frames' states compressed)
-  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev zlib1g-dev
+  # config, CLI, logging, JSON; zlib (session recordings: the frames' states compressed);
+  # libyaml (calibration files checked by it before OpenCV's FileStorage parser reads them)
+  libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev zlib1g-dev libyaml-dev
   # lock-free queues (header-only boost::lockfree: pose samples to the recognition thread)
   libboost-dev
   # graphics: windows, headless EGL (Mesa llvmpipe), operator console

@@ -161,6 +161,16 @@ TEST(CalibrationFile, BadFieldsAreNamed) {
   EXPECT_NE(error_of(p).find(p.string() + ":2: a document marker (---) starts its line"), std::string::npos)
       << error_of(p);
 
+  // Found by fuzzing (CI, 2026-11-28): content after a flow sequence on its line hangs the same
+  // parser; every file now goes through libyaml first, and what it refuses is said with its line.
+  write_text(p, "%YAML:1.0\n---\n[0,]  -\n");
+  EXPECT_NE(error_of(p).find(p.string() + ":3: not valid YAML: "), std::string::npos) << error_of(p);
+  EXPECT_EQ(error_of(p).find('\n'), std::string::npos) << error_of(p);
+  // And the whole input the fuzzer found.
+  write_text(p, "%YAML:1.0\n---\n#  d\n   # Kumite rig ca    dt: d\n  [      data: [ -7.0710671881,\n"
+                "             -      data: [ -7..34622326111985e-01,\n             -3.89490e+00, 300 ]\n   -\n      001");
+  EXPECT_NE(error_of(p).find(p.string() + ":"), std::string::npos) << error_of(p);
+
   // Not a rotation.
   RigCalibration rig = two_cameras();
   rig.cameras[1].rotation(0, 0) = 2.0;

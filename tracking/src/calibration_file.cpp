@@ -3,12 +3,14 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <set>
 #include <string_view>
 #include <vector>
 
 #include <fmt/format.h>
 #include <opencv2/core/persistence.hpp>
+#include <yaml.h>
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
@@ -107,6 +109,36 @@ RigCalibration read_calibration_unchecked(const fs::path& path);
 /// OpenCV 4.6's YAML parser loops forever on some malformed files (found by fuzzing: control
 /// bytes inside numbers; a block line dedenting to a level that was never opened). A
 /// calibration file is plain text with consistent block indentation: check that first.
+/// The whole file through libyaml (a YAML 1.1 parser fuzzed upstream) before OpenCV sees it:
+/// OpenCV 4.6's FileStorage parser loops forever on some malformed files ("[0,]  -" after a
+/// flow sequence, found by fuzzing in session 23, after the patterns check_yaml_text refuses);
+/// what libyaml refuses is one line naming the file, line and column. OpenCV's "%YAML:1.0"
+/// header is not YAML's "%YAML 1.1": it is read as the latter (same line count).
+void check_yaml_parses(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (text.rfind("%YAML:", 0) == 0) text.replace(0, text.find('\n'), "%YAML 1.1");
+  yaml_parser_t parser;
+  if (!yaml_parser_initialize(&parser)) throw file_error("calibration", "io", path.string(), 0, "", "cannot start the YAML parser");
+  struct Done {
+    yaml_parser_t* p;
+    ~Done() { yaml_parser_delete(p); }
+  } done{&parser};
+  yaml_parser_set_input_string(&parser, reinterpret_cast<const unsigned char*>(text.data()), text.size());
+  for (;;) {
+    yaml_event_t event;
+    if (!yaml_parser_parse(&parser, &event)) {
+      const std::string problem = parser.problem ? parser.problem : "not valid YAML";
+      const std::string context = parser.context ? std::string(" ") + parser.context : "";
+      throw file_error("calibration", "parse", path.string(), static_cast<int>(parser.problem_mark.line) + 1, "",
+                       fmt::format("not valid YAML: {}{} (column {})", problem, context, parser.problem_mark.column + 1));
+    }
+    const bool end = event.type == YAML_STREAM_END_EVENT;
+    yaml_event_delete(&event);
+    if (end) return;
+  }
+}
+
 void check_yaml_text(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
@@ -219,6 +251,7 @@ RigCalibration read_calibration_unchecked(const fs::path& path) {
     throw file_error("calibration", "io", path.string(), 0, "", "is a folder, not a file: give the calibration .yaml");
   }
   check_yaml_text(path);
+  check_yaml_parses(path);
   cv::FileStorage fsr;
   try {
     if (!fsr.open(path.string(), cv::FileStorage::READ)) {
