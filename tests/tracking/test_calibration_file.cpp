@@ -171,6 +171,13 @@ TEST(CalibrationFile, BadFieldsAreNamed) {
                 "             -      data: [ -7..34622326111985e-01,\n             -3.89490e+00, 300 ]\n   -\n      001");
   EXPECT_NE(error_of(p).find(p.string() + ":"), std::string::npos) << error_of(p);
 
+  // Found by fuzzing past libyaml (session 23): a lone carriage return is a line break to
+  // libyaml and none to OpenCV; the two read different documents and OpenCV hung.
+  write_text(p, "%YAML:1.0\n---\n\rK\n[+00,]\n-");
+  EXPECT_NE(error_of(p).find(p.string() + ":3: a carriage return inside a line"), std::string::npos) << error_of(p);
+  write_text(p, "%YAML:1.0\n---\ncameras:\xe2\x80\xa8 - name: cam0\n");
+  EXPECT_NE(error_of(p).find(p.string() + ":3: a Unicode line separator inside a line"), std::string::npos) << error_of(p);
+
   // Not a rotation.
   RigCalibration rig = two_cameras();
   rig.cameras[1].rotation(0, 0) = 2.0;

@@ -154,6 +154,16 @@ void check_yaml_text(const fs::path& path) {
                          fmt::format("not a text file (control byte 0x{:02x})", ch));
       }
     }
+    // Lines end where both parsers end them: libyaml (check_yaml_parses) also breaks lines at a
+    // lone carriage return and at U+0085 / U+2028 / U+2029, OpenCV does not; a file the two
+    // read as different documents passed libyaml and hung OpenCV ("\rK" on a line, found by
+    // fuzzing in session 23). A carriage return only ends a line (CRLF).
+    if (const auto cr = line.find('\r'); cr != std::string::npos && cr + 1 != line.size()) {
+      throw file_error("calibration", "parse", path.string(), n, "", "a carriage return inside a line");
+    }
+    for (const std::string_view sep : {std::string_view("\xc2\x85"), std::string_view("\xe2\x80\xa8"), std::string_view("\xe2\x80\xa9")}) {
+      if (line.find(sep) != std::string::npos) throw file_error("calibration", "parse", path.string(), n, "", "a Unicode line separator inside a line");
+    }
     // Valid UTF-8 only (OpenCV's parser mishandles stray high bytes).
     for (std::size_t i = 0; i < line.size();) {
       const auto b = static_cast<unsigned char>(line[i]);
