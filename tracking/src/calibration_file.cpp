@@ -106,9 +106,6 @@ int read_positive_int(const cv::FileNode& cam, const char* key, const fs::path& 
 
 RigCalibration read_calibration_unchecked(const fs::path& path);
 
-/// OpenCV 4.6's YAML parser loops forever on some malformed files (found by fuzzing: control
-/// bytes inside numbers; a block line dedenting to a level that was never opened). A
-/// calibration file is plain text with consistent block indentation: check that first.
 /// The whole file through libyaml (a YAML 1.1 parser fuzzed upstream) before OpenCV sees it:
 /// OpenCV 4.6's FileStorage parser loops forever on some malformed files ("[0,]  -" after a
 /// flow sequence, found by fuzzing in session 23, after the patterns check_yaml_text refuses);
@@ -139,6 +136,9 @@ void check_yaml_parses(const fs::path& path) {
   }
 }
 
+/// OpenCV 4.6's YAML parser loops forever on some malformed files (found by fuzzing: control
+/// bytes inside numbers; a block line dedenting to a level that was never opened). A
+/// calibration file is plain text with consistent block indentation: check that first.
 void check_yaml_text(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
