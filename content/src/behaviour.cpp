@@ -122,7 +122,7 @@ void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
 bool Behaviour::strike_pending() const {
   return pending_ || approach_ || support_step_ ||
          std::any_of(orders_.begin(), orders_.end(),
-                     [](const QueuedOrder& q) { return q.stepped_in || q.support_stepped || q.after_stance_step || q.waited_for_feet; });
+                     [](const QueuedOrder& q) { return q.stepped_in || q.support_stepped || q.after_stance_step; });
 }
 
 void Behaviour::order(const Order& o) { orders_.push_back({o, std::nullopt}); }
@@ -268,9 +268,9 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     r.dt_s = last_dt_;
     r.target_local_m = ground().to_local(target);
     r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
-    pending_ = PendingStrike{r.id, o, target, queued.stepped_in, queued.support_stepped, queued.plan, queued.waited_for_feet};
+    pending_ = PendingStrike{r.id, o, target, queued.stepped_in, queued.support_stepped, queued.plan};
     // Taken again after stepping in (or a kick's support step): accepted already.
-    if (!queued.stepped_in && !queued.support_stepped && !queued.after_stance_step && !queued.waited_for_feet) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
+    if (!queued.stepped_in && !queued.support_stepped && !queued.after_stance_step) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
     submit_(r);
   }
   taking_.clear();
@@ -341,16 +341,10 @@ bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source,
   const auto eff = seg.effector();
   if (!eff || !eff->leg || tun_.kick_support_step_m <= 0 || !pending_) return false;
   const int side = 1 - eff->side;
-  if (!feet_.held(side) || !feet_.held(eff->side)) {
-    // A foot still on its way after stepping in for the kick: the support foot is judged once
-    // both stand. Judged now, the kick started with its support foot wherever the step-in's
-    // last step left it (aiko's HDM_bd_001 kick on the grid: 38 cm behind where the clip
-    // stands on it, caught up in a hop with both feet off for 118 frames). A kick ordered
-    // while the fighter follows the visitor starts from the step at once (it must obey now).
-    if (pending_->waited_for_feet || !pending_->stepped_in) return false;
-    support_step_ = SupportStep{pending_->order, pending_->target_room_m, pending_->stepped_in, side, 0, true};
-    return true;
-  }
+  // (A kick planned with a foot still stepping starts from where that step lands. After a
+  // step-in that arrived, none is: no step begins while a strike is planned (update_feet);
+  // one that gave up waiting, kStepInWait_s, may still leave one stepping.)
+  if (!feet_.held(side) || !feet_.held(eff->side)) return false;
   int k = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
   const int last = std::clamp(plan.contact_frame, k, seg.frame_count() - 1);
   while (k < last && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] < 0.5) ++k;
@@ -380,14 +374,6 @@ void Behaviour::update_support_step(double dt) {
   constexpr double kWait_s = 1.0;
   if (!support_step_) return;
   support_step_->elapsed_s += dt;
-  if (support_step_->waiting_for_feet) {
-    if ((!feet_.held(kLeft) || !feet_.held(kRight)) && support_step_->elapsed_s < kWait_s) return;
-    QueuedOrder again{support_step_->order, support_step_->target_room_m, support_step_->stepped_in, false};
-    again.waited_for_feet = true;
-    orders_.insert(orders_.begin(), again);
-    support_step_.reset();
-    return;
-  }
   if (!feet_.held(support_step_->side) && support_step_->elapsed_s < kWait_s) return;
   orders_.insert(orders_.begin(), QueuedOrder{support_step_->order, support_step_->target_room_m, support_step_->stepped_in, true});
   support_step_.reset();

@@ -388,9 +388,6 @@ class Behaviour {
     /// Accepted and planned while a stance step played, short of its target: planned again
     /// once the step has ended (from where it ends, not from mid-step; accepted once).
     bool after_stance_step = false;
-    /// Taken again once a foot still stepping when its kick was planned had landed (never
-    /// waits twice: a kick then starts from where the feet are).
-    bool waited_for_feet = false;
   };
   std::vector<QueuedOrder> orders_;  ///< queued for the next update (deferred ones first)
   std::vector<QueuedOrder> taking_;  ///< the orders handle_orders() is taking (room kept)
@@ -410,7 +407,6 @@ class Behaviour {
     bool stepped_in = false;                 ///< QueuedOrder::stepped_in
     bool support_stepped = false;            ///< QueuedOrder::support_stepped
     std::optional<StrikePlan> plan;          ///< QueuedOrder::plan
-    bool waited_for_feet = false;            ///< QueuedOrder::waited_for_feet
   };
   std::optional<PendingStrike> pending_;
   /// A strike order whose target the strike would not reach from where the fighter stands:
@@ -433,9 +429,6 @@ class Behaviour {
     bool stepped_in = false;                 ///< QueuedOrder::stepped_in
     int side = 0;                            ///< the support foot
     double elapsed_s = 0;                    ///< s since the step began
-    /// No step yet: a foot was still stepping when the kick was planned; the order is taken
-    /// again once both feet stand (the support foot is judged from there).
-    bool waiting_for_feet = false;
   };
   std::optional<SupportStep> support_step_;
   std::optional<Eigen::Vector3d> strike_target_;  ///< m, room: the target of the strike being started
