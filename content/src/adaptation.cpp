@@ -129,7 +129,7 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
   std::array<Vector3d, 2> wrist_goal{Vector3d::Zero(), Vector3d::Zero()};
   std::array<Vector3d, 2> ankle_goal{Vector3d::Zero(), Vector3d::Zero()};
 
-  const Vector3d pelvis_pos(f.root_xz_m.x(), f.root_height_n * m.leg_length_m - td.root_drop_m, f.root_xz_m.y());
+  const Vector3d pelvis_pos(f.root_xz_m.x(), f.root_height_n * m.leg_length_m + m.standing_ankle_m - td.root_drop_m, f.root_xz_m.y());
   for (int i = 0; i < n; ++i) {
     const int p = sk.parents[static_cast<std::size_t>(i)];
     const auto ui = static_cast<std::size_t>(i);
@@ -201,7 +201,7 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
         if (job.feet && job.feet->weight[s] > 0) {
           const double w = std::clamp(job.feet->weight[s], 0.0, 1.0);
           goal = (1 - w) * goal + w * job.feet->ankle_m[s];
-          if (!effector) softness = w * kLegSoftness * (m.thigh_m[s] + m.shin_m[s]);
+          if (!effector) softness = w * std::clamp(job.feet->softness[s], 0.0, 1.0) * kLegSoftness * (m.thigh_m[s] + m.shin_m[s]);
         }
         if (effector) {
           if (td.fixed_goal) goal = td.pin * td.goal + (1 - td.pin) * goal;
@@ -217,7 +217,7 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
       }
       case Role::knee: rot = aim(ankle_goal[s] - pos); break;
       case Role::ankle: {
-        Vector3d dir = f.foot_dir[s];
+        Vector3d dir = drawn_foot_dir(f, m, s);
         if (job.feet && job.feet->heading_weight[s] > 0) {
           const Eigen::Vector2d& h = job.feet->heading_xz[s];
           const double from = std::atan2(dir.x(), dir.z()), to = std::atan2(h.x(), h.y());

@@ -32,7 +32,7 @@ double Behaviour::swing_left_s(int side) const {
 }
 
 Vector3d behaviour_detail::mkm_ankle(const Rig& rig, const MkmFrame& f, int side) {
-  const Vector3d pelvis(f.root_xz_m.x(), f.root_height_n * rig.morphology.leg_length_m, f.root_xz_m.y());
+  const Vector3d pelvis(f.root_xz_m.x(), f.root_height_n * rig.morphology.leg_length_m + rig.morphology.standing_ankle_m, f.root_xz_m.y());
   const CanonicalPose& rest = rig.rest_pose;
   const Vector3d hip_local = pelvis_frame(rest).conjugate() * (at(rest, side == kLeft ? CJ::l_hip : CJ::r_hip) - at(rest, CJ::pelvis));
   return pelvis + f.pelvis * hip_local + f.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side);
@@ -52,6 +52,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   sample(earlier, before);
 
   constexpr double kLiftDeadband_m = 0.01;
+  constexpr double kHeelRiseSlack_m = 0.02;  // m: a heel's rise beyond its foot's pitch (the ball flexing)
   std::array<FootSample, 2> in;
   for (int s = 0; s < 2; ++s) {
     const auto us = static_cast<std::size_t>(s);
@@ -108,7 +109,8 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
       const Vector3d toe = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_toe : CJ::r_toe))];
       const Vector2d h(toe.x() - f.drawn_ankle_m.x(), toe.z() - f.drawn_ankle_m.z());
       if (h.norm() > 1e-6) f.drawn_heading_xz = h.normalized();
-      const Vector2d m(pose_.foot_dir[us].x(), pose_.foot_dir[us].z());
+      const Vector3d drawn_dir = drawn_foot_dir(pose_, rig.morphology, s);
+      const Vector2d m(drawn_dir.x(), drawn_dir.z());
       f.motion_heading_xz = m.norm() > 1e-6 ? Vector2d(m.normalized()) : f.drawn_heading_xz;
     }
     f.hip_m = rig_positions_[hip];
@@ -125,8 +127,13 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     // motion faded to.
     if (f.planted) {
       const Vector3d rest_foot = at(rig.rest_pose, s == kLeft ? CJ::l_toe : CJ::r_toe) - at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle);
-      const double toes_down_m = rest_foot.y() - pose_.foot_dir[us].y() * rest_foot.norm();
-      f.source_lift_m = std::max(0.0, std::max(pose_.ankle_lift_n[us] * rig.morphology.leg_length_m, toes_down_m) - kLiftDeadband_m);
+      const double toes_down_m = rest_foot.y() - drawn_foot_dir(pose_, rig.morphology, s).y() * rest_foot.norm();
+      // Only as far as a heel rises with the toes still down (the pitch's own rise and a little):
+      // a blend out of a kick whose segment ends with the foot still up says "planted" (the
+      // rest faded to) while the pose has the ankle 20 cm above its lowest, and that foot was
+      // held in the air (viktor's HDM_dg_017 kick: the other foot then stepped, both feet off).
+      const double heel_m = std::min(pose_.ankle_lift_n[us] * rig.morphology.leg_length_m, std::max(0.0, toes_down_m) + kHeelRiseSlack_m);
+      f.source_lift_m = std::max(0.0, std::max(heel_m, toes_down_m) - kLiftDeadband_m);
     }
     f.effector = reach && strike_.effector.leg && strike_.effector.side == s && state_ == FighterState::striking;
   }

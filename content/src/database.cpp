@@ -105,6 +105,27 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
   for (auto& p : poses)
     for (auto& j : p) j.y() -= floor_y_raw;
   const double floor_y = 0;
+  // Root heights count from the ankle standing on this floor: the lowest the segment has an
+  // ankle (the skeleton's rest pose is no stance: HDM05's stands its ankles 5 cm above the toe
+  // joint, its actors 9 cm).
+  // Foot directions count from the foot standing flat: the median pitch over the frames its
+  // ankle is within 1 cm of its lowest (the heel down). Not the frame the ankle and toe are
+  // lowest together: HDM05's toe joint dips 3 cm with the ankle level (44 deg against 27).
+  Morphology me = m;
+  me.standing_ankle_m = std::numeric_limits<double>::infinity();
+  for (const auto& p : poses) me.standing_ankle_m = std::min({me.standing_ankle_m, at(p, CJ::l_ankle).y(), at(p, CJ::r_ankle).y()});
+  std::vector<double> pitches;
+  pitches.reserve(poses.size());
+  for (int s = 0; s < 2; ++s) {
+    const CJ ankle = s == kLeft ? CJ::l_ankle : CJ::r_ankle;
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const auto& p : poses) lowest = std::min(lowest, at(p, ankle).y());
+    pitches.clear();
+    for (const auto& p : poses)
+      if (at(p, ankle).y() <= lowest + 0.01) pitches.push_back(standing_foot_pitch(p, s));
+    std::nth_element(pitches.begin(), pitches.begin() + static_cast<std::ptrdiff_t>(pitches.size() / 2), pitches.end());
+    me.standing_foot_pitch_rad[static_cast<std::size_t>(s)] = pitches[pitches.size() / 2];
+  }
   MotionSegment seg;
   seg.name = mirrored ? src.name + ":mirror" : src.name;
   seg.source_clip = clip.name;
@@ -116,7 +137,7 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
   seg.frames.resize(static_cast<std::size_t>(n));
   for (int f = 0; f < n; ++f) {
     MkmFrame& fr = seg.frames[static_cast<std::size_t>(f)];
-    encode_mkm(poses[static_cast<std::size_t>(f)], m, floor_y, f > 0 ? &seg.frames[static_cast<std::size_t>(f - 1)] : nullptr, fr);
+    encode_mkm(poses[static_cast<std::size_t>(f)], me, floor_y, f > 0 ? &seg.frames[static_cast<std::size_t>(f - 1)] : nullptr, fr);
     fr.root_xz_m *= scale;
   }
   // Planted feet: the ankle low (relative to its lowest point in the segment) and slow, or the

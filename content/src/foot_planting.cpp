@@ -23,6 +23,12 @@ constexpr double kReturnAccel_mps2 = 40;
 constexpr double kUnderHipSlack_m = 0.05;
 /// rad/s: the most a pivoting held foot turns (FootSample::pivot).
 constexpr double kPivotRate_rad_s = 4.0;
+/// s: a foot taken from free (at the start, after a character switch) softens its leg's full
+/// extension (FootLocks::softness) over this: the hold itself moves nothing (it is taken where
+/// the foot is drawn), but with the softness at once a straight leg's knee jumped 5.7 cm in one
+/// frame (viktor in the scripted bout with stance steps on). The hold's weight is whole at once:
+/// eased in too, the foot followed the motion along the floor while it came (slides to 3.4 m/s).
+constexpr double kTakeHold_s = 0.1;
 }  // namespace
 
 bool FootPlanter::step_to(int side, const Vector3d& to) {
@@ -284,7 +290,9 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         break;
     }
     f.last_move = f.phase == Phase::free ? Vector3d::Zero() : Vector3d(f.lock - lock_before);
+    f.softness = f.phase == Phase::free ? 0.0 : std::min(1.0, f.softness + (dt > 0 ? dt / kTakeHold_s : 1.0));
     out.weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : 1.0;
+    out.softness[static_cast<std::size_t>(s)] = f.softness;
     out.supporting[static_cast<std::size_t>(s)] = f.phase == Phase::held || f.phase == Phase::landing;
     out.ankle_m[static_cast<std::size_t>(s)] = f.lock;
     // The heading is kept whole while held; lifted, the foot turns to the motion's heading

@@ -95,6 +95,47 @@ void require_canonical_joints(const Skeleton& skeleton, std::string_view what) {
   }
 }
 
+double standing_foot_pitch(const CanonicalPose& p, int side) {
+  const Vector3d& toe = at(p, kToe[static_cast<std::size_t>(side)]);
+  const Vector3d d = toe - at(p, kAnkle[static_cast<std::size_t>(side)]);
+  // No toe: encode_mkm's fallback direction (forward and down, 26.6 deg) is the standing one.
+  if (!valid(toe) || d.norm() < 1e-9) return std::atan2(0.5, 1.0);
+  return std::atan2(-d.y(), std::hypot(d.x(), d.z()));
+}
+
+namespace {
+/// The pitch (rad) counted from a foot's standing pitch `standing_rad`: the standing pitch
+/// subtracted over the usual range (within kPitchKnee_rad of the horizontal), fading to
+/// nothing at straight down and straight up (piecewise linear, increasing): a foot turning
+/// through the vertical turns its heading over, and mapped to the same vertical it stays
+/// continuous (a constant offset jumped 45 deg there on kicks with pointed toes).
+constexpr double kQuarter = std::numbers::pi / 2;
+constexpr double kPitchKnee_rad = 40 * std::numbers::pi / 180;
+double pitch_from_standing(double pitch, double standing_rad) {
+  const double lo = -kPitchKnee_rad - standing_rad, hi = kPitchKnee_rad - standing_rad;
+  if (pitch >= kPitchKnee_rad) return hi + (pitch - kPitchKnee_rad) * (kQuarter - hi) / (kQuarter - kPitchKnee_rad);
+  if (pitch <= -kPitchKnee_rad) return lo + (pitch + kPitchKnee_rad) * (lo + kQuarter) / (kQuarter - kPitchKnee_rad);
+  return pitch - standing_rad;
+}
+double pitch_to_standing(double c, double standing_rad) {
+  const double lo = -kPitchKnee_rad - standing_rad, hi = kPitchKnee_rad - standing_rad;
+  if (c >= hi) return kPitchKnee_rad + (c - hi) * (kQuarter - kPitchKnee_rad) / (kQuarter - hi);
+  if (c <= lo) return -kPitchKnee_rad + (c - lo) * (kQuarter - kPitchKnee_rad) / (lo + kQuarter);
+  return c + standing_rad;
+}
+}  // namespace
+
+Vector3d repitch(const Vector3d& dir, double from_rad, double to_rad) {
+  const double h = std::hypot(dir.x(), dir.z());
+  if (h < 1e-9 || from_rad == to_rad) return dir;
+  // Standing pitches beyond 45 deg would fold the map over: none is (HDM05's reach 43 deg).
+  constexpr double kMost = 45 * std::numbers::pi / 180;
+  from_rad = std::clamp(from_rad, -kMost, kMost);
+  to_rad = std::clamp(to_rad, -kMost, kMost);
+  const double q = pitch_to_standing(pitch_from_standing(std::atan2(-dir.y(), h), from_rad), to_rad);
+  return Vector3d(std::cos(q) * dir.x() / h, -std::sin(q), std::cos(q) * dir.z() / h);
+}
+
 Morphology measure_morphology(const CanonicalPose& rest, std::string_view what) {
   for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
     const auto cj = static_cast<CJ>(j);
@@ -125,11 +166,14 @@ Morphology measure_morphology(const CanonicalPose& rest, std::string_view what) 
   const Vector3d mid_hips = 0.5 * (at(rest, CJ::l_hip) + at(rest, CJ::r_hip));
   const double drop = std::max(0.0, (at(rest, CJ::pelvis) - mid_hips).dot(pf * Vector3d::UnitY()));
   m.leg_length_m = drop + 0.5 * (m.limb_leg_length(kLeft) + m.limb_leg_length(kRight));
-  double lowest = std::min(at(rest, CJ::l_ankle).y(), at(rest, CJ::r_ankle).y());
+  const double lowest_ankle = std::min(at(rest, CJ::l_ankle).y(), at(rest, CJ::r_ankle).y());
+  double lowest = lowest_ankle;
   for (CJ t : kToe) {
     if (valid(at(rest, t))) lowest = std::min(lowest, at(rest, t).y());
   }
   m.height_m = at(rest, CJ::head).y() - lowest;
+  m.standing_ankle_m = lowest_ankle - lowest;
+  for (int s = 0; s < 2; ++s) m.standing_foot_pitch_rad[s] = standing_foot_pitch(rest, s);
   return m;
 }
 
@@ -197,7 +241,7 @@ void encode_mkm(const CanonicalPose& p, const Morphology& m, double floor_y_m,
                 const MkmFrame* previous, MkmFrame& out) {
   const Vector3d& pelvis = at(p, CJ::pelvis);
   out.root_xz_m = {pelvis.x(), pelvis.z()};
-  out.root_height_n = (pelvis.y() - floor_y_m) / m.leg_length_m;
+  out.root_height_n = (pelvis.y() - floor_y_m - m.standing_ankle_m) / m.leg_length_m;
   out.pelvis = pelvis_frame(p);
   out.chest = chest_frame(p);
   const Vector3d up_chest = out.chest * Vector3d::UnitY();
@@ -220,7 +264,7 @@ void encode_mkm(const CanonicalPose& p, const Morphology& m, double floor_y_m,
     out.leg_swivel_rad[s] = swivel_angle(hip, at(p, kKnee[s]), an, out.pelvis * leg_swivel_reference(s),
                                          previous ? previous->leg_swivel_rad[s] : 0.0);
     const Vector3d fwd_down = out.pelvis * Vector3d(0, -0.5, 1).normalized();
-    out.foot_dir[s] = valid(at(p, kToe[s])) ? normalized_or(at(p, kToe[s]) - an, fwd_down) : fwd_down;
+    out.foot_dir[s] = repitch(valid(at(p, kToe[s])) ? normalized_or(at(p, kToe[s]) - an, fwd_down) : fwd_down, m.standing_foot_pitch_rad[s], 0.0);
   }
 }
 

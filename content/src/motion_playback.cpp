@@ -217,7 +217,7 @@ double Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
     // A target above what the arm reaches at max_punch_elevation_deg: raise the pelvis toward
     // its standing height (a higher stance), at most max_strike_rise_m.
     // The rest pose is decoded about its pelvis (y = 0 there): heights count from its feet.
-    const double standing_n = (at(rig.rest_pose, CJ::pelvis).y() - rest_floor_y(rig)) / leg;
+    const double standing_n = (at(rig.rest_pose, CJ::pelvis).y() - rest_floor_y(rig) - rig.morphology.standing_ankle_m) / leg;
     const double room = std::max(0.0, standing_n - contact_pose.root_height_n) * leg;
     const double above = target.y() - limb_root.y() - reach * std::sin(tun_.max_punch_elevation_deg * std::numbers::pi / 180);
     const double rise = std::clamp(above, 0.0, std::min(room, tun_.max_strike_rise_m));

@@ -2,11 +2,15 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <algorithm>
+#include <numbers>
 #include <random>
 
 #include "kumite/content/adaptation.hpp"
 #include "kumite/content/ik.hpp"
 #include "kumite/content/mkm.hpp"
+#include "fighter_fixtures.hpp"
+#include "kumite/content/database.hpp"
 #include "synthetic_body.hpp"
 
 using namespace kumite::content;
@@ -395,4 +399,52 @@ TEST(Adapt, TheTrunkFallbackComesInAndGoesOutOverFramesWhenTheCallerBoundsIt) {
   EXPECT_GT(free, 0.03);  // the problem: the trunk springs in or out in one frame
   EXPECT_LT(bounded, free / 3);
   EXPECT_LT(reach_bounded, reach_free + 1e-3);  // in by the end of the stretch as far as unbounded
+}
+
+TEST(Mkm, AFootsPitchIsCarriedFromItsStandingPitchAndStaysContinuousThroughTheVertical) {
+  // A foot standing at 30 deg (an HDM05 skeleton's toe joint below its ankle) re-drawn on a foot
+  // standing at 10 deg: standing stays standing, a 20 deg plantar flexion stays 20 deg, the
+  // heading is kept; round trips are exact; a foot turning through straight down (its
+  // heading turns over there) moves on smoothly.
+  const double deg = std::numbers::pi / 180;
+  const auto dir = [&](double pitch_deg, double yaw_deg) {
+    return Eigen::Vector3d(std::cos(pitch_deg * deg) * std::sin(yaw_deg * deg), -std::sin(pitch_deg * deg),
+                           std::cos(pitch_deg * deg) * std::cos(yaw_deg * deg));
+  };
+  const auto pitch_of = [&](const Eigen::Vector3d& d) { return std::atan2(-d.y(), std::hypot(d.x(), d.z())) / deg; };
+  EXPECT_NEAR(pitch_of(repitch(dir(30, 25), 30 * deg, 10 * deg)), 10, 1e-9);
+  EXPECT_NEAR(pitch_of(repitch(dir(20, 25), 30 * deg, 10 * deg)), 0, 1e-9);
+  const Eigen::Vector3d turned = repitch(dir(35, 25), 30 * deg, 10 * deg);
+  EXPECT_NEAR(std::atan2(turned.x(), turned.z()) / deg, 25, 1e-9);
+  EXPECT_NEAR(turned.norm(), 1, 1e-12);
+  for (double p = -89; p <= 89; p += 7) {
+    const Eigen::Vector3d d = dir(p, -40);
+    EXPECT_LT((repitch(repitch(d, 30 * deg, 0), 0, 30 * deg) - d).norm(), 1e-12) << p;
+  }
+  // Through the vertical: pitch 80..100 deg along one heading is one smooth swing of the foot.
+  Eigen::Vector3d last = repitch(dir(80, 0), 30 * deg, 10 * deg);
+  for (double p = 80.5; p <= 100; p += 0.5) {
+    const Eigen::Vector3d now = repitch(dir(p, 0), 30 * deg, 10 * deg);
+    EXPECT_LT((now - last).norm(), 1.5 * 0.5 * deg) << p;
+    last = now;
+  }
+}
+
+TEST(Mkm, ACharacterDrawsTheSourcesStandingFootFlatOnTheFloor) {
+  // Decoded on each shipped character, the support foot of an HDM05 kick where the actor
+  // stands flat (clip frame 49 of HDM_bd_kickLFront1Reps_001_120, read off the raw BVH with an
+  // independent FK: the right ankle at its lowest, its toe joint 6.4 cm below it, 27 deg)
+  // stands flat too: its toe joint on the floor (the character's rest pose has it at its
+  // lowest foot joint), within what the median standing pitch and the bodies' other proportions leave
+  // (1.5 cm; 0.4-1.0 cm measured). The source's
+  // own 27 deg drawn on a character's 11 deg foot put its toe 3-4 cm through the floor.
+  const Database& db = *kumite::content::testing::shipped_database().db;
+  const auto it = std::find_if(db.segments.begin(), db.segments.end(),
+                               [](const MotionSegment& s) { return s.name == "HDM_bd_kickLFront1Reps_001_120_kick_left_1"; });
+  ASSERT_NE(it, db.segments.end());
+  for (const Rig& rig : kumite::content::testing::shipped_characters()) {
+    CanonicalPose pose;
+    decode_canonical(rig, it->frames[static_cast<std::size_t>(49 - it->source_first_frame)], pose);
+    EXPECT_NEAR(at(pose, CJ::r_toe).y(), 0.0, 0.015) << rig.name;
+  }
 }

@@ -8,6 +8,7 @@
 
 #include "fighter_fixtures.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/content/adaptation.hpp"
 #include "kumite/content/database.hpp"
 
 using namespace kumite;
@@ -141,4 +142,34 @@ TEST(Database, AHeelTheSourceRaisesIsStoredAsTheSourceRaisesIt) {
   for (const MotionSegment& s : db.segments)
     for (const MkmFrame& f : s.frames)
       for (double l : f.ankle_lift_n) ASSERT_TRUE(l >= 0 && l < 2) << s.name;
+}
+
+// Root heights count from the ankle standing on the floor, not from the floor: HDM05's actors
+// stand their ankle joints ~9 cm above the toe joint (the floor), the characters theirs ~2.5 cm,
+// and a pelvis height in leg lengths from the floor stood an HDM05 kick on aiko 6-7 cm above what
+// her legs reach (her support foot hung in the air after the kick's hop, 0.3 s longer than the
+// actor's). Expected values read off the raw BVH with an independent FK (numpy, session 24; not
+// the content library): HDM_bd_kickLFront1Reps_001_120's right (support) ankle above its lowest
+// in the segment: 0.001 m at clip frame 49 (standing flat), 0.071 m at 80 (the hop), 0.000 at 130
+// (landed); its leg (thigh + shin) 0.822 m. Decoded on each character, the ankle stands that far
+// (scaled by the legs) above the character's own standing ankle, within what the two bodies'
+// other proportions (the hip's drop below the pelvis, the support knee's bend) leave: 2 cm.
+TEST(Database, RootHeightsCountFromTheAnkleStandingOnTheFloor) {
+  const Database& db = *kumite::content::testing::shipped_database().db;
+  const auto it = std::find_if(db.segments.begin(), db.segments.end(),
+                               [](const MotionSegment& s) { return s.name == "HDM_bd_kickLFront1Reps_001_120_kick_left_1"; });
+  ASSERT_NE(it, db.segments.end());
+  const int first = it->source_first_frame;
+  ASSERT_LE(first, 49);
+  for (const Rig& rig : kumite::content::testing::shipped_characters()) {
+    EXPECT_GT(rig.morphology.standing_ankle_m, 0.01) << rig.name;
+    EXPECT_LT(rig.morphology.standing_ankle_m, 0.05) << rig.name;
+    const double scale = rig.morphology.limb_leg_length(kRight) / 0.822;
+    CanonicalPose pose;
+    for (const auto& [clip_frame, above_m] : {std::pair{49, 0.001}, std::pair{80, 0.071}, std::pair{130, 0.000}}) {
+      decode_canonical(rig, it->frames[static_cast<std::size_t>(clip_frame - first)], pose);
+      const double ankle_m = at(pose, CanonicalJoint::r_ankle).y() - rig.morphology.standing_ankle_m;
+      EXPECT_NEAR(ankle_m, above_m * scale, 0.02) << rig.name << " at clip frame " << clip_frame;
+    }
+  }
 }

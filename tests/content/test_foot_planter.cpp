@@ -115,3 +115,29 @@ TEST(FootPlanter, AFootTheLegFallsShortOfStraightAboveIsHeldNotStepped) {
 }
 
 }  // namespace
+
+TEST(FootPlanter, AHoldTakenFromNothingSoftensItsLegOverAFewFrames) {
+  // A foot taken from free (at the start, after a character switch) is held at once where it
+  // stands (weight 1: eased in, the foot followed the motion along the floor), but the leg's
+  // soft extension comes in over 0.1 s: with it at once a straight leg's knee jumped 5.7 cm in
+  // one frame (viktor in the scripted bout with stance steps on).
+  FootPlanter planter;
+  FootLocks locks;
+  const std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::held);
+  EXPECT_EQ(locks.weight[0], 1.0);
+  EXPECT_GT(locks.softness[0], 0.0);
+  EXPECT_LT(locks.softness[0], 0.25);
+  double last = locks.softness[0];
+  for (int k = 0; k < 10; ++k) {
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    EXPECT_LE(locks.softness[0] - last, kDt / 0.1 + 1e-12);
+    EXPECT_GE(locks.softness[0], last);
+    last = locks.softness[0];
+  }
+  EXPECT_EQ(locks.softness[0], 1.0);
+  planter.reset();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  EXPECT_LT(locks.softness[1], 0.25);
+}

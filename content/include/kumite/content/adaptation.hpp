@@ -108,6 +108,10 @@ struct FootLocks {
   /// `heading_weight` in [0, 1] (the motion's own tilt is kept: a heel rises about the toes,
   /// the foot does not spin). The caller eases the weight out when the foot is lifted.
   std::array<double, 2> heading_weight{0, 0};
+  /// [side] 0..1: how much of a held foot's soft leg extension applies (times its weight): the
+  /// caller eases it in where a hold is taken from nothing (a straight leg's knee moves
+  /// centimetres as its soft zone comes in).
+  std::array<double, 2> softness{1, 1};
   std::array<Eigen::Vector2d, 2> heading_xz{Eigen::Vector2d(0, 1), Eigen::Vector2d(0, 1)};
 };
 

@@ -23,7 +23,7 @@
 
 namespace kumite::content {
 
-inline constexpr std::uint32_t kDatabaseVersion = 2;
+inline constexpr std::uint32_t kDatabaseVersion = 3;
 
 enum class SegmentKind : std::uint8_t { rest = 0, walk = 1, strike = 2, other = 3 };
 std::string_view to_string(SegmentKind k);

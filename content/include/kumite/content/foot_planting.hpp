@@ -119,6 +119,7 @@ class FootPlanter {
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
     bool wants_step = false;          ///< held: lagging or over-stretched at the last update
     Eigen::Vector3d last_move{0, 0, 0};  ///< m: how far the lock moved at the last update
+    double softness = 0;              ///< 0..1: FootLocks::softness, eased in when taken from free
   };
   FootPlantingTunables tun_;
   std::array<Foot, 2> feet_{};

@@ -54,7 +54,7 @@ double yaw_of(const Eigen::Vector3d& forward);
 struct MkmFrame {
   Eigen::Vector2d root_xz_m{0, 0};  ///< m, pelvis on the floor (x, z): the only metric field,
                                     ///< because locomotion must keep its metres when blended
-  double root_height_n = 1;         ///< pelvis height above the floor / leg length
+  double root_height_n = 1;         ///< pelvis height above the standing ankle (floor + Morphology::standing_ankle_m) / leg length
   Eigen::Quaterniond pelvis = Eigen::Quaterniond::Identity();  ///< geometric frame (hips, up)
   Eigen::Quaterniond chest = Eigen::Quaterniond::Identity();   ///< geometric frame (shoulders, neck)
   Eigen::Vector3d spine_dir{0, 1, 0};  ///< unit, spine -> chest
@@ -64,7 +64,7 @@ struct MkmFrame {
   std::array<double, 2> arm_swivel_rad{};   ///< elbow about the shoulder->wrist axis [side]
   std::array<Eigen::Vector3d, 2> leg_n{};   ///< (ankle - hip) / leg length [side]
   std::array<double, 2> leg_swivel_rad{};   ///< knee about the hip->ankle axis [side]
-  std::array<Eigen::Vector3d, 2> foot_dir{};  ///< unit, ankle -> toe [side]
+  std::array<Eigen::Vector3d, 2> foot_dir{};  ///< unit, ankle -> toe [side], its pitch relative to the body's standing foot (Morphology::standing_foot_pitch_rad; drawn_foot_dir)
   std::array<double, 2> planted{};  ///< 1 = foot planted on the floor, 0 = free [side]
   /// The source's own ankle above its lowest in the segment / the source's leg length [side]:
   /// a heel raised onto the toes, measured on the mocap itself (the ankle decoded on another
@@ -79,6 +79,19 @@ struct Morphology {
   double leg_length_m = 1;  ///< pelvis height when standing straight: the size used for
                             ///< root normalisation and for scaling targets actor <-> character
   double height_m = 1.7;    ///< rest head height above the lowest foot joint (reporting)
+  /// m: the ankle joint above the floor (the lowest foot joint) when the body stands. Root
+  /// heights count from it (MkmFrame::root_height_n), so a body whose ankle joint sits higher
+  /// in its foot does not stand its pelvis that much higher on another: HDM05's skeletons
+  /// stand their ankles ~9 cm above the toe joint, CMU's ~4 cm, the characters' ~2.5 cm (an
+  /// HDM05 kick's pelvis on aiko stood 6-7 cm above what her legs reach: her support foot hung
+  /// in the air after the kick's hop).
+  double standing_ankle_m = 0;
+  /// [side] rad: the foot's pitch (ankle -> toe joint, below the horizontal) when it stands
+  /// flat. Foot directions are stored relative to it (MkmFrame::foot_dir): where the toe
+  /// joint sits in the foot differs by skeleton (HDM05's stands 27-43 deg below its ankle,
+  /// CMU's 10-20, the characters' 11), and the source's own pitch drawn on a character put
+  /// its toes through the floor or its heel in the air.
+  std::array<double, 2> standing_foot_pitch_rad{};
   double arm_length(int side) const { return upper_arm_m[side] + forearm_m[side]; }
   double limb_leg_length(int side) const { return thigh_m[side] + shin_m[side]; }
 };
@@ -92,6 +105,9 @@ void canonical_positions(const Skeleton& skeleton, std::span<const Eigen::Vector
 /// that the fighter needs (pelvis, chest, neck, head, shoulders, elbows, wrists, hips, knees,
 /// ankles).
 Morphology measure_morphology(const CanonicalPose& rest, std::string_view what);
+/// rad: the pitch of a pose's foot (ankle -> toe joint below the horizontal; forward and down,
+/// 26.6 deg, where the pose has no toe joint).
+double standing_foot_pitch(const CanonicalPose& pose, int side);
 /// The canonical joints every fighter skeleton must have.
 void require_canonical_joints(const Skeleton& skeleton, std::string_view what);
 
@@ -116,7 +132,20 @@ double swivel_angle(const Eigen::Vector3d& root, const Eigen::Vector3d& middle,
 Eigen::Vector3d swivel_pole(const Eigen::Vector3d& axis_unit, const Eigen::Vector3d& reference,
                             double swivel_rad);
 
-/// Encodes canonical positions (m) into MKM. `floor_y_m` is the clip's floor height; the
+/// `dir` (unit) pitched about the horizontal axis across it, its heading kept: a foot standing
+/// at pitch `from_rad` (below the horizontal) re-drawn on a foot standing at `to_rad`. Within
+/// 40 deg of the horizontal the pitch moves by to - from (a plantar flexion kept as it is);
+/// beyond, the offset fades to nothing at straight down and straight up (so a foot turning
+/// through the vertical stays continuous). Standing pitches are taken within +-45 deg. A
+/// direction within 1e-9 of vertical is returned as it is.
+Eigen::Vector3d repitch(const Eigen::Vector3d& dir, double from_rad, double to_rad);
+/// The foot's direction (unit, ankle -> toe) drawn on a body of morphology `m`.
+inline Eigen::Vector3d drawn_foot_dir(const MkmFrame& f, const Morphology& m, int side) {
+  return repitch(f.foot_dir[static_cast<std::size_t>(side)], 0.0, m.standing_foot_pitch_rad[static_cast<std::size_t>(side)]);
+}
+
+/// Encodes canonical positions (m) into MKM. `floor_y_m` is the clip's floor height (the
+/// root's height counts from floor_y_m + morphology.standing_ankle_m); the
 /// swivel fallbacks (rad) are used when a limb is straight: pass the previous frame's angles
 /// so a straight arm keeps its last swivel (previous may be null).
 void encode_mkm(const CanonicalPose& pose, const Morphology& morphology, double floor_y_m,
