@@ -29,6 +29,9 @@ constexpr double kPivotRate_rad_s = 4.0;
 /// frame (viktor in the scripted bout with stance steps on). The hold's weight is whole at once:
 /// eased in too, the foot followed the motion along the floor while it came (slides to 3.4 m/s).
 constexpr double kTakeHold_s = 0.1;
+/// m/s: the most a foot heading for its landing is raised to clear the floor (FootPlanter's
+/// swing lift; the source's own foot may rise faster).
+constexpr double kSwingRise_mps = 1.2;
 }  // namespace
 
 bool FootPlanter::step_to(int side, const Vector3d& to) {
@@ -247,8 +250,16 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           if (f.swing_way_m > 1e-6) {
             const double way_left = Eigen::Vector2d(in.landing_ankle_m.x() - f.lock.x(), in.landing_ankle_m.z() - f.lock.z()).norm();
             f.swing_progress = std::max(f.swing_progress, std::clamp(1 - way_left / f.swing_way_m, 0.0, 1.0));
-            const double lift = std::min(tun_.swing_lift_m, 0.25 * f.swing_way_m) * std::sin(std::numbers::pi * f.swing_progress);
-            f.lock.y() = std::max(f.lock.y(), in.standing_ankle_y_m + lift);
+            // Up off the floor over the first sixth of the way, down over the second half (a
+            // sine over the whole way left a foot the source lifts mid-stride 1.2 cm up after
+            // 7 cm along the floor: a lunge's back foot dragged at 2.7 m/s; held up to the last
+            // sixth, a foot landing after the source's flew where the source stands).
+            const double arc = std::sin(std::numbers::pi * f.swing_progress);
+            const double lift = std::min(tun_.swing_lift_m, 0.25 * f.swing_way_m) * (f.swing_progress < 0.5 ? std::min(1.0, 2 * arc) : arc);
+            // ...rising no faster than kSwingRise_mps (a foot lifted again just after it landed,
+            // its way short, went 3.9 cm up in one frame on a straight leg: the knee 9.7 cm).
+            const double want = in.standing_ankle_y_m + lift;
+            if (want > f.lock.y()) f.lock.y() = std::min(want, std::max(f.lock.y(), lock_before.y() + kSwingRise_mps * dt));
           }
           f.offset = f.lock - in.free_ankle_m;
           break;
