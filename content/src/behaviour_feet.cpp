@@ -105,11 +105,11 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
       f.source_path_left_m = sp.way_left_m;
     }
     f.drawn_ankle_m = rig_positions_[ankle];
+    const Vector3d drawn_dir = drawn_foot_dir(pose_, rig.morphology, s);  // the foot as adaptation aims it
     {
       const Vector3d toe = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_toe : CJ::r_toe))];
       const Vector2d h(toe.x() - f.drawn_ankle_m.x(), toe.z() - f.drawn_ankle_m.z());
       if (h.norm() > 1e-6) f.drawn_heading_xz = h.normalized();
-      const Vector3d drawn_dir = drawn_foot_dir(pose_, rig.morphology, s);
       const Vector2d m(drawn_dir.x(), drawn_dir.z());
       f.motion_heading_xz = m.norm() > 1e-6 ? Vector2d(m.normalized()) : f.drawn_heading_xz;
     }
@@ -127,7 +127,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     // motion faded to.
     if (f.planted) {
       const Vector3d rest_foot = at(rig.rest_pose, s == kLeft ? CJ::l_toe : CJ::r_toe) - at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle);
-      const double toes_down_m = rest_foot.y() - drawn_foot_dir(pose_, rig.morphology, s).y() * rest_foot.norm();
+      const double toes_down_m = rest_foot.y() - drawn_dir.y() * rest_foot.norm();
       // Only as far as a heel rises with the toes still down (the pitch's own rise and a little):
       // a blend out of a kick whose segment ends with the foot still up says "planted" (the
       // rest faded to) while the pose has the ankle 20 cm above its lowest, and that foot was

@@ -111,18 +111,19 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
   // Foot directions count from the foot standing flat: the median pitch over the frames its
   // ankle is within 1 cm of its lowest (the heel down). Not the frame the ankle and toe are
   // lowest together: HDM05's toe joint dips 3 cm with the ankle level (44 deg against 27).
+  // (Each ankle's lowest also sets its planted level and heel lift, below.)
+  std::array<double, 2> low_ankle{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+  for (const auto& p : poses)
+    for (int s = 0; s < 2; ++s) low_ankle[static_cast<std::size_t>(s)] = std::min(low_ankle[static_cast<std::size_t>(s)], at(p, s == kLeft ? CJ::l_ankle : CJ::r_ankle).y());
   Morphology me = m;
-  me.standing_ankle_m = std::numeric_limits<double>::infinity();
-  for (const auto& p : poses) me.standing_ankle_m = std::min({me.standing_ankle_m, at(p, CJ::l_ankle).y(), at(p, CJ::r_ankle).y()});
+  me.standing_ankle_m = std::min(low_ankle[0], low_ankle[1]);
   std::vector<double> pitches;
   pitches.reserve(poses.size());
   for (int s = 0; s < 2; ++s) {
     const CJ ankle = s == kLeft ? CJ::l_ankle : CJ::r_ankle;
-    double lowest = std::numeric_limits<double>::infinity();
-    for (const auto& p : poses) lowest = std::min(lowest, at(p, ankle).y());
     pitches.clear();
     for (const auto& p : poses)
-      if (at(p, ankle).y() <= lowest + 0.01) pitches.push_back(standing_foot_pitch(p, s));
+      if (at(p, ankle).y() <= low_ankle[static_cast<std::size_t>(s)] + 0.01) pitches.push_back(standing_foot_pitch(p, s));
     std::nth_element(pitches.begin(), pitches.begin() + static_cast<std::ptrdiff_t>(pitches.size() / 2), pitches.end());
     me.standing_foot_pitch_rad[static_cast<std::size_t>(s)] = pitches[pitches.size() / 2];
   }
@@ -146,11 +147,9 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
   for (int s = 0; s < 2; ++s) {
     const CJ ankle = s == kLeft ? CJ::l_ankle : CJ::r_ankle;
     const CJ toe = s == kLeft ? CJ::l_toe : CJ::r_toe;
-    double low_ankle = std::numeric_limits<double>::infinity(), low_toe = low_ankle;
-    for (const auto& p : poses) {
-      low_ankle = std::min(low_ankle, at(p, ankle).y());
-      low_toe = std::min(low_toe, at(p, toe).y());
-    }
+    const double lowest_ankle = low_ankle[static_cast<std::size_t>(s)];
+    double low_toe = std::numeric_limits<double>::infinity();
+    for (const auto& p : poses) low_toe = std::min(low_toe, at(p, toe).y());
     const auto low_and_slow = [&](CJ j, double low, int f) {
       const int a = std::max(0, f - 1), b = std::min(n - 1, f + 1);
       const double speed = b > a ? (at(poses[static_cast<std::size_t>(b)], j) - at(poses[static_cast<std::size_t>(a)], j)).norm() /
@@ -160,8 +159,8 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
     };
     for (int f = 0; f < n; ++f) {
       MkmFrame& fr = seg.frames[static_cast<std::size_t>(f)];
-      fr.planted[static_cast<std::size_t>(s)] = low_and_slow(ankle, low_ankle, f) || low_and_slow(toe, low_toe, f) ? 1.0 : 0.0;
-      fr.ankle_lift_n[static_cast<std::size_t>(s)] = (at(poses[static_cast<std::size_t>(f)], ankle).y() - low_ankle) / m.leg_length_m;
+      fr.planted[static_cast<std::size_t>(s)] = low_and_slow(ankle, lowest_ankle, f) || low_and_slow(toe, low_toe, f) ? 1.0 : 0.0;
+      fr.ankle_lift_n[static_cast<std::size_t>(s)] = (at(poses[static_cast<std::size_t>(f)], ankle).y() - lowest_ankle) / m.leg_length_m;
     }
   }
   const int seg_index = static_cast<int>(db.segments.size());
