@@ -5,7 +5,9 @@
 #include <fstream>
 #include <iterator>
 #include <set>
+#include <sstream>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include <fmt/format.h>
@@ -111,9 +113,7 @@ RigCalibration read_calibration_unchecked(const fs::path& path);
 /// flow sequence, found by fuzzing in session 23, after the patterns check_yaml_text refuses);
 /// what libyaml refuses is one line naming the file, line and column. OpenCV's "%YAML:1.0"
 /// header is not YAML's "%YAML 1.1": it is read as the latter (same line count).
-void check_yaml_parses(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+void check_yaml_parses(const fs::path& path, std::string text) {
   if (text.rfind("%YAML:", 0) == 0) text.replace(0, text.find('\n'), "%YAML 1.1");
   yaml_parser_t parser;
   if (!yaml_parser_initialize(&parser)) throw file_error("calibration", "io", path.string(), 0, "", "cannot start the YAML parser");
@@ -139,8 +139,8 @@ void check_yaml_parses(const fs::path& path) {
 /// OpenCV 4.6's YAML parser loops forever on some malformed files (found by fuzzing: control
 /// bytes inside numbers; a block line dedenting to a level that was never opened). A
 /// calibration file is plain text with consistent block indentation: check that first.
-void check_yaml_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
+void check_yaml_text(const fs::path& path, const std::string& text) {
+  std::istringstream in(text);
   std::string line;
   std::vector<std::size_t> indents;  // open block indentation levels
   int flow = 0;                      // depth inside [ ] / { }
@@ -260,8 +260,14 @@ RigCalibration read_calibration_unchecked(const fs::path& path) {
   if (fs::is_directory(path, ec)) {
     throw file_error("calibration", "io", path.string(), 0, "", "is a folder, not a file: give the calibration .yaml");
   }
-  check_yaml_text(path);
-  check_yaml_parses(path);
+  // Read once for both checks (OpenCV reads the file itself).
+  std::string text;
+  {
+    std::ifstream in(path, std::ios::binary);
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  check_yaml_text(path, text);
+  check_yaml_parses(path, std::move(text));
   cv::FileStorage fsr;
   try {
     if (!fsr.open(path.string(), cv::FileStorage::READ)) {
