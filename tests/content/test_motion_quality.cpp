@@ -433,6 +433,18 @@ struct Judged {
   Judged& operator=(const Judged&) = delete;
 };
 
+/// One strike of a shipped character (by name) on the shipped database, for the single cases
+/// below (contact_frame -1, and a failure, when the character is not shipped).
+StrikeRecording record_shipped(const std::string& character, OrderKind order, const Vector3d& target) {
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const auto it = std::find_if(rigs.begin(), rigs.end(), [&](const Rig& r) { return r.name == character; });
+  if (it == rigs.end()) {
+    ADD_FAILURE() << character << " is not a shipped character";
+    return {};
+  }
+  return record_strike(kumite::content::testing::shipped_database().db, *it, order, target);
+}
+
 TEST(MotionQualityShipped, SmallGridGivesFiniteFiguresAndTheRawMocapHasNoSnaps) {
   const auto& set = kumite::content::testing::shipped_database();
   const auto rigs = kumite::content::testing::shipped_characters();
@@ -586,10 +598,7 @@ TEST(MotionQualityShipped, AKickingFootLeavesTheFloorBeforeItTravels) {
   // floor against the source's 0.07 (48 of the 240-strike grid did so, scripts/judge-strikes.py).
   // Judged on the BVH read back, the whole of it, beside the source clip over its frames.
   const auto& set = kumite::content::testing::shipped_database();
-  const auto rigs = kumite::content::testing::shipped_characters();
-  const Rig& kenji = rigs[2];
-  ASSERT_EQ(kenji.name, "kenji");
-  const StrikeRecording rec = record_strike(set.db, kenji, OrderKind::kick_left, Vector3d(-0.15, 1.131, 0.884));
+  const StrikeRecording rec = record_shipped("kenji", OrderKind::kick_left, Vector3d(-0.15, 1.131, 0.884));
   ASSERT_GE(rec.contact_frame, 0);
   const Judged judged(*set.db, rec, OrderKind::kick_left, "kenji");
   const auto slide = [](const Clip& clip, const JointTrack& t, FrameRange range) {
@@ -702,10 +711,7 @@ TEST(MotionQualityShipped, AStrikePlannedAfterSteppingInThatFallsFarShortIsTheOn
   // plan that falls that far short now gives way to the strike the fighter stepped in for.
   // Judged on the BVH read back.
   const auto& set = kumite::content::testing::shipped_database();
-  const auto rigs = kumite::content::testing::shipped_characters();
-  const Rig& mei = rigs[3];
-  ASSERT_EQ(mei.name, "mei");
-  const StrikeRecording rec = record_strike(set.db, mei, OrderKind::punch_left, Vector3d(0.1, 1.54, 1.1));
+  const StrikeRecording rec = record_shipped("mei", OrderKind::punch_left, Vector3d(0.1, 1.54, 1.1));
   ASSERT_GE(rec.contact_frame, 0);
   const auto stepped = std::count_if(rec.events.begin(), rec.events.end(),
                                      [](const std::string& e) { return e.rfind("stepping_in:", 0) == 0; });
@@ -825,10 +831,7 @@ TEST(MotionQualityShipped, AFootTheSourceStandsFlatOnIsDrawnOnTheFloor) {
   // leg, so the held foot floated flat, both feet off the floor for 0.7 s. The heel's rise now
   // comes from the mocap's own ankle (MkmFrame::ankle_lift_n). Judged on the BVH read back.
   const auto& set = kumite::content::testing::shipped_database();
-  const auto rigs = kumite::content::testing::shipped_characters();
-  const Rig& bruno = rigs[1];
-  ASSERT_EQ(bruno.name, "bruno");
-  const StrikeRecording rec = record_strike(set.db, bruno, OrderKind::kick_right, Vector3d(0.0422, 1.3364, 0.8039));
+  const StrikeRecording rec = record_shipped("bruno", OrderKind::kick_right, Vector3d(0.0422, 1.3364, 0.8039));
   ASSERT_GE(rec.contact_frame, 0);
   const Judged judged(*set.db, rec, OrderKind::kick_right, "bruno");
   const StrikeQuality& q = judged.q;
@@ -850,10 +853,7 @@ TEST(MotionQualityShipped, ALungeAfterSteppingInKeepsItsBackFootOnTheFloor) {
   // ahead of where the lunge holds it, was out of reach: it stepped back and forth in the air
   // (both feet off for 0.45 s where the source stands). No step begins while a strike is planned.
   const auto& set = kumite::content::testing::shipped_database();
-  const auto rigs = kumite::content::testing::shipped_characters();
-  const Rig& kenji = rigs[2];
-  ASSERT_EQ(kenji.name, "kenji");
-  const StrikeRecording rec = record_strike(set.db, kenji, OrderKind::punch_left, Vector3d(0.1121, 1.5834, 0.7701));
+  const StrikeRecording rec = record_shipped("kenji", OrderKind::punch_left, Vector3d(0.1121, 1.5834, 0.7701));
   ASSERT_GE(rec.contact_frame, 0);
   const auto stepped_in = std::count_if(rec.events.begin(), rec.events.end(), [](const std::string& e) { return e.rfind("stepping_in", 0) == 0; });
   EXPECT_EQ(stepped_in, 1);
@@ -872,10 +872,7 @@ TEST(MotionQualityShipped, ToesStayAboveTheFloorWhenTheFootPitches) {
   // decoded height: the toes went 8.7 cm through the floor. The held ankle now rises at least
   // as far as keeps the toes on the floor at the pitch drawn.
   const auto& set = kumite::content::testing::shipped_database();
-  const auto rigs = kumite::content::testing::shipped_characters();
-  const Rig& viktor = rigs[4];
-  ASSERT_EQ(viktor.name, "viktor");
-  const StrikeRecording rec = record_strike(set.db, viktor, OrderKind::punch_right, Vector3d(-0.1099, 1.7192, 1.0550));
+  const StrikeRecording rec = record_shipped("viktor", OrderKind::punch_right, Vector3d(-0.1099, 1.7192, 1.0550));
   ASSERT_GE(rec.contact_frame, 0);
   const Judged judged(*set.db, rec, OrderKind::punch_right, "viktor");
   std::printf("%s%s: toes below standing %.3f m\n", rec.source_clip.c_str(), rec.mirrored ? " mirrored" : "",
@@ -887,13 +884,10 @@ TEST(MotionQualityShipped, AKickAfterSteppingInSetsItsSupportFootAfterTheStepIn)
   // Aiko's left kick from the grid (HDM_bd_001): a support step, then a 14 cm step-in whose
   // steps put the support foot back into the rest stance, then the kick planned while a foot
   // was still stepping: no support step, the support foot 38 cm behind where the clip stands
-  // on it, caught up in a hop (both feet off 118 frames, 0.98 s; the source 0.33 s). The kick
-  // now waits for the feet to stand and sets its support foot again.
+  // on it, caught up in a hop (both feet off 118 frames, 0.98 s; the source 0.33 s). No step
+  // begins now while a strike is planned, and the kick sets its support foot again.
   const auto& set = kumite::content::testing::shipped_database();
-  const auto rigs = kumite::content::testing::shipped_characters();
-  const Rig& aiko = rigs[0];
-  ASSERT_EQ(aiko.name, "aiko");
-  const StrikeRecording rec = record_strike(set.db, aiko, OrderKind::kick_left, Vector3d(0.09013, 1.06042, 0.95431));
+  const StrikeRecording rec = record_shipped("aiko", OrderKind::kick_left, Vector3d(0.09013, 1.06042, 0.95431));
   ASSERT_GE(rec.contact_frame, 0);
   int last_step_in = -1, last_support = -1;
   for (std::size_t i = 0; i < rec.events.size(); ++i) {
@@ -920,10 +914,7 @@ TEST(MotionQualityShipped, AKickingFootStillUpAtItsSegmentsEndIsNotHeldInTheAir)
   // toes. The support foot then stepped back into the rest stance: both feet off 0.22 s where
   // the source has none. A heel rises now only as far as the foot's pitch keeps its toes down.
   const auto& set = kumite::content::testing::shipped_database();
-  const auto rigs = kumite::content::testing::shipped_characters();
-  const Rig& viktor = rigs[4];
-  ASSERT_EQ(viktor.name, "viktor");
-  const StrikeRecording rec = record_strike(set.db, viktor, OrderKind::kick_right, Vector3d(0.04058, 1.26918, 0.77363));
+  const StrikeRecording rec = record_shipped("viktor", OrderKind::kick_right, Vector3d(0.04058, 1.26918, 0.77363));
   ASSERT_GE(rec.contact_frame, 0);
   const Judged judged(*set.db, rec, OrderKind::kick_right, "viktor");
   const StrikeQuality& q = judged.q;
