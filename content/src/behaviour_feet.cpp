@@ -115,7 +115,16 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     }
     f.hip_m = rig_positions_[hip];
     f.leg_length_m = rig.morphology.limb_leg_length(s);
-    f.standing_ankle_y_m = at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle).y() - rest_floor_y(rig);
+    {
+      // Each foot's floor where it stands flat on its own toes (the rest pose's straight legs
+      // hold a shorter leg's foot that much up: the left foot stood 1.6 cm above the floor).
+      const Vector3d rest_ankle = at(rig.rest_pose, s == kLeft ? CJ::l_ankle : CJ::r_ankle);
+      const Vector3d rest_toe = at(rig.rest_pose, s == kLeft ? CJ::l_toe : CJ::r_toe);
+      const double own_floor = rest_toe.allFinite() ? std::min(rest_ankle.y(), rest_toe.y()) : rest_ankle.y();
+      constexpr double kMostShortLeg_m = 0.05;  // m: a foot standing higher at rest is a rig's, not a leg's
+      f.standing_ankle_y_m = rest_ankle.y() - std::min(own_floor, rest_floor_y(rig) + kMostShortLeg_m);
+      f.short_leg_m = rest_ankle.y() - rest_floor_y(rig) - f.standing_ankle_y_m;
+    }
     f.reached = report_.foot_reached[us];
     // A heel the source raises, as the mocap itself has it (its ankle above its own lowest, in
     // leg lengths): the ankle decoded on this body stood 6-7 cm up on a kick's straight support

@@ -90,7 +90,17 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
   const bool must_step[2] = {must(0), must(1)};
   for (int s = 0; s < 2; ++s) {
     Foot& f = feet_[static_cast<std::size_t>(s)];
-    const FootSample& in = samples[static_cast<std::size_t>(s)];
+    // A short leg's foot stands on the floor, raised (up to short_leg_m) only where the leg,
+    // at the stretch it may have, does not reach down to it from the hip as drawn.
+    FootSample in = samples[static_cast<std::size_t>(s)];
+    if (in.short_leg_m > 0) {
+      const Vector3d& at = f.phase == Phase::held ? f.lock : in.drawn_ankle_m;
+      const double motion_stretch = (in.free_ankle_m - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
+      const double reach = allowed_leg_stretch(tun_.max_leg_stretch, motion_stretch) * in.leg_length_m;
+      const double horiz = Eigen::Vector2d(at.x() - in.hip_m.x(), at.z() - in.hip_m.z()).norm();
+      const double lowest = horiz < reach ? in.hip_m.y() - std::sqrt(reach * reach - horiz * horiz) : in.hip_m.y();
+      in.standing_ankle_y_m += std::clamp(lowest - (in.standing_ankle_y_m + in.source_lift_m), 0.0, in.short_leg_m);
+    }
     const Foot& other = feet_[static_cast<std::size_t>(1 - s)];
     f.wants_step = false;
     const Vector3d lock_before = f.lock;

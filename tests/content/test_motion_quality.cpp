@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -921,4 +922,39 @@ TEST(MotionQualityShipped, AKickingFootStillUpAtItsSegmentsEndIsNotHeldInTheAir)
   std::printf("%s%s: both feet off %.3f s (source %.3f s at rate %.2f)\n", rec.source_clip.c_str(), rec.mirrored ? " mirrored" : "",
               q.output_both_feet_off_s, q.source_both_feet_off_s, rec.strike.rate);
   EXPECT_LE(q.both_feet_off_excess_s, 0.05);
+}
+
+TEST(MotionQualityShipped, AShorterLegStandsItsFootOnTheFloorAsTheOtherDoes) {
+  // Every character's left leg is 1.5-1.9 cm shorter than its right (as the CMU 135 actor's
+  // they are made from), and the foot planter took each foot's floor from the rest pose's
+  // straight legs: the left foot was held 1.5 cm above the floor, and a kick standing on it
+  // (aiko's right kick, HDM_bk_010 mirrored) had both feet off the floor for 0.18 s where the
+  // source has none. Each foot's floor is now where it stands flat on its own toes, raised
+  // only where the straight leg does not reach down to it. Judged on the BVH read back: a
+  // still foot's toes (horizontal speed under 0.1 m/s) stand as high on the left as on the right.
+  const auto& set = kumite::content::testing::shipped_database();
+  const StrikeRecording rec = record_shipped("aiko", OrderKind::kick_right, Vector3d(-0.1238, 1.06042, 0.78954));
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::kick_right, "aiko");
+  const JointTrack& out = judged.out;
+  std::array<std::vector<double>, 2> still;
+  for (int side = 0; side < 2; ++side) {
+    const int toe = judged.back.skeleton.index(side == kLeft ? CJ::l_toe : CJ::r_toe);
+    ASSERT_GE(toe, 0);
+    for (int f = 1; f < out.frame_count; ++f) {
+      const Vector3d d = out.at(f, toe) - out.at(f - 1, toe);
+      if (std::hypot(d.x(), d.z()) / out.frame_time_s < 0.1) still[static_cast<std::size_t>(side)].push_back(out.at(f, toe).y());
+    }
+  }
+  ASSERT_GT(still[0].size(), 20u);
+  ASSERT_GT(still[1].size(), 20u);
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double left = median(still[0]), right = median(still[1]);
+  std::printf("%s%s: still toes left %.4f right %.4f m; both feet off %.3f s (source %.3f s)\n", rec.source_clip.c_str(),
+              rec.mirrored ? " mirrored" : "", left, right, judged.q.output_both_feet_off_s, judged.q.source_both_feet_off_s);
+  EXPECT_NEAR(left, right, 0.005);  // was 1.6 cm apart
+  EXPECT_LE(judged.q.both_feet_off_excess_s, 0.05);
 }

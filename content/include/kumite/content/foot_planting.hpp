@@ -47,6 +47,11 @@ struct FootSample {
   Eigen::Vector3d hip_m{0, 0, 0};          ///< m, room: the hip drawn at the last update
   double leg_length_m = 1;         ///< m, thigh + shin
   double standing_ankle_y_m = 0.08;  ///< m, the ankle's height above the floor when standing
+  /// m: how much higher than standing_ankle_y_m this ankle may be held where the leg does not
+  /// reach the floor (straight at max_leg_stretch or the motion's own stretch): a leg shorter
+  /// than the other (every character's left, by 1.5-1.9 cm, as the CMU 135 actor's) stands
+  /// its foot flat on the floor with the knee bent, and only as high as it must where straight.
+  double short_leg_m = 0;
   /// m: how far the motion has this ankle above its standing height while the foot is in
   /// contact (a heel raised onto the toes, as the back foot of a lunge): a held foot's ankle
   /// rises and comes down with it, instead of the pelvis dropping to keep a flat foot.
