@@ -120,6 +120,8 @@ std::string format_annotations(const AnnotationSet& set) {
   out += "# height (strikes, optional): low | mid | high, the hit point above the floor at hit_frame\n";
   out += "# relative to the actor's stature (low < 0.55, high >= 0.81; content/README.md).\n";
   out += "# peak_speed_mps (m/s) and extension (1 = limb straight) are informational.\n";
+  out += "# repair_frames = [a, b] (optional): frames where the capture glitched, rebuilt at build time by\n";
+  out += "# interpolating each joint between frames a - 1 and b + 1 (inside the segment, at most 8 frames).\n";
   out += fmt::format("version = {}\n", set.version);
   for (const ClipAnnotation& c : set.clips) {
     out += "\n[[clip]]\n";
@@ -134,6 +136,7 @@ std::string format_annotations(const AnnotationSet& set) {
       if (m.hit_segment) out += fmt::format("hit_segment = \"{}\"\n", to_string(*m.hit_segment));
       if (m.hit_frame) out += fmt::format("hit_frame = {}\n", *m.hit_frame);
       if (m.height) out += fmt::format("height = \"{}\"\n", to_string(*m.height));
+      if (m.repair_frames) out += fmt::format("repair_frames = [{}, {}]\n", (*m.repair_frames)[0], (*m.repair_frames)[1]);
       if (!m.note.empty()) out += fmt::format("note = {}\n", toml_string(m.note));
       // Informational, so rounded for people; a value that rounds to zero is left out as a zero
       // is (found by fuzz_motions: 0.004 m/s was written "0.00", which reads back as none, so a

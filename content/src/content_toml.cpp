@@ -79,7 +79,7 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
                               std::set<std::string>& names) {
   const Table m(t, source, prefix, "annotation");
   m.only({"name", "semantics", "frames", "hit_segment", "hit_frame", "height", "note", "peak_speed_mps",
-          "extension"});
+          "extension", "repair_frames"});
   MotionAnnotation a;
   a.line = m.line();
   a.name = m.string("name");
@@ -132,6 +132,19 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
   // reader then refused: found by fuzz_motions).
   a.peak_speed_mps = m.opt_number("peak_speed_mps", {0, 100, "m/s"}).value_or(0);
   a.extension = m.opt_number("extension", {0, 2}).value_or(0);
+  if (const toml::array* r = m.opt_array("repair_frames")) {
+    if (r->size() != 2 || !(*r)[0].is_integer() || !(*r)[1].is_integer()) m.fail("type", "repair_frames", "must be [first, last] (two integers)");
+    const int64_t ra = *(*r)[0].value<int64_t>(), rb = *(*r)[1].value<int64_t>();
+    if (ra <= a.first_frame || rb >= a.last_frame || rb < ra) {
+      m.fail("range", "repair_frames",
+             fmt::format("[{}, {}] must lie inside frames [{}, {}], not on their first or last (the frames around it are interpolated)",
+                         ra, rb, a.first_frame, a.last_frame));
+    }
+    if (rb - ra + 1 > kMaxRepairFrames) {
+      m.fail("range", "repair_frames", fmt::format("[{}, {}] rebuilds {} frames: at most {} (a glitch, not a motion)", ra, rb, rb - ra + 1, kMaxRepairFrames));
+    }
+    a.repair_frames = std::array<int, 2>{static_cast<int>(ra), static_cast<int>(rb)};
+  }
   return a;
 }
 

@@ -96,6 +96,25 @@ double lowest_foot(const std::vector<CanonicalPose>& poses) {
   return lo;
 }
 
+// A capture glitch (SegmentSource::repair_frames): each joint's position over the frames
+// interpolated between the good frames either side of them.
+void repair_glitch(const SegmentSource& src, std::vector<CanonicalPose>& poses) {
+  if (!src.repair_frames) return;
+  const int a = (*src.repair_frames)[0] - src.first_frame, b = (*src.repair_frames)[1] - src.first_frame;
+  if (a < 1 || b < a || b + 1 >= static_cast<int>(poses.size()) || b - a + 1 > kMaxRepairFrames) {
+    throw Error("database", "annotation",
+                fmt::format("{}: repair_frames [{}, {}] must lie inside frames [{}, {}], not on their first or last", src.name,
+                            (*src.repair_frames)[0], (*src.repair_frames)[1], src.first_frame, src.last_frame));
+  }
+  const CanonicalPose& before = poses[static_cast<std::size_t>(a - 1)];
+  const CanonicalPose& after = poses[static_cast<std::size_t>(b + 1)];
+  for (int f = a; f <= b; ++f) {
+    const double u = static_cast<double>(f - a + 1) / (b - a + 2);
+    CanonicalPose& p = poses[static_cast<std::size_t>(f)];
+    for (std::size_t j = 0; j < p.size(); ++j) p[j] = (1 - u) * before[j] + u * after[j];
+  }
+}
+
 void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPose> poses,
                  const Morphology& m, bool mirrored, const BuildOptions& o) {
   const Clip& clip = *src.clip;
@@ -340,6 +359,7 @@ std::vector<SegmentSource> segment_sources(const AnnotationSet& set, const std::
       s.first_frame = m.first_frame;
       s.last_frame = m.last_frame;
       s.mirror = set.clips[c].mirror;
+      s.repair_frames = m.repair_frames;
       switch (m.semantics) {
         case Semantics::punch:
         case Semantics::kick:
@@ -370,7 +390,8 @@ Database build_database(std::span<const SegmentSource> sources, const BuildOptio
     const SegmentSource& src = sources[i];
     if (o.progress) o.progress(src.name, static_cast<double>(i) / static_cast<double>(sources.size()));
     const Morphology m = skeleton_morphology(src.clip->skeleton, src.clip->name);
-    const auto poses = clip_poses(*src.clip, src.first_frame, src.last_frame);
+    auto poses = clip_poses(*src.clip, src.first_frame, src.last_frame);
+    repair_glitch(src, poses);
     add_segment(db, src, poses, m, false, o);
     if (o.mirror && src.mirror) {
       std::vector<CanonicalPose> mirrored(poses.size());

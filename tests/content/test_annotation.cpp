@@ -82,6 +82,7 @@ TEST(Annotation, RoundTrip) {
   k.note = "front kick \"mae-geri\"";
   k.peak_speed_mps = 9.75;
   k.extension = 0.945;
+  k.repair_frames = std::array<int, 2>{376, 377};
   MotionAnnotation r;
   r.name = "135_04_rest_1";
   r.semantics = Semantics::rest;
@@ -106,6 +107,8 @@ TEST(Annotation, RoundTrip) {
   EXPECT_EQ(bk.note, k.note);
   EXPECT_DOUBLE_EQ(bk.peak_speed_mps, 9.75);
   EXPECT_DOUBLE_EQ(bk.extension, 0.945);
+  EXPECT_EQ(bk.repair_frames, k.repair_frames);
+  EXPECT_FALSE(back.clips[0].motions[1].repair_frames);
   EXPECT_GT(bk.line, 0);
   EXPECT_FALSE(back.clips[0].motions[1].hit_frame);
   EXPECT_FALSE(back.clips[0].motions[1].height);
@@ -152,7 +155,14 @@ TEST(Annotation, SchemaErrorsNameFileLineKey) {
             "m.toml:7: clip[0].motion[0].frames: [9, 1] must satisfy 0 <= first <= last");
   EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\nspeed = 3\n"),
             "m.toml:8: clip[0].motion[0].speed: unknown key (allowed here: name, semantics, frames, "
-            "hit_segment, hit_frame, height, note, peak_speed_mps, extension)");
+            "hit_segment, hit_frame, height, note, peak_speed_mps, extension, repair_frames)");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\nrepair_frames = [1, 2]\n"),
+            "m.toml:8: clip[0].motion[0].repair_frames: [1, 2] must lie inside frames [1, 9], not on their first or last "
+            "(the frames around it are interpolated)");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 90]\nrepair_frames = [10, 19]\n"),
+            "m.toml:8: clip[0].motion[0].repair_frames: [10, 19] rebuilds 10 frames: at most 8 (a glitch, not a motion)");
+  EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 90]\nrepair_frames = [10]\n"),
+            "m.toml:8: clip[0].motion[0].repair_frames: must be [first, last] (two integers)");
   EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\n[[clip.motion]]\nname = \"k\"\n"
                                        "semantics = \"rest\"\nframes = [1, 9]\n"),
             "m.toml:9: clip[0].motion[1].name: motion name 'k' is used twice");

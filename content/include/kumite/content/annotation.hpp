@@ -25,6 +25,7 @@
 //
 // Errors name file, line and key: "motions.toml:14: clip[0].motion[2].hit_frame: 1500 is
 // outside the clip (frames 0..1315)".
+#include <array>
 #include <filesystem>
 #include <optional>
 #include <span>
@@ -72,6 +73,9 @@ CanonicalJoint limb_root(HitSegment s);
 bool is_left(HitSegment s);
 bool is_hand(HitSegment s);
 
+/// The most frames one `repair_frames` range may rebuild (a glitch, not a motion).
+inline constexpr int kMaxRepairFrames = 8;
+
 struct MotionAnnotation {
   std::string name;                       ///< unique id, e.g. "135_04_kick_right_1"
   Semantics semantics = Semantics::other;
@@ -83,6 +87,11 @@ struct MotionAnnotation {
   std::string note;                       ///< free text for people
   double peak_speed_mps = 0;              ///< m/s, informational: hit point's peak speed (0 = unknown)
   double extension = 0;                   ///< 1, informational: limb length fraction at the hit (0 = unknown)
+  /// Frames [a, b] (clip frames, inclusive, inside the segment and not its first or last) where
+  /// the capture glitched (a joint jumps and comes back: HDM05's tr actor's kicking foot 8-10 cm
+  /// up for two frames at the top of the kick): the database rebuilds them, each joint's
+  /// position interpolated between frames a - 1 and b + 1. At most kMaxRepairFrames frames.
+  std::optional<std::array<int, 2>> repair_frames;
   int line = 0;                           ///< line in the TOML file (0 = not from a file)
 };
 

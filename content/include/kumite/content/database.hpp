@@ -7,6 +7,7 @@
 //
 // File (.kdb): "KUMITEDB", u32 format version, then the payload (little-endian, counts
 // before arrays), then a u64 FNV-1a checksum of everything before it. Written atomically.
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -41,6 +42,9 @@ struct SegmentSource {
   int hit_frame = -1;            ///< strikes: clip frame of the hit
   std::optional<StrikeHeight> height = std::nullopt;  ///< strikes: where it lands (motions.toml `height`), when annotated
   bool mirror = true;            ///< also add the left/right mirrored copy (BuildOptions::mirror too)
+  /// Clip frames [a, b] inside (first_frame, last_frame) rebuilt by interpolating each joint's
+  /// position between frames a - 1 and b + 1 (motions.toml `repair_frames`: a capture glitch).
+  std::optional<std::array<int, 2>> repair_frames;
 };
 
 struct AnnotationSet;
