@@ -64,8 +64,8 @@ void run_detect_bench(benchmark::State& state, DetectorOptions opt) {
   for (std::size_t i = 0; i < d.size(); ++i) {
     const cv::Point3d o = b.corner_point(d.corner_ids[i]);
     const cv::Point2d truth = syn::project(cam, pose.R * cv::Vec3d(o.x, o.y, o.z) + pose.t);
-    const cv::Point2d e = cv::Point2d(d.image_points[i]) - truth;
-    sum2 += e.dot(e);
+    const cv::Point2d err = cv::Point2d(d.image_points[i]) - truth;
+    sum2 += err.dot(err);
   }
   state.counters["corner_rms_px"] = d.empty() ? 0. : std::sqrt(sum2 / static_cast<double>(d.size()));
   cv::setNumThreads(-1);

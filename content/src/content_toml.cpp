@@ -131,7 +131,7 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
   // twice its length is a damaged file (1e281 read, written back as a 282-digit literal the
   // reader then refused: found by fuzz_motions).
   a.peak_speed_mps = m.opt_number("peak_speed_mps", {0, 100, "m/s"}).value_or(0);
-  a.extension = m.opt_number("extension", {0, 2}).value_or(0);
+  a.extension = m.opt_number("extension", {0, 2, ""}).value_or(0);
   if (const toml::array* r = m.opt_array("repair_frames")) {
     if (r->size() != 2 || !(*r)[0].is_integer() || !(*r)[1].is_integer()) m.fail("type", "repair_frames", "must be [first, last] (two integers)");
     const int64_t ra = *(*r)[0].value<int64_t>(), rb = *(*r)[1].value<int64_t>();

@@ -91,7 +91,7 @@ struct MotionAnnotation {
   /// the capture glitched (a joint jumps and comes back: HDM05's tr actor's kicking foot 8-10 cm
   /// up for two frames at the top of the kick): the database rebuilds them, each joint's
   /// position interpolated between frames a - 1 and b + 1. At most kMaxRepairFrames frames.
-  std::optional<std::array<int, 2>> repair_frames;
+  std::optional<std::array<int, 2>> repair_frames = std::nullopt;
   int line = 0;                           ///< line in the TOML file (0 = not from a file)
 };
 

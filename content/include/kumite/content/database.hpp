@@ -44,7 +44,7 @@ struct SegmentSource {
   bool mirror = true;            ///< also add the left/right mirrored copy (BuildOptions::mirror too)
   /// Clip frames [a, b] inside (first_frame, last_frame) rebuilt by interpolating each joint's
   /// position between frames a - 1 and b + 1 (motions.toml `repair_frames`: a capture glitch).
-  std::optional<std::array<int, 2>> repair_frames;
+  std::optional<std::array<int, 2>> repair_frames = std::nullopt;
 };
 
 struct AnnotationSet;
