@@ -259,6 +259,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           // ours, and bring it down while ours still has its whole way to go).
           if (f.swing_way_m > 1e-6) {
             const double way_left = Eigen::Vector2d(in.landing_ankle_m.x() - f.lock.x(), in.landing_ankle_m.z() - f.lock.z()).norm();
+            const double progress_before = f.swing_progress;
             f.swing_progress = std::max(f.swing_progress, std::clamp(1 - way_left / f.swing_way_m, 0.0, 1.0));
             // Up off the floor over the first sixth of the way, down over the second half (a
             // sine over the whole way left a foot the source lifts mid-stride 1.2 cm up after
@@ -270,6 +271,12 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
             // its way short, went 3.9 cm up in one frame on a straight leg: the knee 9.7 cm).
             const double want = in.standing_ankle_y_m + lift;
             if (want > f.lock.y()) f.lock.y() = std::min(want, std::max(f.lock.y(), lock_before.y() + kSwingRise_mps * dt));
+            // Down over the second half with the source: height carried above the source's
+            // foot (and above the lift) is shed by the landing as the way is, so the foot lands
+            // when the source's does.
+            const double above = f.lock.y() - std::max(in.free_ankle_m.y(), want);
+            if (progress_before >= 0.5 && progress_before < 1 && above > 0)
+              f.lock.y() -= above * std::clamp((f.swing_progress - progress_before) / (1 - progress_before), 0.0, 1.0);
           }
           f.offset = f.lock - in.free_ankle_m;
           break;

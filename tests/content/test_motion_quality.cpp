@@ -958,3 +958,19 @@ TEST(MotionQualityShipped, AShorterLegStandsItsFootOnTheFloorAsTheOtherDoes) {
   EXPECT_NEAR(left, right, 0.005);  // was 1.6 cm apart
   EXPECT_LE(judged.q.both_feet_off_excess_s, 0.05);
 }
+
+TEST(MotionQualityShipped, ASteppingFootComesDownWithTheSourcesOverTheSecondHalfOfItsWay) {
+  // Bruno's left lunge punch (135_06, kata move 16) at a head-height target: the lunging foot,
+  // lifted over its way at least swing_lift_m and carried down only as fast as the source's
+  // own foot, was still 9.5 cm up at contact where the source's is 4 cm (bruno is larger), and
+  // came down at landing speed after the source had landed it, while the back foot already
+  // stepped: both feet off 0.11 s where the source has none. Over the second half of its way
+  // the height it carries above the source's foot is now shed by the landing.
+  const auto& set = kumite::content::testing::shipped_database();
+  const StrikeRecording rec = record_shipped("bruno", OrderKind::punch_left, Vector3d(-0.0943, 1.7864, 0.83636));
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::punch_left, "bruno");
+  std::printf("%s%s: both feet off %.3f s (source %.3f s at rate %.2f)\n", rec.source_clip.c_str(), rec.mirrored ? " mirrored" : "",
+              judged.q.output_both_feet_off_s, judged.q.source_both_feet_off_s, rec.strike.rate);
+  EXPECT_LE(judged.q.both_feet_off_excess_s, 0.08);  // was 0.108
+}
