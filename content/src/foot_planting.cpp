@@ -248,13 +248,20 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           // at most max_swing_speed_ratio x the source's own speed.
           Vector3d to = in.landing_ankle_m - f.lock;
           to.y() = 0;
-          if (f.swing_way_m < 0) f.swing_way_m = to.norm();
+          if (f.swing_way_m < 0) {
+            f.swing_way_m = to.norm();
+            f.follow_y = f.lock.y();
+          }
           Vector3d move = to * std::min(1.0, step_h / path);
           const double cap = tun_.max_swing_speed_ratio * step_h;
           if (move.norm() > cap) move *= cap / move.norm();
           f.lock += move;
-          f.lock.y() += in.source_step_m.y();
-          f.lock.y() = std::max(f.lock.y(), std::min(in.standing_ankle_y_m, in.free_ankle_m.y()));
+          // The height follows the source's own; the lift below is a floor above it, never
+          // added to it (the source's rise followed on top of a lifted foot put bruno's support
+          // foot, which the source slides forward under a 135_07 kick, 5.4 cm up for 4.3).
+          f.follow_y += in.source_step_m.y();
+          f.follow_y = std::max(f.follow_y, std::min(in.standing_ankle_y_m, in.free_ankle_m.y()));
+          f.lock.y() = f.follow_y;
           // Clear the floor over the way (the source may start this foot mid-air, higher than
           // ours, and bring it down while ours still has its whole way to go).
           if (f.swing_way_m > 1e-6) {
@@ -270,13 +277,13 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
             // ...rising no faster than kSwingRise_mps (a foot lifted again just after it landed,
             // its way short, went 3.9 cm up in one frame on a straight leg: the knee 9.7 cm).
             const double want = in.standing_ankle_y_m + lift;
-            if (want > f.lock.y()) f.lock.y() = std::min(want, std::max(f.lock.y(), lock_before.y() + kSwingRise_mps * dt));
             // Down over the second half with the source: height carried above the source's
-            // foot (and above the lift) is shed by the landing as the way is, so the foot lands
-            // when the source's does.
-            const double above = f.lock.y() - std::max(in.free_ankle_m.y(), want);
+            // foot is shed by the landing as the way is, so the foot lands when the source's does.
+            const double above = f.follow_y - std::max(in.free_ankle_m.y(), in.standing_ankle_y_m);
             if (progress_before >= 0.5 && progress_before < 1 && above > 0)
-              f.lock.y() -= above * std::clamp((f.swing_progress - progress_before) / (1 - progress_before), 0.0, 1.0);
+              f.follow_y -= above * std::clamp((f.swing_progress - progress_before) / (1 - progress_before), 0.0, 1.0);
+            f.lock.y() = f.follow_y;
+            if (want > f.lock.y()) f.lock.y() = std::min(want, std::max(f.lock.y(), lock_before.y() + kSwingRise_mps * dt));
           }
           f.offset = f.lock - in.free_ankle_m;
           break;

@@ -974,3 +974,26 @@ TEST(MotionQualityShipped, ASteppingFootComesDownWithTheSourcesOverTheSecondHalf
               judged.q.output_both_feet_off_s, judged.q.source_both_feet_off_s, rec.strike.rate);
   EXPECT_LE(judged.q.both_feet_off_excess_s, 0.08);  // was 0.108
 }
+
+TEST(MotionQualityShipped, AFootTheSourceSlidesIsLiftedNoHigherThanTheSourceLiftsIt) {
+  // Bruno's right front kick (135_07): the source slides its support (left) foot forward under
+  // the kick, 0.4-1.0 m/s with the ankle ~4 cm up, so its contacts have that foot lifted and
+  // ours follows it as a swing to its landing. The swing's lift floor (swing_lift_m, at most a
+  // quarter of its way) was applied on top of the source's rise already followed (the ankle
+  // 5.4 cm above where it stood, the source's, scaled to bruno, ~4.3). The lift is now a floor
+  // above the height the source gives the foot, never added to it. Read back from the BVH: the
+  // support ankle's highest over the strike above its height at frame 0 (the rest decode's,
+  // ~1 cm below where the foot is then held): 6.2 cm before, 5.2 now.
+  const auto& set = kumite::content::testing::shipped_database();
+  const StrikeRecording rec = record_shipped("bruno", OrderKind::kick_right, Vector3d(-0.02987, 1.3364, 1.16116));
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::kick_right, "bruno");
+  const int ankle = judged.back.skeleton.index(CJ::l_ankle);
+  ASSERT_GE(ankle, 0);
+  double rise = 0;
+  for (int f = 0; f < judged.out.frame_count; ++f) rise = std::max(rise, judged.out.at(f, ankle).y() - judged.out.at(0, ankle).y());
+  std::printf("%s%s: support ankle up %.1f cm; both feet off %.3f s (source %.3f s)\n", rec.source_clip.c_str(), rec.mirrored ? " mirrored" : "",
+              100 * rise, judged.q.output_both_feet_off_s, judged.q.source_both_feet_off_s);
+  EXPECT_LE(rise, 0.057);                              // was 6.2 cm
+  EXPECT_LE(judged.q.both_feet_off_excess_s, 0.2);     // was 0.27 s
+}

@@ -121,6 +121,7 @@ class FootPlanter {
     double swing_progress = 0;        ///< swinging: share of that way covered, 0..1 (never decreases)
     Eigen::Vector3d swing_from{0, 0, 0};  ///< m, room: swinging: the lock when it was lifted
     double source_rise_m = 0;         ///< m: swinging: how far the source has raised this ankle since then
+    double follow_y = 0;              ///< m: swinging toward a landing: the ankle's height as the source moves it (the lift is a floor above it, not added to it)
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
     bool wants_step = false;          ///< held: lagging or over-stretched at the last update
     Eigen::Vector3d last_move{0, 0, 0};  ///< m: how far the lock moved at the last update
