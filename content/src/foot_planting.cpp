@@ -32,6 +32,12 @@ constexpr double kTakeHold_s = 0.1;
 /// m/s: the most a foot heading for its landing is raised to clear the floor (FootPlanter's
 /// swing lift; the source's own foot may rise faster).
 constexpr double kSwingRise_mps = 1.2;
+/// m: the lowest an ankle at `at`'s place on the floor is reached by a leg `reach` long from
+/// `hip` (both m, room), or `out_of_reach` where it is farther than that along the floor.
+double lowest_reached_y(const Vector3d& hip, const Vector3d& at, double reach, double out_of_reach) {
+  const double horiz = Eigen::Vector2d(at.x() - hip.x(), at.z() - hip.z()).norm();
+  return horiz < reach ? hip.y() - std::sqrt(reach * reach - horiz * horiz) : out_of_reach;
+}
 }  // namespace
 
 bool FootPlanter::step_to(int side, const Vector3d& to) {
@@ -93,12 +99,12 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     // A short leg's foot stands on the floor, raised (up to short_leg_m) only where the leg,
     // at the stretch it may have, does not reach down to it from the hip as drawn.
     FootSample in = samples[static_cast<std::size_t>(s)];
+    // How straight the leg may be: max_leg_stretch, or the motion's own leg where straighter.
+    const double motion_stretch = (in.free_ankle_m - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
+    const double max_stretch = allowed_leg_stretch(tun_.max_leg_stretch, motion_stretch);
     if (in.short_leg_m > 0) {
       const Vector3d& at = f.phase == Phase::held ? f.lock : in.drawn_ankle_m;
-      const double motion_stretch = (in.free_ankle_m - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
-      const double reach = allowed_leg_stretch(tun_.max_leg_stretch, motion_stretch) * in.leg_length_m;
-      const double horiz = Eigen::Vector2d(at.x() - in.hip_m.x(), at.z() - in.hip_m.z()).norm();
-      const double lowest = horiz < reach ? in.hip_m.y() - std::sqrt(reach * reach - horiz * horiz) : in.hip_m.y();
+      const double lowest = lowest_reached_y(in.hip_m, at, max_stretch * in.leg_length_m, in.hip_m.y());
       in.standing_ankle_y_m += std::clamp(lowest - (in.standing_ankle_y_m + in.source_lift_m), 0.0, in.short_leg_m);
     }
     const Foot& other = feet_[static_cast<std::size_t>(1 - s)];
@@ -131,9 +137,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         const double fall = std::min(tun_.max_landing_speed_mps * dt, std::max(0.0, -in.source_step_m.y()) + tun_.landing_speed_mps * dt);
         double new_y = f.lock.y() + std::clamp(floor_y - f.lock.y(), -fall, rise);
         if (new_y < f.lock.y()) {
-          const double reach = tun_.max_leg_stretch * in.leg_length_m;
-          const double horiz = Eigen::Vector2d(f.lock.x() - in.hip_m.x(), f.lock.z() - in.hip_m.z()).norm();
-          const double lowest = horiz < reach ? in.hip_m.y() - std::sqrt(reach * reach - horiz * horiz) : f.lock.y();
+          const double lowest = lowest_reached_y(in.hip_m, f.lock, tun_.max_leg_stretch * in.leg_length_m, f.lock.y());
           new_y = std::min(f.lock.y(), std::max(new_y, lowest));
         }
         f.lock.y() = new_y;
@@ -155,10 +159,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         const bool lagging = other.phase != Phase::stepping && out_of_place;
         const double stretch = (f.lock - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
         // Over-stretched beyond max_leg_stretch, or beyond the motion's own leg if the motion
-        // holds it straighter (a front stance's straight back leg is the stance, not a reason
-        // to step the foot in place again and again).
-        const double motion_stretch = (in.free_ankle_m - in.hip_m).norm() / std::max(1e-6, in.leg_length_m);
-        const double max_stretch = allowed_leg_stretch(tun_.max_leg_stretch, motion_stretch);
+        // holds it straighter (max_stretch: a front stance's straight back leg is the stance,
+        // not a reason to step the foot in place again and again).
         f.wants_step = out_of_place || stretch > max_stretch || !in.reached;
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the
