@@ -276,7 +276,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   taking_.clear();
 }
 
-Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, double& shortfall_m) const {
+Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fit) const {
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   const GroundFrame g_char = ground_frame_of(pose_);
   const GroundFrame g_clip = ground_frame_of(seg.frames[static_cast<std::size_t>(plan.start_frame)]);
@@ -287,26 +287,36 @@ Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, double& short
   s.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   s.anchor_xz_m = g_clip.origin_xz;
   align_to_support_foot(s, plan.contact_frame * seg.frame_time_s);
-  shortfall_m = place_strike_travel(s, plan.contact_frame * seg.frame_time_s);
+  fit = place_strike_travel(s, plan.contact_frame * seg.frame_time_s);
   return s;
 }
 
-bool Behaviour::begin_step_in(const StrikePlan& plan, double shortfall_m, Timestamp now) {
-  // Toward the target by the distance missing; at least far enough that the feet step (a
-  // body moved over feet that stay would meet the same limit), at most max_step_in_m, and
-  // never out of the fighter's area ([fighter] min/max x/z): where that leaves less than
-  // step_in_min_m to gain, the strike goes ahead from here (false).
+bool Behaviour::begin_step_in(const StrikePlan& plan, double step_m, Timestamp now) {
+  // Toward the target by the distance missing (or away from it by the distance too near); at
+  // least far enough that the feet step (a body moved over feet that stay would meet the same
+  // limit), at most max_step_in_m (max_step_back_m), and never out of the fighter's area
+  // ([fighter] min/max x/z): where that leaves less than step_in_min_m to gain, the strike
+  // goes ahead from here (false).
   const Vector3d& target = pending_->target_room_m;
   Vector2d dir(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
-  if (dir.norm() < 1e-9) return false;
+  const double apart = dir.norm();
+  if (apart < 1e-9 || step_m == 0) return false;
   dir.normalize();
-  const double d = std::min(std::max(shortfall_m, feet_.tunables().step_threshold_m + 0.02), tun_.max_step_in_m);
+  const bool back = step_m < 0;
+  if (back) dir = -dir;
+  // (back: at least to the distance the fighter keeps from the visitor, strike_distance_m: a
+  // visitor standing inside the fighter's stance is not answered by a half step, whose feet
+  // the strike, placed by its support foot, would land on nearly as near)
+  const double wanted = back ? std::max(-step_m, config_.strike_distance_m - apart) : step_m;
+  const double d = std::min(std::max(wanted, feet_.tunables().step_threshold_m + 0.02),
+                            back ? tun_.max_step_back_m : tun_.max_step_in_m);
   Vector2d goal = spot_xz_m_ + dir * d;
   goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
   goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
   if ((goal - spot_xz_m_).dot(dir) < tun_.step_in_min_m) return false;
   approach_ = Approach{pending_->order, target, goal, 0, 0, plan};
-  FighterEvent& e = emit(FighterEvent::Kind::stepping_in, now, pending_->order, FighterEvent::Reason::none, (goal - spot_xz_m_).norm());
+  FighterEvent& e = emit(back ? FighterEvent::Kind::stepping_back : FighterEvent::Kind::stepping_in, now, pending_->order,
+                         FighterEvent::Reason::none, (goal - spot_xz_m_).norm());
   e.target = target;
   return true;
 }
@@ -715,30 +725,39 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
         emit(FighterEvent::Kind::warning, now, pending_->order, FighterEvent::Reason::no_strike);
       } else {
         strike_target_ = pending_->target_room_m;
-        double shortfall_m = 0;
-        Source s = strike_source(*p, shortfall_m);
-        if (pending_->plan && shortfall_m >= kReplanShortfall_m) {
+        StrikeFit fit;
+        Source s = strike_source(*p, fit);
+        if (pending_->plan && fit.shortfall_m >= kReplanShortfall_m) {
           // Planned anew after stepping in and still far short (another window, whose lunge
           // the feet the step left hold back): the strike it stepped in for, if that falls
           // shorter from here.
-          double old_shortfall_m = 0;
-          const Source old = strike_source(*pending_->plan, old_shortfall_m);
-          if (old_shortfall_m < shortfall_m) {
+          StrikeFit old_fit;
+          const Source old = strike_source(*pending_->plan, old_fit);
+          if (old_fit.shortfall_m < fit.shortfall_m) {
             const std::uint64_t id = p->id;
             *p = *pending_->plan;
             p->id = id;
             s = old;
-            shortfall_m = old_shortfall_m;
+            fit = old_fit;
           }
         }
-        const bool step_in = !pending_->stepped_in && tun_.max_step_in_m > 0 && shortfall_m >= tun_.step_in_min_m;
-        if (step_in && stance_step_) {
+        // A step first (once per order): in, by the distance the strike falls short; or back,
+        // where the target is so near that the limb would land folded (min_strike_extension),
+        // by as much as brings it to the clip's own extension.
+        double step_m = 0;
+        if (!pending_->stepped_in) {
+          if (tun_.max_step_in_m > 0 && fit.shortfall_m >= tun_.step_in_min_m)
+            step_m = fit.shortfall_m;
+          else if (tun_.max_step_back_m > 0 && fit.extension < tun_.min_strike_extension && fit.too_near_m >= tun_.step_in_min_m)
+            step_m = -fit.too_near_m;
+        }
+        if (step_m != 0 && stance_step_) {
           // Short of its target from mid-step: planned again where the step ends (a step-in
           // measured from here would be walked from there, the wrong way).
           QueuedOrder again{pending_->order, pending_->target_room_m, false, pending_->support_stepped};
           again.after_stance_step = true;
           orders_.insert(orders_.begin(), again);
-        } else if ((!step_in || !begin_step_in(*p, shortfall_m, now)) &&
+        } else if ((step_m == 0 || !begin_step_in(*p, step_m, now)) &&
             (pending_->support_stepped || !begin_support_step(*p, s, now)))
           start_strike(*p, s, now, dt);
       }

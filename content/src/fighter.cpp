@@ -42,6 +42,7 @@ std::string_view to_string(FighterEvent::Kind k) {
     case FighterEvent::Kind::warning: return "warning";
     case FighterEvent::Kind::stepping_in: return "stepping_in";
     case FighterEvent::Kind::support_step: return "support_step";
+    case FighterEvent::Kind::stepping_back: return "stepping_back";
   }
   return "?";
 }
@@ -66,6 +67,10 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
       return fmt::format("character {} ({})", e.order.character + 1, character_name(e.order.character));
     case K::stepping_in:
       return fmt::format("{:.0f} cm in first: the target at ({:.2f}, {:.2f}, {:.2f}) m is beyond the strike's reach from here",
+                         e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
+    case K::stepping_back:
+      return fmt::format("{:.0f} cm back first: the target at ({:.2f}, {:.2f}, {:.2f}) m is too near for the strike to land "
+                         "with its limb extended",
                          e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
     case K::support_step:
       return fmt::format("the {} foot steps {:.0f} cm first, to where the kick stands on it; the target at ({:.2f}, {:.2f}, {:.2f}) m",

@@ -181,7 +181,7 @@ Vector2d Behaviour::strike_travel(const Source& s, double contact_time_s, MkmFra
   return contact_pose.root_xz_m - start_pose.root_xz_m;
 }
 
-double Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
+Behaviour::StrikeFit Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
   // A lunge travels a fixed distance in the clip; the target is nearer or farther. Scale the
   // clip's floor travel up to contact (a shorter or longer lunge: Source::Travel) so that at
   // contact the limb's root (shoulder / hip) is as far from the target as the clip has it from
@@ -189,19 +189,20 @@ double Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
   // instead of folding a straight punch up onto a near head or stretching it to a far one.
   // Clips that hardly travel keep their travel; the pelvis always stays min_contact_distance_m
   // short of the target at contact.
-  // Returns how much farther (m) the limb's root would have to be carried toward the target
-  // for the limb, as extended as captured, to reach it: 0 when it does.
+  // Returns how the limb then lands: how much farther (m) its root would have to be carried
+  // toward the target for the limb, as extended as captured, to reach it (0 when it does), or
+  // how much nearer the target than captured it is, and its extension.
   s.travel = Source::Travel{};
-  if (!strike_target_) return 0;
+  if (!strike_target_) return {};
   Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
-  if (dir.norm() < 1e-6) return 0;
+  if (dir.norm() < 1e-6) return {};
   dir.normalize();
   s.travel.from_s = s.time_s;
   s.travel.contact_s = contact_time_s;
   s.travel.release_s = tun_.release_time_s;
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
   const auto eff = seg.effector();
-  if (!eff) return 0;
+  if (!eff) return {};
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   MkmFrame contact_pose;
   const Vector2d travel2 = strike_travel(s, contact_time_s, contact_pose);
@@ -281,8 +282,9 @@ double Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
     }
   }
   s.travel.scale = 1 + k;
-  const Vector3d u = target - limb_root;
-  return std::max(0.0, u.norm() - reach);
+  const double u = (target - limb_root).norm();
+  const double limb = eff->leg ? rig.morphology.limb_leg_length(eff->side) : rig.morphology.arm_length(eff->side);
+  return StrikeFit{std::max(0.0, u - reach), std::max(0.0, reach - u), u / std::max(1e-6, limb)};
 }
 
 }  // namespace kumite::content

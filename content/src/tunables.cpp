@@ -47,6 +47,8 @@ const std::vector<TunableKey>& fighter_tunable_keys() {
       b("step_in_min_m", "m", 0, 1, &B::step_in_min_m),
       b("max_step_in_m", "m", 0, 2, &B::max_step_in_m),
       b("step_in_speed_mps", "m/s", 0.05, 5, &B::step_in_speed_mps),
+      b("min_strike_extension", "", 0, 0.95, &B::min_strike_extension),
+      b("max_step_back_m", "m", 0, 2, &B::max_step_back_m),
       b("stance_step_min_m", "m", 0, 2, &B::stance_step_min_m),
       b("min_stance_step_scale", "", 0.3, 1, &B::min_stance_step_scale),
       b("max_stance_step_scale", "", 1, 3, &B::max_stance_step_scale),

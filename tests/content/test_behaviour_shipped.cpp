@@ -328,6 +328,65 @@ TEST(BehaviourShipped, AStrikeBeyondTheLungesReachStepsInFirstAndKeepsItsFeet) {
   }
 }
 
+// A punch at a target too near for it (issue 12, item 4: "keep the limb's extension
+// plausible"): kenji's right punch at a crouching visitor's head 0.3 m in front of him. The
+// lunge the database holds for it, shortened all it may be, would land with the arm folded
+// (shoulder to wrist under half the arm's length, as in the scripted bout's 8.8 s order). The
+// fighter steps back first (a stepping_back event), then strikes: measured on the drawn joints
+// at contact, the arm reaches at least 0.6 of its length (shoulder-elbow plus elbow-wrist) and
+// the wrist is ahead of its elbow toward the target; the strike lands within 2 mm of it.
+// With step-backs off (max_step_back_m 0) the same order strikes at once, folded: the figure
+// this test measures does see the fold.
+TEST(BehaviourShipped, AStrikeAtATargetTooNearStepsBackFirstAndLandsWithItsArmExtended) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& kenji = rigs[2];
+  ASSERT_EQ(kenji.name, "kenji");
+  const Vector3d target(0.0, 1.30, 0.30);
+  const int shoulder = kenji.skeleton.index(CJ::r_shoulder), elbow = kenji.skeleton.index(CJ::r_elbow),
+            wrist = kenji.skeleton.index(CJ::r_wrist);
+  for (const double max_step_back : {0.8, 0.0}) {
+    FighterConfig cfg;
+    cfg.home = Vector3d::Zero();
+    cfg.behaviour.max_step_back_m = max_step_back;
+    cfg.min_x_m = cfg.min_z_m = -3;  // room to step back (the default area ends at the home spot's z)
+    cfg.max_x_m = cfg.max_z_m = 3;
+    Behaviour b(set.db, {kenji}, cfg);
+    const double dt = 1.0 / 120;
+    double t = 0;
+    b.update(t, 0, target);  // the rest pose at the origin, the order at once (as kumite-motion strike)
+    b.order_strike(Order{t, OrderKind::punch_right}, target);
+    const int first_update = b.update_count();
+    std::vector<FighterEvent> events;
+    int start_update = -1;
+    double extension = -1, ahead_m = 0;
+    for (int i = 0; i < 600 && extension < 0; ++i) {
+      b.update(t += dt, dt, target);
+      for (auto& e : b.take_events()) events.push_back(e);
+      if (start_update < 0 && b.state() == FighterState::striking) start_update = b.update_count();
+      if (start_update >= 0 && b.strike().contact_done) {  // the contact frame, as drawn
+        const auto at = [&](int j) { return b.rig_positions()[static_cast<std::size_t>(j)]; };
+        const double arm = (at(elbow) - at(shoulder)).norm() + (at(wrist) - at(elbow)).norm();
+        extension = (at(wrist) - at(shoulder)).norm() / arm;
+        ahead_m = (at(wrist) - at(elbow)).dot((target - at(shoulder)).normalized());
+      }
+    }
+    ASSERT_GE(extension, 0) << "max_step_back_m " << max_step_back << ": no contact";
+    const auto back = std::count_if(events.begin(), events.end(), [](const FighterEvent& e) { return e.kind == FighterEvent::Kind::stepping_back; });
+    if (max_step_back > 0) {
+      EXPECT_EQ(back, 1);
+      EXPECT_GT(start_update - first_update, 20) << "the strike starts once the fighter has stepped back";
+      EXPECT_GE(extension, 0.6);
+      EXPECT_GT(ahead_m, 0.02) << "the wrist ahead of its elbow toward the target";
+      EXPECT_LT(b.strike().contact_distance_m, 2e-3);
+    } else {
+      EXPECT_EQ(back, 0);
+      EXPECT_LE(start_update - first_update, 1) << "without step-backs the strike starts on its plan";
+      EXPECT_LT(extension, 0.5) << "the case this test is about: the arm folds where the fighter does not step back";
+    }
+  }
+}
+
 // Following with stance steps cut from the mocap (issue 12, item 3; [fighter.behaviour]
 // stance_step_min_m > 0): a visitor who walks 0.8 m away and stops is followed with one
 // karate step from a `walk` segment of motions.toml (not with procedural steps), its stepping

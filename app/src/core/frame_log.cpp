@@ -87,7 +87,8 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
     if (e.order) ev["order"] = to_string(*e.order);
     if (k < c.frame_events.size() && !c.frame_events[k].empty()) ev["text"] = c.frame_events[k];
     if (is_strike_outcome(e.type) || e.type == EventType::visitor_near_wall || e.type == EventType::visitor_clear ||
-        e.type == EventType::stepping_in || e.type == EventType::support_step)
+        e.type == EventType::stepping_in || e.type == EventType::support_step ||
+        e.type == EventType::stepping_back)
       ev["distance_m"] = e.distance_m;
     if (e.type == EventType::visitor_strike) {
       const VisitorStrike& st = e.strike;

@@ -362,7 +362,7 @@ bool FrameStatesReader::next(FrameData& f) {
         return o;
       };
       for (FrameEvent& e : r.events) {
-        e.type = enum_of(EventType::support_step);
+        e.type = enum_of(EventType::stepping_back);
         const bool has_order = in.u8() != 0;
         const Order order = order_of();
         if (has_order) e.order = order;
@@ -371,7 +371,7 @@ bool FrameStatesReader::next(FrameData& f) {
         e.cause = enum_of(EventCause::visitor);
         content::FighterEvent& g = e.fighter;
         g.time = in.d();
-        g.kind = enum_of(content::FighterEvent::Kind::support_step);
+        g.kind = enum_of(content::FighterEvent::Kind::stepping_back);
         g.order = order_of();
         g.reason = enum_of(content::FighterEvent::Reason::no_strike);
         g.distance_m = in.d();

@@ -90,6 +90,7 @@ FrameEvent to_frame_event(const content::FighterEvent& e, const Order& order, Ti
     case K::warning: f.type = EventType::warning; f.order.reset(); break;
     case K::stepping_in: f.type = EventType::stepping_in; break;
     case K::support_step: f.type = EventType::support_step; break;
+    case K::stepping_back: f.type = EventType::stepping_back; break;
   }
   return f;
 }
@@ -146,6 +147,7 @@ std::string_view to_string(EventType type) {
     case EventType::visitor_strike: return "visitor_strike";
     case EventType::stepping_in: return "stepping_in";
     case EventType::support_step: return "support_step";
+    case EventType::stepping_back: return "stepping_back";
   }
   return "?";
 }
@@ -154,7 +156,7 @@ std::optional<EventType> parse_event_type(std::string_view text) {
   for (const EventType t : {EventType::order, EventType::order_ignored, EventType::hit, EventType::dodged, EventType::miss,
                             EventType::character_changed, EventType::warning, EventType::visitor_near_wall,
                             EventType::visitor_clear, EventType::visitor_strike, EventType::stepping_in,
-                            EventType::support_step})
+                            EventType::support_step, EventType::stepping_back})
     if (to_string(t) == text) return t;
   return std::nullopt;
 }

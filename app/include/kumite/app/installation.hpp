@@ -127,10 +127,12 @@ enum class EventType : std::uint8_t {
   visitor_clear,      ///< back in the room's safe area (tracked, clear of every wall)
   visitor_strike,     ///< the recogniser's event about a strike of the visitor's (FrameEvent::strike)
   stepping_in,        ///< the fighter steps in before a strike whose target it does not reach from where it stands
-  support_step        ///< a kick's support foot steps first to where the kick's clip stands on it
+  support_step,       ///< a kick's support foot steps first to where the kick's clip stands on it
+  stepping_back       ///< the fighter steps back before a strike whose target is too near for its limb to land extended
 };
 /// "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning",
-/// "visitor_near_wall", "visitor_clear", "visitor_strike", "stepping_in", "support_step".
+/// "visitor_near_wall", "visitor_clear", "visitor_strike", "stepping_in", "support_step",
+/// "stepping_back".
 std::string_view to_string(EventType type);
 /// The text form back (reading logs); std::nullopt when it is none of them.
 std::optional<EventType> parse_event_type(std::string_view text);

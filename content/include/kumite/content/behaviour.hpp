@@ -268,23 +268,30 @@ class Behaviour {
   using Source = PlaybackSource;
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
   void start_strike(const StrikePlan& plan, const PlaybackSource& source, Timestamp now, double dt);
-  bool begin_step_in(const StrikePlan& plan, double shortfall_m, Timestamp now);
+  /// How a strike placed by place_strike_travel lands on its target.
+  struct StrikeFit {
+    double shortfall_m = 0;  ///< m the fighter would have to step in for the limb to reach the target as extended as captured
+    double too_near_m = 0;   ///< m the limb's root is nearer the target than the clip has it from its own hit point
+    double extension = 1;    ///< limb root to target over the limb's length at contact (1: straight)
+  };
+  /// A step before the strike: `step_m` > 0 in toward the target, < 0 back from it. False
+  /// (strike from here) where the fighter's area leaves less than step_in_min_m to step.
+  bool begin_step_in(const StrikePlan& plan, double step_m, Timestamp now);
   void update_step_in(double dt);
   /// A kick's support foot stepped to where the clip puts it down, if it stands more than
   /// kick_support_step_m from there (true: the strike waits for the step).
   bool begin_support_step(const StrikePlan& plan, const Source& source, Timestamp now);
   void update_support_step(double dt);
   void apply_strike_rate();
-  /// Places a strike's travel (motion_playback.cpp); returns the distance (m) the fighter
-  /// would have to step in for the limb to reach the target as extended as captured.
-  double place_strike_travel(Source& s, double contact_time_s) const;
+  /// Places a strike's travel (motion_playback.cpp); returns how the limb then lands.
+  StrikeFit place_strike_travel(Source& s, double contact_time_s) const;
   /// The floor travel (m, room) of a strike source's root from its time to contact_time_s, as
   /// placed with its travel as it is (a lunge's: the clip travels at least
   /// min_scaled_travel_m); `contact_pose`: the pose at contact.
   Eigen::Vector2d strike_travel(const Source& s, double contact_time_s, MkmFrame& contact_pose) const;
   /// The strike's source as start_strike() plays it: placed on the character, aligned to the
-  /// support foot, its travel fitted to strike_target_; `shortfall_m`: place_strike_travel's.
-  Source strike_source(const StrikePlan& plan, double& shortfall_m) const;
+  /// support foot, its travel fitted to strike_target_; `fit`: place_strike_travel's.
+  Source strike_source(const StrikePlan& plan, StrikeFit& fit) const;
   void select_character(int index, Timestamp now);
   void sample(const Source& s, MkmFrame& out) const;
   Eigen::Vector2d scaled_travel(const Source& s, const MotionSegment& seg, double t) const;

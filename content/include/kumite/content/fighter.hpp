@@ -55,10 +55,14 @@ struct FighterEvent {
   /// miss: fell short of its target (out of reach) and did not touch the visitor.
   /// stepping_in: an accepted strike's target is beyond what the strike reaches from where
   /// the fighter stands: it steps in by `distance_m` first, then strikes at `target`.
+  /// stepping_back: an accepted strike's target is so near that its limb would arrive folded
+  /// (less extended than min_strike_extension of its length): it steps back by `distance_m`
+  /// first, then strikes at `target`.
   /// support_step: an accepted kick's support foot (the other foot than the order's) steps
   /// `distance_m` to where the kick's clip stands on it first, then the kick strikes at `target`.
   enum class Kind : std::uint8_t {
-    order_accepted, order_ignored, hit, dodged, miss, character_changed, warning, stepping_in, support_step
+    order_accepted, order_ignored, hit, dodged, miss, character_changed, warning, stepping_in, support_step,
+    stepping_back
   };
   /// What an accepted order did, why one was ignored, what a warning is about.
   enum class Reason : std::uint8_t {
@@ -77,7 +81,7 @@ struct FighterEvent {
   Order order{};              ///< the order concerned (a strike's outcome: the strike's)
   Reason reason = Reason::none;
   double distance_m = 0;      ///< hit / dodged / miss: m from the hit point to the visitor's
-                              ///< body surface at contact (0 when touching); stepping_in: m
+                              ///< body surface at contact (0 when touching); stepping_in, stepping_back: m
                               ///< the fighter steps in; support_step: m the support foot steps
   Eigen::Vector3d target{0, 0, 0};  ///< m, room frame: an accepted strike's frozen target
   int segment = -1;           ///< hit / dodged / miss: the database segment played

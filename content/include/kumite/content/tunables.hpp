@@ -81,6 +81,14 @@ struct BehaviourTunables {
   double step_in_min_m = 0.05;
   double max_step_in_m = 0.8;
   double step_in_speed_mps = 1.5;     ///< m/s of the root while stepping in (faster than following)
+  /// A target so near that, with the strike's travel shortened all it may be (min_travel_scale,
+  /// max_support_shift_m), the limb would land less extended than min_strike_extension of its
+  /// length (shoulder or hip to wrist or ankle): a straight punch folded onto the target, its
+  /// wrist by its elbow. The fighter first steps back (at step_in_speed_mps) by as much as
+  /// brings the limb to the clip's own extension at contact, at least step_in_min_m, at most
+  /// max_step_back_m (0: never steps back; the strike lands as folded as it must).
+  double min_strike_extension = 0.5;
+  double max_step_back_m = 0.8;
   /// Following forward or back uses a stance step cut from the mocap (a `walk` segment of
   /// motions.toml: a karate step in stance, its floor travel scaled to the distance within
   /// [min, max]_stance_step_scale, the rest motion or its mirror after, whichever stance the
