@@ -7,6 +7,7 @@ BVH with scripts/judge-bvh.py's own parser and forward kinematics, and judges th
 figures on the source clip over the frames that played.
 
   scripts/judge-strikes.py [--bin build/bin] [--db build/demo/fighter.kdb] [--out DIR] [--quick]
+                           [--tunables FILE]   (kumite-motion --tunables: the fighter's tunables)
 Prints one JSON summary (and writes DIR/grid.json with every strike).
 """
 import json
@@ -35,7 +36,7 @@ def targets(stature, kick, quick):
 
 def main():
     args = sys.argv[1:]
-    opt = {"--bin": "build/bin", "--db": "build/demo/fighter.kdb", "--out": "out/strike-grid"}
+    opt = {"--bin": "build/bin", "--db": "build/demo/fighter.kdb", "--out": "out/strike-grid", "--tunables": ""}
     quick = "--quick" in args
     for k in list(opt):
         if k in args:
@@ -47,8 +48,9 @@ def main():
         for order in ORDERS:
             for i, t in enumerate(targets(stature, order.startswith("kick"), quick)):
                 stem = os.path.join(opt["--out"], f"{name}-{order}-{i:02d}")
-                r = subprocess.run([os.path.join(opt["--bin"], "kumite-motion"), "strike", "--db", opt["--db"], "--character", name,
-                                    "--order", order, "--target", "{:.4f},{:.4f},{:.4f}".format(*t), "--out", stem + ".bvh",
+                tun = ["--tunables", opt["--tunables"]] if opt["--tunables"] else []
+                r = subprocess.run([os.path.join(opt["--bin"], "kumite-motion"), *tun, "strike", "--db", opt["--db"],
+                                    "--character", name, "--order", order, "--target", "{:.4f},{:.4f},{:.4f}".format(*t), "--out", stem + ".bvh",
                                     "--report", stem + ".json"], capture_output=True, text=True)
                 if r.returncode != 0:
                     rows.append({"strike": stem, "error": r.stderr.strip()})

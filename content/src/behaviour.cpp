@@ -655,9 +655,15 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
       recentre_goal_.reset();
     }
   }
-  // Face the visitor.
-  if (dist > 0.05 && !paused_) {
-    const double want = std::atan2(to_head.x(), to_head.y());
+  // Face the visitor; while stepping in or back before a strike, or setting a kick's support
+  // foot, its target (frozen at the order): the strike is planned again facing it once the
+  // feet stand, and a visitor moving meanwhile does not turn the feet into more steps the
+  // strike waits for (or away from where the support foot was set).
+  Vector2d to_face = to_head;
+  if (approach_) to_face = Vector2d(approach_->target_room_m.x(), approach_->target_room_m.z()) - spot_xz_m_;
+  if (support_step_) to_face = Vector2d(support_step_->target_room_m.x(), support_step_->target_room_m.z()) - spot_xz_m_;
+  if (to_face.norm() > 0.05 && !paused_) {
+    const double want = std::atan2(to_face.x(), to_face.y());
     const double turn = std::clamp(wrap(want - facing_rad_), -tun_.turn_speed_rad_s * dt, tun_.turn_speed_rad_s * dt);
     facing_rad_ = wrap(facing_rad_ + turn);
   }

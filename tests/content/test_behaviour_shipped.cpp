@@ -328,6 +328,50 @@ TEST(BehaviourShipped, AStrikeBeyondTheLungesReachStepsInFirstAndKeepsItsFeet) {
   }
 }
 
+// While it steps in before a strike, the fighter faces the strike's target (frozen at the
+// order), not the visitor as tracked: a visitor who moves 0.6 m sideways right after the order
+// neither turns the fighter away from the strike it is about to throw nor turns its feet into
+// more steps the strike must wait for. At the strike's start the fighter faces the target
+// within 5 degrees, and the strike lands on it.
+TEST(BehaviourShipped, AFighterSteppingInFacesTheStrikesTargetNotTheMovingVisitor) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const Rig& kenji = rigs[2];
+  ASSERT_EQ(kenji.name, "kenji");
+  const Vector3d target(0.0374, 1.5834, 0.7125);  // beyond the lunge's reach: steps in (the test above)
+  FighterConfig cfg;
+  cfg.home = Vector3d::Zero();
+  cfg.min_x_m = cfg.min_z_m = -3;
+  cfg.max_x_m = cfg.max_z_m = 3;
+  Behaviour b(set.db, {kenji}, cfg);
+  const double dt = 1.0 / 120;
+  double t = 0;
+  b.update(t, 0, target);
+  for (int i = 0; i < 30; ++i) b.update(t += dt, dt, target);
+  b.order_strike(Order{t, OrderKind::punch_left}, target);
+  const double t_order = t;
+  std::vector<FighterEvent> events;
+  double off_deg = -1;
+  for (int i = 0; i < 600 && !b.strike().contact_done; ++i) {
+    t += dt;
+    // The visitor steps 0.6 m to the fighter's left over 0.3 s after the order, and stays.
+    const double u = std::clamp((t - t_order) / 0.3, 0.0, 1.0);
+    const Vector3d head = target + Vector3d(0.6 * u * u * (3 - 2 * u), 0, 0);
+    b.update(t, dt, head);
+    for (auto& e : b.take_events()) events.push_back(e);
+    if (off_deg < 0 && b.state() == FighterState::striking) {
+      const FighterFrame f = b.frame();
+      const double bearing = std::atan2(target.x() - f.root.x(), target.z() - f.root.z());
+      off_deg = std::abs(std::remainder(f.heading_rad - bearing, 2 * M_PI)) * 180 / M_PI;
+    }
+  }
+  ASSERT_TRUE(b.strike().contact_done);
+  EXPECT_EQ(std::count_if(events.begin(), events.end(), [](const FighterEvent& e) { return e.kind == FighterEvent::Kind::stepping_in; }), 1);
+  ASSERT_GE(off_deg, 0);
+  EXPECT_LT(off_deg, 5.0) << "the fighter turned toward the visitor while stepping in";
+  EXPECT_LT(b.strike().contact_distance_m, 2e-3);
+}
+
 // A punch at a target too near for it (issue 12, item 4: "keep the limb's extension
 // plausible"): kenji's right punch at a crouching visitor's head 0.3 m in front of him. The
 // lunge the database holds for it, shortened all it may be, would land with the arm folded
