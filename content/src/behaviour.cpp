@@ -327,7 +327,7 @@ void Behaviour::update_step_in(double dt) {
   // kSettle_s at the spot both feet on the floor will do, and after kStepInWait_s anything:
   // the order is taken again, with its frozen target, as if just given (it does not step in
   // twice).
-  constexpr double kStepInWait_s = 1.5, kSettle_s = 0.3;
+  constexpr double kStepInWait_s = 1.5, kSettle_s = 0.15;
   if (!approach_) return;
   approach_->elapsed_s += dt;
   const bool at_spot = state_ == FighterState::resting && (spot_xz_m_ - approach_->goal_xz).norm() <= tun_.arrive_tolerance_m;
