@@ -300,7 +300,7 @@ bool Behaviour::begin_step_in(const StrikePlan& plan, double step_m, Timestamp n
   const Vector3d& target = pending_->target_room_m;
   Vector2d dir(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
   const double apart = dir.norm();
-  if (apart < 1e-9 || step_m == 0) return false;
+  if (apart < 1e-9) return false;
   dir.normalize();
   const bool back = step_m < 0;
   if (back) dir = -dir;
@@ -326,7 +326,7 @@ void Behaviour::update_step_in(double dt) {
   // done); a fighter turning to follow a moving visitor may keep stepping, so after
   // kSettle_s at the spot both feet on the floor will do, and after kStepInWait_s anything:
   // the order is taken again, with its frozen target, as if just given (it does not step in
-  // twice).
+  // or back twice).
   constexpr double kStepInWait_s = 1.5, kSettle_s = 0.15;
   if (!approach_) return;
   approach_->elapsed_s += dt;
@@ -749,7 +749,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
         }
         // A step first (once per order): in, by the distance the strike falls short; or back,
         // where the target is so near that the limb would land folded (min_strike_extension),
-        // by as much as brings it to the clip's own extension.
+        // by as much as brings it to the clip's own extension (begin_step_in: at least to
+        // strike_distance_m).
         double step_m = 0;
         if (!pending_->stepped_in) {
           if (tun_.max_step_in_m > 0 && fit.shortfall_m >= tun_.step_in_min_m)

@@ -23,6 +23,18 @@ using CJ = CanonicalJoint;
 using Eigen::Vector3d;
 
 namespace {
+// The fighter at home at the room's origin, with room to step in or back around it (the
+// default area ends at the home spot's z).
+FighterConfig open_room_at_origin() {
+  FighterConfig cfg;
+  cfg.home = Vector3d::Zero();
+  cfg.min_x_m = cfg.min_z_m = -3;
+  cfg.max_x_m = cfg.max_z_m = 3;
+  return cfg;
+}
+}  // namespace
+
+namespace {
 struct Outcome {
   bool contact = false, reached = false, hit = false;
   double distance_m = 0, max_slide_m = 0;
@@ -135,10 +147,7 @@ TEST(BehaviourShipped, EveryCharacterReachesTargetsAroundHeadHeight) {
 TEST(BehaviourShipped, AKickOrderedMidStepStillReachesItsTarget) {
   const auto& set = kumite::content::testing::shipped_database();
   const auto rigs = kumite::content::testing::shipped_characters();
-  FighterConfig cfg;
-  cfg.home = Vector3d::Zero();
-  cfg.min_x_m = cfg.min_z_m = -3;
-  cfg.max_x_m = cfg.max_z_m = 3;
+  FighterConfig cfg = open_room_at_origin();
   const double dt = 1.0 / 120;
   int tried = 0;
   for (const OrderKind kind : {OrderKind::kick_left, OrderKind::kick_right}) {
@@ -269,11 +278,8 @@ TEST(BehaviourShipped, AStrikeBeyondTheLungesReachStepsInFirstAndKeepsItsFeet) {
   ASSERT_EQ(kenji.name, "kenji");
   const Vector3d target(0.0374, 1.5834, 0.7125);  // the quality grid's first left punch target
   for (const double max_step_in : {0.8, 0.0}) {
-    FighterConfig cfg;
-    cfg.home = Vector3d::Zero();
+    FighterConfig cfg = open_room_at_origin();
     cfg.behaviour.max_step_in_m = max_step_in;
-    cfg.min_x_m = cfg.min_z_m = -3;  // room to step in (the default area ends at the home spot's z)
-    cfg.max_x_m = cfg.max_z_m = 3;
     Behaviour b(set.db, {kenji}, cfg);
     const double dt = 1.0 / 120;
     double t = 0;
@@ -339,11 +345,7 @@ TEST(BehaviourShipped, AFighterSteppingInFacesTheStrikesTargetNotTheMovingVisito
   const Rig& kenji = rigs[2];
   ASSERT_EQ(kenji.name, "kenji");
   const Vector3d target(0.0374, 1.5834, 0.7125);  // beyond the lunge's reach: steps in (the test above)
-  FighterConfig cfg;
-  cfg.home = Vector3d::Zero();
-  cfg.min_x_m = cfg.min_z_m = -3;
-  cfg.max_x_m = cfg.max_z_m = 3;
-  Behaviour b(set.db, {kenji}, cfg);
+  Behaviour b(set.db, {kenji}, open_room_at_origin());
   const double dt = 1.0 / 120;
   double t = 0;
   b.update(t, 0, target);
@@ -390,11 +392,8 @@ TEST(BehaviourShipped, AStrikeAtATargetTooNearStepsBackFirstAndLandsWithItsArmEx
   const int shoulder = kenji.skeleton.index(CJ::r_shoulder), elbow = kenji.skeleton.index(CJ::r_elbow),
             wrist = kenji.skeleton.index(CJ::r_wrist);
   for (const double max_step_back : {0.8, 0.0}) {
-    FighterConfig cfg;
-    cfg.home = Vector3d::Zero();
+    FighterConfig cfg = open_room_at_origin();
     cfg.behaviour.max_step_back_m = max_step_back;
-    cfg.min_x_m = cfg.min_z_m = -3;  // room to step back (the default area ends at the home spot's z)
-    cfg.max_x_m = cfg.max_z_m = 3;
     Behaviour b(set.db, {kenji}, cfg);
     const double dt = 1.0 / 120;
     double t = 0;
@@ -442,10 +441,7 @@ TEST(BehaviourShipped, FollowsAVisitorWalkingAwayWithAStanceStepFromTheMocap) {
   const auto& set = kumite::content::testing::shipped_database();
   const auto rigs = kumite::content::testing::shipped_characters();
   for (const double min_m : {0.5, 0.0}) {
-    FighterConfig cfg;
-    cfg.home = Vector3d::Zero();
-    cfg.min_x_m = cfg.min_z_m = -3;
-    cfg.max_x_m = cfg.max_z_m = 3;
+    FighterConfig cfg = open_room_at_origin();
     cfg.behaviour.stance_step_min_m = min_m;
     Behaviour b(set.db, {rigs[0]}, cfg);
     const Rig& rig = b.character(0);
@@ -522,10 +518,7 @@ TEST(BehaviourShipped, ASwitchBetweenAnyTwoCharactersAtRestKeepsAFootOnTheFloor)
       for (std::size_t c = 0; c < rigs.size(); ++c) {
         if (a == c) continue;
         const std::string pair = rigs[a].name + " -> " + rigs[c].name;
-        FighterConfig cfg;
-        cfg.home = Vector3d::Zero();
-        cfg.min_x_m = cfg.min_z_m = -3;
-        cfg.max_x_m = cfg.max_z_m = 3;
+        FighterConfig cfg = open_room_at_origin();
         cfg.initial_character = static_cast<int>(a);
         Behaviour b(set.db, rigs, cfg);
         double t = 0;

@@ -387,7 +387,7 @@ class Behaviour {
   struct QueuedOrder {
     Order order{};
     std::optional<Eigen::Vector3d> target_room_m;
-    bool stepped_in = false;  ///< taken again after stepping in for it (never steps in twice)
+    bool stepped_in = false;  ///< taken again after stepping in (or back) for it (never steps twice)
     bool support_stepped = false;  ///< taken again after a kick's support step (never twice)
     /// Taken again after stepping in: the plan it stepped in for, played instead of the new
     /// plan where the new one falls shorter (another window, whose lunge the feet hold back).

@@ -85,8 +85,10 @@ struct BehaviourTunables {
   /// max_support_shift_m), the limb would land less extended than min_strike_extension of its
   /// length (shoulder or hip to wrist or ankle): a straight punch folded onto the target, its
   /// wrist by its elbow. The fighter first steps back (at step_in_speed_mps) by as much as
-  /// brings the limb to the clip's own extension at contact, at least step_in_min_m, at most
-  /// max_step_back_m (0: never steps back; the strike lands as folded as it must).
+  /// brings the limb to the clip's own extension at contact, and at least back to
+  /// strike_distance_m from the target (a strike is placed on its support foot, which a short
+  /// step leaves nearly where it was), at most max_step_back_m (0: never steps back; the
+  /// strike lands as folded as it must). Only where that gains step_in_min_m or more.
   double min_strike_extension = 0.5;
   double max_step_back_m = 0.8;
   /// Following forward or back uses a stance step cut from the mocap (a `walk` segment of
