@@ -645,7 +645,17 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
                             ((forward || back) && !feet_down && stance_wait_s_ < kStanceStepFeetWait_s));
     }
   }
-  if (!wait && !following && (off.norm() > tun_.follow_tolerance_m || (approach_ && off.norm() > tun_.arrive_tolerance_m))) following = true;
+  // A fighter outside its area (a lunge or a kick carries the body on past where it stood)
+  // walks back in, however near the visitor would have it: the area keeps it off the front
+  // wall. (Not while a strike's plan is awaited: that strike is placed from where it stands.)
+  const bool outside_area =
+      !strike_pending() &&
+      (spot_xz_m_.x() < config_.min_x_m - tun_.arrive_tolerance_m || spot_xz_m_.x() > config_.max_x_m + tun_.arrive_tolerance_m ||
+       spot_xz_m_.y() < config_.min_z_m - tun_.arrive_tolerance_m || spot_xz_m_.y() > config_.max_z_m + tun_.arrive_tolerance_m);
+  if (outside_area && !paused_) wait = false;
+  if (!wait && !following &&
+      (off.norm() > tun_.follow_tolerance_m || (approach_ && off.norm() > tun_.arrive_tolerance_m) || (outside_area && !paused_)))
+    following = true;
   if (following) {
     const double step = std::min(off.norm(), (approach_ ? tun_.step_in_speed_mps : tun_.walk_speed_mps) * dt);
     if (off.norm() > 1e-9) spot_xz_m_ += off / off.norm() * step;

@@ -563,3 +563,31 @@ TEST(BehaviourShipped, ASwitchBetweenAnyTwoCharactersAtRestKeepsAFootOnTheFloor)
               first_snap.c_str(), worst_both_off);
   EXPECT_EQ(snaps, 0) << first_snap;
 }
+
+// A fighter left outside its area by less than follow_tolerance_m (as a lunge or a kick
+// carries the body on past where it stood) walks back in, though the visitor stands where it
+// would keep it: the area keeps it off the front wall. Before, it stayed there (0.2 m out, the
+// visitor's spot within follow_tolerance_m of it) until the visitor moved.
+TEST(BehaviourShipped, AFighterOutsideItsAreaWalksBackIn) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  FighterConfig cfg = open_room_at_origin();
+  cfg.max_z_m = -0.22;  // home (the origin) lies 0.22 m past the area's front edge
+  ASSERT_LT(0.22, cfg.behaviour.follow_tolerance_m);
+  Behaviour b(set.db, {rigs[2]}, cfg);
+  const double dt = 1.0 / 60;
+  double t = 0;
+  const Vector3d head(0, 1.7, cfg.strike_distance_m);  // where the fighter at home would keep it
+  b.update(t, 0, head);
+  for (int i = 0; i < 180; ++i) b.update(t += dt, dt, head);
+  EXPECT_LT(b.frame().root.z(), -0.1) << "walked back in (the pelvis sways about the spot by a few cm)";
+  EXPECT_EQ(b.state(), FighterState::resting);
+  // Paused, it stays where it is.
+  FighterConfig paused_cfg = cfg;
+  Behaviour p(set.db, {rigs[2]}, paused_cfg);
+  t = 0;
+  p.update(t, 0, head);
+  p.order(Order{t, OrderKind::pause});
+  for (int i = 0; i < 180; ++i) p.update(t += dt, dt, head);
+  EXPECT_GT(p.frame().root.z(), -0.1) << "paused: no walk";
+}
