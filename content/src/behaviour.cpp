@@ -276,9 +276,25 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
   taking_.clear();
 }
 
+Behaviour::HeldFeet Behaviour::held_feet() const {
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  HeldFeet f;
+  for (int side = 0; side < 2; ++side) {
+    f.held[static_cast<std::size_t>(side)] = feet_.held(side);
+    f.ankle_m[static_cast<std::size_t>(side)] =
+        rig_positions_[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_ankle : CJ::r_ankle))];
+  }
+  return f;
+}
+
 Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fit) const {
+  return strike_source(plan, fit, pose_, held_feet());
+}
+
+Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fit, const MkmFrame& from,
+                                           const HeldFeet& feet) const {
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
-  const GroundFrame g_char = ground_frame_of(pose_);
+  const GroundFrame g_char = ground_frame_of(from);
   const GroundFrame g_clip = ground_frame_of(seg.frames[static_cast<std::size_t>(plan.start_frame)]);
   Source s;
   s.segment = plan.segment;
@@ -286,9 +302,78 @@ Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fi
   s.placement.origin_xz = g_char.origin_xz;
   s.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   s.anchor_xz_m = g_clip.origin_xz;
-  align_to_support_foot(s, plan.contact_frame * seg.frame_time_s);
-  fit = place_strike_travel(s, plan.contact_frame * seg.frame_time_s);
+  align_to_support_foot(s, plan.contact_frame * seg.frame_time_s, feet);
+  fit = place_strike_travel(s, plan.contact_frame * seg.frame_time_s, feet);
   return s;
+}
+
+double Behaviour::step_wanted(const StrikeFit& fit) const {
+  if (tun_.max_step_in_m > 0 && fit.shortfall_m >= tun_.step_in_min_m) return fit.shortfall_m;
+  if (tun_.max_step_back_m > 0 && fit.extension < tun_.min_strike_extension && fit.too_near_m >= tun_.step_in_min_m)
+    return -fit.too_near_m;
+  return 0;
+}
+
+std::optional<Behaviour::Restance> Behaviour::restance_for(const StrikePlan& plan, double step_m) const {
+  // Only from a stance a stance step left (its take's own rest: a long kata stance, 0.7 m
+  // from foot to foot): a lunge placed on its back foot is held short by it, and the step-in
+  // keeps the stance (content/README, "Following with stance steps"). The rest stances the
+  // strikes are made for are taken instead on the way: the rest (or its mirror) placed at the
+  // spot facing the target, each foot stepped to where it has it.
+  if (!current_.loop || current_.segment == rest_segment_ || current_.segment == mirrored_rest_segment_ || !pending_)
+    return std::nullopt;
+  const Vector3d& target = pending_->target_room_m;
+  Vector2d dir(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
+  if (dir.norm() < 1e-6) return std::nullopt;
+  dir.normalize();
+  const double face = std::atan2(dir.x(), dir.y());
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  std::optional<Restance> best;
+  double best_cost = std::abs(step_m) - tun_.step_in_min_m;
+  for (const int rest : {rest_segment_, mirrored_rest_segment_}) {
+    if (rest < 0) continue;
+    const MotionSegment& seg = db_->segments[static_cast<std::size_t>(rest)];
+    Source r;
+    r.segment = rest;
+    r.loop = true;
+    r.anchor_xz_m = seg.frames[0].root_xz_m;
+    r.placement.origin_xz = spot_xz_m_;
+    r.placement.yaw_rad = wrap(face - ground_frame_of(seg.frames[0]).yaw_rad);
+    MkmFrame f;
+    sample(r, f);
+    HeldFeet feet;
+    for (int side = 0; side < 2; ++side) {
+      feet.held[static_cast<std::size_t>(side)] = true;
+      feet.ankle_m[static_cast<std::size_t>(side)] = mkm_ankle(rig, f, side);
+    }
+    StrikeFit fit;
+    (void)strike_source(plan, fit, f, feet);
+    const double step = step_wanted(fit);
+    // The spot moves by that step as a step-in would (within the area); what it cannot move
+    // is left short.
+    Vector2d goal = spot_xz_m_ + dir * std::clamp(step, -tun_.max_step_back_m, tun_.max_step_in_m);
+    goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
+    goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
+    const double cost = std::abs(step - (goal - spot_xz_m_).dot(dir));
+    if (cost < best_cost) {
+      best_cost = cost;
+      best = Restance{rest, goal, step};
+    }
+  }
+  return best;
+}
+
+bool Behaviour::begin_restance(const StrikePlan& plan, const Restance& r, Timestamp now) {
+  if (!pending_) return false;
+  const Vector3d& target = pending_->target_room_m;
+  const Vector2d to_target(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
+  const bool back = (r.goal_xz - spot_xz_m_).dot(to_target) < 0;
+  start_rest(now, r.rest);
+  approach_ = Approach{pending_->order, target, r.goal_xz, 0, 0, plan, true};
+  FighterEvent& e = emit(back ? FighterEvent::Kind::stepping_back : FighterEvent::Kind::stepping_in, now, pending_->order,
+                         FighterEvent::Reason::none, (r.goal_xz - spot_xz_m_).norm());
+  e.target = target;
+  return true;
 }
 
 bool Behaviour::begin_step_in(const StrikePlan& plan, double step_m, Timestamp now) {
@@ -330,10 +415,13 @@ void Behaviour::update_step_in(double dt) {
   constexpr double kStepInWait_s = 1.5, kSettle_s = 0.15;
   if (!approach_) return;
   approach_->elapsed_s += dt;
-  const bool at_spot = state_ == FighterState::resting && (spot_xz_m_ - approach_->goal_xz).norm() <= tun_.arrive_tolerance_m;
+  // (a rest stance taken on the way: once it has blended in, the feet may want to step)
+  const bool at_spot = state_ == FighterState::resting && (spot_xz_m_ - approach_->goal_xz).norm() <= tun_.arrive_tolerance_m &&
+                       (!approach_->restance || blend_elapsed_s_ >= tun_.blend_time_s);
   approach_->at_spot_s = at_spot ? approach_->at_spot_s + dt : 0;
+  // (a rest stance taken on the way: both feet where it has them)
   const bool arrived = at_spot && ((feet_.settled(kLeft) && feet_.settled(kRight)) ||
-                                   (approach_->at_spot_s >= kSettle_s && feet_.held(kLeft) && feet_.held(kRight)));
+                                   (!approach_->restance && approach_->at_spot_s >= kSettle_s && feet_.held(kLeft) && feet_.held(kRight)));
   if (!arrived && approach_->elapsed_s < kStepInWait_s) return;
   orders_.insert(orders_.begin(), QueuedOrder{approach_->order, approach_->target_room_m, true, false, approach_->plan});
   approach_.reset();
@@ -761,14 +849,13 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
         // where the target is so near that the limb would land folded (min_strike_extension),
         // by as much as brings it to the clip's own extension (begin_step_in: at least to
         // strike_distance_m).
-        double step_m = 0;
-        if (!pending_->stepped_in) {
-          if (tun_.max_step_in_m > 0 && fit.shortfall_m >= tun_.step_in_min_m)
-            step_m = fit.shortfall_m;
-          else if (tun_.max_step_back_m > 0 && fit.extension < tun_.min_strike_extension && fit.too_near_m >= tun_.step_in_min_m)
-            step_m = -fit.too_near_m;
-        }
-        if (step_m != 0 && stance_step_) {
+        double step_m = pending_->stepped_in ? 0.0 : step_wanted(fit);
+        // From a stance step's long stance, a strike that wants a step takes a rest stance on
+        // the way (restance_for), if the strike needs a shorter step from there.
+        std::optional<Restance> restance;
+        if (step_m != 0 && !stance_step_) restance = restance_for(*p, step_m);
+        if (restance && begin_restance(*p, *restance, now)) {
+        } else if (step_m != 0 && stance_step_) {
           // Short of its target from mid-step: planned again where the step ends (a step-in
           // measured from here would be walked from there, the wrong way).
           QueuedOrder again{pending_->order, pending_->target_room_m, false, pending_->support_stepped};

@@ -129,7 +129,7 @@ void Behaviour::start_rest(Timestamp, int segment) {
   current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
 }
 
-void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
+void Behaviour::align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet) const {
   // The clip is placed by its pelvis; shift it on the floor so that its support foot (planted
   // at the start and staying down longest) lands where that foot is held now: the motion then
   // swings its other foot and moves its body around a foot that does not have to move, as in
@@ -138,7 +138,7 @@ void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
   const int first = std::clamp(static_cast<int>(std::lround(s.time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
   int best = -1, best_run = 0;
   for (int side = 0; side < 2; ++side) {
-    if (!feet_.held(side)) continue;
+    if (!feet.held[static_cast<std::size_t>(side)]) continue;
     int run = 0;
     for (int k = first; k < seg.frame_count() && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5; ++k) ++run;
     if (run > best_run) { best = side; best_run = run; }
@@ -150,7 +150,7 @@ void Behaviour::align_to_support_foot(Source& s, double contact_time_s) const {
   CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
   decode_canonical(rig, placed, c);
   const CJ ankle = best == kLeft ? CJ::l_ankle : CJ::r_ankle;
-  const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
+  const Vector3d& held = feet.ankle_m[static_cast<std::size_t>(best)];
   Vector2d shift(held.x() - at(c, ankle).x(), held.z() - at(c, ankle).z());
   // Along the line to the target: never back away for it (the held foot then steps up to where
   // the clip has it, rather than the whole strike landing short) -- except for a lunge (a clip
@@ -181,7 +181,7 @@ Vector2d Behaviour::strike_travel(const Source& s, double contact_time_s, MkmFra
   return contact_pose.root_xz_m - start_pose.root_xz_m;
 }
 
-Behaviour::StrikeFit Behaviour::place_strike_travel(Source& s, double contact_time_s) const {
+Behaviour::StrikeFit Behaviour::place_strike_travel(Source& s, double contact_time_s, const HeldFeet& feet) const {
   // A lunge travels a fixed distance in the clip; the target is nearer or farther. Scale the
   // clip's floor travel up to contact (a shorter or longer lunge: Source::Travel) so that at
   // contact the limb's root (shoulder / hip) is as far from the target as the clip has it from
@@ -249,12 +249,12 @@ Behaviour::StrikeFit Behaviour::place_strike_travel(Source& s, double contact_ti
     // after the hit, still holds the stance until then)
     const int to = std::clamp(static_cast<int>(std::floor(contact_time_s / seg.frame_time_s)) - 1, from, seg.frame_count() - 1);
     for (int side = 0; side < 2; ++side) {
-      if (!feet_.held(side) || (eff->leg && eff->side == side)) continue;
+      if (!feet.held[static_cast<std::size_t>(side)] || (eff->leg && eff->side == side)) continue;
       bool down = true;
       for (int f = from; f <= to && down; ++f) down = seg.frames[static_cast<std::size_t>(f)].planted[static_cast<std::size_t>(side)] >= 0.5;
       if (!down) continue;
       const CJ ankle = side == kLeft ? CJ::l_ankle : CJ::r_ankle;
-      Vector3d a = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
+      Vector3d a = feet.ankle_m[static_cast<std::size_t>(side)];
       a.y() = std::max(a.y(), at(c, ankle).y());  // a heel the clip raises by contact
       Vector3d h0 = at(c, side == kLeft ? CJ::l_hip : CJ::r_hip);
       h0.y() += s.travel.rise_n * leg;

@@ -591,3 +591,61 @@ TEST(BehaviourShipped, AFighterOutsideItsAreaWalksBackIn) {
   for (int i = 0; i < 180; ++i) p.update(t += dt, dt, head);
   EXPECT_GT(p.frame().root.z(), -0.1) << "paused: no walk";
 }
+
+// After a stance step from the mocap (a kata step into a long stance, 0.7 m from foot to foot,
+// and that take's own rest) to the front edge of its area, a punch whose lunge that stance
+// holds short (placed on its back foot) first takes a rest stance the strikes are made for,
+// its feet stepping into it (Behaviour::restance_for), and lands on its target. Before, it
+// stepped in as far as the area let it, keeping the long stance, and fell short (aiko in the
+// scripted bout with stance steps on: 24-30 cm).
+TEST(BehaviourShipped, APunchAfterAStanceStepTakesTheRestStanceOnTheWayAndLands) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  int landed = 0, restanced = 0, tried = 0;
+  std::string misses;
+  for (const Rig& rig : rigs) {
+  for (const OrderKind kind : {OrderKind::punch_right, OrderKind::punch_left}) {
+    for (const double walk : {0.8, 1.0}) {
+      FighterConfig cfg = open_room_at_origin();
+      cfg.behaviour.stance_step_min_m = 0.5;
+      cfg.max_z_m = 0.55;  // the area's front edge: the stance step ends at it
+      Behaviour b(set.db, {rig}, cfg);
+      const double dt = 1.0 / 60;
+      double t = 0;
+      Vector3d head(0, 1.6, cfg.strike_distance_m);
+      b.update(t, 0, head);
+      for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);
+      // The visitor walks away in 1 s and stands: the fighter follows with a stance step.
+      const double z0 = head.z();
+      for (int i = 0; i < 240; ++i) {
+        head.z() = z0 + walk * std::min(1.0, i * dt / 1.0);
+        b.update(t += dt, dt, head);
+      }
+      for (int i = 0; i < 180 && !(b.state() == FighterState::resting && b.stance_step_segment() < 0); ++i) b.update(t += dt, dt, head);
+      ASSERT_GE(b.stance_steps_begun(), 1) << rig.name << " walk " << walk;
+      ASSERT_EQ(b.state(), FighterState::resting) << rig.name << " walk " << walk;
+      // The visitor stands 0.95 m ahead of the fighter's pelvis (the scripted bout's visitor
+      // beyond the area's front edge): a lunge from the fighting stance reaches that far, one
+      // placed on the long stance's back foot does not, and the area leaves no step in.
+      head.z() = b.frame().root.z() + 0.95;
+      ++tried;
+      b.order_strike(Order{t, kind}, head);
+      std::vector<FighterEvent> events;
+      for (int i = 0; i < 300 && !b.strike().contact_done; ++i) {
+        b.update(t += dt, dt, head);
+        for (auto& e : b.take_events()) events.push_back(e);
+      }
+      ASSERT_TRUE(b.strike().contact_done) << "walk " << walk;
+      const bool stepped = std::any_of(events.begin(), events.end(), [](const FighterEvent& e) {
+        return e.kind == FighterEvent::Kind::stepping_in || e.kind == FighterEvent::Kind::stepping_back;
+      });
+      restanced += stepped;
+      if (b.strike().target_reached && b.strike().contact_distance_m < 2e-3) ++landed;
+      else misses += fmt::format(" [{} {} walk {}: {:.0f} mm short]", rig.name, kind == OrderKind::punch_right ? "right" : "left", walk,
+                                 b.strike().contact_distance_m * 1000);
+    }
+  }
+  }
+  std::printf("punches after a stance step: %d of %d land, %d stepped first%s\n", landed, tried, restanced, misses.c_str());
+  EXPECT_EQ(landed, tried) << misses;
+}

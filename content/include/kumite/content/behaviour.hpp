@@ -274,9 +274,31 @@ class Behaviour {
     double too_near_m = 0;   ///< m the limb's root is nearer the target than the clip has it from its own hit point
     double extension = 1;    ///< limb root to target over the limb's length at contact (1: straight)
   };
+  /// The feet a strike is placed on: which are held, and where their ankles stand (m, room).
+  struct HeldFeet {
+    std::array<bool, 2> held{};
+    std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  };
+  HeldFeet held_feet() const;  ///< as drawn now
   /// A step before the strike: `step_m` > 0 in toward the target, < 0 back from it. False
   /// (strike from here) where the fighter's area leaves less than step_in_min_m to step.
   bool begin_step_in(const StrikePlan& plan, double step_m, Timestamp now);
+  /// After a stance step (a long kata stance, its take's own rest), a strike that wants a step
+  /// first: the rest stance (rest_segment_ or its mirror) to take instead, placed at the spot
+  /// facing the target, and the spot to step to (the step the strike wants from that stance,
+  /// within the area), where the strike then falls short (or too near) by less -- by
+  /// step_in_min_m -- than from the feet as they stand (`step_m`), else nullopt.
+  struct Restance {
+    int rest = -1;
+    Eigen::Vector2d goal_xz{0, 0};  ///< m, room: the spot stepped to
+    double step_m = 0;              ///< the step the strike wants from the rest stance at the spot (signed)
+  };
+  std::optional<Restance> restance_for(const StrikePlan& plan, double step_m) const;
+  /// The rest stance taken: its rest blends in and the spot moves to its goal (an approach,
+  /// as a step-in: the order is taken again once the feet stand).
+  bool begin_restance(const StrikePlan& plan, const Restance& r, Timestamp now);
+  /// The step a strike placed with `fit` wants first (m, signed as begin_step_in's; 0: none).
+  double step_wanted(const StrikeFit& fit) const;
   void update_step_in(double dt);
   /// A kick's support foot stepped to where the clip puts it down, if it stands more than
   /// kick_support_step_m from there (true: the strike waits for the step).
@@ -284,7 +306,7 @@ class Behaviour {
   void update_support_step(double dt);
   void apply_strike_rate();
   /// Places a strike's travel (motion_playback.cpp); returns how the limb then lands.
-  StrikeFit place_strike_travel(Source& s, double contact_time_s) const;
+  StrikeFit place_strike_travel(Source& s, double contact_time_s, const HeldFeet& feet) const;
   /// The floor travel (m, room) of a strike source's root from its time to contact_time_s, as
   /// placed with its travel as it is (a lunge's: the clip travels at least
   /// min_scaled_travel_m); `contact_pose`: the pose at contact.
@@ -292,6 +314,8 @@ class Behaviour {
   /// The strike's source as start_strike() plays it: placed on the character, aligned to the
   /// support foot, its travel fitted to strike_target_; `fit`: place_strike_travel's.
   Source strike_source(const StrikePlan& plan, StrikeFit& fit) const;
+  /// The same from another pose and feet (a stance the fighter would take first).
+  Source strike_source(const StrikePlan& plan, StrikeFit& fit, const MkmFrame& from, const HeldFeet& feet) const;
   void select_character(int index, Timestamp now);
   void sample(const Source& s, MkmFrame& out) const;
   Eigen::Vector2d scaled_travel(const Source& s, const MotionSegment& seg, double t) const;
@@ -324,7 +348,7 @@ class Behaviour {
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
-  void align_to_support_foot(Source& s, double contact_time_s) const;
+  void align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
@@ -425,6 +449,7 @@ class Behaviour {
     double elapsed_s = 0;  ///< s since the step-in began
     double at_spot_s = 0;  ///< s the spot has been at goal_xz (the feet may still be stepping)
     StrikePlan plan;       ///< the strike stepped in for
+    bool restance = false; ///< a rest stance is taken on the way (begin_restance): done once both feet stand in it
   };
   std::optional<Approach> approach_;
   /// A kick whose clip puts its support foot down out of where that foot stands: the foot
