@@ -371,7 +371,7 @@ bool Behaviour::begin_restance(const StrikePlan& plan, const Restance& r, Timest
   start_rest(now, r.rest);
   approach_ = Approach{pending_->order, target, r.goal_xz, 0, 0, plan, true};
   FighterEvent& e = emit(back ? FighterEvent::Kind::stepping_back : FighterEvent::Kind::stepping_in, now, pending_->order,
-                         FighterEvent::Reason::none, (r.goal_xz - spot_xz_m_).norm());
+                         FighterEvent::Reason::restance, (r.goal_xz - spot_xz_m_).norm());
   e.target = target;
   return true;
 }

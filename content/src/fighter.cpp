@@ -66,9 +66,17 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
     case K::character_changed:
       return fmt::format("character {} ({})", e.order.character + 1, character_name(e.order.character));
     case K::stepping_in:
+      if (e.reason == R::restance)
+        return fmt::format("{:.0f} cm in first, into the fighting stance: the target at ({:.2f}, {:.2f}, {:.2f}) m is beyond "
+                           "the strike's reach from this long stance",
+                           e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
       return fmt::format("{:.0f} cm in first: the target at ({:.2f}, {:.2f}, {:.2f}) m is beyond the strike's reach from here",
                          e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
     case K::stepping_back:
+      if (e.reason == R::restance)
+        return fmt::format("{:.0f} cm back first, into the fighting stance: the target at ({:.2f}, {:.2f}, {:.2f}) m is too "
+                           "near for the strike from this long stance",
+                           e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
       return fmt::format("{:.0f} cm back first: the target at ({:.2f}, {:.2f}, {:.2f}) m is too near for the strike to land "
                          "with its limb extended",
                          e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
@@ -88,6 +96,7 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
     case R::near_wall: return "the visitor is near a wall: the fighter keeps away";
     case R::no_such_character: return fmt::format("no character {} (have {})", e.order.character + 1, e.character_count);
     case R::no_strike: return "no strike in the database for this order";
+    case R::restance: return "into the fighting stance";
   }
   return "?";
 }

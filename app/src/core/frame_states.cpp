@@ -373,7 +373,7 @@ bool FrameStatesReader::next(FrameData& f) {
         g.time = in.d();
         g.kind = enum_of(content::FighterEvent::Kind::stepping_back);
         g.order = order_of();
-        g.reason = enum_of(content::FighterEvent::Reason::no_strike);
+        g.reason = enum_of(content::FighterEvent::Reason::restance);
         g.distance_m = in.d();
         g.target.x() = in.d(), g.target.y() = in.d(), g.target.z() = in.d();
         g.segment = in.get<std::int32_t>();

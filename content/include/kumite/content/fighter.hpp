@@ -75,6 +75,7 @@ struct FighterEvent {
     near_wall,          ///< ignored: the visitor is near a wall, the fighter keeps away
     no_such_character,  ///< warning: `order.character` does not exist (`character_count` do)
     no_strike,          ///< warning: no strike in the database for this order
+    restance,           ///< stepping_in, stepping_back: into the fighting stance on the way (from a stance step's long stance)
   };
   Timestamp time = 0;
   Kind kind = Kind::warning;
