@@ -122,7 +122,7 @@ void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
 bool Behaviour::strike_pending() const {
   return pending_ || approach_ || support_step_ ||
          std::any_of(orders_.begin(), orders_.end(),
-                     [](const QueuedOrder& q) { return q.stepped_in || q.support_stepped || q.after_stance_step; });
+                     [](const QueuedOrder& q) { return q.stepped_first || q.support_stepped || q.after_stance_step; });
 }
 
 void Behaviour::order(const Order& o) { orders_.push_back({o, std::nullopt}); }
@@ -268,12 +268,18 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
     r.dt_s = last_dt_;
     r.target_local_m = ground().to_local(target);
     r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
-    pending_ = PendingStrike{r.id, o, target, queued.stepped_in, queued.support_stepped, queued.plan};
+    pending_ = PendingStrike{r.id, o, target, queued.stepped_first, queued.support_stepped, queued.plan};
     // Taken again after stepping in (or a kick's support step): accepted already.
-    if (!queued.stepped_in && !queued.support_stepped && !queued.after_stance_step) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
+    if (!queued.stepped_first && !queued.support_stepped && !queued.after_stance_step) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
     submit_(r);
   }
   taking_.clear();
+}
+
+const Vector3d* Behaviour::step_target() const {
+  if (support_step_) return &support_step_->target_room_m;
+  if (approach_) return &approach_->target_room_m;
+  return nullptr;
 }
 
 Behaviour::HeldFeet Behaviour::held_feet() const {
@@ -459,7 +465,7 @@ bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source,
   const Vector3d goal(at(c, ankle).x(), held.y(), at(c, ankle).z());
   if (Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm() <= tun_.kick_support_step_m) return false;
   if (!feet_.step_to(side, goal)) return false;
-  support_step_ = SupportStep{pending_->order, pending_->target_room_m, pending_->stepped_in, side, 0};
+  support_step_ = SupportStep{pending_->order, pending_->target_room_m, pending_->stepped_first, side, 0};
   FighterEvent& e = emit(FighterEvent::Kind::support_step, now, pending_->order, FighterEvent::Reason::none,
                          Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm());
   e.target = pending_->target_room_m;
@@ -473,7 +479,7 @@ void Behaviour::update_support_step(double dt) {
   if (!support_step_) return;
   support_step_->elapsed_s += dt;
   if (!feet_.held(support_step_->side) && support_step_->elapsed_s < kWait_s) return;
-  orders_.insert(orders_.begin(), QueuedOrder{support_step_->order, support_step_->target_room_m, support_step_->stepped_in, true});
+  orders_.insert(orders_.begin(), QueuedOrder{support_step_->order, support_step_->target_room_m, support_step_->stepped_first, true});
   support_step_.reset();
 }
 
@@ -758,8 +764,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   // feet stand, and a visitor moving meanwhile does not turn the feet into more steps the
   // strike waits for (or away from where the support foot was set).
   Vector2d to_face = to_head;
-  if (approach_) to_face = Vector2d(approach_->target_room_m.x(), approach_->target_room_m.z()) - spot_xz_m_;
-  if (support_step_) to_face = Vector2d(support_step_->target_room_m.x(), support_step_->target_room_m.z()) - spot_xz_m_;
+  if (const Vector3d* t = step_target()) to_face = Vector2d(t->x(), t->z()) - spot_xz_m_;
   if (to_face.norm() > 0.05 && !paused_) {
     const double want = std::atan2(to_face.x(), to_face.y());
     const double turn = std::clamp(wrap(want - facing_rad_), -tun_.turn_speed_rad_s * dt, tun_.turn_speed_rad_s * dt);
@@ -849,7 +854,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
         // where the target is so near that the limb would land folded (min_strike_extension),
         // by as much as brings it to the clip's own extension (begin_step_in: at least to
         // strike_distance_m).
-        double step_m = pending_->stepped_in ? 0.0 : step_wanted(fit);
+        double step_m = pending_->stepped_first ? 0.0 : step_wanted(fit);
         // From a stance step's long stance, a strike that wants a step takes a rest stance on
         // the way (restance_for), if the strike needs a shorter step from there.
         std::optional<Restance> restance;
@@ -1021,8 +1026,7 @@ FighterFrame Behaviour::frame() const {
   f.joints = std::span<const Vector3d>(positions_).first(n);
   f.parents = rig.skeleton.parents;
   f.joint_radii_m = rig.joint_radii_m;
-  if (approach_) f.target = approach_->target_room_m;
-  if (support_step_) f.target = support_step_->target_room_m;
+  if (const Vector3d* t = step_target()) f.target = *t;
   if (strike_.active || pending_) f.target = pending_ ? pending_->target_room_m : strike_.target_room_m;
   f.root = Vector3d(pose_.root_xz_m.x(), 0, pose_.root_xz_m.y());
   f.heading_rad = facing_rad_;

@@ -158,7 +158,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   // stepping in): it is planned around the feet as they stand. A step begun between a
   // step-in's arrival and the plan left the back foot of kenji's lunge punch on the grid
   // 13 cm ahead of where the lunge holds it: out of reach, it stepped back and forth in the air.
-  const bool planning = pending_ || std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.stepped_in; });
+  const bool planning = pending_ || std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.stepped_first; });
   const bool may_step = state_ != FighterState::striking && ramp_ <= 0 && !support_set && !stance_step_ && !planning;
   feet_.update(dt, in, may_step, spot_velocity_, locks_);
 }

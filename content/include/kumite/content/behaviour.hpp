@@ -280,6 +280,9 @@ class Behaviour {
     std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   };
   HeldFeet held_feet() const;  ///< as drawn now
+  /// The target (frozen at the order) of the step in progress before a strike: a step in or
+  /// back, into the fighting stance, or a kick's support step; nullptr when none is.
+  const Eigen::Vector3d* step_target() const;
   /// A step before the strike: `step_m` > 0 in toward the target, < 0 back from it. False
   /// (strike from here) where the fighter's area leaves less than step_in_min_m to step.
   bool begin_step_in(const StrikePlan& plan, double step_m, Timestamp now);
@@ -411,7 +414,7 @@ class Behaviour {
   struct QueuedOrder {
     Order order{};
     std::optional<Eigen::Vector3d> target_room_m;
-    bool stepped_in = false;  ///< taken again after stepping in (or back) for it (never steps twice)
+    bool stepped_first = false;  ///< taken again after a step in or back (or into the fighting stance) for it (never steps twice)
     bool support_stepped = false;  ///< taken again after a kick's support step (never twice)
     /// Taken again after stepping in: the plan it stepped in for, played instead of the new
     /// plan where the new one falls shorter (another window, whose lunge the feet hold back).
@@ -435,7 +438,7 @@ class Behaviour {
     std::uint64_t request = 0;               ///< StrikeRequest::id
     Order order{};
     Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
-    bool stepped_in = false;                 ///< QueuedOrder::stepped_in
+    bool stepped_first = false;              ///< QueuedOrder::stepped_first
     bool support_stepped = false;            ///< QueuedOrder::support_stepped
     std::optional<StrikePlan> plan;          ///< QueuedOrder::plan
   };
@@ -458,7 +461,7 @@ class Behaviour {
   struct SupportStep {
     Order order{};
     Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, frozen at the order
-    bool stepped_in = false;                 ///< QueuedOrder::stepped_in
+    bool stepped_first = false;              ///< QueuedOrder::stepped_first
     int side = 0;                            ///< the support foot
     double elapsed_s = 0;                    ///< s since the step began
   };
