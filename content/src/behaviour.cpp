@@ -338,15 +338,11 @@ std::optional<Behaviour::Restance> Behaviour::restance_for(const StrikePlan& pla
   double best_cost = std::abs(step_m) - tun_.step_in_min_m;
   for (const int rest : {rest_segment_, mirrored_rest_segment_}) {
     if (rest < 0) continue;
-    const MotionSegment& seg = db_->segments[static_cast<std::size_t>(rest)];
-    Source r;
-    r.segment = rest;
-    r.loop = true;
-    r.anchor_xz_m = seg.frames[0].root_xz_m;
-    r.placement.origin_xz = spot_xz_m_;
-    r.placement.yaw_rad = wrap(face - ground_frame_of(seg.frames[0]).yaw_rad);
+    GroundFrame at_spot;
+    at_spot.origin_xz = spot_xz_m_;
+    at_spot.yaw_rad = face;
     MkmFrame f;
-    sample(r, f);
+    sample(placed_at(db_->segments[static_cast<std::size_t>(rest)], rest, at_spot), f);
     HeldFeet feet;
     for (int side = 0; side < 2; ++side) {
       feet.held[static_cast<std::size_t>(side)] = true;
@@ -357,9 +353,7 @@ std::optional<Behaviour::Restance> Behaviour::restance_for(const StrikePlan& pla
     const double step = step_wanted(fit);
     // The spot moves by that step as a step-in would (within the area); what it cannot move
     // is left short.
-    Vector2d goal = spot_xz_m_ + dir * std::clamp(step, -tun_.max_step_back_m, tun_.max_step_in_m);
-    goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
-    goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
+    const Vector2d goal = clamp_to_area(config_, spot_xz_m_ + dir * std::clamp(step, -tun_.max_step_back_m, tun_.max_step_in_m));
     const double cost = std::abs(step - (goal - spot_xz_m_).dot(dir));
     if (cost < best_cost) {
       best_cost = cost;
@@ -401,9 +395,7 @@ bool Behaviour::begin_step_in(const StrikePlan& plan, double step_m, Timestamp n
   const double wanted = back ? std::max(-step_m, config_.strike_distance_m - apart) : step_m;
   const double d = std::min(std::max(wanted, feet_.tunables().step_threshold_m + 0.02),
                             back ? tun_.max_step_back_m : tun_.max_step_in_m);
-  Vector2d goal = spot_xz_m_ + dir * d;
-  goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
-  goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
+  const Vector2d goal = clamp_to_area(config_, spot_xz_m_ + dir * d);
   if ((goal - spot_xz_m_).dot(dir) < tun_.step_in_min_m) return false;
   approach_ = Approach{pending_->order, target, goal, 0, 0, plan};
   FighterEvent& e = emit(back ? FighterEvent::Kind::stepping_back : FighterEvent::Kind::stepping_in, now, pending_->order,
@@ -688,8 +680,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   // A visitor near a wall: back off (further from the visitor than the strike distance), so
   // nobody is drawn toward the wall by the fighter.
   if (keep_away_ && dist > 1e-6) goal = head_xz - to_head / dist * (config_.strike_distance_m + tun_.keep_away_extra_m);
-  goal.x() = std::clamp(goal.x(), config_.min_x_m, config_.max_x_m);
-  goal.y() = std::clamp(goal.y(), config_.min_z_m, config_.max_z_m);
+  goal = clamp_to_area(config_, goal);
   if (paused_) goal = spot_xz_m_;
   spot_velocity_.setZero();
   // How fast the spot to keep moves (the visitor walking), over ~kGoalSpeedSmoothing_s.
@@ -742,10 +733,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   // A fighter outside its area (a lunge or a kick carries the body on past where it stood)
   // walks back in, however near the visitor would have it: the area keeps it off the front
   // wall. (Not while a strike's plan is awaited: that strike is placed from where it stands.)
-  const bool outside_area =
-      !strike_pending() &&
-      (spot_xz_m_.x() < config_.min_x_m - tun_.arrive_tolerance_m || spot_xz_m_.x() > config_.max_x_m + tun_.arrive_tolerance_m ||
-       spot_xz_m_.y() < config_.min_z_m - tun_.arrive_tolerance_m || spot_xz_m_.y() > config_.max_z_m + tun_.arrive_tolerance_m);
+  const bool outside_area = !strike_pending() && (clamp_to_area(config_, spot_xz_m_) - spot_xz_m_).lpNorm<Eigen::Infinity>() >
+                                                       tun_.arrive_tolerance_m;
   if (outside_area && !paused_) wait = false;
   if (!wait && !following &&
       (off.norm() > tun_.follow_tolerance_m || (approach_ && off.norm() > tun_.arrive_tolerance_m) || (outside_area && !paused_)))

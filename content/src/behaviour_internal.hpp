@@ -47,6 +47,22 @@ inline double rest_floor_y(const Rig& rig) {
 /// Where a placed MKM frame puts an ankle (m, room) on a rig, without decoding the whole pose:
 /// pelvis, the rest pose's hip offset turned with the pelvis frame, the leg vector.
 Eigen::Vector3d mkm_ankle(const Rig& rig, const MkmFrame& f, int side);
+/// A segment from its first frame, placed at `g` (its pelvis there, facing g's way).
+inline PlaybackSource placed_at(const MotionSegment& seg, int index, const GroundFrame& g) {
+  const GroundFrame g_clip = ground_frame_of(seg.frames[0]);
+  PlaybackSource s;
+  s.segment = index;
+  s.time_s = 0;
+  s.loop = false;
+  s.placement.origin_xz = g.origin_xz;
+  s.placement.yaw_rad = wrap(g.yaw_rad - g_clip.yaw_rad);
+  s.anchor_xz_m = g_clip.origin_xz;
+  return s;
+}
+/// A spot on the floor (m, room x/z) brought into the fighter's area ([fighter] min/max x/z).
+inline Vector2d clamp_to_area(const FighterConfig& c, const Vector2d& p) {
+  return {std::clamp(p.x(), c.min_x_m, c.max_x_m), std::clamp(p.y(), c.min_z_m, c.max_z_m)};
+}
 /// The integral of the release weight 1 - smoothstep(x) from 0 to x (x in [0, 1]).
 inline double eased_integral(double x) { return x - x * x * x + 0.5 * x * x * x * x; }
 inline int group_of(const Effector& e) { return e.side + 2 * (e.leg ? 1 : 0); }

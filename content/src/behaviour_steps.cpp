@@ -37,18 +37,6 @@ constexpr double kMinStepTravel_m = 0.2;
 
 Vector2d layout(const Vector3d& left, const Vector3d& right) { return {right.x() - left.x(), right.z() - left.z()}; }
 
-/// A segment from its first frame, placed at `g` (the body's ground frame now).
-PlaybackSource placed_at(const MotionSegment& seg, int index, const GroundFrame& g) {
-  const GroundFrame g_clip = ground_frame_of(seg.frames[0]);
-  PlaybackSource s;
-  s.segment = index;
-  s.time_s = 0;
-  s.loop = false;
-  s.placement.origin_xz = g.origin_xz;
-  s.placement.yaw_rad = wrap(g.yaw_rad - g_clip.yaw_rad);
-  s.anchor_xz_m = g_clip.origin_xz;
-  return s;
-}
 }  // namespace
 
 int Behaviour::rest_for_stance() const {
