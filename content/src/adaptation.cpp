@@ -96,16 +96,20 @@ struct PassOut {
   Vector3d effector_goal{0, 0, 0};
 };
 
-// The motion's own bend direction (elbow/knee) carried onto a goal that an offset or a held
-// foot has moved: the pole the swivel gives about the motion's own limb axis, re-projected onto
-// the new axis. Equal to the plain swivel pole when the goal is the motion's own. A swivel
-// angle taken about a strongly turned axis can point the knee anywhere (a folded leg whose goal
-// passes near the hip flipped its knee through the floor); the kept direction does not.
-Vector3d kept_pole(const Vector3d& motion_limb, const Vector3d& axis, const Vector3d& reference, double swivel_rad) {
-  const Vector3d plain = swivel_pole(axis, reference, swivel_rad);
+// The motion's own bend direction (elbow/knee, `pole`: across `motion_limb`) carried onto a
+// goal that an offset or a held foot has moved: re-projected onto the new axis. Equal to the
+// motion's own pole when the goal is the motion's own. (A pole turned with a strongly turned
+// axis can point the knee anywhere: a folded leg whose goal passes near the hip flipped its
+// knee through the floor; the kept direction does not.)
+Vector3d kept_pole(const Vector3d& motion_limb, const Vector3d& axis, const Vector3d& pole) {
   const double len = motion_limb.norm();
+  // Turned with the limb (the shortest rotation from its axis to the new one): always across
+  // the new axis, the fallback where re-projecting degenerates.
+  Vector3d plain = len > 1e-9 ? Vector3d(Eigen::Quaterniond::FromTwoVectors(motion_limb / len, axis) * pole) : pole;
+  plain -= plain.dot(axis) * axis;
+  plain = plain.norm() > 1e-9 ? Vector3d(plain.normalized()) : axis.unitOrthogonal();
   if (len < 1e-9) return plain;
-  const Vector3d own = swivel_pole(motion_limb / len, reference, swivel_rad);
+  const Vector3d& own = pole;
   const Vector3d p = own - own.dot(axis) * axis;
   const double n = p.norm();
   // Where the kept direction degenerates (the goal turned toward where the joint pointed), ease
@@ -169,9 +173,11 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
           out.effector_goal = goal;
         }
         const Vector3d axis = (goal - pos).normalized();
-        // (chest_world already carries the trunk's rotations: the guard arm's reference is not turned again.)
+        // The pole turns with the trunk's rotations as the body carries the elbow (a guard arm's
+        // `turn` is the trunk already; a striking arm's axis does not turn with it, its goal
+        // stays in the room), and a striking arm's with d(t)'s turn too.
         const Quaterniond ref_turn = striking ? turn : Quaterniond::Identity();
-        const Vector3d pole = kept_pole(turn * f.arm_n[s], axis, ref_turn * (chest_world * arm_swivel_reference(s)), f.arm_swivel_rad[s]);
+        const Vector3d pole = kept_pole(turn * f.arm_n[s], axis, ref_turn * (trunk * f.arm_pole[s]));
         // The striking arm straightens softly (as a held foot's leg does): near full extension
         // two-bone IK moves the elbow centimetres for the last millimetres, and a goal that
         // comes back within reach the frame after contact popped the elbow (5.6 cm in a frame).
@@ -208,7 +214,7 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
           out.effector_goal = goal;
         }
         const Vector3d axis = (goal - pos).normalized();
-        const Vector3d pole = kept_pole(turn * f.leg_n[s], axis, turn * (f.pelvis * leg_swivel_reference(s)), f.leg_swivel_rad[s]);
+        const Vector3d pole = kept_pole(turn * f.leg_n[s], axis, turn * f.leg_pole[s]);
         const TwoBoneResult r = solve_two_bone_soft(pos, goal, m.thigh_m[s], m.shin_m[s], pole, softness);
         ankle_goal[s] = r.end;
         out.leg_reached[s] = r.reached;

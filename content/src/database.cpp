@@ -300,8 +300,8 @@ void put_frame(Writer& w, const MkmFrame& f) {
   w.put(f.root_xz_m.x()); w.put(f.root_xz_m.y()); w.put(f.root_height_n);
   w.q(f.pelvis); w.q(f.chest); w.v3(f.spine_dir); w.v3(f.head_dir);
   for (int s = 0; s < 2; ++s) {
-    w.v3(f.clavicle_dir[s]); w.v3(f.arm_n[s]); w.put(f.arm_swivel_rad[s]);
-    w.v3(f.leg_n[s]); w.put(f.leg_swivel_rad[s]); w.v3(f.foot_dir[s]); w.put(f.planted[s]);
+    w.v3(f.clavicle_dir[s]); w.v3(f.arm_n[s]); w.v3(f.arm_pole[s]);
+    w.v3(f.leg_n[s]); w.v3(f.leg_pole[s]); w.v3(f.foot_dir[s]); w.put(f.planted[s]);
     w.put(f.ankle_lift_n[s]);
   }
 }
@@ -310,8 +310,10 @@ MkmFrame get_frame(Reader& r) {
   f.root_xz_m.x() = r.f("frame"); f.root_xz_m.y() = r.f("frame"); f.root_height_n = r.f("frame");
   f.pelvis = r.q("frame"); f.chest = r.q("frame"); f.spine_dir = r.v3("frame"); f.head_dir = r.v3("frame");
   for (int s = 0; s < 2; ++s) {
-    f.clavicle_dir[s] = r.v3("frame"); f.arm_n[s] = r.v3("frame"); f.arm_swivel_rad[s] = r.f("frame");
-    f.leg_n[s] = r.v3("frame"); f.leg_swivel_rad[s] = r.f("frame"); f.foot_dir[s] = r.v3("frame");
+    f.clavicle_dir[s] = r.v3("frame"); f.arm_n[s] = r.v3("frame"); f.arm_pole[s] = r.v3("frame");
+    f.leg_n[s] = r.v3("frame"); f.leg_pole[s] = r.v3("frame"); f.foot_dir[s] = r.v3("frame");
+    for (const Vector3d* pole : {&f.arm_pole[s], &f.leg_pole[s]})
+      if (std::abs(pole->norm() - 1) > 1e-6) r.fail("corrupt", fmt::format("frame: a limb pole of length {} (unit)", pole->norm()));
     f.planted[s] = r.f("frame");
     f.ankle_lift_n[s] = r.f("frame");
     if (f.ankle_lift_n[s] < 0 || f.ankle_lift_n[s] > 2) r.fail("corrupt", fmt::format("frame: ankle lift {} leg lengths (0..2)", f.ankle_lift_n[s]));

@@ -217,24 +217,31 @@ Vector3d leg_swivel_reference(int side) {
   return Vector3d(side == kLeft ? 0.3 : -0.3, 1.0, -1.0).normalized();
 }
 
-double swivel_angle(const Vector3d& root, const Vector3d& middle, const Vector3d& end,
-                    const Vector3d& reference, double fallback) {
+namespace {
+// `v` made perpendicular to the unit `axis` and unit; `otherwise` (or any perpendicular) where
+// it lies along the axis.
+Vector3d across(const Vector3d& v, const Vector3d& axis, const Vector3d& otherwise) {
+  Vector3d p = v - v.dot(axis) * axis;
+  if (p.norm() > 1e-9) return p.normalized();
+  p = otherwise - otherwise.dot(axis) * axis;
+  return p.norm() > 1e-9 ? Vector3d(p.normalized()) : axis.unitOrthogonal();
+}
+}  // namespace
+
+Vector3d limb_pole(const Vector3d& root, const Vector3d& middle, const Vector3d& end, const Vector3d& fallback) {
   const Vector3d axis = end - root;
   const double len = axis.norm();
-  if (len < 1e-9) return fallback;
+  if (len < 1e-9) return fallback.norm() > 1e-9 ? Vector3d(fallback.normalized()) : Vector3d::UnitX();
   const Vector3d a = axis / len;
-  Vector3d r = reference - reference.dot(a) * a;
-  Vector3d e = (middle - root) - (middle - root).dot(a) * a;
-  if (r.norm() < 1e-9 || e.norm() < 1e-6) return fallback;
-  r.normalize();
-  return std::atan2(a.dot(r.cross(e)), r.dot(e));
+  const Vector3d e = (middle - root) - (middle - root).dot(a) * a;
+  if (e.norm() < 1e-6) return across(fallback, a, a.unitOrthogonal());
+  return e.normalized();
 }
 
-Vector3d swivel_pole(const Vector3d& axis_unit, const Vector3d& reference, double swivel_rad) {
-  Vector3d r = reference - reference.dot(axis_unit) * axis_unit;
-  if (r.norm() < 1e-9) r = axis_unit.unitOrthogonal();
-  r.normalize();
-  return std::cos(swivel_rad) * r + std::sin(swivel_rad) * axis_unit.cross(r);
+Vector3d blend_pole(const Vector3d& a, const Vector3d& b, const Vector3d& axis, double w) {
+  const Vector3d pa = across(a, axis, b), pb = across(b, axis, pa);
+  const double angle = std::atan2(axis.dot(pa.cross(pb)), pa.dot(pb));
+  return Eigen::AngleAxisd(w * angle, axis) * pa;
 }
 
 void encode_mkm(const CanonicalPose& p, const Morphology& m, double floor_y_m,
@@ -256,13 +263,11 @@ void encode_mkm(const CanonicalPose& p, const Morphology& m, double floor_y_m,
     const Vector3d& sh = at(p, kShoulder[s]);
     const Vector3d& wr = at(p, kWrist[s]);
     out.arm_n[s] = (wr - sh) / m.arm_length(s);
-    out.arm_swivel_rad[s] = swivel_angle(sh, at(p, kElbow[s]), wr, out.chest * arm_swivel_reference(s),
-                                         previous ? previous->arm_swivel_rad[s] : 0.0);
+    out.arm_pole[s] = limb_pole(sh, at(p, kElbow[s]), wr, previous ? previous->arm_pole[s] : Vector3d(out.chest * arm_swivel_reference(s)));
     const Vector3d& hip = at(p, kHip[s]);
     const Vector3d& an = at(p, kAnkle[s]);
     out.leg_n[s] = (an - hip) / m.limb_leg_length(s);
-    out.leg_swivel_rad[s] = swivel_angle(hip, at(p, kKnee[s]), an, out.pelvis * leg_swivel_reference(s),
-                                         previous ? previous->leg_swivel_rad[s] : 0.0);
+    out.leg_pole[s] = limb_pole(hip, at(p, kKnee[s]), an, previous ? previous->leg_pole[s] : Vector3d(out.pelvis * leg_swivel_reference(s)));
     const Vector3d fwd_down = out.pelvis * Vector3d(0, -0.5, 1).normalized();
     out.foot_dir[s] = repitch(valid(at(p, kToe[s])) ? normalized_or(at(p, kToe[s]) - an, fwd_down) : fwd_down, m.standing_foot_pitch_rad[s], 0.0);
   }
@@ -290,7 +295,6 @@ void mirror_pose(const CanonicalPose& in, const GroundFrame& g, CanonicalPose& o
 void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out) {
   const double u = 1 - w;
   auto nlerp = [&](const Vector3d& x, const Vector3d& y) { return normalized_or(u * x + w * y, x); };
-  auto angle = [&](double x, double y) { return x + w * wrap_angle(y - x); };
   out.root_xz_m = u * a.root_xz_m + w * b.root_xz_m;
   out.root_height_n = u * a.root_height_n + w * b.root_height_n;
   out.pelvis = a.pelvis.slerp(w, b.pelvis);
@@ -300,9 +304,9 @@ void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out) {
   for (int s = 0; s < 2; ++s) {
     out.clavicle_dir[s] = nlerp(a.clavicle_dir[s], b.clavicle_dir[s]);
     out.arm_n[s] = u * a.arm_n[s] + w * b.arm_n[s];
-    out.arm_swivel_rad[s] = angle(a.arm_swivel_rad[s], b.arm_swivel_rad[s]);
+    out.arm_pole[s] = blend_pole(a.arm_pole[s], b.arm_pole[s], normalized_or(out.arm_n[s], normalized_or(a.arm_n[s], Vector3d::UnitY())), w);
     out.leg_n[s] = u * a.leg_n[s] + w * b.leg_n[s];
-    out.leg_swivel_rad[s] = angle(a.leg_swivel_rad[s], b.leg_swivel_rad[s]);
+    out.leg_pole[s] = blend_pole(a.leg_pole[s], b.leg_pole[s], normalized_or(out.leg_n[s], normalized_or(a.leg_n[s], -Vector3d::UnitY())), w);
     out.foot_dir[s] = nlerp(a.foot_dir[s], b.foot_dir[s]);
     out.planted[s] = u * a.planted[s] + w * b.planted[s];
     out.ankle_lift_n[s] = u * a.ankle_lift_n[s] + w * b.ankle_lift_n[s];
@@ -323,9 +327,9 @@ void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Ve
   for (int s = 0; s < 2; ++s) {
     out.clavicle_dir[s] = r * in.clavicle_dir[s];
     out.arm_n[s] = r * in.arm_n[s];
-    out.arm_swivel_rad[s] = in.arm_swivel_rad[s];
+    out.arm_pole[s] = r * in.arm_pole[s];
     out.leg_n[s] = r * in.leg_n[s];
-    out.leg_swivel_rad[s] = in.leg_swivel_rad[s];
+    out.leg_pole[s] = r * in.leg_pole[s];
     out.foot_dir[s] = r * in.foot_dir[s];
     out.planted[s] = in.planted[s];
     out.ankle_lift_n[s] = in.ankle_lift_n[s];

@@ -24,7 +24,7 @@
 
 namespace kumite::content {
 
-inline constexpr std::uint32_t kDatabaseVersion = 3;
+inline constexpr std::uint32_t kDatabaseVersion = 4;
 
 enum class SegmentKind : std::uint8_t { rest = 0, walk = 1, strike = 2, other = 3 };
 std::string_view to_string(SegmentKind k);

@@ -2,7 +2,8 @@
 // A morphology-independent pose representation, after Kulpa & Multon's MKM ("Morphology-
 // independent representation of motions for interactive human-like animation", 2005):
 // limbs are stored as the vector root->end of the limb divided by the limb's length plus the
-// swivel angle of the middle joint about that vector; the trunk as geometric frames and unit
+// direction of the middle joint across that vector (MKM's swivel, kept as a direction: see
+// MkmFrame::arm_pole); the trunk as geometric frames and unit
 // directions; the pelvis height as a fraction of the leg length. A pose encoded from one
 // skeleton (the actor) decodes onto any other (a character) whose canonical joints are known:
 // the decoder (adaptation.hpp) rebuilds each limb with analytic two-bone IK.
@@ -61,9 +62,14 @@ struct MkmFrame {
   Eigen::Vector3d head_dir{0, 1, 0};   ///< unit, neck -> head
   std::array<Eigen::Vector3d, 2> clavicle_dir{};  ///< unit, clavicle -> shoulder [side]
   std::array<Eigen::Vector3d, 2> arm_n{};   ///< (wrist - shoulder) / arm length [side]
-  std::array<double, 2> arm_swivel_rad{};   ///< elbow about the shoulder->wrist axis [side]
+  /// unit, from the shoulder->wrist axis toward the elbow, across the axis [side] (the frame of
+  /// arm_n). A direction, not an angle about a fixed reference: every fixed reference has two
+  /// limb directions where the angle turns fast (a guard arm across the body, a long stance's
+  /// front leg pointed nearly opposite it), and any blend or sub-frame sample there swung the
+  /// elbow or knee (a 25 cm elbow jump in a frame out of 135_10_step_6).
+  std::array<Eigen::Vector3d, 2> arm_pole{};
   std::array<Eigen::Vector3d, 2> leg_n{};   ///< (ankle - hip) / leg length [side]
-  std::array<double, 2> leg_swivel_rad{};   ///< knee about the hip->ankle axis [side]
+  std::array<Eigen::Vector3d, 2> leg_pole{};  ///< unit, from the hip->ankle axis toward the knee [side] (as arm_pole)
   std::array<Eigen::Vector3d, 2> foot_dir{};  ///< unit, ankle -> toe [side], its pitch relative to the body's standing foot (Morphology::standing_foot_pitch_rad; drawn_foot_dir)
   std::array<double, 2> planted{};  ///< 1 = foot planted on the floor, 0 = free [side]
   /// The source's own ankle above its lowest in the segment / the source's leg length [side]:
@@ -118,19 +124,21 @@ Eigen::Quaterniond chest_frame(const CanonicalPose& p);
 GroundFrame ground_frame_of(const CanonicalPose& p);
 GroundFrame ground_frame_of(const MkmFrame& f);
 
-/// Swivel reference (unit, in the pelvis/chest geometric frame) for a side's arm or leg:
-/// directions the limb axis practically never takes (up-outward-back for arms, up-back for
-/// legs), so the reference stays defined across strikes, guards and kicks.
+/// Swivel reference (unit, in the pelvis/chest geometric frame) for a side's arm or leg
+/// (up-outward-back for arms, up-back for legs): the pole of a straight limb the encoder meets
+/// first (no earlier frame to carry its pole from).
 Eigen::Vector3d arm_swivel_reference(int side);
 Eigen::Vector3d leg_swivel_reference(int side);
 
-/// Swivel of `middle` about the axis root->end, measured from `reference` (world, any length
-/// not parallel to the axis). Returns `fallback` when the limb is straight (undefined).
-double swivel_angle(const Eigen::Vector3d& root, const Eigen::Vector3d& middle,
-                    const Eigen::Vector3d& end, const Eigen::Vector3d& reference, double fallback);
-/// Unit pole direction (perpendicular to `axis`) for a swivel angle: the inverse of the above.
-Eigen::Vector3d swivel_pole(const Eigen::Vector3d& axis_unit, const Eigen::Vector3d& reference,
-                            double swivel_rad);
+/// Unit direction from the axis root->end toward `middle`, across the axis. Where the limb is
+/// straight (the middle within 1e-6 m of the axis: undefined) the fallback pole (unit, e.g. the
+/// previous frame's), made perpendicular to the axis; where that is along the axis too, any
+/// unit perpendicular.
+Eigen::Vector3d limb_pole(const Eigen::Vector3d& root, const Eigen::Vector3d& middle, const Eigen::Vector3d& end,
+                          const Eigen::Vector3d& fallback);
+/// The pole `a` turned toward `b` by `w` (0..1) about `axis` (unit): both made perpendicular to
+/// the axis, the shorter way round (a blend of two frames' poles about the blended limb).
+Eigen::Vector3d blend_pole(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& axis, double w);
 
 /// `dir` (unit) pitched about the horizontal axis across it, its heading kept: a foot standing
 /// at pitch `from_rad` (below the horizontal) re-drawn on a foot standing at `to_rad`. Within
@@ -145,9 +153,9 @@ inline Eigen::Vector3d drawn_foot_dir(const MkmFrame& f, const Morphology& m, in
 }
 
 /// Encodes canonical positions (m) into MKM. `floor_y_m` is the clip's floor height (the
-/// root's height counts from floor_y_m + morphology.standing_ankle_m); the
-/// swivel fallbacks (rad) are used when a limb is straight: pass the previous frame's angles
-/// so a straight arm keeps its last swivel (previous may be null).
+/// root's height counts from floor_y_m + morphology.standing_ankle_m); where a limb is straight
+/// its pole is the previous frame's: pass it so a straight arm keeps its last pole (previous may
+/// be null: the swivel reference then).
 void encode_mkm(const CanonicalPose& pose, const Morphology& morphology, double floor_y_m,
                 const MkmFrame* previous, MkmFrame& out);
 
@@ -155,7 +163,8 @@ void encode_mkm(const CanonicalPose& pose, const Morphology& morphology, double 
 void mirror_pose(const CanonicalPose& in, const GroundFrame& g, CanonicalPose& out);
 
 /// out = a blended toward b by w in [0, 1] (0 = a). Quaternions slerp, unit directions
-/// nlerp, limb vectors lerp (their length is the extension), swivels along the shortest arc.
+/// nlerp, limb vectors lerp (their length is the extension), poles turn about the blended limb
+/// the shorter way (blend_pole).
 void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out);
 
 /// Expresses a frame given in ground frame `from`'s local coordinates in world coordinates,
