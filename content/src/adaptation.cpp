@@ -102,20 +102,18 @@ struct PassOut {
 // axis can point the knee anywhere: a folded leg whose goal passes near the hip flipped its
 // knee through the floor; the kept direction does not.)
 Vector3d kept_pole(const Vector3d& motion_limb, const Vector3d& axis, const Vector3d& pole) {
-  const double len = motion_limb.norm();
-  // Turned with the limb (the shortest rotation from its axis to the new one): always across
-  // the new axis, the fallback where re-projecting degenerates.
-  Vector3d plain = len > 1e-9 ? Vector3d(Eigen::Quaterniond::FromTwoVectors(motion_limb / len, axis) * pole) : pole;
-  plain -= plain.dot(axis) * axis;
-  plain = plain.norm() > 1e-9 ? Vector3d(plain.normalized()) : axis.unitOrthogonal();
-  if (len < 1e-9) return plain;
-  const Vector3d& own = pole;
-  const Vector3d p = own - own.dot(axis) * axis;
+  const Vector3d p = pole - pole.dot(axis) * axis;
   const double n = p.norm();
   // Where the kept direction degenerates (the goal turned toward where the joint pointed), ease
   // back to the plain pole: full kept at n >= 0.5, plain at n <= 0.2.
   const double w = std::clamp((n - 0.2) / 0.3, 0.0, 1.0);
   if (w >= 1) return p / n;
+  // Plain: turned with the limb (the shortest rotation from its axis to the new one), always
+  // across the new axis.
+  const double len = motion_limb.norm();
+  Vector3d plain = len > 1e-9 ? Vector3d(Eigen::Quaterniond::FromTwoVectors(motion_limb / len, axis) * pole) : pole;
+  plain -= plain.dot(axis) * axis;
+  plain = plain.norm() > 1e-9 ? Vector3d(plain.normalized()) : axis.unitOrthogonal();
   Vector3d q = (1 - w) * plain;
   if (n > 1e-9) q += w * (p / n);
   return q.norm() > 1e-9 ? Vector3d(q.normalized()) : plain;
