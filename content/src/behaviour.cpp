@@ -936,8 +936,21 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   const double v = have_pose_ ? drop_rate_mps_ : 0.0;
   const double v_lo = std::max(-tun_.max_drop_rate_mps, v - tun_.max_drop_accel_mps2 * dt);
   const double v_hi = std::min(tun_.max_drop_rate_mps, v + tun_.max_drop_accel_mps2 * dt);
+  // A punch's pelvis goes no lower than keeps its target within the arm's reach at
+  // max_punch_aim_deg from the shoulder: a lunge's back foot held out of the legs' reach sank
+  // the pelvis 0.29 m and a head-height punch went up with the elbow above the head. The foot
+  // steps instead (a foot the leg cannot reach steps at once: FootPlanter).
+  double most_drop = tun_.max_root_drop_m;
+  if (reach && !reach->effector.leg && strike_target_ && have_pose_) {
+    const Rig& r = characters_[static_cast<std::size_t>(character_)];
+    const CJ shoulder = reach->effector.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
+    const double shoulder_undropped = rig_positions_[static_cast<std::size_t>(r.skeleton.index(shoulder))].y() + last_drop;
+    const double lowest = strike_target_->y() - r.morphology.arm_length(reach->effector.side) *
+                                                    std::sin(tun_.max_punch_aim_deg * std::numbers::pi / 180);
+    most_drop = std::clamp(shoulder_undropped - lowest, 0.0, most_drop);
+  }
   locks_.min_root_drop_m = std::clamp(last_drop + v_lo * dt, 0.0, tun_.max_root_drop_m);
-  locks_.max_root_drop_m = std::clamp(last_drop + v_hi * dt, locks_.min_root_drop_m, tun_.max_root_drop_m);
+  locks_.max_root_drop_m = std::clamp(std::min(last_drop + v_hi * dt, most_drop), locks_.min_root_drop_m, tun_.max_root_drop_m);
   AdaptJob job;
   job.rig = &rig;
   job.pose = &pose_;
