@@ -239,13 +239,14 @@ Vector3d limb_pole(const Vector3d& root, const Vector3d& middle, const Vector3d&
 }
 
 Vector3d blend_pole(const Vector3d& a, const Vector3d& b, const Vector3d& axis, double w) {
-  // Both made across the axis: their nlerp stays across it (the slerp's own midpoint at
-  // w = 0.5). Near opposite (more than ~155 deg apart) or along the axis the sum degenerates:
-  // turned by the angle instead. (The common path is a few dot products: sampling between
-  // frames runs it per limb for every sample.)
+  // Both made across the axis and turned from one to the other about it at an even pace. Within
+  // 30 deg their nlerp does that to 7 % (mid-way against the ends; a few dot products: sampling
+  // between frames runs this per limb for every sample); farther apart its pace is uneven (at
+  // 150 deg 15x as fast mid-way: a guard arm's elbow snapped in a blend at the start of two of
+  // bruno's kicks on the grid), so the angle is turned instead.
   const Vector3d pa = a - a.dot(axis) * axis, pb = b - b.dot(axis) * axis;
   const double na = pa.norm(), nb = pb.norm();
-  if (na > 0.1 && nb > 0.1 && pa.dot(pb) > -0.9 * na * nb) return ((1 - w) / na * pa + w / nb * pb).normalized();
+  if (na > 0.1 && nb > 0.1 && pa.dot(pb) > 0.866 * na * nb) return ((1 - w) / na * pa + w / nb * pb).normalized();
   const Vector3d ua = across(a, axis, b), ub = across(b, axis, ua);
   const double angle = std::atan2(axis.dot(ua.cross(ub)), ua.dot(ub));
   return Eigen::AngleAxisd(w * angle, axis) * ua;
