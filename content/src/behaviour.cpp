@@ -583,6 +583,7 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   strike_.error_m = r.error_m;
   strike_.turn = r.turn;
   strike_.stretch = r.stretch;
+  strike_.out_of_reach = r.capped;
   if (plan_lean) strike_.lean = r.lean;
   contact_shoulder_m_ = r.shoulder_m;
   contact_head_m_ = r.head_m;
@@ -629,7 +630,18 @@ ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vect
   const Vector3d to = target - at(c, root);
   if (from.norm() > 1e-6 && to.norm() > 1e-6) {
     r.turn = Eigen::Quaterniond::FromTwoVectors(from, to);
-    r.stretch = to.norm() / from.norm();
+    double want = to.norm();
+    // A kick whose target lies beyond the leg's reach from the hip at contact stops short of
+    // locking the knee (kKickLockOutShare of the leg): stretched onto the target the leg hit
+    // full extension on the way in, a bent knee straight in one frame (a character switched
+    // mid-kick to a shorter one: knees 6-14 cm in a frame, 15 of the shipped 120-order sweep's
+    // 26 snaps). It is out of reach either way (contact_reached false).
+    const double leg = rig.morphology.limb_leg_length(side);
+    if (eff.leg && want > leg) {
+      want = kKickLockOutShare * leg;
+      r.capped = true;
+    }
+    r.stretch = want / from.norm();
   }
   if (plan_lean && !eff.leg) {
     // The trunk lean the contact needs: the pose at contact adapted with the whole d(t), its
@@ -782,7 +794,7 @@ void Behaviour::judge_contact(Timestamp now, const Vector3d& head) {
   strike_.contact_done = true;
   strike_.contact_update = updates_;
   strike_.contact_distance_m = (hit_point - strike_.target_room_m).norm();
-  strike_.contact_reached = report_.reached;
+  strike_.contact_reached = report_.reached && !strike_.out_of_reach;
   strike_.target_reached = strike_.contact_distance_m <= config_.hit_radius_m;
   const Vector3d top = head - Vector3d::UnitY() * config_.visitor_neck_m;
   const Vector3d bottom(head.x(), std::min(top.y(), config_.visitor_capsule_bottom_m), head.z());
@@ -799,7 +811,7 @@ void Behaviour::judge_contact(Timestamp now, const Vector3d& head) {
   e.start_frame = strike_.plan.start_frame;
   e.contact_frame = strike_.plan.contact_frame;
   e.contact_distance_m = strike_.contact_distance_m;
-  e.out_of_reach = !report_.reached;
+  e.out_of_reach = !strike_.contact_reached;
 }
 
 void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {

@@ -104,10 +104,15 @@ inline double reach_ramp_out(double contact_s, double release_end_s, double t) {
 /// d(t) at contact: the gap from the effector to the target, and the turn and stretch of the
 /// limb about its root (shoulder or hip) that point it at the target, for `pose` (composed as
 /// the update at contact will compose it) decoded on `rig` (into `scratch`).
+/// A kick aimed beyond the leg's reach stretches the leg to this share of its length, short of
+/// a locked knee (reach_correction).
+inline constexpr double kKickLockOutShare = 0.99;
 struct ReachCorrection {
   Eigen::Vector3d error_m{0, 0, 0};
   Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
   double stretch = 1;
+  /// A kick's target beyond the leg's reach: stretched to kKickLockOutShare of the leg instead.
+  bool capped = false;
   /// A punch's trunk lean at contact: what AdaptJob's trunk fallback bends to bring the target
   /// within the arm's reach (identity when the arm reaches alone, and for kicks).
   TrunkLean lean;

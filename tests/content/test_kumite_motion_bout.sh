@@ -38,6 +38,13 @@ strikes=$(sed -n 's/^ *"strikes": \([0-9]*\),*$/\1/p' off.json | head -n 1)
   || fail "bout (aiko,bruno,viktor,mei,kenji) exited $?: $(cat err.txt)"
 folded5=$(sed -n 's/^ *"folded_at_contact": \([0-9]*\),*$/\1/p' o5.json | head -n 1)
 [ "${folded5:-x}" = 0 ] || fail "bout (aiko,bruno,viktor,mei,kenji): ${folded5:-no} strikes folded at contact"
+# And aiko, bruno, kenji, viktor, mei: viktor switched to mei 0.25 s into a kick whose target
+# mei's shorter leg cannot reach; stretched onto it, the leg locked straight on the way in (the
+# knee 14 cm in a frame at 15.32 s). A kick beyond reach now stops at kKickLockOutShare (29 Nov).
+"$tool" bout --db fighter.kdb --characters aiko,bruno,kenji,viktor,mei --out o1.bvh --report o1.json >/dev/null 2>err.txt \
+  || fail "bout (aiko,bruno,kenji,viktor,mei) exited $?: $(cat err.txt)"
+snaps1=$(sed -n 's/^ *"drawn_snaps_whole_bout": \([0-9]*\),*$/\1/p' o1.json | head -n 1)
+[ "${snaps1:-x}" = 0 ] || fail "bout (aiko,bruno,kenji,viktor,mei): ${snaps1:-no} drawn snaps: $(sed -n '/"drawn_snap_list"/,/\]/p' o1.json | tr -d ' \n')"
 steps=$(sed -n 's/^ *"stance_steps": \([0-9]*\),*$/\1/p' on.json | head -n 1)
 [ "${steps:-0}" -gt 0 ] || fail "the bout with stance steps on took none"
 # Following a walking visitor for 56 s (the shipped behaviour: procedural steps): never both

@@ -241,6 +241,7 @@ class Behaviour {
     Eigen::Vector3d error_m{0, 0, 0};  ///< m: target - effector at contact, before d(t)
     Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t): limb turn at contact
     double stretch = 1;                ///< full d(t): limb length factor at contact
+    bool out_of_reach = false;         ///< a kick's target beyond the leg's reach: d(t) stops short (kKickLockOutShare)
     TrunkLean lean;                    ///< full d(t): a punch's trunk lean at contact
     double rate = 1;                   ///< segment seconds played per second (StrikeRateSolver)
     int start_update = -1;             ///< update counter at the strike's start
