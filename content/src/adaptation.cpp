@@ -111,9 +111,8 @@ Vector3d kept_pole(const Vector3d& motion_limb, const Vector3d& axis, const Vect
   // Plain: turned with the limb (the shortest rotation from its axis to the new one), always
   // across the new axis.
   const double len = motion_limb.norm();
-  Vector3d plain = len > 1e-9 ? Vector3d(Eigen::Quaterniond::FromTwoVectors(motion_limb / len, axis) * pole) : pole;
-  plain -= plain.dot(axis) * axis;
-  plain = plain.norm() > 1e-9 ? Vector3d(plain.normalized()) : axis.unitOrthogonal();
+  const Vector3d plain = across(len > 1e-9 ? Vector3d(Eigen::Quaterniond::FromTwoVectors(motion_limb / len, axis) * pole) : pole,
+                                axis, axis.unitOrthogonal());
   Vector3d q = (1 - w) * plain;
   if (n > 1e-9) q += w * (p / n);
   return q.norm() > 1e-9 ? Vector3d(q.normalized()) : plain;

@@ -256,8 +256,7 @@ void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
       // visitor's neck and chest below the head (still the visitor's body).
       const Rig& rig = characters_[static_cast<std::size_t>(character_)];
       const CJ shoulder = eff->side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
-      const double top = at(rig.rest_pose, shoulder).y() - rest_floor_y(rig) +
-                         rig.morphology.arm_length(eff->side) * std::sin(tun_.max_punch_aim_deg * std::numbers::pi / 180);
+      const double top = at(rig.rest_pose, shoulder).y() - rest_floor_y(rig) + aim_rise_m(rig, eff->side, tun_.max_punch_aim_deg);
       if (target.y() > top) target.y() = top;
     }
     StrikeRequest r;
@@ -954,11 +953,9 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // steps instead (a foot the leg cannot reach steps at once: FootPlanter).
   double most_drop = tun_.max_root_drop_m;
   if (reach && !reach->effector.leg && strike_target_ && have_pose_) {
-    const Rig& r = characters_[static_cast<std::size_t>(character_)];
     const CJ shoulder = reach->effector.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
-    const double shoulder_undropped = rig_positions_[static_cast<std::size_t>(r.skeleton.index(shoulder))].y() + last_drop;
-    const double lowest = strike_target_->y() - r.morphology.arm_length(reach->effector.side) *
-                                                    std::sin(tun_.max_punch_aim_deg * std::numbers::pi / 180);
+    const double shoulder_undropped = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(shoulder))].y() + last_drop;
+    const double lowest = strike_target_->y() - aim_rise_m(rig, reach->effector.side, tun_.max_punch_aim_deg);
     most_drop = std::clamp(shoulder_undropped - lowest, 0.0, most_drop);
   }
   locks_.min_root_drop_m = std::clamp(last_drop + v_lo * dt, 0.0, tun_.max_root_drop_m);

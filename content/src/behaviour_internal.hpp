@@ -59,6 +59,11 @@ inline PlaybackSource placed_at(const MotionSegment& seg, int index, const Groun
   s.anchor_xz_m = g_clip.origin_xz;
   return s;
 }
+/// m: how far above its shoulder a side's straight arm reaches, aimed `aim_deg` upward (the
+/// steepest a punch goes: BehaviourTunables::max_punch_aim_deg).
+inline double aim_rise_m(const Rig& rig, int side, double aim_deg) {
+  return rig.morphology.arm_length(side) * std::sin(aim_deg * std::numbers::pi / 180);
+}
 /// A spot on the floor (m, room x/z) brought into the fighter's area ([fighter] min/max x/z).
 inline Vector2d clamp_to_area(const FighterConfig& c, const Vector2d& p) {
   return {std::clamp(p.x(), c.min_x_m, c.max_x_m), std::clamp(p.y(), c.min_z_m, c.max_z_m)};

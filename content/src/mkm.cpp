@@ -217,16 +217,12 @@ Vector3d leg_swivel_reference(int side) {
   return Vector3d(side == kLeft ? 0.3 : -0.3, 1.0, -1.0).normalized();
 }
 
-namespace {
-// `v` made perpendicular to the unit `axis` and unit; `otherwise` (or any perpendicular) where
-// it lies along the axis.
 Vector3d across(const Vector3d& v, const Vector3d& axis, const Vector3d& otherwise) {
   Vector3d p = v - v.dot(axis) * axis;
   if (p.norm() > 1e-9) return p.normalized();
   p = otherwise - otherwise.dot(axis) * axis;
   return p.norm() > 1e-9 ? Vector3d(p.normalized()) : axis.unitOrthogonal();
 }
-}  // namespace
 
 Vector3d limb_pole(const Vector3d& root, const Vector3d& middle, const Vector3d& end, const Vector3d& fallback) {
   const Vector3d axis = end - root;

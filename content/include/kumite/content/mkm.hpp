@@ -130,6 +130,9 @@ GroundFrame ground_frame_of(const MkmFrame& f);
 Eigen::Vector3d arm_swivel_reference(int side);
 Eigen::Vector3d leg_swivel_reference(int side);
 
+/// `v` made perpendicular to the unit `axis`, unit; `otherwise` so made where `v` lies along
+/// the axis, and any unit perpendicular where both do.
+Eigen::Vector3d across(const Eigen::Vector3d& v, const Eigen::Vector3d& axis, const Eigen::Vector3d& otherwise);
 /// Unit direction from the axis root->end toward `middle`, across the axis. Where the limb is
 /// straight (the middle within 1e-6 m of the axis: undefined) the fallback pole (unit, e.g. the
 /// previous frame's), made perpendicular to the axis; where that is along the axis too, any
