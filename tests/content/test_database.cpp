@@ -92,6 +92,22 @@ TEST(Database, CorruptTruncatedOldAndForeignFilesAreRejectedWithOneLine) {
   }
 }
 
+TEST(Database, ALimbPoleThatIsNotAUnitDirectionIsRejectedWithOneLine) {
+  // Format 4 stores each elbow / knee as a unit direction across its limb (MkmFrame::arm_pole).
+  // A file whose checksum is right but whose pole is not unit (a writer's bug, not a disk's) is
+  // refused, naming the field, rather than decoded into a limb bent by a scaled pole.
+  Database db = *kumite::content::testing::synthetic_database().db;
+  ASSERT_FALSE(db.segments.empty());
+  ASSERT_NO_THROW(parse_database(serialize_database(db), "fighter.kdb"));
+  db.segments[0].frames[0].leg_pole[kLeft] *= 2;
+  std::string code;
+  const std::string msg = error_of(serialize_database(db), &code);
+  EXPECT_EQ(code, "corrupt");
+  EXPECT_NE(msg.find("fighter.kdb"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("limb pole of length 2"), std::string::npos) << msg;
+  EXPECT_EQ(msg.find('\n'), std::string::npos);
+}
+
 TEST(Database, AnnotationsOutsideTheClipAreRejectedNamingTheSegment) {
   const auto& set = kumite::content::testing::synthetic_database();
   const Clip& c = set.clips[1];
