@@ -408,7 +408,16 @@ bool AdaptJob::Run() const {
     const int s = reach->effector.side;
     CcdChain chain;
     const CJ pivots[3] = {CJ::spine, CJ::chest, kClavicle[s]};
-    const double limits[3] = {trunk.spine_rad, trunk.chest_rad, trunk.clavicle_rad};
+    // The limits are the trunk's whole turn: what the planned lean and the least fallback
+    // already turn at a pivot is taken off its limit (added on top with limits of its own, a
+    // far punch's trunk turned twice as far as the limits allow: the head dipped 21 cm, under
+    // the raised elbow, where the plan had it dip 11).
+    const auto left = [](double limit, const Quaterniond& used) {
+      return std::max(0.0, limit - 2 * std::acos(std::min(1.0, std::abs(used.w()))));
+    };
+    const Quaterniond clavicle_used = td.clavicle_side == s ? td.clavicle : Quaterniond::Identity();
+    const double limits[3] = {left(trunk.spine_rad, td.spine), left(trunk.chest_rad, td.chest),
+                              left(trunk.clavicle_rad, clavicle_used)};
     int slot[3] = {-1, -1, -1};
     for (int k = 0; k < 3; ++k) {
       if (rig->skeleton.index(pivots[k]) < 0) continue;

@@ -311,6 +311,42 @@ TEST(Adapt, TheTrunkFadesInAsTheGoalNearsTheArmsReach) {
   EXPECT_LT(worst, 3.0);
 }
 
+TEST(Adapt, APlannedLeanAndTheFallbackTogetherTurnTheTrunkNoFurtherThanItsLimits) {
+  // SYNTHETIC punch pose, the wrist goal at 1.6 x the arm's length straight out (far out of
+  // reach: the trunk turns to its limits). That lean given back as the punch's planned lean,
+  // as a strike's plan gives it, with the same goal: the fallback on top may use only what the
+  // planned lean left of each pivot's limit. It turned by its whole limits again before (a far
+  // punch in the bout: the head dipped twice as far as planned, under the raised elbow).
+  PunchLine line;
+  Buffers& b = line.b;
+  const Rig& rig = line.rig;
+  ReachGoal goal = line.goal_at(1.6);
+  AdaptReport planned;
+  AdaptJob job = b.job(rig, line.f);
+  job.reach = &goal;
+  job.report = &planned;
+  ASSERT_TRUE(job.Run());
+  ASSERT_TRUE(planned.trunk_used);
+  const double head_planned = b.at_joint(rig, CJ::head).y();
+  const auto angle = [](const Eigen::Quaterniond& q) { return 2 * std::acos(std::min(1.0, std::abs(q.w()))); };
+  const TrunkLimits limits;
+  EXPECT_GT(angle(planned.trunk.spine), 0.9 * limits.spine_rad);  // at its limit: the goal is far
+  goal.lean = planned.trunk;
+  AdaptReport rep;
+  job.report = &rep;
+  ASSERT_TRUE(job.Run());
+  const double head = b.at_joint(rig, CJ::head).y();
+  std::printf("trunk turns with the planned lean and the fallback: spine %.1f, chest %.1f, clavicle %.1f deg (limits %.1f, %.1f, %.1f); head %.1f mm under the plan's\n",
+              angle(rep.trunk.spine) * 180 / std::numbers::pi, angle(rep.trunk.chest) * 180 / std::numbers::pi,
+              angle(rep.trunk.clavicle) * 180 / std::numbers::pi, limits.spine_rad * 180 / std::numbers::pi,
+              limits.chest_rad * 180 / std::numbers::pi, limits.clavicle_rad * 180 / std::numbers::pi,
+              (head_planned - head) * 1000);
+  EXPECT_LE(angle(rep.trunk.spine), limits.spine_rad + 1e-6);
+  EXPECT_LE(angle(rep.trunk.chest), limits.chest_rad + 1e-6);
+  EXPECT_LE(angle(rep.trunk.clavicle), limits.clavicle_rad + 1e-6);
+  EXPECT_LT(head_planned - head, 0.01);
+}
+
 TEST(Adapt, AKicksReachCarriesOnThePunchsTrunkFallbackWhenGivenItsSide) {
   // SYNTHETIC punch pose: the wrist goal at 110 % of the arm for 8 frames (the trunk bends),
   // then a kick's reach (the left foot, d(t) at nothing) from the next frame, the last frame's
