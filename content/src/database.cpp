@@ -160,6 +160,7 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
     encode_mkm(poses[static_cast<std::size_t>(f)], me, floor_y, f > 0 ? &seg.frames[static_cast<std::size_t>(f - 1)] : nullptr, fr);
     fr.root_xz_m *= scale;
   }
+  if (o.steady_straight_poles) steady_straight_limb_poles(seg.frames, clip.frame_time_s);
   // Planted feet: the ankle low (relative to its lowest point in the segment) and slow, or the
   // toes low and slow (the heel raised onto the ball of the foot, as the back foot of a lunge
   // before it steps: the foot is still down, turning about its toes).

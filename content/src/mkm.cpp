@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <vector>
 
 #include "kumite/common/error.hpp"
 
@@ -274,6 +275,65 @@ void encode_mkm(const CanonicalPose& p, const Morphology& m, double floor_y_m,
     out.leg_pole[s] = limb_pole(hip, at(p, kKnee[s]), an, previous ? previous->leg_pole[s] : Vector3d(out.pelvis * leg_swivel_reference(s)));
     const Vector3d fwd_down = out.pelvis * Vector3d(0, -0.5, 1).normalized();
     out.foot_dir[s] = repitch(valid(at(p, kToe[s])) ? normalized_or(at(p, kToe[s]) - an, fwd_down) : fwd_down, m.standing_foot_pitch_rad[s], 0.0);
+  }
+}
+
+void steady_straight_limb_poles(std::span<MkmFrame> frames, double frame_time_s) {
+  const int n = static_cast<int>(frames.size());
+  if (n == 0 || !(frame_time_s > 0)) return;
+  const double sigma = kSteadySigma_s / frame_time_s;  // frames
+  const int reach = static_cast<int>(std::ceil(3 * sigma));
+  std::vector<double> gauss(static_cast<std::size_t>(reach + 1));
+  for (int k = 0; k <= reach; ++k) gauss[static_cast<std::size_t>(k)] = std::exp(-0.5 * k * k / (sigma * sigma));
+  std::vector<Vector3d> steadied(frames.size());
+  std::vector<double> straight(frames.size()), weight(frames.size());
+  const auto limb_pass = [&](auto limb, auto pole) {
+    // How straight each frame is (0 at kSteadyFrom, 1 from kSteadyFull), then that smoothed
+    // over the same window: a kick straightens its leg in two frames, and a blend weight
+    // following the extension alone swapped the measured pole for the steadied one at once.
+    for (int t = 0; t < n; ++t) {
+      const double x = std::clamp((limb(frames[static_cast<std::size_t>(t)]).norm() - kSteadyFrom) / (kSteadyFull - kSteadyFrom), 0.0, 1.0);
+      straight[static_cast<std::size_t>(t)] = x * x * (3 - 2 * x);
+    }
+    for (int t = 0; t < n; ++t) {
+      double sum = 0, total = 0;
+      for (int k = -reach; k <= reach; ++k) {
+        const int u = std::clamp(t + k, 0, n - 1);
+        sum += gauss[static_cast<std::size_t>(std::abs(k))] * straight[static_cast<std::size_t>(u)];
+        total += gauss[static_cast<std::size_t>(std::abs(k))];
+      }
+      weight[static_cast<std::size_t>(t)] = sum / total;
+    }
+    for (int t = 0; t < n; ++t) {
+      const Vector3d& l = limb(frames[static_cast<std::size_t>(t)]);
+      const Vector3d& own = pole(frames[static_cast<std::size_t>(t)]);
+      steadied[static_cast<std::size_t>(t)] = own;
+      const double ext = l.norm();
+      const double w = weight[static_cast<std::size_t>(t)];
+      if (w <= 0 || ext < 1e-9) continue;
+      const Vector3d axis = l / ext;
+      Vector3d sum = Vector3d::Zero();
+      for (int k = -reach; k <= reach; ++k) {
+        const int u = t + k;
+        if (u < 0 || u >= n) continue;
+        const MkmFrame& f = frames[static_cast<std::size_t>(u)];
+        const double len = limb(f).norm();
+        if (len < 1e-9) continue;
+        const double bent = std::max(1 - len, 0.002);
+        // Carried with its limb onto this frame's axis (a kicking leg turns 90 deg in 0.1 s:
+        // a neighbour's pole taken across this axis as it is can point anywhere).
+        const Vector3d carried = Eigen::Quaterniond::FromTwoVectors(limb(f) / len, axis) * pole(f);
+        sum += gauss[static_cast<std::size_t>(std::abs(k))] * bent * across(carried, axis, own);
+      }
+      steadied[static_cast<std::size_t>(t)] = blend_pole(own, across(sum, axis, own), axis, w);
+    }
+    for (int t = 0; t < n; ++t) pole(frames[static_cast<std::size_t>(t)]) = steadied[static_cast<std::size_t>(t)];
+  };
+  for (std::size_t s = 0; s < 2; ++s) {
+    limb_pass([s](const MkmFrame& f) -> const Vector3d& { return f.arm_n[s]; },
+              [s](auto& f) -> auto& { return f.arm_pole[s]; });
+    limb_pass([s](const MkmFrame& f) -> const Vector3d& { return f.leg_n[s]; },
+              [s](auto& f) -> auto& { return f.leg_pole[s]; });
   }
 }
 

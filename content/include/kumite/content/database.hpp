@@ -65,6 +65,7 @@ struct BuildOptions {
   double plant_speed_mps = 0.30;      ///< m/s: slower ankles (or toes) are planted (when low enough)
   double velocity_weight_s = 0.10;    ///< s: feature velocities count as displacement over this
   int clusters_per_group = 0;         ///< k of k-means per effector group (0: ~sqrt(rows))
+  bool steady_straight_poles = true;  ///< steady_straight_limb_poles on each segment (mkm.hpp)
   std::function<void(std::string_view what, double fraction)> progress;  ///< optional
 };
 
