@@ -282,7 +282,9 @@ void steady_straight_limb_poles(std::span<MkmFrame> frames, double frame_time_s)
   const int n = static_cast<int>(frames.size());
   if (n == 0 || !(frame_time_s > 0)) return;
   const double sigma = kSteadySigma_s / frame_time_s;  // frames
-  const int reach = static_cast<int>(std::ceil(3 * sigma));
+  // (at most the segment: a BVH's frame time has no lower bound, and 3 sigma of a 1e-9 s frame
+  // is more frames than memory holds)
+  const int reach = static_cast<int>(std::min(std::ceil(3 * sigma), static_cast<double>(n)));
   std::vector<double> gauss(static_cast<std::size_t>(reach + 1));
   for (int k = 0; k <= reach; ++k) gauss[static_cast<std::size_t>(k)] = std::exp(-0.5 * k * k / (sigma * sigma));
   std::vector<Vector3d> steadied(frames.size());

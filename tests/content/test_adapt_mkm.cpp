@@ -631,3 +631,30 @@ TEST(Mkm, SteadiedPolesCalmAFoldedLimbAndHardlyMoveTheSourcesOwn) {
   EXPECT_GT(big_steps[0], 50);  // the problem is there without steadying
   EXPECT_LT(big_steps[1] * 5, big_steps[0]);
 }
+
+TEST(Mkm, SteadyingPolesTakesAnyFrameTimeAndKeepsThemUnit) {
+  // SYNTHETIC frames at 120 Hz: an arm bent for 10 frames (pole down), straight for 21 (its
+  // pole swinging +-x every frame, as noise), bent again. Steadied, the straight middle takes
+  // its bent neighbours' pole. A BVH's frame time has no lower bound: at 1e-12 s three sigma
+  // span 1.5e11 frames and the window once was that long (allocated); bounded by the segment,
+  // the poles come back unit and across their limbs.
+  std::vector<MkmFrame> frames(41);
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const bool straight = i >= 10 && i <= 30;
+    frames[i].arm_n[0] = Vector3d(0, 0, straight ? 1.0 : 0.7);
+    frames[i].arm_pole[0] = straight ? Vector3d(i % 2 ? 1 : -1, 0, 0) : Vector3d(0, -1, 0);
+  }
+  for (const double ft : {1e-12, 1.0 / 120, 10.0}) {
+    std::vector<MkmFrame> f = frames;
+    steady_straight_limb_poles(f, ft);
+    for (const MkmFrame& x : f) {
+      EXPECT_NEAR(x.arm_pole[0].norm(), 1.0, 1e-9) << ft;
+      EXPECT_NEAR(x.arm_pole[0].dot(x.arm_n[0].normalized()), 0.0, 1e-9) << ft;
+    }
+    if (ft == 1.0 / 120) {
+      for (int i = 15; i <= 25; ++i) EXPECT_GT(f[static_cast<std::size_t>(i)].arm_pole[0].dot(Vector3d(0, -1, 0)), 0.9) << i;
+    }
+  }
+  std::vector<MkmFrame> none;
+  steady_straight_limb_poles(none, 1.0 / 120);
+}
