@@ -166,13 +166,14 @@ void encode_mkm(const CanonicalPose& pose, const Morphology& morphology, double 
 /// nearly straight its elbow or knee sits millimetres off the root-end axis and the measured
 /// pole swings with mocap noise (135_06's right arm at its hit: 21 deg in 1/60 s, the source
 /// elbow 1 cm), which is nothing on the source but a limb that adaptation bends (d(t) folding
-/// a straight punch onto a near head) swings its elbow by it (10 cm in a frame). Each frame
-/// whose extension (|arm_n|, |leg_n|) is at least kSteadyFrom gets the Gaussian average
-/// (sigma kSteadySigma_s) of its neighbours' poles, each carried with its limb onto this
-/// frame's axis and weighted by how bent it is (a bent frame's pole is well defined); blended
-/// in by the extension (none at kSteadyFrom, whole from kSteadyFull), that weight smoothed over
-/// the same window. Frames far from a straight limb keep their measured pole. (A knee that
-/// passes through straight in the mocap flips its pole 180 deg and back: HDM05's kicks.)
+/// a straight punch onto a near head) swings its elbow by it (10 cm in a frame). A frame's
+/// pole is blended toward the Gaussian average (sigma kSteadySigma_s) of its neighbours'
+/// poles, each carried with its limb onto this frame's axis and weighted by how bent it is (a
+/// bent frame's pole is well defined), by how straight the limb is (extension |arm_n|, |leg_n|:
+/// none at kSteadyFrom, whole from kSteadyFull) smoothed over the same window: frames beside a
+/// straight stretch take a little of it, frames far from one keep their measured pole. (A
+/// knee that passes through straight in the mocap flips its pole 180 deg and back: HDM05's
+/// kicks.) Unit poles across their limbs in, the same out; any frame time > 0.
 inline constexpr double kSteadyFrom = 0.92, kSteadyFull = 0.98, kSteadySigma_s = 0.05;
 void steady_straight_limb_poles(std::span<MkmFrame> frames, double frame_time_s);
 
