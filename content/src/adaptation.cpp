@@ -63,6 +63,7 @@ constexpr double kLegSoftness = 0.015;
 /// drawn at most 0.37 of that short (under 2 mm on the longest arm); the trunk lean keeps
 /// goals below the soft zone wherever its limits allow.
 constexpr double kArmSoftness = 0.008;
+constexpr double kKickSoftness = 0.008;  // the kicking leg's, as the arm's (m per m of leg)
 
 /// m, a 1.75 m person's head drawn as a capsule (scaled with height like the bones).
 constexpr double kHeadRadius_m = 0.075;
@@ -209,6 +210,13 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
         if (effector) {
           if (td.fixed_goal) goal = td.pin * td.goal + (1 - td.pin) * goal;
           out.effector_goal = goal;
+          // The kicking leg straightens softly, as the striking arm does: stretched by d(t)
+          // beyond the motion's extension (a shorter character switched in mid-kick), it
+          // reached full length a frame before the motion's leg would and stopped there, the
+          // knee 9 cm in that frame and still in the next (the bout with stance steps on).
+          // The soft zone begins above kKickLockOutShare's 0.99 of the leg: a kick's reach at
+          // contact stays exact.
+          softness = std::max(softness, kKickSoftness * (m.thigh_m[s] + m.shin_m[s]));
         }
         const Vector3d axis = (goal - pos).normalized();
         const Vector3d pole = kept_pole(turn * f.leg_n[s], axis, turn * f.leg_pole[s]);

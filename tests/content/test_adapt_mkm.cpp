@@ -658,3 +658,38 @@ TEST(Mkm, SteadyingPolesTakesAnyFrameTimeAndKeepsThemUnit) {
   std::vector<MkmFrame> none;
   steady_straight_limb_poles(none, 1.0 / 120);
 }
+
+TEST(Adapt, AKickingLegStraightensSoftlyAndReachesExactlyBelowItsLockOut) {
+  // SYNTHETIC pose (the punch clip's frame 20, standing); the right leg is the effector, its
+  // ankle goal moved out along the hip -> ankle line in 1 mm steps from 95 % to 103 % of the
+  // leg. The knee steps at most 8 x the goal's step (hard, it moved centimetres for the last
+  // millimetres: a kick stretched by d(t) beyond its motion's extension straightened its knee 9
+  // cm in one frame), and up to 0.99 of the leg (a kick's lock-out) the ankle is on its goal.
+  PunchLine line;
+  Buffers& b = line.b;
+  const Rig& rig = line.rig;
+  ASSERT_TRUE(b.job(rig, line.f).Run());
+  const Vector3d hip = b.at_joint(rig, CJ::r_hip), ankle0 = b.at_joint(rig, CJ::r_ankle);
+  const Vector3d out = (ankle0 - hip).normalized();
+  const double leg = rig.morphology.limb_leg_length(kRight), step = 0.001;
+  double worst = 0;
+  Vector3d last = Vector3d::Zero();
+  bool first = true;
+  for (double k = 0.95; k <= 1.03; k += step / leg) {
+    ReachGoal goal;
+    goal.effector = {kRight, true};
+    goal.offset_m = hip + out * (k * leg) - ankle0;
+    AdaptJob job = b.job(rig, line.f);
+    job.reach = &goal;
+    ASSERT_TRUE(job.Run());
+    const Vector3d knee = b.at_joint(rig, CJ::r_knee);
+    if (!first) worst = std::max(worst, (knee - last).norm() / step);
+    first = false;
+    last = knee;
+    if (k <= 0.99) {
+      EXPECT_LT((b.at_joint(rig, CJ::r_ankle) - (hip + out * (k * leg))).norm(), 1e-6) << k;
+    }
+  }
+  std::printf("kicking knee: worst step %.1f x the goal's\n", worst);
+  EXPECT_LT(worst, 8.0);
+}
