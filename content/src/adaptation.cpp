@@ -112,8 +112,8 @@ Vector3d kept_pole(const Vector3d& motion_limb, const Vector3d& axis, const Vect
   // Plain: turned with the limb (the shortest rotation from its axis to the new one), always
   // across the new axis.
   const double len = motion_limb.norm();
-  const Vector3d plain = across(len > 1e-9 ? Vector3d(Eigen::Quaterniond::FromTwoVectors(motion_limb / len, axis) * pole) : pole,
-                                axis, axis.unitOrthogonal());
+  const Vector3d plain = len > 1e-9 ? carried_pole(pole, motion_limb / len, axis, axis.unitOrthogonal())
+                                    : across(pole, axis, axis.unitOrthogonal());
   Vector3d q = (1 - w) * plain;
   if (n > 1e-9) q += w * (p / n);
   return q.norm() > 1e-9 ? Vector3d(q.normalized()) : plain;
@@ -420,9 +420,7 @@ bool AdaptJob::Run() const {
     // already turn at a pivot is taken off its limit (added on top with limits of its own, a
     // far punch's trunk turned twice as far as the limits allow: the head dipped 21 cm, under
     // the raised elbow, where the plan had it dip 11).
-    const auto left = [](double limit, const Quaterniond& used) {
-      return std::max(0.0, limit - 2 * std::acos(std::min(1.0, std::abs(used.w()))));
-    };
+    const auto left = [](double limit, const Quaterniond& used) { return std::max(0.0, limit - rotation_angle_rad(used)); };
     const Quaterniond clavicle_used = td.clavicle_side == s ? td.clavicle : Quaterniond::Identity();
     const double limits[3] = {left(trunk.spine_rad, td.spine), left(trunk.chest_rad, td.chest),
                               left(trunk.clavicle_rad, clavicle_used)};

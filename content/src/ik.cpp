@@ -46,9 +46,11 @@ Eigen::Quaterniond swing_between(const Eigen::Vector3d& from, const Eigen::Vecto
   return Eigen::Quaterniond::FromTwoVectors(from, to);
 }
 
+double rotation_angle_rad(const Eigen::Quaterniond& q) { return 2 * std::acos(std::min(1.0, std::abs(q.w()))); }
+
 Eigen::Quaterniond clamp_angle(const Eigen::Quaterniond& q_in, double max_angle_rad) {
   Eigen::Quaterniond q = q_in.w() < 0 ? Eigen::Quaterniond(-q_in.coeffs()) : q_in;
-  const double angle = 2 * std::acos(std::clamp(q.w(), -1.0, 1.0));
+  const double angle = rotation_angle_rad(q);
   if (angle <= max_angle_rad || angle < 1e-12) return q;
   const Eigen::Vector3d axis = q.vec().normalized();
   return Eigen::Quaterniond(Eigen::AngleAxisd(max_angle_rad, axis));

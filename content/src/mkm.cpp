@@ -287,6 +287,8 @@ void steady_straight_limb_poles(std::span<MkmFrame> frames, double frame_time_s)
   const int reach = static_cast<int>(std::min(std::ceil(3 * sigma), static_cast<double>(n)));
   std::vector<double> gauss(static_cast<std::size_t>(reach + 1));
   for (int k = 0; k <= reach; ++k) gauss[static_cast<std::size_t>(k)] = std::exp(-0.5 * k * k / (sigma * sigma));
+  double total = 0;  // the window's weight (its ends repeat the segment's first and last frames)
+  for (int k = -reach; k <= reach; ++k) total += gauss[static_cast<std::size_t>(std::abs(k))];
   std::vector<Vector3d> steadied(frames.size());
   std::vector<double> straight(frames.size()), weight(frames.size());
   const auto limb_pass = [&](auto limb, auto pole) {
@@ -298,11 +300,10 @@ void steady_straight_limb_poles(std::span<MkmFrame> frames, double frame_time_s)
       straight[static_cast<std::size_t>(t)] = x * x * (3 - 2 * x);
     }
     for (int t = 0; t < n; ++t) {
-      double sum = 0, total = 0;
+      double sum = 0;
       for (int k = -reach; k <= reach; ++k) {
         const int u = std::clamp(t + k, 0, n - 1);
         sum += gauss[static_cast<std::size_t>(std::abs(k))] * straight[static_cast<std::size_t>(u)];
-        total += gauss[static_cast<std::size_t>(std::abs(k))];
       }
       weight[static_cast<std::size_t>(t)] = sum / total;
     }
@@ -324,8 +325,7 @@ void steady_straight_limb_poles(std::span<MkmFrame> frames, double frame_time_s)
         const double bent = std::max(1 - len, 0.002);
         // Carried with its limb onto this frame's axis (a kicking leg turns 90 deg in 0.1 s:
         // a neighbour's pole taken across this axis as it is can point anywhere).
-        const Vector3d carried = Eigen::Quaterniond::FromTwoVectors(limb(f) / len, axis) * pole(f);
-        sum += gauss[static_cast<std::size_t>(std::abs(k))] * bent * across(carried, axis, own);
+        sum += gauss[static_cast<std::size_t>(std::abs(k))] * bent * carried_pole(pole(f), limb(f) / len, axis, own);
       }
       steadied[static_cast<std::size_t>(t)] = blend_pole(own, across(sum, axis, own), axis, w);
     }

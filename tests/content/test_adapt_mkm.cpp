@@ -329,7 +329,7 @@ TEST(Adapt, APlannedLeanAndTheFallbackTogetherTurnTheTrunkNoFurtherThanItsLimits
   ASSERT_TRUE(job.Run());
   ASSERT_TRUE(planned.trunk_used);
   const double head_planned = b.at_joint(rig, CJ::head).y();
-  const auto angle = [](const Eigen::Quaterniond& q) { return 2 * std::acos(std::min(1.0, std::abs(q.w()))); };
+  const auto angle = rotation_angle_rad;
   const TrunkLimits limits;
   EXPECT_GT(angle(planned.trunk.spine), 0.9 * limits.spine_rad);  // at its limit: the goal is far
   goal.lean = planned.trunk;

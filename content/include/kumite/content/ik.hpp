@@ -34,6 +34,8 @@ TwoBoneResult solve_two_bone_soft(const Eigen::Vector3d& root, const Eigen::Vect
 /// The smallest rotation taking direction `from` onto `to` (neither need be unit).
 Eigen::Quaterniond swing_between(const Eigen::Vector3d& from, const Eigen::Vector3d& to);
 
+/// The angle (rad, 0..pi) a unit quaternion turns about its own axis, either sign of it.
+double rotation_angle_rad(const Eigen::Quaterniond& q);
 /// Limits a rotation to at most `max_angle_rad` about its own axis.
 Eigen::Quaterniond clamp_angle(const Eigen::Quaterniond& q, double max_angle_rad);
 

@@ -133,6 +133,13 @@ Eigen::Vector3d leg_swivel_reference(int side);
 /// `v` made perpendicular to the unit `axis`, unit; `otherwise` so made where `v` lies along
 /// the axis, and any unit perpendicular where both do.
 Eigen::Vector3d across(const Eigen::Vector3d& v, const Eigen::Vector3d& axis, const Eigen::Vector3d& otherwise);
+/// A limb's pole carried with the limb from direction `from` (unit) onto `axis` (unit): turned
+/// by the shortest rotation between them, then made across the axis (`otherwise` where it lies
+/// along it: across()).
+inline Eigen::Vector3d carried_pole(const Eigen::Vector3d& pole, const Eigen::Vector3d& from, const Eigen::Vector3d& axis,
+                                    const Eigen::Vector3d& otherwise) {
+  return across(Eigen::Quaterniond::FromTwoVectors(from, axis) * pole, axis, otherwise);
+}
 /// Unit direction from the axis root->end toward `middle`, across the axis. Where the limb is
 /// straight (the middle within 1e-6 m of the axis: undefined) the fallback pole (unit, e.g. the
 /// previous frame's), made perpendicular to the axis; where that is along the axis too, any
