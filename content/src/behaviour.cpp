@@ -36,6 +36,9 @@ constexpr double kElbowBelowHead_m = 0.03;
 /// A punch whose target lies at least this share of the arm's length from the shoulder lands
 /// with the arm (nearly) straight: its elbow lies on the line to the target.
 constexpr double kStraightArmShare = 0.9;
+/// Times keep_elbow_below_head lowers the aim by the planned elbow's height over the head and
+/// plans again (each pass one decode and one AdaptJob at the strike's start).
+constexpr int kElbowAimPasses = 3;
 /// m: a strike planned anew after stepping in that falls this far short as extended as
 /// captured is replaced by the strike the fighter stepped in for, where that one falls
 /// shorter. The grid's 66 new plans after a step-in fell short by up to 0.28 m (p50 0.04) and
@@ -492,6 +495,7 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Times
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   strike_.start_update = updates_;
   enter(FighterState::striking);
+  if (!strike_.effector.leg) strike_.plan_feet = feet_through_contact(current_, strike_.contact_time_s);
   compute_reach_error(strike_.contact_time_s);
   if (!strike_.effector.leg) keep_elbow_below_head();
   // A correction that lengthens the hit point's way plays the strike slower. Finding how much
@@ -514,6 +518,8 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Times
     job.turn = strike_.turn;
     job.stretch = strike_.stretch;
     job.target_room_m = strike_.target_room_m;
+    job.plan_feet = strike_.plan_feet;
+    job.plan_lowest_shoulder_y_m = lowest_shoulder_y_m();
     pending_rate_ = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment, character_};
     submit_rate_(job);
   }
@@ -578,7 +584,8 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   compose(cur, prev, blend_elapsed_s_ + ahead_wall, b, pose);
   // scratch_pose_ keeps its room: a strike's start allocates nothing.
   const ReachCorrection r = reach_correction(characters_[static_cast<std::size_t>(character_)], strike_.effector,
-                                             strike_.target_room_m, pose, scratch_pose_, plan_lean);
+                                             strike_.target_room_m, pose, scratch_pose_, plan_lean, &strike_.plan_feet,
+                                             lowest_shoulder_y_m());
   strike_.error_m = r.error_m;
   strike_.turn = r.turn;
   strike_.stretch = r.stretch;
@@ -586,9 +593,68 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   if (plan_lean) strike_.lean = r.lean;
   contact_shoulder_m_ = r.shoulder_m;
   contact_head_m_ = r.head_m;
+  contact_elbow_m_ = r.elbow_m;
+}
+
+FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s) const {
+  FootLocks f = locks_;  // as the last update held them
+  f.min_root_drop_m = 0;
+  f.max_root_drop_m = tun_.max_root_drop_m;
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const int n = seg.frame_count();
+  const int first = std::clamp(static_cast<int>(std::floor(s.time_s / seg.frame_time_s)), 0, n - 1);
+  const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
+  const auto planted = [&](int k, std::size_t side) { return seg.frames[static_cast<std::size_t>(k)].planted[side] >= 0.5; };
+  for (int side = 0; side < 2; ++side) {
+    const auto us = static_cast<std::size_t>(side);
+    if (!have_pose_ || !planted(contact, us)) {
+      f.weight[us] = 0;
+      continue;
+    }
+    // The frame the clip puts this foot down for contact (its run of planted frames' first).
+    int down = contact;
+    while (down > first && planted(down - 1, us)) --down;
+    if (down == first) {
+      // Down from now to contact: held where it stands (a foot not held now is not counted).
+      if (!feet_.held(side)) f.weight[us] = 0;
+      continue;
+    }
+    // Put down on the way: the planter holds it where the clip lands it.
+    MkmFrame g;
+    sample_frame(s, down, g);
+    f.weight[us] = 1;
+    f.supporting[us] = true;
+    f.heading_weight[us] = 0;
+    f.ankle_m[us] = mkm_ankle(rig, g, side);
+  }
+  return f;
+}
+
+double Behaviour::lowest_shoulder_y_m() const {
+  if (strike_.effector.leg) return -std::numeric_limits<double>::infinity();
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const Vector3d target = strike_target_ ? *strike_target_ : strike_.target_room_m;
+  return target.y() - aim_rise_m(rig, strike_.effector.side, tun_.max_punch_aim_deg);
 }
 
 void Behaviour::keep_elbow_below_head() {
+  aim_straight_arm_below_head();
+  // The elbow where the plan puts it (a bent arm's is not on the line from the shoulder, and a
+  // straight arm's moves with the lean the lowered aim changes): still above the head, the aim
+  // comes down by as much and is planned again. A near head-height target with the arm bent
+  // (kenji after a stance step) held the elbow 7 cm above his head.
+  for (int pass = 0; pass < kElbowAimPasses; ++pass) {
+    if (!contact_elbow_m_.allFinite() || !contact_head_m_.allFinite()) break;
+    const double over = contact_elbow_m_.y() - (contact_head_m_.y() - kElbowBelowHead_m);
+    if (over <= 0) break;
+    strike_.aim_lowered_m += over;
+    strike_.target_room_m.y() -= over;
+    compute_reach_error(strike_.contact_time_s);
+  }
+}
+
+void Behaviour::aim_straight_arm_below_head() {
   // The straight arm from the contact pose's shoulder toward the target: its elbow rises
   // upper_arm * sin(elevation) above the shoulder. The most elevation that keeps it
   // kElbowBelowHead_m under the head joint sets the highest aim at this horizontal distance.
@@ -614,7 +680,7 @@ void Behaviour::keep_elbow_below_head() {
 
 namespace behaviour_detail {
 ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vector3d& target, const MkmFrame& pose,
-                                 CanonicalPose& c, bool plan_lean) {
+                                 CanonicalPose& c, bool plan_lean, const FootLocks* feet, double lowest_shoulder_y_m) {
   decode_canonical(rig, pose, c);
   ReachCorrection r;
   r.error_m = target - at(c, eff.joint());
@@ -666,10 +732,22 @@ ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vect
     // With a margin: the frames' poses differ from this one (held feet lower the body), and
     // what the plan leaves the frames' fallback must still bring in, over frames.
     job.trunk_target_share = kPlannedLeanShare;
+    // Feet held through to contact lower the pelvis there (a lunge's back foot held where it
+    // landed while the clip drags it 14 cm on: kenji's pelvis 4.5 cm down at contact after a
+    // stance step); planned without them, the lean was too small and the arm rose higher than
+    // planned (the elbow 7 cm over his head).
+    FootLocks held;
+    if (feet && (feet->weight[0] > 0 || feet->weight[1] > 0)) {
+      held = *feet;
+      held.min_root_drop_m = 0;
+      held.max_root_drop_m = std::clamp(at(c, root).y() - lowest_shoulder_y_m, 0.0, std::max(0.0, feet->max_root_drop_m));
+      job.feet = &held;
+    }
     if (job.Run()) {
       if (report.trunk_used) r.lean = report.trunk;
       r.shoulder_m = pos[static_cast<std::size_t>(rig.skeleton.index(root))];
       r.head_m = pos[static_cast<std::size_t>(rig.skeleton.index(CJ::head))];
+      r.elbow_m = pos[static_cast<std::size_t>(rig.skeleton.index(eff.side == kLeft ? CJ::l_elbow : CJ::r_elbow))];
     }
   }
   return r;

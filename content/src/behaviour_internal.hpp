@@ -125,9 +125,15 @@ struct ReachCorrection {
   /// planned lean applied (NaN unless the lean was planned).
   Eigen::Vector3d shoulder_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   Eigen::Vector3d head_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector3d elbow_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());  ///< the striking elbow, likewise
 };
+/// `feet` (optional): the feet held through to contact; the planned lean is found with the
+/// pelvis lowered for them (no lower than puts the striking shoulder at `lowest_shoulder_y_m`),
+/// as the frames will draw it.
 ReachCorrection reach_correction(const Rig& rig, const Effector& effector, const Eigen::Vector3d& target_room_m,
-                                 const MkmFrame& pose, CanonicalPose& scratch, bool plan_lean = true);
+                                 const MkmFrame& pose, CanonicalPose& scratch, bool plan_lean = true,
+                                 const FootLocks* feet = nullptr,
+                                 double lowest_shoulder_y_m = -std::numeric_limits<double>::infinity());
 
 /// d(t) at weight `ramp` of its full turn and stretch.
 inline ReachGoal reach_goal_at(const Effector& effector, const Eigen::Quaterniond& turn, double stretch, double ramp,

@@ -167,7 +167,8 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     prev.time_s += ahead_wall * prev.rate;
     MkmFrame b, pose;
     play.compose(cur, prev, blend_elapsed_s + ahead_wall, tun_.blend_time_s, b, pose);
-    const ReachCorrection r = reach_correction(rig, job.effector, job.target_room_m, pose, canonical_);
+    const ReachCorrection r = reach_correction(rig, job.effector, job.target_room_m, pose, canonical_, true, &job.plan_feet,
+                                               job.plan_lowest_shoulder_y_m);
     result.has_reach = true;
     result.error_m = r.error_m;
     result.turn = r.turn;

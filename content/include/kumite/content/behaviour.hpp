@@ -119,6 +119,10 @@ struct StrikeRateJob {
   Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t) at contact
   double stretch = 1;
   Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, the strike's frozen target
+  /// The feet held through to contact, as Behaviour's plan holds them (weight 0: none), and
+  /// how low a punch's shoulder may drop for them (Behaviour::feet_through_contact).
+  FootLocks plan_feet;
+  double plan_lowest_shoulder_y_m = -std::numeric_limits<double>::infinity();
 };
 struct StrikeRateResult {
   std::uint64_t id = 0;  ///< StrikeRateJob::id
@@ -259,6 +263,10 @@ class Behaviour {
     /// would lift the elbow above the fighter's own head at contact (keep_elbow_below_head).
     double aim_lowered_m = 0;
     int contact_update = -1;       ///< update counter at contact
+    /// The feet the plan holds through to contact (as held at the strike's start, where the
+    /// clip keeps them planted until contact; weight 0: not held): the punch's planned lean
+    /// is found with the pelvis lowered for them, as the frames will draw it.
+    FootLocks plan_feet;
   };
   const StrikeInfo& strike() const { return strike_; }
   int update_count() const { return updates_; }
@@ -341,10 +349,18 @@ class Behaviour {
   /// d(t) at contact from the pose at segment time `at_time_s`; `plan_lean`: also the punch's
   /// trunk lean (not at the contact frame itself: the lean eased in since the start stays).
   void compute_reach_error(double at_time_s, bool plan_lean = true);
+  /// The feet held now that the strike source `s` keeps planted from its time to
+  /// `contact_time_s` (the others at weight 0), their pelvis drop allowed 0..max_root_drop_m.
+  FootLocks feet_through_contact(const Source& s, double contact_time_s) const;
+  /// m, room: how low a punch's shoulder may drop for held feet (the target within the arm's
+  /// reach at max_punch_aim_deg from it; -inf for kicks).
+  double lowest_shoulder_y_m() const;
   /// A punch at a target so high above the shoulder that the arm, straight toward it, would
   /// hold the elbow above the fighter's own head at contact aims lower (the visitor's neck or
   /// chest): on the pose compute_reach_error() last planned (contact_shoulder_m_, contact_head_m_).
   void keep_elbow_below_head();
+  /// The straight arm's part of it: the highest aim at the target's horizontal distance.
+  void aim_straight_arm_below_head();
   /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into the blend (cur_pose: `cur`
   /// alone), as update() composes every frame.
   void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out) const;
@@ -429,9 +445,10 @@ class Behaviour {
   /// A decoded pose for the strike's start (reach error, traversal, support foot): one at a
   /// time, reused so that starting a strike allocates nothing once warm.
   mutable CanonicalPose scratch_pose_;
-  /// m, room: a punch's striking shoulder and head at contact with the whole d(t) and the planned
+  /// m, room: a punch's striking shoulder, elbow and head at contact with the whole d(t) and the planned
   /// lean, as compute_reach_error() last planned them (NaN when it planned no lean).
   Eigen::Vector3d contact_shoulder_m_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+  Eigen::Vector3d contact_elbow_m_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   Eigen::Vector3d contact_head_m_ = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   std::uint64_t next_request_ = 1;
   /// A strike order sent to the planner, waiting for its plan.
