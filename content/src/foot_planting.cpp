@@ -18,6 +18,8 @@ double smoothstep(double x) {
 constexpr double kShedPerTravel = 0.5;
 /// m/s^2: how fast a foot returning through the air to the motion's changes its velocity.
 constexpr double kReturnAccel_mps2 = 40;
+/// m/s^2: the most a swinging foot's speed along the floor grows (FootPlanter's way to its landing).
+constexpr double kSwingAccel_mps2 = 100;
 /// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
 /// a step's length) while it is no farther out from the hip than this beyond the motion's foot.
 constexpr double kUnderHipSlack_m = 0.05;
@@ -72,6 +74,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.phase = Phase::swinging;
     f.offset = f.lock - in.free_ankle_m;
     f.swing_way_m = -1;
+    f.swing_source_way_m = -1;
     f.swing_progress = 0;
     f.swing_from = f.lock;
     f.source_rise_m = 0;
@@ -252,11 +255,18 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           to.y() = 0;
           if (f.swing_way_m < 0) {
             f.swing_way_m = to.norm();
+            f.swing_source_way_m = path;
             f.follow_y = f.lock.y();
           }
           Vector3d move = to * std::min(1.0, step_h / path);
           const double cap = tun_.max_swing_speed_ratio * step_h;
           if (move.norm() > cap) move *= cap / move.norm();
+          // ...gathering speed no faster than the source's foot does, or kSwingAccel_mps2: a
+          // strike started mid-stride lifts a still foot whose source already moves at 5 m/s
+          // (viktor's lunge from its frame 11: the foot 8 cm in its first frame, the knee 9 cm).
+          const double source_gain = step_h - Eigen::Vector2d(in.source_step_before_m.x(), in.source_step_before_m.z()).norm();
+          const double most = Eigen::Vector2d(f.last_move.x(), f.last_move.z()).norm() + std::max(kSwingAccel_mps2 * dt * dt, source_gain);
+          if (move.norm() > most) move *= most / move.norm();
           f.lock += move;
           // The height follows the source's own; the lift below is a floor above it, never
           // added to it (the source's rise followed on top of a lifted foot put bruno's support
@@ -270,6 +280,11 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
             const double way_left = Eigen::Vector2d(in.landing_ankle_m.x() - f.lock.x(), in.landing_ankle_m.z() - f.lock.z()).norm();
             const double progress_before = f.swing_progress;
             f.swing_progress = std::max(f.swing_progress, std::clamp(1 - way_left / f.swing_way_m, 0.0, 1.0));
+            // ...or the source's, if further: a foot gathering speed (kSwingAccel_mps2) behind
+            // its source still leaves the floor when the source's does (held low, it slid along
+            // it at 0.6 m/s for the first frames of a strike started mid-stride).
+            if (f.swing_source_way_m > 1e-6)
+              f.swing_progress = std::max(f.swing_progress, std::clamp(1 - in.source_path_left_m / f.swing_source_way_m, 0.0, 1.0));
             // Up off the floor over the first sixth of the way, down over the second half (a
             // sine over the whole way left a foot the source lifts mid-stride 1.2 cm up after
             // 7 cm along the floor: a lunge's back foot dragged at 2.7 m/s; held up to the last

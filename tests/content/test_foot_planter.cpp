@@ -183,3 +183,47 @@ TEST(FootPlanter, AFootTheSourceLiftsMidStrideLeavesTheFloorBeforeItTravelsAndRi
   EXPECT_GE(height_after_7cm, 0.02);
   EXPECT_LE(worst_rise, 1.2 * kDt + 1e-9);
 }
+
+TEST(FootPlanter, AStillFootLiftedWhereItsSourceIsAlreadyFastGathersSpeedAndStillLeavesTheFloor) {
+  // A strike that starts mid-stride (viktor's lunge from its frame 11, stance steps on) lifts a
+  // foot that stood still where the source's foot already moves at 5 m/s. It went at the
+  // source's speed at once: 8 cm in its first frame, the knee 9 cm (a drawn snap). It now gathers
+  // speed at a foot's acceleration (the source's own gain, or 100 m/s^2), and leaves the floor
+  // as the source's foot does (held low while slow, it slid along the floor at 0.6 m/s).
+  // SYNTHETIC samples: the source's foot at a constant 5 m/s toward a landing 0.9 m ahead.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::held);
+  const Vector3d start = locks.ankle_m[0];
+  FootSample& f = s[0];
+  f.planted = false;
+  f.has_landing = true;
+  f.landing_ankle_m = Vector3d(0.1, 0.08, 0.9);
+  const Vector3d step(0, 0.004, 5.0 * kDt);  // the source's foot: 5 m/s forward, rising
+  double fastest = 0, worst_gain = 0, last_move = 0, height_after_3 = -1;
+  Vector3d last = start;
+  for (int k = 0; k < 12; ++k) {
+    f.source_step_m = step;
+    f.source_step_before_m = step;  // as fast one update before: no gain of its own
+    f.source_path_left_m = std::max(0.0, 0.9 - step.z() * (k + 1));
+    f.free_ankle_m += step;
+    f.drawn_ankle_m = locks.ankle_m[0];
+    f.swing_left_s = std::max(0.02, 0.18 - k * kDt);
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    const Vector3d now = locks.ankle_m[0];
+    const double move = std::hypot(now.x() - last.x(), now.z() - last.z());
+    fastest = std::max(fastest, move);
+    worst_gain = std::max(worst_gain, move - last_move);
+    last_move = move;
+    last = now;
+    if (k == 2) height_after_3 = now.y() - start.y();
+  }
+  std::printf("largest gain %.4f m per update, fastest %.4f m; after 3 updates %.4f m up; ends at z %.3f\n", worst_gain,
+              fastest, height_after_3, last.z());
+  EXPECT_LE(worst_gain, 100 * kDt * kDt + 1e-9) << "it jumped to its source's speed";
+  EXPECT_GT(fastest, 5.0 * kDt) << "it never came up to the source's speed";
+  EXPECT_NEAR(last.z(), 0.9, 1e-6) << "it did not reach the landing";
+  EXPECT_GE(height_after_3, 0.02) << "it slid along the floor";
+}

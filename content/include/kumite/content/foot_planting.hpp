@@ -29,6 +29,9 @@ struct FootSample {
   /// last update. A lifted foot travels this much (plus a share shed toward free_ankle_m), so
   /// it moves at the source's pace even while one motion fades into another.
   Eigen::Vector3d source_step_m{0, 0, 0};
+  /// m, room: the same motion's step of this ankle one update before that (its own, even where
+  /// that motion began this update): how fast the source's foot gathers speed.
+  Eigen::Vector3d source_step_before_m{0, 0, 0};
   /// A lifted foot's landing, where the motion being played puts this ankle down next (m, room),
   /// and how far (m, horizontally, along its path) the motion's ankle still travels to get
   /// there from where it is now. The foot covers the same share of its own way to the landing
@@ -119,6 +122,7 @@ class FootPlanter {
     double step_t = 0;                ///< stepping: 0..1
     double swing_way_m = -1;          ///< swinging toward a landing: its way along the floor (m), -1 unknown
     double swing_progress = 0;        ///< swinging: share of that way covered, 0..1 (never decreases)
+    double swing_source_way_m = -1;   ///< ...and the source's own path to its landing then (m)
     Eigen::Vector3d swing_from{0, 0, 0};  ///< m, room: swinging: the lock when it was lifted
     double source_rise_m = 0;         ///< m: swinging: how far the source has raised this ankle since then
     double follow_y = 0;              ///< m: swinging toward a landing: the ankle's height as the source moves it (the lift is a floor above it, not added to it)
