@@ -490,7 +490,8 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Times
   strike_.plan = plan;
   strike_.effector = *seg.effector();
   strike_.start_time_s = plan.start_frame * seg.frame_time_s;
-  strike_.contact_time_s = plan.contact_frame * seg.frame_time_s;
+  strike_.clip_contact_time_s = plan.contact_frame * seg.frame_time_s;
+  strike_.contact_time_s = contact_frame_time(current_.time_s, strike_.clip_contact_time_s, dt * current_.rate);
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   strike_.start_update = updates_;
@@ -514,6 +515,8 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Times
     job.effector = strike_.effector;
     job.start_time_s = strike_.start_time_s;
     job.contact_time_s = strike_.contact_time_s;
+    job.clip_contact_time_s = strike_.clip_contact_time_s;
+    job.frame_dt_s = std::max(0.0, dt);
     job.release_end_s = strike_.release_end_s;
     job.turn = strike_.turn;
     job.stretch = strike_.stretch;
@@ -526,7 +529,7 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Times
   (void)now;
 }
 
-void Behaviour::apply_strike_rate() {
+void Behaviour::apply_strike_rate(double dt) {
   // The rate found for this strike (a late solver is waited for: the update it enters on
   // depends on the inputs alone). The blend into the strike eases the change of rate in;
   // then d(t) and its release are those at that rate: d(t) as the solver found it from this
@@ -541,6 +544,7 @@ void Behaviour::apply_strike_rate() {
   strike_.rate = r->rate;
   strike_.rate_update = updates_;
   strike_.rate_lead_updates = updates_ - strike_.start_update;
+  strike_.contact_time_s = contact_frame_time(current_.time_s, strike_.clip_contact_time_s, dt * current_.rate);
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   if (r->has_reach && character_ == due.character) {
     strike_.error_m = r->error_m;
@@ -952,7 +956,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     }
   }
 
-  if (pending_rate_ && updates_ >= pending_rate_->due_update) apply_strike_rate();
+  if (pending_rate_ && updates_ >= pending_rate_->due_update) apply_strike_rate(dt);
 
   // Advance the clocks by the whole frame: the contact frame is the first frame at or past the
   // planned contact time, a real frame of motion (no sub-frame hold, no copy of the last).

@@ -106,6 +106,18 @@ inline double reach_ramp_in(double start_s, double contact_s, double t) {
 inline double reach_ramp_out(double contact_s, double release_end_s, double t) {
   return 1 - smoothstep((t - contact_s) / std::max(1e-6, release_end_s - contact_s));
 }
+/// The segment time of the update that draws a strike's contact: the first of the times the
+/// updates reach from `from_s` in steps of `step_s` (segment seconds per update: dt x rate)
+/// at or past the clip's contact `contact_s`, a hair early so that the updates' summed clock,
+/// which may fall short of it by rounding, still reaches it then. d(t) found for that time
+/// lands the contact frame on the target as planned (found for the clip's contact instead,
+/// the contact frame found it again there: a kick's foot, which moves ~9 m/s at contact,
+/// jumped 10 cm in that frame at a rate of 0.65). `contact_s` where step_s is not > 0.
+inline double contact_frame_time(double from_s, double contact_s, double step_s) {
+  if (!(step_s > 0) || !std::isfinite(from_s) || !std::isfinite(contact_s)) return contact_s;
+  const double k = std::max(1.0, std::ceil((contact_s - from_s) / step_s - 1e-9));
+  return from_s + k * step_s - 1e-9 * step_s;
+}
 /// d(t) at contact: the gap from the effector to the target, and the turn and stretch of the
 /// limb about its root (shoulder or hip) that point it at the target, for `pose` (composed as
 /// the update at contact will compose it) decoded on `rig` (into `scratch`).

@@ -161,7 +161,7 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     prev.time_s += job.lead_s * prev.rate;
     const double blend_elapsed_s = job.blend_elapsed_s + job.lead_s;
     cur.rate = rate;
-    const double ahead = job.contact_time_s - cur.time_s;
+    const double ahead = contact_frame_time(cur.time_s, job.clip_contact_time_s, job.frame_dt_s * rate) - cur.time_s;
     const double ahead_wall = ahead / cur.rate;
     cur.time_s += ahead;
     prev.time_s += ahead_wall * prev.rate;

@@ -54,6 +54,15 @@ snaps1=$(sed -n 's/^ *"drawn_snaps_whole_bout": \([0-9]*\),*$/\1/p' o1.json | he
   >/dev/null 2>err.txt || fail "bout (kenji,aiko,bruno,mei,viktor, steps on) exited $?: $(cat err.txt)"
 foldedk=$(sed -n 's/^ *"folded_at_contact": \([0-9]*\),*$/\1/p' k1.json | head -n 1)
 [ "${foldedk:-x}" = 0 ] || fail "bout (kenji,aiko,bruno,mei,viktor, steps on): ${foldedk:-no} strikes folded at contact"
+# Kenji, bruno, ... with stance steps on: bruno's kick at 8.27 s played at a rate of 0.65, so
+# the first update at or past the clip's contact came 0.01 s (segment) after it. d(t) was found
+# for the clip's contact and found again on that frame, where the foot (~9 m/s at contact) was
+# 9 cm on: the foot jumped onto the target and stalled there (6.8 cm after 1.0). d(t) is now
+# found for the time of the update that draws contact (contact_frame_time; 30 Nov).
+"$tool" --tunables steps.toml bout --db fighter.kdb --characters kenji,bruno,aiko,mei,viktor --out k2.bvh --report k2.json \
+  >/dev/null 2>err.txt || fail "bout (kenji,bruno,aiko,mei,viktor, steps on) exited $?: $(cat err.txt)"
+snapsk=$(sed -n 's/^ *"drawn_snaps_whole_bout": \([0-9]*\),*$/\1/p' k2.json | head -n 1)
+[ "${snapsk:-x}" = 0 ] || fail "bout (kenji,bruno,aiko,mei,viktor, steps on): ${snapsk:-no} drawn snaps: $(sed -n '/"drawn_snap_list"/,/\]/p' k2.json | tr -d ' \n')"
 steps=$(sed -n 's/^ *"stance_steps": \([0-9]*\),*$/\1/p' on.json | head -n 1)
 [ "${steps:-0}" -gt 0 ] || fail "the bout with stance steps on took none"
 # Following a walking visitor for 56 s (the shipped behaviour: procedural steps): never both

@@ -116,6 +116,8 @@ struct StrikeRateJob {
   double lead_s = 0;  ///< s played at the clip's own rate before the rate applies
   Effector effector;
   double start_time_s = 0, contact_time_s = 0, release_end_s = 0;  ///< segment times (s)
+  double clip_contact_time_s = 0;  ///< s, segment time of the clip's contact frame
+  double frame_dt_s = 0;           ///< s per update: the contact is drawn on the update at or past it
   Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t) at contact
   double stretch = 1;
   Eigen::Vector3d target_room_m{0, 0, 0};  ///< m, the strike's frozen target
@@ -239,7 +241,8 @@ class Behaviour {
     StrikePlan plan;
     Effector effector;
     double start_time_s = 0;       ///< segment time at the start (s)
-    double contact_time_s = 0;     ///< segment time of contact (s): planned, then the contact frame's
+    double contact_time_s = 0;     ///< segment time of contact (s): the update's that draws it (contact_frame_time), then the contact frame's
+    double clip_contact_time_s = 0;  ///< segment time of the clip's contact frame (s)
     double end_time_s = 0;         ///< segment time of the last frame (s)
     double release_end_s = 0;      ///< segment time at which d(t) is back to zero (s)
     Eigen::Vector3d error_m{0, 0, 0};  ///< m: target - effector at contact, before d(t)
@@ -316,7 +319,7 @@ class Behaviour {
   /// kick_support_step_m from there (true: the strike waits for the step).
   bool begin_support_step(const StrikePlan& plan, const Source& source, Timestamp now);
   void update_support_step(double dt);
-  void apply_strike_rate();
+  void apply_strike_rate(double dt);
   /// Places a strike's travel (motion_playback.cpp); returns how the limb then lands.
   StrikeFit place_strike_travel(Source& s, double contact_time_s, const HeldFeet& feet) const;
   /// The floor travel (m, room) of a strike source's root from its time to contact_time_s, as
