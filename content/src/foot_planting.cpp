@@ -78,6 +78,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.swing_progress = 0;
     f.swing_from = f.lock;
     f.source_rise_m = 0;
+    f.kicking = in.effector;
   };
   // A held foot the leg no longer reaches must step now; the other foot's step that is only
   // due (behind its spot, a leg stretched past the motion's) waits for it to land: both
@@ -210,6 +211,10 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // The foot moves as the source moves it, and closes its gap to where the composed
         // motion has it by the time the source plants it again, never faster than a share of
         // the source's own travel (a foot the source barely moves stays put).
+        // A kick that takes a foot already in the air (lifted by a stance step) starts its swing
+        // from here: carried on, the step's lift-off spot and its way since held the kick's foot
+        // "as high as it had gone along the floor" (16 cm up in its first frame, the knee 17 cm).
+        if (in.effector && !f.kicking) start_swing(f, in);
         const double left = std::max(in.swing_left_s, tun_.min_swing_s);
         f.source_rise_m += in.source_step_m.y();
         if (in.effector) {

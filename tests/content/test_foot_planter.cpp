@@ -227,3 +227,36 @@ TEST(FootPlanter, AStillFootLiftedWhereItsSourceIsAlreadyFastGathersSpeedAndStil
   EXPECT_NEAR(last.z(), 0.9, 1e-6) << "it did not reach the landing";
   EXPECT_GE(height_after_3, 0.02) << "it slid along the floor";
 }
+
+TEST(FootPlanter, AKickThatTakesAFootAlreadyInTheAirStartsItsSwingWhereTheFootIs) {
+  // A kick ordered while a stance step had the foot in the air (viktor, stance steps on, 17.0 s):
+  // the kick carried on the step's swing, whose lift-off spot lay 15 cm back, and the rule that
+  // keeps a kicking foot "as high as it has gone along the floor" put it 16 cm up in one frame
+  // (the knee 17 cm). The kick's swing now starts where the foot is. SYNTHETIC samples.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::held);
+  FootSample& f = s[0];
+  f.planted = false;  // the step lifts it: low along the floor, 3 m/s
+  f.swing_left_s = 0.3;
+  const Vector3d step(0, 0.002, 0.05);
+  for (int k = 0; k < 4; ++k) {
+    f.source_step_m = step;
+    f.free_ankle_m += step;
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  }
+  ASSERT_EQ(planter.phase(0), Phase::swinging);
+  const Vector3d before = locks.ankle_m[0];
+  ASSERT_LT(before.y(), 0.08 + 0.03) << "the step's foot should still be low";
+  f.effector = true;  // the kick takes it
+  f.source_step_m = Vector3d(0, 0.01, 0.03);
+  f.free_ankle_m += f.source_step_m;
+  f.drawn_ankle_m = locks.ankle_m[0];
+  planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  const double moved = (locks.ankle_m[0] - before).norm();
+  std::printf("the kick's first update moved the foot %.4f m (%.4f m up)\n", moved, locks.ankle_m[0].y() - before.y());
+  EXPECT_LT(moved, 0.05);
+}

@@ -124,6 +124,7 @@ class FootPlanter {
     double swing_progress = 0;        ///< swinging: share of that way covered, 0..1 (never decreases)
     double swing_source_way_m = -1;   ///< ...and the source's own path to its landing then (m)
     Eigen::Vector3d swing_from{0, 0, 0};  ///< m, room: swinging: the lock when it was lifted
+    bool kicking = false;             ///< swinging: lifted as a kick's effector (FootSample::effector)
     double source_rise_m = 0;         ///< m: swinging: how far the source has raised this ankle since then
     double follow_y = 0;              ///< m: swinging toward a landing: the ankle's height as the source moves it (the lift is a floor above it, not added to it)
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
