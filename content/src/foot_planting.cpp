@@ -121,7 +121,13 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     const auto near_floor = [&](const Vector3d& ankle) { return ankle.y() <= floor_y + tun_.landing_window_m; };
     switch (f.phase) {
       case Phase::free:
-        if (in.planted && !in.effector && down(in.drawn_ankle_m)) hold(f, in.drawn_ankle_m, in.drawn_heading_xz);  // moves nothing
+        if (in.planted && !in.effector && down(in.drawn_ankle_m)) {
+          hold(f, in.drawn_ankle_m, in.drawn_heading_xz);  // moves nothing
+          // ...but on a new body's first update the old body's ankle may stand below this one's
+          // floor: up onto it now, under the switch's easing (at a landing's pace after it, a
+          // near-straight leg's knee moved 5 cm in the first frame: mei after bruno mid-kick).
+          if (f.new_body) f.lock.y() = std::max(f.lock.y(), floor_y);
+        }
         break;
       case Phase::held: {
         if (!in.planted || in.effector) {
@@ -140,6 +146,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         const double rise = std::min(tun_.max_landing_speed_mps * dt, std::max(0.0, in.source_step_m.y()) + tun_.landing_speed_mps * dt);
         const double fall = std::min(tun_.max_landing_speed_mps * dt, std::max(0.0, -in.source_step_m.y()) + tun_.landing_speed_mps * dt);
         double new_y = f.lock.y() + std::clamp(floor_y - f.lock.y(), -fall, rise);
+        if (f.new_body) new_y = std::max(new_y, floor_y);  // as a foot taken anew (above)
         if (new_y < f.lock.y()) {
           const double lowest = lowest_reached_y(in.hip_m, f.lock, tun_.max_leg_stretch * in.leg_length_m, f.lock.y());
           new_y = std::min(f.lock.y(), std::max(new_y, lowest));
@@ -346,6 +353,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         if (f.step_t >= 1) hold(f, f.step_to, in.drawn_heading_xz);
         break;
     }
+    f.new_body = false;
     f.last_move = f.phase == Phase::free ? Vector3d::Zero() : Vector3d(f.lock - lock_before);
     f.softness = f.phase == Phase::free ? 0.0 : std::min(1.0, f.softness + (dt > 0 ? dt / kTakeHold_s : 1.0));
     out.weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : 1.0;

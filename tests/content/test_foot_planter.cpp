@@ -260,3 +260,37 @@ TEST(FootPlanter, AKickThatTakesAFootAlreadyInTheAirStartsItsSwingWhereTheFootIs
   std::printf("the kick's first update moved the foot %.4f m (%.4f m up)\n", moved, locks.ankle_m[0].y() - before.y());
   EXPECT_LT(moved, 0.05);
 }
+
+TEST(FootPlanter, ANewBodysFirstUpdatePutsItsFeetOnItsOwnFloor) {
+  // A character switch mid-kick (bruno -> mei, 15.25 s): mei's feet were held where bruno's
+  // stood, 1.6 cm below mei's own floor, and rose onto it at a landing's pace over the frames
+  // after the switch: on mei's near-straight support leg the knee moved 5.1 cm in the first
+  // frame (a drawn snap, twice in the shipped 120-order sweep). On the new body's first update
+  // (hidden by the switch's easing) they go onto its floor at once. SYNTHETIC samples.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  for (auto& f : s) {  // the old body: its ankles stand 5 cm up
+    f.standing_ankle_y_m = 0.05;
+    f.free_ankle_m.y() = 0.05;
+    f.drawn_ankle_m.y() = 0.05;
+  }
+  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::held);
+  ASSERT_NEAR(locks.ankle_m[0].y(), 0.05, 1e-9);
+  planter.keep_held_only();  // the new body, whose ankles stand 1.6 cm higher
+  for (auto& f : s) {
+    f.standing_ankle_y_m = 0.066;
+    f.free_ankle_m.y() = 0.066;  // drawn: still the old body's
+  }
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  EXPECT_NEAR(locks.ankle_m[0].y(), 0.066, 1e-9);
+  EXPECT_NEAR(locks.ankle_m[1].y(), 0.066, 1e-9);
+  // ...and after it, as before: a foot held below its floor rises at a landing's pace.
+  for (auto& f : s) {
+    f.standing_ankle_y_m = 0.09;
+    f.free_ankle_m.y() = 0.09;
+  }
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  EXPECT_LT(locks.ankle_m[0].y(), 0.09 - 1e-3);
+}

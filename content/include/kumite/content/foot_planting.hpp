@@ -91,9 +91,13 @@ class FootPlanter {
   /// A new body with the same feet on the floor (a character switch): a held foot stays held
   /// where it stands (a foot its new leg cannot reach steps, as any does); the others are
   /// forgotten (free).
+  /// The next update puts a foot held below the new body's floor onto it at once (hidden by the
+  /// switch's easing), not at a landing's pace over the frames after.
   void keep_held_only() {
-    for (auto& f : feet_)
+    for (auto& f : feet_) {
       if (f.phase != Phase::held) f = Foot{};
+      f.new_body = true;
+    }
   }
   /// `may_step`: steps for a lagging or over-stretched foot allowed (resting, following); a foot
   /// the leg cannot reach steps in any case. `body_velocity_xz` (m/s) is
@@ -125,6 +129,7 @@ class FootPlanter {
     double swing_source_way_m = -1;   ///< ...and the source's own path to its landing then (m)
     Eigen::Vector3d swing_from{0, 0, 0};  ///< m, room: swinging: the lock when it was lifted
     bool kicking = false;             ///< swinging: lifted as a kick's effector (FootSample::effector)
+    bool new_body = false;            ///< a character switch this update (keep_held_only)
     double source_rise_m = 0;         ///< m: swinging: how far the source has raised this ankle since then
     double follow_y = 0;              ///< m: swinging toward a landing: the ankle's height as the source moves it (the lift is a floor above it, not added to it)
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
