@@ -266,9 +266,8 @@ class Behaviour {
     /// would lift the elbow above the fighter's own head at contact (keep_elbow_below_head).
     double aim_lowered_m = 0;
     int contact_update = -1;       ///< update counter at contact
-    /// The feet the plan holds through to contact (as held at the strike's start, where the
-    /// clip keeps them planted until contact; weight 0: not held): the punch's planned lean
-    /// is found with the pelvis lowered for them, as the frames will draw it.
+    /// The feet the plan holds at contact (feet_through_contact; weight 0: not held): the
+    /// punch's planned lean is found with the pelvis lowered for them, as the frames draw it.
     FootLocks plan_feet;
   };
   const StrikeInfo& strike() const { return strike_; }
@@ -352,8 +351,9 @@ class Behaviour {
   /// d(t) at contact from the pose at segment time `at_time_s`; `plan_lean`: also the punch's
   /// trunk lean (not at the contact frame itself: the lean eased in since the start stays).
   void compute_reach_error(double at_time_s, bool plan_lean = true);
-  /// The feet held now that the strike source `s` keeps planted from its time to
-  /// `contact_time_s` (the others at weight 0), their pelvis drop allowed 0..max_root_drop_m.
+  /// The feet the strike source `s` has planted at `contact_time_s`: where held now if the
+  /// clip keeps them planted from its time on (a foot not held now is left out), else where the
+  /// clip puts them down on the way; the others at weight 0. Pelvis drop 0..max_root_drop_m.
   FootLocks feet_through_contact(const Source& s, double contact_time_s) const;
   /// m, room: how low a punch's shoulder may drop for held feet (the target within the arm's
   /// reach at max_punch_aim_deg from it; -inf for kicks).
