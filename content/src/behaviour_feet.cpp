@@ -50,8 +50,9 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   Source earlier = current_;
   earlier.time_s -= dt * current_.rate;
   sample(earlier, before);
-  earlier.time_s -= dt * current_.rate;
-  sample(earlier, before2);
+  // ...and one before that, sampled only for a lifted foot (its swing reads how fast the
+  // source's foot gathers speed): not on every update a fighter stands.
+  bool have_before2 = false;
 
   constexpr double kLiftDeadband_m = 0.01;
   constexpr double kHeelRiseSlack_m = 0.02;  // m: a heel's rise beyond its foot's pitch (the ball flexing)
@@ -74,7 +75,15 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
     f.free_ankle_m = rig_positions_[hip] + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
     f.source_step_m = mkm_ankle(rig, cur, s) - mkm_ankle(rig, before, s);
-    f.source_step_before_m = mkm_ankle(rig, before, s) - mkm_ankle(rig, before2, s);
+    if (!f.planted) {
+      if (!have_before2) {
+        Source earlier2 = earlier;
+        earlier2.time_s -= dt * current_.rate;
+        sample(earlier2, before2);
+        have_before2 = true;
+      }
+      f.source_step_before_m = mkm_ankle(rig, before, s) - mkm_ankle(rig, before2, s);
+    }
     if (!f.planted && !current_.loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
       // Where the motion puts this foot down next, and the horizontal way its ankle still goes.
       const double land_t = current_.time_s + f.swing_left_s * current_.rate;
