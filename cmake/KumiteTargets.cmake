@@ -14,6 +14,21 @@ if(KUMITE_FUZZ)
   add_compile_options(-fsanitize=fuzzer-no-link)
 endif()
 
+# kumite_build_paths: this checkout's folders (source, build, ../shared/data) for tests,
+# benchmarks and tools' defaults, compiled into one generated source; kumite_use_build_paths
+# links it and force-includes its header, whose macros KUMITE_SOURCE_DIR, KUMITE_BINARY_DIR
+# and KUMITE_SHARED_DATA_DIR give them as std::string. (As -D string defines they made every
+# source of those targets differ from clone to clone, and ccache missed them all in CI.)
+configure_file(${PROJECT_SOURCE_DIR}/cmake/build_paths/build_paths.cpp.in
+               ${PROJECT_BINARY_DIR}/generated/build_paths.cpp @ONLY)
+add_library(kumite_build_paths STATIC ${PROJECT_BINARY_DIR}/generated/build_paths.cpp)
+target_include_directories(kumite_build_paths PUBLIC ${PROJECT_SOURCE_DIR}/cmake/build_paths)
+function(kumite_use_build_paths target)
+  target_link_libraries(${target} PRIVATE kumite_build_paths)
+  target_compile_options(${target} PRIVATE
+    -include ${PROJECT_SOURCE_DIR}/cmake/build_paths/kumite/build_paths.hpp)
+endfunction()
+
 # kumite_module(<name> [DEPS targets...]): the library kumite_<name> from <name>/src/*.cpp
 # with the public include dir <name>/include (headers under kumite/<name>/).
 function(kumite_module name)
@@ -44,10 +59,7 @@ function(kumite_test module)
   add_executable(kumite_${module}_tests ${_src})
   target_link_libraries(kumite_${module}_tests PRIVATE ${T_DEPS} GTest::gtest GTest::gtest_main
                         GTest::gmock kumite_warnings)
-  target_compile_definitions(kumite_${module}_tests PRIVATE
-    KUMITE_SHARED_DATA_DIR="${KUMITE_SHARED_DATA_DIR}"
-    KUMITE_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
-    KUMITE_BINARY_DIR="${PROJECT_BINARY_DIR}")
+  kumite_use_build_paths(kumite_${module}_tests)
   gtest_discover_tests(kumite_${module}_tests DISCOVERY_TIMEOUT 60
                        PROPERTIES LABELS ${module})
 endfunction()

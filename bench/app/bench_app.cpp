@@ -43,7 +43,7 @@ Figure figure() {
 }
 
 std::vector<WallFrame> demo_walls() {
-  const auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  const auto cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
   std::vector<WallFrame> w;
   for (const auto& c : cfg.walls) w.push_back(wall_frame(c));
   return w;
@@ -76,7 +76,7 @@ BENCHMARK(BM_PlanFighter31Joints);
 /// The whole CPU step of the demo installation (tracking poll, orders, eyes, 4 walls x 2
 /// eyes, console state), without the fighter when content is not built in.
 void BM_InstallationStepDemo(benchmark::State& state) {
-  auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  auto cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
   cfg.orders_script.reset();
   cfg.tracking.source = TrackingSource::none;
   Installation inst(cfg, make_fixed_head_input("bench"), {});
@@ -113,7 +113,7 @@ BENCHMARK(BM_HeadlessWall1080p)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 /// 1920x1080, the floor 1920x1920); arg 1: 320x180 each, as tests/app/test_demo.cpp renders.
 void BM_HeadlessDemoFrame(benchmark::State& state) {
   HeadlessContext context;
-  const auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  const auto cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
   const auto walls = demo_walls();
   Renderer renderer(walls);
   std::vector<std::unique_ptr<OffscreenTarget>> targets;

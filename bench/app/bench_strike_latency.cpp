@@ -73,7 +73,7 @@ struct Visitor {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string poses = KUMITE_SOURCE_DIR "/config/visitor-135_06.poses.csv";
+  std::string poses = KUMITE_SOURCE_DIR + "/config/visitor-135_06.poses.csv";
   std::string out, recording = "/tmp/kumite-strike-latency-recording";
   double seconds = 12;
   for (int i = 1; i < argc; ++i) {
@@ -93,11 +93,11 @@ int main(int argc, char** argv) {
   }
   try {
     // The demo's room and rig, the gloves' tracking config, the shipped model.
-    auto cfg = app::load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+    auto cfg = app::load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
     cfg.tracking.source = app::TrackingSource::recording;
-    cfg.tracking.tracking = KUMITE_SOURCE_DIR "/config/tracking-gloves.toml";
+    cfg.tracking.tracking = KUMITE_SOURCE_DIR + "/config/tracking-gloves.toml";
     cfg.tracking.recording = recording;
-    cfg.recognition.model = KUMITE_SOURCE_DIR "/recognition/models/strikes.krec";
+    cfg.recognition.model = KUMITE_SOURCE_DIR + "/recognition/models/strikes.krec";
     const auto rig = tracking::read_calibration(cfg.resolve(cfg.tracking.calibration));
     const auto tc = tracking::read_tracking_config(cfg.tracking.tracking);
     const auto file = rec::read_poses_csv(poses);

@@ -2,15 +2,10 @@
 
 #include <algorithm>
 #include <cctype>
-#include <cstdlib>
 
 #include <fmt/format.h>
 
 #include "kumite/common/error.hpp"
-
-#ifndef KUMITE_CONTENT_SOURCE_DIR
-#define KUMITE_CONTENT_SOURCE_DIR "content"
-#endif
 
 namespace kumite::content {
 
@@ -261,11 +256,6 @@ std::vector<Dialect> load_dialects(const std::filesystem::path& dir) {
   std::sort(files.begin(), files.end());
   for (const auto& f : files) out.push_back(read_dialect_toml(f));
   return out;
-}
-
-std::filesystem::path default_content_dir() {
-  if (const char* env = std::getenv("KUMITE_CONTENT_DIR"); env != nullptr && *env != 0) return env;
-  return KUMITE_CONTENT_SOURCE_DIR;
 }
 
 const std::vector<Dialect>& default_dialects() {

@@ -84,7 +84,7 @@ TEST(Config, RoundTrip) {
 }
 
 TEST(Config, DemoFileRoundTrips) {
-  const auto a = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  const auto a = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
   EXPECT_GE(a.walls.size(), 4u);
   const auto b = parse_installation_config(to_toml(a), "again.toml");
   EXPECT_EQ(a, b);
@@ -264,7 +264,7 @@ TEST(Config, ResolveIsRelativeToTheFile) {
 }
 
 TEST(Config, CaveWithOneWindowPerWall) {
-  const auto a = load_installation_config(KUMITE_SOURCE_DIR "/config/walls-cave-4windows.toml");
+  const auto a = load_installation_config(KUMITE_SOURCE_DIR + "/config/walls-cave-4windows.toml");
   ASSERT_EQ(a.windows.size(), 4u);
   ASSERT_EQ(a.walls.size(), 4u);
   for (std::size_t w = 0; w < 4; ++w) EXPECT_EQ(a.window_of(w), static_cast<int>(w));
@@ -290,7 +290,7 @@ TEST(Config, DataDirPlaceholder) {
 }
 
 TEST(Config, DemoFindsItsDataThroughTheOverride) {
-  const auto c = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml", std::filesystem::path("/x/demo"));
+  const auto c = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml", std::filesystem::path("/x/demo"));
   EXPECT_EQ(c.resolve(c.tracking.recording), std::filesystem::path("/x/demo/recording"));
   EXPECT_EQ(c.resolve(c.fighter.database), std::filesystem::path("/x/demo/fighter.kdb"));
 }

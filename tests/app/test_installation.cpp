@@ -355,13 +355,13 @@ TEST(Orders, BadRowsNameFileAndLine) {
   for (const char* t : {"nan", "-nan", "inf", "-inf", "infinity", "NaN"})
     EXPECT_EQ(msg(("0.5,pause\n" + std::string(t) + ",resume\n").c_str()),
               "o.csv:2: time_s: must be a finite number (found \"" + std::string(t) + "\")");
-  EXPECT_NO_THROW(load_orders_script(KUMITE_SOURCE_DIR "/config/orders-demo.csv"));
+  EXPECT_NO_THROW(load_orders_script(KUMITE_SOURCE_DIR + "/config/orders-demo.csv"));
   // A folder read as an empty script: no orders and no word (rc 0).
   try {
-    load_orders_script(KUMITE_SOURCE_DIR "/config");
+    load_orders_script(KUMITE_SOURCE_DIR + "/config");
     FAIL();
   } catch (const kumite::Error& e) {
-    EXPECT_EQ(std::string(e.what()), std::string(KUMITE_SOURCE_DIR "/config") + ": is a folder, not a file: give the orders script (.csv)");
+    EXPECT_EQ(std::string(e.what()), std::string(KUMITE_SOURCE_DIR + "/config") + ": is a folder, not a file: give the orders script (.csv)");
   }
 }
 
@@ -499,7 +499,7 @@ TEST(InstallationLatch, TakesThePoseAtOnceWhenOffOrTheTimingIsUnknown) {
 
 TEST(TrackingInput, AMissingTrackerFileIsNamedAtItsConfigKey) {
   // The demo's file, so every key has its line; each file in turn points nowhere.
-  const auto demo = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  const auto demo = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
   for (const char* key : {"tracking.calibration", "tracking.tracking", "tracking.recording"}) {
     auto cfg = demo;
     if (std::string(key) == "tracking.calibration") cfg.tracking.calibration = "/nonexistent/calibration.yaml";
@@ -520,7 +520,7 @@ TEST(TrackingInput, AMissingTrackerFileIsNamedAtItsConfigKey) {
 }
 
 TEST(TrackingInput, AProjectorLagDoesNotMakeAFreshPoseLost) {
-  auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
+  auto cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
   const auto rig = kumite::tracking::read_calibration(cfg.resolve(cfg.tracking.calibration));
   const auto tc = kumite::tracking::read_tracking_config(cfg.resolve(cfg.tracking.tracking));
   // SYNTHETIC frame sets of a visitor standing still, handed over at 60 Hz as cameras would.

@@ -34,8 +34,8 @@ namespace rec = kumite::recognition;
 
 namespace {
 
-const char* kVisitor = KUMITE_SOURCE_DIR "/config/visitor-135_06.poses.csv";
-const char* kModel = KUMITE_SOURCE_DIR "/recognition/models/strikes.krec";
+const std::string kVisitor = KUMITE_SOURCE_DIR + "/config/visitor-135_06.poses.csv";
+const std::string kModel = KUMITE_SOURCE_DIR + "/recognition/models/strikes.krec";
 
 const char* kRoom = R"(
 [[walls]]
@@ -299,8 +299,8 @@ TEST(VisitorStrikes, GlovesTrackedFromCameraFramesGiveTheMocapsStrikes) {
   // the kata: a front kick and a lunge punch) -> the real tracker with five bodies -> the
   // recognition thread. Beside it the recogniser on the mocap poses themselves: the strikes
   // it begins must be begun from the tracked gloves too (tracking noise may add a little).
-  auto cfg = load_installation_config(KUMITE_SOURCE_DIR "/config/demo.toml");
-  cfg.tracking.tracking = KUMITE_SOURCE_DIR "/config/tracking-gloves.toml";
+  auto cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
+  cfg.tracking.tracking = KUMITE_SOURCE_DIR + "/config/tracking-gloves.toml";
   cfg.recognition.model = kModel;
   const auto rig = kumite::tracking::read_calibration(cfg.resolve(cfg.tracking.calibration));
   const auto tc = kumite::tracking::read_tracking_config(cfg.tracking.tracking);
