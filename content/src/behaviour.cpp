@@ -523,6 +523,7 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, Times
     job.target_room_m = strike_.target_room_m;
     job.plan_feet = strike_.plan_feet;
     job.plan_lowest_shoulder_y_m = lowest_shoulder_y_m();
+    job.pole_turns = pole_turns_;
     pending_rate_ = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment, character_};
     submit_rate_(job);
   }
@@ -557,8 +558,8 @@ void Behaviour::apply_strike_rate(double dt) {
 }
 
 void Behaviour::compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose,
-                        MkmFrame& out) const {
-  Playback{*db_, stride_scale(), eased_}.compose(cur, prev, blend_elapsed_s, tun_.blend_time_s, cur_pose, out);
+                        MkmFrame& out, PoleTurns* turns) const {
+  Playback{*db_, stride_scale(), eased_}.compose(cur, prev, blend_elapsed_s, tun_.blend_time_s, cur_pose, out, turns);
 }
 
 double Behaviour::ramp_in(double t) const { return reach_ramp_in(strike_.start_time_s, strike_.contact_time_s, t); }
@@ -985,7 +986,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // Compose the pose: cross-fade previous -> current.
   pose_before_ = pose_;
   MkmFrame cur;
-  compose(current_, previous_, blend_elapsed_s_, cur, pose_);
+  compose(current_, previous_, blend_elapsed_s_, cur, pose_, &pole_turns_);
   if (!have_pose_) pose_before_ = pose_;
 
   // d(t): zero at the strike start, the full error at contact, then back to zero over at least

@@ -94,8 +94,10 @@ struct Playback {
   Vector2d scaled_travel(const PlaybackSource& s, const MotionSegment& seg, double t) const;
   /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into a blend of
   /// `blend_time_s` (cur_pose: `cur` alone), as Behaviour::update() composes every frame.
+  /// `turns`: the cross-fade's pole turns so far (PoleTurns), carried on and updated when they
+  /// belong to this cross-fade, begun afresh when not; nullptr: the shorter way.
   void compose(const PlaybackSource& cur, const PlaybackSource& prev, double blend_elapsed_s, double blend_time_s,
-               MkmFrame& cur_pose, MkmFrame& out) const;
+               MkmFrame& cur_pose, MkmFrame& out, PoleTurns* turns = nullptr) const;
 };
 
 /// d(t)'s weight at segment time t: in from the strike's start to contact, out from contact

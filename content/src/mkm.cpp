@@ -235,7 +235,7 @@ Vector3d limb_pole(const Vector3d& root, const Vector3d& middle, const Vector3d&
   return e.normalized();
 }
 
-Vector3d blend_pole(const Vector3d& a, const Vector3d& b, const Vector3d& axis, double w) {
+Vector3d blend_pole(const Vector3d& a, const Vector3d& b, const Vector3d& axis, double w, double* turn_rad) {
   // Both made across the axis and turned from one to the other about it at an even pace. Within
   // 30 deg their nlerp does that to 7 % (mid-way against the ends; a few dot products: sampling
   // between frames runs this per limb for every sample); farther apart its pace is uneven (at
@@ -243,9 +243,16 @@ Vector3d blend_pole(const Vector3d& a, const Vector3d& b, const Vector3d& axis, 
   // bruno's kicks on the grid), so the angle is turned instead.
   const Vector3d pa = a - a.dot(axis) * axis, pb = b - b.dot(axis) * axis;
   const double na = pa.norm(), nb = pb.norm();
-  if (na > 0.1 && nb > 0.1 && pa.dot(pb) > 0.866 * na * nb) return ((1 - w) / na * pa + w / nb * pb).normalized();
+  const bool near = na > 0.1 && nb > 0.1 && pa.dot(pb) > 0.866 * na * nb;
+  if (near && turn_rad == nullptr) return ((1 - w) / na * pa + w / nb * pb).normalized();
   const Vector3d ua = across(a, axis, b), ub = across(b, axis, ua);
-  const double angle = std::atan2(axis.dot(ua.cross(ub)), ua.dot(ub));
+  double angle = std::atan2(axis.dot(ua.cross(ub)), ua.dot(ub));
+  if (turn_rad != nullptr) {
+    // The whole turns that bring the shorter angle nearest the last update's (|change| <= pi).
+    const double turns = std::isfinite(*turn_rad) ? std::round((*turn_rad - angle) / (2 * std::numbers::pi)) : 0.0;
+    *turn_rad = angle += turns * 2 * std::numbers::pi;
+    if (near && turns == 0) return ((1 - w) / na * pa + w / nb * pb).normalized();
+  }
   return Eigen::AngleAxisd(w * angle, axis) * ua;
 }
 
@@ -358,8 +365,10 @@ void mirror_pose(const CanonicalPose& in, const GroundFrame& g, CanonicalPose& o
   }
 }
 
-void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out) {
+namespace {
+void blend_mkm_with(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, PoleTurns* turns, bool carry) {
   const double u = 1 - w;
+  const double none = std::numeric_limits<double>::quiet_NaN();
   auto nlerp = [&](const Vector3d& x, const Vector3d& y) { return normalized_or(u * x + w * y, x); };
   out.root_xz_m = u * a.root_xz_m + w * b.root_xz_m;
   out.root_height_n = u * a.root_height_n + w * b.root_height_n;
@@ -370,13 +379,23 @@ void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out) {
   for (int s = 0; s < 2; ++s) {
     out.clavicle_dir[s] = nlerp(a.clavicle_dir[s], b.clavicle_dir[s]);
     out.arm_n[s] = u * a.arm_n[s] + w * b.arm_n[s];
-    out.arm_pole[s] = blend_pole(a.arm_pole[s], b.arm_pole[s], normalized_or(out.arm_n[s], normalized_or(a.arm_n[s], Vector3d::UnitY())), w);
+    double* arm_turn = turns ? &turns->arm_rad[s] : nullptr;
+    double* leg_turn = turns ? &turns->leg_rad[s] : nullptr;
+    if (turns && !carry) *arm_turn = *leg_turn = none;
+    out.arm_pole[s] = blend_pole(a.arm_pole[s], b.arm_pole[s], normalized_or(out.arm_n[s], normalized_or(a.arm_n[s], Vector3d::UnitY())), w, arm_turn);
     out.leg_n[s] = u * a.leg_n[s] + w * b.leg_n[s];
-    out.leg_pole[s] = blend_pole(a.leg_pole[s], b.leg_pole[s], normalized_or(out.leg_n[s], normalized_or(a.leg_n[s], -Vector3d::UnitY())), w);
+    out.leg_pole[s] = blend_pole(a.leg_pole[s], b.leg_pole[s], normalized_or(out.leg_n[s], normalized_or(a.leg_n[s], -Vector3d::UnitY())), w, leg_turn);
     out.foot_dir[s] = nlerp(a.foot_dir[s], b.foot_dir[s]);
     out.planted[s] = u * a.planted[s] + w * b.planted[s];
     out.ankle_lift_n[s] = u * a.ankle_lift_n[s] + w * b.ankle_lift_n[s];
   }
+}
+}  // namespace
+
+void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out) { blend_mkm_with(a, b, w, out, nullptr, false); }
+
+void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, PoleTurns& turns, bool carry) {
+  blend_mkm_with(a, b, w, out, &turns, carry);
 }
 
 void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Vector2d& anchor_xz_m,

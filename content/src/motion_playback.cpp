@@ -92,12 +92,22 @@ void Playback::place_sample(const PlaybackSource& s, const MotionSegment& seg, d
 }
 
 void Playback::compose(const PlaybackSource& cur, const PlaybackSource& prev, double blend_elapsed_s,
-                       double blend_time_s, MkmFrame& cur_pose, MkmFrame& out) const {
+                       double blend_time_s, MkmFrame& cur_pose, MkmFrame& out, PoleTurns* turns) const {
   sample(cur, cur_pose);
   if (prev.segment >= 0 && blend_elapsed_s < blend_time_s) {
     MkmFrame prev_pose;
     sample(prev, prev_pose);
-    blend_mkm(prev_pose, cur_pose, smoothstep(blend_elapsed_s / blend_time_s), out);
+    const double w = smoothstep(blend_elapsed_s / blend_time_s);
+    if (turns == nullptr) {
+      blend_mkm(prev_pose, cur_pose, w, out);
+    } else {
+      const bool carry = turns->from_segment == prev.segment && turns->to_segment == cur.segment &&
+                         turns->elapsed_s >= 0 && blend_elapsed_s >= turns->elapsed_s;
+      blend_mkm(prev_pose, cur_pose, w, out, *turns, carry);
+      turns->from_segment = prev.segment;
+      turns->to_segment = cur.segment;
+      turns->elapsed_s = blend_elapsed_s;
+    }
   } else {
     out = cur_pose;
   }

@@ -88,6 +88,7 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     const double t0 = job.current.time_s, p0 = job.previous.time_s;
     Peaks peaks;
     MkmFrame b, pose;
+    PoleTurns turns = job.pole_turns;  // carried through the way as the drawn updates carry them
     speeds_.clear();
     for (int k = 0;; ++k) {
       const double w = k * h;
@@ -96,7 +97,8 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
       if (cur.time_s > job.release_end_s + 1e-9) break;
       prev.time_s = p0 + prev.rate * w;
       // The source alone (no blend from the motion before, no d(t)), or as it will be drawn.
-      play.compose(cur, prev, drawn ? job.blend_elapsed_s + w : tun_.blend_time_s, tun_.blend_time_s, b, pose);
+      play.compose(cur, prev, drawn ? job.blend_elapsed_s + w : tun_.blend_time_s, tun_.blend_time_s, b, pose,
+                   drawn ? &turns : nullptr);
       const double t = cur.time_s;
       const ReachGoal goal = reach_goal_at(job.effector, job.turn, job.stretch,
                                            t <= job.contact_time_s ? reach_ramp_in(job.start_time_s, job.contact_time_s, t)

@@ -248,6 +248,59 @@ TEST(Mkm, MirrorSwapsSidesAndBlendEndsAtItsInputs) {
   EXPECT_TRUE(out.pelvis.isApprox(b.pelvis, 1e-12));
 }
 
+TEST(Mkm, ACrossFadeOfNearlyOppositePolesKeepsTurningTheWayItBegan) {
+  // SYNTHETIC: an arm pointing forward, the fading pose's elbow straight down, the other pose's
+  // elbow nearly opposite and drifting through straight up over the cross-fade (175 -> 185 deg
+  // about the arm). Turned the shorter way afresh each update, the blended elbow swaps sides
+  // when the drift passes 180 deg (the bout's guard elbow across the body, 27 cm in a frame);
+  // with the cross-fade's turns carried it keeps going the way it began. Where the turn carried
+  // is the shorter one, the pole is the same to the bit as without it.
+  const Vector3d axis = Vector3d(0.1, 0.2, 1).normalized();
+  MkmFrame a, b, plain, carried;
+  for (int s = 0; s < 2; ++s) {
+    a.arm_n[s] = b.arm_n[s] = 0.8 * axis;
+    a.leg_n[s] = b.leg_n[s] = Vector3d(0, -0.9, 0.1);
+    a.arm_pole[s] = across(Vector3d(0, -1, 0), axis, Vector3d::UnitX());
+    a.leg_pole[s] = b.leg_pole[s] = Vector3d(0, 0.1, 1).normalized();
+  }
+  const double deg = std::numbers::pi / 180;
+  PoleTurns turns;
+  double worst_plain = 0, worst_carried = 0;
+  Vector3d last_plain, last_carried;
+  for (int k = 0; k <= 100; ++k) {
+    const double drift = (175 + 0.1 * k) * deg, w = 0.3 + 0.004 * k;
+    b.arm_pole[0] = b.arm_pole[1] = Eigen::AngleAxisd(drift, axis) * a.arm_pole[0];
+    blend_mkm(a, b, w, plain);
+    blend_mkm(a, b, w, carried, turns, k > 0);
+    if (k > 0) {
+      worst_plain = std::max(worst_plain, std::acos(std::clamp(plain.arm_pole[0].dot(last_plain), -1.0, 1.0)));
+      worst_carried = std::max(worst_carried, std::acos(std::clamp(carried.arm_pole[0].dot(last_carried), -1.0, 1.0)));
+    }
+    last_plain = plain.arm_pole[0];
+    last_carried = carried.arm_pole[0];
+    EXPECT_NEAR(carried.arm_pole[0].norm(), 1, 1e-12);
+    EXPECT_NEAR(carried.arm_pole[0].dot(axis), 0, 1e-12);
+  }
+  EXPECT_GT(worst_plain, 90 * deg);    // the shorter way swaps sides (the test can fail)
+  EXPECT_LT(worst_carried, 1.5 * deg);  // the pace of w and the drift: ~0.6 deg per update
+  // Carried all the way, the turn went on past 180 deg (the way it began), not back.
+  EXPECT_GT(std::abs(turns.arm_rad[0]), 180 * deg);
+  // Poles within the shorter way: the same pole with or without the turns, to the bit.
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> u(-1, 1);
+  PoleTurns fresh;
+  for (int i = 0; i < 200; ++i) {
+    const Vector3d pa = Vector3d(u(rng), u(rng), u(rng)).normalized(), pb = Vector3d(u(rng), u(rng), u(rng)).normalized();
+    a.arm_pole[0] = across(pa, axis, Vector3d::UnitX());
+    b.arm_pole[0] = across(pb, axis, Vector3d::UnitX());
+    const double w = 0.5 * (u(rng) + 1);
+    blend_mkm(a, b, w, plain);
+    blend_mkm(a, b, w, carried, fresh, false);
+    EXPECT_EQ(plain.arm_pole[0], carried.arm_pole[0]);
+    EXPECT_EQ(plain.leg_pole[0], carried.leg_pole[0]);
+  }
+}
+
 TEST(Adapt, SoftTwoBoneStraightensWithoutAPop) {
   // A goal moved out along a line in 1 mm steps from 95 % to 103 % of a 0.8 m limb: with the
   // plain solver the middle joint moves centimetres for the last millimetres (a knee "pop");

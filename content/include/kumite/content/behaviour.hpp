@@ -125,6 +125,9 @@ struct StrikeRateJob {
   /// how low a punch's shoulder may drop for them (Behaviour::feet_through_contact).
   FootLocks plan_feet;
   double plan_lowest_shoulder_y_m = -std::numeric_limits<double>::infinity();
+  /// The cross-fade's pole turns as drawn at the start (Behaviour's), carried through the way
+  /// as the updates will carry them.
+  PoleTurns pole_turns;
 };
 struct StrikeRateResult {
   std::uint64_t id = 0;  ///< StrikeRateJob::id
@@ -366,7 +369,8 @@ class Behaviour {
   void aim_straight_arm_below_head();
   /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into the blend (cur_pose: `cur`
   /// alone), as update() composes every frame.
-  void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out) const;
+  void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out,
+               PoleTurns* turns = nullptr) const;
   double ramp_in(double t) const;   ///< d(t)'s weight at segment time t before contact
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
@@ -402,6 +406,8 @@ class Behaviour {
   int rest_segment_ = 0;
   Source current_, previous_;
   double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
+  /// The drawn cross-fade's limb-pole turns, carried from update to update (PoleTurns).
+  PoleTurns pole_turns_;
   double facing_rad_ = 0;  ///< rad: the way the fighter faces (toward the visitor)
   /// rad: the rest motion's hips (its first frame's ground yaw) turned this far off facing_rad_
   /// (0: the default rest; after a stance step, its stance's own hips).

@@ -148,7 +148,27 @@ Eigen::Vector3d limb_pole(const Eigen::Vector3d& root, const Eigen::Vector3d& mi
                           const Eigen::Vector3d& fallback);
 /// The pole `a` turned toward `b` by `w` (0..1) about `axis` (unit): both made perpendicular to
 /// the axis, the shorter way round (a blend of two frames' poles about the blended limb).
-Eigen::Vector3d blend_pole(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& axis, double w);
+/// `turn_rad` (a cross-fade carried over updates, PoleTurns): in, the angle (rad, about the
+/// axis, a's pole to b's) the previous update turned by, NaN for none; the turn is then the one
+/// of a's-to-b's angles (the shorter one plus any whole turn) nearest it, so a blend of two
+/// nearly opposite poles keeps turning the way it began. Out: the angle turned by. Where that
+/// is the shorter way the pole is the same as without it.
+Eigen::Vector3d blend_pole(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& axis, double w,
+                           double* turn_rad = nullptr);
+
+/// A cross-fade's limb-pole turns, carried from update to update (blend_mkm, PlaybackSource's
+/// compose). Turned the shorter way afresh at every update, two nearly opposite poles (a guard
+/// arm's elbow against a kick's) swap sides whenever which way is shorter changes: the elbow
+/// crossed the body and back, 27 cm in one frame. Plain data: the rate solver gets a copy
+/// with the strike's start state. Belongs to the cross-fade from `from_segment` to
+/// `to_segment`; a smaller `elapsed_s` than the last one, or other segments: a new cross-fade.
+struct PoleTurns {
+  int from_segment = -1, to_segment = -1;
+  double elapsed_s = -1;  ///< s into the cross-fade at the update that last turned
+  /// rad about each limb from the fading pose's pole to the other's: arm, leg per side
+  std::array<double, 2> arm_rad{0, 0}, leg_rad{0, 0};
+  bool operator==(const PoleTurns&) const = default;
+};
 
 /// `dir` (unit) pitched about the horizontal axis across it, its heading kept: a foot standing
 /// at pitch `from_rad` (below the horizontal) re-drawn on a foot standing at `to_rad`. Within
@@ -191,6 +211,9 @@ void mirror_pose(const CanonicalPose& in, const GroundFrame& g, CanonicalPose& o
 /// nlerp, limb vectors lerp (their length is the extension), poles turn about the blended limb
 /// the shorter way (blend_pole).
 void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out);
+/// The same, each limb's pole turned by the angle nearest the one in `turns` (a cross-fade's,
+/// PoleTurns; `carry` false: none yet, the shorter way), which is then set to the angles used.
+void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, PoleTurns& turns, bool carry);
 
 /// Expresses a frame given in ground frame `from`'s local coordinates in world coordinates,
 /// i.e. applies `placement` (rotation about Y and translation on the floor). Root horizontal
