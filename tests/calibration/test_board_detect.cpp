@@ -410,7 +410,8 @@ TEST(Detect, TagQuadsAreTheLibrarysQuadsExactly) {
     return std::make_pair(diff.size(), theirs.size());
   };
   std::size_t photo_quads = 0;
-  for (const auto& photo : apriltag_test_photos()) {
+  const auto photos = apriltag_test_photos();
+  for (const auto& photo : photos) {
     for (double blur : {0.0, 0.8}) {
       cv::Mat g = photo.grey;
       if (blur > 0) cv::GaussianBlur(photo.grey, g, cv::Size(0, 0), blur);
@@ -443,7 +444,9 @@ TEST(Detect, TagQuadsAreTheLibrarysQuadsExactly) {
     synthetic_quads += n;
   }
   EXPECT_EQ(images_differing, 0) << "of 400 synthetic images";
-  EXPECT_GT(photo_quads, 200u);
+  // (A clone without ../shared has no photos: the synthetic half still runs, and says so.)
+  if (!photos.empty()) EXPECT_GT(photo_quads, 200u);
+  else std::printf("no shared data at %s: the photos are left out\n", KUMITE_SHARED_DATA_DIR.c_str());
   EXPECT_GT(synthetic_quads, 300u);
   std::printf("library quads reproduced: %zu on the photos, %zu on 400 synthetic images\n", photo_quads,
               synthetic_quads);
