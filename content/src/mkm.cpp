@@ -365,10 +365,8 @@ void mirror_pose(const CanonicalPose& in, const GroundFrame& g, CanonicalPose& o
   }
 }
 
-namespace {
-void blend_mkm_with(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, PoleTurns* turns, bool carry) {
+void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, PoleTurns* turns) {
   const double u = 1 - w;
-  const double none = std::numeric_limits<double>::quiet_NaN();
   auto nlerp = [&](const Vector3d& x, const Vector3d& y) { return normalized_or(u * x + w * y, x); };
   out.root_xz_m = u * a.root_xz_m + w * b.root_xz_m;
   out.root_height_n = u * a.root_height_n + w * b.root_height_n;
@@ -381,7 +379,6 @@ void blend_mkm_with(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& ou
     out.arm_n[s] = u * a.arm_n[s] + w * b.arm_n[s];
     double* arm_turn = turns ? &turns->arm_rad[s] : nullptr;
     double* leg_turn = turns ? &turns->leg_rad[s] : nullptr;
-    if (turns && !carry) *arm_turn = *leg_turn = none;
     out.arm_pole[s] = blend_pole(a.arm_pole[s], b.arm_pole[s], normalized_or(out.arm_n[s], normalized_or(a.arm_n[s], Vector3d::UnitY())), w, arm_turn);
     out.leg_n[s] = u * a.leg_n[s] + w * b.leg_n[s];
     out.leg_pole[s] = blend_pole(a.leg_pole[s], b.leg_pole[s], normalized_or(out.leg_n[s], normalized_or(a.leg_n[s], -Vector3d::UnitY())), w, leg_turn);
@@ -389,13 +386,6 @@ void blend_mkm_with(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& ou
     out.planted[s] = u * a.planted[s] + w * b.planted[s];
     out.ankle_lift_n[s] = u * a.ankle_lift_n[s] + w * b.ankle_lift_n[s];
   }
-}
-}  // namespace
-
-void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out) { blend_mkm_with(a, b, w, out, nullptr, false); }
-
-void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, PoleTurns& turns, bool carry) {
-  blend_mkm_with(a, b, w, out, &turns, carry);
 }
 
 void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Vector2d& anchor_xz_m,

@@ -98,16 +98,12 @@ void Playback::compose(const PlaybackSource& cur, const PlaybackSource& prev, do
     MkmFrame prev_pose;
     sample(prev, prev_pose);
     const double w = smoothstep(blend_elapsed_s / blend_time_s);
-    if (turns == nullptr) {
-      blend_mkm(prev_pose, cur_pose, w, out);
-    } else {
-      const bool carry = turns->from_segment == prev.segment && turns->to_segment == cur.segment &&
-                         turns->elapsed_s >= 0 && blend_elapsed_s >= turns->elapsed_s;
-      blend_mkm(prev_pose, cur_pose, w, out, *turns, carry);
-      turns->from_segment = prev.segment;
-      turns->to_segment = cur.segment;
-      turns->elapsed_s = blend_elapsed_s;
-    }
+    // Turns of another cross-fade (other segments, or more time into it than this) start afresh.
+    if (turns != nullptr && (turns->from_segment != prev.segment || turns->to_segment != cur.segment ||
+                             turns->elapsed_s < 0 || blend_elapsed_s < turns->elapsed_s))
+      *turns = PoleTurns{prev.segment, cur.segment};
+    blend_mkm(prev_pose, cur_pose, w, out, turns);
+    if (turns != nullptr) turns->elapsed_s = blend_elapsed_s;
   } else {
     out = cur_pose;
   }

@@ -271,7 +271,7 @@ TEST(Mkm, ACrossFadeOfNearlyOppositePolesKeepsTurningTheWayItBegan) {
     const double drift = (175 + 0.1 * k) * deg, w = 0.3 + 0.004 * k;
     b.arm_pole[0] = b.arm_pole[1] = Eigen::AngleAxisd(drift, axis) * a.arm_pole[0];
     blend_mkm(a, b, w, plain);
-    blend_mkm(a, b, w, carried, turns, k > 0);
+    blend_mkm(a, b, w, carried, &turns);
     if (k > 0) {
       worst_plain = std::max(worst_plain, std::acos(std::clamp(plain.arm_pole[0].dot(last_plain), -1.0, 1.0)));
       worst_carried = std::max(worst_carried, std::acos(std::clamp(carried.arm_pole[0].dot(last_carried), -1.0, 1.0)));
@@ -288,14 +288,14 @@ TEST(Mkm, ACrossFadeOfNearlyOppositePolesKeepsTurningTheWayItBegan) {
   // Poles within the shorter way: the same pole with or without the turns, to the bit.
   std::mt19937 rng(12);
   std::uniform_real_distribution<double> u(-1, 1);
-  PoleTurns fresh;
   for (int i = 0; i < 200; ++i) {
+    PoleTurns fresh;
     const Vector3d pa = Vector3d(u(rng), u(rng), u(rng)).normalized(), pb = Vector3d(u(rng), u(rng), u(rng)).normalized();
     a.arm_pole[0] = across(pa, axis, Vector3d::UnitX());
     b.arm_pole[0] = across(pb, axis, Vector3d::UnitX());
     const double w = 0.5 * (u(rng) + 1);
     blend_mkm(a, b, w, plain);
-    blend_mkm(a, b, w, carried, fresh, false);
+    blend_mkm(a, b, w, carried, &fresh);
     EXPECT_EQ(plain.arm_pole[0], carried.arm_pole[0]);
     EXPECT_EQ(plain.leg_pole[0], carried.leg_pole[0]);
   }

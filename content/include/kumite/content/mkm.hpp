@@ -12,6 +12,7 @@
 // frame (Y up). Geometric frames: x toward the body's LEFT, y up, z forward (right-handed;
 // a body at rest facing +Z has the identity frame).
 #include <array>
+#include <limits>
 #include <span>
 
 #include <Eigen/Core>
@@ -163,11 +164,12 @@ Eigen::Vector3d blend_pole(const Eigen::Vector3d& a, const Eigen::Vector3d& b, c
 /// with the strike's start state. Belongs to the cross-fade from `from_segment` to
 /// `to_segment`; a smaller `elapsed_s` than the last one, or other segments: a new cross-fade.
 struct PoleTurns {
+  static constexpr double kNone = std::numeric_limits<double>::quiet_NaN();
   int from_segment = -1, to_segment = -1;
   double elapsed_s = -1;  ///< s into the cross-fade at the update that last turned
-  /// rad about each limb from the fading pose's pole to the other's: arm, leg per side
-  std::array<double, 2> arm_rad{0, 0}, leg_rad{0, 0};
-  bool operator==(const PoleTurns&) const = default;
+  /// rad about each limb from the fading pose's pole to the other's: arm, leg per side (NaN:
+  /// none yet, the shorter way)
+  std::array<double, 2> arm_rad{kNone, kNone}, leg_rad{kNone, kNone};
 };
 
 /// `dir` (unit) pitched about the horizontal axis across it, its heading kept: a foot standing
@@ -210,10 +212,9 @@ void mirror_pose(const CanonicalPose& in, const GroundFrame& g, CanonicalPose& o
 /// out = a blended toward b by w in [0, 1] (0 = a). Quaternions slerp, unit directions
 /// nlerp, limb vectors lerp (their length is the extension), poles turn about the blended limb
 /// the shorter way (blend_pole).
-void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out);
-/// The same, each limb's pole turned by the angle nearest the one in `turns` (a cross-fade's,
-/// PoleTurns; `carry` false: none yet, the shorter way), which is then set to the angles used.
-void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, PoleTurns& turns, bool carry);
+/// `turns` (a cross-fade's, PoleTurns): each limb's pole turned by the angle nearest the one
+/// there, which is then set to the angle used.
+void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, PoleTurns* turns = nullptr);
 
 /// Expresses a frame given in ground frame `from`'s local coordinates in world coordinates,
 /// i.e. applies `placement` (rotation about Y and translation on the floor). Root horizontal
