@@ -204,6 +204,7 @@ void Behaviour::select_character(int index, Timestamp now) {
   // the pelvis drop carried over was let go, and stepped with the other foot in the air (the
   // knee 5 cm, the elbow 9 cm in a frame, in the bout with stance steps on).
   feet_.keep_held_only();
+  for (auto& a : arm_poles_) a.drawn_radius_m = 0;  // measured on the old body
   switch_offsets_due_ = true;  // the easing's offsets: after this update's solve
   if (state_ == FighterState::striking) compute_reach_error(strike_.contact_time_s);
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
@@ -987,6 +988,13 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   pose_before_ = pose_;
   MkmFrame cur;
   compose(current_, previous_, blend_elapsed_s_, cur, pose_, &pole_turns_);
+  // A folded arm's elbow swings no farther than the source's (limit_folded_pole_turn).
+  {
+    const Morphology& m = characters_[static_cast<std::size_t>(character_)].morphology;
+    for (int side = 0; side < 2; ++side)
+      pose_.arm_pole[side] = limit_folded_pole_turn(arm_poles_[static_cast<std::size_t>(side)], pose_.arm_pole[side], pose_.arm_n[side],
+                                                    m.upper_arm_m[side], m.forearm_m[side], dt);
+  }
   if (!have_pose_) pose_before_ = pose_;
 
   // d(t): zero at the strike start, the full error at contact, then back to zero over at least
@@ -1073,6 +1081,14 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.report = &report_;
   job.Run();
   if (job.reach && !job.reach->effector.leg) trunk_floor_side_ = job.reach->effector.side;  // the fallback's arm
+  for (int side = 0; side < 2; ++side) {  // each drawn elbow's distance from its arm's line
+    const auto idx = [&](CJ j) { return rig_positions_[static_cast<std::size_t>(rig.skeleton.index(j))]; };
+    const Vector3d sh = idx(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+    const Vector3d el = idx(side == kLeft ? CJ::l_elbow : CJ::r_elbow);
+    const Vector3d wr = idx(side == kLeft ? CJ::l_wrist : CJ::r_wrist);
+    const Vector3d axis = wr - sh;
+    arm_poles_[static_cast<std::size_t>(side)].drawn_radius_m = axis.norm() > 1e-9 ? (el - sh).cross(axis).norm() / axis.norm() : 0.0;
+  }
   drop_rate_mps_ = have_pose_ && dt > 0 ? (report_.root_drop_m - last_drop) / dt : 0.0;
   have_pose_ = true;
   last_dt_ = dt > 0 ? dt : last_dt_;

@@ -256,6 +256,38 @@ Vector3d blend_pole(const Vector3d& a, const Vector3d& b, const Vector3d& axis, 
   return Eigen::AngleAxisd(w * angle, axis) * ua;
 }
 
+Vector3d limit_folded_pole_turn(DrawnPole& mem, const Vector3d& src, const Vector3d& limb_n, double upper_m, double lower_m,
+                                double dt) {
+  const double ext = limb_n.norm();
+  if (!(ext > 1e-9) || !src.allFinite() || !limb_n.allFinite()) {
+    mem.valid = false;
+    return src;
+  }
+  const Vector3d axis = limb_n / ext;
+  // The source's middle joint's distance from its axis, on these bones.
+  const double len = std::max(1e-6, ext * (upper_m + lower_m));
+  const double proj = (upper_m * upper_m - lower_m * lower_m + len * len) / (2 * len);
+  const double src_radius = std::sqrt(std::max(0.0, upper_m * upper_m - proj * proj));
+  Vector3d pole = src;
+  if (mem.valid && mem.drawn_radius_m > 0 && dt > 0) {
+    const Vector3d last_drawn = carried_pole(mem.drawn, mem.axis, axis, src);
+    const Vector3d last_src = carried_pole(mem.source, mem.axis, axis, src);
+    const auto angle = [&](const Vector3d& a, const Vector3d& b) { return std::atan2(axis.dot(a.cross(b)), a.dot(b)); };
+    // The drawn elbow swings (m, about the axis) as far as the source's did, plus the catch-up;
+    // both radii of the last update.
+    const double swing_m = mem.source_radius_m * std::abs(angle(last_src, src)) + kFoldedPoleCatchUp_mps * dt;
+    const double allowed = swing_m / mem.drawn_radius_m;
+    const double want = angle(last_drawn, src);
+    if (std::abs(want) > allowed) pole = Eigen::AngleAxisd(std::copysign(allowed, want), axis) * last_drawn;
+  }
+  mem.valid = true;
+  mem.drawn = pole;
+  mem.source = src;
+  mem.axis = axis;
+  mem.source_radius_m = src_radius;
+  return pole;
+}
+
 void encode_mkm(const CanonicalPose& p, const Morphology& m, double floor_y_m,
                 const MkmFrame* previous, MkmFrame& out) {
   const Vector3d& pelvis = at(p, CJ::pelvis);

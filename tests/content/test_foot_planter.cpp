@@ -294,3 +294,41 @@ TEST(FootPlanter, ANewBodysFirstUpdatePutsItsFeetOnItsOwnFloor) {
   planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
   EXPECT_LT(locks.ankle_m[0].y(), 0.09 - 1e-3);
 }
+
+TEST(FootPlanter, AFootSteppingAtACharacterSwitchComesDownWhereItIs) {
+  // A character switch mid-kick (mei -> kenji, 15.25 s, stance steps on): mei's support foot
+  // was in a procedural step. Forgotten at the switch, it was free on kenji (no hold) and went
+  // to kenji's motion's ankle in one frame, 5.5 cm (a drawn snap). Now it comes down where it
+  // is and is held there. SYNTHETIC samples: the new body's motion has that ankle 6 cm away.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_TRUE(planter.step_to(0, Vector3d(0.1, 0.08, 0.3)));
+  for (int k = 0; k < 8; ++k) planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::stepping);
+  const Vector3d mid_step = locks.ankle_m[0];
+  ASSERT_GT(mid_step.y(), 0.08 + 0.02) << "mid-step, the foot is in the air";
+  planter.keep_held_only();
+  s[0].free_ankle_m = Vector3d(0.16, 0.08, mid_step.z());  // kenji's motion: 6 cm to the side
+  s[0].drawn_ankle_m = mid_step;
+  s[0].hip_m.z() = mid_step.z();  // the body over the step (the leg reaches the floor there)
+  double last_y = mid_step.y();
+  int down_at = -1;
+  for (int k = 0; k < 30; ++k) {
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    EXPECT_EQ(locks.weight[0], 1.0) << "update " << k << ": the foot let go";
+    EXPECT_NEAR(locks.ankle_m[0].x(), mid_step.x(), 1e-12) << "update " << k;
+    EXPECT_NEAR(locks.ankle_m[0].z(), mid_step.z(), 1e-12) << "update " << k;
+    EXPECT_LE(locks.ankle_m[0].y(), last_y + 1e-12) << "update " << k;
+    EXPECT_GE(last_y - locks.ankle_m[0].y(), -1e-12);
+    EXPECT_LE(last_y - locks.ankle_m[0].y(), 2.0 * kDt + 1e-12) << "update " << k << ": faster than max_landing_speed_mps";
+    last_y = locks.ankle_m[0].y();
+    s[0].drawn_ankle_m = locks.ankle_m[0];
+    if (down_at < 0 && std::abs(last_y - 0.08) < 1e-9) down_at = k;
+  }
+  EXPECT_EQ(planter.phase(0), Phase::held);
+  EXPECT_NEAR(locks.ankle_m[0].y(), 0.08, 1e-9) << "down on the floor";
+  EXPECT_GE(down_at, 0);
+  EXPECT_LE(down_at, 10) << "at a landing's pace";
+}

@@ -408,6 +408,8 @@ class Behaviour {
   double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
   /// The drawn cross-fade's limb-pole turns, carried from update to update (PoleTurns).
   PoleTurns pole_turns_;
+  /// Per arm, its drawn pole (limit_folded_pole_turn).
+  std::array<DrawnPole, 2> arm_poles_{};
   double facing_rad_ = 0;  ///< rad: the way the fighter faces (toward the visitor)
   /// rad: the rest motion's hips (its first frame's ground yaw) turned this far off facing_rad_
   /// (0: the default rest; after a stance step, its stance's own hips).

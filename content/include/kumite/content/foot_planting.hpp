@@ -89,13 +89,20 @@ class FootPlanter {
   /// Forget every foot (a new body: character switch, first frame).
   void reset() { feet_ = {}; }
   /// A new body with the same feet on the floor (a character switch): a held foot stays held
-  /// where it stands (a foot its new leg cannot reach steps, as any does); the others are
-  /// forgotten (free).
+  /// where it stands (a foot its new leg cannot reach steps, as any does); a foot in a
+  /// procedural step comes down where it is (landing: the step's way was planned for the old
+  /// legs); the others are forgotten (free). Forgotten, a stepping support foot went to the new
+  /// body's motion in one frame (5.5 cm: mei's, kenji switched in mid-kick with stance steps
+  /// on), the easing being an offset fixed at the switch.
   /// The next update puts a foot held below the new body's floor onto it at once (hidden by the
   /// switch's easing), not at a landing's pace over the frames after.
   void keep_held_only() {
     for (auto& f : feet_) {
-      if (f.phase != Phase::held) f = Foot{};
+      if (f.phase == Phase::stepping) {
+        f.phase = Phase::landing;
+      } else if (f.phase != Phase::held) {
+        f = Foot{};
+      }
       f.new_body = true;
     }
   }

@@ -172,6 +172,36 @@ struct PoleTurns {
   std::array<double, 2> arm_rad{kNone, kNone}, leg_rad{kNone, kNone};
 };
 
+/// A drawn limb's pole carried from update to update (limit_folded_pole_turn; Behaviour keeps
+/// one per arm). Plain data, room frame.
+struct DrawnPole {
+  bool valid = false;                      ///< false: nothing drawn yet (the source's pole is taken as it is)
+  Eigen::Vector3d drawn{0, 0, 1};          ///< unit: the pole drawn at the last update
+  Eigen::Vector3d source{0, 0, 1};         ///< unit: the source's pole then
+  Eigen::Vector3d axis{0, 1, 0};           ///< unit: the limb's root -> end axis then
+  /// m: the drawn middle joint's (elbow's) distance from its root-end line at the last update;
+  /// 0: unknown (a new body), the source's pole is taken as it is.
+  double drawn_radius_m = 0;
+  double source_radius_m = 0;  ///< m: the source's, on the same bones, at the last update
+};
+/// m/s: how fast the elbow of a drawn pole held back by limit_folded_pole_turn swings back to
+/// where the source's pole has it (on top of the source's own swing).
+inline constexpr double kFoldedPoleCatchUp_mps = 0.5;
+/// The pole (unit, across `limb_n`'s axis) to draw for a two-bone limb whose source pole is
+/// `source_pole` and whose source direction is `limb_n` ((end - root) / limb length, the
+/// MkmFrame's arm_n or leg_n), bones `upper_m` and `lower_m` long, `dt` s after the last
+/// update (`memory`, updated; its drawn_radius_m is the caller's to set after drawing). A
+/// nearly straight source limb's pole swings with the mocap (its middle joint millimetres off
+/// the axis: nothing to see on the source); where adaptation draws the limb more bent than the
+/// source (a punch landing nearer than captured), the same turn swings the drawn elbow round a
+/// radius several times the source's (aiko's right elbow 5.4 cm in one frame after a punch
+/// landed at 0.55 of her arm, the source's at 0.99). So the drawn elbow swings about the axis
+/// at most as far (m) as the source's did, both on the last update's radii, plus
+/// kFoldedPoleCatchUp_mps * dt to come back to where the source's pole has it. Where the drawn limb is no more bent than the source's and has
+/// not been held back, and where the drawn radius is unknown (0), the source's pole to the bit.
+Eigen::Vector3d limit_folded_pole_turn(DrawnPole& memory, const Eigen::Vector3d& source_pole, const Eigen::Vector3d& limb_n,
+                                       double upper_m, double lower_m, double dt);
+
 /// `dir` (unit) pitched about the horizontal axis across it, its heading kept: a foot standing
 /// at pitch `from_rad` (below the horizontal) re-drawn on a foot standing at `to_rad`. Within
 /// 40 deg of the horizontal the pitch moves by to - from (a plantar flexion kept as it is);
