@@ -22,9 +22,8 @@ TwoBoneResult solve_two_bone(const Eigen::Vector3d& root, const Eigen::Vector3d&
   const double d_min = std::abs(l1 - l2) + 1e-9;
   const double dc = std::clamp(d, d_min, d_max);
   r.reached = (d <= l1 + l2 + 1e-9) && (d >= std::abs(l1 - l2) - 1e-9);
-  const double a = (l1 * l1 - l2 * l2 + dc * dc) / (2 * dc);
-  const double h = std::sqrt(std::max(0.0, l1 * l1 - a * a));
-  r.middle = root + axis * a + pole_unit * h;
+  const TwoBoneBend bend = two_bone_bend(l1, l2, dc);
+  r.middle = root + axis * bend.along_m + pole_unit * bend.off_m;
   r.end = r.reached ? target : Eigen::Vector3d(root + axis * dc);
   return r;
 }

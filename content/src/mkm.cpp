@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "kumite/common/error.hpp"
+#include "kumite/content/ik.hpp"
 
 namespace kumite::content {
 
@@ -265,9 +266,7 @@ Vector3d limit_folded_pole_turn(DrawnPole& mem, const Vector3d& src, const Vecto
   }
   const Vector3d axis = limb_n / ext;
   // The source's middle joint's distance from its axis, on these bones.
-  const double len = std::max(1e-6, ext * (upper_m + lower_m));
-  const double proj = (upper_m * upper_m - lower_m * lower_m + len * len) / (2 * len);
-  const double src_radius = std::sqrt(std::max(0.0, upper_m * upper_m - proj * proj));
+  const double src_radius = two_bone_bend(upper_m, lower_m, std::max(1e-6, ext * (upper_m + lower_m))).off_m;
   Vector3d pole = src;
   if (mem.valid && mem.drawn_radius_m > 0 && dt > 0) {
     const Vector3d last_drawn = carried_pole(mem.drawn, mem.axis, axis, src);

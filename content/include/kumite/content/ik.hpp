@@ -2,7 +2,9 @@
 // Inverse kinematics used by adaptation: analytic two-bone IK with a pole (swivel) direction,
 // and a CCD fallback over a short chain of trunk joints for when the limb alone cannot reach.
 // Everything is allocation-free and works on caller-provided values (m, rad).
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <span>
 
 #include <Eigen/Core>
@@ -15,6 +17,18 @@ struct TwoBoneResult {
   Eigen::Vector3d end;     ///< m, wrist / ankle actually reached (== target when reachable)
   bool reached = true;     ///< false when the target lies beyond l1 + l2 (or inside |l1 - l2|)
 };
+
+/// Where the middle joint (elbow / knee) of a root(l1)-middle(l2)-end limb sits when its ends
+/// are `d` apart (m, > 0; within [|l1 - l2|, l1 + l2], else `off_m` is 0 beyond full length):
+/// `along_m` along the root->end line from the root, `off_m` off that line (the radius its
+/// pole turns it round).
+struct TwoBoneBend {
+  double along_m = 0, off_m = 0;
+};
+inline TwoBoneBend two_bone_bend(double l1, double l2, double d) {
+  const double a = (l1 * l1 - l2 * l2 + d * d) / (2 * d);
+  return {a, std::sqrt(std::max(0.0, l1 * l1 - a * a))};
+}
 
 /// Places the middle joint of root(l1)-middle(l2)-end so that end == target when
 /// |target - root| lies in [|l1 - l2|, l1 + l2]; otherwise end is the nearest reachable
