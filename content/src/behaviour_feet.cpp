@@ -31,11 +31,18 @@ double Behaviour::swing_left_s(int side) const {
   return ((n - 1) * seg.frame_time_s - current_.time_s) / current_.rate + tun_.blend_time_s;  // the rest motion after it
 }
 
-Vector3d behaviour_detail::mkm_ankle(const Rig& rig, const MkmFrame& f, int side) {
-  const Vector3d pelvis(f.root_xz_m.x(), f.root_height_n * rig.morphology.leg_length_m + rig.morphology.standing_ankle_m, f.root_xz_m.y());
+Vector3d behaviour_detail::hip_in_pelvis_frame(const Rig& rig, int side) {
   const CanonicalPose& rest = rig.rest_pose;
-  const Vector3d hip_local = pelvis_frame(rest).conjugate() * (at(rest, side == kLeft ? CJ::l_hip : CJ::r_hip) - at(rest, CJ::pelvis));
+  return pelvis_frame(rest).conjugate() * (at(rest, side == kLeft ? CJ::l_hip : CJ::r_hip) - at(rest, CJ::pelvis));
+}
+
+Vector3d behaviour_detail::mkm_ankle(const Rig& rig, const MkmFrame& f, int side, const Vector3d& hip_local) {
+  const Vector3d pelvis(f.root_xz_m.x(), f.root_height_n * rig.morphology.leg_length_m + rig.morphology.standing_ankle_m, f.root_xz_m.y());
   return pelvis + f.pelvis * hip_local + f.leg_n[static_cast<std::size_t>(side)] * rig.morphology.limb_leg_length(side);
+}
+
+Vector3d behaviour_detail::mkm_ankle(const Rig& rig, const MkmFrame& f, int side) {
+  return mkm_ankle(rig, f, side, hip_in_pelvis_frame(rig, side));
 }
 
 void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur) {
@@ -62,6 +69,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     const auto ankle = static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_ankle : CJ::r_ankle));
     const auto hip = static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_hip : CJ::r_hip));
     FootSample& f = in[us];
+    const Vector3d hip_local = hip_in_pelvis_frame(rig, s);  // for every mkm_ankle of this foot
     // Contacts of the motion being blended TO: a cross-fade moves feet the new motion has
     // down elsewhere, and following the fade would slide them there along the floor.
     f.planted = planted[us] >= 0.5;
@@ -74,7 +82,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     f.swing_left_s = swing_left_s(s);
     // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
     f.free_ankle_m = rig_positions_[hip] + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
-    f.source_step_m = mkm_ankle(rig, cur, s) - mkm_ankle(rig, before, s);
+    f.source_step_m = mkm_ankle(rig, cur, s, hip_local) - mkm_ankle(rig, before, s, hip_local);
     if (!f.planted) {
       if (!have_before2) {
         Source earlier2 = earlier;
@@ -82,14 +90,14 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
         sample(earlier2, before2);
         have_before2 = true;
       }
-      f.source_step_before_m = mkm_ankle(rig, before, s) - mkm_ankle(rig, before2, s);
+      f.source_step_before_m = mkm_ankle(rig, before, s, hip_local) - mkm_ankle(rig, before2, s, hip_local);
     }
     if (!f.planted && !current_.loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
       // Where the motion puts this foot down next, and the horizontal way its ankle still goes.
       const double land_t = current_.time_s + f.swing_left_s * current_.rate;
       const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
       const int land = std::min(static_cast<int>(std::lround(land_t / seg.frame_time_s)), seg.frame_count() - 1);
-      const Vector3d now_m = mkm_ankle(rig, cur, s);
+      const Vector3d now_m = mkm_ankle(rig, cur, s, hip_local);
       SwingPath& sp = swing_paths_[us];
       // The walk depends on the landing frame only (a strike's rate entering mid-swing moves
       // the landing time of a foot that stays up past the clip's end, not its frame).
@@ -100,12 +108,12 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
         sp.way_left_m = std::max(0.0, sp.way_left_m - Eigen::Vector2d(now_m.x() - sp.last_m.x(), now_m.z() - sp.last_m.z()).norm());
       } else {
         // The source's own frames from now to the landing (swing_left_s ends on a frame).
-        MkmFrame g;
+        const Playback play{*db_, stride_scale(), eased_};
+        const Eigen::Quaterniond turn = current_.placement.rotation();
         Vector3d last = now_m;
         double path = 0;
         for (int k = static_cast<int>(std::floor(current_.time_s / seg.frame_time_s)) + 1; k <= land; ++k) {
-          sample_frame(current_, k, g);
-          const Vector3d p = mkm_ankle(rig, g, s);
+          const Vector3d p = play.frame_ankle(current_, turn, k, rig, s, hip_local);
           path += Eigen::Vector2d(p.x() - last.x(), p.z() - last.z()).norm();
           last = p;
         }

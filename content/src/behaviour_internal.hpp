@@ -47,6 +47,11 @@ inline double rest_floor_y(const Rig& rig) {
 /// Where a placed MKM frame puts an ankle (m, room) on a rig, without decoding the whole pose:
 /// pelvis, the rest pose's hip offset turned with the pelvis frame, the leg vector.
 Eigen::Vector3d mkm_ankle(const Rig& rig, const MkmFrame& f, int side);
+/// The rest pose's hip offset from the pelvis in the pelvis frame (m): mkm_ankle's, found once
+/// for a loop over many frames.
+Eigen::Vector3d hip_in_pelvis_frame(const Rig& rig, int side);
+/// mkm_ankle with that offset given (the same operations, so the same numbers).
+Eigen::Vector3d mkm_ankle(const Rig& rig, const MkmFrame& f, int side, const Eigen::Vector3d& hip_local);
 /// A segment from its first frame, placed at `g` (its pelvis there, facing g's way).
 inline PlaybackSource placed_at(const MotionSegment& seg, int index, const GroundFrame& g) {
   const GroundFrame g_clip = ground_frame_of(seg.frames[0]);
@@ -91,6 +96,13 @@ struct Playback {
 
   void sample(const PlaybackSource& s, MkmFrame& out) const;
   void place_sample(const PlaybackSource& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const;
+  /// The ankle (m, room) at one of the source's own frames, placed as place_sample places it:
+  /// mkm_ankle of that placed frame, the same operations on the fields it reads only (the
+  /// pelvis, its height, the leg), with s.placement.rotation() found once by the caller. For
+  /// loops over a swing's frames (a strike's start walks up to ~150 of them: through whole
+  /// placed frames that was up to 60 us of the update).
+  Eigen::Vector3d frame_ankle(const PlaybackSource& s, const Eigen::Quaterniond& placement_rotation, int frame, const Rig& rig,
+                              int side, const Eigen::Vector3d& hip_local) const;
   Vector2d scaled_travel(const PlaybackSource& s, const MotionSegment& seg, double t) const;
   /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into a blend of
   /// `blend_time_s` (cur_pose: `cur` alone), as Behaviour::update() composes every frame.

@@ -423,7 +423,8 @@ void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Ve
                double stride_scale, MkmFrame& out) {
   const Quaterniond r = placement.rotation();
   const Eigen::Vector2d d = (in.root_xz_m - anchor_xz_m) * stride_scale;
-  const Vector3d root = placement.to_world(Vector3d(d.x(), 0, d.y()));
+  // (to_world with the rotation found once: sin and cos of the yaw once per frame placed)
+  const Vector3d root = r * Vector3d(d.x(), 0, d.y()) + Vector3d(placement.origin_xz.x(), 0, placement.origin_xz.y());
   out.root_xz_m = {root.x(), root.z()};
   out.root_height_n = in.root_height_n;
   out.pelvis = r * in.pelvis;

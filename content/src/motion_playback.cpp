@@ -57,6 +57,16 @@ Vector2d Playback::scaled_travel(const PlaybackSource& s, const MotionSegment& s
   return g + eased.cum[i] + part(knot(i), t);
 }
 
+namespace {
+// The pelvis rise (/ leg length) a strike's Travel adds at segment time t: eased in from the
+// strike's start to contact, out over the release.
+double travel_rise_n(const PlaybackSource::Travel& tr, double t) {
+  const double w = t <= tr.contact_s ? smoothstep((t - tr.from_s) / std::max(1e-6, tr.contact_s - tr.from_s))
+                                     : 1 - smoothstep((t - tr.contact_s) / std::max(1e-6, tr.release_s));
+  return w * tr.rise_n;
+}
+}  // namespace
+
 void Playback::sample(const PlaybackSource& s, MkmFrame& out) const {
   const MotionSegment& seg = db.segments[static_cast<std::size_t>(s.segment)];
   const double period = (seg.frame_count() - 1) * seg.frame_time_s;
@@ -82,13 +92,29 @@ void Behaviour::sample_frame(const Source& s, int frame, MkmFrame& out) const {
 void Playback::place_sample(const PlaybackSource& s, const MotionSegment& seg, double t, MkmFrame& mixed,
                             MkmFrame& out) const {
   if (!s.loop && s.travel.scale != 1) mixed.root_xz_m += (s.travel.scale - 1) * scaled_travel(s, seg, t);
-  if (!s.loop && s.travel.rise_n != 0) {
-    const PlaybackSource::Travel& tr = s.travel;
-    const double w = t <= tr.contact_s ? smoothstep((t - tr.from_s) / std::max(1e-6, tr.contact_s - tr.from_s))
-                                       : 1 - smoothstep((t - tr.contact_s) / std::max(1e-6, tr.release_s));
-    mixed.root_height_n += w * tr.rise_n;
-  }
+  if (!s.loop && s.travel.rise_n != 0) mixed.root_height_n += travel_rise_n(s.travel, t);
   place_mkm(mixed, s.placement, s.anchor_xz_m, stride_scale, out);
+}
+
+Vector3d Playback::frame_ankle(const PlaybackSource& s, const Eigen::Quaterniond& placement_rotation, int frame, const Rig& rig,
+                               int side, const Vector3d& hip_local) const {
+  // sample_frame + place_sample + place_mkm + mkm_ankle, on the fields mkm_ankle reads.
+  const MotionSegment& seg = db.segments[static_cast<std::size_t>(s.segment)];
+  const MkmFrame& f = seg.frames[static_cast<std::size_t>(std::clamp(frame, 0, seg.frame_count() - 1))];
+  const double t = frame * seg.frame_time_s;
+  MkmFrame placed;
+  placed.root_xz_m = f.root_xz_m;
+  placed.root_height_n = f.root_height_n;
+  if (!s.loop && s.travel.scale != 1) placed.root_xz_m += (s.travel.scale - 1) * scaled_travel(s, seg, t);
+  if (!s.loop && s.travel.rise_n != 0) placed.root_height_n += travel_rise_n(s.travel, t);
+  // (place_mkm's placement of the root and its turn of the pelvis and the leg)
+  const Eigen::Quaterniond& r = placement_rotation;
+  const Vector2d d = (placed.root_xz_m - s.anchor_xz_m) * stride_scale;
+  const Vector3d root = r * Vector3d(d.x(), 0, d.y()) + Vector3d(s.placement.origin_xz.x(), 0, s.placement.origin_xz.y());
+  placed.root_xz_m = {root.x(), root.z()};
+  placed.pelvis = r * f.pelvis;
+  placed.leg_n[static_cast<std::size_t>(side)] = r * f.leg_n[static_cast<std::size_t>(side)];
+  return mkm_ankle(rig, placed, side, hip_local);
 }
 
 void Playback::compose(const PlaybackSource& cur, const PlaybackSource& prev, double blend_elapsed_s,
