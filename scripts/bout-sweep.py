@@ -23,7 +23,7 @@ import subprocess
 import sys
 
 SUMMED = ["strikes", "hits", "dodged", "misses", "folded_at_contact", "elbow_flips", "knee_flips",
-          "both_feet_off_frames", "drawn_snaps_whole_bout"]
+          "both_feet_off_frames", "both_feet_off_frames_source_down", "drawn_snaps_whole_bout"]
 
 
 def run_one(args, i, order):
@@ -77,6 +77,10 @@ def main():
         for k in SUMMED:
             totals[k] += s[k]
         totals["orders_ignored"] += sum(1 for e in r["events"] if "order_ignored" in e)
+        for field, prefix in (("both_feet_off_frames_by_state", "both_feet_off_"),
+                              ("both_feet_off_frames_source_down_by_state", "both_feet_off_source_down_")):
+            for state, n in s.get(field, {}).items():
+                totals[prefix + state] = totals.get(prefix + state, 0) + n
         totals["bouts"] += 1
         ft = r["frame_time_s"]
         for run in r["runs"]:

@@ -401,6 +401,24 @@ std::vector<FrameRange> both_feet_off(const JointTrack& track, FrameRange range,
   return out;
 }
 
+std::vector<int> both_feet_off_source_down(std::span<const FrameRange> off, int first_frame,
+                                           std::span<const std::array<double, 2>> source_planted, int slack) {
+  const int n = static_cast<int>(source_planted.size());
+  const auto source_off = [&](int g) {
+    const auto& p = source_planted[static_cast<std::size_t>(g)];
+    return p[0] < 0.5 && p[1] < 0.5;
+  };
+  std::vector<int> out;
+  for (const FrameRange& r : off)
+    for (int k = r.first; k <= r.last; ++k) {
+      const int g = first_frame + k;
+      bool own = false;
+      for (int j = std::max(0, g - slack); j <= std::min(n - 1, g + slack) && !own; ++j) own = source_off(j);
+      if (!own) out.push_back(k);
+    }
+  return out;
+}
+
 std::vector<Vector3d> lay_on_bones(const JointTrack& source, const Skeleton& bones, double root_scale, FrameRange range) {
   const Skeleton& s = *source.skeleton;
   if (s.parents != bones.parents || s.end_site != bones.end_site ||

@@ -905,6 +905,8 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
   std::vector<Eigen::Vector3d> drawn;
   std::vector<std::string> events;
   std::map<std::string, int> state_frames;
+  std::vector<kumite::content::FighterState> frame_state;  // per bout frame
+  std::vector<std::array<double, 2>> source_planted;  // per bout frame: the motion played's own contacts
   int stance_step_frames = 0;  // frames a stance step from the mocap played
   struct StanceStepPlayed {
     int update;       // stance_steps_begun() while it played
@@ -952,6 +954,8 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     canonical_positions(rig.skeleton, frame.joints.first(n), cp);  // what is drawn (switch easing included)
     drawn.insert(drawn.end(), cp.begin(), cp.end());
     ++state_frames[std::string(to_string(frame.state))];
+    frame_state.push_back(frame.state);
+    source_planted.push_back(b.motion_planted());
     if (b.stance_step_segment() >= 0) {
       ++stance_step_frames;
       if (stance_steps.empty() || stance_steps.back().update != b.stance_steps_begun())
@@ -973,6 +977,16 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
   std::vector<double> slide_max, slide_p95, slide_p50, step_max;
   int snaps = 0, knee_flips = 0, elbow_flips = 0, folded = 0, strikes = 0, hits = 0, dodged = 0, misses = 0;
   int both_off_frames = 0;  // frames with both feet off the floor (the drawn joints, each run's own floor)
+  // ...by what the fighter was doing: a strike's may be its clip's own (a hop in the mocap:
+  // the grid compares those with the source); resting and following play the rest motion,
+  // which stands on both feet, so every one there is the fighter's own.
+  std::map<std::string, int> both_off_by_state;
+  // ...and of those, the frames where the motion played (the one blended to) has a foot down
+  // by its own contacts (detected on the mocap, stored in the database) within
+  // kSourceOffSlack frames: off the floor where the source is not (both_feet_off_source_down).
+  constexpr int kSourceOffSlack = 3;  // frames (50 ms at 60 Hz): the drawn and source detections differ by a frame or two
+  int both_off_beyond_source = 0;
+  std::map<std::string, int> beyond_source_by_state;
   for (Run& run : runs) {
     Clip back;
     std::string file;
@@ -991,7 +1005,12 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     nlohmann::json off_json = nlohmann::json::array();
     for (const FrameRange& r : both_feet_off(track, {0, back.frame_count - 1}, contacts)) {
       both_off_frames += r.count();
-      off_json.push_back({{"t_s", (run.first_frame + r.first) * dt}, {"frames", r.count()}});
+      for (int k = r.first; k <= r.last; ++k) ++both_off_by_state[std::string(to_string(frame_state[static_cast<std::size_t>(run.first_frame + k)]))];
+      const std::vector<int> beyond = both_feet_off_source_down(std::span(&r, 1), run.first_frame, source_planted, kSourceOffSlack);
+      both_off_beyond_source += static_cast<int>(beyond.size());
+      for (const int k : beyond) ++beyond_source_by_state[std::string(to_string(frame_state[static_cast<std::size_t>(run.first_frame + k)]))];
+      off_json.push_back({{"t_s", (run.first_frame + r.first) * dt}, {"frames", r.count()}, {"frames_source_down", beyond.size()},
+                          {"state", to_string(frame_state[static_cast<std::size_t>(run.first_frame + r.first)])}});
     }
     nlohmann::json jc = nlohmann::json::array();
     const int h = speed_half_window(back.frame_time_s);
@@ -1060,7 +1079,9 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
         {"support_slide_max_mps", mx(slide_max)}, {"support_slide_p95_mps_worst_run", mx(slide_p95)},
         {"support_slide_p50_mps_worst_run", mx(slide_p50)}, {"stepping_peak_max_mps", mx(step_max)},
         {"knee_flips", knee_flips}, {"elbow_flips", elbow_flips}, {"folded_at_contact", folded},
-        {"both_feet_off_frames", both_off_frames}}},
+        {"both_feet_off_frames", both_off_frames}, {"both_feet_off_frames_by_state", both_off_by_state},
+        {"both_feet_off_frames_source_down", both_off_beyond_source},
+        {"both_feet_off_frames_source_down_by_state", beyond_source_by_state}}},
       {"drawn_snap_list", ds}, {"runs", jr}, {"events", events}};
   return result;
 }

@@ -393,6 +393,31 @@ TEST(MotionQuality, BothFeetOffIsEveryFrameWithBothFeetAboveTheirFloor) {
   EXPECT_TRUE(both_feet_off(s.track(), {0, 15}, detect_foot_contacts(s.track(), {}, {0, 15})).empty());
 }
 
+TEST(MotionQuality, BothFeetOffCountsOnlyFramesWhereTheSourceHasAFootDown) {
+  // SYNTHETIC contacts: the source has both feet up over bout frames 20..24 only (a hop of its
+  // own); the drawn track (starting at bout frame 10) has both feet off over its frames 5..20
+  // (bout 15..30) and 40..41 (bout 50..51, past the contacts' end at 49).
+  std::vector<std::array<double, 2>> planted(50, {1.0, 1.0});
+  for (int g = 20; g <= 24; ++g) planted[static_cast<std::size_t>(g)] = {0.0, 0.2};
+  planted[30] = {0.0, 1.0};  // one foot up: not a hop of the source's
+  const std::vector<FrameRange> off = {{5, 20}, {40, 41}};
+  // Slack 0: bout 15..19 and 25..30 are the fighter's own, 20..24 the source's.
+  std::vector<int> want;
+  for (int k = 5; k <= 9; ++k) want.push_back(k);
+  for (int k = 15; k <= 20; ++k) want.push_back(k);
+  want.push_back(40);
+  want.push_back(41);
+  EXPECT_EQ(both_feet_off_source_down(off, 10, planted, 0), want);
+  // Slack 3: bout 17..27 are within 3 frames of the source's hop.
+  want.clear();
+  for (int k = 5; k <= 6; ++k) want.push_back(k);
+  for (int k = 18; k <= 20; ++k) want.push_back(k);
+  want.push_back(40);
+  want.push_back(41);
+  EXPECT_EQ(both_feet_off_source_down(off, 10, planted, 3), want);
+  EXPECT_TRUE(both_feet_off_source_down({}, 10, planted, 3).empty());
+}
+
 TEST(MotionQuality, GridPutsPunchesAtHeadHeightKicksAtTheTorsoInFront) {
   const auto rigs = kumite::content::testing::shipped_characters();
   const auto grid = quality_grid(std::span<const Rig>(rigs).first(2), 12);

@@ -127,6 +127,16 @@ FootContacts detect_foot_contacts(const JointTrack& track, const ContactOptions&
 std::vector<FrameRange> both_feet_off(const JointTrack& track, FrameRange range, const FootContacts& levels,
                                       double tolerance_m = 0.03);
 
+/// The frames of `off` (spans of a track's frames: both_feet_off) at which the motion played
+/// had a foot down by its own contacts: off the floor where the source is not. Track frame k
+/// is frame `first_frame` + k of `source_planted`, the motion's contacts per frame ([side] >=
+/// 0.5: down; Behaviour::motion_planted(), the clip blended to, as the database stores them
+/// from the mocap). A frame counts as the source's own when the source has both feet up at
+/// any frame within `slack` of it (the drawn joints' and the mocap's detections differ by a
+/// frame or two; the window is cut at the ends of `source_planted`).
+std::vector<int> both_feet_off_source_down(std::span<const FrameRange> off, int first_frame,
+                                           std::span<const std::array<double, 2>> source_planted, int slack);
+
 /// Midpoint of ankle and toe of `side` at `frame` (m).
 Eigen::Vector3d foot_point(const JointTrack& track, int side, int frame);
 /// Foot point speed (m/s) at frame f over [f-h, f+h]; horizontal only when `horizontal`.
