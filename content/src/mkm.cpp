@@ -419,13 +419,18 @@ void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, Po
   }
 }
 
+Eigen::Vector2d place_root_xz(const Eigen::Vector2d& root_xz_m, const GroundFrame& placement, const Quaterniond& rotation,
+                              const Eigen::Vector2d& anchor_xz_m, double stride_scale) {
+  const Eigen::Vector2d d = (root_xz_m - anchor_xz_m) * stride_scale;
+  // (to_world with the rotation given: sin and cos of the yaw once per frame placed, or fewer)
+  const Vector3d root = rotation * Vector3d(d.x(), 0, d.y()) + Vector3d(placement.origin_xz.x(), 0, placement.origin_xz.y());
+  return {root.x(), root.z()};
+}
+
 void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Vector2d& anchor_xz_m,
                double stride_scale, MkmFrame& out) {
   const Quaterniond r = placement.rotation();
-  const Eigen::Vector2d d = (in.root_xz_m - anchor_xz_m) * stride_scale;
-  // (to_world with the rotation found once: sin and cos of the yaw once per frame placed)
-  const Vector3d root = r * Vector3d(d.x(), 0, d.y()) + Vector3d(placement.origin_xz.x(), 0, placement.origin_xz.y());
-  out.root_xz_m = {root.x(), root.z()};
+  out.root_xz_m = place_root_xz(in.root_xz_m, placement, r, anchor_xz_m, stride_scale);
   out.root_height_n = in.root_height_n;
   out.pelvis = r * in.pelvis;
   out.chest = r * in.chest;

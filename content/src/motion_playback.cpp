@@ -108,12 +108,9 @@ Vector3d Playback::frame_ankle(const PlaybackSource& s, const Eigen::Quaterniond
   if (!s.loop && s.travel.scale != 1) placed.root_xz_m += (s.travel.scale - 1) * scaled_travel(s, seg, t);
   if (!s.loop && s.travel.rise_n != 0) placed.root_height_n += travel_rise_n(s.travel, t);
   // (place_mkm's placement of the root and its turn of the pelvis and the leg)
-  const Eigen::Quaterniond& r = placement_rotation;
-  const Vector2d d = (placed.root_xz_m - s.anchor_xz_m) * stride_scale;
-  const Vector3d root = r * Vector3d(d.x(), 0, d.y()) + Vector3d(s.placement.origin_xz.x(), 0, s.placement.origin_xz.y());
-  placed.root_xz_m = {root.x(), root.z()};
-  placed.pelvis = r * f.pelvis;
-  placed.leg_n[static_cast<std::size_t>(side)] = r * f.leg_n[static_cast<std::size_t>(side)];
+  placed.root_xz_m = place_root_xz(placed.root_xz_m, s.placement, placement_rotation, s.anchor_xz_m, stride_scale);
+  placed.pelvis = placement_rotation * f.pelvis;
+  placed.leg_n[static_cast<std::size_t>(side)] = placement_rotation * f.leg_n[static_cast<std::size_t>(side)];
   return mkm_ankle(rig, placed, side, hip_local);
 }
 

@@ -1003,14 +1003,15 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     const FootContacts contacts = detect_foot_contacts(track);
     const TrackFigures f = track_figures(track, {0, back.frame_count - 1}, contacts, 1);
     nlohmann::json off_json = nlohmann::json::array();
+    const auto state_at = [&](int k) { return std::string(to_string(frame_state[static_cast<std::size_t>(run.first_frame + k)])); };
     for (const FrameRange& r : both_feet_off(track, {0, back.frame_count - 1}, contacts)) {
       both_off_frames += r.count();
-      for (int k = r.first; k <= r.last; ++k) ++both_off_by_state[std::string(to_string(frame_state[static_cast<std::size_t>(run.first_frame + k)]))];
+      for (int k = r.first; k <= r.last; ++k) ++both_off_by_state[state_at(k)];
       const std::vector<int> beyond = both_feet_off_source_down(std::span(&r, 1), run.first_frame, source_planted, kSourceOffSlack);
       both_off_beyond_source += static_cast<int>(beyond.size());
-      for (const int k : beyond) ++beyond_source_by_state[std::string(to_string(frame_state[static_cast<std::size_t>(run.first_frame + k)]))];
+      for (const int k : beyond) ++beyond_source_by_state[state_at(k)];
       off_json.push_back({{"t_s", (run.first_frame + r.first) * dt}, {"frames", r.count()}, {"frames_source_down", beyond.size()},
-                          {"state", to_string(frame_state[static_cast<std::size_t>(run.first_frame + r.first)])}});
+                          {"state", state_at(r.first)}});
     }
     nlohmann::json jc = nlohmann::json::array();
     const int h = speed_half_window(back.frame_time_s);

@@ -250,6 +250,10 @@ void blend_mkm(const MkmFrame& a, const MkmFrame& b, double w, MkmFrame& out, Po
 /// i.e. applies `placement` (rotation about Y and translation on the floor). Root horizontal
 /// displacement is scaled by `stride_scale` about placement's origin (actor -> character
 /// legs) after removing `anchor_xz_m` (the clip's root at the alignment frame).
+/// place_mkm's root alone: `root_xz_m` (m, the clip's pelvis on the floor) placed so, with
+/// `rotation` = placement.rotation() found by the caller (once for many frames).
+Eigen::Vector2d place_root_xz(const Eigen::Vector2d& root_xz_m, const GroundFrame& placement, const Eigen::Quaterniond& rotation,
+                              const Eigen::Vector2d& anchor_xz_m, double stride_scale);
 void place_mkm(const MkmFrame& in, const GroundFrame& placement, const Eigen::Vector2d& anchor_xz_m,
                double stride_scale, MkmFrame& out);
 
