@@ -158,37 +158,70 @@ void Behaviour::start_rest(Timestamp, int segment) {
   current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
 }
 
-void Behaviour::align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet) const {
+int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet) const {
   // The clip is placed by its pelvis; shift it on the floor so that its support foot (planted
   // at the start and staying down longest) lands where that foot is held now: the motion then
   // swings its other foot and moves its body around a foot that does not have to move, as in
   // the mocap, instead of dragging a held foot the clip has elsewhere out of the leg's reach.
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
-  const int first = std::clamp(static_cast<int>(std::lround(s.time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
-  int best = -1, best_run = 0;
-  for (int side = 0; side < 2; ++side) {
-    if (!feet.held[static_cast<std::size_t>(side)]) continue;
+  const int n = seg.frame_count();
+  const int first = std::clamp(static_cast<int>(std::lround(s.time_s / seg.frame_time_s)), 0, n - 1);
+  const auto planted = [&](int k, int side) { return seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5; };
+  const auto run_from_start = [&](int side) {
     int run = 0;
-    for (int k = first; k < seg.frame_count() && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5; ++k) ++run;
-    if (run > best_run) { best = side; best_run = run; }
-  }
-  if (best < 0) return;
-  MkmFrame placed;
-  sample(s, placed);
+    for (int k = first; k < n && planted(k, side); ++k) ++run;
+    return run;
+  };
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
-  decode_canonical(rig, placed, c);
-  const CJ ankle = best == kLeft ? CJ::l_ankle : CJ::r_ankle;
-  const Vector3d& held = feet.ankle_m[static_cast<std::size_t>(best)];
-  Vector2d shift(held.x() - at(c, ankle).x(), held.z() - at(c, ankle).z());
+  // How far (m, x/z) the clip must move for `side`'s ankle at clip frame `frame` to stand where
+  // that foot is drawn now.
+  const auto wanted = [&](int side, int frame) {
+    Source at_frame = s;
+    at_frame.time_s = frame * seg.frame_time_s;
+    MkmFrame placed;
+    sample(at_frame, placed);
+    CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
+    decode_canonical(rig, placed, c);
+    const Vector3d& a = at(c, side == kLeft ? CJ::l_ankle : CJ::r_ankle);
+    const Vector3d& held = feet.ankle_m[static_cast<std::size_t>(side)];
+    return Vector2d(held.x() - a.x(), held.z() - a.z());
+  };
+  const double limit = tun_.max_support_shift_m;
+  int best = -1, landing_support = -1;
+  Vector2d shift = Vector2d::Zero();
+  // The foot the clip stands on from its start, among those held or in a procedural step. A
+  // stepping one (the last strike's recovery stepping it back while the clip stands on it) is
+  // cut short where it is (FootPlanter::land), if the clip can be carried there (max_support_shift_m).
+  int best_any = -1, best_any_run = 0, best_held = -1, best_held_run = 0;
+  for (int side = 0; side < 2; ++side) {
+    const auto us = static_cast<std::size_t>(side);
+    if (!feet.held[us] && !feet.stepping[us]) continue;
+    const int run = run_from_start(side);
+    if (run > best_any_run) { best_any = side; best_any_run = run; }
+    if (feet.held[us] && run > best_held_run) { best_held = side; best_held_run = run; }
+  }
+  if (best_any >= 0 && !feet.held[static_cast<std::size_t>(best_any)]) {
+    const Vector2d want = wanted(best_any, first);
+    if (want.norm() <= limit) {
+      best = best_any;
+      landing_support = best_any;
+      shift = want;
+    }
+  }
+  if (best < 0 && best_held >= 0) {
+    best = best_held;
+    shift = wanted(best_held, first);
+  }
+  if (best < 0) return -1;
   // Along the line to the target: never back away for it (the held foot then steps up to where
   // the clip has it, rather than the whole strike landing short) -- except for a lunge (a clip
   // whose body travels to contact): its support foot is the back foot the lunge pushes off,
   // and the stance is only the captured one when that foot stands where the clip has it (a
-  // strike that then lands short steps in first: place_strike_travel).
+  // strike that then lands short steps in first: place_strike_travel). A foot put down where
+  // it is (landing_support) is aligned whole: it will stand there.
   MkmFrame contact_pose;
   const bool lunge = strike_travel(s, contact_time_s, contact_pose).norm() >= tun_.min_scaled_travel_m;
-  if (strike_target_ && !lunge) {
+  if (strike_target_ && !lunge && landing_support < 0) {
     Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
     if (dir.norm() > 1e-6) {
       dir.normalize();
@@ -196,9 +229,9 @@ void Behaviour::align_to_support_foot(Source& s, double contact_time_s, const He
       shift -= std::min(along, 0.0) * dir;
     }
   }
-  const double limit = tun_.max_support_shift_m;
   if (shift.norm() > limit) shift *= limit / shift.norm();
   s.placement.origin_xz += shift;
+  return landing_support;
 }
 
 Vector2d Behaviour::strike_travel(const Source& s, double contact_time_s, MkmFrame& contact_pose) const {

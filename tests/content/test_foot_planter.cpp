@@ -228,6 +228,78 @@ TEST(FootPlanter, AStillFootLiftedWhereItsSourceIsAlreadyFastGathersSpeedAndStil
   EXPECT_GE(height_after_3, 0.02) << "it slid along the floor";
 }
 
+TEST(FootPlanter, AStillFootLiftedWhereItsSourceRisesFastGathersSpeedInTheAirToo) {
+  // The same start mid-stride with the source's foot also rising fast (aiko's 135_06 punch
+  // from its frame 20 after a step-in, 2 Dec): the way along the floor kept to a foot's
+  // acceleration, the rise followed the source's on top of it, 2 cm up and 2.8 cm along in the
+  // first frame (the knee of a near-straight leg 5 cm: a drawn snap). Rise and way together now
+  // gather speed at 100 m/s^2. SYNTHETIC samples: the source's foot at 5 m/s forward and
+  // 1.2 m/s up toward a landing 0.9 m ahead.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::held);
+  FootSample& f = s[0];
+  f.planted = false;
+  f.has_landing = true;
+  f.landing_ankle_m = Vector3d(0.1, 0.08, 0.9);
+  const Vector3d step(0, 1.2 * kDt, 5.0 * kDt);
+  Vector3d last = locks.ankle_m[0];
+  double last_move = 0, worst_gain = 0, fastest = 0;
+  for (int k = 0; k < 10; ++k) {
+    f.source_step_m = step;
+    f.source_step_before_m = step;
+    f.source_path_left_m = std::max(0.0, 0.9 - step.z() * (k + 1));
+    f.free_ankle_m += step;
+    f.drawn_ankle_m = locks.ankle_m[0];
+    f.swing_left_s = std::max(0.02, 0.18 - k * kDt);
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    const double move = (locks.ankle_m[0] - last).norm();  // 3-D: along the floor and up
+    worst_gain = std::max(worst_gain, move - last_move);
+    fastest = std::max(fastest, move);
+    last_move = move;
+    last = locks.ankle_m[0];
+  }
+  std::printf("largest 3-D gain %.4f m per update, fastest %.4f m\n", worst_gain, fastest);
+  EXPECT_LE(worst_gain, 100 * kDt * kDt + 1e-9) << "it jumped toward its source's speed";
+  EXPECT_GT(fastest, 5.0 * kDt) << "it never came up to the source's speed";
+}
+
+TEST(FootPlanter, AStepCutShortComesDownWhereItIs) {
+  // A strike whose clip stands from its start on a foot that is in a procedural step (the last
+  // strike's recovery stepping it back): the step ends where the foot is (land) and the foot
+  // stands there, instead of going on to the step's target while the clip stands on it (a hop
+  // where the mocap has a foot down). step_end says where a step would have put it down.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  EXPECT_EQ(planter.step_end(0), nullptr) << "held: no step";
+  planter.land(0);
+  EXPECT_EQ(planter.phase(0), Phase::held) << "land() changes nothing for a foot not stepping";
+  const Vector3d to(0.1, 0.08, -0.3);
+  ASSERT_TRUE(planter.step_to(0, to));
+  ASSERT_NE(planter.step_end(0), nullptr);
+  EXPECT_EQ(*planter.step_end(0), to);
+  for (int k = 0; k < 8; ++k) planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::stepping);
+  const Vector3d mid_step = locks.ankle_m[0];
+  ASSERT_GT(mid_step.y(), 0.08 + 0.02) << "mid-step, the foot is in the air";
+  planter.land(0);
+  EXPECT_EQ(planter.phase(0), Phase::landing);
+  EXPECT_EQ(planter.step_end(0), nullptr);
+  s[0].hip_m.z() = mid_step.z();  // the body over the foot (the leg reaches the floor there)
+  for (int k = 0; k < 30; ++k) {
+    s[0].drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    EXPECT_NEAR(locks.ankle_m[0].x(), mid_step.x(), 1e-12) << "update " << k;
+    EXPECT_NEAR(locks.ankle_m[0].z(), mid_step.z(), 1e-12) << "update " << k << ": it went on toward the step's target";
+  }
+  EXPECT_EQ(planter.phase(0), Phase::held);
+  EXPECT_NEAR(locks.ankle_m[0].y(), 0.08, 1e-9) << "down on the floor";
+}
+
 TEST(FootPlanter, AKickThatTakesAFootAlreadyInTheAirStartsItsSwingWhereTheFootIs) {
   // A kick ordered while a stance step had the foot in the air (viktor, stance steps on, 17.0 s):
   // the kick carried on the step's swing, whose lift-off spot lay 15 cm back, and the rule that

@@ -281,16 +281,21 @@ class Behaviour {
  private:
   using Source = PlaybackSource;
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
-  void start_strike(const StrikePlan& plan, const PlaybackSource& source, Timestamp now, double dt);
+  void start_strike(const StrikePlan& plan, const PlaybackSource& source, int landing_support, Timestamp now, double dt);
   /// How a strike placed by place_strike_travel lands on its target.
   struct StrikeFit {
     double shortfall_m = 0;  ///< m the fighter would have to step in for the limb to reach the target as extended as captured
     double too_near_m = 0;   ///< m the limb's root is nearer the target than the clip has it from its own hit point
     double extension = 1;    ///< limb root to target over the limb's length at contact (1: straight)
+    /// The foot the strike is aligned on while it is in a procedural step (the clip stands on
+    /// it from its start: align_to_support_foot), -1 for none: the step ends where the foot is
+    /// when the strike starts (FootPlanter::land), and it stands there.
+    int landing_support = -1;
   };
   /// The feet a strike is placed on: which are held, and where their ankles stand (m, room).
   struct HeldFeet {
     std::array<bool, 2> held{};
+    std::array<bool, 2> stepping{};  ///< in a procedural step (not held): it may be cut short
     std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   };
   HeldFeet held_feet() const;  ///< as drawn now
@@ -375,7 +380,9 @@ class Behaviour {
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
-  void align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet) const;
+  /// Returns the foot aligned that is in a procedural step now (to be put down where it is),
+  /// else -1.
+  int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,

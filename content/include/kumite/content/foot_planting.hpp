@@ -122,6 +122,17 @@ class FootPlanter {
   /// starting now, while the other foot stands: the support foot set under a kick's body before
   /// the kick (Behaviour). False, and nothing changes, unless both feet are held.
   bool step_to(int side, const Eigen::Vector3d& to);
+  /// Where this foot's procedural step puts it down (m, room), nullptr when it is not stepping.
+  const Eigen::Vector3d* step_end(int side) const {
+    const Foot& f = feet_[static_cast<std::size_t>(side)];
+    return f.phase == Phase::stepping ? &f.step_to : nullptr;
+  }
+  /// A procedural step of this foot ends now: it comes straight down where it is (landing).
+  /// Nothing changes for a foot not stepping.
+  void land(int side) {
+    Foot& f = feet_[static_cast<std::size_t>(side)];
+    if (f.phase == Phase::stepping) f.phase = Phase::landing;
+  }
 
  private:
   struct Foot {
