@@ -212,6 +212,29 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
     best = best_held;
     shift = wanted(best_held, first);
   }
+  if (best < 0 && best_any < 0) {
+    // No foot held or stepping that the clip has down from its start: a foot in a procedural
+    // step that the clip puts down on the way and keeps down to contact is the support (135_06's
+    // lunges from frame 8 lift one foot at once and put the other down a few frames on). Placed
+    // by its pelvis, the clip landed that foot 40 cm from where it was drawn while the step went
+    // on to its old target: the foot swung back and forth in the air while the mocap stood on it
+    // (kenji at 4.70 s in every bout he opens, 27 frames). Now the step ends where the foot is
+    // and the clip is carried so that it lands the foot there, if that is within
+    // max_support_shift_m (session 34 also took a held foot, and any carry: a 85 cm carry held to
+    // 30 cm landed the foot 55 cm off and the pelvis sank under a head-height punch).
+    const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
+    for (int side = 0; side < 2 && best < 0; ++side) {
+      if (!feet.stepping[static_cast<std::size_t>(side)] || !planted(contact, side)) continue;
+      int down = contact;
+      while (down > first && planted(down - 1, side)) --down;
+      const Vector2d want = wanted(side, down);
+      if (want.norm() <= limit) {
+        best = side;
+        landing_support = side;
+        shift = want;
+      }
+    }
+  }
   if (best < 0) return -1;
   // Along the line to the target: never back away for it (the held foot then steps up to where
   // the clip has it, rather than the whole strike landing short) -- except for a lunge (a clip

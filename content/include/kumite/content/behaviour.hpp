@@ -288,7 +288,8 @@ class Behaviour {
     double too_near_m = 0;   ///< m the limb's root is nearer the target than the clip has it from its own hit point
     double extension = 1;    ///< limb root to target over the limb's length at contact (1: straight)
     /// The foot the strike is aligned on while it is in a procedural step (the clip stands on
-    /// it from its start: align_to_support_foot), -1 for none: the step ends where the foot is
+    /// it from its start, or puts it down on the way and keeps it down to contact:
+    /// align_to_support_foot), -1 for none: the step ends where the foot is
     /// when the strike starts (FootPlanter::land), and it stands there.
     int landing_support = -1;
   };
