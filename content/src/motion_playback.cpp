@@ -212,7 +212,16 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
     best = best_held;
     shift = wanted(best_held, first);
   }
-  if (best < 0 && best_any < 0) {
+  // The foot it is aligned on, if held, may be one the clip lifts before contact (a held front
+  // foot that the lunge steps): then a stepping foot that the clip stands on at contact is the
+  // better support, as where no foot is down from the start (mei's opening lunge, 135_06 from
+  // its frame 0: aligned on the left foot the clip lifts at once, the right foot's step ended
+  // 60 cm from where the clip puts it, and it stepped again and again under the lunge while the
+  // left swung: 27 frames with both feet off, now 12).
+  const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
+  const int best_run = best == best_held ? best_held_run : best_any_run;
+  const bool lifted_before_contact = best >= 0 && landing_support < 0 && first + best_run <= contact;
+  if ((best < 0 && best_any < 0) || lifted_before_contact) {
     // No foot held or stepping that the clip has down from its start: a foot in a procedural
     // step that the clip puts down on the way and keeps down to contact is the support (135_06's
     // lunges from frame 8 lift one foot at once and put the other down a few frames on). Placed
@@ -222,7 +231,9 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
     // and the clip is carried so that it lands the foot there, if that is within
     // max_support_shift_m (session 34 also took a held foot, and any carry: a 85 cm carry held to
     // 30 cm landed the foot 55 cm off and the pelvis sank under a head-height punch).
-    const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
+    const int held_best = best;
+    const Vector2d held_shift = shift;
+    best = -1;
     for (int side = 0; side < 2 && best < 0; ++side) {
       if (!feet.stepping[static_cast<std::size_t>(side)] || !planted(contact, side)) continue;
       int down = contact;
@@ -233,6 +244,10 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
         landing_support = side;
         shift = want;
       }
+    }
+    if (best < 0) {  // none within reach of a carry: the held foot's alignment, as before
+      best = held_best;
+      shift = held_shift;
     }
   }
   if (best < 0) return -1;
