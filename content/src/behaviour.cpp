@@ -620,16 +620,14 @@ FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s
   const int n = seg.frame_count();
   const int first = std::clamp(static_cast<int>(std::floor(s.time_s / seg.frame_time_s)), 0, n - 1);
   const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
-  const auto planted = [&](int k, std::size_t side) { return seg.frames[static_cast<std::size_t>(k)].planted[side] >= 0.5; };
   for (int side = 0; side < 2; ++side) {
     const auto us = static_cast<std::size_t>(side);
-    if (!have_pose_ || !planted(contact, us)) {
+    if (!have_pose_ || !clip_planted(seg, contact, side)) {
       f.weight[us] = 0;
       continue;
     }
     // The frame the clip puts this foot down for contact (its run of planted frames' first).
-    int down = contact;
-    while (down > first && planted(down - 1, us)) --down;
+    const int down = planted_since(seg, side, first, contact);
     if (down == first) {
       // Down from now to contact: held where it stands; where its procedural step puts it
       // down; coming straight down where it is (a step cut short at the strike's start), onto

@@ -33,6 +33,17 @@ inline FramePair frame_pair(const MotionSegment& seg, double t) {
   const int i0 = std::min(static_cast<int>(x), seg.frame_count() - 2);
   return {static_cast<std::size_t>(i0), x - i0};
 }
+/// The clip has `side`'s foot in contact at its frame k (the database's contacts, from the mocap).
+inline bool clip_planted(const MotionSegment& seg, int k, int side) {
+  return seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5;
+}
+/// The first frame, not before `first`, of the clip's run of contact frames of `side` that ends
+/// at `frame` (`frame` itself where the foot is not down there).
+inline int planted_since(const MotionSegment& seg, int side, int first, int frame) {
+  int down = frame;
+  while (down > first && clip_planted(seg, down - 1, side)) --down;
+  return down;
+}
 /// The clip's root on the floor at segment time t (clip coordinates, linear between frames).
 inline Vector2d root_at(const MotionSegment& seg, double t) {
   const auto [i0, a] = frame_pair(seg, t);

@@ -166,10 +166,9 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
   const int n = seg.frame_count();
   const int first = std::clamp(static_cast<int>(std::lround(s.time_s / seg.frame_time_s)), 0, n - 1);
-  const auto planted = [&](int k, int side) { return seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5; };
   const auto run_from_start = [&](int side) {
     int run = 0;
-    for (int k = first; k < n && planted(k, side); ++k) ++run;
+    for (int k = first; k < n && clip_planted(seg, k, side); ++k) ++run;
     return run;
   };
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
@@ -208,10 +207,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
       shift = want;
     }
   }
-  if (best < 0 && best_held >= 0) {
-    best = best_held;
-    shift = wanted(best_held, first);
-  }
+  if (best < 0) best = best_held;  // its shift is found below, once it is the one kept
   // The foot it is aligned on, if held, may be one the clip lifts before contact (a held front
   // foot that the lunge steps): then a stepping foot that the clip stands on at contact is the
   // better support, as where no foot is down from the start (mei's opening lunge, 135_06 from
@@ -231,26 +227,19 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
     // and the clip is carried so that it lands the foot there, if that is within
     // max_support_shift_m (session 34 also took a held foot, and any carry: a 85 cm carry held to
     // 30 cm landed the foot 55 cm off and the pelvis sank under a head-height punch).
-    const int held_best = best;
-    const Vector2d held_shift = shift;
-    best = -1;
-    for (int side = 0; side < 2 && best < 0; ++side) {
-      if (!feet.stepping[static_cast<std::size_t>(side)] || !planted(contact, side)) continue;
-      int down = contact;
-      while (down > first && planted(down - 1, side)) --down;
-      const Vector2d want = wanted(side, down);
+    for (int side = 0; side < 2 && landing_support < 0; ++side) {
+      if (!feet.stepping[static_cast<std::size_t>(side)] || !clip_planted(seg, contact, side)) continue;
+      const Vector2d want = wanted(side, planted_since(seg, side, first, contact));
       if (want.norm() <= limit) {
         best = side;
         landing_support = side;
         shift = want;
       }
     }
-    if (best < 0) {  // none within reach of a carry: the held foot's alignment, as before
-      best = held_best;
-      shift = held_shift;
-    }
+    // None within reach of a carry: the held foot's alignment, as before.
   }
   if (best < 0) return -1;
+  if (landing_support < 0) shift = wanted(best, first);  // the held foot, down from the start
   // Along the line to the target: never back away for it (the held foot then steps up to where
   // the clip has it, rather than the whole strike landing short) -- except for a lunge (a clip
   // whose body travels to contact): its support foot is the back foot the lunge pushes off,

@@ -33,6 +33,17 @@ std::array<FootSample, 2> standing() {
   return s;
 }
 
+/// Eight updates into a procedural step of the left foot toward `to` (both feet held at first,
+/// standing()): the foot is in the air there; its ankle then is written to `mid_step`.
+void left_foot_mid_step(FootPlanter& planter, std::array<FootSample, 2>& s, FootLocks& locks, const Vector3d& to,
+                        Vector3d& mid_step) {
+  ASSERT_TRUE(planter.step_to(0, to));
+  for (int k = 0; k < 8; ++k) planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::stepping);
+  mid_step = locks.ankle_m[0];
+  ASSERT_GT(mid_step.y(), 0.08 + 0.02) << "mid-step, the foot is in the air";
+}
+
 TEST(FootPlanter, AFootThatMustStepGoesAloneTheOtherFootsDueStepWaitsForItsLanding) {
   // The walk bout's hop (27 Nov): a back foot set down at full stretch is out of the leg's
   // reach the next update (it must step at once) in the very update the front foot's step
@@ -279,13 +290,10 @@ TEST(FootPlanter, AStepCutShortComesDownWhereItIs) {
   planter.land(0);
   EXPECT_EQ(planter.phase(0), Phase::held) << "land() changes nothing for a foot not stepping";
   const Vector3d to(0.1, 0.08, -0.3);
-  ASSERT_TRUE(planter.step_to(0, to));
+  Vector3d mid_step;
+  ASSERT_NO_FATAL_FAILURE(left_foot_mid_step(planter, s, locks, to, mid_step));
   ASSERT_NE(planter.step_end(0), nullptr);
   EXPECT_EQ(*planter.step_end(0), to);
-  for (int k = 0; k < 8; ++k) planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
-  ASSERT_EQ(planter.phase(0), Phase::stepping);
-  const Vector3d mid_step = locks.ankle_m[0];
-  ASSERT_GT(mid_step.y(), 0.08 + 0.02) << "mid-step, the foot is in the air";
   planter.land(0);
   EXPECT_EQ(planter.phase(0), Phase::landing);
   EXPECT_EQ(planter.step_end(0), nullptr);
@@ -376,11 +384,8 @@ TEST(FootPlanter, AFootSteppingAtACharacterSwitchComesDownWhereItIs) {
   FootLocks locks;
   std::array<FootSample, 2> s = standing();
   planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
-  ASSERT_TRUE(planter.step_to(0, Vector3d(0.1, 0.08, 0.3)));
-  for (int k = 0; k < 8; ++k) planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
-  ASSERT_EQ(planter.phase(0), Phase::stepping);
-  const Vector3d mid_step = locks.ankle_m[0];
-  ASSERT_GT(mid_step.y(), 0.08 + 0.02) << "mid-step, the foot is in the air";
+  Vector3d mid_step;
+  ASSERT_NO_FATAL_FAILURE(left_foot_mid_step(planter, s, locks, Vector3d(0.1, 0.08, 0.3), mid_step));
   planter.keep_held_only();
   s[0].free_ankle_m = Vector3d(0.16, 0.08, mid_step.z());  // kenji's motion: 6 cm to the side
   s[0].drawn_ankle_m = mid_step;
