@@ -58,6 +58,14 @@ Vector2d Playback::scaled_travel(const PlaybackSource& s, const MotionSegment& s
 }
 
 namespace {
+/// m: a foot in a procedural step is put down as the clip's support (FootPlanter::land) where
+/// the clip would have to be carried up to this much farther than max_support_shift_m to land
+/// it there: the clip is carried max_support_shift_m and the foot stands that much from where
+/// the clip has it (the leg takes it up). Not put down, the step went on to its old target
+/// while the clip stood on the foot and lifted the other: viktor's opening lunge (135_06 from
+/// its frame 24, 4.65 s) wanted 0.375 m and had 13 frames with both feet off in each of the
+/// 24 bouts he opens.
+constexpr double kLandingSupportSlack_m = 0.10;
 // The pelvis rise (/ leg length) a strike's Travel adds at segment time t: eased in from the
 // strike's start to contact, out over the release.
 double travel_rise_n(const PlaybackSource::Travel& tr, double t) {
@@ -190,7 +198,8 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
   Vector2d shift = Vector2d::Zero();
   // The foot the clip stands on from its start, among those held or in a procedural step. A
   // stepping one (the last strike's recovery stepping it back while the clip stands on it) is
-  // cut short where it is (FootPlanter::land), if the clip can be carried there (max_support_shift_m).
+  // cut short where it is (FootPlanter::land), if the clip can be carried there (max_support_shift_m,
+  // or within kLandingSupportSlack_m of it).
   int best_any = -1, best_any_run = 0, best_held = -1, best_held_run = 0;
   for (int side = 0; side < 2; ++side) {
     const auto us = static_cast<std::size_t>(side);
@@ -201,7 +210,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
   }
   if (best_any >= 0 && !feet.held[static_cast<std::size_t>(best_any)]) {
     const Vector2d want = wanted(best_any, first);
-    if (want.norm() <= limit) {
+    if (want.norm() <= limit + kLandingSupportSlack_m) {
       best = best_any;
       landing_support = best_any;
       shift = want;
@@ -230,7 +239,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
     for (int side = 0; side < 2 && landing_support < 0; ++side) {
       if (!feet.stepping[static_cast<std::size_t>(side)] || !clip_planted(seg, contact, side)) continue;
       const Vector2d want = wanted(side, planted_since(seg, side, first, contact));
-      if (want.norm() <= limit) {
+      if (want.norm() <= limit + kLandingSupportSlack_m) {
         best = side;
         landing_support = side;
         shift = want;
