@@ -27,7 +27,7 @@ double Behaviour::swing_left_s(int side) const {
   const int n = seg.frame_count();
   const int first = std::clamp(static_cast<int>(std::ceil(current_.time_s / seg.frame_time_s - 1e-9)), 0, n);
   for (int k = first; k < n; ++k)
-    if (seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5) return (k * seg.frame_time_s - current_.time_s) / current_.rate;
+    if (clip_planted(seg, k, side)) return (k * seg.frame_time_s - current_.time_s) / current_.rate;
   return ((n - 1) * seg.frame_time_s - current_.time_s) / current_.rate + tun_.blend_time_s;  // the rest motion after it
 }
 

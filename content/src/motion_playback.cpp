@@ -349,7 +349,7 @@ Behaviour::StrikeFit Behaviour::place_strike_travel(Source& s, double contact_ti
     for (int side = 0; side < 2; ++side) {
       if (!feet.held[static_cast<std::size_t>(side)] || (eff->leg && eff->side == side)) continue;
       bool down = true;
-      for (int f = from; f <= to && down; ++f) down = seg.frames[static_cast<std::size_t>(f)].planted[static_cast<std::size_t>(side)] >= 0.5;
+      for (int f = from; f <= to && down; ++f) down = clip_planted(seg, f, side);
       if (!down) continue;
       const CJ ankle = side == kLeft ? CJ::l_ankle : CJ::r_ankle;
       Vector3d a = feet.ankle_m[static_cast<std::size_t>(side)];
