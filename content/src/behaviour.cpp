@@ -25,6 +25,9 @@ using Eigen::Vector3d;
 namespace {
 /// s: the trunk fallback's weight rises from 0 to 1 over this at the quickest (AdaptJob::max_trunk_weight).
 constexpr double kTrunkFallbackIn_s = 0.1;
+/// m/s: the most a procedural step redirected to where a strike's clip stands on its foot
+/// moves the foot at (FootPlanter::redirect; a 0.3 m procedural step of step_time_s peaks near 2.1 m/s).
+constexpr double kRedirectPeakSpeed_mps = 2.5;
 /// s: ...and falls back to none over this at the quickest (AdaptJob::min_trunk_fallback).
 constexpr double kTrunkFallbackOut_s = 0.15;
 /// A punch's planned lean brings the target within this share of the arm at contact (the
@@ -295,6 +298,8 @@ Behaviour::HeldFeet Behaviour::held_feet() const {
   for (int side = 0; side < 2; ++side) {
     f.held[static_cast<std::size_t>(side)] = feet_.held(side);
     f.stepping[static_cast<std::size_t>(side)] = feet_.step_end(side) != nullptr;
+    f.step_left_s[static_cast<std::size_t>(side)] = feet_.step_left_s(side);
+    if (const Vector3d* end = feet_.step_end(side)) f.step_end_m[static_cast<std::size_t>(side)] = *end;
     f.ankle_m[static_cast<std::size_t>(side)] =
         rig_positions_[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_ankle : CJ::r_ankle))];
   }
@@ -316,9 +321,23 @@ Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fi
   s.placement.origin_xz = g_char.origin_xz;
   s.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   s.anchor_xz_m = g_clip.origin_xz;
-  const int landing_support = align_to_support_foot(s, plan.contact_frame * seg.frame_time_s, feet);
-  fit = place_strike_travel(s, plan.contact_frame * seg.frame_time_s, feet);
+  StrikeFit redirect;
+  const int landing_support = align_to_support_foot(s, plan.contact_frame * seg.frame_time_s, feet, &redirect);
+  // A foot in a procedural step that the strike stands on (put down where it is, or its step
+  // sent to where the clip has it) holds the lunge back as a held one does (place_strike_travel):
+  // not counted, the lunge was scaled as if that foot would follow and left it out of the leg's
+  // reach (kenji's 135_06_punch_left_3 from frame 24 at 11.58 s of the scripted bout: the foot
+  // stepped again under the lunge while the other swung, and the knee snapped as it landed).
+  HeldFeet travel_feet = feet;
+  if (landing_support >= 0) travel_feet.held[static_cast<std::size_t>(landing_support)] = true;
+  if (redirect.redirect_support >= 0) {
+    travel_feet.held[static_cast<std::size_t>(redirect.redirect_support)] = true;
+    travel_feet.ankle_m[static_cast<std::size_t>(redirect.redirect_support)] = redirect.redirect_to_m;
+  }
+  fit = place_strike_travel(s, plan.contact_frame * seg.frame_time_s, travel_feet);
   fit.landing_support = landing_support;
+  fit.redirect_support = redirect.redirect_support;
+  fit.redirect_to_m = redirect.redirect_to_m;
   return s;
 }
 
@@ -484,7 +503,8 @@ void Behaviour::update_support_step(double dt) {
   support_step_.reset();
 }
 
-void Behaviour::start_strike(const StrikePlan& plan, const Source& source, int landing_support, Timestamp now, double dt) {
+void Behaviour::start_strike(const StrikePlan& plan, const Source& source, const StrikeFit& fit, Timestamp now, double dt) {
+  const int landing_support = fit.landing_support;
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   previous_ = current_;
   blend_elapsed_s_ = 0;
@@ -493,6 +513,8 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, int l
   // The foot the clip is aligned on where it comes down: a procedural step it is in ends here
   // (down where it is), not at its old target while the clip stands on it.
   if (landing_support >= 0) feet_.land(landing_support);
+  // ...or, too far from it for the clip to be carried there, goes on to where the clip has it.
+  if (fit.redirect_support >= 0) feet_.redirect(fit.redirect_support, fit.redirect_to_m, kRedirectPeakSpeed_mps);
   const Order order = pending_->order;
   strike_ = StrikeInfo{};
   strike_.order = order;
@@ -647,9 +669,10 @@ FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s
       }
       continue;
     }
-    // Put down on the way: the planter holds it where the clip lands it.
+    // Put down on the way: the planter holds it where the clip has it at contact
+    // (strike_hold_frame: down from there through contact).
     MkmFrame g;
-    sample_frame(s, down, g);
+    sample_frame(s, contact, g);
     f.weight[us] = 1;
     f.supporting[us] = true;
     f.heading_weight[us] = 0;
@@ -973,7 +996,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
           orders_.insert(orders_.begin(), again);
         } else if ((step_m == 0 || !begin_step_in(*p, step_m, now)) &&
             (pending_->support_stepped || !begin_support_step(*p, s, now)))
-          start_strike(*p, s, fit.landing_support, now, dt);
+          start_strike(*p, s, fit, now, dt);
       }
       pending_.reset();
     }

@@ -31,6 +31,23 @@ double Behaviour::swing_left_s(int side) const {
   return ((n - 1) * seg.frame_time_s - current_.time_s) / current_.rate + tun_.blend_time_s;  // the rest motion after it
 }
 
+int Behaviour::strike_hold_frame(int side, int land) const {
+  // The clip puts a foot down at `land` and keeps it down to the strike's contact: where a
+  // lunge's hip travels farther than the mocap's (Source::Travel) or the mocap's own back foot
+  // slides on the floor (135_06's lunges: 10-12 cm), a foot held where the clip lands it is
+  // out of the leg's reach by contact and steps while the front foot swings (mei's opening
+  // lunge, 135_06_punch_right_2:mirror from frame 0: both feet off for 12 frames). Held where
+  // the clip has it at contact, the leg reaches it there, as the clip's own does.
+  if (state_ != FighterState::striking || strike_.contact_done || current_.loop) return land;
+  if (strike_.effector.leg && strike_.effector.side == side) return land;
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+  const int contact = std::clamp(static_cast<int>(std::lround(strike_.clip_contact_time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
+  if (contact <= land) return land;
+  for (int k = land; k <= contact; ++k)
+    if (!clip_planted(seg, k, side)) return land;
+  return contact;
+}
+
 Vector3d behaviour_detail::hip_in_pelvis_frame(const Rig& rig, int side) {
   const CanonicalPose& rest = rig.rest_pose;
   return pelvis_frame(rest).conjugate() * (at(rest, side == kLeft ? CJ::l_hip : CJ::r_hip) - at(rest, CJ::pelvis));
@@ -80,8 +97,16 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
       f.pivot = true;
     }
     f.swing_left_s = swing_left_s(s);
-    // Where the motion alone would put the ankle now (last hip + this frame's leg vector).
-    f.free_ankle_m = rig_positions_[hip] + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
+    // Where the motion alone would put the ankle now (last hip + this frame's leg vector). On
+    // a character switch's update the hip drawn last is the old body's: the new leg hung from
+    // it put viktor's free ankle 10 cm under the floor after mei (1.52 m -> 1.84 m), and a kick
+    // started on that update carried the gap into its swing (the foot 14.5 cm up in the next
+    // frame, the knee 14 cm: the scripted bout with stance steps on at 15.25 s). There the new
+    // body's own hip, as its pose places it.
+    const Vector3d hip_now = switch_offsets_due_ ? Vector3d(mkm_ankle(rig, pose_, s, hip_local) -
+                                                            pose_.leg_n[us] * rig.morphology.limb_leg_length(s))
+                                                 : rig_positions_[hip];
+    f.free_ankle_m = hip_now + pose_.leg_n[us] * rig.morphology.limb_leg_length(s);
     f.source_step_m = mkm_ankle(rig, cur, s, hip_local) - mkm_ankle(rig, before, s, hip_local);
     if (!f.planted) {
       if (!have_before2) {
@@ -97,11 +122,12 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
       const double land_t = current_.time_s + f.swing_left_s * current_.rate;
       const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
       const int land = std::min(static_cast<int>(std::lround(land_t / seg.frame_time_s)), seg.frame_count() - 1);
+      const int hold = strike_hold_frame(s, land);
       const Vector3d now_m = mkm_ankle(rig, cur, s, hip_local);
       SwingPath& sp = swing_paths_[us];
       // The walk depends on the landing frame only (a strike's rate entering mid-swing moves
       // the landing time of a foot that stays up past the clip's end, not its frame).
-      const bool same = sp.segment == current_.segment && sp.character == character_ && sp.land_frame == land &&
+      const bool same = sp.segment == current_.segment && sp.character == character_ && sp.land_frame == land && sp.hold_frame == hold &&
                         sp.placement.origin_xz == current_.placement.origin_xz && sp.placement.yaw_rad == current_.placement.yaw_rad &&
                         sp.anchor_xz_m == current_.anchor_xz_m && sp.travel == current_.travel;
       if (same) {
@@ -117,7 +143,10 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
           path += Eigen::Vector2d(p.x() - last.x(), p.z() - last.z()).norm();
           last = p;
         }
-        sp = SwingPath{current_.segment, character_, land, current_.placement, current_.anchor_xz_m, current_.travel, last, now_m, path};
+        // A strike's foot put down before contact and kept down through it lands where the
+        // clip has it at contact (strike_hold_frame), its way walked to the landing as the source's.
+        const Vector3d at = hold == land ? last : play.frame_ankle(current_, turn, hold, rig, s, hip_local);
+        sp = SwingPath{current_.segment, character_, land, hold, current_.placement, current_.anchor_xz_m, current_.travel, at, now_m, path};
       }
       sp.last_m = now_m;
       f.has_landing = true;
@@ -133,7 +162,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
       const Vector2d m(drawn_dir.x(), drawn_dir.z());
       f.motion_heading_xz = m.norm() > 1e-6 ? Vector2d(m.normalized()) : f.drawn_heading_xz;
     }
-    f.hip_m = rig_positions_[hip];
+    f.hip_m = hip_now;
     f.leg_length_m = rig.morphology.limb_leg_length(s);
     {
       // Each foot's floor where it stands flat on its own toes (the rest pose's straight legs

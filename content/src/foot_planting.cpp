@@ -40,6 +40,9 @@ double lowest_reached_y(const Vector3d& hip, const Vector3d& at, double reach, d
   const double horiz = Eigen::Vector2d(at.x() - hip.x(), at.z() - hip.z()).norm();
   return horiz < reach ? hip.y() - std::sqrt(reach * reach - horiz * horiz) : out_of_reach;
 }
+/// The share of a procedural step's travel beyond which it is not redirected (FootPlanter::redirect):
+/// re-based from nearly its end, the way left would be crossed in the last frames.
+constexpr double kMostRedirectedShare = 0.8;
 }  // namespace
 
 bool FootPlanter::step_to(int side, const Vector3d& to) {
@@ -47,7 +50,33 @@ bool FootPlanter::step_to(int side, const Vector3d& to) {
   if (f.phase != Phase::held || feet_[static_cast<std::size_t>(1 - side)].phase != Phase::held) return false;
   f.phase = Phase::stepping;
   f.step_t = 0;
+  f.step_time_s = tun_.step_time_s;
   f.step_from = f.lock;
+  f.step_to = to;
+  return true;
+}
+
+bool FootPlanter::redirect(int side, const Vector3d& to, double peak_speed_mps) {
+  Foot& f = feet_[static_cast<std::size_t>(side)];
+  if (f.phase != Phase::stepping || peak_speed_mps <= 0) return false;
+  // The step's travel share now (the lock's way along from -> to, its lift aside).
+  const double a = smoothstep((f.step_t - 0.15) / 0.7);
+  const Vector3d lock_flat = f.step_from + (f.step_to - f.step_from) * a;
+  const double way = Eigen::Vector2d(to.x() - lock_flat.x(), to.z() - lock_flat.z()).norm();
+  // The travel left eases out as a smoothstep does: its peak speed is about twice its mean.
+  const double needed_s = 2 * way / peak_speed_mps;
+  if (a < kMostRedirectedShare) {
+    // Re-based so the foot is where it is (lock = from + (to - from) a), the rest of the step
+    // slowed where the new way wants more time than is left.
+    const double left_s = std::max((1 - f.step_t) * f.step_time_s, needed_s);
+    f.step_time_s = left_s / std::max(1e-6, 1 - f.step_t);
+    f.step_from = (lock_flat - a * to) / (1 - a);
+  } else {
+    // Its travel all but done: a new step from where the foot is (its lift carried in its from).
+    f.step_from = f.lock;
+    f.step_t = 0;
+    f.step_time_s = std::max(tun_.step_time_s, needed_s / 0.7);  // the travel takes the middle 70 %
+  }
   f.step_to = to;
   return true;
 }
@@ -179,6 +208,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         if ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || stretch > max_stretch)) || must_step[s]) {
           f.phase = Phase::stepping;
           f.step_t = 0;
+          f.step_time_s = tun_.step_time_s;
           f.step_from = f.lock;
           f.step_to = target;
         }
@@ -260,7 +290,11 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         }
         const double step_h = Eigen::Vector2d(in.source_step_m.x(), in.source_step_m.z()).norm();
         const double path = in.source_path_left_m + step_h;
-        if (in.has_landing && path > tun_.min_swing_path_m) {
+        // A swing already heading for its landing keeps heading there to the end of the source's
+        // path: handed to the source's own step once that path was under min_swing_path_m, the
+        // gap left was never shed (mei's lunge back foot landed 7 cm short of where the clip has
+        // it, out of the leg's reach by contact).
+        if (in.has_landing && (path > tun_.min_swing_path_m || (f.swing_way_m >= 0 && path > 1e-6))) {
           // Toward the landing: the share of the remaining way the source covers this update,
           // at most max_swing_speed_ratio x the source's own speed.
           Vector3d to = in.landing_ankle_m - f.lock;
@@ -357,7 +391,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           start_swing(f, in);
           break;
         }
-        f.step_t += dt / tun_.step_time_s;
+        f.step_t += dt / f.step_time_s;
         // The foot leaves the floor before it travels and is down before it stops: a step,
         // not a slide (travel over the middle 70 % of the step, lift over all of it).
         f.lock = f.step_from + (f.step_to - f.step_from) * smoothstep((f.step_t - 0.15) / 0.7) +

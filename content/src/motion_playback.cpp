@@ -66,6 +66,12 @@ namespace {
 /// its frame 24, 4.65 s) wanted 0.375 m and had 13 frames with both feet off in each of the
 /// 24 bouts he opens.
 constexpr double kLandingSupportSlack_m = 0.10;
+/// m: the farthest a procedural step is redirected to where a strike's clip stands on its foot
+/// (align_to_support_foot): a step's length.
+constexpr double kMostRedirect_m = 0.35;
+int contact_of(const MotionSegment& seg, int first, int n, double contact_time_s) {
+  return std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
+}
 // The pelvis rise (/ leg length) a strike's Travel adds at segment time t: eased in from the
 // strike's start to contact, out over the release.
 double travel_rise_n(const PlaybackSource::Travel& tr, double t) {
@@ -166,7 +172,7 @@ void Behaviour::start_rest(Timestamp, int segment) {
   current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
 }
 
-int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet) const {
+int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect) const {
   // The clip is placed by its pelvis; shift it on the floor so that its support foot (planted
   // at the start and staying down longest) lands where that foot is held now: the motion then
   // swings its other foot and moves its body around a foot that does not have to move, as in
@@ -214,8 +220,32 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
       best = best_any;
       landing_support = best_any;
       shift = want;
+    } else if (redirect != nullptr && (best_held < 0 || first + best_held_run <= contact_of(seg, first, n, contact_time_s)) &&
+               clip_planted(seg, contact_of(seg, first, n, contact_time_s), best_any)) {
+      // Too far to carry the clip there, and no held foot it stands on to contact: carried as
+      // far as it goes toward the foot, and the foot's step goes on to where the clip then
+      // has it, if that is within a step's length (slowed to a step's pace where it must be:
+      // FootPlanter::redirect). Placed by its pelvis
+      // instead, the clip stood on that foot 47 cm from where its step put it down, the foot
+      // stepped again under the lunge while the other swung, both feet off the floor for 0.4 s
+      // (kenji's 135_06_punch_left_3 from frame 24 at 11.58 s of the scripted bout).
+      const auto us = static_cast<std::size_t>(best_any);
+      const Vector2d carry = want * (limit / want.norm());
+      const Vector3d& end = feet.step_end_m[us];
+      Vector3d to = feet.ankle_m[us];
+      to.x() += carry.x() - want.x();
+      to.z() += carry.y() - want.y();
+      to.y() = end.y();
+      const double way = Vector2d(to.x() - feet.ankle_m[us].x(), to.z() - feet.ankle_m[us].z()).norm();
+      if (way <= kMostRedirect_m) {
+        best = best_any;
+        shift = carry;
+        redirect->redirect_support = best_any;
+        redirect->redirect_to_m = to;
+      }
     }
   }
+  const bool redirected = redirect != nullptr && redirect->redirect_support >= 0;
   if (best < 0) best = best_held;  // its shift is found below, once it is the one kept
   // The foot it is aligned on, if held, may be one the clip lifts before contact (a held front
   // foot that the lunge steps): then a stepping foot that the clip stands on at contact is the
@@ -225,7 +255,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
   // left swung: 27 frames with both feet off, now 12).
   const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
   const int best_run = best == best_held ? best_held_run : best_any_run;
-  const bool lifted_before_contact = best >= 0 && landing_support < 0 && first + best_run <= contact;
+  const bool lifted_before_contact = best >= 0 && landing_support < 0 && !redirected && first + best_run <= contact;
   if ((best < 0 && best_any < 0) || lifted_before_contact) {
     // No foot held or stepping that the clip has down from its start: a foot in a procedural
     // step that the clip puts down on the way and keeps down to contact is the support (135_06's
@@ -248,7 +278,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
     // None within reach of a carry: the held foot's alignment, as before.
   }
   if (best < 0) return -1;
-  if (landing_support < 0) shift = wanted(best, first);  // the held foot, down from the start
+  if (landing_support < 0 && !redirected) shift = wanted(best, first);  // the held foot, down from the start
   // Along the line to the target: never back away for it (the held foot then steps up to where
   // the clip has it, rather than the whole strike landing short) -- except for a lunge (a clip
   // whose body travels to contact): its support foot is the back foot the lunge pushes off,
@@ -257,7 +287,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
   // it is (landing_support) is aligned whole: it will stand there.
   MkmFrame contact_pose;
   const bool lunge = strike_travel(s, contact_time_s, contact_pose).norm() >= tun_.min_scaled_travel_m;
-  if (strike_target_ && !lunge && landing_support < 0) {
+  if (strike_target_ && !lunge && landing_support < 0 && !redirected) {
     Vector2d dir(strike_target_->x() - s.placement.origin_xz.x(), strike_target_->z() - s.placement.origin_xz.y());
     if (dir.norm() > 1e-6) {
       dir.normalize();

@@ -375,37 +375,138 @@ TEST(FootPlanter, ANewBodysFirstUpdatePutsItsFeetOnItsOwnFloor) {
   EXPECT_LT(locks.ankle_m[0].y(), 0.09 - 1e-3);
 }
 
-TEST(FootPlanter, AFootSteppingAtACharacterSwitchComesDownWhereItIs) {
-  // A character switch mid-kick (mei -> kenji, 15.25 s, stance steps on): mei's support foot
-  // was in a procedural step. Forgotten at the switch, it was free on kenji (no hold) and went
-  // to kenji's motion's ankle in one frame, 5.5 cm (a drawn snap). Now it comes down where it
-  // is and is held there. SYNTHETIC samples: the new body's motion has that ankle 6 cm away.
+TEST(FootPlanter, AFootSteppingAtACharacterSwitchGoesOnWithItsStep) {
+  // A character switch while a foot is in a procedural step (bruno -> aiko at 6.0 s of the
+  // scripted bout: bruno's left foot mid-step). Forgotten, a stepping foot went to the new
+  // body's motion in one frame (5.5 cm, mei -> kenji); put down where it was (until session 37),
+  // it stood 6.4 cm up and 0.45 m from where the new motion has it, held while the other foot
+  // stepped (13 frames with both feet off the floor). Now the step goes on: the foot moves at a
+  // step's pace, never lets go, and is held where the step puts it down. SYNTHETIC samples: the
+  // new body's motion has that ankle 6 cm to the side.
   FootPlanter planter;
   FootLocks locks;
   std::array<FootSample, 2> s = standing();
   planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  const Vector3d to(0.1, 0.08, 0.3);
   Vector3d mid_step;
-  ASSERT_NO_FATAL_FAILURE(left_foot_mid_step(planter, s, locks, Vector3d(0.1, 0.08, 0.3), mid_step));
+  ASSERT_NO_FATAL_FAILURE(left_foot_mid_step(planter, s, locks, to, mid_step));
   planter.keep_held_only();
-  s[0].free_ankle_m = Vector3d(0.16, 0.08, mid_step.z());  // kenji's motion: 6 cm to the side
-  s[0].drawn_ankle_m = mid_step;
-  s[0].hip_m.z() = mid_step.z();  // the body over the step (the leg reaches the floor there)
-  double last_y = mid_step.y();
-  int down_at = -1;
+  EXPECT_EQ(planter.phase(0), Phase::stepping) << "the step goes on";
+  ASSERT_NE(planter.step_end(0), nullptr);
+  EXPECT_EQ(*planter.step_end(0), to);
+  s[0].free_ankle_m = Vector3d(0.16, 0.08, 0.3);  // the new body's motion: 6 cm to the side
+  s[0].hip_m.z() = 0.3;  // the body over the step's end (the leg reaches the floor there)
+  Vector3d last = mid_step;
+  double fastest = 0;
   for (int k = 0; k < 30; ++k) {
+    s[0].drawn_ankle_m = locks.ankle_m[0];
     planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
     EXPECT_EQ(locks.weight[0], 1.0) << "update " << k << ": the foot let go";
-    EXPECT_NEAR(locks.ankle_m[0].x(), mid_step.x(), 1e-12) << "update " << k;
-    EXPECT_NEAR(locks.ankle_m[0].z(), mid_step.z(), 1e-12) << "update " << k;
-    EXPECT_LE(locks.ankle_m[0].y(), last_y + 1e-12) << "update " << k;
-    EXPECT_GE(last_y - locks.ankle_m[0].y(), -1e-12);
-    EXPECT_LE(last_y - locks.ankle_m[0].y(), 2.0 * kDt + 1e-12) << "update " << k << ": faster than max_landing_speed_mps";
-    last_y = locks.ankle_m[0].y();
-    s[0].drawn_ankle_m = locks.ankle_m[0];
-    if (down_at < 0 && std::abs(last_y - 0.08) < 1e-9) down_at = k;
+    fastest = std::max(fastest, (locks.ankle_m[0] - last).norm() / kDt);
+    last = locks.ankle_m[0];
   }
+  std::printf("the step after the switch: fastest %.2f m/s\n", fastest);
+  EXPECT_LT(fastest, 2.5) << "a step's pace (0.3 m in step_time_s), not a jump";
   EXPECT_EQ(planter.phase(0), Phase::held);
-  EXPECT_NEAR(locks.ankle_m[0].y(), 0.08, 1e-9) << "down on the floor";
-  EXPECT_GE(down_at, 0);
-  EXPECT_LE(down_at, 10) << "at a landing's pace";
+  EXPECT_NEAR((locks.ankle_m[0] - to).norm(), 0, 1e-9) << "down where the step puts it";
+}
+
+TEST(FootPlanter, ARedirectedStepGoesOnFromWhereTheFootIsToItsNewEnd) {
+  // A strike whose clip stands from its start on a foot in a procedural step too far from where
+  // the clip has it to carry the clip there (kenji at 11.58 s of the scripted bout: 0.48 m
+  // against 0.30 + 0.10): the step is sent on to where the clip stands on the foot
+  // (FootPlanter::redirect). The foot does not move for the redirect, goes on at no more than
+  // about the peak speed asked for (the step slowed where its new way wants it), and is held at
+  // the new end. SYNTHETIC samples.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  EXPECT_FALSE(planter.redirect(0, Vector3d(0.1, 0.08, 0.5), 2.5)) << "a held foot has no step to send on";
+  EXPECT_EQ(planter.phase(0), Phase::held);
+  Vector3d mid_step;
+  ASSERT_NO_FATAL_FAILURE(left_foot_mid_step(planter, s, locks, Vector3d(0.1, 0.08, 0.2), mid_step));
+  const double left_before = planter.step_left_s(0);
+  ASSERT_GT(left_before, 0);
+  const Vector3d to(0.1, 0.08, 0.5);
+  ASSERT_TRUE(planter.redirect(0, to, 2.5));
+  EXPECT_EQ(*planter.step_end(0), to);
+  EXPECT_GT(planter.step_left_s(0), left_before) << "the longer way takes longer";
+  s[0].hip_m.z() = 0.45;
+  Vector3d last = mid_step;
+  double first_move = -1, fastest = 0;
+  for (int k = 0; k < 60 && planter.phase(0) == Phase::stepping; ++k) {
+    s[0].drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    const double move = Eigen::Vector2d(locks.ankle_m[0].x() - last.x(), locks.ankle_m[0].z() - last.z()).norm();
+    if (first_move < 0) first_move = move;
+    fastest = std::max(fastest, move / kDt);
+    last = locks.ankle_m[0];
+  }
+  std::printf("redirected: first move %.4f m, fastest %.2f m/s\n", first_move, fastest);
+  EXPECT_LT(first_move, 2.5 * kDt) << "it jumped toward its new end";
+  EXPECT_LT(fastest, 2.5 * 1.1) << "faster than the peak asked for";
+  EXPECT_EQ(planter.phase(0), Phase::held);
+  EXPECT_NEAR((locks.ankle_m[0] - to).norm(), 0, 1e-9) << "held where it was sent";
+}
+
+TEST(FootPlanter, AStepRedirectedAtItsEndIsTakenAgainFromWhereTheFootIs) {
+  // Its travel all but done (past kMostRedirectedShare), a step is taken again from where the
+  // foot is: re-based instead, the way left would be crossed in the last frames. SYNTHETIC.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_TRUE(planter.step_to(0, Vector3d(0.1, 0.08, 0.2)));
+  for (int k = 0; k < 16; ++k) planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);  // 0.27 s of 0.30
+  ASSERT_EQ(planter.phase(0), Phase::stepping);
+  Vector3d last = locks.ankle_m[0];
+  const Vector3d to(0.1, 0.08, 0.45);
+  ASSERT_TRUE(planter.redirect(0, to, 2.5));
+  EXPECT_GE(planter.step_left_s(0), 0.3 - 1e-9) << "a whole step again";
+  s[0].hip_m.z() = 0.4;
+  double fastest = 0;
+  for (int k = 0; k < 60 && planter.phase(0) == Phase::stepping; ++k) {
+    s[0].drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    fastest = std::max(fastest, (locks.ankle_m[0] - last).norm() / kDt);
+    last = locks.ankle_m[0];
+  }
+  std::printf("taken again: fastest %.2f m/s\n", fastest);
+  EXPECT_LT(fastest, 2.5 * 1.1);
+  EXPECT_EQ(planter.phase(0), Phase::held);
+  EXPECT_NEAR((locks.ankle_m[0] - to).norm(), 0, 1e-9);
+}
+
+TEST(FootPlanter, ASwingHeadingForItsLandingGetsThereWhenTheSourcesPathIsShort) {
+  // A foot lifted 12 cm from where the motion lands it, the source's own foot travelling 9 cm to
+  // its landing (mei's lunge back foot, 135_06_punch_right_2:mirror from frame 0): handed to the
+  // source's own step once the source's path was under min_swing_path_m (5 cm), the foot kept
+  // the gap it had then and came down 7 cm short. It now heads for the landing to the end of
+  // the source's path. SYNTHETIC samples.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::held);
+  const Vector3d start = locks.ankle_m[0];
+  FootSample& f = s[0];
+  f.planted = false;
+  f.has_landing = true;
+  f.landing_ankle_m = start + Vector3d(0, 0, 0.12);
+  const int updates = 9;
+  const Vector3d step(0, 0, 0.01);  // the source's foot: 0.6 m/s, 9 cm in all
+  for (int k = 0; k < updates; ++k) {
+    f.source_step_m = step;
+    f.source_step_before_m = k == 0 ? Vector3d::Zero() : step;
+    f.source_path_left_m = 0.01 * (updates - 1 - k);
+    f.free_ankle_m += step;
+    f.swing_left_s = (updates - k) * kDt;
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    ASSERT_EQ(planter.phase(0), Phase::swinging) << "update " << k;
+  }
+  const double short_m = Eigen::Vector2d(f.landing_ankle_m.x() - locks.ankle_m[0].x(), f.landing_ankle_m.z() - locks.ankle_m[0].z()).norm();
+  std::printf("when the source puts it down: %.4f m from its landing\n", short_m);
+  EXPECT_LT(short_m, 0.01);
 }

@@ -281,7 +281,6 @@ class Behaviour {
  private:
   using Source = PlaybackSource;
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
-  void start_strike(const StrikePlan& plan, const PlaybackSource& source, int landing_support, Timestamp now, double dt);
   /// How a strike placed by place_strike_travel lands on its target.
   struct StrikeFit {
     double shortfall_m = 0;  ///< m the fighter would have to step in for the limb to reach the target as extended as captured
@@ -292,12 +291,20 @@ class Behaviour {
     /// align_to_support_foot), -1 for none: the step ends where the foot is
     /// when the strike starts (FootPlanter::land), and it stands there.
     int landing_support = -1;
+    /// The foot the strike is aligned on while it is in a procedural step too far from where the
+    /// clip has it to carry the clip there (max_support_shift_m): its step goes on to where the
+    /// clip, carried as far as it goes, stands on it (FootPlanter::redirect), -1 for none.
+    int redirect_support = -1;
+    Eigen::Vector3d redirect_to_m{0, 0, 0};  ///< m, room: where that step then ends
   };
+  void start_strike(const StrikePlan& plan, const PlaybackSource& source, const StrikeFit& fit, Timestamp now, double dt);
   /// The feet a strike is placed on: which are held, and where their ankles stand (m, room).
   struct HeldFeet {
     std::array<bool, 2> held{};
     std::array<bool, 2> stepping{};  ///< in a procedural step (not held): it may be cut short
     std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    std::array<double, 2> step_left_s{};  ///< s until a procedural step puts the foot down (0: not stepping)
+    std::array<Eigen::Vector3d, 2> step_end_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< m, room: where it puts it down
   };
   HeldFeet held_feet() const;  ///< as drawn now
   /// The target (frozen at the order) of the step in progress before a strike: a step in or
@@ -364,6 +371,11 @@ class Behaviour {
   /// clip keeps them planted from its time on (a foot not held now is left out), else where the
   /// clip puts them down on the way; the others at weight 0. Pelvis drop 0..max_root_drop_m.
   FootLocks feet_through_contact(const Source& s, double contact_time_s) const;
+  /// The segment frame (of the motion now playing) whose ankle a foot the motion puts down at
+  /// its frame `land` is held at: `land`, or, while a strike is on its way to contact and the
+  /// clip keeps that foot (not the kicking one) down from `land` through contact, the
+  /// contact frame.
+  int strike_hold_frame(int side, int land) const;
   /// m, room: how low a punch's shoulder may drop for held feet (the target within the arm's
   /// reach at max_punch_aim_deg from it; -inf for kicks).
   double lowest_shoulder_y_m() const;
@@ -382,8 +394,9 @@ class Behaviour {
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
   /// Returns the foot aligned that is in a procedural step now (to be put down where it is),
-  /// else -1.
-  int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet) const;
+  /// else -1. With `redirect`: a stepping foot the clip stands on too far away to carry the clip
+  /// to may be aligned on with its step sent on to the clip (StrikeFit::redirect_support, _to_m).
+  int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect = nullptr) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
@@ -523,6 +536,9 @@ class Behaviour {
     /// The segment frame of the landing (its time clamped to the clip: a foot that stays up to
     /// the clip's end lands on its last frame, whatever the rate the rest after it is played at).
     int land_frame = 0;
+    /// The segment frame whose ankle it is held at once down (strike_hold_frame: land_frame, or
+    /// a strike's contact frame).
+    int hold_frame = 0;
     GroundFrame placement;
     Eigen::Vector2d anchor_xz_m{0, 0};
     Source::Travel travel;

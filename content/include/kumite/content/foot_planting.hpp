@@ -90,19 +90,18 @@ class FootPlanter {
   void reset() { feet_ = {}; }
   /// A new body with the same feet on the floor (a character switch): a held foot stays held
   /// where it stands (a foot its new leg cannot reach steps, as any does); a foot in a
-  /// procedural step comes down where it is (landing: the step's way was planned for the old
-  /// legs); the others are forgotten (free). Forgotten, a stepping support foot went to the new
-  /// body's motion in one frame (5.5 cm: mei's, kenji switched in mid-kick with stance steps
-  /// on), the easing being an offset fixed at the switch.
+  /// procedural step goes on with it (its way is in the room: the foot does not move for the
+  /// switch); the others are forgotten (free). Forgotten, a stepping support foot went to the
+  /// new body's motion in one frame (5.5 cm: mei's, kenji switched in mid-kick with stance steps
+  /// on), the easing being an offset fixed at the switch. Put down where it was instead (until
+  /// session 37), a foot mid-step stood where neither body's motion has it: bruno's left foot
+  /// at the 6.0 s switch of the scripted bout, 0.45 m from aiko's motion and 6.4 cm up, was
+  /// held there while the other foot stepped (13 frames with both feet off the floor).
   /// The next update puts a foot held below the new body's floor onto it at once (hidden by the
   /// switch's easing), not at a landing's pace over the frames after.
   void keep_held_only() {
     for (auto& f : feet_) {
-      if (f.phase == Phase::stepping) {
-        f.phase = Phase::landing;
-      } else if (f.phase != Phase::held) {
-        f = Foot{};
-      }
+      if (f.phase != Phase::held && f.phase != Phase::stepping) f = Foot{};
       f.new_body = true;
     }
   }
@@ -127,6 +126,17 @@ class FootPlanter {
     const Foot& f = feet_[static_cast<std::size_t>(side)];
     return f.phase == Phase::stepping ? &f.step_to : nullptr;
   }
+  /// s until this foot's procedural step puts it down (0 when it is not stepping).
+  double step_left_s(int side) const {
+    const Foot& f = feet_[static_cast<std::size_t>(side)];
+    return f.phase == Phase::stepping ? std::max(0.0, 1 - f.step_t) * f.step_time_s : 0.0;
+  }
+  /// A procedural step of this foot goes on to `to` (m, room, on the floor) instead, from where
+  /// the foot is now (re-based: it does not move this update), over what is left of the step
+  /// or longer, so that its travel peaks at no more than about `peak_speed_mps`; a step whose
+  /// travel is all but done is taken again from where the foot is. False, and nothing
+  /// changes, for a foot not stepping.
+  bool redirect(int side, const Eigen::Vector3d& to, double peak_speed_mps);
   /// A procedural step of this foot ends now: it comes straight down where it is (landing).
   /// Nothing changes for a foot not stepping.
   void land(int side) {
@@ -142,6 +152,7 @@ class FootPlanter {
     double heading_hold = 0;          ///< 0..1: how far that heading is still kept (eased out when lifted)
     Eigen::Vector3d offset{0, 0, 0};  ///< m: swinging: lock - free ankle, shed over the swing
     double step_t = 0;                ///< stepping: 0..1
+    double step_time_s = 0.30;        ///< s: stepping: this step's time (step_time_s, or longer where redirected)
     double swing_way_m = -1;          ///< swinging toward a landing: its way along the floor (m), -1 unknown
     double swing_progress = 0;        ///< swinging: share of that way covered, 0..1 (never decreases)
     double swing_source_way_m = -1;   ///< ...and the source's own path to its landing then (m)
