@@ -468,7 +468,13 @@ bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source,
   // (A kick planned with a foot still stepping starts from where that step lands. After a
   // step-in that arrived, none is: no step begins while a strike is planned (update_feet);
   // one that gave up waiting, kStepInWait_s, may still leave one stepping.)
-  if (!feet_.held(side) || !feet_.held(eff->side)) return false;
+  // A support foot in a procedural step of its own (it lagged, and stepped the update the plan
+  // came back) has that step sent on to where the kick stands on it, and the kick waits for it
+  // to land: started, the kick lifted its foot with the support foot still in the air, and the
+  // support foot's step went on to its old target 0.39 m from where the clip has it, out of the
+  // leg's reach (bruno's HDM_bk_010 kick at 15.0 s of the scripted bout: both feet off 14 frames).
+  const bool stepping = feet_.step_end(side) != nullptr;
+  if ((!feet_.held(side) && !stepping) || !feet_.held(eff->side)) return false;
   int k = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
   const int last = std::clamp(plan.contact_frame, k, seg.frame_count() - 1);
   while (k < last && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] < 0.5) ++k;
@@ -481,10 +487,14 @@ bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source,
   CanonicalPose& c = scratch_pose_;
   decode_canonical(rig, placed, c);
   const CJ ankle = side == kLeft ? CJ::l_ankle : CJ::r_ankle;
-  const Vector3d held = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
+  const Vector3d held = stepping ? *feet_.step_end(side) : rig_positions_[static_cast<std::size_t>(rig.skeleton.index(ankle))];
   const Vector3d goal(at(c, ankle).x(), held.y(), at(c, ankle).z());
-  if (Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm() <= tun_.kick_support_step_m) return false;
-  if (!feet_.step_to(side, goal)) return false;
+  if (stepping) {
+    if (!feet_.redirect(side, goal, kRedirectPeakSpeed_mps)) return false;
+  } else {
+    if (Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm() <= tun_.kick_support_step_m) return false;
+    if (!feet_.step_to(side, goal)) return false;
+  }
   support_step_ = SupportStep{pending_->order, pending_->target_room_m, pending_->stepped_first, side, 0};
   FighterEvent& e = emit(FighterEvent::Kind::support_step, now, pending_->order, FighterEvent::Reason::none,
                          Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm());

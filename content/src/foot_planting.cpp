@@ -20,6 +20,8 @@ constexpr double kShedPerTravel = 0.5;
 constexpr double kReturnAccel_mps2 = 40;
 /// m/s^2: the most a swinging foot's speed along the floor grows (FootPlanter's way to its landing).
 constexpr double kSwingAccel_mps2 = 100;
+/// m: a kicking foot taken this far above its standing height (mid-step) is in the air already.
+constexpr double kTakenInTheAir_m = 0.01;
 /// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
 /// a step's length) while it is no farther out from the hip than this beyond the motion's foot.
 constexpr double kUnderHipSlack_m = 0.05;
@@ -282,7 +284,17 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
             // motion, it slid flat along it): it rises at least as far as the source's ankle has
             // since it was lifted, and at least as far as it has gone along the floor.
             const double gone = Eigen::Vector2d(next.x() - f.swing_from.x(), next.z() - f.swing_from.z()).norm();
-            if (from_floor) next.y() = std::max(next.y(), f.swing_from.y() + std::max(f.source_rise_m, gone));
+            if (from_floor) {
+              double y = std::max(next.y(), f.swing_from.y() + std::max(f.source_rise_m, gone));
+              // ...gathering that rise at a foot's pace (kSwingAccel_mps2 on its last move) where
+              // the kick took the foot off the floor, mid-step: from a clip frame where the
+              // source's ankle already rises 5 cm per update, it lifted such a foot 5.4 cm in one
+              // update while the composed ankle rose 0.4 cm (viktor's HDM_dg_017 kick, the knee
+              // 7 cm). A foot lifted off the floor keeps the rule whole (kept low, it slid).
+              if (y > next.y() && f.swing_from.y() > in.standing_ankle_y_m + kTakenInTheAir_m)
+                y = std::min(y, std::max(next.y(), f.lock.y() + std::max(0.0, f.last_move.y()) + kSwingAccel_mps2 * dt * dt));
+              next.y() = y;
+            }
           }
           f.lock = next;
           f.offset = f.lock - in.free_ankle_m;

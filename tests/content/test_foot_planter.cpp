@@ -341,6 +341,44 @@ TEST(FootPlanter, AKickThatTakesAFootAlreadyInTheAirStartsItsSwingWhereTheFootIs
   EXPECT_LT(moved, 0.05);
 }
 
+TEST(FootPlanter, AKickThatTakesAFootMidStepWhileItsSourceRisesFastGathersTheRiseAtAFootsPace) {
+  // A kick taking its own foot mid-step, its clip starting where the source's ankle already
+  // rises 5.3 cm per update (viktor's HDM_dg_017 kick from its frame 8 at 17.0 s of the scripted
+  // bout, the support step redirected): "at least as high as the source has risen since it was
+  // lifted" put the foot 5.4 cm up in one update, the knee 7 cm. The rise now gathers at a
+  // foot's pace (kSwingAccel_mps2). SYNTHETIC samples: the composed ankle rises 0.4 cm per update.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  // Three updates into a procedural step: the foot 3 cm up, still within landing_height_m of
+  // the floor (the floor band the rule keeps a kicking foot rising out of).
+  ASSERT_TRUE(planter.step_to(0, Vector3d(0.1, 0.08, 0.3)));
+  for (int k = 0; k < 3; ++k) planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  const Vector3d mid_step = locks.ankle_m[0];
+  ASSERT_GT(mid_step.y(), 0.08 + 0.01);
+  ASSERT_LT(mid_step.y(), 0.08 + 0.04);
+  FootSample& f = s[0];
+  f.planted = false;
+  f.effector = true;
+  f.swing_left_s = 0.4;
+  f.free_ankle_m = Vector3d(mid_step.x(), 0.09, mid_step.z());
+  double last_y = locks.ankle_m[0].y(), last_rise = 0, worst_gain = 0;
+  for (int k = 0; k < 6; ++k) {
+    f.source_step_m = Vector3d(0, 0.053, 0.01);
+    f.source_step_before_m = f.source_step_m;
+    f.free_ankle_m += Vector3d(0, 0.004, 0.01);
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    const double rise = locks.ankle_m[0].y() - last_y;
+    worst_gain = std::max(worst_gain, rise - std::max(0.0, last_rise));
+    last_rise = rise;
+    last_y = locks.ankle_m[0].y();
+  }
+  std::printf("largest gain of the kicking foot's rise per update: %.4f m\n", worst_gain);
+  EXPECT_LE(worst_gain, 100 * kDt * kDt + 1e-9);
+}
+
 TEST(FootPlanter, ANewBodysFirstUpdatePutsItsFeetOnItsOwnFloor) {
   // A character switch mid-kick (bruno -> mei, 15.25 s): mei's feet were held where bruno's
   // stood, 1.6 cm below mei's own floor, and rose onto it at a landing's pace over the frames
