@@ -298,7 +298,6 @@ Behaviour::HeldFeet Behaviour::held_feet() const {
   for (int side = 0; side < 2; ++side) {
     f.held[static_cast<std::size_t>(side)] = feet_.held(side);
     f.stepping[static_cast<std::size_t>(side)] = feet_.step_end(side) != nullptr;
-    f.step_left_s[static_cast<std::size_t>(side)] = feet_.step_left_s(side);
     if (const Vector3d* end = feet_.step_end(side)) f.step_end_m[static_cast<std::size_t>(side)] = *end;
     f.ankle_m[static_cast<std::size_t>(side)] =
         rig_positions_[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_ankle : CJ::r_ankle))];

@@ -42,6 +42,11 @@ double lowest_reached_y(const Vector3d& hip, const Vector3d& at, double reach, d
   const double horiz = Eigen::Vector2d(at.x() - hip.x(), at.z() - hip.z()).norm();
   return horiz < reach ? hip.y() - std::sqrt(reach * reach - horiz * horiz) : out_of_reach;
 }
+/// A procedural step travels over the middle kStepTravelSpan of its time, from kStepTravelFrom:
+/// the share of its way covered at step time t (0..1).
+constexpr double kStepTravelFrom = 0.15;
+constexpr double kStepTravelSpan = 0.7;
+double step_travel_share(double t) { return smoothstep((t - kStepTravelFrom) / kStepTravelSpan); }
 /// The share of a procedural step's travel beyond which it is not redirected (FootPlanter::redirect):
 /// re-based from nearly its end, the way left would be crossed in the last frames.
 constexpr double kMostRedirectedShare = 0.8;
@@ -62,7 +67,7 @@ bool FootPlanter::redirect(int side, const Vector3d& to, double peak_speed_mps) 
   Foot& f = feet_[static_cast<std::size_t>(side)];
   if (f.phase != Phase::stepping || peak_speed_mps <= 0) return false;
   // The step's travel share now (the lock's way along from -> to, its lift aside).
-  const double a = smoothstep((f.step_t - 0.15) / 0.7);
+  const double a = step_travel_share(f.step_t);
   const Vector3d lock_flat = f.step_from + (f.step_to - f.step_from) * a;
   const double way = Eigen::Vector2d(to.x() - lock_flat.x(), to.z() - lock_flat.z()).norm();
   // The travel left eases out as a smoothstep does: its peak speed is about twice its mean.
@@ -77,7 +82,7 @@ bool FootPlanter::redirect(int side, const Vector3d& to, double peak_speed_mps) 
     // Its travel all but done: a new step from where the foot is (its lift carried in its from).
     f.step_from = f.lock;
     f.step_t = 0;
-    f.step_time_s = std::max(tun_.step_time_s, needed_s / 0.7);  // the travel takes the middle 70 %
+    f.step_time_s = std::max(tun_.step_time_s, needed_s / kStepTravelSpan);
   }
   f.step_to = to;
   return true;
@@ -406,7 +411,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         f.step_t += dt / f.step_time_s;
         // The foot leaves the floor before it travels and is down before it stops: a step,
         // not a slide (travel over the middle 70 % of the step, lift over all of it).
-        f.lock = f.step_from + (f.step_to - f.step_from) * smoothstep((f.step_t - 0.15) / 0.7) +
+        f.lock = f.step_from + (f.step_to - f.step_from) * step_travel_share(f.step_t) +
                  Vector3d::UnitY() * tun_.step_height_m * std::sin(std::numbers::pi * std::min(1.0, f.step_t));
         if (f.step_t >= 1) hold(f, f.step_to, in.drawn_heading_xz);
         break;

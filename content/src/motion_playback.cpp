@@ -69,9 +69,6 @@ constexpr double kLandingSupportSlack_m = 0.10;
 /// m: the farthest a procedural step is redirected to where a strike's clip stands on its foot
 /// (align_to_support_foot): a step's length.
 constexpr double kMostRedirect_m = 0.35;
-int contact_of(const MotionSegment& seg, int first, int n, double contact_time_s) {
-  return std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
-}
 // The pelvis rise (/ leg length) a strike's Travel adds at segment time t: eased in from the
 // strike's start to contact, out over the release.
 double travel_rise_n(const PlaybackSource::Travel& tr, double t) {
@@ -180,6 +177,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
   const int n = seg.frame_count();
   const int first = std::clamp(static_cast<int>(std::lround(s.time_s / seg.frame_time_s)), 0, n - 1);
+  const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
   const auto run_from_start = [&](int side) {
     int run = 0;
     for (int k = first; k < n && clip_planted(seg, k, side); ++k) ++run;
@@ -220,8 +218,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
       best = best_any;
       landing_support = best_any;
       shift = want;
-    } else if (redirect != nullptr && (best_held < 0 || first + best_held_run <= contact_of(seg, first, n, contact_time_s)) &&
-               clip_planted(seg, contact_of(seg, first, n, contact_time_s), best_any)) {
+    } else if (redirect != nullptr && (best_held < 0 || first + best_held_run <= contact) && clip_planted(seg, contact, best_any)) {
       // Too far to carry the clip there, and no held foot it stands on to contact: carried as
       // far as it goes toward the foot, and the foot's step goes on to where the clip then
       // has it, if that is within a step's length (slowed to a step's pace where it must be:
@@ -253,7 +250,6 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
   // its frame 0: aligned on the left foot the clip lifts at once, the right foot's step ended
   // 60 cm from where the clip puts it, and it stepped again and again under the lunge while the
   // left swung: 27 frames with both feet off, now 12).
-  const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
   const int best_run = best == best_held ? best_held_run : best_any_run;
   const bool lifted_before_contact = best >= 0 && landing_support < 0 && !redirected && first + best_run <= contact;
   if ((best < 0 && best_any < 0) || lifted_before_contact) {

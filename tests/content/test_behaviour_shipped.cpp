@@ -8,8 +8,10 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
+#include <string>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #include <fmt/format.h>
 
@@ -92,6 +94,31 @@ Outcome strike_once(Behaviour& b, OrderKind kind, const Vector3d& local_target) 
   o.hit = b.strike().target_reached;  // the visitor stands elsewhere: reaching the target is what counts here
   o.distance_m = b.strike().contact_distance_m;
   return o;
+}
+/// The fighter's drawn canonical joints now (m, room), one row of a track.
+std::vector<Vector3d> drawn_canonical(const Behaviour& b) {
+  const Rig& rig = b.character(b.current_character());
+  CanonicalPose now;
+  canonical_positions(rig.skeleton, b.joint_positions().first(static_cast<std::size_t>(rig.joint_count())), now);
+  return {now.begin(), now.end()};
+}
+
+/// Drawn snaps in a track of drawn_canonical rows, by motion_quality's rule (a step over 5 cm and
+/// 3x both neighbouring steps); the first is described in `first_snap` (prefixed `what`) if empty.
+int count_snaps(const std::vector<std::vector<Vector3d>>& track, const std::string& what, std::string& first_snap) {
+  int snaps = 0;
+  for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
+    const auto step = [&](std::size_t k) { return (track[k][j] - track[k - 1][j]).norm(); };
+    for (std::size_t k = 2; k + 1 < track.size(); ++k) {
+      if (!track[k][j].allFinite() || !track[k - 1][j].allFinite() || !track[k - 2][j].allFinite() || !track[k + 1][j].allFinite()) continue;
+      const double st = step(k);
+      if (st > 0.05 && st > 3 * step(k - 1) && st > 3 * step(k + 1)) {
+        ++snaps;
+        if (first_snap.empty()) first_snap = what + fmt::format(": joint {} {:.0f} mm at frame {}", j, st * 1000, k - 1);
+      }
+    }
+  }
+  return snaps;
 }
 }  // namespace
 
@@ -526,14 +553,7 @@ TEST(BehaviourShipped, ASwitchBetweenAnyTwoCharactersAtRestKeepsAFootOnTheFloor)
         b.update(t, 0, head);
         for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);
         // The drawn canonical joints from the frame before the switch on.
-        std::vector<std::vector<Vector3d>> track;
-        const auto keep = [&] {
-          const Rig& rig = b.character(b.current_character());
-          CanonicalPose now;
-          canonical_positions(rig.skeleton, b.joint_positions().first(static_cast<std::size_t>(rig.joint_count())), now);
-          track.emplace_back(now.begin(), now.end());
-        };
-        keep();
+        std::vector<std::vector<Vector3d>> track{drawn_canonical(b)};
         b.order(Order{t, OrderKind::select_character, static_cast<std::int32_t>(c)});
         int both_off = 0;
         for (int i = 0; i < 120; ++i) {
@@ -541,19 +561,9 @@ TEST(BehaviourShipped, ASwitchBetweenAnyTwoCharactersAtRestKeepsAFootOnTheFloor)
           ASSERT_EQ(b.current_character(), static_cast<int>(c)) << pair;
           const auto held = b.feet_locked();
           if (!held[0] && !held[1]) ++both_off;
-          keep();
+          track.push_back(drawn_canonical(b));
         }
-        for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
-          const auto step = [&](std::size_t k) { return (track[k][j] - track[k - 1][j]).norm(); };
-          for (std::size_t k = 2; k + 1 < track.size(); ++k) {
-            if (!track[k][j].allFinite() || !track[k - 1][j].allFinite() || !track[k - 2][j].allFinite() || !track[k + 1][j].allFinite()) continue;
-            const double s = step(k);
-            if (s > 0.05 && s > 3 * step(k - 1) && s > 3 * step(k + 1)) {
-              ++snaps;
-              if (first_snap.empty()) first_snap = pair + fmt::format(": joint {} {:.0f} mm at frame {}", j, s * 1000, k - 1);
-            }
-          }
-        }
+        snaps += count_snaps(track, pair, first_snap);
         EXPECT_EQ(both_off, 0) << pair;
         worst_both_off = std::max(worst_both_off, both_off);
       }
@@ -590,31 +600,14 @@ TEST(BehaviourShipped, AKickOrderedAsATallerCharacterIsSwitchedInStartsWithoutAJ
         const Vector3d head(0, 1.6, 1.0);
         b.update(t, 0, head);
         for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);
-        std::vector<std::vector<Vector3d>> track;
-        const auto keep = [&] {
-          const Rig& rig = b.character(b.current_character());
-          CanonicalPose now;
-          canonical_positions(rig.skeleton, b.joint_positions().first(static_cast<std::size_t>(rig.joint_count())), now);
-          track.emplace_back(now.begin(), now.end());
-        };
-        keep();
+        std::vector<std::vector<Vector3d>> track{drawn_canonical(b)};
         b.order(Order{t, OrderKind::select_character, static_cast<std::int32_t>(c)});
         b.order_strike(Order{t, kind}, Vector3d(0, 1.1, 0.8));
         for (int i = 0; i < 90; ++i) {
           b.update(t += dt, dt, head);
-          keep();
+          track.push_back(drawn_canonical(b));
         }
-        for (std::size_t j = 0; j < kCanonicalJointCount; ++j) {
-          const auto step = [&](std::size_t k) { return (track[k][j] - track[k - 1][j]).norm(); };
-          for (std::size_t k = 2; k + 1 < track.size(); ++k) {
-            if (!track[k][j].allFinite() || !track[k - 1][j].allFinite() || !track[k - 2][j].allFinite() || !track[k + 1][j].allFinite()) continue;
-            const double st = step(k);
-            if (st > 0.05 && st > 3 * step(k - 1) && st > 3 * step(k + 1)) {
-              ++snaps;
-              if (first_snap.empty()) first_snap = what + fmt::format(": joint {} {:.0f} mm at frame {}", j, st * 1000, k - 1);
-            }
-          }
-        }
+        snaps += count_snaps(track, what, first_snap);
         const std::size_t ankle = static_cast<std::size_t>(kind == OrderKind::kick_left ? CJ::l_ankle : CJ::r_ankle);
         for (std::size_t k = 2; k < 12 && k < track.size(); ++k)
           worst_rise = std::max(worst_rise, (track[k][ankle].y() - track[k - 1][ankle].y()) - (track[k - 1][ankle].y() - track[k - 2][ankle].y()));

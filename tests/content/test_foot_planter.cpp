@@ -1,5 +1,7 @@
 // FootPlanter on SYNTHETIC samples (no motion): which foot steps when.
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 
 #include <gtest/gtest.h>
@@ -42,6 +44,29 @@ void left_foot_mid_step(FootPlanter& planter, std::array<FootSample, 2>& s, Foot
   ASSERT_EQ(planter.phase(0), Phase::stepping);
   mid_step = locks.ankle_m[0];
   ASSERT_GT(mid_step.y(), 0.08 + 0.02) << "mid-step, the foot is in the air";
+}
+
+/// The left foot's way over up to `updates` updates (nothing else changing; `stop_when_down`:
+/// until its procedural step ends): its first move along the floor, its fastest along the floor
+/// and in 3-D, and the least weight its lock had.
+struct StepWalk {
+  double first_move_xz_m = -1, fastest_xz_mps = 0, fastest_mps = 0, least_weight = 1;
+};
+StepWalk walk_left_foot(FootPlanter& planter, std::array<FootSample, 2>& s, FootLocks& locks, int updates, bool stop_when_down) {
+  StepWalk w;
+  Vector3d last = locks.ankle_m[0];
+  for (int k = 0; k < updates && !(stop_when_down && planter.phase(0) != Phase::stepping); ++k) {
+    s[0].drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    const Vector3d d = locks.ankle_m[0] - last;
+    const double xz = std::hypot(d.x(), d.z());
+    if (w.first_move_xz_m < 0) w.first_move_xz_m = xz;
+    w.fastest_xz_mps = std::max(w.fastest_xz_mps, xz / kDt);
+    w.fastest_mps = std::max(w.fastest_mps, d.norm() / kDt);
+    w.least_weight = std::min(w.least_weight, locks.weight[0]);
+    last = locks.ankle_m[0];
+  }
+  return w;
 }
 
 TEST(FootPlanter, AFootThatMustStepGoesAloneTheOtherFootsDueStepWaitsForItsLanding) {
@@ -434,17 +459,10 @@ TEST(FootPlanter, AFootSteppingAtACharacterSwitchGoesOnWithItsStep) {
   EXPECT_EQ(*planter.step_end(0), to);
   s[0].free_ankle_m = Vector3d(0.16, 0.08, 0.3);  // the new body's motion: 6 cm to the side
   s[0].hip_m.z() = 0.3;  // the body over the step's end (the leg reaches the floor there)
-  Vector3d last = mid_step;
-  double fastest = 0;
-  for (int k = 0; k < 30; ++k) {
-    s[0].drawn_ankle_m = locks.ankle_m[0];
-    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
-    EXPECT_EQ(locks.weight[0], 1.0) << "update " << k << ": the foot let go";
-    fastest = std::max(fastest, (locks.ankle_m[0] - last).norm() / kDt);
-    last = locks.ankle_m[0];
-  }
-  std::printf("the step after the switch: fastest %.2f m/s\n", fastest);
-  EXPECT_LT(fastest, 2.5) << "a step's pace (0.3 m in step_time_s), not a jump";
+  const StepWalk w = walk_left_foot(planter, s, locks, 30, false);
+  std::printf("the step after the switch: fastest %.2f m/s\n", w.fastest_mps);
+  EXPECT_EQ(w.least_weight, 1.0) << "the foot let go";
+  EXPECT_LT(w.fastest_mps, 2.5) << "a step's pace (0.3 m in step_time_s), not a jump";
   EXPECT_EQ(planter.phase(0), Phase::held);
   EXPECT_NEAR((locks.ankle_m[0] - to).norm(), 0, 1e-9) << "down where the step puts it";
 }
@@ -471,19 +489,10 @@ TEST(FootPlanter, ARedirectedStepGoesOnFromWhereTheFootIsToItsNewEnd) {
   EXPECT_EQ(*planter.step_end(0), to);
   EXPECT_GT(planter.step_left_s(0), left_before) << "the longer way takes longer";
   s[0].hip_m.z() = 0.45;
-  Vector3d last = mid_step;
-  double first_move = -1, fastest = 0;
-  for (int k = 0; k < 60 && planter.phase(0) == Phase::stepping; ++k) {
-    s[0].drawn_ankle_m = locks.ankle_m[0];
-    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
-    const double move = Eigen::Vector2d(locks.ankle_m[0].x() - last.x(), locks.ankle_m[0].z() - last.z()).norm();
-    if (first_move < 0) first_move = move;
-    fastest = std::max(fastest, move / kDt);
-    last = locks.ankle_m[0];
-  }
-  std::printf("redirected: first move %.4f m, fastest %.2f m/s\n", first_move, fastest);
-  EXPECT_LT(first_move, 2.5 * kDt) << "it jumped toward its new end";
-  EXPECT_LT(fastest, 2.5 * 1.1) << "faster than the peak asked for";
+  const StepWalk w = walk_left_foot(planter, s, locks, 60, true);
+  std::printf("redirected: first move %.4f m, fastest %.2f m/s\n", w.first_move_xz_m, w.fastest_xz_mps);
+  EXPECT_LT(w.first_move_xz_m, 2.5 * kDt) << "it jumped toward its new end";
+  EXPECT_LT(w.fastest_xz_mps, 2.5 * 1.1) << "faster than the peak asked for";
   EXPECT_EQ(planter.phase(0), Phase::held);
   EXPECT_NEAR((locks.ankle_m[0] - to).norm(), 0, 1e-9) << "held where it was sent";
 }
@@ -498,20 +507,13 @@ TEST(FootPlanter, AStepRedirectedAtItsEndIsTakenAgainFromWhereTheFootIs) {
   ASSERT_TRUE(planter.step_to(0, Vector3d(0.1, 0.08, 0.2)));
   for (int k = 0; k < 16; ++k) planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);  // 0.27 s of 0.30
   ASSERT_EQ(planter.phase(0), Phase::stepping);
-  Vector3d last = locks.ankle_m[0];
   const Vector3d to(0.1, 0.08, 0.45);
   ASSERT_TRUE(planter.redirect(0, to, 2.5));
   EXPECT_GE(planter.step_left_s(0), 0.3 - 1e-9) << "a whole step again";
   s[0].hip_m.z() = 0.4;
-  double fastest = 0;
-  for (int k = 0; k < 60 && planter.phase(0) == Phase::stepping; ++k) {
-    s[0].drawn_ankle_m = locks.ankle_m[0];
-    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
-    fastest = std::max(fastest, (locks.ankle_m[0] - last).norm() / kDt);
-    last = locks.ankle_m[0];
-  }
-  std::printf("taken again: fastest %.2f m/s\n", fastest);
-  EXPECT_LT(fastest, 2.5 * 1.1);
+  const StepWalk w = walk_left_foot(planter, s, locks, 60, true);
+  std::printf("taken again: fastest %.2f m/s\n", w.fastest_mps);
+  EXPECT_LT(w.fastest_mps, 2.5 * 1.1);
   EXPECT_EQ(planter.phase(0), Phase::held);
   EXPECT_NEAR((locks.ankle_m[0] - to).norm(), 0, 1e-9);
 }

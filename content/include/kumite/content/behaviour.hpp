@@ -303,7 +303,6 @@ class Behaviour {
     std::array<bool, 2> held{};
     std::array<bool, 2> stepping{};  ///< in a procedural step (not held): it may be cut short
     std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    std::array<double, 2> step_left_s{};  ///< s until a procedural step puts the foot down (0: not stepping)
     std::array<Eigen::Vector3d, 2> step_end_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< m, room: where it puts it down
   };
   HeldFeet held_feet() const;  ///< as drawn now
