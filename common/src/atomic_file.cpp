@@ -1,5 +1,6 @@
 #include "kumite/common/atomic_file.hpp"
 
+#include <fcntl.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -41,6 +42,31 @@ void sweep_once(const fs::path& dir) {
 }
 }  // namespace
 
+namespace {
+std::function<void(const std::string&)>& observer() {
+  static std::function<void(const std::string&)> f;
+  return f;
+}
+}  // namespace
+
+void observe_durable_writes(std::function<void(const std::string&)> f) { observer() = std::move(f); }
+
+void sync_path(const fs::path& path) {
+  int fd = -1;
+  do fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  while (fd < 0 && errno == EINTR);
+  if (fd < 0) throw Error("io", "sync", fmt::format("{}: cannot open to sync: {}", path.string(), std::strerror(errno)));
+  int rc = 0;
+  do rc = ::fsync(fd);
+  while (rc != 0 && errno == EINTR);
+  const int err = errno;
+  ::close(fd);
+  // A folder on a file system that cannot sync folders (EINVAL) has nothing more to do.
+  if (rc != 0 && !(err == EINVAL && fs::is_directory(path)))
+    throw Error("io", "sync", fmt::format("{}: cannot sync to disk: {}", path.string(), std::strerror(err)));
+  if (observer()) observer()("sync " + path.string());
+}
+
 fs::path temporary_path_beside(const fs::path& path) {
   static std::atomic<unsigned> counter{0};
   const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
@@ -49,14 +75,28 @@ fs::path temporary_path_beside(const fs::path& path) {
                            path.extension().string());
 }
 
-void commit_temporary(const fs::path& tmp, const fs::path& path) {
+namespace {
+/// rename(tmp, path) between a sync of the file and one of its folder (see commit_temporary).
+void durable_rename(const fs::path& tmp, const fs::path& path, std::string_view what) {
   std::error_code ec;
+  try {
+    sync_path(tmp);
+  } catch (...) {
+    fs::remove(tmp, ec);
+    throw;
+  }
   fs::rename(tmp, path, ec);
   if (ec) {
-    fs::remove(tmp, ec);
-    throw Error("io", "rename", fmt::format("{}: cannot write: {}", path.string(), ec.message()));
+    std::error_code ignored;
+    fs::remove(tmp, ignored);
+    throw Error("io", "rename", fmt::format("{}: cannot {}: {}", path.string(), what, ec.message()));
   }
+  if (observer()) observer()("rename " + tmp.string() + " -> " + path.string());
+  sync_path(path.has_parent_path() ? path.parent_path() : fs::path("."));
 }
+}  // namespace
+
+void commit_temporary(const fs::path& tmp, const fs::path& path) { durable_rename(tmp, path, "write"); }
 
 void write_file_atomically(const fs::path& path, const std::function<void(std::ostream&)>& write) {
   const fs::path tmp = temporary_path_beside(path);
@@ -103,13 +143,13 @@ fs::path keep_previous_version(const fs::path& path) {
   // Copied beside it under a temporary name, then renamed: never a half (or 0-byte) backup.
   const fs::path tmp = temporary_path_beside(backup);
   fs::copy_file(path, tmp, ec);
-  if (!ec) fs::rename(tmp, backup, ec);
   if (ec) {
     std::error_code ignored;
     fs::remove(tmp, ignored);
     throw Error("io", "backup",
                 fmt::format("{}: cannot keep the previous version: {}", path.string(), ec.message()));
   }
+  durable_rename(tmp, backup, "keep the previous version");
   return backup;
 }
 

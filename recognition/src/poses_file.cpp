@@ -2,6 +2,8 @@
 // recognition thread's tests and kumite-recognise run read (issue 14).
 #include "kumite/recognition/poses_file.hpp"
 
+#include "kumite/common/text.hpp"
+
 #include <charconv>
 #include <cmath>
 #include <fstream>
@@ -15,6 +17,7 @@
 namespace kumite::recognition {
 
 PosesFile parse_poses_csv(std::string_view text, std::string_view source) {
+  text = without_utf8_bom(text);  // a spreadsheet's "CSV UTF-8"
   PosesFile out;
   bool header = false;
   double last_t = -std::numeric_limits<double>::infinity();

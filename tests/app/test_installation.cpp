@@ -334,6 +334,10 @@ TEST(Orders, ScriptParsing) {
   EXPECT_DOUBLE_EQ(o[0].time, 0.5);
   EXPECT_EQ(o[1].character, 1);
   EXPECT_EQ(o[2].kind, kumite::OrderKind::pause);
+  // Saved by a spreadsheet as "CSV UTF-8": a byte-order mark before the header, CRLF lines.
+  const auto bom = parse_orders_script("\xEF\xBB\xBFtime_s,order\r\n0.5,punch_right\r\n", "o.csv");
+  ASSERT_EQ(bom.size(), 1u);
+  EXPECT_EQ(bom[0].kind, kumite::OrderKind::punch_right);
 }
 
 TEST(Orders, BadRowsNameFileAndLine) {

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "kumite/common/atomic_file.hpp"
+#include "kumite/common/text.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/common/image_file.hpp"
 #include "kumite/common/latest.hpp"
@@ -112,6 +113,36 @@ TEST(AtomicFile, KeepsPreviousVersion) {
   EXPECT_NE(b1, b2);
   EXPECT_EQ(slurp(b1), "v1");
   EXPECT_EQ(slurp(b2), "v1");
+}
+
+// A power cut must find the old file or the new one, whole: the temporary is synced to disk
+// before the rename and the folder after it (without the syncs the rename can reach the disk
+// before the data: an empty or cut file under the final name).
+TEST(AtomicFile, SyncsTheFileBeforeTheRenameAndTheFolderAfter) {
+  fs::path d = fresh_dir("durable");
+  std::vector<std::string> ops;
+  observe_durable_writes([&](const std::string& op) { ops.push_back(op); });
+  write_file_atomically(d / "cal.yaml", std::string_view("v1"));
+  const fs::path backup = keep_previous_version(d / "cal.yaml");
+  observe_durable_writes(nullptr);
+  ASSERT_EQ(ops.size(), 6u) << ::testing::PrintToString(ops);
+  for (int k : {0, 3}) {
+    const fs::path target = k == 0 ? d / "cal.yaml" : backup;
+    EXPECT_EQ(ops[static_cast<std::size_t>(k)].rfind("sync " + d.string() + "/.", 0), 0u) << ops[static_cast<std::size_t>(k)];
+    const std::string tmp = ops[static_cast<std::size_t>(k)].substr(5);
+    EXPECT_EQ(ops[static_cast<std::size_t>(k) + 1], "rename " + tmp + " -> " + target.string());
+    EXPECT_EQ(ops[static_cast<std::size_t>(k) + 2], "sync " + d.string());
+  }
+  EXPECT_EQ(slurp(d / "cal.yaml"), "v1");
+  EXPECT_EQ(slurp(backup), "v1");
+  EXPECT_THROW(sync_path(d / "missing"), Error);
+}
+
+TEST(Text, AByteOrderMarkIsDropped) {
+  EXPECT_EQ(without_utf8_bom("\xEF\xBB\xBFtime_s,order\n"), "time_s,order\n");
+  EXPECT_EQ(without_utf8_bom("time_s,order"), "time_s,order");
+  EXPECT_EQ(without_utf8_bom("\xEF\xBB"), "\xEF\xBB");
+  EXPECT_EQ(without_utf8_bom(""), "");
 }
 
 TEST(Orders, RoundTripText) {

@@ -198,6 +198,8 @@ TEST(RecognitionPoses, ParsesAndIgnoresUnknownBodies) {
   EXPECT_EQ(pf.ignored_rows, 1);
   EXPECT_EQ(pf.samples[1].role, Role::right_hand);
   EXPECT_FALSE(pf.samples[1].tracked);
+  // Saved by a spreadsheet as "CSV UTF-8": the byte-order mark before the header is dropped.
+  EXPECT_EQ(recognition::parse_poses_csv("\xEF\xBB\xBF" + csv, "p.csv").samples.size(), 2u);
   // Round trip through the writer.
   const auto back = recognition::parse_poses_csv(recognition::format_poses_csv(pf.samples), "w.csv");
   ASSERT_EQ(back.samples.size(), 2u);

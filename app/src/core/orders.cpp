@@ -14,6 +14,7 @@
 namespace kumite::app {
 
 std::vector<Order> parse_orders_script(std::string_view text, std::string_view file) {
+  text = without_utf8_bom(text);  // a spreadsheet's "CSV UTF-8": the mark before the header
   std::vector<Order> out;
   int line_no = 0;
   double last = -1e300;

@@ -1,6 +1,8 @@
 #pragma once
 // Nothing half-written: every output file is written to a temporary file beside it and
-// renamed over the destination only once complete (rename is atomic on POSIX).
+// renamed over the destination only once complete (rename is atomic on POSIX). Durable too:
+// the temporary file is fsync'ed before the rename and its folder after it, so after a power
+// cut the path holds the old content or the new, whole (a kill alone never needed the syncs).
 #include <filesystem>
 #include <functional>
 #include <ostream>
@@ -24,8 +26,17 @@ void write_file_atomically(const std::filesystem::path& path,
 /// (remove_stale_temporaries), with one warning line when there were any.
 std::filesystem::path temporary_path_beside(const std::filesystem::path& path);
 
-/// Atomically moves `tmp` onto `path` (same directory). Throws kumite::Error on failure.
+/// Atomically and durably moves `tmp` onto `path` (same directory): fsync(tmp), rename,
+/// fsync(the folder). Throws kumite::Error on failure (tmp removed, `path` untouched).
 void commit_temporary(const std::filesystem::path& tmp, const std::filesystem::path& path);
+
+/// fsync(2) on `path` (a file or a folder), so what was written to it survives a power cut.
+/// Throws kumite::Error("io", "sync") naming it.
+void sync_path(const std::filesystem::path& path);
+
+/// What the durable writes do, in order ("sync <path>", "rename <from> -> <to>"), handed to
+/// `observer` as they happen (tests; nullptr: none). Not thread-safe to set while writing.
+void observe_durable_writes(std::function<void(const std::string&)> observer);
 
 /// If `path` exists, copies it to "<path>.<YYYYmmdd-HHMMSS>.bak" (a new name each time) and
 /// returns that backup path; returns an empty path when there was nothing to keep. The copy
