@@ -10,7 +10,7 @@
 # systemd restarts a hung show. Logs: journalctl --user -u NAME. Status: kumite status --config FILE.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-REPO=$(pwd)
+REPO=$PWD
 
 usage() {
   cat <<USAGE
@@ -27,7 +27,8 @@ the user's session; at boot too after 'loginctl enable-linger \$USER') and (re)s
                        --args "--headless ...")
   --watchdog-sec S     watchdog timeout, s (default: 10)
   --restart-sec S      pause before a restart, s (default: 2)
-  --args "ARGS"        more kumite arguments (e.g. "--no-console")
+  --args "ARGS"        more kumite arguments (e.g. "--no-console"), split on whitespace; each
+                       word is passed as written (no quoting, no \$VAR, no % specifiers)
   --dry-run            print the unit and do nothing else
   --no-start           install and enable, but do not start now
   -h, --help           this text
@@ -35,6 +36,8 @@ USAGE
 }
 
 die() { echo "install-service.sh: $*" >&2; exit 1; }
+# bash 5.2 reads '&' in the replacement of ${VAR//PATTERN/REPLACEMENT} as the matched text.
+shopt -u patsub_replacement 2>/dev/null || true
 
 CONFIG="" NAME=kumite KUMITE="$REPO/build/bin/kumite" DATA_DIR="" DISPLAY_VAR="${DISPLAY:-}"
 WATCHDOG=10 RESTART=2 ARGS="" DRY=0 START=1
@@ -55,6 +58,27 @@ while [[ $# -gt 0 ]]; do
   esac
 done
 
+# Every value goes into the unit file, one setting a line: a newline (or any other control
+# character) in one cannot be written there, so it is refused before anything else.
+refuse_controls() {  # refuse_controls WHAT VALUE
+  local LC_ALL=C
+  if [[ "$2" == *[[:cntrl:]]* ]]; then
+    die "$1 $(printf %q "$2"): a newline or other control character cannot be written into a systemd unit"
+  fi
+}
+# realpath, keeping a trailing newline that $(...) would drop (refused just after).
+resolve() {  # resolve [realpath options] PATH -> REPLY
+  local r
+  r=$(realpath "${@:1:$#-1}" -- "${!#}" && echo .) || return 1
+  REPLY=${r%$'\n.'}
+}
+refuse_controls "this checkout's path" "$REPO"
+refuse_controls --config "$CONFIG"
+refuse_controls --kumite "$KUMITE"
+refuse_controls --data-dir "$DATA_DIR"
+refuse_controls --display "$DISPLAY_VAR"
+refuse_controls --args "${ARGS//$'\t'/ }"   # tabs separate words like spaces
+
 [[ -n "$CONFIG" ]] || die "--config FILE is required (see --help)"
 [[ -f "$CONFIG" ]] || die "--config $CONFIG: no such file"
 [[ "$NAME" =~ ^[A-Za-z0-9_.@-]+$ ]] || die "--name $NAME: letters, digits, _ . @ - only"
@@ -64,23 +88,104 @@ seconds_in() {  # seconds_in VALUE MIN MAX: a decimal number of seconds within [
 if ! seconds_in "$WATCHDOG" 1 600; then die "--watchdog-sec $WATCHDOG: a number of seconds, 1..600"; fi
 if ! seconds_in "$RESTART" 0 600; then die "--restart-sec $RESTART: a number of seconds, 0..600"; fi
 [[ -x "$KUMITE" ]] || die "--kumite $KUMITE: not an executable (build first: scripts/setup.sh)"
-CONFIG=$(realpath "$CONFIG")
-KUMITE=$(realpath "$KUMITE")
-if [[ -n "$DATA_DIR" ]]; then DATA_DIR=$(realpath -m "$DATA_DIR"); fi
+resolve "$CONFIG"; CONFIG=$REPLY
+resolve "$KUMITE"; KUMITE=$REPLY
+if [[ -n "$DATA_DIR" ]]; then resolve -m "$DATA_DIR"; DATA_DIR=$REPLY; fi
+refuse_controls --config "$CONFIG"   # again: a symbolic link may lead to such a name
+refuse_controls --kumite "$KUMITE"
+refuse_controls --data-dir "$DATA_DIR"
+# systemd refuses an executable whose path has a quote or a backslash in it ("Executable name
+# contains special characters"), however it is quoted.
+if [[ "$KUMITE" == *[\"\'\\]* ]]; then
+  die "--kumite $KUMITE: systemd does not run an executable whose path has a quote (' or \") or a backslash in it"
+fi
+# WorkingDirectory= takes the path bare: a trailing space would be stripped and a trailing
+# backslash would join the next line to it.
+if [[ "$REPO" == *[[:space:]\\] ]]; then
+  die "this checkout's path $REPO ends in a space or a backslash: WorkingDirectory= cannot carry it"
+fi
 
-ENV_LINES=""
-[[ -n "$DATA_DIR" ]] && ENV_LINES+="Environment=KUMITE_DATA_DIR=$DATA_DIR"$'\n'
-[[ -n "$DISPLAY_VAR" ]] && ENV_LINES+="Environment=DISPLAY=$DISPLAY_VAR"$'\n'
 # The show draws the walls in windows on the projectors' X display. Without one, only a test
 # service makes sense (headless writes frames.jsonl without end: give --frames and --out).
 if [[ -z "$DISPLAY_VAR" && ! " $ARGS " =~ " --headless " ]]; then
   die "no display: give --display :0 (the projectors' X display), or for a test service --args \"--headless --frames N --out DIR\""
 fi
 
-UNIT=$(sed -e "s|@NAME@|$NAME|g" -e "s|@CONFIG@|$CONFIG|g" -e "s|@REPO@|$REPO|g" -e "s|@KUMITE@|$KUMITE|g" \
-           -e "s|@ARGS@|${ARGS:+ $ARGS}|g" -e "s|@WATCHDOG_SEC@|$WATCHDOG|g" -e "s|@RESTART_SEC@|$RESTART|g" \
-           config/systemd/kumite.service.in)
-UNIT=${UNIT//@ENVIRONMENT@/${ENV_LINES%$'\n'}}
+# Writing values the way systemd reads them back (systemd.syntax(7), systemd.service(5)): in
+# every setting used here '%' starts a specifier (written %%); ExecStart= splits its words on
+# whitespace and unquotes "..." with C escapes (\" and \\), and expands $VAR in the arguments
+# (written $$, but not in the executable's path); Environment= unquotes "KEY=value" the same
+# way but expands no variables. A word of only these characters needs none of it:
+PLAIN_WORD='^[A-Za-z0-9_./:,+=@-]+$'
+exec_word() {  # exec_word VALUE [exe] -> REPLY: one ExecStart= word giving back VALUE
+  local v=$1
+  if [[ "$v" =~ $PLAIN_WORD ]]; then REPLY=$v; return; fi
+  v=${v//\\/\\\\}; v=${v//\"/\\\"}; v=${v//%/%%}
+  [[ ${2:-} == exe ]] || v=${v//\$/\$\$}
+  REPLY="\"$v\""
+}
+env_word() {  # env_word KEY VALUE -> REPLY: one Environment= word setting KEY to VALUE
+  local v="$1=$2"
+  if [[ "$v" =~ $PLAIN_WORD ]]; then REPLY=$v; return; fi
+  v=${v//\\/\\\\}; v=${v//\"/\\\"}; v=${v//%/%%}
+  REPLY="\"$v\""
+}
+file_url_path() {  # file_url_path PATH -> REPLY: PATH percent-encoded for a file:// URL, as %%XX
+  local LC_ALL=C v=$1 c i hex
+  REPLY=""
+  for ((i = 0; i < ${#v}; i++)); do
+    c=${v:i:1}
+    if [[ "$c" == [A-Za-z0-9._~/-] ]]; then REPLY+=$c; else printf -v hex '%%%%%02X' "'$c"; REPLY+=$hex; fi
+  done
+}
+
+# --args: more kumite arguments, split on whitespace; each word reaches kumite as written
+# (quotes, backslashes, '%' and '$' in it are escaped, not read by systemd).
+read -r -a ARG_WORDS <<<"$ARGS"
+ARGS_EXEC=""
+for word in ${ARG_WORDS[@]+"${ARG_WORDS[@]}"}; do exec_word "$word"; ARGS_EXEC+=" $REPLY"; done
+
+ENV_LINES=()
+if [[ -n "$DATA_DIR" ]]; then env_word KUMITE_DATA_DIR "$DATA_DIR"; ENV_LINES+=("Environment=$REPLY"); fi
+if [[ -n "$DISPLAY_VAR" ]]; then env_word DISPLAY "$DISPLAY_VAR"; ENV_LINES+=("Environment=$REPLY"); fi
+ENVIRONMENT=$(IFS=$'\n'; printf '%s' "${ENV_LINES[*]-}")
+
+value_for() {  # value_for KEY SETTING -> REPLY: @KEY@'s value written for the setting it is in
+  local v
+  case "$1" in
+    NAME) REPLY=$NAME ;;
+    WATCHDOG_SEC) REPLY=$WATCHDOG ;;
+    RESTART_SEC) REPLY=$RESTART ;;
+    ARGS) REPLY=$ARGS_EXEC ;;
+    ENVIRONMENT) REPLY=$ENVIRONMENT ;;
+    CONFIG|REPO|KUMITE)
+      v=${!1}
+      case "$2" in
+        ExecStart) if [[ $1 == KUMITE ]]; then exec_word "$v" exe; else exec_word "$v"; fi ;;
+        Documentation) file_url_path "$v" ;;
+        '#') REPLY=$v ;;
+        *) REPLY=${v//%/%%} ;;   # Description=, WorkingDirectory=: the text as it is, but '%'
+      esac ;;
+    *) return 1 ;;
+  esac
+}
+fill_line() {  # fill_line LINE -> REPLY: the template's line with its @KEY@s filled in, in one pass
+  local rest=$1 out="" setting=${1%%=*} token
+  [[ "$1" == [\#\;]* ]] && setting='#'
+  while [[ "$rest" =~ @([A-Z_]+)@ ]]; do
+    token=${BASH_REMATCH[0]}
+    out+=${rest%%"$token"*}
+    rest=${rest#*"$token"}
+    if value_for "${BASH_REMATCH[1]}" "$setting"; then out+=$REPLY; else out+=${token%@}; rest="@$rest"; fi
+  done
+  REPLY=$out$rest
+}
+UNIT=""
+while IFS= read -r line || [[ -n "$line" ]]; do
+  fill_line "$line"
+  UNIT+=$REPLY$'\n'
+done <config/systemd/kumite.service.in
+UNIT=${UNIT%$'\n'}
 
 if [[ $DRY == 1 ]]; then
   printf '%s\n' "$UNIT"
