@@ -320,7 +320,7 @@ json RunMonitor::to_json(const Snapshot& s) const {
 
 void RunMonitor::write_report(const Snapshot& s) {
   try {
-    write_file_atomically(*options_.health_file, to_json(s).dump() + "\n");
+    write_file_atomically(*options_.health_file, to_json(s).dump(-1, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   } catch (const Error& e) {
     static std::atomic<int> warned{0};
     if (warned++ == 0) spdlog::warn("health report: {} (said once)", e.what());

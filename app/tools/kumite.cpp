@@ -72,6 +72,25 @@ std::optional<std::array<int, 2>> parse_resolution(const std::string& s) {
   return std::array<int, 2>{w, h};
 }
 
+/// A number of seconds, megabytes ... on the command line: finite and within [lo, hi] (CLI11's
+/// Range lets NaN through: neither below nor above).
+CLI::Validator finite_in(double lo, double hi) {
+  return CLI::Validator(
+      [lo, hi](std::string& s) -> std::string {
+        double v = 0;
+        std::size_t used = 0;
+        try {
+          v = std::stod(s, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (used == 0 || used != s.size()) return "\"" + s + "\" is not a number";
+        if (!(v >= lo && v <= hi)) return fmt::format("{} is not in [{}, {}]", s, lo, hi);
+        return {};
+      },
+      fmt::format("[{} - {}]", lo, hi));
+}
+
 /// Raises the calling thread's nice value by `n` (threads it starts later inherit it).
 void lower_render_priority(int n) {
   if (const auto nice = kumite::lower_this_thread_priority(n)) spdlog::debug("render thread: nice {}", *nice);
@@ -164,10 +183,19 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
   std::optional<std::filesystem::path> health_file;
   if (!a.health_file.empty()) health_file = a.health_file;
   else if (config.health.file) health_file = config.resolve(*config.health.file);
+  // A health report that cannot be written (its folder cannot be made: a file in the way, no
+  // permission) takes out the report alone: one error line, a console problem; the show runs.
+  std::vector<std::string> start_problems;
   if (health_file) {
     const std::string what = "health report " + health_file->string();
-    if (std::filesystem::is_directory(*health_file)) throw kumite::Error("io", "folder", what + ": is a folder, not a file");
-    kumite::app::make_output_folder(folder_of(health_file->string()).empty() ? "." : folder_of(health_file->string()), what);
+    try {
+      if (std::filesystem::is_directory(*health_file)) throw kumite::Error("io", "folder", what + ": is a folder, not a file");
+      kumite::app::make_output_folder(folder_of(health_file->string()).empty() ? "." : folder_of(health_file->string()), what);
+    } catch (const kumite::Error& e) {
+      start_problems.push_back(std::string("health report off: ") + e.what());
+      spdlog::error("{}", start_problems.back());
+      health_file.reset();
+    }
   }
   {
     std::vector<std::filesystem::path> folders;
@@ -189,6 +217,7 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
   kumite::app::InstallationOptions io;
   if (!a.orders.empty()) io.orders_script = a.orders;
   io.mono_eyes = config.stereo.mode == kumite::app::StereoMode::mono;
+  io.problems = start_problems;
   // A tracker that cannot start (missing recording, calibration, cameras) is not a stop: the
   // walls draw from the default head and the console says why. A tracking.toml that is there
   // but wrong (a bad value, nan or inf, a TOML error) is bad config like the installation
@@ -319,9 +348,12 @@ int run_replay(const Args& a, const std::atomic<int>& stop) {
                  rep.frames_replayed, rep.frames_recorded, rep.session_s, rep.wall_s);
     return 2;
   }
-  spdlog::info("replay: {} of {} recorded frames replayed, every state identical to the recording ({:.2f} s of session "
-               "in {:.2f} s: {:.0f}x real time)",
-               rep.frames_replayed, rep.frames_recorded, rep.session_s, rep.wall_s, speed);
+  spdlog::info("replay: {} of {} recorded frames replayed, {} ({:.2f} s of session in {:.2f} s: {:.0f}x real time)",
+               rep.frames_replayed, rep.frames_recorded,
+               rep.states_compared ? "every state identical to the recording"
+                                   : "every frame's state hashes identical to the recording (states not compared by "
+                                     "value: see the warnings)",
+               rep.session_s, rep.wall_s, speed);
   return rep.notes.empty() ? 0 : 2;
 }
 
@@ -334,14 +366,18 @@ int main(int argc, char** argv) {
   Args a;
   app.add_option("--config", a.config, "installation file (TOML)")->capture_default_str();
   app.add_flag("--headless", a.headless, "render off-screen (EGL) even with a display");
-  app.add_option("--frames", a.frames, "headless: frames to render")->capture_default_str();
+  app.add_option("--frames", a.frames, "headless: frames to render")
+      ->check(CLI::Range(1, std::numeric_limits<int>::max()))
+      ->capture_default_str();
   app.add_option("--out", a.out, "headless: output folder (PNGs, frames.jsonl)")->capture_default_str();
-  app.add_option("--save-every", a.save_every, "headless: PNGs every K-th frame and at each strike's hit or miss (0 = none)")->capture_default_str();
+  app.add_option("--save-every", a.save_every, "headless: PNGs every K-th frame and at each strike's hit or miss (0 = none)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   app.add_option("--orders", a.orders, "orders script (rows time_s,order); overrides the config's");
   app.add_option("--resolution", a.resolution, "headless: WIDTHxHEIGHT for every wall (overrides config)");
   app.add_option("--stereo", a.stereo, "override stereo mode: quad_buffer side_by_side top_bottom anaglyph mono");
   app.add_flag("--simulated-time", a.simulated, "headless: step time by 1/rate without waiting for real time");
-  app.add_option("--seconds", a.seconds, "windows: stop after this many seconds");
+  app.add_option("--seconds", a.seconds, "windows: stop after this many seconds")->check(finite_in(0.0, 1e9));
   app.add_flag("--no-console", a.no_console, "windows: no supervisor console window");
   app.add_option("--screenshot", a.screenshot, "windows: PNG of the first window at the end");
   app.add_option("--log", a.log, "windows: write frames.jsonl here");
@@ -350,12 +386,14 @@ int main(int argc, char** argv) {
                  "default $KUMITE_DATA_DIR, else the config's data_dir)");
   app.add_option("--render-nice", a.render_nice,
                  "nice value added to the render thread (and GL threads it starts), so tracking wins the cores; 0 = off")
+      ->check(CLI::Range(0, 19))
       ->capture_default_str();
-  app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->capture_default_str();
+  app.add_option("-v,--verbosity", a.verbosity, "0 warnings, 1 info, 2 debug")->check(CLI::Range(0, 2))->capture_default_str();
   app.add_option("--record", a.record,
                  "record the session into this folder: every frame's inputs and state hashes (kumite --replay)");
   app.add_option("--record-budget-mb", a.record_budget_mb,
-                 "MB a recording may take on disk, then it stops with a warning (default: [record] budget_mb, 2048)");
+                 "MB a recording may take on disk, then it stops with a warning (default: [record] budget_mb, 2048)")
+      ->check(finite_in(1e-3, 1e7));
   app.add_option("--replay", a.replay,
                  "re-run a recorded session from its inputs and check every frame against it; with --out, also draw "
                  "the replayed frames headless there (PNGs, frames.jsonl), from --from on, at most --frames of them");
@@ -371,8 +409,8 @@ int main(int argc, char** argv) {
   CLI::App* exp = app.add_subcommand(
       "export", "from a frames.jsonl: the fighter's performance as BVH on its character's skeleton, the head poses as CSV");
   exp->add_option("--log", a.export_log, "frames.jsonl of a run")->required();
-  exp->add_option("--from", a.export_from, "s, first time_s taken (default: the start)");
-  exp->add_option("--to", a.export_to, "s, last time_s taken (default: the end)");
+  exp->add_option("--from", a.export_from, "s, first time_s taken (default: the start)")->check(finite_in(0, 1e12));
+  exp->add_option("--to", a.export_to, "s, last time_s taken (default: the end)")->check(finite_in(0, 1e300));
   exp->add_option("--out", a.export_bvh, "BVH file of the fighter (characters from --config)");
   exp->add_option("--head-csv", a.export_head_csv, "CSV of the head poses: frame,time_s,x_m,y_m,z_m,qw,qx,qy,qz,live");
   exp->add_option("--config", a.config, "installation file the run used (its characters)");

@@ -549,9 +549,17 @@ void save_database(const Database& db, const std::filesystem::path& path) {
 }
 
 Database load_database(const std::filesystem::path& path) {
+  std::error_code ec;
+  if (std::filesystem::exists(path, ec) && !std::filesystem::is_regular_file(path, ec))
+    throw Error("database", "io", fmt::format("{}: is not a file (a folder?): not a motion database", path.string()));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("database", "io", fmt::format("{}: cannot open the motion database", path.string()));
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string bytes;
+  try {
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  } catch (const std::exception& e) {
+    throw Error("database", "io", fmt::format("{}: cannot read the motion database ({})", path.string(), e.what()));
+  }
   return parse_database(bytes, path.string());
 }
 

@@ -285,7 +285,31 @@ class FighterImpl final : public Fighter {
 
 std::unique_ptr<Fighter> Fighter::create(const FighterConfig& config, FighterOptions options) {
   auto db = std::make_shared<const Database>(load_database(config.database));
-  auto rigs = load_character_rigs(config);
+  std::vector<Rig> rigs;
+  if (!options.on_unreadable_character) {
+    rigs = load_character_rigs(config);
+  } else {
+    FighterConfig readable = config;  // the names of the characters kept, in step with their files
+    readable.characters.clear();
+    readable.character_names.clear();
+    readable.initial_character = 0;
+    for (std::size_t i = 0; i < config.characters.size(); ++i) {
+      try {
+        rigs.push_back(load_character_rig(config.characters[i].string()));
+      } catch (const Error& e) {
+        options.on_unreadable_character(i, e.what());
+        continue;
+      }
+      if (i < config.character_names.size() && !config.character_names[i].empty()) rigs.back().name = config.character_names[i];
+      if (static_cast<int>(i) == config.initial_character)
+        readable.initial_character = static_cast<int>(readable.characters.size());
+      readable.characters.push_back(config.characters[i]);
+      if (i < config.character_names.size()) readable.character_names.push_back(config.character_names[i]);
+    }
+    if (rigs.empty()) throw Error("fighter", "config", "fighter: none of its characters could be read");
+    options.on_unreadable_character = nullptr;  // called during create() alone
+    return std::make_unique<FighterImpl>(std::move(db), std::move(rigs), readable, std::move(options));
+  }
   if (rigs.empty()) throw Error("fighter", "config", "fighter: no characters configured");
   return std::make_unique<FighterImpl>(std::move(db), std::move(rigs), config, std::move(options));
 }

@@ -1,6 +1,7 @@
 // kumite-recognise: train the DTW strike recogniser, export the learned recogniser's training set,
 // run either over a poses.csv, evaluate both side by side across actors, and turn a BVH clip
 // into a mocap visitor's poses.csv. See recognition/README.md.
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -22,7 +23,15 @@ using namespace kumite;
 using namespace kumite::recognition;
 
 namespace {
-fs::path source_dir() { return KUMITE_SOURCE_DIR; }
+/// The checkout the tools were built in, found from where this tool is (build/bin/NAME -> the
+/// folder above build/), not from a path compiled in: a copied build/bin finds the files beside
+/// it, or nothing (then a default it needs is an error that says where it looked).
+fs::path source_dir() {
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec || exe.empty()) return fs::current_path(ec);
+  return exe.parent_path().parent_path().parent_path();
+}
 fs::path default_motions() { return source_dir() / "content" / "motions" / "motions.toml"; }
 fs::path default_model() { return source_dir() / "recognition" / "models" / "strikes.krec"; }
 fs::path default_learned_model() { return source_dir() / "recognition" / "models" / "strikes.klearn"; }
@@ -155,8 +164,20 @@ int main(int argc, char** argv) {
       std::cout << nlohmann::json{{"model", out_model.string()}, {"templates", j}, {"none_templates", nones}}.dump() << "\n";
     } else if (run->parsed()) {
       const bool learned = recogniser == "learned";
-      if (given_model.empty()) given_model = learned ? default_learned_model() : model_path;
+      if (given_model.empty()) {
+        given_model = learned ? default_learned_model() : model_path;
+        if (!fs::exists(given_model))
+          throw Error("cli", "model",
+                      fmt::format("run: no --model given and no shipped model beside the tools ({} does not exist): "
+                                  "give --model FILE",
+                                  given_model.string()));
+      }
+      std::cerr << "kumite-recognise run: model " << given_model.string() << "\n";
       const recognition::PosesFile pf = recognition::read_poses_csv(poses);
+      if (std::none_of(pf.samples.begin(), pf.samples.end(), [](const PoseSample& s) { return s.role == Role::head; }))
+        std::cerr << "kumite-recognise run: " << poses.string()
+                  << " has no row of a body named head: a limb is read relative to the head, so no strike can be "
+                     "recognised\n";
       std::vector<Event> ev;
       long loops = 0;
       auto feed = [&](auto& rec) {

@@ -244,7 +244,7 @@ TEST(Config, TrackingPlaybackSettingsOutOfRange) {
   const auto threads = error_of(kBase + "[tracking]\ndecode_threads = 0\n");
   EXPECT_NE(threads.find("bad.toml:25: tracking.decode_threads: must be 1..16"), std::string::npos) << threads;
   const auto preload = error_of(kBase + "[tracking]\nrecording_preload = -1\n");
-  EXPECT_NE(preload.find("bad.toml:25: tracking.recording_preload: must be >= 0"), std::string::npos) << preload;
+  EXPECT_NE(preload.find("bad.toml:25: tracking.recording_preload: must be in [0, 1000000] frame sets (found -1)"), std::string::npos) << preload;
   EXPECT_EQ(error_of(kBase + "[tracking]\nrealtime_priority = 10\ndecode_threads = 2\nrecording_preload = 480\n"), "");
 }
 
@@ -374,6 +374,47 @@ TEST(Config, NonFiniteNumbersAreRefusedWithLineAndKey) {
   // An element on a line of its own is named by its line.
   EXPECT_EQ(error_of(kBase + "[viewer]\ndefault_head_m = [\n  0,\n  nan,\n  0]\n"),
             "bad.toml:" + std::to_string(base_lines + 4) + ": viewer.default_head_m: must be a finite number");
+}
+
+// Every number has a range: a value that parses but makes no sense in a room (a negative
+// timeout, a radius of 1e308, a home outside where the fighter may walk, a head 1e308 m up,
+// corners in millimetres) is refused with its line and key, not played as if nothing were wrong.
+TEST(Config, EveryNumberHasARange) {
+  const int app = static_cast<int>(std::count(kBase.begin(), kBase.end(), '\n')) + 2;
+  struct Case {
+    std::string text, key, words;
+    int line;
+  };
+  const std::vector<Case> cases = {
+      {"[tracking]\nlost_after_s = -0.25", "tracking.lost_after_s", "must be in [0.01, 10] s (found -0.25)", app},
+      {"[tracking]\nlost_after_s = 0", "tracking.lost_after_s", "must be in [0.01, 10] s", app},
+      {"[fighter]\nstrike_distance_m = -0.9", "fighter.strike_distance_m", "must be in [0.3, 3] m (found -0.9)", app},
+      {"[fighter]\nhit_radius_m = 1e308", "fighter.hit_radius_m", "must be in [0.01, 1] m (found 1e+308)", app},
+      {"[fighter]\nhome_m = [0, 0, -1e30]", "fighter.home_m", "within +-100 m of the room's origin", app},
+      {"[fighter]\nhome_m = [0, 0, -1.0]", "fighter.home_m", "lies outside where the fighter may walk", app},
+      {"[fighter]\nhome_m = [0, 1.2, -2.5]", "fighter.home_m", "m high (on the floor)", app},
+      {"[fighter]\nx_limits_m = [-1e9, 1]", "fighter.x_limits_m", "must be in [-100, 100] m", app},
+      {"[viewer]\ndefault_head_m = [0, 1e308, 0]", "viewer.default_head_m", "within +-100 m", app},
+      {"[viewer]\ndefault_head_m = [0, 0.1, 0]", "viewer.default_head_m", "m high (a standing visitor's eyes)", app},
+      {"[projection]\nfar_m = 1e9", "projection.far_m", "must be in [1, 10000] m", app},
+      {"[tracking]\nrecording_preload = 100000000", "tracking.recording_preload", "must be in [0, 1000000]", app},
+  };
+  for (const auto& c : cases) {
+    std::string code;
+    const std::string msg = error_of(kBase + c.text + "\n", &code);
+    EXPECT_EQ(msg.rfind("bad.toml:" + std::to_string(c.line) + ": " + c.key + ": ", 0), 0u) << c.text << " -> " << msg;
+    EXPECT_NE(msg.find(c.words), std::string::npos) << c.text << " -> " << msg;
+    EXPECT_EQ(code, "range") << c.text;
+  }
+  // Corners in millimetres: named by the wall's key.
+  const std::string mm = replace(kBase, "lower_left = [-1.5, 0.0, -1.5]", "lower_left = [-1500, 0.0, -1.5]");
+  EXPECT_NE(error_of(mm).find("bad.toml:8: walls[0].lower_left: [-1500, 0, -1.5]: each coordinate must be within"),
+            std::string::npos)
+      << error_of(mm);
+  // The values a site uses are fine.
+  EXPECT_EQ(error_of(kBase + "[tracking]\nlost_after_s = 0.5\n[fighter]\nhome_m = [0.5, 0, -3]\nstrike_distance_m = "
+                             "1.1\nhit_radius_m = 0.2\n[viewer]\ndefault_head_m = [0, 1.55, 0.3]\n"),
+            "");
 }
 
 // Issue 13: the fighter's tunables live in the installation file, checked like every key, and

@@ -123,8 +123,12 @@ TEST(RecordingClock, ASlowConsumerGetsTheNewestSetAndDropsAreCounted) {
     EXPECT_GE(frames[i] - frames[i - 1], 2u);
     EXPECT_NEAR(grid_steps(stamps[i - 1], stamps[i]), static_cast<double>(frames[i] - frames[i - 1]), 1e-3);  // frames.csv keeps µs
   }
-  EXPECT_GT(counters->dropped_stale.load(), 0u);
+  // Every set that came due between the first set handed over and the last is counted: handed
+  // over, dropped for a newer one (the consumer behind), or skipped undecoded (the decoder
+  // behind: a loaded machine, where the decode thread yields to everything else). Which of the
+  // two counts a set depends on the load; that each is counted does not.
   EXPECT_EQ(counters->delivered.load(), 6u);
+  EXPECT_GE(counters->dropped_stale.load() + counters->not_decoded.load(), frames.back() - frames.front() + 1 - 6);
 }
 
 TEST(RecordingClock, PreloadedSetsLoopFromMemory) {

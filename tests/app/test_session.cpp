@@ -182,6 +182,20 @@ TEST(Session, ARecordedSessionReplaysBitForBit) {
     EXPECT_NE(k.notes[1].find("session.jsonl:181: the last line is cut short"), std::string::npos) << k.notes[1];
   }
 
+  // The frames' states recorded, then lost (states.bin deleted): the hashes still match, but
+  // the replay says the file is missing and does not claim the states were compared.
+  {
+    EXPECT_TRUE(replay_session(tmp.path / "s").states_compared);
+    copy_session(tmp.path / "s", tmp.path / "nostates");
+    fs::remove(tmp.path / "nostates/states.bin");
+    const ReplayReport n = replay_session(tmp.path / "nostates");
+    EXPECT_TRUE(n.identical);
+    EXPECT_FALSE(n.states_compared);
+    ASSERT_EQ(n.notes.size(), 1u);
+    EXPECT_NE(n.notes[0].find("states.bin: missing (manifest.json says the session recorded it)"), std::string::npos)
+        << n.notes[0];
+  }
+
   // A dropped frame: the replay stops before the gap and says which frames are missing.
   {
     const std::string s = read(tmp.path / "s/session.jsonl");

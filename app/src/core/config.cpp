@@ -506,7 +506,64 @@ std::string check_wall_geometry(const WallConfig& w) {
   return {};
 }
 
+namespace {
+/// Every number of the file has a range: `key` (its file line) fails with it otherwise. NaN
+/// fails too (the reader refuses it first; a config built in code meets it here).
+void in_range(const InstallationConfig& c, const std::string& key, double v, double lo, double hi, std::string_view unit) {
+  if (!(v >= lo && v <= hi))
+    fail_at(c, "range", key, fmt::format("must be in [{}, {}]{}{} (found {})", lo, hi, unit.empty() ? "" : " ", unit, v));
+}
+/// The room's extent a position may lie in (m, each coordinate): no CAVE is 100 m across; a
+/// value beyond it is a unit mistake (millimetres) or a typo.
+constexpr double kRoomExtentM = 100.0;
+void in_room(const InstallationConfig& c, const std::string& key, const Vec3& v) {
+  for (int k = 0; k < 3; ++k)
+    if (!(std::abs(v[static_cast<std::size_t>(k)]) <= kRoomExtentM))
+      fail_at(c, "range", key,
+              fmt::format("[{}, {}, {}]: each coordinate must be within +-{} m of the room's origin (millimetres "
+                          "instead of metres?)",
+                          v[0], v[1], v[2], kRoomExtentM));
+}
+/// The ranges of the numbers validate() does not check with a relation of their own.
+void validate_ranges(const InstallationConfig& c) {
+  for (std::size_t i = 0; i < c.walls.size(); ++i) {
+    const auto& w = c.walls[i];
+    const std::string p = fmt::format("walls[{}]", i);
+    in_room(c, p + ".lower_left", w.lower_left);
+    in_room(c, p + ".lower_right", w.lower_right);
+    in_room(c, p + ".upper_left", w.upper_left);
+    if (w.upper_right) in_room(c, p + ".upper_right", *w.upper_right);
+  }
+  for (std::size_t i = 0; i < c.windows.size(); ++i) {
+    const auto& w = c.windows[i];
+    const std::string p = fmt::format("windows[{}]", i);
+    for (int k = 0; k < 2; ++k) {
+      in_range(c, p + ".size", w.size[static_cast<std::size_t>(k)], 1, 16384, "px");
+      in_range(c, p + ".position", w.position[static_cast<std::size_t>(k)], -32768, 32767, "px");
+    }
+    in_range(c, p + ".monitor", w.monitor, 0, 64, "");
+  }
+  const auto& v = c.viewer;
+  in_room(c, "viewer.default_head_m", v.default_head_m);
+  in_range(c, "viewer.default_head_m", v.default_head_m[1], 0.5, 2.5, "m high (a standing visitor's eyes)");
+  in_range(c, "projection.near_m", c.projection.near_m, 1e-3, 1, "m");
+  in_range(c, "projection.far_m", c.projection.far_m, 1, 1e4, "m");
+  const auto& f = c.fighter;
+  in_range(c, "fighter.strike_distance_m", f.strike_distance_m, 0.3, 3, "m");
+  in_range(c, "fighter.hit_radius_m", f.hit_radius_m, 0.01, 1, "m");
+  for (const auto& [key, lim] : {std::pair{"fighter.x_limits_m", f.x_limits_m}, std::pair{"fighter.z_limits_m", f.z_limits_m}})
+    for (const double x : lim) in_range(c, key, x, -kRoomExtentM, kRoomExtentM, "m");
+  in_room(c, "fighter.home_m", f.home_m);
+  in_range(c, "fighter.home_m", f.home_m[1], -0.5, 0.5, "m high (on the floor)");
+  const auto& t = c.tracking;
+  in_range(c, "tracking.lost_after_s", t.lost_after_s, 0.01, 10, "s");
+  in_range(c, "tracking.recording_preload", t.recording_preload, 0, 1e6, "frame sets");
+  if (t.head_body) in_range(c, "tracking.head_body", *t.head_body, 0, 1024, "");
+}
+}  // namespace
+
 void validate(const InstallationConfig& c) {
+  validate_ranges(c);
   if (!(c.display_rate_hz > 0 && c.display_rate_hz <= 1000))
     fail_at(c, "range", "display_rate_hz", "must be in (0, 1000] Hz");
   if (!(c.record_budget_mb > 0 && c.record_budget_mb <= 1e7))
@@ -598,6 +655,12 @@ void validate(const InstallationConfig& c) {
     fail_at(c, "range", "fighter.x_limits_m", "need min < max");
   if (c.fighter.z_limits_m[0] >= c.fighter.z_limits_m[1])
     fail_at(c, "range", "fighter.z_limits_m", "need min < max");
+  if (const auto& f = c.fighter; !(f.home_m[0] >= f.x_limits_m[0] && f.home_m[0] <= f.x_limits_m[1] &&
+                                    f.home_m[2] >= f.z_limits_m[0] && f.home_m[2] <= f.z_limits_m[1]))
+    fail_at(c, "range", "fighter.home_m",
+            fmt::format("[{}, {}, {}] lies outside where the fighter may walk (x_limits_m [{}, {}], z_limits_m [{}, {}])",
+                        f.home_m[0], f.home_m[1], f.home_m[2], f.x_limits_m[0], f.x_limits_m[1], f.z_limits_m[0],
+                        f.z_limits_m[1]));
   const auto& t = c.tracking;
   if (t.source == TrackingSource::recording || t.source == TrackingSource::live) {
     if (t.calibration.empty())

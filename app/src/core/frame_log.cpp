@@ -122,7 +122,9 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
                   {"frame_cpu_ms", c.frame_cpu_ms},
                   {"late_latch", c.late_latch},
                   {"draw_budget_ms", c.draw_budget_ms >= 0 ? json(c.draw_budget_ms) : json(nullptr)}};
-  return j.dump();
+  // Text from files (a problem quoting a damaged file's bytes) may not be UTF-8: such bytes
+  // are written as U+FFFD rather than ending the run (nlohmann throws on them by default).
+  return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 FrameLog::FrameLog(std::filesystem::path path, std::uint64_t budget_bytes) : path_(std::move(path)), budget_(budget_bytes) {

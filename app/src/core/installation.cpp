@@ -167,22 +167,47 @@ std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why) {
 
 Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingInput> tracking,
                            const InstallationOptions& options)
-    : config_(std::move(config)), tracking_(std::move(tracking)), pacer_(config_.late_latch),
-      mono_(options.mono_eyes) {
+    : config_(std::move(config)), tracking_(std::move(tracking)), start_problems_(options.problems),
+      pacer_(config_.late_latch), mono_(options.mono_eyes) {
   for (const auto& w : config_.walls) walls_.push_back(wall_frame(w));
   last_good_head_.position = to_glm(config_.viewer.default_head_m);
   frame_.head = last_good_head_;
   if (!tracking_) tracking_ = make_fixed_head_input("tracking.source = \"none\"");
-  // A bad orders script is the operator's mistake at start-up: say so and stop.
+  // An orders script that cannot be read (missing, unreadable, a bad row) takes out the
+  // scripted orders alone: one error line naming its file and line, a console problem; the
+  // supervisor's keys, the walls and the fighter go on.
   std::optional<std::filesystem::path> script = options.orders_script;
   if (!script && config_.orders_script) script = config_.resolve(*config_.orders_script);
-  if (script) script_ = OrderScript(load_orders_script(*script), 0);
+  if (script) {
+    try {
+      script_ = OrderScript(load_orders_script(*script), 0);
+    } catch (const Error& e) {
+      script_problem_ = std::string("orders script off: ") + e.what();
+      spdlog::error("{}", script_problem_);
+    }
+  }
   // A missing database or character is not: the walls still draw, the console says why.
   try {
     std::vector<int> loaded;
     missing_characters_ = check_fighter_files(config_, loaded);
     for (const auto& m : missing_characters_) spdlog::error("{}", m);
-    fighter_ = content::Fighter::create(fighter_config(config_, loaded));
+    // A character file that is there but cannot be read (cut, damaged) leaves that character
+    // out, as a missing one does: the others fight.
+    content::FighterOptions fo;
+    std::vector<std::size_t> unreadable;  // indices into `loaded`
+    fo.on_unreadable_character = [&](std::size_t k, const std::string& why) {
+      const int i = loaded[k];
+      missing_characters_.push_back(file_error("config", "character", config_.file.string(),
+                                               config_.line_of(fmt::format("characters[{}].bvh", i)),
+                                               fmt::format("characters[{}].bvh", i),
+                                               fmt::format("character {} \"{}\" left out: {}", i + 1,
+                                                           config_.characters[static_cast<std::size_t>(i)].name, why))
+                                        .what());
+      spdlog::error("{}", missing_characters_.back());
+      unreadable.push_back(k);
+    };
+    fighter_ = content::Fighter::create(fighter_config(config_, loaded), std::move(fo));
+    for (auto k = unreadable.rbegin(); k != unreadable.rend(); ++k) loaded.erase(loaded.begin() + static_cast<std::ptrdiff_t>(*k));
     fighter_of_config_.assign(config_.characters.size(), -1);
     for (std::size_t k = 0; k < loaded.size(); ++k) {
       fighter_of_config_[static_cast<std::size_t>(loaded[k])] = static_cast<int>(k);
@@ -679,6 +704,9 @@ std::vector<std::string> Installation::problems() const {
   if (script_waited_s_)
     p.push_back(fmt::format("orders script waits for the head to be tracked ({:.0f} s of at most {:.0f} s)",
                             *script_waited_s_, kScriptWaitForHead_s));
+  for (const auto& f : tracking_->faults()) p.push_back(f);
+  if (!script_problem_.empty()) p.push_back(script_problem_);
+  p.insert(p.end(), start_problems_.begin(), start_problems_.end());
   if (!fighter_) p.push_back(fighter_problem_);
   if (fighter_)
     for (const auto& m : missing_characters_) p.push_back(m);

@@ -607,7 +607,7 @@ void SessionRecorder::run() {
       }
       const bool is_start = item.start.has_value();  // read before the slot is given back
       tail_.store(t + 1, std::memory_order_release);  // the slot is read: the frame loop may reuse it
-      text = j.dump();
+      text = j.dump(-1, ' ', false, json::error_handler_t::replace);
       text += '\n';
       if (!error_.empty() || budget_reached_.load(std::memory_order_relaxed)) continue;
       const std::size_t state_bytes = is_start ? 0 : state_record_.size() + (states_fd_ < 0 ? kFrameStatesHeader.size() : 0);
@@ -722,7 +722,7 @@ void SessionRecorder::write_manifest(bool complete) {
     m["session_fnv"] = hex(checksum_);
     if (state_bytes_.load() > 0) m["frame_states"] = {{"file", "states.bin"}, {"bytes", state_bytes_.load()}};
   }
-  write_file_atomically(dir_ / "manifest.json", m.dump(2) + "\n");
+  write_file_atomically(dir_ / "manifest.json", m.dump(2, ' ', false, json::error_handler_t::replace) + "\n");
 }
 
 void SessionRecorder::close() {
@@ -1075,7 +1075,13 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
     } catch (const std::exception& e) {
       rep.notes.push_back(fmt::format("{}: the frames are checked by their hashes alone", e.what()));
     }
+  } else if (m.contains("frame_states")) {
+    // Recorded, then lost (deleted, not copied with the rest): said, never taken for a match.
+    rep.notes.push_back(fmt::format("{}: missing (manifest.json says the session recorded it): the frames are checked "
+                                    "by their hashes alone",
+                                    path.string()));
   }
+  rep.states_compared = states != nullptr;
   // The recorded state of `frame` (nullptr: none, said once).
   const auto recorded_state = [&](std::uint64_t frame) -> FrameData* {
     if (!states) return nullptr;
@@ -1089,6 +1095,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
             : fmt::format("{}: ends before frame {}: later frames are checked by their hashes alone",
                           (dir / "states.bin").string(), frame));
     states.reset();
+    rep.states_compared = false;
     return nullptr;
   };
 

@@ -67,8 +67,9 @@ class TrackerInput final : public TrackingInput {
  public:
   TrackerInput(const InstallationConfig& c, tracking::RigCalibration rig,
                tracking::TrackingConfig tc, std::unique_ptr<tracking::FrameSource> source,
-               std::unique_ptr<StrikeRecognition> recognition)
-      : preload_(c.tracking.recording_preload), recognition_(std::move(recognition)), tracker_(rig, tc),
+               std::unique_ptr<StrikeRecognition> recognition, std::string recognition_fault)
+      : preload_(c.tracking.recording_preload), recognition_(std::move(recognition)),
+        recognition_fault_(std::move(recognition_fault)), tracker_(rig, tc),
         head_(head_body_index(c, tc)), source_(c.tracking.source) {
     tracker_.set_realtime_priority(c.tracking.realtime_priority);
     // Every filtered pose of the bodies named by a role goes to the recognition thread, on
@@ -162,6 +163,9 @@ class TrackerInput final : public TrackingInput {
     sink_ = recorder;
   }
   bool loading() const override { return counters_ && !counters_->playing.load(); }
+  std::vector<std::string> faults() const override {
+    return recognition_fault_.empty() ? std::vector<std::string>{} : std::vector<std::string>{recognition_fault_};
+  }
   std::string describe() const override { return what_; }
   const std::vector<std::string>& camera_names() const override { return names_; }
   PoseTiming pose_timing(Timestamp t) override { return timing_of(pose_clock_, tracker_.latest(head_), t); }
@@ -205,6 +209,7 @@ class TrackerInput final : public TrackingInput {
   PoseClock pose_clock_;  // when the next pose should be out (late latching)
   int preload_ = 0;
   std::unique_ptr<StrikeRecognition> recognition_;  // before tracker_: destroyed after its thread stopped
+  std::string recognition_fault_;  // why recognition is off ("": it is not, or was not asked for)
   TrackerReading reading_;
   Timestamp rate_t0_ = -1;
   std::array<std::uint64_t, 3> rate_n0_{0, 0, 0};
@@ -224,8 +229,10 @@ class TrackerInput final : public TrackingInput {
 /// velocity from the row before, at most 0.1 s ahead), as the tracker predicts its filter.
 class PosesInput final : public TrackingInput {
  public:
-  PosesInput(const InstallationConfig& c, recognition::PosesFile file, std::unique_ptr<StrikeRecognition> rec)
-      : file_(std::move(file)), loop_(c.tracking.poses_loop), recognition_(std::move(rec)) {
+  PosesInput(const InstallationConfig& c, recognition::PosesFile file, std::unique_ptr<StrikeRecognition> rec,
+             std::string recognition_fault)
+      : file_(std::move(file)), loop_(c.tracking.poses_loop), recognition_(std::move(rec)),
+        recognition_fault_(std::move(recognition_fault)) {
     std::size_t heads = 0;
     for (const auto& smp : file_.samples) heads += smp.role == recognition::Role::head ? 1 : 0;
     const double span = file_.samples.empty() ? 0.0 : file_.samples.back().t - file_.samples.front().t;
@@ -287,6 +294,9 @@ class PosesInput final : public TrackingInput {
   }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return what_; }
+  std::vector<std::string> faults() const override {
+    return recognition_fault_.empty() ? std::vector<std::string>{} : std::vector<std::string>{recognition_fault_};
+  }
   PoseTiming pose_timing(Timestamp t) override {
     const auto h = head_.read();
     return timing_of(pose_clock_, h ? std::optional<BodyPose>(h->last) : std::nullopt, t);
@@ -365,6 +375,7 @@ class PosesInput final : public TrackingInput {
   recognition::PosesFile file_;
   bool loop_ = true;
   std::unique_ptr<StrikeRecognition> recognition_;
+  std::string recognition_fault_;
   LatestValue<Head> head_;
   std::atomic<std::uint64_t> frame_sets_{0};
   std::atomic<bool> ended_{false};
@@ -376,8 +387,10 @@ class PosesInput final : public TrackingInput {
   std::thread thread_;  // last: started once everything above is made
 };
 
-/// The recognition thread [recognition] asks for (nullptr: none).
-std::unique_ptr<StrikeRecognition> make_recognition(const InstallationConfig& c) {
+/// The recognition thread [recognition] asks for (nullptr: none). A model that cannot be read
+/// (missing, cut, damaged) takes out recognition alone: one error line, and `fault` says so
+/// for the console and the health report; the tracker starts as ever.
+std::unique_ptr<StrikeRecognition> make_recognition(const InstallationConfig& c, std::string& fault) {
   if (c.recognition.model.empty()) return nullptr;
   if (c.tracking.source == TrackingSource::none) {
     spdlog::warn("recognition: {}: recognition.model is set but tracking.source = \"none\": no pose to recognise",
@@ -385,8 +398,14 @@ std::unique_ptr<StrikeRecognition> make_recognition(const InstallationConfig& c)
     return nullptr;
   }
   const auto path = c.resolve(c.recognition.model);
-  auto model = at_key(c, "recognition.model", [&] { return recognition::read_model(path); });
-  return std::make_unique<StrikeRecognition>(std::move(model), path.string());
+  try {
+    auto model = at_key(c, "recognition.model", [&] { return recognition::read_model(path); });
+    return std::make_unique<StrikeRecognition>(std::move(model), path.string());
+  } catch (const Error& e) {
+    fault = std::string("strike recognition off: ") + e.what();
+    spdlog::error("{}", fault);
+    return nullptr;
+  }
 }
 
 }  // namespace
@@ -499,21 +518,27 @@ std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& con
   if (config.tracking.source == TrackingSource::poses) {
     auto file = at_key(config, "tracking.poses",
                        [&] { return recognition::read_poses_csv(config.resolve(config.tracking.poses)); });
-    return std::make_unique<PosesInput>(config, std::move(file), make_recognition(config));
+    std::string fault;
+    auto rec = make_recognition(config, fault);
+    return std::make_unique<PosesInput>(config, std::move(file), std::move(rec), std::move(fault));
   }
   auto rig = at_key(config, "tracking.calibration",
                     [&] { return tracking::read_calibration(config.resolve(config.tracking.calibration)); });
   auto tc = at_key(config, "tracking.tracking",
                    [&] { return tracking::read_tracking_config(config.resolve(config.tracking.tracking)); });
-  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), nullptr, make_recognition(config));
+  std::string fault;
+  auto rec = make_recognition(config, fault);
+  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), nullptr, std::move(rec), std::move(fault));
 }
 
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config,
                                                    std::unique_ptr<tracking::FrameSource> source) {
   auto rig = tracking::read_calibration(config.resolve(config.tracking.calibration));
   auto tc = tracking::read_tracking_config(config.resolve(config.tracking.tracking));
-  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), std::move(source),
-                                        make_recognition(config));
+  std::string fault;
+  auto rec = make_recognition(config, fault);
+  return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), std::move(source), std::move(rec),
+                                        std::move(fault));
 }
 
 }  // namespace kumite::app

@@ -8,11 +8,12 @@
 // to the frame's vsync plus display_latency_ms), console {...}.
 //
 // A log, not a document: it is written under its final name from the first frame on, one
-// write(2) per line, so at any moment (`tail -f`, a run stopped by SIGINT/SIGTERM, or one
-// killed with SIGKILL) the file holds every frame logged so far as complete lines. A line is
-// handed to the kernel whole at the end of its frame; only a power cut or a full disk can
-// leave the last line short (close() syncs to disk and reports a failed write). A previous
-// run's file of the same name is replaced when the log opens.
+// write(2) per line, so at any moment (`tail -f`, a run stopped by SIGINT/SIGTERM) the file
+// holds every frame logged so far as complete lines. A process killed by SIGKILL (or a crash)
+// mid-write may leave its last line cut (a fatal signal can end a long write(2) part-way), as
+// can a power cut or a full disk: every reader leaves a cut last line out and says so
+// (export_log). close() syncs to disk and reports a failed write. A previous run's file of the
+// same name is replaced when the log opens.
 //
 // Bounded: with a budget (`[log] frames_budget_mb`), when the file would grow past half of it,
 // it is renamed to frames.1.jsonl (replacing the one before) and a new frames.jsonl begins, so

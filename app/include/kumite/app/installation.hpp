@@ -112,6 +112,9 @@ class TrackingInput {
   virtual bool has_tracker() const { return true; }
   /// True while the source is still loading (a recording's preload): the show is not up yet.
   virtual bool loading() const { return false; }
+  /// What of the tracking side could not start and stays off, one line each (a recognition
+  /// model that is missing or damaged: recognition off, the head tracked as ever).
+  virtual std::vector<std::string> faults() const { return {}; }
   /// Hands every camera frame set the tracker gets from now on to `recorder` (nullptr: stop;
   /// returns once no set is being handed over). Sources without cameras ignore it.
   virtual void record_frame_sets(SessionRecorder* /*recorder*/) {}
@@ -304,12 +307,15 @@ class SessionRecorder;
 struct InstallationOptions {
   std::optional<std::filesystem::path> orders_script;  ///< overrides the config's
   bool mono_eyes = false;  ///< mono stereo: both eyes at the midpoint
+  /// What the caller could not start and left off (the health report), one line each: shown
+  /// with the installation's own problems for the whole run.
+  std::vector<std::string> problems;
 };
 
 class Installation {
  public:
   /// Builds the fighter (a missing database or character becomes a console problem, not a
-  /// stop) and reads the orders script (a bad script is an error: it names file and line).
+  /// stop) and reads the orders script (a bad one is off: a console problem naming file and line).
   Installation(InstallationConfig config, std::unique_ptr<TrackingInput> tracking,
                const InstallationOptions& options);
   ~Installation();
@@ -413,6 +419,8 @@ class Installation {
   /// Per fighter character, its skeleton for FighterPose (made at the first frame it is drawn).
   std::vector<std::shared_ptr<const FighterSkeleton>> skeletons_;
   OrderScript script_;
+  std::string script_problem_;  ///< why the orders script is off ("": it is not)
+  std::vector<std::string> start_problems_;  ///< InstallationOptions::problems
   std::vector<Order> pending_;
   std::vector<Order> due_;
   FrameData frame_;

@@ -262,6 +262,9 @@ struct ReplayReport {
   /// naming the field and both values ("fighter.joints[LeftHand]: recorded ..., now ...");
   /// "" when the session has no states (version 2) or the frames are identical.
   std::string first_difference_detail;
+  /// Every replayed frame was compared by value with its recorded state (states.bin); false:
+  /// by the state hashes alone (a session without states.bin, or one cut or lost: notes say).
+  bool states_compared = false;
   std::optional<std::uint64_t> from_frame;  ///< the first frame at or after ReplayOptions::from
   /// ReplayOptions::stop_requested ended the replay after this frame (the frames up to it
   /// were compared; the rest not replayed).

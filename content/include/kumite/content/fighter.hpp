@@ -149,6 +149,10 @@ struct FighterOptions {
   std::function<StrikePlan(const StrikePlanner& planner, const StrikeRequest& request)> plan;
   /// Runs a rate job on the worker thread instead of solver.solve(job) (tests: a slow solver).
   std::function<StrikeRateResult(StrikeRateSolver& solver, const StrikeRateJob& job)> rate;
+  /// Set: a character whose file cannot be read (cut, damaged) is left out of the fighter and
+  /// reported here (its index in FighterConfig::characters, the error's line), and the others
+  /// fight; the fighter's characters are then the readable ones, in order. Unset: it throws.
+  std::function<void(std::size_t character, const std::string& why)> on_unreadable_character;
 };
 
 class Fighter {
