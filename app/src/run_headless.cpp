@@ -119,10 +119,11 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
     // time). Simulated: exact steps of 1/rate, as fast as rendering goes.
     Timestamp t = t0 + i * step;
     Timestamp shown = t;  // simulated: the frame is its own moment
-    // Simulated time never runs ahead of a tracker: its poses are stamped on the real clock,
-    // so frames faster than the display rate would find every pose too old (the head "lost"
-    // for a whole fast run). Slower than real time it stays as fast as rendering goes.
-    if (!opt.real_time && inst.has_tracker()) sleep_until(t);
+    // Simulated time: a poses file or a camera recording follows the frames' clock (the
+    // tracking input hands over what is due by t), so frames go as fast as rendering goes.
+    // Live cameras stamp their poses on the real clock: with them simulated time never runs
+    // ahead of it (frames faster than the display rate would find every pose too old).
+    if (!opt.real_time && inst.has_tracker() && !inst.tracking_follows_frames()) sleep_until(t);
     if (opt.real_time) {
       // Late latching (config late_latch) as in windows: the frame's pose just after the
       // tracker's next one is out, when this frame's work still fits before the next tick,

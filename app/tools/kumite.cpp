@@ -224,7 +224,9 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
   // file's, and stops start-up with its file, line and key.
   std::unique_ptr<kumite::app::TrackingInput> tracking;
   try {
-    tracking = kumite::app::make_tracking_input(config);
+    kumite::app::TrackingInputOptions to;
+    to.simulated_clock = headless && a.simulated;
+    tracking = kumite::app::make_tracking_input(config, to);
   } catch (const kumite::Error& e) {
     if (e.component() == "config" && e.code() != "missing") throw;
     spdlog::error("tracking unavailable: {}", e.what());

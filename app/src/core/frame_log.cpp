@@ -94,7 +94,8 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
       const VisitorStrike& st = e.strike;
       ev["strike"] = {{"type", recognition::to_string(st.type)}, {"limb", recognition::to_string(st.limb)},
                       {"action", recognition::to_string(st.action)}, {"progress", st.progress},
-                      {"confidence", st.confidence}, {"impact", st.impact}, {"t", st.t},
+                      {"confidence", st.confidence}, {"impact", st.impact},
+                      {"t", st.t - (f.now - f.time_s)},  // s since the run's start, as time_s
                       {"decided_ms", st.decided_at >= 0 ? json((st.decided_at - st.t) * 1e3) : json(nullptr)}};
     }
     events.push_back(ev);

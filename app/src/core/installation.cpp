@@ -724,6 +724,7 @@ std::vector<std::string> Installation::problems() const {
 }
 
 bool Installation::has_tracker() const { return tracking_->has_tracker(); }
+bool Installation::tracking_follows_frames() const { return tracking_->follows_simulated_clock(); }
 bool Installation::tracking_loading() const { return tracking_->loading(); }
 
 bool Installation::quit_key(Timestamp now) {

@@ -63,6 +63,34 @@ PoseTiming timing_of(PoseClock& clock, const std::optional<BodyPose>& newest, Ti
   return p;
 }
 
+/// Every filtered pose of the bodies `tc` names by a role goes to `recognition` as the tracker
+/// finishes each frame set (on the tracker's thread, or the caller's for process(); a
+/// lock-free push: never waits).
+void feed_recognition(tracking::Tracker& tracker, const InstallationConfig& c, const tracking::TrackingConfig& tc,
+                      StrikeRecognition* recognition) {
+  std::vector<std::pair<int, recognition::Role>> roles;
+  for (std::size_t b = 0; b < tc.bodies.size(); ++b)
+    if (const auto r = recognition::role_from_string(tc.bodies[b].name)) roles.emplace_back(static_cast<int>(b), *r);
+  if (std::none_of(roles.begin(), roles.end(), [](const auto& r) { return r.second != recognition::Role::head; }))
+    spdlog::warn("recognition: {} names no glove or shoe body (left_hand, right_hand, left_foot, right_foot): "
+                 "no strike can be recognised",
+                 c.resolve(c.tracking.tracking).string());
+  tracker.on_frame([recognition, roles](const tracking::FrameResult& r) {
+    for (const auto& [b, role] : roles) {
+      if (b >= static_cast<int>(r.filtered.size())) continue;
+      const BodyPose& p = r.filtered[static_cast<std::size_t>(b)];
+      recognition::PoseSample s;
+      s.t = r.timestamp;
+      s.role = role;
+      s.position = p.position;
+      s.orientation = p.orientation;
+      s.tracked = p.status != TrackingStatus::lost;
+      recognition->push(s);
+    }
+    recognition->end_of_set(r.timestamp);
+  });
+}
+
 class TrackerInput final : public TrackingInput {
  public:
   TrackerInput(const InstallationConfig& c, tracking::RigCalibration rig,
@@ -72,32 +100,7 @@ class TrackerInput final : public TrackingInput {
         recognition_fault_(std::move(recognition_fault)), tracker_(rig, tc),
         head_(head_body_index(c, tc)), source_(c.tracking.source) {
     tracker_.set_realtime_priority(c.tracking.realtime_priority);
-    // Every filtered pose of the bodies named by a role goes to the recognition thread, on
-    // the tracker's thread as each frame set is done (a lock-free push: never waits).
-    if (recognition_) {
-      std::vector<std::pair<int, recognition::Role>> roles;
-      for (std::size_t b = 0; b < tc.bodies.size(); ++b)
-        if (const auto r = recognition::role_from_string(tc.bodies[b].name))
-          roles.emplace_back(static_cast<int>(b), *r);
-      if (std::none_of(roles.begin(), roles.end(), [](const auto& r) { return r.second != recognition::Role::head; }))
-        spdlog::warn("recognition: {} names no glove or shoe body (left_hand, right_hand, left_foot, right_foot): "
-                     "no strike can be recognised",
-                     c.resolve(c.tracking.tracking).string());
-      tracker_.on_frame([this, roles](const tracking::FrameResult& r) {
-        for (const auto& [b, role] : roles) {
-          if (b >= static_cast<int>(r.filtered.size())) continue;
-          const BodyPose& p = r.filtered[static_cast<std::size_t>(b)];
-          recognition::PoseSample s;
-          s.t = r.timestamp;
-          s.role = role;
-          s.position = p.position;
-          s.orientation = p.orientation;
-          s.tracked = p.status != TrackingStatus::lost;
-          recognition_->push(s);
-        }
-        recognition_->end_of_set(r.timestamp);
-      });
-    }
+    if (recognition_) feed_recognition(tracker_, c, tc, recognition_.get());
     // Camera frame sets to a session recorder while one records (record_frame_sets). The
     // tracker thread takes this lock once per set; the frame loop only to swap the recorder.
     // Until the installation starts (or a recorder attaches, if earlier), the sets are kept,
@@ -222,22 +225,123 @@ class TrackerInput final : public TrackingInput {
 };
 
 
-/// A poses.csv played on its own timestamps, as if tracked (`[tracking] source = "poses"`): a
-/// thread hands each row over at its time (the file's first row at the input's start; looped
-/// when poses_loop), the head's rows to the frame (a latest-value slot), every row to the
+/// A camera recording on the simulated clock (`--simulated-time`, TrackingInputOptions): no
+/// thread; poll(now) decodes and tracks, on the caller's thread, every frame set due by `now`
+/// (set i at start + (t_i - t_0), + the recording's length per loop), each stamped with its due
+/// time and its pose ready then. However slowly the frames come, the tracker sees every set at
+/// the time the frames do: the same inputs give the same frames on any machine, under any load.
+class RecordingOnSimulatedClock final : public TrackingInput {
+ public:
+  RecordingOnSimulatedClock(const InstallationConfig& c, tracking::RigCalibration rig, tracking::TrackingConfig tc,
+                            std::unique_ptr<StrikeRecognition> recognition, std::string recognition_fault)
+      : recognition_(std::move(recognition)), recognition_fault_(std::move(recognition_fault)), rig_(rig), tc_(tc),
+        tracker_(rig, tc), head_(head_body_index(c, tc)), dir_(c.resolve(c.tracking.recording)) {
+    if (recognition_) feed_recognition(tracker_, c, tc, recognition_.get());
+    for (const auto& cam : rig_.cameras) names_.push_back(cam.name);
+    source_ = at_key(c, "tracking.recording", [&] { return open(); });
+    what_ = "recording " + dir_.string() + ", on the simulated clock";
+  }
+
+  void poll(Timestamp now_s, Timestamp display_time, TrackingSnapshot& s) override {
+    sim_now_ = now_s;
+    if (!started_) {
+      started_ = true;
+      t0_ = now_s;
+    }
+    for (;;) {
+      if (!next_ && !fetch()) break;
+      const Timestamp due = t0_ + offset_ + (next_->timestamp - first_);
+      if (due > now_s) break;
+      next_->timestamp = due;
+      next_->camera_times.assign(next_->images.size(), due);
+      if (sink_) sink_->push_frame_set(*next_);
+      tracker_.process(*next_);
+      next_.reset();
+    }
+    read_tracker(tracker_, head_, now_s, display_time, false, reading_, s);
+    take_strikes(recognition_.get(), s);
+  }
+  Timestamp clock() const override { return sim_now_; }
+  bool follows_simulated_clock() const override { return true; }
+  void record_frame_sets(SessionRecorder* recorder) override { sink_ = recorder; }
+  std::string describe() const override { return what_; }
+  std::vector<std::string> faults() const override {
+    return recognition_fault_.empty() ? std::vector<std::string>{} : std::vector<std::string>{recognition_fault_};
+  }
+  const std::vector<std::string>& camera_names() const override { return names_; }
+  PoseTiming pose_timing(Timestamp t) override { return timing_of(pose_clock_, tracker_.latest(head_), t); }
+
+ private:
+  std::unique_ptr<tracking::FrameSource> open() const {
+    tracking::RecordingOptions o;
+    o.realtime = false;  // every set, in order, decoded here, on the recording's own timestamps
+    return tracking::open_recording_source(dir_, rig_, tc_, o);
+  }
+  /// The next frame set into next_ (the recording again from its start at its end: the next
+  /// loop begins one frame interval after its last set); false when it holds none at all.
+  bool fetch() {
+    tracking::FrameSet set;
+    for (int attempt = 0; attempt < 2; ++attempt) {
+      const bool got = source_->next(set, 0);
+      for (const auto& m : source_->take_messages()) spdlog::warn("{}", m);
+      if (got) {
+        if (!have_first_) {
+          have_first_ = true;
+          first_ = set.timestamp;
+        }
+        if (have_last_ && set.timestamp > last_) step_ = set.timestamp - last_;
+        last_ = set.timestamp;
+        have_last_ = true;
+        next_ = std::move(set);
+        return true;
+      }
+      if (!source_->end_of_stream() || !have_last_) return false;
+      offset_ += last_ - first_ + step_;
+      have_last_ = false;
+      source_ = open();
+    }
+    return false;
+  }
+
+  std::unique_ptr<StrikeRecognition> recognition_;  // before tracker_: its hook pushes there
+  std::string recognition_fault_;
+  tracking::RigCalibration rig_;
+  tracking::TrackingConfig tc_;
+  tracking::Tracker tracker_;
+  int head_;
+  std::filesystem::path dir_;
+  std::unique_ptr<tracking::FrameSource> source_;
+  std::optional<tracking::FrameSet> next_;  // read, not yet due
+  bool started_ = false, have_first_ = false, have_last_ = false;
+  Timestamp t0_ = 0, sim_now_ = 0;
+  double first_ = 0, last_ = 0, step_ = 1.0 / 60, offset_ = 0;  // s, the recording's clock
+  SessionRecorder* sink_ = nullptr;
+  TrackerReading reading_;
+  PoseClock pose_clock_;
+  std::vector<std::string> names_;
+  std::string what_;
+};
+
+/// A poses.csv played on its own timestamps, as if tracked (`[tracking] source = "poses"`):
+/// each row is handed over at its time (the file's first row at the input's start; looped when
+/// poses_loop), the head's rows to the frame (a latest-value slot), every row to the
 /// recognition thread. poll() extrapolates the newest head row to the display time (its
 /// velocity from the row before, at most 0.1 s ahead), as the tracker predicts its filter.
+/// On the wall clock a thread hands the rows over as they come due; on the simulated clock
+/// (TrackingInputOptions::simulated_clock) poll(now) hands over every row due by `now` itself,
+/// so the visitor moves with the frames' time whatever the machine's load.
 class PosesInput final : public TrackingInput {
  public:
   PosesInput(const InstallationConfig& c, recognition::PosesFile file, std::unique_ptr<StrikeRecognition> rec,
-             std::string recognition_fault)
+             std::string recognition_fault, bool simulated_clock)
       : file_(std::move(file)), loop_(c.tracking.poses_loop), recognition_(std::move(rec)),
-        recognition_fault_(std::move(recognition_fault)) {
+        recognition_fault_(std::move(recognition_fault)), simulated_(simulated_clock) {
     std::size_t heads = 0;
     for (const auto& smp : file_.samples) heads += smp.role == recognition::Role::head ? 1 : 0;
     const double span = file_.samples.empty() ? 0.0 : file_.samples.back().t - file_.samples.front().t;
-    what_ = fmt::format("poses file {} ({} rows, {} of the head, {:.1f} s{})", c.resolve(c.tracking.poses).string(),
-                        file_.samples.size(), heads, span, loop_ ? ", looped" : "");
+    what_ = fmt::format("poses file {} ({} rows, {} of the head, {:.1f} s{}{})", c.resolve(c.tracking.poses).string(),
+                        file_.samples.size(), heads, span, loop_ ? ", looped" : "",
+                        simulated_ ? ", on the simulated clock" : "");
     if (heads == 0)
       spdlog::warn("tracking: {} has no row of a body named head: the head stays at its default",
                    c.resolve(c.tracking.poses).string());
@@ -245,9 +349,19 @@ class PosesInput final : public TrackingInput {
       spdlog::info("tracking: {}: {} rows of bodies that are no role (head, left_hand, right_hand, left_foot, "
                    "right_foot) ignored",
                    c.resolve(c.tracking.poses).string(), file_.ignored_rows);
-    thread_ = std::thread([this] { run(); });
+    const auto& rows = file_.samples;
+    // One loop lasts the file's span plus one row interval (the first row again a period after the last).
+    double step = 1.0 / 60;
+    for (std::size_t i = 1; i < rows.size(); ++i)
+      if (rows[i].t > rows[i - 1].t) {
+        step = rows[i].t - rows[i - 1].t;
+        break;
+      }
+    period_ = rows.empty() ? 0.0 : rows.back().t - rows.front().t + step;
+    if (!simulated_) thread_ = std::thread([this] { run(); });
   }
   ~PosesInput() override {
+    if (!thread_.joinable()) return;
     {
       const std::lock_guard lock(mutex_);
       stop_ = true;
@@ -257,6 +371,11 @@ class PosesInput final : public TrackingInput {
   }
 
   void poll(Timestamp now_s, Timestamp display_time, TrackingSnapshot& s) override {
+    if (simulated_) {
+      sim_now_ = now_s;
+      if (!cursor_.started) start(cursor_, now_s);
+      while (!cursor_.ended && due(cursor_) <= now_s) deliver(cursor_, due(cursor_), due(cursor_));
+    }
     s.head.reset();
     s.measured_at = -1;
     s.measured_ready_at = -1;
@@ -292,7 +411,8 @@ class PosesInput final : public TrackingInput {
     if (ended_.load(std::memory_order_acquire)) s.state = TrackerState::stopped;
     take_strikes(recognition_.get(), s);
   }
-  Timestamp clock() const override { return now(); }
+  Timestamp clock() const override { return simulated_ ? sim_now_ : now(); }
+  bool follows_simulated_clock() const override { return simulated_; }
   std::string describe() const override { return what_; }
   std::vector<std::string> faults() const override {
     return recognition_fault_.empty() ? std::vector<std::string>{} : std::vector<std::string>{recognition_fault_};
@@ -308,60 +428,79 @@ class PosesInput final : public TrackingInput {
     BodyPose last, prev;
     bool has_prev = false;
   };
+  /// Where the playing stands: the next row, the loop's offset, the frame count, the head.
+  struct Cursor {
+    bool started = false, ended = false;
+    Timestamp t0 = 0;      ///< s, the clock at the input's start: the first row's due time
+    std::size_t i = 0;     ///< the next row
+    double offset = 0;     ///< s, the loops played so far
+    std::uint64_t frame = 0;
+    Head head;
+  };
 
-  void run() {
+  void start(Cursor& c, Timestamp t0) {
+    c.started = true;
+    c.t0 = t0;
+    if (file_.samples.empty()) finish(c);
+  }
+  void finish(Cursor& c) {
+    c.ended = true;
+    ended_.store(true, std::memory_order_release);
+  }
+  /// When row c.i is due (the clock's seconds).
+  Timestamp due(const Cursor& c) const { return c.t0 + c.offset + (file_.samples[c.i].t - file_.samples.front().t); }
+
+  /// Hands row c.i over at `due` (its pose published as ready at `ready`) and moves on, to the
+  /// file's start again (looped) or its end.
+  void deliver(Cursor& c, Timestamp due_at, Timestamp ready) {
     const auto& rows = file_.samples;
-    if (rows.empty()) {
-      ended_.store(true, std::memory_order_release);
+    const std::size_t i = c.i;
+    if (i > 0 && rows[i].t > rows[i - 1].t) {
+      ++c.frame;
+      frame_sets_.store(c.frame, std::memory_order_release);
+    }
+    recognition::PoseSample smp = rows[i];
+    smp.t = due_at;
+    if (smp.role == recognition::Role::head) {
+      Head& head = c.head;
+      head.prev = head.last;
+      head.has_prev = head.last.timestamp > 0;
+      head.last = BodyPose{};
+      head.last.timestamp = due_at;
+      head.last.frame = c.frame;
+      head.last.status = smp.tracked ? TrackingStatus::tracked : TrackingStatus::lost;
+      head.last.position = smp.position;
+      head.last.orientation = smp.orientation;
+      head.last.markers = smp.tracked ? 4 : 0;
+      head.last.ready_at = ready;
+      head_.publish(head);
+    }
+    if (recognition_) {
+      recognition_->push(smp);
+      if (i + 1 == rows.size() || rows[i + 1].t != rows[i].t) recognition_->end_of_set(due_at);
+    }
+    if (++c.i < rows.size()) return;
+    if (!loop_) {
+      if (recognition_) recognition_->restart(due_at);  // the stream ended: strikes under way are cancelled
+      finish(c);
       return;
     }
-    const Timestamp t0 = now();
-    const double first = rows.front().t;
-    // One loop lasts the file's span plus one row interval (the first row again a period after the last).
-    double step = 1.0 / 60;
-    for (std::size_t i = 1; i < rows.size(); ++i)
-      if (rows[i].t > rows[i - 1].t) {
-        step = rows[i].t - rows[i - 1].t;
-        break;
-      }
-    const double period = rows.back().t - first + step;
-    Head head;
-    std::uint64_t frame = 0;
-    for (double offset = 0;; offset += period) {
-      for (std::size_t i = 0; i < rows.size(); ++i) {
-        const Timestamp due = t0 + offset + (rows[i].t - first);
-        if (!wait_until(due)) return;
-        if (i > 0 && rows[i].t > rows[i - 1].t) {
-          ++frame;
-          frame_sets_.store(frame, std::memory_order_release);
-        }
-        recognition::PoseSample smp = rows[i];
-        smp.t = due;
-        if (smp.role == recognition::Role::head) {
-          head.prev = head.last;
-          head.has_prev = head.last.timestamp > 0;
-          head.last = BodyPose{};
-          head.last.timestamp = due;
-          head.last.frame = frame;
-          head.last.status = smp.tracked ? TrackingStatus::tracked : TrackingStatus::lost;
-          head.last.position = smp.position;
-          head.last.orientation = smp.orientation;
-          head.last.markers = smp.tracked ? 4 : 0;
-          head.last.ready_at = now();
-          head_.publish(head);
-        }
-        if (recognition_) {
-          recognition_->push(smp);
-          if (i + 1 == rows.size() || rows[i + 1].t != rows[i].t) recognition_->end_of_set(due);
-        }
-      }
-      if (!loop_) break;
-      ++frame;
-      head.last.timestamp = 0;  // the file starts again elsewhere: no velocity across the seam
-      if (recognition_) recognition_->restart(t0 + offset + period);
+    c.i = 0;
+    c.offset += period_;
+    ++c.frame;
+    c.head.last.timestamp = 0;  // the file starts again elsewhere: no velocity across the seam
+    if (recognition_) recognition_->restart(c.t0 + c.offset);
+  }
+
+  /// The wall clock's thread: each row at its time.
+  void run() {
+    Cursor c;
+    start(c, now());
+    while (!c.ended) {
+      const Timestamp d = due(c);
+      if (!wait_until(d)) return;
+      deliver(c, d, now());
     }
-    if (recognition_) recognition_->restart(now());  // the stream ended: strikes under way are cancelled
-    ended_.store(true, std::memory_order_release);
   }
 
   /// Sleeps until `due` (the clock's seconds); false when asked to stop.
@@ -376,6 +515,10 @@ class PosesInput final : public TrackingInput {
   bool loop_ = true;
   std::unique_ptr<StrikeRecognition> recognition_;
   std::string recognition_fault_;
+  bool simulated_ = false;
+  double period_ = 0;     // s, one loop of the file
+  Cursor cursor_;         // simulated clock: the frame thread's
+  Timestamp sim_now_ = 0; // simulated clock: the last poll's time
   LatestValue<Head> head_;
   std::atomic<std::uint64_t> frame_sets_{0};
   std::atomic<bool> ended_{false};
@@ -390,7 +533,8 @@ class PosesInput final : public TrackingInput {
 /// The recognition thread [recognition] asks for (nullptr: none). A model that cannot be read
 /// (missing, cut, damaged) takes out recognition alone: one error line, and `fault` says so
 /// for the console and the health report; the tracker starts as ever.
-std::unique_ptr<StrikeRecognition> make_recognition(const InstallationConfig& c, std::string& fault) {
+std::unique_ptr<StrikeRecognition> make_recognition(const InstallationConfig& c, std::string& fault,
+                                                    bool inline_on_caller = false) {
   if (c.recognition.model.empty()) return nullptr;
   if (c.tracking.source == TrackingSource::none) {
     spdlog::warn("recognition: {}: recognition.model is set but tracking.source = \"none\": no pose to recognise",
@@ -400,7 +544,7 @@ std::unique_ptr<StrikeRecognition> make_recognition(const InstallationConfig& c,
   const auto path = c.resolve(c.recognition.model);
   try {
     auto model = at_key(c, "recognition.model", [&] { return recognition::read_model(path); });
-    return std::make_unique<StrikeRecognition>(std::move(model), path.string());
+    return std::make_unique<StrikeRecognition>(std::move(model), path.string(), inline_on_caller);
   } catch (const Error& e) {
     fault = std::string("strike recognition off: ") + e.what();
     spdlog::error("{}", fault);
@@ -512,22 +656,31 @@ std::optional<std::string> source_problem(const SourceStats& src) {
       100 * src.rates[0] / all, src.rates[2], src.rates[1]);
 }
 
-std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config) {
+std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config, const TrackingInputOptions& options) {
   if (config.tracking.source == TrackingSource::none)
     return make_fixed_head_input("tracking.source = \"none\"");
+  // On the simulated clock a source with a clock of its own (a file) follows the frames'
+  // time; live cameras cannot, and stay on the wall clock (said once).
+  const bool simulated = options.simulated_clock && config.tracking.source != TrackingSource::live;
+  if (options.simulated_clock && !simulated)
+    spdlog::warn("tracking: live cameras run on the wall clock: under simulated time the frames and the visitor drift "
+                 "apart as the machine's load decides");
   if (config.tracking.source == TrackingSource::poses) {
     auto file = at_key(config, "tracking.poses",
                        [&] { return recognition::read_poses_csv(config.resolve(config.tracking.poses)); });
     std::string fault;
-    auto rec = make_recognition(config, fault);
-    return std::make_unique<PosesInput>(config, std::move(file), std::move(rec), std::move(fault));
+    auto rec = make_recognition(config, fault, simulated);
+    return std::make_unique<PosesInput>(config, std::move(file), std::move(rec), std::move(fault), simulated);
   }
   auto rig = at_key(config, "tracking.calibration",
                     [&] { return tracking::read_calibration(config.resolve(config.tracking.calibration)); });
   auto tc = at_key(config, "tracking.tracking",
                    [&] { return tracking::read_tracking_config(config.resolve(config.tracking.tracking)); });
   std::string fault;
-  auto rec = make_recognition(config, fault);
+  auto rec = make_recognition(config, fault, simulated);
+  if (simulated)
+    return std::make_unique<RecordingOnSimulatedClock>(config, std::move(rig), std::move(tc), std::move(rec),
+                                                       std::move(fault));
   return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), nullptr, std::move(rec), std::move(fault));
 }
 

@@ -35,13 +35,16 @@ struct StrikeRecognition::Impl {
   std::atomic<std::uint64_t> done{0};    // items the thread has finished
   std::atomic<std::uint64_t> samples{0}, dropped{0}, events{0}, events_dropped{0};
   std::atomic<bool> stop{false};
+  bool inline_on_caller = false;
+  std::unique_ptr<recognition::Recogniser> inline_rec;  // inline_on_caller: the caller's
+  std::vector<recognition::Event> inline_events;
   std::thread thread;
 
   void publish(const std::vector<recognition::Event>& events_now) {
     for (const recognition::Event& e : events_now) {
       VisitorStrike s;
       s.t = e.t;
-      s.decided_at = kumite::now();
+      s.decided_at = inline_on_caller ? e.t : kumite::now();
       s.type = e.type;
       s.limb = e.limb;
       s.action = recognition::action_from_string(e.action);
@@ -55,6 +58,27 @@ struct StrikeRecognition::Impl {
     }
   }
 
+  /// One item through the recogniser `rec` (its events published).
+  void handle(const Item& it, std::unique_ptr<recognition::Recogniser>& rec, std::vector<recognition::Event>& now_events) {
+    now_events.clear();
+    switch (it.kind) {
+      case Item::Kind::restart:
+        rec->finish(it.sample.t, now_events);
+        publish(now_events);
+        rec = std::make_unique<recognition::Recogniser>(model);
+        break;
+      case Item::Kind::end_of_set:
+        rec->end_of_set(it.sample.t, now_events);
+        publish(now_events);
+        break;
+      case Item::Kind::sample:
+        rec->push(it.sample, now_events);
+        samples.fetch_add(1, std::memory_order_relaxed);
+        publish(now_events);
+        break;
+    }
+  }
+
   void run() {
     auto rec = std::make_unique<recognition::Recogniser>(model);
     std::vector<recognition::Event> now_events;
@@ -65,23 +89,7 @@ struct StrikeRecognition::Impl {
       bool any = false;
       while (in.pop(it)) {
         any = true;
-        now_events.clear();
-        switch (it.kind) {
-          case Item::Kind::restart:
-            rec->finish(it.sample.t, now_events);
-            publish(now_events);
-            rec = std::make_unique<recognition::Recogniser>(model);
-            break;
-          case Item::Kind::end_of_set:
-            rec->end_of_set(it.sample.t, now_events);
-            publish(now_events);
-            break;
-          case Item::Kind::sample:
-            rec->push(it.sample, now_events);
-            samples.fetch_add(1, std::memory_order_relaxed);
-            publish(now_events);
-            break;
-        }
+        handle(it, rec, now_events);
         done.fetch_add(1, std::memory_order_release);
         done.notify_all();
       }
@@ -91,6 +99,12 @@ struct StrikeRecognition::Impl {
   }
 
   void enqueue(const Item& item) noexcept {
+    if (inline_on_caller) {
+      handle(item, inline_rec, inline_events);
+      pushed.fetch_add(1, std::memory_order_relaxed);
+      done.fetch_add(1, std::memory_order_relaxed);
+      return;
+    }
     if (!in.push(item)) {
       dropped.fetch_add(1, std::memory_order_relaxed);
       return;
@@ -100,13 +114,22 @@ struct StrikeRecognition::Impl {
   }
 };
 
-StrikeRecognition::StrikeRecognition(recognition::Model model, std::string what)
+StrikeRecognition::StrikeRecognition(recognition::Model model, std::string what, bool inline_on_caller)
     : impl_(std::make_unique<Impl>(std::move(model), std::move(what))) {
+  if (inline_on_caller) {
+    impl_->inline_on_caller = true;
+    impl_->inline_rec = std::make_unique<recognition::Recogniser>(impl_->model);
+    impl_->inline_events.reserve(16);
+    spdlog::info("recognition: {} ({} templates) on the source's (simulated) clock", impl_->what,
+                 impl_->model.templates.size());
+    return;
+  }
   impl_->thread = std::thread([this] { impl_->run(); });
   spdlog::info("recognition: {} ({} templates) on its own thread", impl_->what, impl_->model.templates.size());
 }
 
 StrikeRecognition::~StrikeRecognition() {
+  if (!impl_->thread.joinable()) return;
   impl_->stop.store(true, std::memory_order_release);
   impl_->pushed.fetch_add(1, std::memory_order_release);
   impl_->pushed.notify_one();

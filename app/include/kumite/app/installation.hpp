@@ -110,6 +110,9 @@ class TrackingInput {
   virtual PoseTiming pose_timing(Timestamp /*t*/) { return {}; }
   /// False when no tracker is behind it (the head stays at its default): nothing to wait for.
   virtual bool has_tracker() const { return true; }
+  /// True when its poses follow the clock its polls give (a file on the simulated clock), not
+  /// the wall clock: a simulated run need not wait for it.
+  virtual bool follows_simulated_clock() const { return false; }
   /// True while the source is still loading (a recording's preload): the show is not up yet.
   virtual bool loading() const { return false; }
   /// What of the tracking side could not start and stays off, one line each (a recognition
@@ -366,6 +369,8 @@ class Installation {
   void on_record_key(std::function<void()> f) { record_key_ = std::move(f); }
   Timestamp start_time() const { return start_; }
   bool has_tracker() const;
+  /// The tracking input follows the clock the frames give it (TrackingInput::follows_simulated_clock).
+  bool tracking_follows_frames() const;
   /// The tracker's source is still loading (a recording's preload): the show is not up yet.
   bool tracking_loading() const;
 

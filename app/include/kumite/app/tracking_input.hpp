@@ -16,9 +16,18 @@ struct TrackingConfig;
 
 namespace kumite::app {
 
+struct TrackingInputOptions {
+  /// The frames step on a simulated clock (`kumite --headless --simulated-time`): a poses file
+  /// and a camera recording follow it (poll(now) hands over what is due by `now`, and strike
+  /// recognition runs on the caller's thread), so the same inputs give the same frames on any
+  /// machine under any load. Live cameras stay on the wall clock.
+  bool simulated_clock = false;
+};
+
 /// Builds the tracking input the config asks for. A tracker that cannot start (missing
 /// recording, calibration) throws kumite::Error naming the file.
-std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config);
+std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config,
+                                                   const TrackingInputOptions& options = {});
 /// The same tracker on a frame source of the caller's (benchmarks, tests, replay from memory).
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config,
                                                    std::unique_ptr<tracking::FrameSource> source);

@@ -47,8 +47,11 @@ struct RecognitionStats {
 /// poses file's), one consumer takes() (the frame loop); neither ever waits.
 class StrikeRecognition {
  public:
-  /// Starts the thread. `what` names the model in logs.
-  StrikeRecognition(recognition::Model model, std::string what);
+  /// Starts the thread. `what` names the model in logs. `inline_on_caller` (a source on the
+  /// simulated clock): no thread; each push()/end_of_set()/restart() is recognised at once on
+  /// the caller's thread and its events are decided at their own time (decided_at = the
+  /// sample's t), so a run's events depend on its inputs alone, never on the machine's load.
+  StrikeRecognition(recognition::Model model, std::string what, bool inline_on_caller = false);
   ~StrikeRecognition();  ///< stops and joins the thread
   StrikeRecognition(const StrikeRecognition&) = delete;
   StrikeRecognition& operator=(const StrikeRecognition&) = delete;
