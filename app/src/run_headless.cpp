@@ -105,11 +105,22 @@ class HeadlessPresenter {
   double render_s_ = 0;
 };
 
+namespace {
+/// s: where a simulated clock of its own starts (exactly representable, > 0: a time of 0 means
+/// "none yet" in places).
+constexpr Timestamp kSimulatedClockStart_s = 1.0;
+}  // namespace
+
 int run_headless(Installation& inst, const HeadlessOptions& opt) {
   const auto& cfg = inst.config();
   HeadlessPresenter presenter(inst, opt.out, opt.save_every, opt.resolution, !opt.real_time);
   const double step = 1.0 / cfg.display_rate_hz;
-  const Timestamp t0 = now();
+  // Simulated time with nothing on the wall clock (no tracker, or one that follows the frames'
+  // clock): the clock starts at a fixed second, not at the machine's uptime, so every time the
+  // frames compute (t - start, a pose's age) rounds the same on any machine at any uptime.
+  const bool own_clock = !opt.real_time && (!inst.has_tracker() || inst.tracking_follows_frames());
+  const Timestamp wall0 = now();
+  const Timestamp t0 = own_clock ? kSimulatedClockStart_s : wall0;
   inst.start(t0);
   const auto stopping = [&] { return opt.stop && opt.stop->load() != 0; };
   int frames = 0;  // rendered and logged
@@ -146,7 +157,7 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   }
   glFinish();
   if (opt.monitor) opt.monitor->stopping(stopping() ? fmt::format("signal {}", opt.stop->load()) : "run complete", &inst);
-  const double wall_s = now() - t0;
+  const double wall_s = now() - wall0;
   if (stopping())
     spdlog::info("headless: stopped (signal {}) after {} of {} frames; writing the PNGs queued", opt.stop->load(),
                  frames, opt.frames);

@@ -207,6 +207,9 @@ Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingIn
       unreadable.push_back(k);
     };
     fighter_ = content::Fighter::create(fighter_config(config_, loaded), std::move(fo));
+    fighter_orders_.reserve(16);
+    visitor_bodies_.reserve(recognition::kRoleCount);
+    visitor_strikes_.reserve(FrameCapacity{}.strikes);
     for (auto k = unreadable.rbegin(); k != unreadable.rend(); ++k) loaded.erase(loaded.begin() + static_cast<std::ptrdiff_t>(*k));
     fighter_of_config_.assign(config_.characters.size(), -1);
     for (std::size_t k = 0; k < loaded.size(); ++k) {
@@ -399,7 +402,7 @@ void Installation::apply_orders(Timestamp now) {
         continue;
       }
     }
-    fighter_->order(timed);
+    fighter_orders_.push_back(timed);  // the fighter takes them with its update (FighterInput)
   }
 }
 
@@ -414,15 +417,47 @@ void Installation::update_fighter(Timestamp now, double dt) {
     pose.target.reset();
     return;
   }
+  // The fighter's whole input as plain data: the orders this frame took, the eyes' midpoint,
+  // visitor safety as of the last frame (update_safety runs after the fighter: back off), the
+  // visitor's tracked head and the strikes recognised since the last frame.
   const glm::dvec3 mid = (frame_.eyes.left + frame_.eyes.right) * 0.5;
-  // Visitor safety as of the last frame (update_safety runs after the fighter): back off.
-  fighter_->keep_away(near_wall_.has_value());
-  fighter_->update(now, dt, Eigen::Vector3d(mid.x, mid.y, mid.z));
-  const content::FighterFrame f = fighter_->frame();
+  content::FighterInput in;
+  in.now = now;
+  in.dt_s = dt;
+  in.head_m = Eigen::Vector3d(mid.x, mid.y, mid.z);
+  in.keep_away = near_wall_.has_value();
+  in.orders = fighter_orders_;
+  visitor_bodies_.clear();
+  if (const auto& h = input_.tracking.head) {
+    content::VisitorBody b;
+    b.role = recognition::Role::head;
+    b.position_m = Eigen::Vector3d(h->position[0], h->position[1], h->position[2]);
+    b.orientation = Eigen::Quaterniond(h->orientation[0], h->orientation[1], h->orientation[2], h->orientation[3]);
+    b.tracked = h->status != TrackingStatus::lost;
+    b.t = h->timestamp;
+    visitor_bodies_.push_back(b);
+  }
+  in.bodies = visitor_bodies_;
+  visitor_strikes_.clear();
+  for (const VisitorStrike& st : input_.tracking.strikes) {
+    content::VisitorStrikeSeen v;
+    v.t = st.t;
+    v.type = st.type;
+    v.limb = st.limb;
+    v.action = st.action;
+    v.progress = st.progress;
+    v.confidence = st.confidence;
+    v.impact_m = Eigen::Vector3d(st.impact[0], st.impact[1], st.impact[2]);
+    visitor_strikes_.push_back(v);
+  }
+  in.strikes = visitor_strikes_;
+  fighter_->step(in, fighter_out_);
+  fighter_orders_.clear();
+  const content::FighterFrame& f = fighter_out_.frame;
   const int character = config_of_fighter_.at(static_cast<std::size_t>(f.character));
   plan_fighter(f, character_colour(character), frame_.items);
   copy_pose(f, character, pose);
-  for (const auto& e : fighter_->take_events()) {
+  for (const auto& e : fighter_out_.events) {
     Order order = e.order;
     if (order.kind == OrderKind::select_character && order.character >= 0 &&
         order.character < static_cast<int>(config_of_fighter_.size()))  // back to config numbering

@@ -417,6 +417,11 @@ class Installation {
   std::vector<std::uint8_t> kept_walls_;  ///< per wall, from plan_views: an eye view kept
   std::unique_ptr<TrackingInput> tracking_;
   std::unique_ptr<content::Fighter> fighter_;
+  // The fighter's input and output of a frame (their room kept from frame to frame).
+  std::vector<Order> fighter_orders_;
+  std::vector<content::VisitorBody> visitor_bodies_;
+  std::vector<content::VisitorStrikeSeen> visitor_strikes_;
+  content::FighterOutput fighter_out_;
   std::string fighter_problem_;
   std::vector<std::string> missing_characters_;  // one line each (left out of the fighter)
   std::vector<int> fighter_of_config_;  // config character -> the fighter's (-1: not loaded)

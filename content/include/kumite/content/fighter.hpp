@@ -20,6 +20,7 @@
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
 #include "kumite/content/tunables.hpp"
+#include "kumite/recognition/recognition.hpp"  // the visitor's body roles and strike kinds (vocabulary only)
 
 namespace kumite::content {
 
@@ -155,8 +156,57 @@ struct FighterOptions {
   std::function<void(std::size_t character, const std::string& why)> on_unreadable_character;
 };
 
+/// One of the visitor's tracked bodies (the glasses, a glove, a shoe) in an update. Room frame.
+struct VisitorBody {
+  recognition::Role role = recognition::Role::head;
+  Eigen::Vector3d position_m{0, 0, 0};
+  Eigen::Quaterniond orientation{1, 0, 0, 0};  ///< body -> room
+  bool tracked = false;                         ///< false: lost (the pose is the last known)
+  Timestamp t = 0;                              ///< s, when it was measured
+};
+
+/// A strike of the visitor's as the recogniser reported it in an update (recognition::Event).
+struct VisitorStrikeSeen {
+  Timestamp t = 0;  ///< s, the camera time of the sample that decided it
+  recognition::EventType type = recognition::EventType::begin;
+  recognition::Role limb = recognition::Role::right_hand;
+  recognition::Action action = recognition::Action::other;
+  double progress = 0;                       ///< 0..1, onset to full extension
+  double confidence = 0;                     ///< 0..1
+  Eigen::Vector3d impact_m{0, 0, 0};         ///< m, room: where the fist or foot will be at full extension
+};
+
+/// Everything the fighter takes from outside in one update, as plain data (spans into the
+/// caller's memory, valid for the call). The same inputs give the same outputs.
+struct FighterInput {
+  Timestamp now = 0;                       ///< s
+  double dt_s = 0;                         ///< s since the last update
+  Eigen::Vector3d head_m{0, 0, 0};         ///< m, room: the visitor's eyes' midpoint (faced, struck at)
+  bool keep_away = false;                  ///< visitor safety: back off, strike orders ignored
+  std::span<const Order> orders;           ///< given since the last update, in order (the fighter's character numbering)
+  std::span<const VisitorBody> bodies;     ///< the visitor's tracked bodies by role
+  std::span<const VisitorStrikeSeen> strikes;  ///< the visitor's strikes recognised since the last update
+};
+
+/// What one update gives: the pose to draw and the events since the last update.
+struct FighterOutput {
+  FighterFrame frame;                ///< spans valid until the next update
+  std::vector<FighterEvent> events;  ///< overwritten each update (its room kept)
+};
+
 class Fighter {
  public:
+  /// One update from plain data: the orders queued in order, keep_away, update(), the frame
+  /// and the events taken. The bodies and strikes are the visitor as the sparring decisions
+  /// will read it: today's fighter (orders alone) carries them and reads only head_m.
+  void step(const FighterInput& in, FighterOutput& out) {
+    for (const Order& o : in.orders) order(o);
+    keep_away(in.keep_away);
+    update(in.now, in.dt_s, in.head_m);
+    out.frame = frame();
+    out.events = take_events();
+  }
+
   /// Loads the database and characters. Throws kumite::Error naming the file at fault.
   static std::unique_ptr<Fighter> create(const FighterConfig& config, FighterOptions options = {});
   virtual ~Fighter() = default;
