@@ -25,7 +25,7 @@ for i in $(seq "$N"); do
   start=$(date +%s)
   log=$(mktemp)
   if ctest --test-dir "$BUILD_DIR" -j2 "$@" >"$log" 2>&1; then
-    echo "run $i/$N: passed in $(( $(date +%s) - start )) s ($(grep -o '[0-9]* tests passed\|tests passed, [0-9]* tests failed out of [0-9]*' "$log" | head -1))"
+    echo "run $i/$N: passed in $(( $(date +%s) - start )) s ($(grep -o '[0-9]*% tests passed, [0-9]* tests failed out of [0-9]*' "$log" | head -1))"
   else
     failed_runs=$((failed_runs + 1))
     echo "run $i/$N: FAILED in $(( $(date +%s) - start )) s: $(grep -E '^\s+[0-9]+ - ' "$log" | tr -s ' ' | tr '\n' ';')"
