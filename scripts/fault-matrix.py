@@ -20,7 +20,8 @@ Every feature is judged from those outputs alone, independently of the code that
 
 The rule checked: every feature that does not need the broken input works as in the
 unbroken baseline; a feature that stopped is said on the console (stderr) -- a few lines at
-most, not one per frame --, in the log's problems and in the health report's problems (the
+most (at most one per 10 frames: a rate-limited summary may repeat on a loaded machine), not one
+per frame --, in the log's problems and in the health report's problems (the
 report itself excepted when it is the broken input). Exit 0 when the rule holds in every case.
 
   scripts/fault-matrix.py --build build [--out DIR] [--markdown FILE] [--only NAME]
@@ -268,8 +269,10 @@ def main():
             if lost and not (n_console >= 1 and in_log and in_health):
                 problems.append(f"stopped {', '.join(lost)} without saying so everywhere "
                                 f"(console lines {n_console}, log {in_log}, health {in_health})")
-            if n_console > 3:
-                problems.append(f"said {n_console} times on the console (once is enough)")
+            # Said, not repeated every frame: a source's own rate-limited summary (the recording's
+            # "N more images skipped in the last 5 s") may come again on a loaded machine.
+            if n_console > max(3, FRAMES // 10):
+                problems.append(f"said {n_console} times on the console in {FRAMES} frames (not once per frame or so)")
             if not lost and obs["rc"] != 0:
                 problems.append(f"exit status {obs['rc']}")
             row = {"input": name, "fault": fault, "note": note, "rc": obs["rc"], "frames": obs["frames"],
