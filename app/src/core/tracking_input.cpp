@@ -63,6 +63,11 @@ PoseTiming timing_of(PoseClock& clock, const std::optional<BodyPose>& newest, Ti
   return p;
 }
 
+/// TrackingInput::faults() of an input whose one optional fault is `fault` ("": none).
+std::vector<std::string> faults_of(const std::string& fault) {
+  return fault.empty() ? std::vector<std::string>{} : std::vector<std::string>{fault};
+}
+
 /// Every filtered pose of the bodies `tc` names by a role goes to `recognition` as the tracker
 /// finishes each frame set (on the tracker's thread, or the caller's for process(); a
 /// lock-free push: never waits).
@@ -167,7 +172,7 @@ class TrackerInput final : public TrackingInput {
   }
   bool loading() const override { return counters_ && !counters_->playing.load(); }
   std::vector<std::string> faults() const override {
-    return recognition_fault_.empty() ? std::vector<std::string>{} : std::vector<std::string>{recognition_fault_};
+    return faults_of(recognition_fault_);
   }
   std::string describe() const override { return what_; }
   const std::vector<std::string>& camera_names() const override { return names_; }
@@ -266,7 +271,7 @@ class RecordingOnSimulatedClock final : public TrackingInput {
   void record_frame_sets(SessionRecorder* recorder) override { sink_ = recorder; }
   std::string describe() const override { return what_; }
   std::vector<std::string> faults() const override {
-    return recognition_fault_.empty() ? std::vector<std::string>{} : std::vector<std::string>{recognition_fault_};
+    return faults_of(recognition_fault_);
   }
   const std::vector<std::string>& camera_names() const override { return names_; }
   PoseTiming pose_timing(Timestamp t) override { return timing_of(pose_clock_, tracker_.latest(head_), t); }
@@ -415,7 +420,7 @@ class PosesInput final : public TrackingInput {
   bool follows_simulated_clock() const override { return simulated_; }
   std::string describe() const override { return what_; }
   std::vector<std::string> faults() const override {
-    return recognition_fault_.empty() ? std::vector<std::string>{} : std::vector<std::string>{recognition_fault_};
+    return faults_of(recognition_fault_);
   }
   PoseTiming pose_timing(Timestamp t) override {
     const auto h = head_.read();
