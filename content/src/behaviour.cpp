@@ -99,6 +99,7 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   orders_.reserve(16);
   taking_.reserve(16);
   spot_xz_m_ = {config.home.x(), config.home.z()};
+  follow_distance_m_ = config.strike_distance_m;
   facing_rad_ = 0;
   use_synchronous_planner(std::make_shared<StrikePlanner>(db_, config.retrieval));
   sync_rate_solver_ = std::make_shared<StrikeRateSolver>(db_, tun_);
@@ -129,26 +130,84 @@ void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
   poll_rate_ = std::move(poll);
 }
 
-bool Behaviour::strike_pending() const {
-  return pending_ || approach_ || support_step_ ||
-         std::any_of(orders_.begin(), orders_.end(),
-                     [](const QueuedOrder& q) { return q.stepped_first || q.support_stepped || q.after_stance_step; });
-}
+bool Behaviour::strike_pending() const { return pending() || approach() || support_step() || retaking(); }
 
 void Behaviour::order(const Order& o) { orders_.push_back({o, std::nullopt}); }
 void Behaviour::keep_away(bool on) { keep_away_ = on; }
 void Behaviour::order_strike(const Order& o, const Vector3d& target) { orders_.push_back({o, target}); }
 
-void Behaviour::enter(FighterState next) {
-  using S = FighterState;
-  // The transitions of the state machine (behaviour.hpp, state_); anything else is a bug.
-  [[maybe_unused]] const bool allowed =
-      next == state_ || (state_ == S::resting && (next == S::following || next == S::striking)) ||
-      (state_ == S::following && (next == S::resting || next == S::striking)) ||
-      (state_ == S::striking && next == S::recovering) || (state_ == S::recovering && next == S::resting);
+void Behaviour::enter(Action next) {
+  // The action state's transitions (behaviour.hpp, action_; content/README.md, "Action
+  // states"): [from][to] in the variant's order Idle, AwaitingPlan, Approaching,
+  // SupportStepping, Retaking, Striking, Recovering. Anything else is a bug.
+  static constexpr bool kAllowed[7][7] = {
+      {false, true, false, false, false, false, false},  // Idle -> AwaitingPlan (a strike order taken)
+      {true, false, true, true, true, true, false},      // AwaitingPlan -> its plan's outcome
+      {false, false, false, false, true, false, false},  // Approaching -> Retaking (stepped)
+      {false, false, false, false, true, false, false},  // SupportStepping -> Retaking (foot set)
+      {true, false, false, false, false, false, false},  // Retaking -> Idle (taken: then as a new order)
+      {false, false, false, false, false, false, true},  // Striking -> Recovering (the clip ends)
+      {true, false, false, false, false, false, false},  // Recovering -> Idle (blended, d(t) released)
+  };
+  [[maybe_unused]] const bool allowed = kAllowed[action_.index()][next.index()];
   assert(allowed);
-  state_ = next;
-  strike_.active = next == S::striking || next == S::recovering;
+  action_ = std::move(next);
+  strike_.active = striking() || recovering();
+}
+
+const Behaviour::Locomotion* Behaviour::locomotion() const {
+  return std::visit(
+      [](const auto& a) -> const Locomotion* {
+        if constexpr (requires { a.loco; }) return &a.loco;
+        else return nullptr;
+      },
+      action_);
+}
+
+void Behaviour::set_locomotion(Locomotion loco) {
+  std::visit(
+      [&](auto& a) {
+        if constexpr (requires { a.loco; }) a.loco = loco;
+      },
+      action_);
+}
+
+const Behaviour::StanceStep* Behaviour::stance_step() const {
+  const Locomotion* l = locomotion();
+  const StanceStepping* s = l ? std::get_if<StanceStepping>(l) : nullptr;
+  return s ? &s->step : nullptr;
+}
+
+FighterAction Behaviour::action() const {
+  struct Of {
+    FighterAction operator()(const Idle&) const { return FighterAction::idle; }
+    FighterAction operator()(const AwaitingPlan&) const { return FighterAction::awaiting_plan; }
+    FighterAction operator()(const Approaching& a) const {
+      switch (a.approach.kind) {
+        case Approach::Kind::step_in: return FighterAction::stepping_in;
+        case Approach::Kind::step_back: return FighterAction::stepping_back;
+        case Approach::Kind::restance: return FighterAction::restance;
+      }
+      return FighterAction::stepping_in;
+    }
+    FighterAction operator()(const SupportStepping&) const { return FighterAction::support_step; }
+    FighterAction operator()(const Retaking&) const { return FighterAction::retaking; }
+    FighterAction operator()(const Striking&) const { return FighterAction::striking; }
+    FighterAction operator()(const Recovering&) const { return FighterAction::recovering; }
+  };
+  return std::visit(Of{}, action_);
+}
+
+FighterLocomotion Behaviour::locomotion_kind() const {
+  const Locomotion* l = locomotion();
+  if (!l || std::holds_alternative<AtSpot>(*l)) return FighterLocomotion::at_spot;
+  return std::holds_alternative<Walking>(*l) ? FighterLocomotion::walking : FighterLocomotion::stance_step;
+}
+
+FighterState Behaviour::state() const {
+  if (striking()) return FighterState::striking;
+  if (recovering()) return FighterState::recovering;
+  return std::holds_alternative<AtSpot>(*locomotion()) ? FighterState::resting : FighterState::following;
 }
 
 FighterEvent& Behaviour::emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
@@ -213,82 +272,97 @@ void Behaviour::select_character(int index, Timestamp now) {
   feet_.keep_held_only();
   for (auto& a : arm_poles_) a.drawn_radius_m = 0;  // measured on the old body
   switch_offsets_due_ = true;  // the easing's offsets: after this update's solve
-  if (state_ == FighterState::striking) compute_reach_error(strike_.contact_time_s);
+  if (striking()) compute_reach_error(strike_.contact_time_s);
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
        FighterEvent::Reason::none);
 }
 
-void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
+bool Behaviour::deferred(const QueuedOrder& queued) const {
   // A strike ordered while the last one still hands its reach offset back (recovering) waits
-  // for that (at most release_time_s): starting now would drop the offset in one frame.
+  // for that (at most release_time_s): starting now would drop the offset in one frame. So
+  // does one ordered while a stance step blends in or out (a strike started mid-blend would
+  // drop the motion it blends from in one frame), and one taken again after a stance step
+  // while that step plays.
+  return effector_of(queued.order.kind) &&
+         (recovering() || (queued.after_stance_step && stance_step()) || (!striking() && blend_elapsed_s_ < tun_.blend_time_s));
+}
+
+void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
+  // An order taken again after a step comes first (it was given before any still queued).
+  if (const Retaking* r = as<Retaking>(); r && !deferred(r->order)) {
+    const QueuedOrder again = r->order;
+    enter(Idle{r->loco});
+    take_order(again, now, head);
+  }
   // Both queues keep their room from update to update: taking orders allocates nothing.
   taking_.swap(orders_);
   orders_.clear();
   for (const QueuedOrder& queued : taking_) {
-    const Order& o = queued.order;
-    const std::optional<Vector3d>& explicit_target = queued.target_room_m;
-    // So does one ordered while a stance step blends in or out (a strike started mid-blend
-    // would drop the motion it blends from in one frame).
-    if (effector_of(o.kind) && (state_ == FighterState::recovering || (queued.after_stance_step && stance_step_) ||
-                                (state_ != FighterState::striking && blend_elapsed_s_ < tun_.blend_time_s))) {
-      orders_.push_back(queued);  // deferred, in order
+    if (deferred(queued)) {
+      orders_.push_back(queued);  // in order
       continue;
     }
-    switch (o.kind) {
-      case OrderKind::select_character: select_character(o.character, now); continue;
-      case OrderKind::pause: paused_ = true; emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::paused); continue;
-      case OrderKind::resume: paused_ = false; emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::resumed); continue;
-      case OrderKind::recentre:
-        recentre_goal_ = Vector2d(config_.home.x(), config_.home.z());
-        emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::recentre);
-        continue;
-      default: break;
-    }
-    const auto eff = effector_of(o.kind);
-    if (state_ == FighterState::striking || pending_ || approach_ || support_step_ ||
-        std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.after_stance_step; })) {
-      emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::mid_strike);  // the event names the order
-      continue;
-    }
-    if (paused_) {
-      emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::paused);
-      continue;
-    }
-    if (keep_away_) {
-      emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::near_wall);
-      continue;
-    }
-    // Freeze the target now: the visitor's head (punches) or below it (kicks: the torso).
-    Vector3d target = explicit_target.value_or(head);
-    if (!explicit_target && eff->leg) target.y() -= tun_.kick_target_drop_m;
-    if (!eff->leg) {
-      // A head the arm cannot reach (a visitor much taller than the character): aim at the
-      // highest point the arm reaches at max_punch_aim_deg from a standing shoulder, on the
-      // visitor's neck and chest below the head (still the visitor's body).
-      const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-      const CJ shoulder = eff->side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
-      const double top = at(rig.rest_pose, shoulder).y() - rest_floor_y(rig) + aim_rise_m(rig, eff->side, tun_.max_punch_aim_deg);
-      if (target.y() > top) target.y() = top;
-    }
-    StrikeRequest r;
-    r.id = next_request_++;
-    r.group = group_of(*eff);
-    r.now = pose_;
-    r.before = have_pose_ ? pose_before_ : pose_;
-    r.dt_s = last_dt_;
-    r.target_local_m = ground().to_local(target);
-    r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
-    pending_ = PendingStrike{r.id, o, target, queued.stepped_first, queued.support_stepped, queued.plan};
-    // Taken again after stepping in (or a kick's support step): accepted already.
-    if (!queued.stepped_first && !queued.support_stepped && !queued.after_stance_step) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
-    submit_(r);
+    take_order(queued, now, head);
   }
   taking_.clear();
 }
 
+void Behaviour::take_order(const QueuedOrder& queued, Timestamp now, const Vector3d& head) {
+  const Order& o = queued.order;
+  const std::optional<Vector3d>& explicit_target = queued.target_room_m;
+  switch (o.kind) {
+    case OrderKind::select_character: select_character(o.character, now); return;
+    case OrderKind::pause: paused_ = true; emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::paused); return;
+    case OrderKind::resume: paused_ = false; emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::resumed); return;
+    case OrderKind::recentre:
+      recentre_goal_ = Vector2d(config_.home.x(), config_.home.z());
+      emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::recentre);
+      return;
+    default: break;
+  }
+  const auto eff = effector_of(o.kind);
+  if (!as<Idle>()) {
+    emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::mid_strike);  // the event names the order
+    return;
+  }
+  if (paused_) {
+    emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::paused);
+    return;
+  }
+  if (keep_away_) {
+    emit(FighterEvent::Kind::order_ignored, now, o, FighterEvent::Reason::near_wall);
+    return;
+  }
+  // Freeze the target now: the visitor's head (punches) or below it (kicks: the torso).
+  Vector3d target = explicit_target.value_or(head);
+  if (!explicit_target && eff->leg) target.y() -= tun_.kick_target_drop_m;
+  if (!eff->leg) {
+    // A head the arm cannot reach (a visitor much taller than the character): aim at the
+    // highest point the arm reaches at max_punch_aim_deg from a standing shoulder, on the
+    // visitor's neck and chest below the head (still the visitor's body).
+    const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+    const CJ shoulder = eff->side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
+    const double top = at(rig.rest_pose, shoulder).y() - rest_floor_y(rig) + aim_rise_m(rig, eff->side, tun_.max_punch_aim_deg);
+    if (target.y() > top) target.y() = top;
+  }
+  StrikeRequest r;
+  r.id = next_request_++;
+  r.group = group_of(*eff);
+  r.now = pose_;
+  r.before = have_pose_ ? pose_before_ : pose_;
+  r.dt_s = last_dt_;
+  r.target_local_m = ground().to_local(target);
+  r.character_leg_length_m = characters_[static_cast<std::size_t>(character_)].morphology.leg_length_m;
+  enter(AwaitingPlan{PendingStrike{r.id, o, target, queued.stepped_first, queued.support_stepped, queued.plan},
+                     as<Idle>()->loco});
+  // Taken again after stepping in (or a kick's support step): accepted already.
+  if (!queued.stepped_first && !queued.support_stepped && !queued.after_stance_step) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
+  submit_(r);
+}
+
 const Vector3d* Behaviour::step_target() const {
-  if (support_step_) return &support_step_->target_room_m;
-  if (approach_) return &approach_->target_room_m;
+  if (const SupportStep* s = support_step()) return &s->target_room_m;
+  if (const Approach* a = approach()) return &a->target_room_m;
   return nullptr;
 }
 
@@ -347,15 +421,15 @@ double Behaviour::step_wanted(const StrikeFit& fit) const {
   return 0;
 }
 
-std::optional<Behaviour::Restance> Behaviour::restance_for(const StrikePlan& plan, double step_m) const {
+std::optional<Behaviour::Restance> Behaviour::restance_for(const PendingStrike& pending, const StrikePlan& plan, double step_m) const {
   // Only from a stance a stance step left (its take's own rest: a long kata stance, 0.7 m
   // from foot to foot): a lunge placed on its back foot is held short by it, and the step-in
   // keeps the stance (content/README, "Following with stance steps"). The rest stances the
   // strikes are made for are taken instead on the way: the rest (or its mirror) placed at the
   // spot facing the target, each foot stepped to where it has it.
-  if (!current_.loop || current_.segment == rest_segment_ || current_.segment == mirrored_rest_segment_ || !pending_)
+  if (!current_.loop || current_.segment == rest_segment_ || current_.segment == mirrored_rest_segment_)
     return std::nullopt;
-  const Vector3d& target = pending_->target_room_m;
+  const Vector3d& target = pending.target_room_m;
   Vector2d dir(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
   if (dir.norm() < 1e-6) return std::nullopt;
   dir.normalize();
@@ -390,26 +464,24 @@ std::optional<Behaviour::Restance> Behaviour::restance_for(const StrikePlan& pla
   return best;
 }
 
-bool Behaviour::begin_restance(const StrikePlan& plan, const Restance& r, Timestamp now) {
-  if (!pending_) return false;
-  const Vector3d& target = pending_->target_room_m;
+void Behaviour::begin_restance(const PendingStrike& pending, const StrikePlan& plan, const Restance& r, Timestamp now) {
+  const Vector3d& target = pending.target_room_m;
   const Vector2d to_target(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
   const bool back = (r.goal_xz - spot_xz_m_).dot(to_target) < 0;
   start_rest(now, r.rest);
-  approach_ = Approach{pending_->order, target, r.goal_xz, 0, 0, plan, true};
-  FighterEvent& e = emit(back ? FighterEvent::Kind::stepping_back : FighterEvent::Kind::stepping_in, now, pending_->order,
+  enter(Approaching{Approach{pending.order, target, r.goal_xz, 0, 0, plan, Approach::Kind::restance}, as<AwaitingPlan>()->loco});
+  FighterEvent& e = emit(back ? FighterEvent::Kind::stepping_back : FighterEvent::Kind::stepping_in, now, pending.order,
                          FighterEvent::Reason::restance, (r.goal_xz - spot_xz_m_).norm());
   e.target = target;
-  return true;
 }
 
-bool Behaviour::begin_step_in(const StrikePlan& plan, double step_m, Timestamp now) {
+bool Behaviour::begin_step_in(const PendingStrike& pending, const StrikePlan& plan, double step_m, Timestamp now) {
   // Toward the target by the distance missing (or away from it by the distance too near); at
   // least far enough that the feet step (a body moved over feet that stay would meet the same
   // limit), at most max_step_in_m (max_step_back_m), and never out of the fighter's area
   // ([fighter] min/max x/z): where that leaves less than step_in_min_m to gain, the strike
   // goes ahead from here (false).
-  const Vector3d& target = pending_->target_room_m;
+  const Vector3d& target = pending.target_room_m;
   Vector2d dir(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
   const double apart = dir.norm();
   if (apart < 1e-9) return false;
@@ -424,8 +496,9 @@ bool Behaviour::begin_step_in(const StrikePlan& plan, double step_m, Timestamp n
                             back ? tun_.max_step_back_m : tun_.max_step_in_m);
   const Vector2d goal = clamp_to_area(config_, spot_xz_m_ + dir * d);
   if ((goal - spot_xz_m_).dot(dir) < tun_.step_in_min_m) return false;
-  approach_ = Approach{pending_->order, target, goal, 0, 0, plan};
-  FighterEvent& e = emit(back ? FighterEvent::Kind::stepping_back : FighterEvent::Kind::stepping_in, now, pending_->order,
+  enter(Approaching{Approach{pending.order, target, goal, 0, 0, plan, back ? Approach::Kind::step_back : Approach::Kind::step_in},
+                    as<AwaitingPlan>()->loco});
+  FighterEvent& e = emit(back ? FighterEvent::Kind::stepping_back : FighterEvent::Kind::stepping_in, now, pending.order,
                          FighterEvent::Reason::none, (goal - spot_xz_m_).norm());
   e.target = target;
   return true;
@@ -438,21 +511,23 @@ void Behaviour::update_step_in(double dt) {
   // the order is taken again, with its frozen target, as if just given (it does not step in
   // or back twice).
   constexpr double kStepInWait_s = 1.5, kSettle_s = 0.15;
-  if (!approach_) return;
-  approach_->elapsed_s += dt;
+  Approaching* ap = as<Approaching>();
+  if (!ap) return;
+  Approach& a = ap->approach;
+  const bool restance = a.kind == Approach::Kind::restance;
+  a.elapsed_s += dt;
   // (a rest stance taken on the way: once it has blended in, the feet may want to step)
-  const bool at_spot = state_ == FighterState::resting && (spot_xz_m_ - approach_->goal_xz).norm() <= tun_.arrive_tolerance_m &&
-                       (!approach_->restance || blend_elapsed_s_ >= tun_.blend_time_s);
-  approach_->at_spot_s = at_spot ? approach_->at_spot_s + dt : 0;
+  const bool at_spot = state() == FighterState::resting && (spot_xz_m_ - a.goal_xz).norm() <= tun_.arrive_tolerance_m &&
+                       (!restance || blend_elapsed_s_ >= tun_.blend_time_s);
+  a.at_spot_s = at_spot ? a.at_spot_s + dt : 0;
   // (a rest stance taken on the way: both feet where it has them)
   const bool arrived = at_spot && ((feet_.settled(kLeft) && feet_.settled(kRight)) ||
-                                   (!approach_->restance && approach_->at_spot_s >= kSettle_s && feet_.held(kLeft) && feet_.held(kRight)));
-  if (!arrived && approach_->elapsed_s < kStepInWait_s) return;
-  orders_.insert(orders_.begin(), QueuedOrder{approach_->order, approach_->target_room_m, true, false, approach_->plan});
-  approach_.reset();
+                                   (!restance && a.at_spot_s >= kSettle_s && feet_.held(kLeft) && feet_.held(kRight)));
+  if (!arrived && a.elapsed_s < kStepInWait_s) return;
+  enter(Retaking{QueuedOrder{a.order, a.target_room_m, true, false, a.plan}, ap->loco});
 }
 
-bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source, Timestamp now) {
+bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePlan& plan, const Source& source, Timestamp now) {
   // A kick's support foot is the other foot. Where the clip, placed as it will be played, has
   // that foot down first from the strike's start (the start itself, or where the clip sets it
   // down a few frames in: a kick from a step) -- if that is more than kick_support_step_m
@@ -462,7 +537,7 @@ bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source,
   // the clip's own foot.
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   const auto eff = seg.effector();
-  if (!eff || !eff->leg || tun_.kick_support_step_m <= 0 || !pending_) return false;
+  if (!eff || !eff->leg || tun_.kick_support_step_m <= 0) return false;
   const int side = 1 - eff->side;
   // (A kick planned with a foot still stepping starts from where that step lands. After a
   // step-in that arrived, none is: no step begins while a strike is planned (update_feet);
@@ -494,10 +569,10 @@ bool Behaviour::begin_support_step(const StrikePlan& plan, const Source& source,
     if (Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm() <= tun_.kick_support_step_m) return false;
     if (!feet_.step_to(side, goal)) return false;
   }
-  support_step_ = SupportStep{pending_->order, pending_->target_room_m, pending_->stepped_first, side, 0};
-  FighterEvent& e = emit(FighterEvent::Kind::support_step, now, pending_->order, FighterEvent::Reason::none,
+  enter(SupportStepping{SupportStep{pending.order, pending.target_room_m, pending.stepped_first, side, 0}, as<AwaitingPlan>()->loco});
+  FighterEvent& e = emit(FighterEvent::Kind::support_step, now, pending.order, FighterEvent::Reason::none,
                          Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm());
-  e.target = pending_->target_room_m;
+  e.target = pending.target_room_m;
   return true;
 }
 
@@ -505,29 +580,28 @@ void Behaviour::update_support_step(double dt) {
   // Done when the foot is down again (the step's own time), or after kWait_s in any case: the
   // order is then taken again with its frozen target, as if just given (no second support step).
   constexpr double kWait_s = 1.0;
-  if (!support_step_) return;
-  support_step_->elapsed_s += dt;
-  if (!feet_.held(support_step_->side) && support_step_->elapsed_s < kWait_s) return;
-  orders_.insert(orders_.begin(), QueuedOrder{support_step_->order, support_step_->target_room_m, support_step_->stepped_first, true});
-  support_step_.reset();
+  SupportStepping* ss = as<SupportStepping>();
+  if (!ss) return;
+  SupportStep& st = ss->step;
+  st.elapsed_s += dt;
+  if (!feet_.held(st.side) && st.elapsed_s < kWait_s) return;
+  enter(Retaking{QueuedOrder{st.order, st.target_room_m, st.stepped_first, true}, ss->loco});
 }
 
-void Behaviour::start_strike(const StrikePlan& plan, const Source& source, const StrikeFit& fit, Timestamp now, double dt) {
+void Behaviour::start_strike(const PendingStrike& pending, const StrikePlan& plan, const Source& source, const StrikeFit& fit, Timestamp now, double dt) {
   const int landing_support = fit.landing_support;
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   previous_ = current_;
   blend_elapsed_s_ = 0;
-  current_ = source;
-  stance_step_.reset();  // a strike ordered mid-step starts from the step
+  current_ = source;  // (a strike ordered mid-step starts from the step)
   // The foot the clip is aligned on where it comes down: a procedural step it is in ends here
   // (down where it is), not at its old target while the clip stands on it.
   if (landing_support >= 0) feet_.land(landing_support);
   // ...or, too far from it for the clip to be carried there, goes on to where the clip has it.
   if (fit.redirect_support >= 0) feet_.redirect(fit.redirect_support, fit.redirect_to_m, kRedirectPeakSpeed_mps);
-  const Order order = pending_->order;
   strike_ = StrikeInfo{};
-  strike_.order = order;
-  strike_.target_room_m = pending_->target_room_m;
+  strike_.order = pending.order;
+  strike_.target_room_m = pending.target_room_m;
   strike_.plan = plan;
   strike_.effector = *seg.effector();
   strike_.start_time_s = plan.start_frame * seg.frame_time_s;
@@ -536,14 +610,13 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, const
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   strike_.start_update = updates_;
-  enter(FighterState::striking);
+  enter(Striking{});  // (a stance step under way ends here)
   if (!strike_.effector.leg) strike_.plan_feet = feet_through_contact(current_, strike_.contact_time_s);
   compute_reach_error(strike_.contact_time_s);
   if (!strike_.effector.leg) keep_elbow_below_head();
   // A correction that lengthens the hit point's way plays the strike slower. Finding how much
   // slower decodes the whole way (~0.2-0.3 ms): it is a job for the solver (the Fighter's
   // worker thread), applied kStrikeRateDelayUpdates updates from now (apply_strike_rate()).
-  pending_rate_.reset();
   if (tun_.min_strike_rate < 1) {
     StrikeRateJob job;
     job.id = next_rate_job_++;
@@ -565,7 +638,7 @@ void Behaviour::start_strike(const StrikePlan& plan, const Source& source, const
     job.plan_feet = strike_.plan_feet;
     job.plan_lowest_shoulder_y_m = lowest_shoulder_y_m();
     job.pole_turns = pole_turns_;
-    pending_rate_ = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment, character_};
+    as<Striking>()->rate = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment, character_};
     submit_rate_(job);
   }
   (void)now;
@@ -577,11 +650,12 @@ void Behaviour::apply_strike_rate(double dt) {
   // then d(t) and its release are those at that rate: d(t) as the solver found it from this
   // update's state (the same operations compute_reach_error() does here, so the same
   // numbers), unless the character changed since the strike started.
-  const PendingRate due = *pending_rate_;
-  pending_rate_.reset();
+  std::optional<PendingRate>& rate = as<Striking>()->rate;
+  const PendingRate due = *rate;
+  rate.reset();
   const std::optional<StrikeRateResult> r = poll_rate_();
   if (!r || r->id != due.job || !(r->rate > 0) || r->rate >= 1) return;
-  if (state_ != FighterState::striking || strike_.contact_done || current_.segment != due.segment) return;
+  if (strike_.contact_done || current_.segment != due.segment) return;
   current_.rate = r->rate;
   strike_.rate = r->rate;
   strike_.rate_update = updates_;
@@ -619,7 +693,7 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   // The pose at segment time `at_time_s`, composed exactly as update() will compose it then
   // (same sources, same blend weight), decoded without the offset: d(t) must close exactly
   // that gap.
-  const Source* strike_src = current_.segment == strike_.plan.segment && state_ == FighterState::striking ? &current_ : nullptr;
+  const Source* strike_src = current_.segment == strike_.plan.segment && striking() ? &current_ : nullptr;
   if (!strike_src) return;
   const double ahead = at_time_s - current_.time_s;  // segment seconds
   const double ahead_wall = ahead / current_.rate;   // s
@@ -818,10 +892,10 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   Vector2d to_head = head_xz - spot_xz_m_;
   const double dist = to_head.norm();
   Vector2d goal = spot_xz_m_;
-  if (dist > 1e-6) goal = head_xz - to_head / dist * config_.strike_distance_m;
+  if (dist > 1e-6) goal = head_xz - to_head / dist * follow_distance_m_;
   if (recentre_goal_) goal = *recentre_goal_;
-  if (approach_) {
-    goal = approach_->goal_xz;  // stepping in before a strike
+  if (const Approach* a = approach()) {
+    goal = a->goal_xz;  // stepping in before a strike
   } else if (strike_pending()) {
     goal = spot_xz_m_;  // a strike about to start (its plan placed from where the feet stand now)
   }
@@ -838,19 +912,16 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   }
   last_goal_ = goal;
   last_goal_update_ = updates_;
-  if (stance_step_) {
-    // A stance step from the mocap plays: its clip carries the body (and turns it); the rest
-    // motion takes over where it ends (end_stance_step).
-    enter(FighterState::following);
-    return;
-  }
+  // A stance step from the mocap plays: its clip carries the body (and turns it); the rest
+  // motion takes over where it ends (end_stance_step).
+  if (stance_step()) return;
   const Vector2d off = goal - spot_xz_m_;
-  bool following = state_ == FighterState::following;
+  bool following = state() == FighterState::following;
   if (recentre_goal_ && !following && off.norm() <= tun_.follow_tolerance_m) recentre_goal_.reset();  // home already
   // Forward or back: a stance step from the mocap where one fits (begin_stance_step); until
   // the visitor stands stance_step_min_m farther than the strike distance, the fighter waits.
   bool wait = false;
-  if (tun_.stance_step_min_m > 0 && !walk_segments_.empty() && !approach_ && !strike_pending() && !paused_ &&
+  if (tun_.stance_step_min_m > 0 && !walk_segments_.empty() && !approach() && !strike_pending() && !paused_ &&
       dist > 0.05) {
     const Vector2d fwd(std::sin(facing_rad_), std::cos(facing_rad_));
     const double along = off.dot(fwd);
@@ -868,10 +939,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
       // (and from a blend done: one begun mid-blend would drop the motion blended from)
       const bool feet_down = feet_.held(kLeft) && feet_.held(kRight) && blend_elapsed_s_ >= tun_.blend_time_s;
       stance_wait_s_ = (forward || back) && !feet_down ? stance_wait_s_ + dt : 0;
-      if ((forward || back) && feet_down && begin_stance_step(goal)) {
-        enter(FighterState::following);
-        return;
-      }
+      if ((forward || back) && feet_down && begin_stance_step(goal)) return;
 
       // Until then it waits for a forward step (a visitor a little farther, or still walking).
       wait = !following && ((along > 0 && !forward && !recentre_goal_) ||  // (walking home goes all the way)
@@ -885,10 +953,10 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
                                                        tun_.arrive_tolerance_m;
   if (outside_area && !paused_) wait = false;
   if (!wait && !following &&
-      (off.norm() > tun_.follow_tolerance_m || (approach_ && off.norm() > tun_.arrive_tolerance_m) || (outside_area && !paused_)))
+      (off.norm() > tun_.follow_tolerance_m || (approach() && off.norm() > tun_.arrive_tolerance_m) || (outside_area && !paused_)))
     following = true;
   if (following) {
-    const double step = std::min(off.norm(), (approach_ ? tun_.step_in_speed_mps : tun_.walk_speed_mps) * dt);
+    const double step = std::min(off.norm(), (approach() ? tun_.step_in_speed_mps : tun_.walk_speed_mps) * dt);
     if (off.norm() > 1e-9) spot_xz_m_ += off / off.norm() * step;
     if (off.norm() > 1e-9 && dt > 0) spot_velocity_ = off / off.norm() * step / dt;
     if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m) {
@@ -910,7 +978,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   const MotionSegment& rest = db_->segments[static_cast<std::size_t>(current_.segment)];
   current_.placement.origin_xz = spot_xz_m_;
   current_.placement.yaw_rad = wrap(facing_rad_ + rest_yaw_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
-  enter(following ? FighterState::following : FighterState::resting);
+  set_locomotion(following ? Locomotion{Walking{}} : Locomotion{AtSpot{}});
 }
 
 namespace {
@@ -965,23 +1033,27 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   if (switch_pending && have_pose_) old_display.assign(positions_.begin(), positions_.begin() + static_cast<std::ptrdiff_t>(old_n));
 
   handle_orders(now, head);
-  if (pending_) {
-    if (auto p = poll_(); p && p->id == pending_->request) {
+  if (const AwaitingPlan* w = as<AwaitingPlan>()) {
+    if (auto p = poll_(); p && p->id == w->strike.request) {
+      // (copies: the plan's outcome replaces the alternative they live in)
+      const PendingStrike pending = w->strike;
+      const Locomotion loco = w->loco;
       if (p->segment < 0) {
-        emit(FighterEvent::Kind::warning, now, pending_->order, FighterEvent::Reason::no_strike);
+        emit(FighterEvent::Kind::warning, now, pending.order, FighterEvent::Reason::no_strike);
+        enter(Idle{loco});
       } else {
-        strike_target_ = pending_->target_room_m;
+        strike_target_ = pending.target_room_m;
         StrikeFit fit;
         Source s = strike_source(*p, fit);
-        if (pending_->plan && fit.shortfall_m >= kReplanShortfall_m) {
+        if (pending.plan && fit.shortfall_m >= kReplanShortfall_m) {
           // Planned anew after stepping in and still far short (another window, whose lunge
           // the feet the step left hold back): the strike it stepped in for, if that falls
           // shorter from here.
           StrikeFit old_fit;
-          const Source old = strike_source(*pending_->plan, old_fit);
+          const Source old = strike_source(*pending.plan, old_fit);
           if (old_fit.shortfall_m < fit.shortfall_m) {
             const std::uint64_t id = p->id;
-            *p = *pending_->plan;
+            *p = *pending.plan;
             p->id = id;
             s = old;
             fit = old_fit;
@@ -991,27 +1063,28 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
         // where the target is so near that the limb would land folded (min_strike_extension),
         // by as much as brings it to the clip's own extension (begin_step_in: at least to
         // strike_distance_m).
-        double step_m = pending_->stepped_first ? 0.0 : step_wanted(fit);
+        const double step_m = pending.stepped_first ? 0.0 : step_wanted(fit);
         // From a stance step's long stance, a strike that wants a step takes a rest stance on
         // the way (restance_for), if the strike needs a shorter step from there.
         std::optional<Restance> restance;
-        if (step_m != 0 && !stance_step_) restance = restance_for(*p, step_m);
-        if (restance && begin_restance(*p, *restance, now)) {
-        } else if (step_m != 0 && stance_step_) {
+        if (step_m != 0 && !stance_step()) restance = restance_for(pending, *p, step_m);
+        if (restance) {
+          begin_restance(pending, *p, *restance, now);
+        } else if (step_m != 0 && stance_step()) {
           // Short of its target from mid-step: planned again where the step ends (a step-in
           // measured from here would be walked from there, the wrong way).
-          QueuedOrder again{pending_->order, pending_->target_room_m, false, pending_->support_stepped};
+          QueuedOrder again{pending.order, pending.target_room_m, false, pending.support_stepped};
           again.after_stance_step = true;
-          orders_.insert(orders_.begin(), again);
-        } else if ((step_m == 0 || !begin_step_in(*p, step_m, now)) &&
-            (pending_->support_stepped || !begin_support_step(*p, s, now)))
-          start_strike(*p, s, fit, now, dt);
+          enter(Retaking{again, loco});
+        } else if ((step_m == 0 || !begin_step_in(pending, *p, step_m, now)) &&
+                   (pending.support_stepped || !begin_support_step(pending, *p, s, now))) {
+          start_strike(pending, *p, s, fit, now, dt);
+        }
       }
-      pending_.reset();
     }
   }
 
-  if (pending_rate_ && updates_ >= pending_rate_->due_update) apply_strike_rate(dt);
+  if (const Striking* st = as<Striking>(); st && st->rate && updates_ >= st->rate->due_update) apply_strike_rate(dt);
 
   // Advance the clocks by the whole frame: the contact frame is the first frame at or past the
   // planned contact time, a real frame of motion (no sub-frame hold, no copy of the last).
@@ -1019,21 +1092,16 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   previous_.time_s += dt * previous_.rate;
   blend_elapsed_s_ += dt;
   if (!switch_offsets_due_) switch_elapsed_s_ += dt;
-  const bool contact_now =
-      state_ == FighterState::striking && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
-  if (state_ == FighterState::striking && strike_.contact_done &&
-      current_.time_s >= strike_.end_time_s - tun_.blend_time_s * current_.rate) {
+  const bool contact_now = striking() && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
+  if (striking() && strike_.contact_done && current_.time_s >= strike_.end_time_s - tun_.blend_time_s * current_.rate) {
     start_rest(now);
-    enter(FighterState::recovering);
+    enter(Recovering{});
   }
   // Recovering lasts until the blend into rest is done and d(t) is back to zero.
-  if (state_ == FighterState::recovering && blend_elapsed_s_ >= tun_.blend_time_s &&
-      previous_.time_s >= strike_.release_end_s) {
-    enter(FighterState::resting);
-  }
+  if (recovering() && blend_elapsed_s_ >= tun_.blend_time_s && previous_.time_s >= strike_.release_end_s) enter(Idle{AtSpot{}});
   // (not while a strike's plan is awaited: it starts from the step, not from a blend out of it)
-  if (stance_step_ && !pending_ && current_.time_s >= stance_step_->end_s) end_stance_step(now);
-  if (state_ == FighterState::resting || state_ == FighterState::following) update_follow(dt, head);
+  if (stance_step() && !pending() && current_.time_s >= stance_step()->end_s) end_stance_step(now);
+  if (locomotion()) update_follow(dt, head);
   update_step_in(dt);
   update_support_step(dt);
 
@@ -1056,7 +1124,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   const ReachGoal* reach = nullptr;
   double ramp = 0;
   if (strike_.active) {
-    const Source& s = state_ == FighterState::striking ? current_ : previous_;
+    const Source& s = striking() ? current_ : previous_;
     const double t = s.time_s;
     if (contact_now) {
       // The error of this very frame, so the contact frame lands on the target. The trunk lean
@@ -1184,13 +1252,15 @@ FighterFrame Behaviour::frame() const {
   const auto n = static_cast<std::size_t>(rig.joint_count());
   FighterFrame f;
   f.time = time_;
-  f.state = state_;
+  f.state = state();
+  f.action = action();
+  f.locomotion = locomotion_kind();
   f.character = character_;
   f.joints = std::span<const Vector3d>(positions_).first(n);
   f.parents = rig.skeleton.parents;
   f.joint_radii_m = rig.joint_radii_m;
   if (const Vector3d* t = step_target()) f.target = *t;
-  if (strike_.active || pending_) f.target = pending_ ? pending_->target_room_m : strike_.target_room_m;
+  if (strike_.active || pending()) f.target = pending() ? pending()->target_room_m : strike_.target_room_m;
   f.root = Vector3d(pose_.root_xz_m.x(), 0, pose_.root_xz_m.y());
   f.heading_rad = facing_rad_;
   return f;

@@ -38,7 +38,7 @@ int Behaviour::strike_hold_frame(int side, int land) const {
   // out of the leg's reach by contact and steps while the front foot swings (mei's opening
   // lunge, 135_06_punch_right_2:mirror from frame 0: both feet off for 12 frames). Held where
   // the clip has it at contact, the leg reaches it there, as the clip's own does.
-  if (state_ != FighterState::striking || strike_.contact_done || current_.loop) return land;
+  if (!striking() || strike_.contact_done || current_.loop) return land;
   if (strike_.effector.leg && strike_.effector.side == side) return land;
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
   const int contact = std::clamp(static_cast<int>(std::lround(strike_.clip_contact_time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
@@ -92,7 +92,7 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     f.planted = planted[us] >= 0.5;
     // A stance step stands on its support foot throughout: where the mocap turns on it (a
     // heel raised, the foot pivoting) it stays held, not stepped to the clip's next contact.
-    if (stance_step_ && stance_step_->support == s) {
+    if (stance_step() && stance_step()->support == s) {
       f.planted = true;
       f.pivot = true;
     }
@@ -193,22 +193,21 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
       const double heel_m = std::min(pose_.ankle_lift_n[us] * rig.morphology.leg_length_m, std::max(0.0, toes_down_m) + kHeelRiseSlack_m);
       f.source_lift_m = std::max(0.0, std::max(heel_m, toes_down_m) - kLiftDeadband_m);
     }
-    f.effector = reach && strike_.effector.leg && strike_.effector.side == s && state_ == FighterState::striking;
+    f.effector = reach && strike_.effector.leg && strike_.effector.side == s && striking();
   }
   // Steps also while recovering: a strike that ends in a long stance steps back under the
   // body instead of squatting into the rest motion's narrower one.
   // Not while d(t) still acts: the strike holds its stance until it has been taken back.
   // Nor while a kick's support foot is set (its step and the kick it waits for): the other foot
   // stands, and the set foot stays where the kick will turn on it.
-  const bool support_set = support_step_ || (pending_ && pending_->support_stepped) ||
-                           std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.support_stepped; });
+  const bool support_set = support_step() || (pending() && pending()->support_stepped) || (retaking() && retaking()->support_stepped);
   // Nor while a stance step plays: the clip steps the feet.
   // Nor while a strike is being planned (its plan in flight, or an order taken again after
   // stepping in): it is planned around the feet as they stand. A step begun between a
   // step-in's arrival and the plan left the back foot of kenji's lunge punch on the grid
   // 13 cm ahead of where the lunge holds it: out of reach, it stepped back and forth in the air.
-  const bool planning = pending_ || std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) { return q.stepped_first; });
-  const bool may_step = state_ != FighterState::striking && ramp_ <= 0 && !support_set && !stance_step_ && !planning;
+  const bool planning = pending() || (retaking() && retaking()->stepped_first);
+  const bool may_step = !striking() && ramp_ <= 0 && !support_set && !stance_step() && !planning;
   feet_.update(dt, in, may_step, spot_velocity_, locks_);
 }
 

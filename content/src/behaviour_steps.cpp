@@ -88,7 +88,7 @@ bool Behaviour::rest_with(int segment) {
   if (segment < 0 || segment >= static_cast<int>(db_->segments.size()) ||
       db_->segments[static_cast<std::size_t>(segment)].kind != SegmentKind::rest)
     return false;
-  stance_step_.reset();
+  if (stance_step()) set_locomotion(Walking{});  // (the stance step's clip no longer plays)
   start_rest(time_, segment);
   blend_elapsed_s_ = 1e9;
   feet_.reset();
@@ -169,13 +169,13 @@ bool Behaviour::begin_stance_step(const Vector2d& goal) {
   previous_ = current_;
   blend_elapsed_s_ = 0;
   current_ = best_source;
-  stance_step_ = StanceStep{best, std::max(0.0, end_s - tun_.blend_time_s), best_source.travel.scale, best_support};
+  set_locomotion(StanceStepping{StanceStep{best, std::max(0.0, end_s - tun_.blend_time_s), best_source.travel.scale, best_support}});
   ++stance_steps_;
   return true;
 }
 
 void Behaviour::end_stance_step(Timestamp now) {
-  const int support = stance_step_->support;
+  const int support = stance_step()->support;
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   // Where the step puts the body and the feet at its last frame (the rest blends in over its
   // last blend_time_s): the foot it stands on where it is held, the other where it lands.
@@ -188,11 +188,10 @@ void Behaviour::end_stance_step(Timestamp now) {
         side == support ? rig_positions_[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_ankle : CJ::r_ankle))]
                         : mkm_ankle(rig, end, side);
   const int rest = rest_for_stance();
-  stance_step_.reset();
   start_rest(now, rest);
   // The step was the following: from here the fighter decides anew (a spot still off by less
   // than follow_tolerance_m is not walked to with procedural steps).
-  if (state_ == FighterState::following) enter(FighterState::resting);
+  set_locomotion(AtSpot{});
   spot_xz_m_ = end.root_xz_m;
   current_.placement.origin_xz = spot_xz_m_;
   // The rest motion turned as the step ends: a karate stance stands with the hips turned off

@@ -17,6 +17,7 @@
 #include <fmt/format.h>
 
 #include "kumite/common/error.hpp"
+#include "behaviour_internal.hpp"
 #include "kumite/content/behaviour.hpp"
 
 namespace kumite::content {
@@ -27,6 +28,30 @@ std::string_view to_string(FighterState s) {
     case FighterState::following: return "following";
     case FighterState::striking: return "striking";
     case FighterState::recovering: return "recovering";
+  }
+  return "?";
+}
+
+std::string_view to_string(FighterAction a) {
+  switch (a) {
+    case FighterAction::idle: return "idle";
+    case FighterAction::awaiting_plan: return "awaiting_plan";
+    case FighterAction::stepping_in: return "stepping_in";
+    case FighterAction::stepping_back: return "stepping_back";
+    case FighterAction::restance: return "restance";
+    case FighterAction::support_step: return "support_step";
+    case FighterAction::retaking: return "retaking";
+    case FighterAction::striking: return "striking";
+    case FighterAction::recovering: return "recovering";
+  }
+  return "?";
+}
+
+std::string_view to_string(FighterLocomotion l) {
+  switch (l) {
+    case FighterLocomotion::at_spot: return "at_spot";
+    case FighterLocomotion::walking: return "walking";
+    case FighterLocomotion::stance_step: return "stance_step";
   }
   return "?";
 }
@@ -234,7 +259,10 @@ class FighterImpl final : public Fighter {
   FighterImpl(std::shared_ptr<const Database> db, std::vector<Rig> rigs, const FighterConfig& config,
               FighterOptions options)
       : behaviour_(db, std::move(rigs), config), planner_(std::make_shared<StrikePlanner>(db, config.retrieval)),
-        rate_solver_(std::make_shared<StrikeRateSolver>(db, config.behaviour)) {
+        rate_solver_(std::make_shared<StrikeRateSolver>(db, config.behaviour)), spar_(config.planner),
+        strike_distance_m_(config.strike_distance_m) {
+    if (const std::string problem = validate(config.planner); !problem.empty())
+      throw Error("fighter", "config", "fighter.planner." + problem);
     if (options.retrieval_delay_updates < 0)
       throw Error("fighter", "config", "fighter: retrieval_delay_updates must be >= 0");
     RetrievalWorker::PlanFn plan = [planner = planner_, hook = std::move(options.plan)](const StrikeRequest& r) {
@@ -251,6 +279,25 @@ class FighterImpl final : public Fighter {
   }
   void order(const Order& order) override { behaviour_.order(order); }
   void keep_away(bool on) override { behaviour_.keep_away(on); }
+  void decide(const FighterInput& in) override {
+    const PlannerTunables& t = spar_.tunables();
+    PlannerInput p;
+    p.now = in.now;
+    p.seed = in.seed;
+    p.head_m = in.head_m;
+    const FighterFrame f = behaviour_.frame();
+    p.fighter_root_m = f.root;
+    p.fighter_idle = f.action == FighterAction::idle && !behaviour_.paused() && !behaviour_.keeping_away();
+    p.supervisor_strike = std::any_of(in.orders.begin(), in.orders.end(), [](const Order& o) { return behaviour_detail::effector_of(o.kind).has_value(); });
+    p.strikes = in.strikes;
+    if (const std::optional<Order> o = spar_.step(p)) behaviour_.order(*o);
+    // Sparring, it keeps the fighting distance (the visitor's fist reaches it).
+    behaviour_.follow_at(t.mode == PlannerMode::spar ? t.fighting_distance_m : strike_distance_m_);
+  }
+  void set_planner(const PlannerTunables& tunables) override { spar_.set_tunables(tunables); }
+  PlannerStatus planner_status() const override {
+    return PlannerStatus{spar_.tunables(), spar_.state(), spar_.next(), spar_.counts()};
+  }
   void update(Timestamp now, double dt, const Eigen::Vector3d& head) override {
     worker_->set_update(++updates_);
     behaviour_.update(now, dt, head);
@@ -277,6 +324,8 @@ class FighterImpl final : public Fighter {
   Behaviour behaviour_;
   std::shared_ptr<const StrikePlanner> planner_;
   std::shared_ptr<StrikeRateSolver> rate_solver_;  // the worker's alone
+  SparPlanner spar_;
+  double strike_distance_m_ = 0.9;
   std::uint64_t updates_ = 0;
   std::unique_ptr<RetrievalWorker> worker_;  // declared last: joins first on destruction
 };

@@ -39,7 +39,9 @@
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
 #include "kumite/content/character.hpp"
+#include "kumite/content/fighter.hpp"
 #include "kumite/content/motion_quality.hpp"
+#include "kumite/content/planner.hpp"
 #include "kumite/content/proportions.hpp"
 
 namespace fs = std::filesystem;
@@ -1118,6 +1120,129 @@ int run_bout(const BoutArgs& a) {
   return 0;
 }
 
+// ---- spar ---------------------------------------------------------------------------------
+
+struct SparArgs {
+  std::string db, report;
+  double minutes = 10;
+  std::vector<std::string> presets = {"aggressive_unskilled", "defensive_skilled"};
+  std::string character = "kenji";
+  double visitor_strike_rate = 0.3;  ///< 1/s, the scripted visitor's strikes
+  std::string visitor = "openings";  ///< openings: strikes only while the fighter is idle; any: at any time
+  std::uint64_t seed = 1;
+};
+
+void add_spar(CLI::App& app, SparArgs& a) {
+  auto* cmd = app.add_subcommand("spar", "The sparring planner against a scripted SYNTHETIC visitor (recognised strikes at "
+                                         "random times) per preset, at 60 Hz: its attack rate, counter probability and "
+                                         "reaction delay measured beside the configured ones, as JSON");
+  cmd->add_option("--db", a.db, "fighter.kdb")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--report", a.report, "spar.json")->required();
+  cmd->add_option("--minutes", a.minutes, "simulated minutes per preset")->capture_default_str()->check(CLI::Range(0.1, 120.0));
+  cmd->add_option("--presets", a.presets, "planner presets (aggressive_unskilled, defensive_skilled)")
+      ->delimiter(',')->capture_default_str();
+  cmd->add_option("--character", a.character, "character name or BVH file")->capture_default_str();
+  cmd->add_option("--visitor-strike-rate", a.visitor_strike_rate, "the visitor's strikes per second")
+      ->capture_default_str()->check(CLI::Range(0.0, 5.0));
+  cmd->add_option("--seed", a.seed, "the run's seed (the planner's and the visitor's draws)")->capture_default_str();
+  cmd->add_option("--visitor", a.visitor,
+                  "openings: the visitor's strike timer runs only while the fighter is idle (strikes it can answer); "
+                  "any: at any time, also mid-strike")
+      ->check(CLI::IsMember({"openings", "any"}))->capture_default_str();
+}
+
+int run_spar(const SparArgs& a) {
+  prepare_output("--report", a.report);
+  nlohmann::json report = {{"visitor", fmt::format("SYNTHETIC: stands 1.5 m in front of the fighter's home, sways, strikes at "
+                                                   "exponential random times at {}/s {} (recognised begin events; no body drawn)",
+                                                   a.visitor_strike_rate,
+                                                   a.visitor == "openings" ? "of the time the fighter is idle" : "at any time")},
+                           {"minutes", a.minutes}, {"seed", a.seed}, {"presets", nlohmann::json::object()}};
+  for (const std::string& name : a.presets) {
+    const std::optional<PlannerTunables> preset = planner_preset(name);
+    if (!preset) throw kumite::Error("spar", "--presets", fmt::format("--presets: no preset named '{}'", name));
+    FighterConfig cfg = g_fighter;
+    cfg.database = a.db;
+    const fs::path file = fs::exists(a.character) ? fs::path(a.character)
+                                                  : default_content_dir() / "characters" / (a.character + ".bvh");
+    cfg.characters = {file};
+    cfg.character_names = {a.character};
+    cfg.planner = *preset;
+    auto fighter = Fighter::create(cfg);
+    // The visitor's own draws (SplitMix64 on another stream than the planner's).
+    std::uint64_t visitor_draws = 0;
+    const auto visitor_uniform = [&] {
+      std::uint64_t x = (a.seed ^ 0x5bd1e995u) + 0x9E3779B97F4A7C15ull * ++visitor_draws;
+      x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+      x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+      return static_cast<double>((x ^ (x >> 31)) >> 11) * 0x1.0p-53;
+    };
+    const double dt = 1.0 / 60;
+    const int updates = static_cast<int>(std::lround(a.minutes * 60 / dt));
+    // s left on the visitor's strike timer (openings: it runs only while the fighter is idle).
+    double strike_left = a.visitor_strike_rate > 0 ? -std::log1p(-visitor_uniform()) / a.visitor_strike_rate : 1e18;
+    bool idle = true;
+    FighterOutput out;
+    std::vector<VisitorStrikeSeen> strikes;
+    std::vector<double> step_us;
+    step_us.reserve(static_cast<std::size_t>(updates));
+    std::map<std::string, int> events;
+    for (int k = 0; k < updates; ++k) {
+      FighterInput in;
+      in.now = 1.0 + k * dt;
+      in.dt_s = k == 0 ? 0.0 : dt;
+      in.seed = a.seed;
+      in.head_m = Eigen::Vector3d(0.15 * std::sin(0.4 * in.now), 1.65, -1.0);
+      strikes.clear();
+      if (k > 0 && (idle || a.visitor == "any")) strike_left -= dt;
+      if (strike_left <= 0) {
+        VisitorStrikeSeen v;
+        v.t = in.now;
+        v.type = kumite::recognition::EventType::begin;
+        const double u = visitor_uniform();
+        v.limb = u < 0.4 ? kumite::recognition::Role::right_hand : u < 0.8 ? kumite::recognition::Role::left_hand : kumite::recognition::Role::right_foot;
+        v.action = u < 0.8 ? kumite::recognition::Action::straight_punch : kumite::recognition::Action::front_kick;
+        v.progress = 0;
+        v.confidence = 1;
+        v.impact_m = in.head_m + Eigen::Vector3d(0, -0.1, -0.7);
+        strikes.push_back(v);
+        strike_left = -std::log1p(-visitor_uniform()) / a.visitor_strike_rate;
+      }
+      in.strikes = strikes;
+      const auto t0 = std::chrono::steady_clock::now();
+      fighter->step(in, out);
+      step_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
+      for (const auto& e : out.events) ++events[std::string(to_string(e.kind))];
+      idle = out.frame.action == FighterAction::idle;
+    }
+    const Fighter::PlannerStatus st = fighter->planner_status();
+    const PlannerCounts& c = st.counts;
+    const auto ratio = [](double x, double y) { return y > 0 ? x / y : 0.0; };
+    report["presets"][name] = {
+        {"configured", {{"attack_rate_per_s", preset->attack_rate_per_s}, {"counter_probability", preset->counter_probability},
+                        {"reaction_time_s", preset->reaction_time_s}}},
+        {"measured",
+         {{"attack_rate_per_s", ratio(c.attacks, c.timer_running_s)},
+          {"attack_rate_note", "its own attacks per second of the time its timer ran (engaged, the fighter idle)"},
+          {"counter_probability_drawn", ratio(c.counters_drawn, c.visitor_strikes)},
+          {"counter_probability_ordered", ratio(c.counters, c.visitor_strikes)},
+          {"counter_note", "drawn: visitor strikes drawn to be countered; ordered: counters the fighter was idle to give within "
+                           "counter_deadline_s"},
+          {"reaction_time_s_ordered", ratio(c.reaction_sum_s, c.counters)},
+          {"reaction_note", "mean delay visitor strike -> counter order, including waiting for the fighter to be idle"}}},
+        {"counts",
+         {{"attacks", c.attacks}, {"visitor_strikes_engaged", c.visitor_strikes}, {"counters_drawn", c.counters_drawn},
+          {"counters", c.counters}, {"counters_dropped", c.counters_dropped}, {"counters_superseded", c.counters_superseded},
+          {"engaged_s", c.engaged_s},
+          {"timer_running_s", c.timer_running_s}}},
+        {"fighter_events", events},
+        {"step_us", stats_json(step_us)}};
+  }
+  kumite::write_file_atomically(a.report, report.dump(2) + "\n");
+  fmt::print("{}\nwrote {}\n", report["presets"].dump(2), a.report);
+  return 0;
+}
+
 // ---- bench ---------------------------------------------------------------------------------
 
 struct BenchArgs {
@@ -1377,6 +1502,8 @@ int main(int argc, char** argv) {
   add_quality(app, quality_args);
   BoutArgs bout_args;
   add_bout(app, bout_args);
+  SparArgs spar_args;
+  add_spar(app, spar_args);
   CLI11_PARSE(app, argc, argv);
   try {
     if (!tunables_file.empty()) read_fighter_tunables(tunables_file, g_fighter.behaviour, g_fighter.retrieval);
@@ -1391,6 +1518,7 @@ int main(int argc, char** argv) {
     if (app.got_subcommand("bench")) return run_bench(bench_args);
     if (app.got_subcommand("quality")) return run_quality(quality_args);
     if (app.got_subcommand("bout")) return run_bout(bout_args);
+    if (app.got_subcommand("spar")) return run_spar(spar_args);
   } catch (const kumite::Error& e) {
     std::fprintf(stderr, "kumite-motion: %s\n", e.what());
     return 1;

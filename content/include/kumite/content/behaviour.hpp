@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "kumite/common/time.hpp"
@@ -195,6 +196,10 @@ class Behaviour {
   /// is near a wall or lost near one). Takes effect at the next update.
   void keep_away(bool on);
   bool keeping_away() const { return keep_away_; }
+  bool paused() const { return paused_; }
+  /// m: the horizontal distance it keeps from the visitor's head while following (from the next
+  /// update; the config's strike_distance_m until set: the sparring planner's fighting distance).
+  void follow_at(double distance_m) { follow_distance_m_ = distance_m; }
   void update(Timestamp now, double dt, const Eigen::Vector3d& head);
 
   FighterFrame frame() const;
@@ -207,17 +212,21 @@ class Behaviour {
   std::size_t most_joints() const { return positions_.size(); }
   const Rig& character(int i) const { return characters_[static_cast<std::size_t>(i)]; }
   int current_character() const { return character_; }
-  FighterState state() const { return state_; }
+  /// The frame's state, from the action state (action_).
+  FighterState state() const;
+  /// The action state and the body's locomotion, as the frame carries them.
+  FighterAction action() const;
+  FighterLocomotion locomotion_kind() const;
   /// A strike order is under way before its strike: waiting for its plan, stepping in, or
   /// stepped in and queued to be taken again.
   bool strike_pending() const;
   /// The walk segment of the stance step playing now (-1: none), and how many were begun.
-  int stance_step_segment() const { return stance_step_ ? stance_step_->segment : -1; }
+  int stance_step_segment() const { return stance_step() ? stance_step()->segment : -1; }
   int stance_steps_begun() const { return stance_steps_; }
   /// Rests with this rest segment from now (tools and tests: strikes from another stance), at
   /// once, without a blend. False (nothing changed) if it is not a rest segment.
   bool rest_with(int segment);
-  double stance_step_scale() const { return stance_step_ ? stance_step_->scale : 1.0; }  ///< its floor travel's scale
+  double stance_step_scale() const { return stance_step() ? stance_step()->scale : 1.0; }  ///< its floor travel's scale
 
   /// The pose of the last update on the current character (for tools/tests).
   std::span<const Eigen::Quaterniond> local_rotations() const { return local_; }
@@ -280,7 +289,14 @@ class Behaviour {
 
  private:
   using Source = PlaybackSource;
+  struct QueuedOrder;
+  struct PendingStrike;
+  /// Takes the orders queued for this update (an order taken again after a step first): each
+  /// deferred() stays queued, in order; the others take_order().
   void handle_orders(Timestamp now, const Eigen::Vector3d& head);
+  /// A strike order that waits (queued) rather than being taken at this update.
+  bool deferred(const QueuedOrder& queued) const;
+  void take_order(const QueuedOrder& queued, Timestamp now, const Eigen::Vector3d& head);
   /// How a strike placed by place_strike_travel lands on its target.
   struct StrikeFit {
     double shortfall_m = 0;  ///< m the fighter would have to step in for the limb to reach the target as extended as captured
@@ -297,7 +313,7 @@ class Behaviour {
     int redirect_support = -1;
     Eigen::Vector3d redirect_to_m{0, 0, 0};  ///< m, room: where that step then ends
   };
-  void start_strike(const StrikePlan& plan, const PlaybackSource& source, const StrikeFit& fit, Timestamp now, double dt);
+  void start_strike(const PendingStrike& pending, const StrikePlan& plan, const PlaybackSource& source, const StrikeFit& fit, Timestamp now, double dt);
   /// The feet a strike is placed on: which are held, and where their ankles stand (m, room).
   struct HeldFeet {
     std::array<bool, 2> held{};
@@ -311,7 +327,7 @@ class Behaviour {
   const Eigen::Vector3d* step_target() const;
   /// A step before the strike: `step_m` > 0 in toward the target, < 0 back from it. False
   /// (strike from here) where the fighter's area leaves less than step_in_min_m to step.
-  bool begin_step_in(const StrikePlan& plan, double step_m, Timestamp now);
+  bool begin_step_in(const PendingStrike& pending, const StrikePlan& plan, double step_m, Timestamp now);
   /// After a stance step (a long kata stance, its take's own rest), a strike that wants a step
   /// first: the rest stance (rest_segment_ or its mirror) to take instead, placed at the spot
   /// facing the target, and the spot to step to (the step the strike wants from that stance,
@@ -322,16 +338,16 @@ class Behaviour {
     Eigen::Vector2d goal_xz{0, 0};  ///< m, room: the spot stepped to
     double step_m = 0;              ///< the step the strike wants from the rest stance at the spot (signed)
   };
-  std::optional<Restance> restance_for(const StrikePlan& plan, double step_m) const;
+  std::optional<Restance> restance_for(const PendingStrike& pending, const StrikePlan& plan, double step_m) const;
   /// The rest stance taken: its rest blends in and the spot moves to its goal (an approach,
   /// as a step-in: the order is taken again once the feet stand).
-  bool begin_restance(const StrikePlan& plan, const Restance& r, Timestamp now);
+  void begin_restance(const PendingStrike& pending, const StrikePlan& plan, const Restance& r, Timestamp now);
   /// The step a strike placed with `fit` wants first (m, signed as begin_step_in's; 0: none).
   double step_wanted(const StrikeFit& fit) const;
   void update_step_in(double dt);
   /// A kick's support foot stepped to where the clip puts it down, if it stands more than
   /// kick_support_step_m from there (true: the strike waits for the step).
-  bool begin_support_step(const StrikePlan& plan, const Source& source, Timestamp now);
+  bool begin_support_step(const PendingStrike& pending, const StrikePlan& plan, const Source& source, Timestamp now);
   void update_support_step(double dt);
   void apply_strike_rate(double dt);
   /// Places a strike's travel (motion_playback.cpp); returns how the limb then lands.
@@ -411,18 +427,9 @@ class Behaviour {
   std::deque<StrikePlan> sync_results_;
 
   int character_ = 0;
-  /// The state machine. Its states and the only transitions enter() allows:
-  ///   resting   -> following  the spot to keep is off by more than follow_tolerance_m
-  ///   following -> resting    arrived (within arrive_tolerance_m)
-  ///   resting | following -> striking   a strike's plan arrived (start_strike)
-  ///   striking  -> recovering  the strike's clip ends: it blends into the rest motion
-  ///   recovering -> resting    the blend is done and d(t) is back to zero
-  /// A strike order waits for its plan in pending_ (any state but striking); paused_ and
-  /// keep_away_ are orders' conditions, not states (a paused fighter rests in place).
-  FighterState state_ = FighterState::resting;
-  void enter(FighterState next);
   bool paused_ = false;
   bool keep_away_ = false;
+  double follow_distance_m_ = 0;  ///< m, follow_at() (set from the config at construction)
   int rest_segment_ = 0;
   Source current_, previous_;
   double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
@@ -441,16 +448,6 @@ class Behaviour {
   /// `walk` segments stance steps are cut from.
   int mirrored_rest_segment_ = -1;
   std::vector<int> walk_segments_;
-  /// A stance step from the mocap playing while following: current_ plays `segment` from its
-  /// first frame (floor travel scaled by Source::Travel); at `end_s` (segment s) the rest
-  /// motion blends in.
-  struct StanceStep {
-    int segment = -1;
-    double end_s = 0;  ///< s, segment time the rest motion starts blending in
-    double scale = 1;  ///< its floor travel's scale
-    int support = 0;   ///< the foot it stands on (held throughout: the clip steps the other)
-  };
-  std::optional<StanceStep> stance_step_;
   std::optional<Eigen::Vector2d> last_goal_;   ///< m, room: the spot to keep at the last follow update
   double stance_wait_s_ = 0;                   ///< s a stance step due has waited for both feet down
   int last_goal_update_ = -1;                  ///< the update it was taken (following resumed: speed anew)
@@ -491,7 +488,6 @@ class Behaviour {
     bool support_stepped = false;            ///< QueuedOrder::support_stepped
     std::optional<StrikePlan> plan;          ///< QueuedOrder::plan
   };
-  std::optional<PendingStrike> pending_;
   /// A strike order whose target the strike would not reach from where the fighter stands:
   /// the fighter walks (steps) to goal_xz, then the order is taken again (update_step_in).
   struct Approach {
@@ -501,9 +497,10 @@ class Behaviour {
     double elapsed_s = 0;  ///< s since the step-in began
     double at_spot_s = 0;  ///< s the spot has been at goal_xz (the feet may still be stepping)
     StrikePlan plan;       ///< the strike stepped in for
-    bool restance = false; ///< a rest stance is taken on the way (begin_restance): done once both feet stand in it
+    /// A step in toward the target, back from it, or into a rest stance taken on the way
+    /// (begin_restance: done once both feet stand in it).
+    enum class Kind { step_in, step_back, restance } kind = Kind::step_in;
   };
-  std::optional<Approach> approach_;
   /// A kick whose clip puts its support foot down out of where that foot stands: the foot
   /// steps there first (FootPlanter::step_to), then the order is taken again
   /// (update_support_step); no foot steps on its own meanwhile.
@@ -514,7 +511,6 @@ class Behaviour {
     int side = 0;                            ///< the support foot
     double elapsed_s = 0;                    ///< s since the step began
   };
-  std::optional<SupportStep> support_step_;
   std::optional<Eigen::Vector3d> strike_target_;  ///< m, room: the target of the strike being started
   StrikeInfo strike_;
 
@@ -568,7 +564,69 @@ class Behaviour {
     int segment = -1;
     int character = 0;  ///< the character the job was made for
   };
-  std::optional<PendingRate> pending_rate_;
+
+  // ---- The action state: what the fighter is doing, one alternative at a time ----------
+  // (content/README.md, "Action states", has the table.) A strike order goes Idle ->
+  // AwaitingPlan -> [Approaching | SupportStepping -> Retaking -> AwaitingPlan ...] ->
+  // Striking -> Recovering -> Idle. Until it strikes, the body keeps its Locomotion (at its
+  // spot, walking it, or carried by a stance step from the mocap), carried over from one
+  // alternative to the next. paused_, keep_away_ and recentre_goal_ are standing orders, not
+  // modes. Every change of alternative goes through enter(), which allows only the table's.
+  /// A stance step from the mocap playing while following: current_ plays `segment` from its
+  /// first frame (floor travel scaled by Source::Travel); at `end_s` (segment s) the rest
+  /// motion blends in.
+  struct StanceStep {
+    int segment = -1;
+    double end_s = 0;  ///< s, segment time the rest motion starts blending in
+    double scale = 1;  ///< its floor travel's scale
+    int support = 0;   ///< the foot it stands on (held throughout: the clip steps the other)
+  };
+  struct AtSpot {};        ///< stands at its spot (FighterState::resting)
+  struct Walking {};       ///< walks its spot toward the spot to keep (following)
+  struct StanceStepping {  ///< a stance step from the mocap carries it (following)
+    StanceStep step;
+  };
+  using Locomotion = std::variant<AtSpot, Walking, StanceStepping>;
+  struct Idle {            ///< no strike under way
+    Locomotion loco;
+  };
+  struct AwaitingPlan {    ///< a strike order sent to the planner
+    PendingStrike strike;
+    Locomotion loco;
+  };
+  struct Approaching {     ///< stepping in, back, or into a rest stance before the strike
+    Approach approach;
+    Locomotion loco;
+  };
+  struct SupportStepping { ///< a kick's support foot stepping to where the kick stands on it
+    SupportStep step;
+    Locomotion loco;
+  };
+  struct Retaking {        ///< the order is taken again at the next update (after a step)
+    QueuedOrder order;
+    Locomotion loco;
+  };
+  struct Striking {        ///< the strike's clip plays (strike_); its playback rate may be due
+    std::optional<PendingRate> rate;
+  };
+  struct Recovering {};    ///< blending into rest while d(t) goes back to zero
+  using Action = std::variant<Idle, AwaitingPlan, Approaching, SupportStepping, Retaking, Striking, Recovering>;
+  Action action_{Idle{}};
+  /// The only way action_ changes alternative (asserts the table's transitions).
+  void enter(Action next);
+  /// The body's locomotion now (AtSpot while striking or recovering), and setting it (only
+  /// in the alternatives that have one).
+  const Locomotion* locomotion() const;
+  void set_locomotion(Locomotion loco);
+  template <class T> T* as() { return std::get_if<T>(&action_); }
+  template <class T> const T* as() const { return std::get_if<T>(&action_); }
+  const PendingStrike* pending() const { return as<AwaitingPlan>() ? &as<AwaitingPlan>()->strike : nullptr; }
+  const Approach* approach() const { return as<Approaching>() ? &as<Approaching>()->approach : nullptr; }
+  const SupportStep* support_step() const { return as<SupportStepping>() ? &as<SupportStepping>()->step : nullptr; }
+  const QueuedOrder* retaking() const { return as<Retaking>() ? &as<Retaking>()->order : nullptr; }
+  const StanceStep* stance_step() const;
+  bool striking() const { return as<Striking>() != nullptr; }
+  bool recovering() const { return as<Recovering>() != nullptr; }
   Eigen::Vector3d root_joint_{0, 0, 0};
   AdaptReport report_;
   TrunkLean trunk_floor_;  ///< the least trunk fallback this frame (the last frame's, easing out)

@@ -19,6 +19,7 @@
 
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
+#include "kumite/content/planner.hpp"
 #include "kumite/content/tunables.hpp"
 #include "kumite/recognition/recognition.hpp"  // the visitor's body roles and strike kinds (vocabulary only)
 
@@ -45,10 +46,33 @@ struct FighterConfig {
   double visitor_capsule_bottom_m = 0.25;  ///< m above the floor: the capsule's bottom
   BehaviourTunables behaviour;           ///< [fighter.behaviour] (tunables.hpp)
   RetrievalTunables retrieval;           ///< [fighter.retrieval]
+  PlannerTunables planner;               ///< [fighter.planner] (planner.hpp): orders or spar
 };
 
 enum class FighterState { resting, following, striking, recovering };
 std::string_view to_string(FighterState s);
+/// What the fighter is doing (its action state: content/README.md, "Action states"). A
+/// strike order: idle -> awaiting_plan -> [stepping_in | stepping_back | restance |
+/// support_step -> retaking -> awaiting_plan ...] -> striking -> recovering -> idle.
+enum class FighterAction {
+  idle,           ///< no strike under way: resting or following
+  awaiting_plan,  ///< a strike order sent to the planner (retrieval)
+  stepping_in,    ///< stepping toward the strike's target first (it falls short from here)
+  stepping_back,  ///< stepping away from it first (the limb would land folded)
+  restance,       ///< taking the fighting stance on the way (after a stance step's long stance)
+  support_step,   ///< a kick's support foot stepping to where the kick stands on it
+  retaking,       ///< the order is taken again at the next update, from where the step ended
+  striking,       ///< the strike's clip plays, adapted to its target
+  recovering,     ///< blending into rest while the reach offset goes back to zero
+};
+std::string_view to_string(FighterAction a);
+/// How the body moves while no strike plays (at_spot while striking or recovering).
+enum class FighterLocomotion {
+  at_spot,      ///< stands at its spot (FighterState::resting)
+  walking,      ///< walks its spot, procedural steps (following)
+  stance_step,  ///< a stance step from the mocap carries it (following)
+};
+std::string_view to_string(FighterLocomotion l);
 
 /// Something the fighter did or refused, as data (its line for people: describe()).
 struct FighterEvent {
@@ -104,6 +128,8 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
 struct FighterFrame {
   Timestamp time = 0;
   FighterState state = FighterState::resting;
+  FighterAction action = FighterAction::idle;
+  FighterLocomotion locomotion = FighterLocomotion::at_spot;
   int character = 0;                         ///< 0-based
   std::span<const Eigen::Vector3d> joints;   ///< m, room frame, one per skeleton joint
   std::span<const int> parents;              ///< parent index per joint (-1 root)
@@ -165,17 +191,6 @@ struct VisitorBody {
   Timestamp t = 0;                              ///< s, when it was measured
 };
 
-/// A strike of the visitor's as the recogniser reported it in an update (recognition::Event).
-struct VisitorStrikeSeen {
-  Timestamp t = 0;  ///< s, the camera time of the sample that decided it
-  recognition::EventType type = recognition::EventType::begin;
-  recognition::Role limb = recognition::Role::right_hand;
-  recognition::Action action = recognition::Action::other;
-  double progress = 0;                       ///< 0..1, onset to full extension
-  double confidence = 0;                     ///< 0..1
-  Eigen::Vector3d impact_m{0, 0, 0};         ///< m, room: where the fist or foot will be at full extension
-};
-
 /// Everything the fighter takes from outside in one update, as plain data (spans into the
 /// caller's memory, valid for the call). The same inputs give the same outputs.
 struct FighterInput {
@@ -186,6 +201,7 @@ struct FighterInput {
   std::span<const Order> orders;           ///< given since the last update, in order (the fighter's character numbering)
   std::span<const VisitorBody> bodies;     ///< the visitor's tracked bodies by role
   std::span<const VisitorStrikeSeen> strikes;  ///< the visitor's strikes recognised since the last update
+  std::uint64_t seed = 0;                  ///< the run's seed: the sparring planner's random draws
 };
 
 /// What one update gives: the pose to draw and the events since the last update.
@@ -202,6 +218,7 @@ class Fighter {
   void step(const FighterInput& in, FighterOutput& out) {
     for (const Order& o : in.orders) order(o);
     keep_away(in.keep_away);
+    decide(in);
     update(in.now, in.dt_s, in.head_m);
     out.frame = frame();
     out.events = take_events();
@@ -216,6 +233,18 @@ class Fighter {
   /// Visitor safety: while on, the fighter backs off and ignores strike orders with a reason
   /// (Behaviour::keep_away); the app sets it while the visitor is near a wall.
   virtual void keep_away(bool on) = 0;
+  /// The sparring planner's decision for this update (spar mode; after the supervisor's orders,
+  /// which come first): queues its order, if it gives one, and the distance to keep.
+  virtual void decide(const FighterInput& in) = 0;
+  /// Mode and tunables of the planner from the next update (a key, a preset from the console).
+  virtual void set_planner(const PlannerTunables& tunables) = 0;
+  struct PlannerStatus {
+    PlannerTunables tunables;
+    PlannerState state = PlannerState::off;
+    std::optional<PlannerDecision> next;
+    PlannerCounts counts;
+  };
+  virtual PlannerStatus planner_status() const = 0;
   /// Advance to `now` (dt = seconds since the last update) toward the visitor's head
   /// (room frame). Retrieval runs on a worker thread; its plan is applied exactly
   /// retrieval_delay_updates updates after the order (waiting for the worker only if it is

@@ -1,0 +1,131 @@
+#pragma once
+// The sparring planner: what the fighter does on its own in spar mode (Touché's planner: Dehesa
+// et al., CHI 2020). It approaches to the fighting distance, then attacks on an exponential
+// random timer and counters the visitor's strikes with a probability after an exponential
+// reaction delay, striking with the arm on the side the visitor's strike leaves open. Its
+// decisions are the orders a supervisor gives (content::Order), taken through the same path.
+//
+// Deterministic: the same inputs and seed give the same decisions on any machine. Random draws
+// come from a counter-based generator (SplitMix64 of the seed and the draw's number; no
+// std::*_distribution, whose algorithms differ between standard libraries); exponential
+// delays are -ln(1 - u) * mean with u from 53 bits. One draw per decision, in a fixed order.
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string>
+#include <string_view>
+
+#include <Eigen/Core>
+
+#include "kumite/common/time.hpp"
+#include "kumite/common/wire.hpp"
+#include "kumite/recognition/recognition.hpp"
+
+namespace kumite::content {
+
+/// A strike of the visitor's as the recogniser reported it in an update (recognition::Event).
+struct VisitorStrikeSeen {
+  Timestamp t = 0;  ///< s, the camera time of the sample that decided it
+  recognition::EventType type = recognition::EventType::begin;
+  recognition::Role limb = recognition::Role::right_hand;
+  recognition::Action action = recognition::Action::other;
+  double progress = 0;                       ///< 0..1, onset to full extension
+  double confidence = 0;                     ///< 0..1
+  Eigen::Vector3d impact_m{0, 0, 0};         ///< m, room: where the fist or foot will be at full extension
+};
+
+
+enum class PlannerMode { orders, spar };
+std::string_view to_string(PlannerMode m);
+
+/// [fighter.planner] (the installation file). Units on every name.
+struct PlannerTunables {
+  PlannerMode mode = PlannerMode::orders;     ///< "orders": the supervisor's alone; "spar": the planner's too
+  double fighting_distance_m = 0.75;          ///< m, fighter root -> visitor head, horizontal: engaged within it
+  double engage_tolerance_m = 0.25;           ///< m: engaged while no farther than fighting distance + this
+  /// 1/s: the rate of its own attacks (0: none). An exponential timer that runs while the
+  /// fighter is engaged and could strike (idle), so this is attacks per second of that time.
+  double attack_rate_per_s = 0.5;
+  double counter_probability = 0.3;           ///< a visitor strike (recognised begin) is countered with this probability
+  double reaction_time_s = 0.3;               ///< s: mean of the exponential delay from the visitor's strike to the counter
+  double counter_deadline_s = 1.0;            ///< s: a counter the fighter cannot start this late after it was due is dropped
+  double kick_share = 0.25;                   ///< share of its own attacks (not counters) that are kicks
+};
+
+/// The named presets of Touché's study: "aggressive_unskilled" (1 attack/s, no counter) and
+/// "defensive_skilled" (0.3 attacks/s, counters often, 0.1 s reaction). nullopt: unknown name.
+std::optional<PlannerTunables> planner_preset(std::string_view name);
+/// "" when every value is finite and in range, else "key: message" for the first that is not.
+std::string validate(const PlannerTunables& t);
+
+enum class PlannerState {
+  off,          ///< orders mode: the planner decides nothing
+  approaching,  ///< farther than the fighting distance: the fighter closes in
+  guarding,     ///< engaged, its attack timer running
+  countering,   ///< a counter is due (PlannerDecision::due)
+};
+std::string_view to_string(PlannerState s);
+
+/// Why the planner ordered a strike.
+enum class PlannerCause { timer, counter };
+std::string_view to_string(PlannerCause c);
+
+/// The planner's next decision: what, why and when (for the console and the log).
+struct PlannerDecision {
+  OrderKind kind = OrderKind::punch_right;
+  PlannerCause cause = PlannerCause::timer;
+  Timestamp due = 0;  ///< s
+};
+
+/// What the planner reads each update.
+struct PlannerInput {
+  Timestamp now = 0;                            ///< s
+  std::uint64_t seed = 0;                       ///< the run's seed (FighterInput::seed)
+  Eigen::Vector3d head_m{0, 0, 0};              ///< m, room: the visitor's head
+  Eigen::Vector3d fighter_root_m{0, 0, 0};      ///< m, room: the fighter's root on the floor
+  bool fighter_idle = false;                    ///< the fighter can take a strike order now
+  bool supervisor_strike = false;               ///< the supervisor ordered a strike this update (comes first)
+  std::span<const VisitorStrikeSeen> strikes;   ///< the visitor's strikes recognised since the last update
+};
+
+/// Counts, for the statistics the planner is judged by (kumite-motion spar).
+struct PlannerCounts {
+  int attacks = 0;            ///< its own attacks ordered (timer)
+  int visitor_strikes = 0;    ///< visitor strike begins seen while engaged
+  int counters_drawn = 0;     ///< of those, drawn to be countered
+  int counters = 0;           ///< counters ordered
+  int counters_dropped = 0;   ///< counters past counter_deadline_s
+  int counters_superseded = 0;  ///< counters still due when a newer strike was drawn to be countered
+  double reaction_sum_s = 0;  ///< s, summed delay visitor strike -> counter order
+  double engaged_s = 0;       ///< s spent engaged (guarding or countering)
+  double timer_running_s = 0; ///< s the attack timer ran (engaged, the fighter idle, no counter due)
+};
+
+class SparPlanner {
+ public:
+  explicit SparPlanner(PlannerTunables tunables = {});
+  /// One update: the order it gives now, if any (orders mode: never).
+  std::optional<Order> step(const PlannerInput& in);
+  /// Changes the tunables (a preset, the mode) from the next update; the timers start anew.
+  void set_tunables(const PlannerTunables& t);
+  const PlannerTunables& tunables() const { return tun_; }
+  PlannerState state() const { return state_; }
+  /// The next decision while one is drawn (the attack timer's or a due counter).
+  std::optional<PlannerDecision> next() const;
+  const PlannerCounts& counts() const { return counts_; }
+
+ private:
+  double uniform(std::uint64_t seed);  ///< [0, 1), 53 bits; advances the draw counter
+  double exponential(std::uint64_t seed, double mean_s);
+  PlannerTunables tun_;
+  PlannerState state_ = PlannerState::off;
+  std::uint64_t draws_ = 0;
+  std::optional<PlannerDecision> attack_, counter_;
+  double attack_left_s_ = 0;      ///< s left on the attack timer
+  Timestamp counter_strike_t_ = 0;  ///< s: when the strike the due counter answers was seen
+  Timestamp last_now_ = 0;
+  bool have_now_ = false;
+  PlannerCounts counts_;
+};
+
+}  // namespace kumite::content

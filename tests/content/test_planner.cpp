@@ -1,0 +1,194 @@
+// The sparring planner on its own (planner.hpp): its decisions counted by the test from the
+// orders it returns (not from its own counts), against the configured rates.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "kumite/content/fighter.hpp"
+#include "kumite/content/planner.hpp"
+
+using namespace kumite;
+using namespace kumite::content;
+
+namespace {
+
+PlannerTunables spar(double rate, double counter_p, double reaction_s) {
+  PlannerTunables t;
+  t.mode = PlannerMode::spar;
+  t.attack_rate_per_s = rate;
+  t.counter_probability = counter_p;
+  t.reaction_time_s = reaction_s;
+  return t;
+}
+
+/// The visitor at the fighting distance in front of a fighter at the origin.
+PlannerInput engaged(double now, std::uint64_t seed = 7) {
+  PlannerInput in;
+  in.now = now;
+  in.seed = seed;
+  in.head_m = {0, 1.6, 0.75};
+  in.fighter_root_m = {0, 0, 0};
+  in.fighter_idle = true;
+  return in;
+}
+
+struct Given {
+  double t;
+  OrderKind kind;
+};
+
+}  // namespace
+
+TEST(Planner, InOrdersModeItDecidesNothing) {
+  PlannerTunables t = spar(5, 1, 0.1);
+  t.mode = PlannerMode::orders;
+  SparPlanner p(t);
+  VisitorStrikeSeen s;
+  for (int k = 0; k < 6000; ++k) {
+    PlannerInput in = engaged(k / 60.0);
+    in.strikes = std::span<const VisitorStrikeSeen>(&s, 1);
+    EXPECT_FALSE(p.step(in).has_value());
+  }
+  EXPECT_EQ(p.state(), PlannerState::off);
+  EXPECT_FALSE(p.next().has_value());
+}
+
+TEST(Planner, FartherThanTheFightingDistanceItApproachesAndDoesNotAttack) {
+  SparPlanner p(spar(5, 0, 0.1));
+  for (int k = 0; k < 6000; ++k) {
+    PlannerInput in = engaged(k / 60.0);
+    in.head_m.z() = 2.0;  // 2 m away
+    EXPECT_FALSE(p.step(in).has_value());
+  }
+  EXPECT_EQ(p.state(), PlannerState::approaching);
+}
+
+TEST(Planner, AttacksAtTheConfiguredRateWhileTheFighterCouldStrike) {
+  for (const double rate : {1.0, 0.3}) {
+    SparPlanner p(spar(rate, 0, 0.1));
+    // The fighter is busy for 1 s after each attack (the timer stops meanwhile): the rate is
+    // per second of time it could strike, counted here from the updates the test gave as idle.
+    double idle_s = 0, busy_until = -1;
+    int attacks = 0;
+    const double dt = 1.0 / 60;
+    for (int k = 0; k < 60 * 3000; ++k) {
+      PlannerInput in = engaged(k * dt, 42);
+      in.fighter_idle = in.now >= busy_until;
+      if (in.fighter_idle && k > 0) idle_s += dt;
+      if (const auto o = p.step(in)) {
+        ASSERT_TRUE(in.fighter_idle);
+        ++attacks;
+        busy_until = in.now + 1.0;
+      }
+    }
+    const double measured = attacks / idle_s;
+    EXPECT_NEAR(measured, rate, 0.1 * rate) << attacks << " attacks in " << idle_s << " s idle";
+  }
+}
+
+TEST(Planner, CountersAVisitorStrikeWithTheArmOnItsOpenSideAfterTheReactionDelay) {
+  SparPlanner p(spar(0, 1.0, 0.1));
+  const double dt = 1.0 / 240;
+  std::vector<double> delays;
+  int left = 0, right = 0;
+  double strike_t = -1;
+  recognition::Role limb = recognition::Role::right_hand;
+  for (int k = 0; k < 240 * 1200; ++k) {
+    PlannerInput in = engaged(k * dt, 3);
+    VisitorStrikeSeen s;
+    if (k % (240 * 3) == 0) {  // a strike every 3 s, alternating hands
+      limb = (k / (240 * 3)) % 2 ? recognition::Role::left_hand : recognition::Role::right_hand;
+      s.t = in.now;
+      s.type = recognition::EventType::begin;
+      s.limb = limb;
+      in.strikes = std::span<const VisitorStrikeSeen>(&s, 1);
+      strike_t = in.now;
+    }
+    if (const auto o = p.step(in)) {
+      delays.push_back(in.now - strike_t);
+      // The visitor's right hand leaves their right side open: on the fighter's left.
+      if (limb == recognition::Role::right_hand) {
+        EXPECT_EQ(o->kind, OrderKind::punch_left);
+        ++left;
+      } else {
+        EXPECT_EQ(o->kind, OrderKind::punch_right);
+        ++right;
+      }
+    }
+  }
+  ASSERT_EQ(static_cast<int>(delays.size()), 400);
+  double sum = 0;
+  for (const double d : delays) sum += d;
+  EXPECT_NEAR(sum / delays.size(), 0.1, 0.01);
+  EXPECT_EQ(left, 200);
+  EXPECT_EQ(right, 200);
+}
+
+TEST(Planner, CountersWithTheConfiguredProbability) {
+  SparPlanner p(spar(0, 0.3, 0.05));
+  int strikes = 0, counters = 0;
+  for (int k = 0; k < 60 * 3000; ++k) {
+    PlannerInput in = engaged(k / 60.0, 11);
+    VisitorStrikeSeen s;
+    if (k % 120 == 0) {
+      s.t = in.now;
+      in.strikes = std::span<const VisitorStrikeSeen>(&s, 1);
+      ++strikes;
+    }
+    counters += p.step(in).has_value();
+  }
+  EXPECT_NEAR(static_cast<double>(counters) / strikes, 0.3, 0.03) << counters << " of " << strikes;
+}
+
+TEST(Planner, TheSupervisorComesFirstAndTheSameSeedGivesTheSameDecisions) {
+  const auto run = [](std::uint64_t seed, bool supervisor) {
+    SparPlanner p(spar(1.0, 0.5, 0.2));
+    std::vector<Given> given;
+    for (int k = 0; k < 60 * 120; ++k) {
+      PlannerInput in = engaged(k / 60.0, seed);
+      in.supervisor_strike = supervisor;
+      VisitorStrikeSeen s;
+      if (k % 150 == 0) {
+        s.t = in.now;
+        in.strikes = std::span<const VisitorStrikeSeen>(&s, 1);
+      }
+      if (const auto o = p.step(in)) given.push_back({in.now, o->kind});
+    }
+    return given;
+  };
+  const auto a = run(5, false), b = run(5, false), c = run(6, false);
+  ASSERT_GT(a.size(), 50u);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(a[i].t, b[i].t);
+    EXPECT_EQ(a[i].kind, b[i].kind);
+  }
+  bool differ = a.size() != c.size();
+  for (std::size_t i = 0; !differ && i < a.size(); ++i) differ = a[i].t != c[i].t || a[i].kind != c[i].kind;
+  EXPECT_TRUE(differ) << "another seed gives other decisions";
+  EXPECT_TRUE(run(5, true).empty()) << "a supervisor ordering strikes every update leaves the planner none";
+}
+
+TEST(Planner, PresetsAndRanges) {
+  const auto aggressive = planner_preset("aggressive_unskilled");
+  const auto defensive = planner_preset("defensive_skilled");
+  ASSERT_TRUE(aggressive && defensive);
+  EXPECT_EQ(aggressive->attack_rate_per_s, 1.0);
+  EXPECT_EQ(aggressive->counter_probability, 0.0);
+  EXPECT_EQ(defensive->attack_rate_per_s, 0.3);
+  EXPECT_EQ(defensive->reaction_time_s, 0.1);
+  EXPECT_GT(defensive->counter_probability, 0.5);
+  EXPECT_FALSE(planner_preset("timid").has_value());
+  EXPECT_EQ(validate(PlannerTunables{}), "");
+  PlannerTunables t;
+  t.attack_rate_per_s = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(validate(t).find("attack_rate_per_s"), std::string::npos);
+  t = {};
+  t.counter_probability = 1.5;
+  EXPECT_NE(validate(t).find("counter_probability"), std::string::npos);
+  t = {};
+  t.fighting_distance_m = -1;
+  EXPECT_NE(validate(t).find("fighting_distance_m"), std::string::npos);
+}
