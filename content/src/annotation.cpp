@@ -21,7 +21,16 @@ namespace {
 constexpr std::array<std::string_view, 6> kSemantics = {"punch", "kick", "block", "walk", "rest", "other"};
 constexpr std::array<std::string_view, 4> kSegments = {"left_hand", "right_hand", "left_foot", "right_foot"};
 constexpr std::array<std::string_view, 3> kHeights = {"low", "mid", "high"};
+constexpr std::array<std::string_view, 2> kForearms = {"left", "right"};
 }  // namespace
+
+std::string_view to_string(Forearm f) { return kForearms[static_cast<std::size_t>(f)]; }
+std::optional<Forearm> forearm_from_string(std::string_view s) {
+  for (std::size_t i = 0; i < kForearms.size(); ++i) {
+    if (kForearms[i] == s) return static_cast<Forearm>(i);
+  }
+  return std::nullopt;
+}
 
 std::string_view to_string(StrikeHeight h) { return kHeights[static_cast<std::size_t>(h)]; }
 std::optional<StrikeHeight> strike_height_from_string(std::string_view s) {
@@ -118,7 +127,9 @@ std::string format_annotations(const AnnotationSet& set) {
   out += "# semantics: punch | kick | block | walk | rest | other; hit_segment (strikes only):\n";
   out += "# left_hand | right_hand | left_foot | right_foot (hit point = wrist / ankle joint).\n";
   out += "# height (strikes, optional): low | mid | high, the hit point above the floor at hit_frame\n";
-  out += "# relative to the actor's stature (low < 0.55, high >= 0.81; content/README.md).\n";
+  out += "# relative to the actor's stature (low < 0.55, high >= 0.81; content/README.md); blocks: what it guards.\n";
+  out += "# forearm (blocks): left | right; intercept_frames = [a, b] (blocks): the forearm in place.\n";
+  out += "# A block with forearm, intercept_frames and height goes into the database; one with none is left out.\n";
   out += "# peak_speed_mps (m/s) and extension (1 = limb straight) are informational.\n";
   out += "# repair_frames = [a, b] (optional): frames where the capture glitched, rebuilt at build time by\n";
   out += "# interpolating each joint between frames a - 1 and b + 1 (inside the segment, at most 8 frames).\n";
@@ -136,6 +147,8 @@ std::string format_annotations(const AnnotationSet& set) {
       if (m.hit_segment) out += fmt::format("hit_segment = \"{}\"\n", to_string(*m.hit_segment));
       if (m.hit_frame) out += fmt::format("hit_frame = {}\n", *m.hit_frame);
       if (m.height) out += fmt::format("height = \"{}\"\n", to_string(*m.height));
+      if (m.forearm) out += fmt::format("forearm = \"{}\"\n", to_string(*m.forearm));
+      if (m.intercept_frames) out += fmt::format("intercept_frames = [{}, {}]\n", (*m.intercept_frames)[0], (*m.intercept_frames)[1]);
       if (m.repair_frames) out += fmt::format("repair_frames = [{}, {}]\n", (*m.repair_frames)[0], (*m.repair_frames)[1]);
       if (!m.note.empty()) out += fmt::format("note = {}\n", toml_string(m.note));
       // Informational, so rounded for people; a value that rounds to zero is left out as a zero
@@ -172,6 +185,16 @@ void validate_annotations(const AnnotationSet& set, std::size_t clip_index, cons
     }
     if (m.hit_frame && (*m.hit_frame < 0 || *m.hit_frame > last)) {
       fail("hit_frame", fmt::format("{} is outside the clip '{}' (frames 0..{})", *m.hit_frame, c.name, last));
+    }
+    if (m.forearm) {
+      const bool left = *m.forearm == Forearm::left;
+      for (CanonicalJoint j : {left ? CanonicalJoint::l_elbow : CanonicalJoint::r_elbow,
+                               left ? CanonicalJoint::l_wrist : CanonicalJoint::r_wrist}) {
+        if (clip.skeleton.index(j) < 0) {
+          fail("forearm", fmt::format("{} needs joint {} which the clip '{}' does not map", to_string(*m.forearm),
+                                      to_string(j), c.name));
+        }
+      }
     }
     if (m.hit_segment) {
       const HitSegment h = *m.hit_segment;

@@ -79,7 +79,7 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
                               std::set<std::string>& names) {
   const Table m(t, source, prefix, "annotation");
   m.only({"name", "semantics", "frames", "hit_segment", "hit_frame", "height", "note", "peak_speed_mps",
-          "extension", "repair_frames"});
+          "extension", "repair_frames", "forearm", "intercept_frames"});
   MotionAnnotation a;
   a.line = m.line();
   a.name = m.string("name");
@@ -116,6 +116,29 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
     if (!height) m.fail("value", "height", fmt::format("unknown height '{}' (low, mid, high)", *h));
     a.height = *height;
   }
+  if (auto f = m.opt_string("forearm")) {
+    if (a.semantics != Semantics::block) m.fail("value", "forearm", fmt::format("only blocks have one, not {}", sem));
+    const auto forearm = forearm_from_string(*f);
+    if (!forearm) m.fail("value", "forearm", fmt::format("unknown forearm '{}' (left, right)", *f));
+    a.forearm = *forearm;
+  }
+  if (const toml::array* w = m.opt_array("intercept_frames")) {
+    if (a.semantics != Semantics::block) m.fail("value", "intercept_frames", fmt::format("only blocks have them, not {}", sem));
+    if (w->size() != 2 || !(*w)[0].is_integer() || !(*w)[1].is_integer()) m.fail("type", "intercept_frames", "must be [first, last] (two integers)");
+    const int64_t wa = *(*w)[0].value<int64_t>(), wb = *(*w)[1].value<int64_t>();
+    if (wa < a.first_frame || wb > a.last_frame || wb < wa) {
+      m.fail("range", "intercept_frames",
+             fmt::format("[{}, {}] must lie inside frames [{}, {}], first <= last", wa, wb, a.first_frame, a.last_frame));
+    }
+    a.intercept_frames = std::array<int, 2>{static_cast<int>(wa), static_cast<int>(wb)};
+  }
+  if (a.semantics == Semantics::block && (a.forearm || a.intercept_frames || a.height) &&
+      !(a.forearm && a.intercept_frames && a.height)) {
+    const std::string_view missing = !a.forearm ? "forearm" : !a.intercept_frames ? "intercept_frames" : "height";
+    m.fail("missing_key", missing,
+           "is required for a reviewed block (forearm, intercept_frames and height together; none: an unreviewed "
+           "block, left out of the database)");
+  }
   if (is_strike(a.semantics)) {
     if (!a.hit_segment) m.fail("missing_key", "hit_segment", fmt::format("is required for a {}", sem));
     if (!a.hit_frame) m.fail("missing_key", "hit_frame", fmt::format("is required for a {}", sem));
@@ -124,7 +147,8 @@ MotionAnnotation parse_motion(const toml::table& t, std::string_view source, con
   } else {
     if (a.hit_segment) m.fail("value", "hit_segment", fmt::format("only strikes (punch, kick) have one, not {}", sem));
     if (a.hit_frame) m.fail("value", "hit_frame", fmt::format("only strikes (punch, kick) have one, not {}", sem));
-    if (a.height) m.fail("value", "height", fmt::format("only strikes (punch, kick) have one, not {}", sem));
+    if (a.height && a.semantics != Semantics::block)
+      m.fail("value", "height", fmt::format("only strikes (punch, kick) and blocks have one, not {}", sem));
   }
   a.note = m.opt_string("note").value_or("");
   // Informational, but read like every number: a limb's end faster than 100 m/s or stretched to

@@ -10,6 +10,7 @@
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/content/annotation.hpp"
+#include "kumite/content/proportions.hpp"
 
 namespace kumite::content {
 
@@ -22,6 +23,7 @@ std::string_view to_string(SegmentKind k) {
     case SegmentKind::walk: return "walk";
     case SegmentKind::strike: return "strike";
     case SegmentKind::other: return "other";
+    case SegmentKind::block: return "block";
   }
   return "?";
 }
@@ -58,6 +60,17 @@ void validate_source(const SegmentSource& s) {
     if (s.hit_frame < s.first_frame || s.hit_frame > s.last_frame) {
       throw segment_error(s, fmt::format("hit frame {} lies outside the segment {}..{}", s.hit_frame,
                                          s.first_frame, s.last_frame));
+    }
+  }
+  if (s.kind == SegmentKind::block) {
+    if (!s.effector || s.effector->leg) throw segment_error(s, "a block needs a forearm (left or right)");
+    if (!s.height) throw segment_error(s, "a block needs a height (low, mid or high: what it guards)");
+    if (!s.intercept_frames || (*s.intercept_frames)[0] < s.first_frame || (*s.intercept_frames)[1] > s.last_frame ||
+        (*s.intercept_frames)[0] > (*s.intercept_frames)[1]) {
+      throw segment_error(s, s.intercept_frames ? fmt::format("intercept frames {}..{} lie outside the segment {}..{}",
+                                                              (*s.intercept_frames)[0], (*s.intercept_frames)[1],
+                                                              s.first_frame, s.last_frame)
+                                                : std::string("a block needs its intercept frames"));
     }
   }
 }
@@ -153,6 +166,7 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
   seg.mirrored = mirrored;
   seg.source_first_frame = src.first_frame;
   seg.frame_time_s = clip.frame_time_s;
+  if (src.height) seg.height = static_cast<std::int8_t>(*src.height);
   const int n = static_cast<int>(poses.size());
   seg.frames.resize(static_cast<std::size_t>(n));
   for (int f = 0; f < n; ++f) {
@@ -211,6 +225,44 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
       for (int k = wfirst; k <= wlast && static_cast<int>(pts.size()) < kWindowMax; k += wstride)
         pts.push_back((g.to_local(at(poses[static_cast<std::size_t>(k)], ej)) * scale).cast<float>());
       db.index.add(seg.effector_group, feat, pts, seg_index, f, wfirst, wstride);
+    }
+  } else if (src.kind == SegmentKind::block) {
+    // The forearm (elbow -> wrist) per frame; candidates: start frames before the intercept,
+    // the window the forearm's contact point over the frames it is in place.
+    Effector e = *src.effector;
+    if (mirrored) e.side = 1 - e.side;
+    seg.effector_group = static_cast<std::int8_t>(e.side);
+    seg.intercept_first = (*src.intercept_frames)[0] - src.first_frame;
+    seg.intercept_last = (*src.intercept_frames)[1] - src.first_frame;
+    const CJ elbow = e.side == kLeft ? CJ::l_elbow : CJ::r_elbow;
+    const CJ wrist = e.side == kLeft ? CJ::l_wrist : CJ::r_wrist;
+    seg.hit_path_m.resize(static_cast<std::size_t>(n));
+    seg.elbow_path_m.resize(static_cast<std::size_t>(n));
+    for (int f = 0; f < n; ++f) {
+      seg.hit_path_m[static_cast<std::size_t>(f)] = (at(poses[static_cast<std::size_t>(f)], wrist) * scale).cast<float>();
+      seg.elbow_path_m[static_cast<std::size_t>(f)] = (at(poses[static_cast<std::size_t>(f)], elbow) * scale).cast<float>();
+    }
+    const double ft = clip.frame_time_s;
+    const int stride = std::max(1, static_cast<int>(std::lround(o.start_stride_s / ft)));
+    const int last_start = std::min(static_cast<int>(o.start_window_s / ft),
+                                    seg.intercept_first - static_cast<int>(std::lround(o.block_min_lead_s / ft)));
+    const int wfirst = seg.intercept_first, wlast = seg.intercept_last;
+    const int wstride = std::max(1, (wlast - wfirst + kWindowMax - 1) / (kWindowMax - 1));
+    const int group = e.side + 2 * seg.height;
+    std::array<float, kFeatureDim> feat{};
+    std::vector<Eigen::Vector3f> pts;
+    for (int f = 0; f <= std::max(0, last_start); f += stride) {
+      const CanonicalPose& now = poses[static_cast<std::size_t>(f)];
+      const CanonicalPose& before = poses[static_cast<std::size_t>(std::max(0, f - 1))];
+      const GroundFrame g = ground_frame_of(now);
+      pose_features(now, before, f > 0 ? ft : 0.0, g, m.leg_length_m, o.velocity_weight_s, feat);
+      pts.clear();
+      for (int k = wfirst; k <= wlast && static_cast<int>(pts.size()) < kWindowMax; k += wstride) {
+        const CanonicalPose& p = poses[static_cast<std::size_t>(k)];
+        const Vector3d contact = at(p, elbow) + kForearmContactFraction * (at(p, wrist) - at(p, elbow));
+        pts.push_back((g.to_local(contact) * scale).cast<float>());
+      }
+      db.block_index.add(group, feat, pts, seg_index, f, wfirst, wstride);
     }
   }
   db.segments.push_back(std::move(seg));
@@ -350,6 +402,82 @@ Skeleton get_skeleton(Reader& r) {
   return s;
 }
 
+double median_block_reach(const RetrievalIndex& ix) {
+  std::vector<double> r;
+  for (int row = 0; row < ix.size; ++row) {
+    const float* w = ix.window.data() + static_cast<std::size_t>(row) * kWindowMax * 3;
+    for (int k = 0; k < ix.window_count[static_cast<std::size_t>(row)]; ++k)
+      r.push_back(std::hypot(static_cast<double>(w[3 * k]), static_cast<double>(w[3 * k + 2])));
+  }
+  if (r.empty()) return 0;
+  std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+  return r[r.size() / 2];
+}
+
+void put_index(Writer& w, const RetrievalIndex& ix) {
+  w.put<std::int32_t>(ix.size);
+  w.vec(ix.features); w.vec(ix.window); w.vec(ix.window_count); w.vec(ix.box);
+  w.vec(ix.segment); w.vec(ix.start_frame); w.vec(ix.window_first); w.vec(ix.window_stride); w.vec(ix.group);
+  w.put<std::uint64_t>(ix.clusters.size());
+  for (const auto& c : ix.clusters) {
+    w.put(c.first); w.put(c.count); w.put(c.centroid); w.put(c.radius); w.put(c.box);
+  }
+  for (int g = 0; g <= ix.group_count; ++g) w.put<std::int32_t>(ix.group_clusters[static_cast<std::size_t>(g)]);
+}
+
+// A retrieval index of `group_count` groups over db.segments: every row's segment of `kind`,
+// its group the segment's (strikes: the effector group; blocks: forearm + 2 * height).
+void get_index(Reader& body, Database& db, RetrievalIndex& ix, int group_count, SegmentKind kind) {
+  const std::string_view what = kind == SegmentKind::block ? "block index" : "retrieval index";
+  ix.group_count = group_count;
+  ix.size = body.get<std::int32_t>("index size");
+  ix.features = body.vec<float>("features");
+  ix.window = body.vec<float>("window");
+  ix.window_count = body.vec<std::uint8_t>("window count");
+  ix.box = body.vec<float>("boxes");
+  ix.segment = body.vec<std::int32_t>("row segment");
+  ix.start_frame = body.vec<std::int32_t>("row start");
+  ix.window_first = body.vec<std::int32_t>("row window");
+  ix.window_stride = body.vec<std::int32_t>("row window stride");
+  ix.group = body.vec<std::uint8_t>("row group");
+  const auto n = static_cast<std::size_t>(std::max(0, ix.size));
+  if (ix.size < 0 || ix.features.size() != n * kFeatureDim || ix.window.size() != n * kWindowMax * 3 ||
+      ix.window_count.size() != n || ix.box.size() != n * 6 || ix.segment.size() != n || ix.start_frame.size() != n ||
+      ix.window_first.size() != n || ix.window_stride.size() != n || ix.group.size() != n)
+    body.fail("corrupt", fmt::format("{} arrays disagree in size", what));
+  for (std::size_t row = 0; row < n; ++row) {
+    const int s = ix.segment[row];
+    if (s < 0 || s >= static_cast<int>(db.segments.size())) body.fail("corrupt", fmt::format("{} row {}: segment {} out of range", what, row, s));
+    const MotionSegment& seg = db.segments[static_cast<std::size_t>(s)];
+    const int group = kind == SegmentKind::block ? seg.effector_group + 2 * seg.height : seg.effector_group;
+    const int last_window = ix.window_first[row] + ix.window_stride[row] * (ix.window_count[row] - 1);
+    if (seg.kind != kind || ix.window_count[row] < 1 || ix.window_count[row] > kWindowMax || ix.group[row] != group ||
+        ix.start_frame[row] < 0 || ix.start_frame[row] >= seg.frame_count() || ix.window_first[row] < 0 ||
+        ix.window_stride[row] < 1 || last_window >= seg.frame_count())
+      body.fail("corrupt", fmt::format("{} row {}: inconsistent with segment '{}'", what, row, seg.name));
+  }
+  const auto nc = body.count("clusters", 8);
+  for (std::uint64_t c = 0; c < nc; ++c) {
+    RetrievalIndex::Cluster cl;
+    cl.first = body.get<std::int32_t>("cluster");
+    cl.count = body.get<std::int32_t>("cluster");
+    cl.centroid = body.get<std::array<float, kFeatureDim>>("cluster");
+    cl.radius = body.get<float>("cluster");
+    cl.box = body.get<std::array<float, 6>>("cluster");
+    if (cl.first < 0 || cl.count < 1 || cl.first + cl.count > ix.size) body.fail("corrupt", fmt::format("{} cluster {}: rows out of range", what, c));
+    ix.clusters.push_back(cl);
+  }
+  for (int g = 0; g <= group_count; ++g) {
+    auto& gc = ix.group_clusters[static_cast<std::size_t>(g)];
+    gc = body.get<std::int32_t>("group clusters");
+    if (gc < 0 || gc > static_cast<int>(nc)) body.fail("corrupt", fmt::format("{}: group cluster range out of range", what));
+  }
+  for (int g = group_count + 1; g <= kMaxGroupCount; ++g) ix.group_clusters[static_cast<std::size_t>(g)] = ix.group_clusters[static_cast<std::size_t>(group_count)];
+  for (int g = 0; g < group_count; ++g)
+    if (ix.group_clusters[static_cast<std::size_t>(g)] > ix.group_clusters[static_cast<std::size_t>(g) + 1])
+      body.fail("corrupt", fmt::format("{}: group cluster ranges out of order", what));
+}
+
 }  // namespace
 
 std::vector<SegmentSource> segment_sources(const AnnotationSet& set, const std::vector<Clip>& clips) {
@@ -364,6 +492,13 @@ std::vector<SegmentSource> segment_sources(const AnnotationSet& set, const std::
       s.mirror = set.clips[c].mirror;
       s.repair_frames = m.repair_frames;
       switch (m.semantics) {
+        case Semantics::block:
+          if (!is_reviewed_block(m)) continue;  // unreviewed (as proposed): left out
+          s.kind = SegmentKind::block;
+          s.effector = Effector{*m.forearm == Forearm::left ? kLeft : kRight, false};
+          s.height = m.height;
+          s.intercept_frames = m.intercept_frames;
+          break;
         case Semantics::punch:
         case Semantics::kick:
           s.kind = SegmentKind::strike;
@@ -389,9 +524,17 @@ Database build_database(std::span<const SegmentSource> sources, const BuildOptio
   db.actor_name = sources.front().clip->name;
   db.actor_skeleton = sources.front().clip->skeleton;
   db.actor = skeleton_morphology(db.actor_skeleton, db.actor_name);
-  for (std::size_t i = 0; i < sources.size(); ++i) {
+  db.actor_stature_m = measure_proportions(db.actor_skeleton).stature_m;
+  db.block_index.group_count = kBlockGroupCount;
+  // Blocks after every other segment (strike, rest and walk segments keep their indices).
+  std::vector<std::size_t> order;
+  for (int blocks = 0; blocks < 2; ++blocks)
+    for (std::size_t i = 0; i < sources.size(); ++i)
+      if ((sources[i].kind == SegmentKind::block) == (blocks == 1)) order.push_back(i);
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const std::size_t i = order[k];
     const SegmentSource& src = sources[i];
-    if (o.progress) o.progress(src.name, static_cast<double>(i) / static_cast<double>(sources.size()));
+    if (o.progress) o.progress(src.name, static_cast<double>(k) / static_cast<double>(sources.size()));
     const Morphology m = skeleton_morphology(src.clip->skeleton, src.clip->name);
     auto poses = clip_poses(*src.clip, src.first_frame, src.last_frame);
     repair_glitch(src, poses);
@@ -405,6 +548,8 @@ Database build_database(std::span<const SegmentSource> sources, const BuildOptio
   }
   if (o.progress) o.progress("clustering", 0.99);
   db.index.build_clusters(o.clusters_per_group);
+  db.block_index.build_clusters(o.clusters_per_group);
+  db.block_reach_m = median_block_reach(db.block_index);
   if (o.progress) o.progress("done", 1.0);
   return db;
 }
@@ -425,20 +570,19 @@ std::string serialize_database(const Database& db) {
     w.put<std::int32_t>(s.source_first_frame);
     w.put(s.frame_time_s);
     w.put<std::int32_t>(s.hit_frame);
+    w.put<std::int8_t>(s.height);
+    w.put<std::int32_t>(s.intercept_first);
+    w.put<std::int32_t>(s.intercept_last);
     w.put<std::uint64_t>(s.frames.size());
     for (const auto& f : s.frames) put_frame(w, f);
-    w.put<std::uint64_t>(s.hit_path_m.size());
-    for (const auto& p : s.hit_path_m) { w.put(p.x()); w.put(p.y()); w.put(p.z()); }
+    for (const auto* path : {&s.hit_path_m, &s.elbow_path_m}) {
+      w.put<std::uint64_t>(path->size());
+      for (const auto& p : *path) { w.put(p.x()); w.put(p.y()); w.put(p.z()); }
+    }
   }
-  const RetrievalIndex& ix = db.index;
-  w.put<std::int32_t>(ix.size);
-  w.vec(ix.features); w.vec(ix.window); w.vec(ix.window_count); w.vec(ix.box);
-  w.vec(ix.segment); w.vec(ix.start_frame); w.vec(ix.window_first); w.vec(ix.window_stride); w.vec(ix.group);
-  w.put<std::uint64_t>(ix.clusters.size());
-  for (const auto& c : ix.clusters) {
-    w.put(c.first); w.put(c.count); w.put(c.centroid); w.put(c.radius); w.put(c.box);
-  }
-  for (auto g : ix.group_clusters) w.put<std::int32_t>(g);
+  put_index(w, db.index);
+  put_index(w, db.block_index);
+  w.put(db.block_reach_m);
   w.put<std::uint64_t>(fnv1a(w.out));
   return std::move(w.out);
 }
@@ -463,6 +607,7 @@ Database parse_database(std::string_view bytes, std::string_view name) {
   db.actor_skeleton = get_skeleton(body);
   try {
     db.actor = skeleton_morphology(db.actor_skeleton, db.actor_name);
+    db.actor_stature_m = measure_proportions(db.actor_skeleton).stature_m;
   } catch (const Error& e) {
     body.fail("corrupt", e.what());
   }
@@ -473,7 +618,7 @@ Database parse_database(std::string_view bytes, std::string_view name) {
     s.name = body.str("segment name");
     s.source_clip = body.str("segment clip");
     const auto kind = body.get<std::uint8_t>("segment kind");
-    if (kind > 3) body.fail("corrupt", fmt::format("segment {}: bad kind {}", i, kind));
+    if (kind > 4) body.fail("corrupt", fmt::format("segment {}: bad kind {}", i, kind));
     s.kind = static_cast<SegmentKind>(kind);
     s.effector_group = body.get<std::int8_t>("effector");
     if (s.effector_group < -1 || s.effector_group >= kGroupCount) body.fail("corrupt", fmt::format("segment {}: bad effector", i));
@@ -482,65 +627,38 @@ Database parse_database(std::string_view bytes, std::string_view name) {
     s.frame_time_s = body.f("frame time");
     if (!(s.frame_time_s > 0)) body.fail("corrupt", fmt::format("segment {}: frame time {} is not positive", i, s.frame_time_s));
     s.hit_frame = body.get<std::int32_t>("hit frame");
+    s.height = body.get<std::int8_t>("height");
+    if (s.height < -1 || s.height > 2) body.fail("corrupt", fmt::format("segment {}: bad height {}", i, s.height));
+    s.intercept_first = body.get<std::int32_t>("intercept first");
+    s.intercept_last = body.get<std::int32_t>("intercept last");
     const auto nf = body.count("frames", 47 * 8);
     if (nf < 2) body.fail("corrupt", fmt::format("segment {}: {} frames", i, nf));
     for (std::uint64_t f = 0; f < nf; ++f) s.frames.push_back(get_frame(body));
-    const auto np = body.count("hit path", 12);
-    if (np != 0 && np != nf) body.fail("corrupt", fmt::format("segment {}: hit path of {} for {} frames", i, np, nf));
-    for (std::uint64_t f = 0; f < np; ++f) {
-      const float x = body.get<float>("hit path"), y = body.get<float>("hit path"), z = body.get<float>("hit path");
-      s.hit_path_m.emplace_back(x, y, z);
+    for (auto* path : {&s.hit_path_m, &s.elbow_path_m}) {
+      const auto np = body.count("path", 12);
+      if (np != 0 && np != nf) body.fail("corrupt", fmt::format("segment {}: a path of {} for {} frames", i, np, nf));
+      for (std::uint64_t f = 0; f < np; ++f) {
+        const float x = body.get<float>("path"), y = body.get<float>("path"), z = body.get<float>("path");
+        if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z)) body.fail("corrupt", fmt::format("segment {}: a path point is not finite", i));
+        path->emplace_back(x, y, z);
+      }
     }
-    if (s.kind == SegmentKind::strike && (s.effector_group < 0 || s.hit_frame < 0 || s.hit_frame >= static_cast<int>(nf) || np == 0))
+    if (s.kind == SegmentKind::strike && (s.effector_group < 0 || s.hit_frame < 0 || s.hit_frame >= static_cast<int>(nf) || s.hit_path_m.empty()))
       body.fail("corrupt", fmt::format("segment {} ('{}'): strike without a valid hit", i, s.name));
+    if (s.kind == SegmentKind::block &&
+        (s.effector_group < 0 || s.effector_group > 1 || s.height < 0 || s.intercept_first < 0 ||
+         s.intercept_last < s.intercept_first || s.intercept_last >= static_cast<int>(nf) || s.hit_path_m.empty() ||
+         s.elbow_path_m.empty()))
+      body.fail("corrupt", fmt::format("segment {} ('{}'): block without a valid forearm, height or intercept", i, s.name));
     db.segments.push_back(std::move(s));
   }
-  RetrievalIndex& ix = db.index;
-  ix.size = body.get<std::int32_t>("index size");
-  ix.features = body.vec<float>("features");
-  ix.window = body.vec<float>("window");
-  ix.window_count = body.vec<std::uint8_t>("window count");
-  ix.box = body.vec<float>("boxes");
-  ix.segment = body.vec<std::int32_t>("row segment");
-  ix.start_frame = body.vec<std::int32_t>("row start");
-  ix.window_first = body.vec<std::int32_t>("row window");
-  ix.window_stride = body.vec<std::int32_t>("row window stride");
-  ix.group = body.vec<std::uint8_t>("row group");
-  const auto n = static_cast<std::size_t>(std::max(0, ix.size));
-  if (ix.size < 0 || ix.features.size() != n * kFeatureDim || ix.window.size() != n * kWindowMax * 3 ||
-      ix.window_count.size() != n || ix.box.size() != n * 6 || ix.segment.size() != n || ix.start_frame.size() != n ||
-      ix.window_first.size() != n || ix.window_stride.size() != n || ix.group.size() != n)
-    body.fail("corrupt", "retrieval index arrays disagree in size");
-  for (std::size_t row = 0; row < n; ++row) {
-    const int s = ix.segment[row];
-    if (s < 0 || s >= static_cast<int>(db.segments.size())) body.fail("corrupt", fmt::format("row {}: segment {} out of range", row, s));
-    const MotionSegment& seg = db.segments[static_cast<std::size_t>(s)];
-    const int last_window = ix.window_first[row] + ix.window_stride[row] * (ix.window_count[row] - 1);
-    if (ix.window_count[row] < 1 || ix.window_count[row] > kWindowMax || ix.group[row] != seg.effector_group ||
-        ix.start_frame[row] < 0 || ix.start_frame[row] >= seg.frame_count() || ix.window_first[row] < 0 ||
-        ix.window_stride[row] < 1 || last_window >= seg.frame_count())
-      body.fail("corrupt", fmt::format("row {}: inconsistent with segment '{}'", row, seg.name));
-  }
-  const auto nc = body.count("clusters", 8);
-  for (std::uint64_t c = 0; c < nc; ++c) {
-    RetrievalIndex::Cluster cl;
-    cl.first = body.get<std::int32_t>("cluster");
-    cl.count = body.get<std::int32_t>("cluster");
-    cl.centroid = body.get<std::array<float, kFeatureDim>>("cluster");
-    cl.radius = body.get<float>("cluster");
-    cl.box = body.get<std::array<float, 6>>("cluster");
-    if (cl.first < 0 || cl.count < 1 || cl.first + cl.count > ix.size) body.fail("corrupt", fmt::format("cluster {}: rows out of range", c));
-    ix.clusters.push_back(cl);
-  }
-  for (auto& g : ix.group_clusters) {
-    g = body.get<std::int32_t>("group clusters");
-    if (g < 0 || g > static_cast<int>(nc)) body.fail("corrupt", "group cluster range out of range");
-  }
+  get_index(body, db, db.index, kGroupCount, SegmentKind::strike);
+  get_index(body, db, db.block_index, kBlockGroupCount, SegmentKind::block);
+  db.block_reach_m = body.f("block reach");
+  if (db.block_reach_m < 0 || db.block_reach_m > 10) body.fail("corrupt", fmt::format("block reach {} m (0..10)", db.block_reach_m));
   if (body.pos() != body.size()) body.fail("corrupt", fmt::format("{} unexpected bytes after the index", body.size() - body.pos()));
-  for (int g = 0; g < kGroupCount; ++g)
-    if (ix.group_clusters[static_cast<std::size_t>(g)] > ix.group_clusters[static_cast<std::size_t>(g) + 1])
-      body.fail("corrupt", "group cluster ranges out of order");
-  ix.build_blocks();
+  db.index.build_blocks();
+  db.block_index.build_blocks();
   return db;
 }
 

@@ -121,7 +121,7 @@ void build_spatial_index(RetrievalIndex& ix) {
   ix.spatial_large.clear();
   constexpr int B = RetrievalIndex::kBlockRows;
   std::vector<std::pair<std::uint32_t, std::int32_t>> keyed;
-  for (int g = 0; g < kGroupCount; ++g) {
+  for (int g = 0; g < ix.group_count; ++g) {
     ix.group_spatial_large[static_cast<std::size_t>(g)] = static_cast<std::int32_t>(ix.spatial_large.size());
     std::array<float, 6> extent = kEmptyBox;  // of the box centres
     keyed.clear();
@@ -166,7 +166,8 @@ void build_spatial_index(RetrievalIndex& ix) {
       ix.spatial_large.push_back(lb);
     }
   }
-  ix.group_spatial_large[kGroupCount] = static_cast<std::int32_t>(ix.spatial_large.size());
+  for (int g = ix.group_count; g <= kMaxGroupCount; ++g)
+    ix.group_spatial_large[static_cast<std::size_t>(g)] = static_cast<std::int32_t>(ix.spatial_large.size());
 }
 
 }  // namespace
@@ -199,8 +200,8 @@ void RetrievalIndex::add(int g, std::span<const float> f, std::span<const Eigen:
 void RetrievalIndex::build_clusters(int clusters_per_group, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::vector<int> assignment(static_cast<std::size_t>(size), 0);
-  std::vector<std::vector<std::array<float, kFeatureDim>>> centroids(kGroupCount);
-  for (int g = 0; g < kGroupCount; ++g) {
+  std::vector<std::vector<std::array<float, kFeatureDim>>> centroids(static_cast<std::size_t>(group_count));
+  for (int g = 0; g < group_count; ++g) {
     std::vector<int> rows;
     for (int r = 0; r < size; ++r) if (group[static_cast<std::size_t>(r)] == g) rows.push_back(r);
     const int n = static_cast<int>(rows.size());
@@ -292,7 +293,7 @@ void RetrievalIndex::build_clusters(int clusters_per_group, std::uint32_t seed) 
   for (std::size_t i = 0; i < order.size(); ++i) sorted_assignment[i] = assignment[static_cast<std::size_t>(order[i])];
 
   clusters.clear();
-  for (int g = 0; g < kGroupCount; ++g) {
+  for (int g = 0; g < group_count; ++g) {
     group_clusters[static_cast<std::size_t>(g)] = static_cast<std::int32_t>(clusters.size());
     for (int r = 0; r < size;) {
       if (group[static_cast<std::size_t>(r)] != g) { ++r; continue; }
@@ -316,7 +317,7 @@ void RetrievalIndex::build_clusters(int clusters_per_group, std::uint32_t seed) 
       clusters.push_back(cl);
     }
   }
-  group_clusters[kGroupCount] = static_cast<std::int32_t>(clusters.size());
+  for (int g = group_count; g <= kMaxGroupCount; ++g) group_clusters[static_cast<std::size_t>(g)] = static_cast<std::int32_t>(clusters.size());
 
   // Within each cluster: Morton order of the box centres, so blocks are spatially tight.
   std::vector<std::uint32_t> code(static_cast<std::size_t>(size), 0);
@@ -463,6 +464,7 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
   RetrievalStats local_stats;
   RetrievalStats& st = stats ? *stats : local_stats;
   st = {};
+  if (q.group < 0 || q.group >= ix.group_count) return {};
   const int c0 = ix.group_clusters[static_cast<std::size_t>(q.group)];
   const int c1 = ix.group_clusters[static_cast<std::size_t>(q.group) + 1];
   const int nc = c1 - c0;
@@ -571,6 +573,7 @@ RetrievalChoice retrieve(const RetrievalIndex& ix, const RetrievalQuery& q, cons
 RetrievalIndex replicated_index(const RetrievalIndex& base, int copies, double feature_noise,
                                 double window_noise_m, std::uint32_t seed, int clusters_per_group) {
   RetrievalIndex out;
+  out.group_count = base.group_count;
   std::mt19937 rng(seed);
   std::normal_distribution<double> n01(0, 1);
   std::array<float, kFeatureDim> f{};

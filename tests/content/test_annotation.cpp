@@ -155,7 +155,7 @@ TEST(Annotation, SchemaErrorsNameFileLineKey) {
             "m.toml:7: clip[0].motion[0].frames: [9, 1] must satisfy 0 <= first <= last");
   EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\nspeed = 3\n"),
             "m.toml:8: clip[0].motion[0].speed: unknown key (allowed here: name, semantics, frames, "
-            "hit_segment, hit_frame, height, note, peak_speed_mps, extension, repair_frames)");
+            "hit_segment, hit_frame, height, note, peak_speed_mps, extension, repair_frames, forearm, intercept_frames)");
   EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\nrepair_frames = [1, 2]\n"),
             "m.toml:8: clip[0].motion[0].repair_frames: [1, 2] must lie inside frames [1, 9], not on their first or last "
             "(the frames around it are interpolated)");
@@ -173,7 +173,7 @@ TEST(Annotation, SchemaErrorsNameFileLineKey) {
                                        "height = 2\n"),
             "m.toml:10: clip[0].motion[0].height: must be a string");
   EXPECT_EQ(annotation_error(kHeader + "semantics = \"rest\"\nframes = [1, 9]\nheight = \"low\"\n"),
-            "m.toml:8: clip[0].motion[0].height: only strikes (punch, kick) have one, not rest");
+            "m.toml:8: clip[0].motion[0].height: only strikes (punch, kick) and blocks have one, not rest");
   EXPECT_EQ(annotation_error("version = 2\n"), "m.toml:1: version: version 2 is not supported (expected 1)");
   EXPECT_EQ(annotation_error("[[clip]]\n"), "m.toml:1: version: is required");
   EXPECT_NE(annotation_error("version = 1\n[[clip]\n").find("m.toml:2: "), std::string::npos);

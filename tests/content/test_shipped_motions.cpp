@@ -111,13 +111,15 @@ TEST(ShippedMotions, WiderRepertoireWithHeights) {
   EXPECT_EQ(heights[HitSegment::right_hand], std::set{StrikeHeight::mid});
   EXPECT_GE(actors[HitSegment::left_foot].size(), 2u);  // CMU 135 and the HDM05 actors
 
-  // segment_sources carries the height of every strike into the database build.
+  // segment_sources carries the height of every strike (and every block) into the database build.
   const auto sources = segment_sources(set, clips);
   int with_height = 0;
   for (const auto& s : sources) {
     if (s.kind == SegmentKind::strike) {
       EXPECT_TRUE(s.height) << s.name;
       with_height += s.height.has_value();
+    } else if (s.kind == SegmentKind::block) {
+      EXPECT_TRUE(s.height) << s.name;
     } else {
       EXPECT_FALSE(s.height) << s.name;
     }

@@ -17,8 +17,13 @@
 //   frames = [330, 410]          # first, last (inclusive)
 //   hit_segment = "right_foot"   # strikes (punch, kick) only: left_hand | right_hand | left_foot | right_foot
 //   hit_frame = 374              # strikes only: contact frame, inside `frames`
-//   height = "mid"               # strikes only, optional: low | mid | high, where the hit
-//                                # point is at hit_frame (classify_strike_height)
+//   height = "mid"               # strikes, optional: low | mid | high, where the hit point is
+//                                # at hit_frame (classify_strike_height); blocks: what it guards
+//   forearm = "left"             # blocks only: left | right, the forearm that meets the fist
+//   intercept_frames = [360, 395] # blocks only: the frames the forearm is in place (inside `frames`)
+//
+// A block with forearm, intercept_frames and height is reviewed and goes into the database; a
+// block with none of them (as the proposer writes it) is left out; one with some is an error.
 //   note = "..."                 # optional, free text
 //   peak_speed_mps = 9.9         # optional, informational: hit point's peak speed (m/s)
 //   extension = 0.97             # optional, informational: limb extension at hit_frame (1 = straight)
@@ -42,6 +47,8 @@ enum class HitSegment : std::uint8_t { left_hand, right_hand, left_foot, right_f
 /// Where a strike lands, from the hit point's height above the floor at the hit frame
 /// relative to the actor's stature (see StrikeHeightThresholds).
 enum class StrikeHeight : std::uint8_t { low, mid, high };
+/// The forearm (elbow -> wrist) a block meets the incoming fist with.
+enum class Forearm : std::uint8_t { left, right };
 
 std::string_view to_string(Semantics s);
 std::string_view to_string(HitSegment s);
@@ -49,6 +56,8 @@ std::optional<Semantics> semantics_from_string(std::string_view s);
 std::optional<HitSegment> hit_segment_from_string(std::string_view s);
 std::string_view to_string(StrikeHeight h);
 std::optional<StrikeHeight> strike_height_from_string(std::string_view s);
+std::string_view to_string(Forearm f);
+std::optional<Forearm> forearm_from_string(std::string_view s);
 
 /// Bounds of the strike heights, as fractions of the actor's stature (rest-pose height,
 /// Proportions::stature_m) for the hit point (wrist / ankle joint) above the floor at the hit
@@ -83,7 +92,10 @@ struct MotionAnnotation {
   int last_frame = 0;                     ///< last frame (inclusive)
   std::optional<HitSegment> hit_segment;  ///< strikes only
   std::optional<int> hit_frame;           ///< strikes only: contact frame in [first, last]
-  std::optional<StrikeHeight> height;     ///< strikes only, optional: where the strike lands
+  std::optional<StrikeHeight> height;     ///< strikes: where it lands (optional); blocks: what it guards
+  std::optional<Forearm> forearm;         ///< blocks only: the forearm that meets the fist
+  /// Blocks only: clip frames [a, b] (inside the segment) where the forearm is in place.
+  std::optional<std::array<int, 2>> intercept_frames = std::nullopt;
   std::string note;                       ///< free text for people
   double peak_speed_mps = 0;              ///< m/s, informational: hit point's peak speed (0 = unknown)
   double extension = 0;                   ///< 1, informational: limb length fraction at the hit (0 = unknown)
@@ -94,6 +106,11 @@ struct MotionAnnotation {
   std::optional<std::array<int, 2>> repair_frames = std::nullopt;
   int line = 0;                           ///< line in the TOML file (0 = not from a file)
 };
+
+/// A reviewed block: it says its forearm, intercept frames and height (the database keeps it).
+inline bool is_reviewed_block(const MotionAnnotation& m) {
+  return m.semantics == Semantics::block && m.forearm && m.intercept_frames && m.height;
+}
 
 struct ClipAnnotation {
   std::string file;   ///< BVH path as written (relative to the motions.toml folder)

@@ -35,8 +35,14 @@ namespace kumite::content {
 inline constexpr int kFeatureDim = 45;
 /// Hit-window samples per candidate (at most).
 inline constexpr int kWindowMax = 16;
-/// Effector groups: side + 2 * leg (0 left hand, 1 right hand, 2 left foot, 3 right foot).
+/// Strike retrieval groups (Database::index): side + 2 * leg (0 left hand, 1 right hand, 2 left
+/// foot, 3 right foot).
 inline constexpr int kGroupCount = 4;
+/// Block retrieval groups (Database::block_index): forearm side + 2 * height (StrikeHeight: 0
+/// low, 1 mid, 2 high), so 0 left low, 1 right low, 2 left mid, ... 5 right high.
+inline constexpr int kBlockGroupCount = 6;
+/// The most groups one index may have.
+inline constexpr int kMaxGroupCount = 6;
 
 
 struct RetrievalIndex {
@@ -71,7 +77,8 @@ struct RetrievalIndex {
   std::vector<float> spatial_box;            ///< m, [i * 6]: box of spatial_rows[i] (a copy)
   std::vector<SpatialBlock> spatial_small;   ///< kBlockRows rows each
   std::vector<SpatialBlock> spatial_large;   ///< kBlockRows small blocks each
-  std::array<std::int32_t, kGroupCount + 1> group_spatial_large{};  ///< large blocks of g
+  std::array<std::int32_t, kMaxGroupCount + 1> group_spatial_large{};  ///< large blocks of g
+  std::int32_t group_count = kGroupCount;    ///< groups 0..group_count-1 (kGroupCount, kBlockGroupCount)
   std::int32_t size = 0;                     ///< candidates
   std::vector<float> features;               ///< [row * kFeatureDim]
   std::vector<float> window;                 ///< m, [row * kWindowMax * 3], start ground frame
@@ -83,7 +90,7 @@ struct RetrievalIndex {
   std::vector<std::int32_t> window_stride;   ///< frames between window samples
   std::vector<std::uint8_t> group;           ///< effector group per row
   std::vector<Cluster> clusters;             ///< sorted by group
-  std::array<std::int32_t, kGroupCount + 1> group_clusters{};  ///< clusters of g: [g], [g+1)
+  std::array<std::int32_t, kMaxGroupCount + 1> group_clusters{};  ///< clusters of g: [g], [g+1)
   std::vector<Block> blocks;                 ///< derived from rows + clusters (build_blocks)
 
   /// Appends a candidate row (before build_clusters).
@@ -97,7 +104,7 @@ struct RetrievalIndex {
 };
 
 struct RetrievalQuery {
-  int group = 1;
+  int group = 1;                      ///< 0 .. index.group_count - 1
   std::array<float, kFeatureDim> features{};
   Eigen::Vector3f target_m{0, 0, 0};  ///< m, actor size, in the query pose's ground frame
 };
