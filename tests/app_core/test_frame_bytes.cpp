@@ -117,7 +117,7 @@ FrameData every_field() {
     e.cause = k >= 7 && k <= 9 ? EventCause::visitor : EventCause::fighter;
     if (e.cause == EventCause::fighter) {
       e.fighter.time = 1020.0 + k;
-      e.fighter.kind = static_cast<kumite::content::FighterEvent::Kind>(k < 7 ? k : k - 3);
+      e.fighter.kind = e.type;
       e.fighter.order = e.order.value_or(kumite::Order{});
       e.fighter.reason = kumite::content::FighterEvent::Reason::strike;
       e.fighter.distance_m = 0.02 * k;
@@ -177,7 +177,7 @@ TEST(FrameBytes, TheRepositorysSessionEncodesHashesAndLogsAsRecorded) {
     all += encoded;
     ASSERT_TRUE(std::getline(lines, line));
     const auto j = nlohmann::json::parse(line);
-    const StateHashes h = state_hashes(f);
+    const StateHashes h = state_hashes_v3(f);  // a version 3 session
     for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
       ASSERT_EQ(j["hash"][std::string(StateHashes::kFields[k])].get<std::string>(), fmt::format("{:016x}", h.value[k]))
           << "frame " << f.frame << ": " << StateHashes::kFields[k];
@@ -205,7 +205,7 @@ TEST(FrameBytes, AFrameWithEveryFieldSetEncodesHashesAndLogsToItsPinnedBytes) {
   const auto p = payloads(encoded);
   ASSERT_EQ(p.size(), 2u);
   const std::string states = fmt::format("{:016x} {:016x}", kumite::fnv1a64(p[0]), kumite::fnv1a64(p[1]));
-  const std::string hashes = hashes_text(state_hashes(f));
+  const std::string hashes = hashes_text(state_hashes_v3(f));
   const ConsoleState c = console_of(f);
   const std::string stereo = frame_json(f, c, {"front", "left"}, true), mono = frame_json(f, c, {"front", "left"}, false);
   EXPECT_EQ(states, "c0a03435b616d82b ec335f8e054c99c3");
