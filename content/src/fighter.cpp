@@ -56,22 +56,6 @@ std::string_view to_string(FighterLocomotion l) {
   return "?";
 }
 
-std::string_view to_string(FighterEvent::Kind k) {
-  switch (k) {
-    case FighterEvent::Kind::order_accepted: return "order_accepted";
-    case FighterEvent::Kind::order_ignored: return "order_ignored";
-    case FighterEvent::Kind::hit: return "hit";
-    case FighterEvent::Kind::dodged: return "dodged";
-    case FighterEvent::Kind::miss: return "miss";
-    case FighterEvent::Kind::character_changed: return "character_changed";
-    case FighterEvent::Kind::warning: return "warning";
-    case FighterEvent::Kind::stepping_in: return "stepping_in";
-    case FighterEvent::Kind::support_step: return "support_step";
-    case FighterEvent::Kind::stepping_back: return "stepping_back";
-  }
-  return "?";
-}
-
 std::string describe(const FighterEvent& e, const std::function<std::string(int)>& segment_name,
                      const std::function<std::string(int)>& character_name) {
   using R = FighterEvent::Reason;

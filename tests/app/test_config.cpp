@@ -478,11 +478,11 @@ TEST(Config, KeyActionsAndEventTypesRoundTripThroughTheirText) {
   EXPECT_FALSE(parse_key_action("uppercut"));
   EXPECT_FALSE(parse_key_action(""));
   for (const char* t : {"order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning"}) {
-    const auto e = parse_event_type(t);
+    const auto e = kumite::content::parse_event_kind(t);
     ASSERT_TRUE(e) << t;
     EXPECT_EQ(to_string(*e), t);
   }
-  EXPECT_FALSE(parse_event_type("Hit"));
+  EXPECT_FALSE(kumite::content::parse_event_kind("Hit"));
   EXPECT_TRUE(is_strike_outcome(EventType::dodged));
-  EXPECT_FALSE(is_strike_outcome(EventType::order));
+  EXPECT_FALSE(is_strike_outcome(EventType::order_accepted));
 }

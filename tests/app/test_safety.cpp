@@ -170,6 +170,6 @@ TEST(Safety, OffInTheConfigAndValidated) {
   };
   EXPECT_NE(error_of("wall_distance_m = 0.0\n").find("safety.wall_distance_m: must be 0.05..2 m"), std::string::npos);
   EXPECT_NE(error_of("enabled = 1\n").find("safety.enabled: must be true or false"), std::string::npos);
-  EXPECT_EQ(parse_event_type("visitor_near_wall"), EventType::visitor_near_wall);
-  EXPECT_EQ(parse_event_type("visitor_clear"), EventType::visitor_clear);
+  EXPECT_EQ(kumite::content::parse_event_kind("visitor_near_wall"), EventType::visitor_near_wall);
+  EXPECT_EQ(kumite::content::parse_event_kind("visitor_clear"), EventType::visitor_clear);
 }

@@ -14,100 +14,19 @@
 
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
+#include "frame_walk.hpp"
 
 namespace kumite::app {
 
-namespace {
 using nlohmann::json;
-
-json mat(const glm::dmat4& m) {
-  json a = json::array();
-  for (int c = 0; c < 4; ++c)
-    for (int r = 0; r < 4; ++r) a.push_back(m[c][r]);
-  return a;
-}
-json vec(const glm::dvec3& v) { return json::array({v.x, v.y, v.z}); }
-double round_to(double x, double per_unit) { return std::round(x * per_unit) / per_unit; }
-json rounded(const glm::dvec3& v, double per_unit) {
-  return json::array({round_to(v.x, per_unit), round_to(v.y, per_unit), round_to(v.z, per_unit)});
-}
-}  // namespace
 
 std::string frame_json(const FrameData& f, const ConsoleState& c,
                        const std::vector<std::string>& wall_names, bool stereo) {
-  json j;
-  j["frame"] = f.frame;
-  j["time_s"] = f.time_s;
-  j["head"] = {{"position", vec(f.head.position)},
-               {"quaternion", json::array({f.head.orientation.w, f.head.orientation.x,
-                                           f.head.orientation.y, f.head.orientation.z})},
-               {"live", c.head_live}};
-  j["eyes"] = {{"left", vec(f.eyes.left)}, {"right", vec(f.eyes.right)}};
-  json walls = json::object();
-  for (std::size_t w = 0; w < f.views.size() && w < wall_names.size(); ++w) {
-    json per = json::object();
-    const char* names[2] = {"left", "right"};
-    for (int e = 0; e < (stereo ? 2 : 1); ++e) {
-      const auto& v = f.views[w][static_cast<std::size_t>(e)];
-      per[stereo ? names[e] : "mono"] = {{"view", mat(v.view)}, {"projection", mat(v.projection)}};
-    }
-    walls[wall_names[w]] = per;
-  }
-  j["walls"] = walls;
-  j["fighter"] = {{"present", f.fighter.present},
-                  {"state", f.fighter.present ? std::string(content::to_string(f.fighter.state)) : "none"},
-                  {"character", f.fighter.character + 1},
-                  {"character_name", c.character_name}};
-  if (f.fighter.present) {
-    const FighterPose& p = f.fighter;
-    json& fj = j["fighter"];
-    fj["root"] = vec(p.root);
-    fj["heading_rad"] = p.heading_rad;
-    fj["target"] = p.target ? vec(*p.target) : json(nullptr);
-    // Joints keyed by name (room frame, m, rounded to 1e-5 m), the root joint and the local
-    // rotations (w, x, y, z, rounded to 1e-7): enough to rebuild the pose on the character's
-    // skeleton (kumite export).
-    json joints = json::object(), rotations = json::object();
-    const auto* sk = p.skeleton.get();
-    for (std::size_t i = 0; sk && i < p.joints.size() && i < sk->joint_names.size(); ++i) {
-      joints[sk->joint_names[i]] = rounded(p.joints[i], 1e5);
-      if (i < p.local_rotations.size()) {
-        const glm::dquat& q = p.local_rotations[i];
-        rotations[sk->joint_names[i]] = json::array({round_to(q.w, 1e7), round_to(q.x, 1e7), round_to(q.y, 1e7), round_to(q.z, 1e7)});
-      }
-    }
-    fj["root_joint"] = rounded(p.root_joint, 1e5);
-    fj["joints"] = std::move(joints);
-    fj["local_rotations"] = std::move(rotations);
-  }
-  json events = json::array();
-  for (std::size_t k = 0; k < f.events.size(); ++k) {
-    const FrameEvent& e = f.events[k];
-    json ev = {{"type", to_string(e.type)}, {"time_s", e.time_s}};
-    if (e.order) ev["order"] = to_string(*e.order);
-    if (k < c.frame_events.size() && !c.frame_events[k].empty()) ev["text"] = c.frame_events[k];
-    if (is_strike_outcome(e.type) || e.type == EventType::visitor_near_wall || e.type == EventType::visitor_clear ||
-        e.type == EventType::stepping_in || e.type == EventType::support_step ||
-        e.type == EventType::stepping_back)
-      ev["distance_m"] = e.distance_m;
-    if (e.type == EventType::visitor_strike) {
-      const VisitorStrike& st = e.strike;
-      ev["strike"] = {{"type", recognition::to_string(st.type)}, {"limb", recognition::to_string(st.limb)},
-                      {"action", recognition::to_string(st.action)}, {"progress", st.progress},
-                      {"confidence", st.confidence}, {"impact", st.impact},
-                      {"t", st.t - (f.now - f.time_s)},  // s since the run's start, as time_s
-                      {"decided_ms", st.decided_at >= 0 ? json((st.decided_at - st.t) * 1e3) : json(nullptr)}};
-    }
-    events.push_back(ev);
-  }
-  j["events"] = events;
-  if (const auto& v = f.visitor_near_wall)  // only while the visitor is near a wall (or lost near one)
-    j["visitor_near_wall"] = {{"wall", v->wall < static_cast<int>(wall_names.size()) ? wall_names[static_cast<std::size_t>(v->wall)] : ""},
-                              {"distance_m", v->distance_m}, {"outside", v->outside}, {"lost", v->lost}};
-  j["pose_age_ms"] = f.pose_age_ms >= 0 ? json(f.pose_age_ms) : json(nullptr);
-  j["tracking_latency_ms"] = f.tracking_latency_ms >= 0 ? json(f.tracking_latency_ms) : json(nullptr);
-  j["latch_ms"] = f.latch_ms;
-  j["predicted_ahead_ms"] = f.predicted_ahead_ms;
+  // The frame's logged fields (frame_fields.hpp), then what the console adds.
+  json j = walk::log_object(f, wall_names, stereo);
+  j["fighter"]["character_name"] = c.character_name;
+  for (std::size_t k = 0; k < f.events.size() && k < c.frame_events.size(); ++k)
+    if (!c.frame_events[k].empty()) j["events"][k]["text"] = c.frame_events[k];
   json cams = json::array();
   for (const auto& cam : c.cameras)
     cams.push_back({{"name", cam.name}, {"status", cam.status}, {"blobs", cam.blobs}, {"since_last_ms", cam.since_last_ms}});

@@ -73,25 +73,14 @@ content::FighterConfig fighter_config(const InstallationConfig& c, const std::ve
 
 /// `order`: the event's order in the config's numbering (a character switch's mapped back).
 FrameEvent to_frame_event(const content::FighterEvent& e, const Order& order, Timestamp start) {
-  using K = content::FighterEvent::Kind;
   FrameEvent f;
   f.time_s = e.time - start;
   f.distance_m = e.distance_m;
   f.cause = EventCause::fighter;
   f.fighter = e;
   f.order = order;  // a strike's outcome: the strike's order
-  switch (e.kind) {
-    case K::order_accepted: f.type = EventType::order; break;
-    case K::order_ignored: f.type = EventType::order_ignored; break;
-    case K::hit: f.type = EventType::hit; break;
-    case K::dodged: f.type = EventType::dodged; break;
-    case K::miss: f.type = EventType::miss; break;
-    case K::character_changed: f.type = EventType::character_changed; break;
-    case K::warning: f.type = EventType::warning; f.order.reset(); break;
-    case K::stepping_in: f.type = EventType::stepping_in; break;
-    case K::support_step: f.type = EventType::support_step; break;
-    case K::stepping_back: f.type = EventType::stepping_back; break;
-  }
+  f.type = e.kind;  // one enum: the fighter's kind is the frame event's type
+  if (e.kind == EventType::warning) f.order.reset();
   return f;
 }
 
@@ -132,34 +121,6 @@ std::vector<std::string> check_fighter_files(const InstallationConfig& c, std::v
 }
 
 }  // namespace
-
-std::string_view to_string(EventType type) {
-  switch (type) {
-    case EventType::order: return "order";
-    case EventType::order_ignored: return "order_ignored";
-    case EventType::hit: return "hit";
-    case EventType::dodged: return "dodged";
-    case EventType::miss: return "miss";
-    case EventType::character_changed: return "character_changed";
-    case EventType::warning: return "warning";
-    case EventType::visitor_near_wall: return "visitor_near_wall";
-    case EventType::visitor_clear: return "visitor_clear";
-    case EventType::visitor_strike: return "visitor_strike";
-    case EventType::stepping_in: return "stepping_in";
-    case EventType::support_step: return "support_step";
-    case EventType::stepping_back: return "stepping_back";
-  }
-  return "?";
-}
-
-std::optional<EventType> parse_event_type(std::string_view text) {
-  for (const EventType t : {EventType::order, EventType::order_ignored, EventType::hit, EventType::dodged, EventType::miss,
-                            EventType::character_changed, EventType::warning, EventType::visitor_near_wall,
-                            EventType::visitor_clear, EventType::visitor_strike, EventType::stepping_in,
-                            EventType::support_step, EventType::stepping_back})
-    if (to_string(t) == text) return t;
-  return std::nullopt;
-}
 
 std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why) {
   return std::make_unique<FixedHeadInput>(std::move(why));
@@ -289,7 +250,7 @@ void Installation::note(const FrameEvent& e) {
   while (recent_.size() > kRecentEvents) recent_.pop_front();
   // The console's last order and its outcome: an order (accepted or ignored), or a strike's
   // outcome with the strike's own order (an order ignored meanwhile must not take it).
-  if (e.type == EventType::order || e.type == EventType::order_ignored || is_strike_outcome(e.type)) last_order_ = e;
+  if (e.type == EventType::order_accepted || e.type == EventType::order_ignored || is_strike_outcome(e.type)) last_order_ = e;
   // The service log's line (an event is rare: a few a minute).
   if (e.type == EventType::warning || e.type == EventType::order_ignored || e.type == EventType::visitor_near_wall)
     spdlog::warn("{}", event_line(e));
@@ -706,7 +667,7 @@ ConsoleState Installation::console(const FrameData& shown) const {
   c.paused = paused_;
   if (const auto& last = last_order_) {
     c.last_order = last->order ? to_string(*last->order) : std::string();
-    c.last_outcome = last->type == EventType::order           ? std::string("accepted")
+    c.last_outcome = last->type == EventType::order_accepted           ? std::string("accepted")
                      : last->type == EventType::order_ignored ? "ignored: " + event_text(*last)
                                                               : fmt::format("{} ({:.2f} m)", to_string(last->type),
                                                                             last->distance_m);

@@ -21,6 +21,7 @@
 #include "kumite/app/frame_states.hpp"
 #include "kumite/app/run_control.hpp"
 #include "kumite/app/tracking_input.hpp"
+#include "frame_walk.hpp"
 #include "json_reader.hpp"
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/checksum.hpp"
@@ -251,7 +252,12 @@ class ReplayTracking final : public TrackingInput {
 
 }  // namespace
 
-StateHashes state_hashes(const FrameData& f, const std::function<std::string(const FrameEvent&)>& event_text) {
+StateHashes state_hashes(const FrameData& frame, int frame_version) {
+  return {walk::hash(frame, frame_version)};
+}
+
+// Sessions of versions 1 to 3, as they hashed (kept as they were: their files replay).
+StateHashes state_hashes_v3(const FrameData& f, const std::function<std::string(const FrameEvent&)>& event_text) {
   StateHashes out;
   Fnv t;
   t.i(static_cast<std::int64_t>(f.frame));
@@ -300,7 +306,7 @@ StateHashes state_hashes(const FrameData& f, const std::function<std::string(con
       }
       ev.i(static_cast<int>(x.cause));
       const content::FighterEvent& g = x.fighter;
-      ev.i(static_cast<int>(g.kind));
+      ev.i(content::event_info(g.kind).fighter_byte);
       ev.i(static_cast<int>(g.reason));
       ev.i(static_cast<int>(g.order.kind));
       ev.i(g.order.character);
@@ -704,6 +710,7 @@ void SessionRecorder::write_manifest(bool complete) {
                        : json(std::filesystem::absolute(info_.config.resolve(info_.config.tracking.recording)).string());
   m["mono_eyes"] = info_.mono_eyes;
   m["state_fields"] = StateHashes::kFields;
+  m["frame_version"] = kFrameVersion;
   if (frames_fd_ >= 0 || sets_written_.load() > 0 || sets_dropped_.load() > 0)
     m["camera_frames"] = {{"file", "cameras.bin"}, {"sets", sets_written_.load()}, {"dropped", sets_dropped_.load()},
                           {"bytes", set_bytes_.load()}};
@@ -1116,6 +1123,13 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
   // Sessions before version 3 hashed events by their text: the same text, made again.
   std::function<std::string(const FrameEvent&)> text_hash;
   if (version < 3) text_hash = [&](const FrameEvent& e) { return inst->event_text(e); };
+  // Version 4 on: the hashes walk the frame's description, up to the frame version recorded.
+  const int frame_version = m.contains("frame_version")
+                                ? static_cast<int>(mr.whole(m["frame_version"], "frame_version", 1, kFrameVersion))
+                                : kFrameVersion;
+  const auto hashes_of = [&](const FrameData& f) {
+    return version >= 4 ? state_hashes(f, frame_version) : state_hashes_v3(f, text_hash);
+  };
   while (pos < all.size()) {
     if (stop_after) {
       rep.stopped_after_frame = stop_after;
@@ -1221,7 +1235,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
       } else if (a != b) {
         ++rep.retrack->status_differs;
       }
-      const StateHashes got = state_hashes(f, text_hash);
+      const StateHashes got = hashes_of(f);
       const json& want = r.at(j, "hash", "hash");
       bool same = true;
       for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k)
@@ -1254,7 +1268,7 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
     }
     if (!rep.compared) continue;
     if (rep.first_difference_frame) continue;  // show_recorded goes on past the first difference
-    const StateHashes got = state_hashes(f, text_hash);
+    const StateHashes got = hashes_of(f);
     const json& want = r.at(j, "hash", "hash");
     for (std::size_t k = 0; k < StateHashes::kFields.size(); ++k) {
       const std::string field(StateHashes::kFields[k]);

@@ -3,23 +3,15 @@
 // every FrameData whole, so a recording shows what visitors saw even after the code that made
 // it has changed, and a replay that differs says where, by value (joint, wall, event).
 //
-// File: the line "kumite-frame-states 1\n", then records, each
+// File: the line "kumite-frame-states N\n" (N: kFrameVersion, frame_fields.hpp), then records, each
 //   u32 magic 0x3154534B ("KST1"), u32 payload bytes, u64 FNV-1a 64 of the payload; payload =
 //   u32 bytes unpacked, then zlib's compressed stream (level 1) of: u8 kind, then
 //   kind 1, skeleton (before the first frame of each character drawn): i32 character, u32
 //     joints, per joint a string (u32 bytes, bytes) name and i32 parent;
-//   kind 2, frame: u64 frame, f64 time_s, now; head (position xyz, orientation wxyz), u8
-//     head_live; eyes (left xyz, right xyz); u32 walls, per wall and eye the frustum (6 f64),
-//     view and projection (16 f64 each, column-major), u8 valid; f64 pose_age_ms,
-//     pose_measured_at, tracking_latency_ms, latch_ms, predicted_ahead_ms; the fighter: u8
-//     present, u8 state, i32 character, u32 joints, joints (xyz each), u32 rotations, local
-//     rotations (wxyz each), root_joint xyz, u8 has target (+ xyz), root xyz, heading_rad; u8
-//     visitor near wall (+ i32 wall, f64 distance_m, u8 outside, u8 lost); u32 events, each:
-//     u8 type, u8 has order, the order (f64 time, u8 kind, i32 character), f64 distance_m,
-//     time_s, u8 cause, the fighter's event (f64 time, u8 kind, its order as above, u8 reason,
-//     f64 distance_m, target xyz, i32 segment, start_frame, contact_frame, f64
-//     contact_distance_m, u8 out_of_reach, i32 character_count), i32 wall, u8 outside, u8 lost;
-//     u32 draw items, each the model matrix (16 f32), colour (3 f32), u8 mesh.
+//   kind 2, frame: its fields in the order frame_fields.hpp describes them, each as its type
+//     says: a bool or enum u8, an int i32, a frame number u64, a double f64 (draw items' f32),
+//     vectors x y z, quaternions w x y z, matrices column by column; a list u32 count then
+//     each; an optional u8 flag then its value (an event's order: its default when absent).
 // Every f64 and f32 must be finite; counts no larger than the record's bytes can hold.
 // Little-endian, numbers exactly as computed. One record is written whole with one write(2):
 // a recorder killed mid-write leaves whole records and at most one cut one, which the reader
@@ -33,14 +25,13 @@
 #include <string>
 #include <string_view>
 
-#include "kumite/app/installation.hpp"
+#include "kumite/app/frame_fields.hpp"
 
 namespace kumite::app {
 
-/// Version 2: a visitor_strike event carries its recognition event (version 1 files, which
-/// have none, still read).
-inline constexpr std::string_view kFrameStatesHeader = "kumite-frame-states 2\n";
-inline constexpr std::string_view kFrameStatesHeaderV1 = "kumite-frame-states 1\n";
+/// The first line this build writes: "kumite-frame-states <kFrameVersion>\n". Files of every
+/// version before it still read (the fields added since take their defaults).
+inline const std::string kFrameStatesHeader = "kumite-frame-states " + std::to_string(kFrameVersion) + "\n";
 
 /// Appends the records for `frame` to `out`: its character's skeleton first when `with_skeleton`
 /// (the writer's first frame of that character), then the frame. `out`'s room is reused.
@@ -66,6 +57,7 @@ class FrameStatesReader {
   std::string buffer_, raw_;
   std::string problem_;
   std::uint64_t frames_ = 0, records_ = 0, offset_ = 0;
+  int version_ = kFrameVersion;  ///< the file's
   std::map<int, std::shared_ptr<const FighterSkeleton>> skeletons_;
 };
 

@@ -126,22 +126,9 @@ class TrackingInput {
 /// No tracking: the head stays at the configured default position (console usable alone).
 std::unique_ptr<TrackingInput> make_fixed_head_input(std::string why);
 
-/// What a FrameEvent is. Text ("order", "hit", ...) only at the log and console (to_string).
-enum class EventType : std::uint8_t {
-  order, order_ignored, hit, dodged, miss, character_changed, warning,
-  visitor_near_wall,  ///< the tracked head came within [safety] wall_distance_m of a wall, or left the tracked area
-  visitor_clear,      ///< back in the room's safe area (tracked, clear of every wall)
-  visitor_strike,     ///< the recogniser's event about a strike of the visitor's (FrameEvent::strike)
-  stepping_in,        ///< the fighter steps in before a strike whose target it does not reach from where it stands
-  support_step,       ///< a kick's support foot steps first to where the kick's clip stands on it
-  stepping_back       ///< the fighter steps back before a strike whose target is too near for its limb to land extended
-};
-/// "order", "order_ignored", "hit", "dodged", "miss", "character_changed", "warning",
-/// "visitor_near_wall", "visitor_clear", "visitor_strike", "stepping_in", "support_step",
-/// "stepping_back".
-std::string_view to_string(EventType type);
-/// The text form back (reading logs); std::nullopt when it is none of them.
-std::optional<EventType> parse_event_type(std::string_view text);
+/// What a FrameEvent is: content's EventKind, the one list of events from the fighter to the
+/// log (kumite/content/event.hpp: its words, to_string and parse_event_kind, are there).
+using EventType = content::EventKind;
 
 /// Where a FrameEvent comes from (its line for people: Installation::event_text).
 enum class EventCause : std::uint8_t {
@@ -167,11 +154,7 @@ struct FrameEvent {
   VisitorStrike strike;  ///< visitor_strike: the recogniser's event
   bool operator==(const FrameEvent&) const = default;
 };
-/// A strike's outcome at contact: "hit" (touched the visitor), "dodged" (reached its target,
-/// the visitor had moved away) or "miss" (short of its target).
-inline bool is_strike_outcome(EventType type) {
-  return type == EventType::hit || type == EventType::dodged || type == EventType::miss;
-}
+using content::is_strike_outcome;
 
 /// One camera as the console shows it.
 struct ConsoleCamera {

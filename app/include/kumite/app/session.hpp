@@ -40,6 +40,7 @@
 #include <thread>
 #include <vector>
 
+#include "kumite/app/frame_fields.hpp"
 #include "kumite/app/installation.hpp"
 
 namespace kumite::tracking {
@@ -49,19 +50,25 @@ struct FrameSet;
 namespace kumite::app {
 
 /// Session format version this build writes and reads (1: no snapshot, the config by path).
-/// 3: the tracker's snapshot as numbers (state, frame sets, cameras, source counters) and the
-/// cameras' names in the start line; 2 kept it as a status line.
-constexpr int kSessionVersion = 3;
+/// 4: the state hashes walk the frame's description (frame_fields.hpp) and the manifest keeps
+/// its "frame_version"; 3: the tracker's snapshot as numbers (state, frame sets, cameras,
+/// source counters) and the cameras' names in the start line; 2 kept it as a status line.
+constexpr int kSessionVersion = 4;
 
-/// Hashes (FNV-1a 64 over the exact bytes) of a frame's state, per field.
+/// Hashes (FNV-1a 64) of a frame's state, per group of fields (Field::hash).
 struct StateHashes {
-  static constexpr std::array<std::string_view, 6> kFields = {"time", "head", "eyes", "views", "fighter", "events"};
+  static constexpr std::array<std::string_view, 6> kFields = kHashedNames;
   std::array<std::uint64_t, kFields.size()> value{};
   bool operator==(const StateHashes&) const = default;
 };
-/// `event_text` (replaying a version 1 or 2 session: events were hashed by their order's and
-/// their line's text): Installation::event_text; empty (version 3): by their fields.
-StateHashes state_hashes(const FrameData& frame, const std::function<std::string(const FrameEvent&)>& event_text = {});
+/// Per group, FNV-1a 64 of the bytes states.bin keeps of its fields (Field::hash), the fields
+/// of frame version `frame_version` and before (a session of an older frame version hashed
+/// none added since).
+StateHashes state_hashes(const FrameData& frame, int frame_version = kFrameVersion);
+/// Sessions of versions 1 to 3 hashed a hand-picked list of fields; kept to replay them.
+/// `event_text` (versions 1 and 2: events were hashed by their order's and their line's text):
+/// Installation::event_text; empty (version 3): by their fields.
+StateHashes state_hashes_v3(const FrameData& frame, const std::function<std::string(const FrameEvent&)>& event_text = {});
 
 /// FNV-1a 64 of a file's bytes (0 when it cannot be read).
 std::uint64_t file_checksum(const std::filesystem::path& path);

@@ -19,6 +19,7 @@
 
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
+#include "kumite/content/event.hpp"
 #include "kumite/content/planner.hpp"
 #include "kumite/content/tunables.hpp"
 #include "kumite/recognition/recognition.hpp"  // the visitor's body roles and strike kinds (vocabulary only)
@@ -76,19 +77,9 @@ std::string_view to_string(FighterLocomotion l);
 
 /// Something the fighter did or refused, as data (its line for people: describe()).
 struct FighterEvent {
-  /// hit: touched the visitor; dodged: reached its target, but the visitor had moved away;
-  /// miss: fell short of its target (out of reach) and did not touch the visitor.
-  /// stepping_in: an accepted strike's target is beyond what the strike reaches from where
-  /// the fighter stands: it steps in by `distance_m` first, then strikes at `target`.
-  /// stepping_back: an accepted strike's target is so near that its limb would arrive folded
-  /// (less extended than min_strike_extension of its length): it steps back by `distance_m`
-  /// first, then strikes at `target`.
-  /// support_step: an accepted kick's support foot (the other foot than the order's) steps
-  /// `distance_m` to where the kick's clip stands on it first, then the kick strikes at `target`.
-  enum class Kind : std::uint8_t {
-    order_accepted, order_ignored, hit, dodged, miss, character_changed, warning, stepping_in, support_step,
-    stepping_back
-  };
+  /// What it is (event.hpp: the one list of events, with the app's and the log's; the fighter
+  /// makes order_accepted to warning, stepping_in, support_step and stepping_back).
+  using Kind = EventKind;
   /// What an accepted order did, why one was ignored, what a warning is about.
   enum class Reason : std::uint8_t {
     none,
@@ -117,7 +108,6 @@ struct FighterEvent {
   int character_count = 0;    ///< no_such_character: how many there are
   bool operator==(const FighterEvent&) const = default;
 };
-std::string_view to_string(FighterEvent::Kind k);
 /// The event's line for people, as the log and console show it ("mid-strike", "target at
 /// (0.57, 1.61, 0.48) m", "135_06_punch_left_3 (frames 20->50): touched the visitor (0.0 cm
 /// from the target)", ...); `segment_name` names e.segment, `character_name` a character.
