@@ -6,6 +6,7 @@ find_package(spdlog REQUIRED)        # compiled spdlog::spdlog (not header-only)
 find_package(fmt REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(CLI11 REQUIRED)
+find_package(TinyGLTF 2.7 REQUIRED CONFIG)  # glTF 2.0 bodies (body/); Debian's build, without Draco
 find_package(PkgConfig REQUIRED)
 pkg_check_modules(TOMLPP REQUIRED IMPORTED_TARGET tomlplusplus)
 find_package(Boost 1.74 REQUIRED)     # header-only boost::lockfree (app_core: the recognition thread's queues)

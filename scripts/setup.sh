@@ -21,6 +21,8 @@ PACKAGES=(
   libtomlplusplus-dev libcli11-dev libspdlog-dev libfmt-dev nlohmann-json3-dev zlib1g-dev libyaml-dev
   # lock-free queues (header-only boost::lockfree: pose samples to the recognition thread)
   libboost-dev
+  # glTF 2.0 skinned bodies (body/): tinygltf, which needs stb (images) and nlohmann-json (above)
+  libtinygltf-dev libstb-dev
   # graphics: windows, headless EGL (Mesa llvmpipe), operator console
   libglfw3-dev libegl-dev libgl-dev libgles-dev libegl-mesa0 libgl1-mesa-dri libimgui-dev
   xvfb xauth
