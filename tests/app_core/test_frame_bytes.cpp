@@ -1,6 +1,6 @@
-// The frame's formats pinned to their bytes: the repository's session (tests/app/data/
-// session-demo) read back and written again gives its states.bin records, its session.jsonl
-// state hashes and the same frames.jsonl lines; and a made-up frame with every field set (every
+// The frame's formats pinned to their bytes: a version 3 session kept for it (tests/app/data/
+// session-v3, recorded before the database held blocks, so it no longer replays without a
+// note) read back and written again gives its states.bin records, its session.jsonl state hashes and the same frames.jsonl lines; and a made-up frame with every field set (every
 // event kind, a visitor's strike, the visitor near a wall, a target) encodes, hashes and logs
 // to the bytes pinned here. A change to how a frame is walked that alters any of them fails.
 #include <gtest/gtest.h>
@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path kSession = fs::path(KUMITE_SOURCE_DIR) / "tests/app/data/session-demo";
+const fs::path kSession = fs::path(KUMITE_SOURCE_DIR) / "tests/app/data/session-v3";
 
 std::string read(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);

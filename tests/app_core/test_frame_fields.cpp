@@ -46,7 +46,11 @@ GuardedFrame a_frame() {
   f.fighter.present = true;
   f.fighter.joints = {{0, 1, -1}};
   f.fighter.local_rotations = {glm::dquat(1, 0, 0, 0)};
-  f.events.push_back(FrameEvent{.type = EventType::hit, .distance_m = 0.01, .time_s = 1.5});
+  FrameEvent hit;
+  hit.type = EventType::hit;
+  hit.distance_m = 0.01;
+  hit.time_s = 1.5;
+  f.events.push_back(hit);
   f.guard_height_m = 1.25;
   return f;
 }

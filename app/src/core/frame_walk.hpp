@@ -26,7 +26,7 @@ constexpr content::FighterState last_of(content::FighterState) { return content:
 constexpr content::FighterEvent::Reason last_of(content::FighterEvent::Reason) {
   return content::FighterEvent::Reason::restance;
 }
-constexpr OrderKind last_of(OrderKind) { return OrderKind::recentre; }
+constexpr OrderKind last_of(OrderKind) { return OrderKind::orders_only; }
 constexpr EventCause last_of(EventCause) { return EventCause::visitor; }
 constexpr recognition::EventType last_of(recognition::EventType) { return recognition::EventType::cancel; }
 constexpr recognition::Role last_of(recognition::Role) { return recognition::Role::right_foot; }
@@ -324,7 +324,7 @@ struct Differ {
 
 template <class F>
 std::optional<std::string> first_difference(const F& recorded, const F& now, int version = kFrameVersion) {
-  Differ d{version, recorded.fighter.skeleton.get()};
+  Differ d{version, recorded.fighter.skeleton.get(), {}, {}};
   describe(d, recorded, now);
   return d.found;
 }
@@ -358,7 +358,7 @@ struct Logger {
     switch (f.log) {
       case Log::none_word: return json("none");
       case Log::wall_name:
-        if constexpr (std::is_integral_v<T>)
+        if constexpr (std::is_integral_v<T> && !std::is_same_v<T, bool>)
           return json(x >= 0 && static_cast<std::size_t>(x) < wall_names.size() ? wall_names[static_cast<std::size_t>(x)]
                                                                                  : std::string());
         break;
@@ -397,7 +397,7 @@ struct Logger {
       case Log::or_null:
         if constexpr (is_optional<T>::value) {
           return x ? plain(f, *x) : json(nullptr);
-        } else if constexpr (std::is_arithmetic_v<T>) {
+        } else if constexpr (std::is_arithmetic_v<T> && !std::is_same_v<T, bool>) {
           return x >= 0 ? json(x) : json(nullptr);
         }
         break;
