@@ -222,6 +222,12 @@ void Console::frame(const Installation& inst, const FrameData& f, Installation* 
   order_button(inst, orders, c.paused ? "Resume" : "Pause", c.paused ? OrderKind::resume : OrderKind::pause);
   ImGui::SameLine();
   order_button(inst, orders, "Recentre", OrderKind::recentre);
+  ImGui::SameLine();
+  {
+    const auto st = inst.planner_status();
+    const bool sparring = st && st->tunables.mode == content::PlannerMode::spar;
+    order_button(inst, orders, sparring ? "Orders only" : "Spar", sparring ? OrderKind::orders_only : OrderKind::spar);
+  }
   ImGui::Spacing();
   ImGui::TextColored(kAmber, "Key map");
   // Two pairs of columns: a dozen keys in six rows.
@@ -275,6 +281,7 @@ void Console::frame(const Installation& inst, const FrameData& f, Installation* 
   ImGui::Text("state %s   character %d %s", c.fighter_state.c_str(), c.character + 1, c.character_name.c_str());
   ImGui::Text("last order %s", c.last_order.empty() ? "-" : c.last_order.c_str());
   ImGui::Text("outcome    %s", c.last_outcome.empty() ? "-" : c.last_outcome.c_str());
+  if (orders) ImGui::TextWrapped("planner    %s", inst.planner_line().c_str());
   if (const SessionRecorder* r = inst.recorder())
     ImGui::TextColored(r->budget_reached() || r->dropped() > 0 ? kRed : kGreen, "%s", r->status_line().c_str());
   ImGui::EndChild();

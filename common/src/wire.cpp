@@ -37,6 +37,8 @@ std::string_view to_string(OrderKind kind) {
     case OrderKind::pause: return "pause";
     case OrderKind::resume: return "resume";
     case OrderKind::recentre: return "recentre";
+    case OrderKind::spar: return "spar";
+    case OrderKind::orders_only: return "orders";
   }
   return "?";
 }
@@ -56,7 +58,8 @@ std::optional<Order> parse_order(std::string_view text, Timestamp time) {
   static constexpr OrderKind kSimple[] = {OrderKind::punch_left, OrderKind::punch_right,
                                           OrderKind::kick_left,  OrderKind::kick_right,
                                           OrderKind::pause,      OrderKind::resume,
-                                          OrderKind::recentre};
+                                          OrderKind::recentre,   OrderKind::spar,
+                                          OrderKind::orders_only};
   for (OrderKind k : kSimple) {
     if (text == to_string(k)) {
       o.kind = k;

@@ -318,6 +318,10 @@ void Behaviour::take_order(const QueuedOrder& queued, Timestamp now, const Vecto
       recentre_goal_ = Vector2d(config_.home.x(), config_.home.z());
       emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::recentre);
       return;
+    case OrderKind::spar:
+    case OrderKind::orders_only:  // the planner's mode (Fighter::order applies it): said here, in order
+      emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::none);
+      return;
     default: break;
   }
   const auto eff = effector_of(o.kind);

@@ -12,6 +12,7 @@
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/canonical.hpp"
 #include "kumite/content/character.hpp"
+#include "kumite/content/planner.hpp"
 #include "kumite/content/tunables.hpp"
 
 namespace kumite::content {
@@ -327,6 +328,38 @@ void parse_fighter_tunables(std::string_view text, std::string_view file, Behavi
     throw file_error("config", p->code, file, at != lines.end() ? at->second : fighter->line(),
                      "fighter." + p->key, p->message);
   }
+}
+
+// ---- [fighter.planner] ---------------------------------------------------------------------
+
+void parse_planner_tunables(std::string_view text, std::string_view file, PlannerTunables& p, std::uint64_t& seed) {
+  const toml::table doc = parse_toml(text, file, "config");
+  const TomlTable root(doc, "config", file);
+  const auto fighter = root.opt_table("fighter");
+  if (!fighter) return;
+  const auto t = fighter->opt_table("planner");
+  if (!t) return;
+  t->only({"mode", "preset", "seed", "fighting_distance_m", "engage_tolerance_m", "attack_rate_per_s", "counter_probability",
+           "reaction_time_s", "counter_deadline_s", "kick_share"});
+  // A preset first, then each key written beside it.
+  if (const auto preset = t->opt_string("preset")) {
+    const auto found = planner_preset(*preset);
+    if (!found) t->fail("value", "preset", "'" + *preset + "': one of aggressive_unskilled, defensive_skilled");
+    p = *found;
+  }
+  if (const auto mode = t->opt_string("mode")) {
+    if (*mode == "orders") p.mode = PlannerMode::orders;
+    else if (*mode == "spar") p.mode = PlannerMode::spar;
+    else t->fail("value", "mode", "'" + *mode + "': orders or spar");
+  }
+  if (const auto s = t->opt_integer("seed", 0)) seed = static_cast<std::uint64_t>(*s);
+  t->read("fighting_distance_m", p.fighting_distance_m, {0.3, 3, "m"});
+  t->read("engage_tolerance_m", p.engage_tolerance_m, {0, 2, "m"});
+  t->read("attack_rate_per_s", p.attack_rate_per_s, {0, 10, "1/s"});
+  t->read("counter_probability", p.counter_probability, {0, 1, ""});
+  t->read("reaction_time_s", p.reaction_time_s, {0, 5, "s"});
+  t->read("counter_deadline_s", p.counter_deadline_s, {0, 10, "s"});
+  t->read("kick_share", p.kick_share, {0, 1, ""});
 }
 
 void read_fighter_tunables(const std::filesystem::path& file, BehaviourTunables& b, RetrievalTunables& r) {

@@ -261,7 +261,14 @@ class FighterImpl final : public Fighter {
     behaviour_.set_rate_solver([this](const StrikeRateJob& job) { worker_->submit_rate(job); },
                                [this] { return worker_->poll_rate(); });
   }
-  void order(const Order& order) override { behaviour_.order(order); }
+  void order(const Order& order) override {
+    if (order.kind == OrderKind::spar || order.kind == OrderKind::orders_only) {
+      PlannerTunables t = spar_.tunables();
+      t.mode = order.kind == OrderKind::spar ? PlannerMode::spar : PlannerMode::orders;
+      if (t.mode != spar_.tunables().mode) spar_.set_tunables(t);
+    }
+    behaviour_.order(order);
+  }
   void keep_away(bool on) override { behaviour_.keep_away(on); }
   void decide(const FighterInput& in) override {
     const PlannerTunables& t = spar_.tunables();

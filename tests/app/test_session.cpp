@@ -80,7 +80,7 @@ fs::path write_config(const fs::path& dir) {
 }
 
 /// Records `frames` frames at 60 Hz: a scripted punch, a keyed kick and character switch.
-void record(const fs::path& config_path, const fs::path& orders, const fs::path& out, int frames) {
+void record(const fs::path& config_path, const fs::path& orders, const fs::path& out, int frames, int pace_every = 0) {
   auto cfg = load_installation_config(config_path);
   InstallationOptions io;
   io.orders_script = orders;
@@ -93,6 +93,8 @@ void record(const fs::path& config_path, const fs::path& orders, const fs::path&
     if (i == 145) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));  // the punch (stepped in for) is over by then (frame 135)
     if (i == 155) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
     inst.step(t0 + i / 60.0 + (i % 3) * 1e-4);  // uneven frame times, as a real loop has
+    // (a long recording made faster than real time: its writer is let catch up now and then)
+    if (pace_every > 0 && i % pace_every == pace_every - 1) std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
   inst.record_to(nullptr);
   rec.close();
@@ -122,6 +124,25 @@ fs::path with_strike_distance_0_6(const fs::path& config, const fs::path& out) {
 }
 
 }  // namespace
+
+// A spar (the planner's own attacks, drawn from [fighter.planner] seed) replays bit for bit: the
+// planner's draws come from the seed in the fighter's input, not from the machine.
+TEST(Session, ASparSessionReplaysBitForBit) {
+  Tmp tmp;
+  const fs::path base = write_config(tmp.path);
+  auto cfg = load_installation_config(base);
+  cfg.fighter.planner = *kumite::content::planner_preset("aggressive_unskilled");
+  cfg.fighter.planner_seed = 4;
+  const fs::path config = tmp.path / "spar.toml";
+  std::ofstream(config) << to_toml(cfg);
+  EXPECT_EQ(load_installation_config(config).fighter.planner, cfg.fighter.planner) << "[fighter.planner] round trip";
+  const fs::path orders = tmp.path / "orders.csv";
+  std::ofstream(orders) << "time_s,order\n";
+  record(config, orders, tmp.path / "s", 600, 100);
+  const ReplayReport rep = replay_session(tmp.path / "s");
+  EXPECT_TRUE(rep.identical) << "frame " << rep.first_difference_frame.value_or(0) << " " << rep.first_difference_field;
+  EXPECT_EQ(rep.frames_replayed, 600u);
+}
 
 TEST(Session, ARecordedSessionReplaysBitForBit) {
   Tmp tmp;

@@ -294,6 +294,50 @@ TEST(Unattended, ASimulatedTimeRunGivesTheSameFramesUnderLoad) {
   fs::remove_all(dir);
 }
 
+// The shipped spar demo (config/demo-spar.toml: the mocap visitor, [fighter.planner] mode spar,
+// no orders script): the fighter strikes on its own and counters the visitor's recognised
+// strikes, and the same run under --simulated-time gives the same frames (the planner's draws
+// come from the seed in the frame's input).
+TEST(Unattended, TheSparDemoStrikesWithoutOrdersAndRepeatsItself) {
+#if defined(__SANITIZE_ADDRESS__)
+  GTEST_SKIP() << "two 20 s headless runs of the sanitized kumite take minutes; the plain build runs it";
+#endif
+  const fs::path data = fs::path(KUMITE_BINARY_DIR) / "demo";
+  if (!fs::exists(data / "fighter.kdb")) GTEST_SKIP() << "no demo data";
+  const fs::path dir = fresh_dir("spar");
+  std::vector<std::vector<std::string>> runs;
+  for (int run = 0; run < 2; ++run) {
+    const fs::path out = dir / std::to_string(run);
+    const pid_t pid = spawn_kumite({"--config", (fs::path(KUMITE_SOURCE_DIR) / "config" / "demo-spar.toml").string(),
+                                    "--data-dir", data.string(), "--headless", "--simulated-time", "--frames", "1200",
+                                    "--save-every", "0", "--resolution", "64x36", "--out", out.string()},
+                                   dir / "console.txt");
+    ASSERT_GT(pid, 0);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << text_of(dir / "console.txt");
+    runs.push_back(frames_without_console(out / "frames.jsonl"));
+  }
+  ASSERT_EQ(runs[0].size(), 1200u);
+  ASSERT_EQ(runs[1].size(), runs[0].size());
+  for (std::size_t i = 0; i < runs[0].size(); ++i) ASSERT_EQ(runs[0][i], runs[1][i]) << "frame " << i;
+  int orders = 0, outcomes = 0, visitor_strikes = 0;
+  for (const std::string& line : runs[0]) {
+    const auto frame = nlohmann::json::parse(line);
+    if (!frame.contains("events")) continue;
+    for (const auto& e : frame["events"]) {
+      const std::string type = e.value("type", "");
+      orders += type == "order";
+      outcomes += type == "hit" || type == "dodged" || type == "miss";
+      visitor_strikes += type == "visitor_strike";
+    }
+  }
+  EXPECT_GE(orders, 3) << "no orders script: every strike is the planner's";
+  EXPECT_GE(outcomes, 2);
+  EXPECT_GE(visitor_strikes, 1) << "the mocap visitor's strikes are recognised";
+  fs::remove_all(dir);
+}
+
 // A number on the command line outside its range is refused in one line naming the option, with
 // a non-zero exit: `--frames -5` ran "0 frames" and exited 0.
 TEST(Unattended, CommandLineNumbersOutOfRangeAreRefused) {

@@ -3,11 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <limits>
 #include <vector>
 
 #include "kumite/content/fighter.hpp"
 #include "kumite/content/planner.hpp"
+#include "kumite/content/tunables.hpp"
 
 using namespace kumite;
 using namespace kumite::content;
@@ -32,6 +34,10 @@ PlannerInput engaged(double now, std::uint64_t seed = 7) {
   in.fighter_root_m = {0, 0, 0};
   in.fighter_idle = true;
   return in;
+}
+
+bool effector_of_kind(OrderKind k) {
+  return k == OrderKind::punch_left || k == OrderKind::punch_right || k == OrderKind::kick_left || k == OrderKind::kick_right;
 }
 
 struct Given {
@@ -191,4 +197,69 @@ TEST(Planner, PresetsAndRanges) {
   t = {};
   t.fighting_distance_m = -1;
   EXPECT_NE(validate(t).find("fighting_distance_m"), std::string::npos);
+}
+
+TEST(Planner, ReadFromTheInstallationFileWithAPresetAndKeysBesideIt) {
+  PlannerTunables p;
+  std::uint64_t seed = 1;
+  parse_planner_tunables("[fighter.planner]\nmode = \"spar\"\npreset = \"defensive_skilled\"\nreaction_time_s = 0.2\nseed = 9\n",
+                         "room.toml", p, seed);
+  EXPECT_EQ(p.mode, PlannerMode::spar);
+  EXPECT_EQ(p.attack_rate_per_s, 0.3);  // the preset's
+  EXPECT_EQ(p.reaction_time_s, 0.2);    // the key beside it
+  EXPECT_EQ(seed, 9u);
+  const auto error = [](const std::string& text) -> std::string {
+    PlannerTunables q;
+    std::uint64_t s = 1;
+    try {
+      parse_planner_tunables(text, "room.toml", q, s);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
+  EXPECT_NE(error("[fighter.planner]\nmode = \"fight\"\n").find("room.toml:2"), std::string::npos);
+  EXPECT_NE(error("[fighter.planner]\nmode = \"fight\"\n").find("mode"), std::string::npos);
+  EXPECT_NE(error("[fighter.planner]\npreset = \"timid\"\n").find("preset"), std::string::npos);
+  EXPECT_NE(error("[fighter.planner]\n\ncounter_probability = 2\n").find("room.toml:3"), std::string::npos);
+  EXPECT_NE(error("[fighter.planner]\nattack_rate_per_s = nan\n").find("attack_rate_per_s"), std::string::npos);
+  EXPECT_NE(error("[fighter.planner]\nattack_rate = 1\n").find("attack_rate"), std::string::npos);
+  EXPECT_NE(error("[fighter.planner]\nseed = -1\n").find("seed"), std::string::npos);
+}
+
+TEST(Planner, TheSparAndOrdersOrdersSwitchTheModeAndTheFighterStrikesOnItsOwnOnlyWhileSparring) {
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  EXPECT_EQ(parse_order("spar")->kind, OrderKind::spar);
+  EXPECT_EQ(parse_order("orders")->kind, OrderKind::orders_only);
+  FighterConfig cfg;
+  cfg.database = db;
+  cfg.characters = {std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh"};
+  cfg.character_names = {"kenji"};
+  cfg.planner.attack_rate_per_s = 1.0;
+  auto f = Fighter::create(cfg);
+  FighterOutput out;
+  int accepted_sparring = 0, accepted_after = 0;
+  const double dt = 1.0 / 60;
+  for (int k = 0; k < 60 * 30; ++k) {
+    FighterInput in;
+    in.now = 1 + k * dt;
+    in.dt_s = k ? dt : 0;
+    in.seed = 3;
+    in.head_m = {0, 1.65, -1.6};  // the visitor 0.9 m in front of the fighter's home
+    Order o{in.now, k == 60 ? OrderKind::spar : OrderKind::orders_only, -1};
+    if (k == 60 || k == 60 * 15) in.orders = std::span<const Order>(&o, 1);
+    f->step(in, out);
+    if (k == 61) {
+      EXPECT_EQ(f->planner_status().tunables.mode, PlannerMode::spar);
+    }
+    for (const auto& e : out.events) {
+      if (e.kind != FighterEvent::Kind::order_accepted || !effector_of_kind(e.order.kind)) continue;
+      if (k < 60 * 15) ++accepted_sparring;
+      else if (k > 60 * 17) ++accepted_after;  // (one under way at the switch may still be taken)
+    }
+  }
+  EXPECT_EQ(f->planner_status().tunables.mode, PlannerMode::orders);
+  EXPECT_GE(accepted_sparring, 3) << "14 s of sparring at 1 attack/s of idle time";
+  EXPECT_EQ(accepted_after, 0) << "orders only: it strikes only when ordered";
 }

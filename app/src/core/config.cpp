@@ -289,7 +289,8 @@ void Reader::parse_keys(const toml::table& root) {
     const auto parsed = parse_key_action(act);
     if (!parsed)
       fail("unknown_action", line(node), full,
-           "unknown action (punch_left, punch_right, kick_left, kick_right, pause, resume, recentre, character_N, quit, record)");
+           "unknown action (punch_left, punch_right, kick_left, kick_right, pause, resume, recentre, spar, orders, character_N, quit, "
+           "record)");
     cfg_.keys.push_back({*parsed, name, *canonical});
   }
 }
@@ -309,7 +310,7 @@ void Reader::parse_fighter(const toml::table& root) {
   if (!f) return;
   only_keys(*f, "fighter", {"database", "initial_character", "home_m", "strike_distance_m",
                             "hit_radius_m", "visitor_head_radius_m", "visitor_body_radius_m", "x_limits_m",
-                            "z_limits_m", "behaviour", "retrieval"});
+                            "z_limits_m", "behaviour", "retrieval", "planner"});
   // [fighter.behaviour], [fighter.behaviour.feet], [fighter.retrieval]: content's keys, read by
   // content::parse_fighter_tunables from the same text (parse_config).
   auto& s = cfg_.fighter;
@@ -713,6 +714,7 @@ InstallationConfig parse_config(std::string_view text, const std::filesystem::pa
   cfg.lines = toml_key_lines(root);
   Reader(file_name.string(), cfg).parse(root);
   content::parse_fighter_tunables(text, file_name.string(), cfg.fighter.behaviour, cfg.fighter.retrieval);
+  content::parse_planner_tunables(text, file_name.string(), cfg.fighter.planner, cfg.fighter.planner_seed);
   validate(cfg);
   return cfg;
 }
@@ -810,6 +812,18 @@ std::string to_toml(const InstallationConfig& c) {
     if (!feet.empty()) behaviour.insert("feet", std::move(feet));
     if (!behaviour.empty()) fighter.insert("behaviour", std::move(behaviour));
     if (!retrieval.empty()) fighter.insert("retrieval", std::move(retrieval));
+  }
+  if (f.planner != content::PlannerTunables{} || f.planner_seed != 1) {  // every key (no preset: the values are written)
+    const auto& p = f.planner;
+    fighter.insert("planner", toml::table{{"mode", std::string(content::to_string(p.mode))},
+                                          {"seed", static_cast<std::int64_t>(f.planner_seed)},
+                                          {"fighting_distance_m", p.fighting_distance_m},
+                                          {"engage_tolerance_m", p.engage_tolerance_m},
+                                          {"attack_rate_per_s", p.attack_rate_per_s},
+                                          {"counter_probability", p.counter_probability},
+                                          {"reaction_time_s", p.reaction_time_s},
+                                          {"counter_deadline_s", p.counter_deadline_s},
+                                          {"kick_share", p.kick_share}});
   }
   root.insert("fighter", std::move(fighter));
   const auto& t = c.tracking;

@@ -68,6 +68,7 @@ content::FighterConfig fighter_config(const InstallationConfig& c, const std::ve
   f.max_z_m = c.fighter.z_limits_m[1];
   f.behaviour = c.fighter.behaviour;
   f.retrieval = c.fighter.retrieval;
+  f.planner = c.fighter.planner;
   return f;
 }
 
@@ -388,6 +389,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
   in.head_m = Eigen::Vector3d(mid.x, mid.y, mid.z);
   in.keep_away = near_wall_.has_value();
   in.orders = fighter_orders_;
+  in.seed = config_.fighter.planner_seed;
   visitor_bodies_.clear();
   if (const auto& h = input_.tracking.head) {
     content::VisitorBody b;
@@ -738,6 +740,18 @@ bool Installation::quit_key(Timestamp now) {
 std::optional<Timestamp> Installation::quit_armed_until(Timestamp now) const {
   if (quit_armed_until_ && now <= *quit_armed_until_) return quit_armed_until_;
   return std::nullopt;
+}
+
+std::string Installation::planner_line() const {
+  const auto st = planner_status();
+  if (!st) return "no fighter";
+  if (st->tunables.mode == content::PlannerMode::orders) return "orders: only what the supervisor orders";
+  std::string line = fmt::format("spar  {}", content::to_string(st->state));
+  if (st->next)
+    line += fmt::format("  next {} ({}) in {:.1f} s", to_string(st->next->kind), content::to_string(st->next->cause),
+                        std::max(0.0, st->next->due - fighter_out_.frame.time));
+  line += fmt::format("  attacks {}  counters {}", st->counts.attacks, st->counts.counters);
+  return line;
 }
 
 }  // namespace kumite::app

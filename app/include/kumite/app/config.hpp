@@ -19,6 +19,7 @@
 
 #include "kumite/common/wire.hpp"
 
+#include "kumite/content/planner.hpp"
 #include "kumite/content/tunables.hpp"
 
 namespace kumite::app {
@@ -129,6 +130,10 @@ struct FighterSection {
   /// `kumite-motion tunables` prints them with their defaults).
   content::BehaviourTunables behaviour;
   content::RetrievalTunables retrieval;
+  /// [fighter.planner]: orders (the supervisor alone) or spar (content/planner.hpp), a preset
+  /// and the planner's tunables, and the seed of its random draws (the same seed, the same bout).
+  content::PlannerTunables planner;
+  std::uint64_t planner_seed = 1;
   bool operator==(const FighterSection&) const = default;
 };
 

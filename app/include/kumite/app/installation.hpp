@@ -372,6 +372,13 @@ class Installation {
   /// The head pose of the last frame is a fresh tracked one (FrameData::head_live).
   bool head_live() const { return frame_.head_live; }
   const InstallationConfig& config() const { return config_; }
+  /// The sparring planner's mode, state, next decision and counts (nullopt without a fighter).
+  std::optional<content::Fighter::PlannerStatus> planner_status() const {
+    if (!fighter_) return std::nullopt;
+    return fighter_->planner_status();
+  }
+  /// Its line for the console: "spar  guarding  next punch_left (timer) in 1.2 s  attacks 3  counters 2".
+  std::string planner_line() const;
   std::span<const WallFrame> walls() const { return walls_; }
   int character_count() const;
   std::string character_name(int index) const;

@@ -60,6 +60,8 @@ enum class OrderKind : std::uint8_t {
   pause,
   resume,
   recentre,
+  spar,         ///< the fighter spars on its own too ([fighter.planner] mode spar)
+  orders_only,  ///< the fighter does only what the supervisor orders (mode orders); text "orders"
 };
 
 struct Order {

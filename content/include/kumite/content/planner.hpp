@@ -50,6 +50,7 @@ struct PlannerTunables {
   double reaction_time_s = 0.3;               ///< s: mean of the exponential delay from the visitor's strike to the counter
   double counter_deadline_s = 1.0;            ///< s: a counter the fighter cannot start this late after it was due is dropped
   double kick_share = 0.25;                   ///< share of its own attacks (not counters) that are kicks
+  bool operator==(const PlannerTunables&) const = default;
 };
 
 /// The named presets of Touché's study: "aggressive_unskilled" (1 attack/s, no counter) and

@@ -10,6 +10,7 @@
 // inf, an unknown key or two keys that contradict each other is an error naming file, line and
 // key. Values made in code are checked by validate() the same way. Lengths in metres, times in
 // seconds, speeds in metres per second, angles in degrees where the key says _deg.
+#include <cstdint>
 #include <filesystem>
 #include <limits>
 #include <optional>
@@ -161,6 +162,10 @@ double tunable_value(const TunableKey& key, const BehaviourTunables& b, const Re
 void parse_fighter_tunables(std::string_view text, std::string_view file, BehaviourTunables& b,
                             RetrievalTunables& r);
 void read_fighter_tunables(const std::filesystem::path& file, BehaviourTunables& b, RetrievalTunables& r);
+struct PlannerTunables;  // planner.hpp
+/// [fighter.planner] of an installation file's text: `preset` (its values first), `mode`, `seed`
+/// and each tunable (planner.hpp), ranges checked; file:line: key: message errors. Absent: unchanged.
+void parse_planner_tunables(std::string_view text, std::string_view file, PlannerTunables& p, std::uint64_t& seed);
 
 /// The first key out of its range or contradicting another: its key under [fighter]
 /// ("behaviour.feet.swing_lift_m"), code ("range", "not_finite") and message.
