@@ -253,15 +253,17 @@ int run_build(const BuildArgs& a) {
   const double t0 = now_s();
   const Database db = build_from_annotations(a.annotations, true);
   save_database(db, a.out);
-  int strikes = 0, rest = 0;
+  int strikes = 0, rest = 0, walks = 0, blocks = 0;
   for (const auto& s : db.segments) {
     strikes += s.kind == SegmentKind::strike;
     rest += s.kind == SegmentKind::rest;
+    walks += s.kind == SegmentKind::walk;
+    blocks += s.kind == SegmentKind::block;
   }
-  fmt::print("wrote {}: {} segments ({} strikes, {} rest, mirrored copies included), {} strike candidates in {} "
-             "clusters; actor {} (leg length {:.3f} m); {:.1f} s\n",
-             a.out, db.segments.size(), strikes, rest, db.index.size, db.index.clusters.size(), db.actor_name,
-             db.actor.leg_length_m, now_s() - t0);
+  fmt::print("wrote {}: {} segments ({} strikes, {} blocks, {} rest, {} walk, mirrored copies included), {} strike "
+             "candidates in {} clusters, {} block candidates; actor {} (leg length {:.3f} m); {:.1f} s\n",
+             a.out, db.segments.size(), strikes, blocks, rest, walks, db.index.size, db.index.clusters.size(),
+             db.block_index.size, db.actor_name, db.actor.leg_length_m, now_s() - t0);
   return 0;
 }
 
