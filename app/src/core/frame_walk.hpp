@@ -175,7 +175,13 @@ struct Reader {
           x = kind.value_or(T{});
           return;
         }
-      if (b > static_cast<std::uint8_t>(last_of(T{}))) ok = false;
+      // (out of range: refused, and never stored: a later field's description reads it, e.g.
+      // an event's type picks its distance's log form from the event table)
+      if (b > static_cast<std::uint8_t>(last_of(T{}))) {
+        ok = false;
+        x = T{};
+        return;
+      }
       x = static_cast<T>(b);
     } else if constexpr (std::is_arithmetic_v<T>) {
       x = get<T>();
