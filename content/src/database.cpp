@@ -198,6 +198,29 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
     }
   }
   const int seg_index = static_cast<int>(db.segments.size());
+  const double ft = clip.frame_time_s;
+  const int stride = std::max(1, static_cast<int>(std::lround(o.start_stride_s / ft)));
+  // A retrieval candidate at every `stride`-th start frame up to last_start: its pose features
+  // and the window's points (`point(pose)`, m, room, sampled from wfirst to wlast) in its
+  // ground frame, at the actor's scale.
+  const auto add_candidates = [&](RetrievalIndex& index, int group, int last_start, int wfirst, int wlast,
+                                  const auto& point) {
+    const int wstride = std::max(1, (wlast - wfirst + kWindowMax - 1) / (kWindowMax - 1));
+    std::array<float, kFeatureDim> feat{};
+    std::vector<Eigen::Vector3f> pts;
+    for (int f = 0; f <= std::max(0, last_start); f += stride) {
+      const CanonicalPose& now = poses[static_cast<std::size_t>(f)];
+      const CanonicalPose& before = poses[static_cast<std::size_t>(std::max(0, f - 1))];
+      const GroundFrame g = ground_frame_of(now);
+      pose_features(now, before, f > 0 ? ft : 0.0, g, m.leg_length_m, o.velocity_weight_s, feat);
+      pts.clear();
+      for (int k = wfirst; k <= wlast && static_cast<int>(pts.size()) < kWindowMax; k += wstride) {
+        const Vector3d q = point(poses[static_cast<std::size_t>(k)]);
+        pts.push_back((g.to_local(q) * scale).cast<float>());
+      }
+      index.add(group, feat, pts, seg_index, f, wfirst, wstride);
+    }
+  };
   if (src.kind == SegmentKind::strike) {
     Effector e = *src.effector;
     if (mirrored) e.side = 1 - e.side;
@@ -208,24 +231,10 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
     for (int f = 0; f < n; ++f)
       seg.hit_path_m[static_cast<std::size_t>(f)] = (at(poses[static_cast<std::size_t>(f)], ej) * scale).cast<float>();
     // Candidates: start frames before the hit; the hit window around it.
-    const double ft = clip.frame_time_s;
-    const int stride = std::max(1, static_cast<int>(std::lround(o.start_stride_s / ft)));
     const int last_start = std::min(static_cast<int>(o.start_window_s / ft), seg.hit_frame - static_cast<int>(std::lround(o.min_lead_s / ft)));
     const int wfirst = std::max(0, seg.hit_frame - static_cast<int>(std::lround(o.window_before_s / ft)));
     const int wlast = std::min(n - 1, seg.hit_frame + static_cast<int>(std::lround(o.window_after_s / ft)));
-    const int wstride = std::max(1, (wlast - wfirst + kWindowMax - 1) / (kWindowMax - 1));
-    std::array<float, kFeatureDim> feat{};
-    std::vector<Eigen::Vector3f> pts;
-    for (int f = 0; f <= std::max(0, last_start); f += stride) {
-      const CanonicalPose& now = poses[static_cast<std::size_t>(f)];
-      const CanonicalPose& before = poses[static_cast<std::size_t>(std::max(0, f - 1))];
-      const GroundFrame g = ground_frame_of(now);
-      pose_features(now, before, f > 0 ? ft : 0.0, g, m.leg_length_m, o.velocity_weight_s, feat);
-      pts.clear();
-      for (int k = wfirst; k <= wlast && static_cast<int>(pts.size()) < kWindowMax; k += wstride)
-        pts.push_back((g.to_local(at(poses[static_cast<std::size_t>(k)], ej)) * scale).cast<float>());
-      db.index.add(seg.effector_group, feat, pts, seg_index, f, wfirst, wstride);
-    }
+    add_candidates(db.index, seg.effector_group, last_start, wfirst, wlast, [&](const CanonicalPose& p) { return at(p, ej); });
   } else if (src.kind == SegmentKind::block) {
     // The forearm (elbow -> wrist) per frame; candidates: start frames before the intercept,
     // the window the forearm's contact point over the frames it is in place.
@@ -242,28 +251,12 @@ void add_segment(Database& db, const SegmentSource& src, std::vector<CanonicalPo
       seg.hit_path_m[static_cast<std::size_t>(f)] = (at(poses[static_cast<std::size_t>(f)], wrist) * scale).cast<float>();
       seg.elbow_path_m[static_cast<std::size_t>(f)] = (at(poses[static_cast<std::size_t>(f)], elbow) * scale).cast<float>();
     }
-    const double ft = clip.frame_time_s;
-    const int stride = std::max(1, static_cast<int>(std::lround(o.start_stride_s / ft)));
     const int last_start = std::min(static_cast<int>(o.start_window_s / ft),
                                     seg.intercept_first - static_cast<int>(std::lround(o.block_min_lead_s / ft)));
-    const int wfirst = seg.intercept_first, wlast = seg.intercept_last;
-    const int wstride = std::max(1, (wlast - wfirst + kWindowMax - 1) / (kWindowMax - 1));
-    const int group = e.side + 2 * seg.height;
-    std::array<float, kFeatureDim> feat{};
-    std::vector<Eigen::Vector3f> pts;
-    for (int f = 0; f <= std::max(0, last_start); f += stride) {
-      const CanonicalPose& now = poses[static_cast<std::size_t>(f)];
-      const CanonicalPose& before = poses[static_cast<std::size_t>(std::max(0, f - 1))];
-      const GroundFrame g = ground_frame_of(now);
-      pose_features(now, before, f > 0 ? ft : 0.0, g, m.leg_length_m, o.velocity_weight_s, feat);
-      pts.clear();
-      for (int k = wfirst; k <= wlast && static_cast<int>(pts.size()) < kWindowMax; k += wstride) {
-        const CanonicalPose& p = poses[static_cast<std::size_t>(k)];
-        const Vector3d contact = at(p, elbow) + kForearmContactFraction * (at(p, wrist) - at(p, elbow));
-        pts.push_back((g.to_local(contact) * scale).cast<float>());
-      }
-      db.block_index.add(group, feat, pts, seg_index, f, wfirst, wstride);
-    }
+    add_candidates(db.block_index, e.side + 2 * seg.height, last_start, seg.intercept_first, seg.intercept_last,
+                   [&](const CanonicalPose& p) -> Vector3d {
+                     return at(p, elbow) + kForearmContactFraction * (at(p, wrist) - at(p, elbow));
+                   });
   }
   db.segments.push_back(std::move(seg));
 }

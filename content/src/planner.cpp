@@ -9,7 +9,6 @@
 
 namespace kumite::content {
 
-namespace {
 std::uint64_t splitmix64(std::uint64_t x) {
   x += 0x9E3779B97F4A7C15ull;
   x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
@@ -17,6 +16,9 @@ std::uint64_t splitmix64(std::uint64_t x) {
   return x ^ (x >> 31);
 }
 
+double unit_interval(std::uint64_t bits) { return static_cast<double>(bits >> 11) * 0x1.0p-53; }
+
+namespace {
 bool right_side(recognition::Role r) { return r == recognition::Role::right_hand || r == recognition::Role::right_foot; }
 }  // namespace
 
@@ -77,8 +79,7 @@ void SparPlanner::set_tunables(const PlannerTunables& t) {
 }
 
 double SparPlanner::uniform(std::uint64_t seed) {
-  const std::uint64_t x = splitmix64(seed ^ splitmix64(++draws_));
-  return static_cast<double>(x >> 11) * 0x1.0p-53;
+  return unit_interval(splitmix64(seed ^ splitmix64(++draws_)));
 }
 
 double SparPlanner::exponential(std::uint64_t seed, double mean_s) { return -std::log1p(-uniform(seed)) * mean_s; }

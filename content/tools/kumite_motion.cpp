@@ -1174,10 +1174,7 @@ int run_spar(const SparArgs& a) {
     // The visitor's own draws (SplitMix64 on another stream than the planner's).
     std::uint64_t visitor_draws = 0;
     const auto visitor_uniform = [&] {
-      std::uint64_t x = (a.seed ^ 0x5bd1e995u) + 0x9E3779B97F4A7C15ull * ++visitor_draws;
-      x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-      x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-      return static_cast<double>((x ^ (x >> 31)) >> 11) * 0x1.0p-53;
+      return unit_interval(splitmix64((a.seed ^ 0x5bd1e995u) + 0x9E3779B97F4A7C15ull * visitor_draws++));
     };
     const double dt = 1.0 / 60;
     const int updates = static_cast<int>(std::lround(a.minutes * 60 / dt));

@@ -255,6 +255,28 @@ struct CpuHog {
   }
 };
 
+/// One headless --simulated-time run of a shipped config (config/NAME) on the demo data in
+/// `data`, writing to `out`: its frames.jsonl without the console lines, or nothing (a failure
+/// added) when kumite did not exit 0.
+std::vector<std::string> simulated_run(const fs::path& dir, const fs::path& data, const std::string& config,
+                                       const std::string& frames, const fs::path& out) {
+  const pid_t pid = spawn_kumite({"--config", (fs::path(KUMITE_SOURCE_DIR) / "config" / config).string(), "--data-dir",
+                                  data.string(), "--headless", "--simulated-time", "--frames", frames, "--save-every",
+                                  "0", "--resolution", "64x36", "--out", out.string()},
+                                 dir / "console.txt");
+  if (pid <= 0) {
+    ADD_FAILURE() << "kumite did not start";
+    return {};
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  if (!(WIFEXITED(status) && WEXITSTATUS(status) == 0)) {
+    ADD_FAILURE() << text_of(dir / "console.txt");
+    return {};
+  }
+  return frames_without_console(out / "frames.jsonl");
+}
+
 // Under --simulated-time the poses file and the camera recording follow the frames' clock: the
 // same run gives the same frames, quiet or beside a CPU hog on every core (the visitor and the
 // fighter drifted apart by however loaded the machine was: a head logged at 1.70 m at 4.4 s in
@@ -272,16 +294,7 @@ TEST(Unattended, ASimulatedTimeRunGivesTheSameFramesUnderLoad) {
     for (int run = 0; run < 2; ++run) {
       std::unique_ptr<CpuHog> hog;
       if (run == 1) hog = std::make_unique<CpuHog>();
-      const fs::path out = dir / (std::string(config) + std::to_string(run));
-      const pid_t pid = spawn_kumite({"--config", (fs::path(KUMITE_SOURCE_DIR) / "config" / config).string(),
-                                      "--data-dir", data.string(), "--headless", "--simulated-time", "--frames",
-                                      frames, "--save-every", "0", "--resolution", "64x36", "--out", out.string()},
-                                     dir / "console.txt");
-      ASSERT_GT(pid, 0);
-      int status = 0;
-      ::waitpid(pid, &status, 0);
-      ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << text_of(dir / "console.txt");
-      runs.push_back(frames_without_console(out / "frames.jsonl"));
+      runs.push_back(simulated_run(dir, data, config, frames, dir / (std::string(config) + std::to_string(run))));
     }
     ASSERT_EQ(runs[0].size(), static_cast<std::size_t>(std::stoi(frames)));
     ASSERT_EQ(runs[1].size(), runs[0].size());
@@ -306,18 +319,7 @@ TEST(Unattended, TheSparDemoStrikesWithoutOrdersAndRepeatsItself) {
   if (!fs::exists(data / "fighter.kdb")) GTEST_SKIP() << "no demo data";
   const fs::path dir = fresh_dir("spar");
   std::vector<std::vector<std::string>> runs;
-  for (int run = 0; run < 2; ++run) {
-    const fs::path out = dir / std::to_string(run);
-    const pid_t pid = spawn_kumite({"--config", (fs::path(KUMITE_SOURCE_DIR) / "config" / "demo-spar.toml").string(),
-                                    "--data-dir", data.string(), "--headless", "--simulated-time", "--frames", "1200",
-                                    "--save-every", "0", "--resolution", "64x36", "--out", out.string()},
-                                   dir / "console.txt");
-    ASSERT_GT(pid, 0);
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    ASSERT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << text_of(dir / "console.txt");
-    runs.push_back(frames_without_console(out / "frames.jsonl"));
-  }
+  for (int run = 0; run < 2; ++run) runs.push_back(simulated_run(dir, data, "demo-spar.toml", "1200", dir / std::to_string(run)));
   ASSERT_EQ(runs[0].size(), 1200u);
   ASSERT_EQ(runs[1].size(), runs[0].size());
   for (std::size_t i = 0; i < runs[0].size(); ++i) ASSERT_EQ(runs[0][i], runs[1][i]) << "frame " << i;

@@ -66,20 +66,8 @@ void record(std::string& out, std::string& raw, F&& body) {
 
 // ---- reading -------------------------------------------------------------------------------
 
-struct In {
-  std::string_view p;
-  bool ok = true;
-  template <typename T>
-  T get() {
-    T v{};
-    if (p.size() < sizeof(T)) {
-      ok = false;
-      return v;
-    }
-    std::memcpy(&v, p.data(), sizeof v);
-    p.remove_prefix(sizeof v);
-    return v;
-  }
+/// The frame fields' reader (walk::Reader: get<T>(), ok) with what the skeleton records take too.
+struct In : walk::Reader {
   std::uint8_t u8() { return get<std::uint8_t>(); }
   /// A count of things of at least `bytes_each` bytes each still to read: no more than the
   /// bytes left can hold (a damaged count must not make the reader allocate gigabytes).
@@ -176,7 +164,9 @@ bool FrameStatesReader::next(FrameData& f) {
                    static_cast<uLong>(bytes - 4)) != Z_OK ||
         unpacked != raw_bytes)
       return fail("does not unpack (damaged)");
-    In in{raw_};
+    In in;
+    in.p = raw_;
+    in.version = version_;
     const std::uint8_t kind = in.u8();
     if (kind == kSkeleton) {
       auto s = std::make_shared<FighterSkeleton>();
@@ -191,10 +181,8 @@ bool FrameStatesReader::next(FrameData& f) {
       skeletons_[s->character] = s;
     } else if (kind == kFrame) {
       FrameData r;
-      walk::Reader fields{in.p, version_};
+      walk::Reader& fields = in;
       describe(fields, r);  // the frame's fields (frame_fields.hpp)
-      in.p = fields.p;
-      in.ok = in.ok && fields.ok;
       FighterPose& p = r.fighter;
       if (!in.ok || !in.p.empty()) return fail("a frame record that does not read whole (or a number not finite)");
       if (p.present) {

@@ -35,6 +35,11 @@ struct VisitorStrikeSeen {
 };
 
 
+/// SplitMix64's output for state `x` (the state advanced by its constant, then mixed): the same
+/// on every machine. unit_interval: [0, 1) from the top 53 bits.
+std::uint64_t splitmix64(std::uint64_t x);
+double unit_interval(std::uint64_t bits);
+
 enum class PlannerMode { orders, spar };
 std::string_view to_string(PlannerMode m);
 
