@@ -25,9 +25,6 @@ using Eigen::Vector3d;
 namespace {
 /// s: the trunk fallback's weight rises from 0 to 1 over this at the quickest (AdaptJob::max_trunk_weight).
 constexpr double kTrunkFallbackIn_s = 0.1;
-/// m/s: the most a procedural step redirected to where a strike's clip stands on its foot
-/// moves the foot at (FootPlanter::redirect; a 0.3 m procedural step of step_time_s peaks near 2.1 m/s).
-constexpr double kRedirectPeakSpeed_mps = 2.5;
 /// s: ...and falls back to none over this at the quickest (AdaptJob::min_trunk_fallback).
 constexpr double kTrunkFallbackOut_s = 0.15;
 /// A punch's planned lean brings the target within this share of the arm at contact (the
@@ -68,8 +65,8 @@ constexpr double kStanceStepFeetWait_s = 0.5;
 // ---- Behaviour --------------------------------------------------------------------------
 
 Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config)
-    : db_(std::move(db)), characters_(std::move(characters)), config_(config), tun_(config.behaviour),
-      feet_(config.behaviour.feet) {
+    : db_(std::move(db)), block_planner_(std::make_shared<StrikePlanner>(db_, config.retrieval)),
+      characters_(std::move(characters)), config_(config), tun_(config.behaviour), feet_(config.behaviour.feet) {
   validate(config.behaviour, config.retrieval);
   if (characters_.empty()) throw Error("fighter", "config", "no characters to show");
   if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
@@ -140,12 +137,14 @@ void Behaviour::enter(Action next) {
   // The action state's transitions (behaviour.hpp, action_; content/README.md, "Action
   // states"): [from][to] in the variant's order Idle, AwaitingPlan, Approaching,
   // SupportStepping, Retaking, Striking, Recovering. Anything else is a bug.
+  // A block (Striking, strike_.block) may start from any alternative before a strike: the
+  // strike order under way is dropped for it.
   static constexpr bool kAllowed[7][7] = {
-      {false, true, false, false, false, false, false},  // Idle -> AwaitingPlan (a strike order taken)
-      {true, false, true, true, true, true, false},      // AwaitingPlan -> its plan's outcome
-      {false, false, false, false, true, false, false},  // Approaching -> Retaking (stepped)
-      {false, false, false, false, true, false, false},  // SupportStepping -> Retaking (foot set)
-      {true, false, false, false, false, false, false},  // Retaking -> Idle (taken: then as a new order)
+      {false, true, false, false, false, true, false},   // Idle -> AwaitingPlan (a strike order taken), Striking (a block)
+      {true, false, true, true, true, true, false},      // AwaitingPlan -> its plan's outcome (or a block)
+      {false, false, false, false, true, true, false},   // Approaching -> Retaking (stepped), Striking (a block)
+      {false, false, false, false, true, true, false},   // SupportStepping -> Retaking (foot set), Striking (a block)
+      {true, false, false, false, false, true, false},   // Retaking -> Idle (taken: then as a new order), Striking (a block)
       {false, false, false, false, false, false, true},  // Striking -> Recovering (the clip ends)
       {true, false, false, false, false, false, false},  // Recovering -> Idle (blended, d(t) released)
   };
@@ -195,6 +194,7 @@ FighterAction Behaviour::action() const {
     FighterAction operator()(const Striking&) const { return FighterAction::striking; }
     FighterAction operator()(const Recovering&) const { return FighterAction::recovering; }
   };
+  if (striking() && strike_.block) return FighterAction::blocking;
   return std::visit(Of{}, action_);
 }
 
@@ -683,14 +683,16 @@ void Behaviour::compose(const Source& cur, const Source& prev, double blend_elap
 
 double Behaviour::ramp_in(double t) const { return reach_ramp_in(strike_.start_time_s, strike_.contact_time_s, t); }
 
-double Behaviour::ramp_out(double t) const { return reach_ramp_out(strike_.contact_time_s, strike_.release_end_s, t); }
+double Behaviour::ramp_out(double t) const {
+  return reach_ramp_out(strike_.contact_time_s + strike_.hold_s, strike_.release_end_s, t);
+}
 
 ReachGoal Behaviour::reach_goal(double ramp) const {
   return reach_goal_at(strike_.effector, strike_.turn, strike_.stretch, ramp, strike_.lean);
 }
 
 double Behaviour::release_end_s(double contact_time_s) const {
-  return std::max(contact_time_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s * current_.rate);
+  return std::max(contact_time_s + strike_.hold_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s * current_.rate);
 }
 
 void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
@@ -1097,7 +1099,10 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   blend_elapsed_s_ += dt;
   if (!switch_offsets_due_) switch_elapsed_s_ += dt;
   const bool contact_now = striking() && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
-  if (striking() && strike_.contact_done && current_.time_s >= strike_.end_time_s - tun_.blend_time_s * current_.rate) {
+  // (a block, in place before its cross-fade in is done, holds its clip until it is: leaving
+  // mid-blend would drop the motion it blends from, and the body jumped 25 cm in one frame)
+  if (striking() && strike_.contact_done && current_.time_s >= strike_.end_time_s - tun_.blend_time_s * current_.rate &&
+      (!strike_.block || blend_elapsed_s_ >= tun_.blend_time_s)) {
     start_rest(now);
     enter(Recovering{});
   }
@@ -1218,7 +1223,10 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   have_pose_ = true;
   last_dt_ = dt > 0 ? dt : last_dt_;
 
-  if (contact_now) judge_contact(now, head);
+  if (contact_now) {
+    if (strike_.block) judge_block_in_place(now);
+    else judge_contact(now, head);
+  }
 
 
 

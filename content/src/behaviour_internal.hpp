@@ -18,6 +18,10 @@ namespace kumite::content::behaviour_detail {
 
 using Eigen::Vector2d;
 
+/// m/s: the most a procedural step redirected to where a strike's clip stands on its foot
+/// moves the foot at (FootPlanter::redirect; a 0.3 m procedural step of step_time_s peaks near 2.1 m/s).
+inline constexpr double kRedirectPeakSpeed_mps = 2.5;
+
 inline double smoothstep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);

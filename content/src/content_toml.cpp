@@ -340,7 +340,8 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   const auto t = fighter->opt_table("planner");
   if (!t) return;
   t->only({"mode", "preset", "seed", "fighting_distance_m", "engage_tolerance_m", "attack_rate_per_s", "counter_probability",
-           "reaction_time_s", "counter_deadline_s", "kick_share"});
+           "reaction_time_s", "counter_deadline_s", "kick_share", "block", "block_max_rate", "threat_min_speed_mps",
+           "threat_min_closing_mps", "threat_horizon_s", "threat_aim_radius_m", "threat_velocity_window_s"});
   // A preset first, then each key written beside it.
   if (const auto preset = t->opt_string("preset")) {
     const auto found = planner_preset(*preset);
@@ -360,6 +361,13 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   t->read("reaction_time_s", p.reaction_time_s, {0, 5, "s"});
   t->read("counter_deadline_s", p.counter_deadline_s, {0, 10, "s"});
   t->read("kick_share", p.kick_share, {0, 1, ""});
+  if (const auto b = t->opt_boolean("block")) p.block = *b;
+  t->read("block_max_rate", p.block_max_rate, {1, 4, ""});
+  t->read("threat_min_speed_mps", p.threat.min_speed_mps, {0.1, 50, "m/s"});
+  t->read("threat_min_closing_mps", p.threat.min_closing_mps, {0, 50, "m/s"});
+  t->read("threat_horizon_s", p.threat.horizon_s, {0.05, 2, "s"});
+  t->read("threat_aim_radius_m", p.threat.aim_radius_m, {0.05, 1, "m"});
+  t->read("threat_velocity_window_s", p.threat.velocity_window_s, {0.005, 0.5, "s"});
 }
 
 void read_fighter_tunables(const std::filesystem::path& file, BehaviourTunables& b, RetrievalTunables& r) {

@@ -9,12 +9,16 @@
 #include "kumite/content/fighter.hpp"
 
 #include <algorithm>
+#include <array>
+#include <limits>
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
 
 #include <fmt/format.h>
+
+#include "kumite/content/threat.hpp"
 
 #include "kumite/common/error.hpp"
 #include "behaviour_internal.hpp"
@@ -43,6 +47,7 @@ std::string_view to_string(FighterAction a) {
     case FighterAction::retaking: return "retaking";
     case FighterAction::striking: return "striking";
     case FighterAction::recovering: return "recovering";
+    case FighterAction::blocking: return "blocking";
   }
   return "?";
 }
@@ -93,6 +98,20 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
       return fmt::format("the {} foot steps {:.0f} cm first, to where the kick stands on it; the target at ({:.2f}, {:.2f}, {:.2f}) m",
                          e.order.kind == OrderKind::kick_left ? "right" : "left", e.distance_m * 100, e.target.x(),
                          e.target.y(), e.target.z());
+    case K::block: {
+      const char* arm = e.side == 0 ? "left" : "right";
+      const std::string what = fmt::format("{} (frames {}->{}) against the visitor's {}{} ({:.1f} m/s)", segment_name(e.segment),
+                                           e.start_frame, e.contact_frame, recognition::to_string(e.limb),
+                                           e.recognised ? ", recognised" : ", seen coming", e.speed_mps);
+      if (e.margin_s < 0) return fmt::format("{}: late, the {} forearm in place {:.0f} ms after the fist", what, arm, -e.margin_s * 1000);
+      return fmt::format("{}: the {} forearm in place {:.0f} ms before the fist", what, arm, e.margin_s * 1000);
+    }
+    case K::blocked:
+      return fmt::format("the visitor's {} met the {} forearm at {:.1f} m/s", recognition::to_string(e.limb),
+                         e.side == 0 ? "left" : "right", e.speed_mps);
+    case K::visitor_hit:
+      return fmt::format("the visitor's {} hit the fighter at {:.1f} m/s, ({:.2f}, {:.2f}, {:.2f}) m", recognition::to_string(e.limb),
+                         e.speed_mps, e.target.x(), e.target.y(), e.target.z());
     default: break;
   }
   switch (e.reason) {
@@ -106,6 +125,7 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
     case R::no_such_character: return fmt::format("no character {} (have {})", e.order.character + 1, e.character_count);
     case R::no_strike: return "no strike in the database for this order";
     case R::restance: return "into the fighting stance";
+    case R::blocking: return "blocking";
   }
   return "?";
 }
@@ -284,10 +304,11 @@ class FighterImpl final : public Fighter {
     if (const std::optional<Order> o = spar_.step(p)) behaviour_.order(*o);
     // Sparring, it keeps the fighting distance (the visitor's fist reaches it).
     behaviour_.follow_at(t.mode == PlannerMode::spar ? t.fighting_distance_m : strike_distance_m_);
+    if (t.mode == PlannerMode::spar) defend(in, f);
   }
   void set_planner(const PlannerTunables& tunables) override { spar_.set_tunables(tunables); }
   PlannerStatus planner_status() const override {
-    return PlannerStatus{spar_.tunables(), spar_.state(), spar_.next(), spar_.counts()};
+    return PlannerStatus{spar_.tunables(), spar_.state(), spar_.next(), spar_.counts(), score_};
   }
   void update(Timestamp now, double dt, const Eigen::Vector3d& head) override {
     worker_->set_update(++updates_);
@@ -302,7 +323,27 @@ class FighterImpl final : public Fighter {
     f.root_joint = behaviour_.root_position();
     return f;
   }
-  std::vector<FighterEvent> take_events() override { return behaviour_.take_events(); }
+  std::vector<FighterEvent> take_events() override {
+    std::vector<FighterEvent> out = behaviour_.take_events();
+    if (!own_events_.empty()) {
+      out.insert(out.begin(), own_events_.begin(), own_events_.end());
+      own_events_.clear();
+    }
+    for (const FighterEvent& e : out) {
+      switch (e.kind) {
+        case EventKind::hit: ++score_.fighter_hits; break;
+        case EventKind::dodged: ++score_.visitor_dodges; break;
+        case EventKind::block:
+          ++score_.blocks;
+          if (e.margin_s < 0) ++score_.blocks_late;
+          break;
+        case EventKind::blocked: ++score_.blocked; break;
+        case EventKind::visitor_hit: ++score_.visitor_hits; break;
+        default: break;
+      }
+    }
+    return out;
+  }
   std::string describe(const FighterEvent& event) const override { return behaviour_.describe(event); }
   int character_count() const override { return behaviour_.character_count(); }
   std::size_t most_joints() const override { return behaviour_.most_joints(); }
@@ -315,6 +356,110 @@ class FighterImpl final : public Fighter {
   Behaviour behaviour_;
   std::shared_ptr<const StrikePlanner> planner_;
   std::shared_ptr<StrikeRateSolver> rate_solver_;  // the worker's alone
+  /// Spar: judges the visitor's fists and feet against the fighter as drawn last frame (the
+  /// frame the visitor saw), then blocks the soonest threat it can.
+  void defend(const FighterInput& in, const FighterFrame& f) {
+    const PlannerTunables& t = spar_.tunables();
+    threats_.set_tunables(t.threat);
+    threats_.observe(in.bodies, in.strikes);
+    const Rig& rig = behaviour_.character(f.character);
+    const auto joint = [&](CanonicalJoint j) -> std::optional<Eigen::Vector3d> {
+      const int i = rig.skeleton.index(j);
+      if (i < 0 || static_cast<std::size_t>(i) >= f.joints.size()) return std::nullopt;
+      return f.joints[static_cast<std::size_t>(i)];
+    };
+    const auto head = joint(CanonicalJoint::head), neck = joint(CanonicalJoint::neck), pelvis = joint(CanonicalJoint::pelvis);
+    if (!head || !pelvis) return;
+    judge_contacts(in, *head, neck.value_or(*head), *pelvis, joint);
+    if (!t.block) return;
+    const std::optional<Threat> th = threats_.soonest(*head, *pelvis, in.now);
+    if (!th) return;
+    const auto limb = static_cast<std::size_t>(th->limb);
+    if (in.now < answered_until_[limb]) return;
+    Behaviour::BlockOrder b;
+    b.limb = th->limb;
+    b.fist_m = th->point_m;
+    b.velocity_mps = th->velocity_mps;
+    b.arrival_s = th->arrival_s;
+    b.recognised = th->recognised;
+    b.max_rate = t.block_max_rate;
+    // Answered (or not) once per strike: the next block for this limb after it has passed.
+    answered_until_[limb] = in.now + th->arrival_s + kStrikeOver_s;
+    if (!behaviour_.block(b, in.now)) ++score_.unanswered;
+  }
+  /// The visitor's fist or foot meeting the fighter's forearm (blocked) or body (visitor_hit):
+  /// the way it moved since its last measurement against capsules on the drawn joints.
+  template <class Joint>
+  void judge_contacts(const FighterInput& in, const Eigen::Vector3d& head, const Eigen::Vector3d& neck,
+                      const Eigen::Vector3d& pelvis, const Joint& joint) {
+    for (const VisitorBody& b : in.bodies) {
+      const auto r = static_cast<std::size_t>(b.role);
+      if (b.role == recognition::Role::head || r >= last_seen_.size()) continue;
+      LastSeen& ls = last_seen_[r];
+      if (!b.tracked || !b.position_m.allFinite() || !std::isfinite(b.t)) {
+        ls.valid = false;
+        continue;
+      }
+      if (ls.valid && !(b.t > ls.t)) continue;
+      const bool had = ls.valid;
+      const Eigen::Vector3d from = ls.p;
+      const double dt = b.t - ls.t;
+      ls = LastSeen{b.position_m, b.t, true};
+      if (!had || dt <= 0 || dt > 0.1 || in.now < contact_until_[r]) continue;
+      const double speed = (b.position_m - from).norm() / dt;
+      if (speed < kContactSpeed_mps) continue;
+      int side = -1;
+      for (int s = 0; s < 2; ++s) {
+        const auto el = joint(s == 0 ? CanonicalJoint::l_elbow : CanonicalJoint::r_elbow);
+        const auto wr = joint(s == 0 ? CanonicalJoint::l_wrist : CanonicalJoint::r_wrist);
+        if (el && wr && segment_distance(from, b.position_m, *el, *wr) <= kFistRadius_m + kForearmRadius_m) side = s;
+      }
+      const bool body = segment_distance(from, b.position_m, head, head) <= kFistRadius_m + kHeadRadius_m ||
+                        segment_distance(from, b.position_m, neck, pelvis) <= kFistRadius_m + kTorsoRadius_m;
+      if (side < 0 && !body) continue;
+      FighterEvent e;
+      e.time = in.now;
+      e.kind = side >= 0 ? EventKind::blocked : EventKind::visitor_hit;
+      e.limb = b.role;
+      e.side = side;
+      e.speed_mps = speed;
+      e.target = b.position_m;
+      own_events_.push_back(e);
+      contact_until_[r] = in.now + kStrikeOver_s;
+    }
+  }
+  /// m: the least distance between segments a0-a1 and b0-b1 (sampled finely enough for a
+  /// fist's way in one frame against a bone: 1 mm steps up to 64 samples, then exact on b).
+  static double segment_distance(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, const Eigen::Vector3d& b0,
+                                 const Eigen::Vector3d& b1) {
+    const int n = std::clamp(static_cast<int>((a1 - a0).norm() / 0.005), 1, 64);
+    double best = std::numeric_limits<double>::infinity();
+    const Eigen::Vector3d bb = b1 - b0;
+    const double len2 = bb.squaredNorm();
+    for (int i = 0; i <= n; ++i) {
+      const Eigen::Vector3d p = a0 + (a1 - a0) * (static_cast<double>(i) / n);
+      const double s = len2 > 1e-12 ? std::clamp((p - b0).dot(bb) / len2, 0.0, 1.0) : 0.0;
+      best = std::min(best, (p - (b0 + s * bb)).norm());
+    }
+    return best;
+  }
+  static constexpr double kStrikeOver_s = 0.3;        ///< s after a strike's arrival before the same limb counts again
+  static constexpr double kContactSpeed_mps = 1.5;    ///< m/s: slower is a touch, not a blow
+  static constexpr double kFistRadius_m = 0.05;       ///< m, a glove or shoe round its tracked point
+  static constexpr double kForearmRadius_m = 0.05;    ///< m, the fighter's forearm capsule
+  static constexpr double kHeadRadius_m = 0.12;       ///< m, round the fighter's head joint
+  static constexpr double kTorsoRadius_m = 0.15;      ///< m, neck to pelvis
+  struct LastSeen {
+    Eigen::Vector3d p{0, 0, 0};
+    Timestamp t = 0;
+    bool valid = false;
+  };
+  ThreatWatch threats_;
+  std::array<Timestamp, recognition::kRoleCount> answered_until_{};
+  std::array<Timestamp, recognition::kRoleCount> contact_until_{};
+  std::array<LastSeen, recognition::kRoleCount> last_seen_{};
+  std::vector<FighterEvent> own_events_;
+  SparScore score_;
   SparPlanner spar_;
   double strike_distance_m_ = 0.9;
   std::uint64_t updates_ = 0;

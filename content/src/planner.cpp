@@ -66,6 +66,8 @@ std::string validate(const PlannerTunables& t) {
   if (!in(t.reaction_time_s, 0, 5)) return range("reaction_time_s", t.reaction_time_s, 0, 5, "s");
   if (!in(t.counter_deadline_s, 0, 10)) return range("counter_deadline_s", t.counter_deadline_s, 0, 10, "s");
   if (!in(t.kick_share, 0, 1)) return range("kick_share", t.kick_share, 0, 1, "");
+  if (!in(t.block_max_rate, 1, 4)) return range("block_max_rate", t.block_max_rate, 1, 4, "");
+  if (std::string threat = validate(t.threat); !threat.empty()) return threat;
   return "";
 }
 

@@ -16,6 +16,7 @@
 #include "kumite/content/bvh.hpp"
 #include "kumite/recognition/learned.hpp"
 #include "kumite/recognition/recognition.hpp"
+#include "defend.hpp"
 #include "offline.hpp"
 
 namespace fs = std::filesystem;
@@ -133,11 +134,32 @@ int main(int argc, char** argv) {
                  "out of every body (a lunging clip punching on the spot; labelled in the file)")
       ->check(CLI::Range(0.0, 60.0));
 
+  auto* df = app.add_subcommand("defend", "the sparring fighter's defence (blocks) against development mocap visitors "
+                                          "-> per recording a fighter BVH and a trace for scripts/judge-blocks.py, and defence.json");
+  offline::DefenceArgs da;
+  da.mocap = default_mocap();
+  da.character = source_dir() / "content" / "characters" / "kenji.bvh";
+  df->add_option("--db", da.db, "fighter.kdb")->required()->check(CLI::ExistingFile);
+  df->add_option("--character", da.character, "character BVH")->check(CLI::ExistingFile)->capture_default_str();
+  df->add_option("--mocap", da.mocap, "development mocap folder (boxer, Sony, HDM05, CMU walks)")->capture_default_str();
+  df->add_option("--out", da.out, "output folder")->required();
+  df->add_option("--tracker-hz", da.tracker_hz, "Hz the visitor's bodies are measured at")->check(CLI::Range(10.0, 1000.0))
+      ->capture_default_str();
+  df->add_option("--threat-speed", da.threat.min_speed_mps, "m/s: threat_min_speed_mps")->capture_default_str();
+  df->add_option("--threat-aim", da.threat.aim_radius_m, "m: threat_aim_radius_m")->capture_default_str();
+  df->add_option("--threat-horizon", da.threat.horizon_s, "s: threat_horizon_s")->capture_default_str();
+  df->add_option("--place-z", da.place_z, "m: the visitor's head's mean z")->capture_default_str();
+  df->add_option("--lead-in", da.lead_in_s, "s the visitor stands still first")->check(CLI::Range(0.0, 30.0))->capture_default_str();
+
   CLI11_PARSE(app, argc, argv);
   try {
     TrainSettings ts;
     ts.threshold_factor = threshold_factor;
     ts.template_per_style = per_style;
+    if (df->parsed()) {
+      std::cout << offline::run_defence(da).dump(2) << "\n";
+      return 0;
+    }
     if (train->parsed()) {
       const auto recs = offline::load_motions(motions);
       std::vector<const offline::Recording*> p;

@@ -823,7 +823,14 @@ std::string to_toml(const InstallationConfig& c) {
                                           {"counter_probability", p.counter_probability},
                                           {"reaction_time_s", p.reaction_time_s},
                                           {"counter_deadline_s", p.counter_deadline_s},
-                                          {"kick_share", p.kick_share}});
+                                          {"kick_share", p.kick_share},
+                                          {"block", p.block},
+                                          {"block_max_rate", p.block_max_rate},
+                                          {"threat_min_speed_mps", p.threat.min_speed_mps},
+                                          {"threat_min_closing_mps", p.threat.min_closing_mps},
+                                          {"threat_horizon_s", p.threat.horizon_s},
+                                          {"threat_aim_radius_m", p.threat.aim_radius_m},
+                                          {"threat_velocity_window_s", p.threat.velocity_window_s}});
   }
   root.insert("fighter", std::move(fighter));
   const auto& t = c.tracking;

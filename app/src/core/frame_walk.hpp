@@ -24,7 +24,7 @@ namespace kumite::app {
 constexpr content::EventKind last_of(content::EventKind) { return content::kLastEventKind; }
 constexpr content::FighterState last_of(content::FighterState) { return content::FighterState::recovering; }
 constexpr content::FighterEvent::Reason last_of(content::FighterEvent::Reason) {
-  return content::FighterEvent::Reason::restance;
+  return content::FighterEvent::Reason::blocking;
 }
 constexpr OrderKind last_of(OrderKind) { return OrderKind::orders_only; }
 constexpr EventCause last_of(EventCause) { return EventCause::visitor; }

@@ -28,8 +28,9 @@ namespace kumite::app {
 /// The frame description's version: states.bin's header says it, a session's manifest keeps it
 /// ("frame_version"). A file of an older version lacks the fields added since (`Field::since`):
 /// they read as their defaults and are neither hashed nor compared. 2: a visitor_strike event
-/// carries its recognition event.
-inline constexpr int kFrameVersion = 2;
+/// carries its recognition event. 3: the fighter's events carry the visitor's limb, the
+/// forearm, a margin and a speed (block, blocked, visitor_hit).
+inline constexpr int kFrameVersion = 3;
 
 /// What a number measures.
 enum class Unit : std::uint8_t {
@@ -163,6 +164,11 @@ void describe(V& v, T&... x) {
   v(Field{.name = "contact_distance_m", .unit = Unit::m}, x.contact_distance_m...);
   v(Field{.name = "out_of_reach"}, x.out_of_reach...);
   v(Field{.name = "character_count"}, x.character_count...);
+  v(Field{.name = "limb", .since = 3}, x.limb...);
+  v(Field{.name = "side", .since = 3}, x.side...);
+  v(Field{.name = "margin_s", .since = 3}, x.margin_s...);
+  v(Field{.name = "speed_mps", .since = 3}, x.speed_mps...);
+  v(Field{.name = "recognised", .since = 3}, x.recognised...);
 }
 
 template <class V, class... T> requires AllOf<VisitorStrike, T...>

@@ -21,6 +21,7 @@
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
 #include "kumite/content/adaptation.hpp"
+#include "kumite/content/block_retrieval.hpp"
 #include "kumite/content/database.hpp"
 #include "kumite/content/fighter.hpp"
 #include "kumite/content/foot_planting.hpp"
@@ -47,12 +48,25 @@ struct StrikePlan {
   double retrieval_us = 0; ///< µs, query features + search
 };
 
+/// A block to plan: the fighter's pose and the fist's path in its ground frame (m, m/s: the
+/// character's size; scaled to the actor's here).
+struct BlockRequest {
+  MkmFrame now, before;                 ///< current pose and the one `dt_s` earlier (room frame)
+  double dt_s = 1.0 / 60;
+  Eigen::Vector3d fist_local_m{0, 0, 0};       ///< m, character ground frame of `now`
+  Eigen::Vector3d fist_velocity_local_mps{0, 0, 0};
+  double character_leg_length_m = 1;
+};
+
 /// Turns requests into plans: retargets the pose onto the actor, scales the target and runs
 /// retrieve(). Immutable after construction; plan() is safe to call from any one thread.
 class StrikePlanner {
  public:
   StrikePlanner(std::shared_ptr<const Database> db, RetrievalTunables tunables = {});
   StrikePlan plan(const StrikeRequest& request) const;
+  /// The block whose forearm meets the fist's path (retrieve_block); its intercept in the
+  /// actor's size (BlockChoice::intercept.point_m: actor ground frame, scaled by actor/character leg).
+  BlockChoice plan_block(const BlockRequest& request) const;
   RetrievalQuery make_query(const StrikeRequest& request) const;
   const Database& database() const { return *db_; }
   const RetrievalTunables& tunables() const { return tunables_; }
@@ -189,6 +203,24 @@ class Behaviour {
 
   /// Queue an order (processed at the next update).
   void order(const Order& order);
+  /// A block against a fist seen coming (the Fighter's defence, spar mode).
+  struct BlockOrder {
+    recognition::Role limb = recognition::Role::right_hand;
+    Eigen::Vector3d fist_m{0, 0, 0};         ///< m, room: the fist now
+    Eigen::Vector3d velocity_mps{0, 0, 0};   ///< m/s, room
+    double arrival_s = 0;                    ///< s from now until it reaches the body (ThreatWatch)
+    bool recognised = false;
+    double max_rate = 2.0;                   ///< segment s per s the block may be played at to be in place in time
+  };
+  /// A block can start now: not paused, no strike or block playing or blending out, no
+  /// cross-fade under way (a block cuts no blend: the pose would jump).
+  bool can_block() const;
+  /// Starts a block now (at this update, before update()): the block whose forearm meets the
+  /// fist's path, placed where the fighter stands, played fast enough (up to max_rate) to be
+  /// in place before the fist, its forearm's middle brought onto the path by d(t) and held
+  /// there until the fist has passed. A strike order under way before its strike is dropped
+  /// (order_ignored, blocking). False: it cannot (can_block) or no block fits.
+  bool block(const BlockOrder& order, Timestamp now);
   /// Strike toward an explicit room-frame target (tools, tests); same rules as order().
   void order_strike(const Order& order, const Eigen::Vector3d& target_room_m);
   /// Visitor safety: while on, the fighter backs off to keep_away_extra_m beyond its strike
@@ -281,6 +313,17 @@ class Behaviour {
     /// The feet the plan holds at contact (feet_through_contact; weight 0: not held): the
     /// punch's planned lean is found with the pelvis lowered for them, as the frames draw it.
     FootLocks plan_feet;
+    /// Segment s d(t) stays whole after contact before its release (a block held across the
+    /// fist's path until it has passed; 0 for strikes).
+    double hold_s = 0;
+    // A block (spar): the strike machinery plays it; "contact" is the forearm in place.
+    bool block = false;
+    recognition::Role block_limb = recognition::Role::right_hand;  ///< the visitor's limb it answers
+    bool block_recognised = false;
+    Timestamp fist_arrival_t = 0;   ///< s: when the fist was predicted at the guard
+    Timestamp in_place_t = -1;      ///< s: when the forearm was in place (-1: not yet)
+    double fist_speed_mps = 0;
+    Eigen::Vector3d intercept_m{0, 0, 0};  ///< m, room: the forearm's middle is brought here
   };
   const StrikeInfo& strike() const { return strike_; }
   int update_count() const { return updates_; }
@@ -414,10 +457,12 @@ class Behaviour {
   int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect = nullptr) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
+  void judge_block_in_place(Timestamp now);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
                      double distance = 0);
 
   std::shared_ptr<const Database> db_;
+  std::shared_ptr<const StrikePlanner> block_planner_;  ///< blocks are planned in the update (~20 µs)
   std::vector<Rig> characters_;
   FighterConfig config_;
   BehaviourTunables tun_;

@@ -30,6 +30,9 @@ enum class EventKind : std::uint8_t {
   stepping_in,        ///< an accepted strike's target is beyond its reach: the fighter steps in `distance_m` first
   support_step,       ///< a kick's support foot steps `distance_m` first, to where the kick's clip stands on it
   stepping_back,      ///< an accepted strike's target is too near for its limb to land extended: a step back first
+  block,              ///< the fighter blocks a visitor's strike (seen coming or recognised): its forearm in place `margin_s` before the fist (late: < 0)
+  blocked,            ///< the visitor's fist or foot met the fighter's blocking forearm
+  visitor_hit,        ///< the visitor's fist or foot entered the fighter's body fast: a hit for the visitor
 };
 
 /// What is said of each kind, in one place.
@@ -43,7 +46,7 @@ struct EventKindInfo {
   std::uint8_t fighter_byte;
 };
 
-inline constexpr std::array<EventKindInfo, 13> kEventKinds = {{
+inline constexpr std::array<EventKindInfo, 16> kEventKinds = {{
     {EventKind::order_accepted, "order", false, 0},
     {EventKind::order_ignored, "order_ignored", false, 1},
     {EventKind::hit, "hit", true, 2},
@@ -57,6 +60,9 @@ inline constexpr std::array<EventKindInfo, 13> kEventKinds = {{
     {EventKind::stepping_in, "stepping_in", true, 7},
     {EventKind::support_step, "support_step", true, 8},
     {EventKind::stepping_back, "stepping_back", true, 9},
+    {EventKind::block, "block", false, 13},
+    {EventKind::blocked, "blocked", false, 14},
+    {EventKind::visitor_hit, "visitor_hit", false, 15},
 }};
 
 constexpr bool event_kinds_in_order() {

@@ -65,6 +65,7 @@ enum class FighterAction {
   retaking,       ///< the order is taken again at the next update, from where the step ended
   striking,       ///< the strike's clip plays, adapted to its target
   recovering,     ///< blending into rest while the reach offset goes back to zero
+  blocking,       ///< a block's clip plays, its forearm brought across an incoming fist's path (spar)
 };
 std::string_view to_string(FighterAction a);
 /// How the body moves while no strike plays (at_spot while striking or recovering).
@@ -92,6 +93,7 @@ struct FighterEvent {
     no_such_character,  ///< warning: `order.character` does not exist (`character_count` do)
     no_strike,          ///< warning: no strike in the database for this order
     restance,           ///< stepping_in, stepping_back: into the fighting stance on the way (from a stance step's long stance)
+    blocking,           ///< ignored: a strike order while blocking; or a pending strike dropped for a block
   };
   Timestamp time = 0;
   Kind kind = Kind::warning;
@@ -106,6 +108,15 @@ struct FighterEvent {
   double contact_distance_m = 0;  ///< hit / miss: m from the hit point to the target at contact
   bool out_of_reach = false;  ///< miss: the limb could not reach the target
   int character_count = 0;    ///< no_such_character: how many there are
+  /// block, blocked, visitor_hit: the visitor's limb whose strike it is (blocked, visitor_hit:
+  /// the limb that met the forearm / the body).
+  recognition::Role limb = recognition::Role::right_hand;
+  int side = -1;              ///< block, blocked: the forearm (0 left, 1 right; -1 none)
+  /// block: s from the forearm in place to the fist's predicted arrival (< 0: `late`, in place
+  /// after it); blocked, visitor_hit: s since the block was in place (0 without a block).
+  double margin_s = 0;
+  double speed_mps = 0;       ///< block: the fist's speed seen; blocked, visitor_hit: its speed at contact
+  bool recognised = false;    ///< block: answering a recognised strike (not only seen coming)
   bool operator==(const FighterEvent&) const = default;
 };
 /// The event's line for people, as the log and console show it ("mid-strike", "target at
@@ -228,11 +239,23 @@ class Fighter {
   virtual void decide(const FighterInput& in) = 0;
   /// Mode and tunables of the planner from the next update (a key, a preset from the console).
   virtual void set_planner(const PlannerTunables& tunables) = 0;
+  /// The bout's score (spar mode), from the events as they happened.
+  struct SparScore {
+    int visitor_hits = 0;    ///< the visitor's fist or foot entered the fighter's body fast (visitor_hit)
+    int blocks = 0;          ///< blocks begun against a strike (block events; `late` included)
+    int blocks_late = 0;     ///< of those, in place after the fist's predicted arrival
+    int blocked = 0;         ///< the visitor's fist or foot met a forearm (blocked)
+    int fighter_hits = 0;    ///< the fighter's strikes that touched the visitor (hit)
+    int visitor_dodges = 0;  ///< the fighter's strikes that reached their target with the visitor gone (dodged)
+    int unanswered = 0;      ///< threats seen that no block could answer (the fighter busy, no block fitting)
+    bool operator==(const SparScore&) const = default;
+  };
   struct PlannerStatus {
     PlannerTunables tunables;
     PlannerState state = PlannerState::off;
     std::optional<PlannerDecision> next;
     PlannerCounts counts;
+    SparScore score;
   };
   virtual PlannerStatus planner_status() const = 0;
   /// Advance to `now` (dt = seconds since the last update) toward the visitor's head

@@ -19,6 +19,7 @@
 
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
+#include "kumite/content/threat.hpp"
 #include "kumite/recognition/recognition.hpp"
 
 namespace kumite::content {
@@ -55,6 +56,13 @@ struct PlannerTunables {
   double reaction_time_s = 0.3;               ///< s: mean of the exponential delay from the visitor's strike to the counter
   double counter_deadline_s = 1.0;            ///< s: a counter the fighter cannot start this late after it was due is dropped
   double kick_share = 0.25;                   ///< share of its own attacks (not counters) that are kicks
+  /// Spar: blocks a fist or foot coming at its head or torso (ThreatWatch: seen coming, or
+  /// recognised), when it can (Behaviour::can_block). Off by default: judged by
+  /// scripts/judge-blocks.py the blocks do not yet put the forearm across the fist's path
+  /// (content/README.md, "Blocks").
+  bool block = false;
+ double block_max_rate = 2.0;                ///< a block is played up to this fast (segment s per s) to be in place in time
+  ThreatTunables threat;                      ///< threat_* keys: what counts as a fist coming at it
   bool operator==(const PlannerTunables&) const = default;
 };
 

@@ -1,0 +1,169 @@
+// Behaviour: blocks (issue 53, item 3). A block is played by the strike machinery: its clip
+// from the block's start frame, placed where the fighter stands and aligned on its support
+// foot, cross-faded in; d(t) brings the forearm's middle onto the fist's path at the intercept
+// frame ("contact": the forearm in place) and holds it there until the fist has passed. No
+// travel scaling, no trunk lean aim, no rate solve: a block may be played faster instead
+// (BlockOrder::max_rate) to be in place before the fist.
+#include <algorithm>
+#include <cmath>
+
+#include "behaviour_internal.hpp"
+#include "kumite/content/behaviour.hpp"
+#include "kumite/content/canonical.hpp"
+
+namespace kumite::content {
+
+using namespace behaviour_detail;
+using CJ = CanonicalJoint;
+using Eigen::Vector3d;
+
+namespace {
+/// s the forearm stays across the path after the fist's predicted arrival (its prediction is
+/// a straight line at constant speed).
+constexpr double kHoldPast_s = 0.12;
+/// s: the forearm is planned in place this long before the fist (one display frame at 60 Hz).
+constexpr double kInPlaceMargin_s = 1.0 / 60;
+}  // namespace
+
+BlockChoice StrikePlanner::plan_block(const BlockRequest& r) const {
+  const double k = db_->actor.leg_length_m / r.character_leg_length_m;
+  MkmFrame now = r.now, before = r.before;
+  before.root_xz_m = now.root_xz_m + (before.root_xz_m - now.root_xz_m) * k;
+  CanonicalPose pn, pb;
+  decode_canonical(actor_, now, pn);
+  decode_canonical(actor_, before, pb);
+  BlockQuery q;
+  pose_features(pn, pb, r.dt_s, ground_frame_of(pn), db_->actor.leg_length_m, db_->velocity_weight_s, q.features);
+  q.fist.point_m = (r.fist_local_m * k).cast<float>();
+  q.fist.velocity_mps = (r.fist_velocity_local_mps * k).cast<float>();
+  return retrieve_block(*db_, q, tunables_);
+}
+
+bool Behaviour::can_block() const {
+  if (paused_ || !have_pose_ || db_->block_index.size == 0) return false;
+  if (!(as<Idle>() || as<AwaitingPlan>() || as<Retaking>())) return false;
+  return blend_elapsed_s_ >= tun_.blend_time_s;
+}
+
+bool Behaviour::block(const BlockOrder& b, Timestamp now) {
+  if (!can_block() || !b.fist_m.allFinite() || !b.velocity_mps.allFinite() || !std::isfinite(b.arrival_s)) return false;
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const GroundFrame g = ground();
+  BlockRequest req;
+  req.now = pose_;
+  req.before = pose_before_;
+  req.dt_s = last_dt_ > 0 ? last_dt_ : 1.0 / 60;
+  req.fist_local_m = g.to_local(b.fist_m);
+  req.fist_velocity_local_mps = g.rotation().inverse() * b.velocity_mps;
+  req.character_leg_length_m = rig.morphology.leg_length_m;
+  const BlockChoice c = block_planner_->plan_block(req);
+  if (c.segment < 0) return false;
+  const MotionSegment& bseg = db_->segments[static_cast<std::size_t>(c.segment)];
+  const double lead_s = (c.intercept_frame - c.start_frame) * bseg.frame_time_s;
+  // Where the forearm meets the fist: on its path where the fist will be once the block can be
+  // in place (played at max_rate), at the guard (retrieve_block's intercept) if that is later,
+  // but no later than the fist's arrival at the body. (The guard's crossing alone was often
+  // already behind the fist: a punch is seen fast only 50-70 ms before it lands.)
+  const double can_s = lead_s / std::max(1.0, b.max_rate) + kInPlaceMargin_s;
+  const double aim_s = std::clamp(std::max(c.intercept.time_s, can_s), 0.0, std::max(0.0, b.arrival_s));
+  const Vector3d intercept = b.fist_m + b.velocity_mps * aim_s;
+
+  // The strike order under way (waiting for its plan, or to be taken again) is dropped.
+  if (const AwaitingPlan* w = as<AwaitingPlan>())
+    emit(FighterEvent::Kind::order_ignored, now, w->strike.order, FighterEvent::Reason::blocking);
+  if (const Retaking* r = as<Retaking>()) emit(FighterEvent::Kind::order_ignored, now, r->order.order, FighterEvent::Reason::blocking);
+
+  StrikePlan plan;
+  plan.segment = c.segment;
+  plan.start_frame = c.start_frame;
+  plan.contact_frame = c.intercept_frame;
+  plan.choice = c.choice;
+  strike_target_.reset();  // no travel scaling toward a target: the block stands where it is
+  StrikeFit fit;
+  Source s = strike_source(plan, fit);
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
+  // A block stands where it is: the clip's floor travel is taken out (kata blocks step 0.5 m
+  // and more; played as captured, the fighter stepped into the visitor and off its area).
+  s.travel = Source::Travel{};
+  s.travel.scale = 0;
+  s.travel.from_s = s.time_s;
+  s.travel.contact_s = (seg.frame_count() - 1) * seg.frame_time_s;
+  s.travel.release_s = seg.frame_time_s;
+
+  previous_ = current_;
+  blend_elapsed_s_ = 0;
+  current_ = s;
+  if (fit.landing_support >= 0) feet_.land(fit.landing_support);
+  if (fit.redirect_support >= 0) feet_.redirect(fit.redirect_support, fit.redirect_to_m, kRedirectPeakSpeed_mps);
+  // In place before the fist: as fast as that needs, up to max_rate (a block's lead over the
+  // fist's arrival at the guard, or at the body when that is sooner).
+  const double until_s = aim_s - kInPlaceMargin_s;
+  const double rate = std::clamp(until_s > 1e-3 ? lead_s / until_s : b.max_rate, 1.0, std::max(1.0, b.max_rate));
+  current_.rate = rate;
+  const double dt = last_dt_ > 0 ? last_dt_ : 1.0 / 60;
+
+  strike_ = StrikeInfo{};
+  strike_.block = true;
+  strike_.block_limb = b.limb;
+  strike_.block_recognised = b.recognised;
+  strike_.fist_speed_mps = b.velocity_mps.norm();
+  strike_.fist_arrival_t = now + aim_s;
+  strike_.intercept_m = intercept;
+  strike_.plan = plan;
+  strike_.effector = *seg.effector();  // the forearm's arm
+  strike_.start_time_s = plan.start_frame * seg.frame_time_s;
+  strike_.clip_contact_time_s = plan.contact_frame * seg.frame_time_s;
+  strike_.contact_time_s = contact_frame_time(current_.time_s, strike_.clip_contact_time_s, dt * current_.rate);
+  strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
+  // Held across the path until the fist has passed (segment seconds), within the clip.
+  const double in_place_wall_s = (strike_.contact_time_s - current_.time_s) / rate;
+  const double hold_wall_s = std::max(0.0, strike_.fist_arrival_t - now - in_place_wall_s) + kHoldPast_s;
+  strike_.hold_s = std::min(hold_wall_s * rate, std::max(0.0, strike_.end_time_s - strike_.contact_time_s));
+  strike_.release_end_s = release_end_s(strike_.contact_time_s);
+  strike_.start_update = updates_;
+  strike_.rate = rate;
+  enter(Striking{});
+  strike_.plan_feet = feet_through_contact(current_, strike_.contact_time_s);
+  // d(t) brings the wrist where it puts the forearm's middle on the intercept: the wrist
+  // target is the intercept plus the half forearm (elbow -> wrist) as the clip holds it there.
+  strike_.target_room_m = intercept;
+  compute_reach_error(strike_.contact_time_s, false);
+  // (the pose at the intercept, decoded without d(t), is in scratch_pose_)
+  const Vector3d wrist = at(scratch_pose_, strike_.effector.joint());
+  const Vector3d elbow = at(scratch_pose_, strike_.effector.side == kLeft ? CJ::l_elbow : CJ::r_elbow);
+  const Vector3d half = (1 - kForearmContactFraction) * (wrist - elbow);
+  strike_.target_room_m = intercept + half;
+  compute_reach_error(strike_.contact_time_s, false);
+  if (!strike_.target_room_m.allFinite() || !strike_.error_m.allFinite()) {
+    // (never seen: a pose that cannot be decoded) no d(t): the block plays as captured
+    strike_.target_room_m = intercept;
+    strike_.error_m.setZero();
+    strike_.turn = Eigen::Quaterniond::Identity();
+    strike_.stretch = 1;
+  }
+  return true;
+}
+
+void Behaviour::judge_block_in_place(Timestamp now) {
+  strike_.contact_done = true;
+  strike_.contact_update = updates_;
+  strike_.in_place_t = now;
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const Vector3d wrist = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()))];
+  strike_.contact_distance_m = (wrist - strike_.target_room_m).norm();
+  strike_.contact_reached = report_.reached;
+  FighterEvent& e = emit(FighterEvent::Kind::block, now, strike_.order, FighterEvent::Reason::none);
+  e.target = strike_.intercept_m;
+  e.segment = strike_.plan.segment;
+  e.start_frame = strike_.plan.start_frame;
+  e.contact_frame = strike_.plan.contact_frame;
+  e.contact_distance_m = strike_.contact_distance_m;
+  e.out_of_reach = !strike_.contact_reached;
+  e.limb = strike_.block_limb;
+  e.side = strike_.effector.side;
+  e.margin_s = strike_.fist_arrival_t - now;
+  e.speed_mps = strike_.fist_speed_mps;
+  e.recognised = strike_.block_recognised;
+}
+
+}  // namespace kumite::content

@@ -1,0 +1,27 @@
+#pragma once
+// kumite-recognise defend (defend.cpp): the sparring fighter's defence against development mocap.
+#include <cstdint>
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "kumite/content/threat.hpp"
+#include "offline.hpp"
+
+namespace kumite::recognition::offline {
+
+struct DefenceArgs {
+  std::filesystem::path db;         ///< fighter.kdb
+  std::filesystem::path character;  ///< character BVH
+  std::filesystem::path mocap;      ///< ../shared/data/mocap
+  std::filesystem::path out;        ///< folder: <recording>.fighter.bvh, <recording>.trace.json, defence.json
+  double tracker_hz = 120;
+  double place_x = 0, place_z = -0.9;  ///< m: where the visitor's head stands on average
+  double lead_in_s = 3;
+  std::uint64_t seed = 1;
+  content::ThreatTunables threat;   ///< what counts as a fist coming (the planner's threat_* keys)
+};
+/// Runs every recording; writes the files; returns the summary.
+nlohmann::json run_defence(const DefenceArgs& a);
+
+}  // namespace kumite::recognition::offline

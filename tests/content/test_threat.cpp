@@ -1,0 +1,151 @@
+// ThreatWatch: a fist coming at the fighter is seen from the tracked bodies alone; a walk, a
+// sideways swing, a lost glove are not threats. SYNTHETIC paths; the expected arrival is
+// worked out here by hand from the path's geometry, not by the code under test.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "kumite/content/fighter.hpp"
+#include "kumite/content/threat.hpp"
+
+using namespace kumite::content;
+using kumite::recognition::Role;
+using Eigen::Vector3d;
+
+namespace {
+
+// The fighter's head and pelvis as drawn: a vertical line at z = -1.7 from y 1.0 to 1.6.
+const Vector3d kTop(0, 1.6, -1.7), kBottom(0, 1.0, -1.7);
+
+struct Visitor {
+  Vector3d head{0, 1.65, -0.9};
+  Vector3d head_v{0, 0, 0};
+  Vector3d fist{0.1, 1.4, -0.95};
+  Vector3d fist_v{0, 0, 0};
+};
+
+/// Feeds `frames` measurements at 120 Hz from t = 0 and returns the watch's soonest threat at the
+/// last measurement's time.
+std::optional<Threat> run(ThreatWatch& w, Visitor v, int frames, bool fist_tracked = true) {
+  const double dt = 1.0 / 120;
+  double t = 0;
+  for (int k = 0; k < frames; ++k) {
+    t = k * dt;
+    std::vector<VisitorBody> bodies(2);
+    bodies[0].role = Role::head;
+    bodies[0].position_m = v.head + v.head_v * t;
+    bodies[0].tracked = true;
+    bodies[0].t = t;
+    bodies[1].role = Role::right_hand;
+    bodies[1].position_m = v.fist + v.fist_v * t;
+    bodies[1].tracked = fist_tracked;
+    bodies[1].t = t;
+    w.observe(bodies, {});
+  }
+  return w.soonest(kTop, kBottom, t);
+}
+
+}  // namespace
+
+TEST(Threat, AFistComingStraightAtTheHeadIsSeenWithItsArrival) {
+  ThreatWatch w;  // defaults: 3 m/s, aim radius 0.25 m, horizon 0.4 s
+  Visitor v;
+  v.fist_v = Vector3d(0, 0, -6);  // 6 m/s toward the fighter (a punch's speed)
+  const int frames = 4;
+  const auto th = run(w, v, frames);
+  ASSERT_TRUE(th.has_value());
+  EXPECT_EQ(th->limb, Role::right_hand);
+  // Now at z = -0.95 - 6 * 3/120 = -1.1; within 0.25 m of the line (x 0.1 off it): |dz| <=
+  // sqrt(0.25^2 - 0.1^2) = 0.2291 -> z <= -1.4709: (1.4709 - 1.1) / 6 = 0.0618 s.
+  EXPECT_NEAR(th->arrival_s, (1.7 - std::sqrt(0.25 * 0.25 - 0.1 * 0.1) - 1.1) / 6.0, 0.006);
+  EXPECT_NEAR(th->velocity_mps.z(), -6, 1e-6);
+  EXPECT_FALSE(th->recognised);
+}
+
+TEST(Threat, AHandCarriedByAWalkIsNoThreat) {
+  ThreatWatch w;
+  Visitor v;
+  v.head_v = v.fist_v = Vector3d(0, 0, -4);  // the whole visitor moves: the hand is still relative to the head
+  EXPECT_FALSE(run(w, v, 6).has_value());
+}
+
+TEST(Threat, AFastSwingThatPassesBesideTheFighterIsNoThreat) {
+  ThreatWatch w;
+  Visitor v;
+  v.fist = Vector3d(-0.3, 1.4, -1.0);
+  v.fist_v = Vector3d(-6, 0, 0);  // sideways, away from the fighter's line
+  EXPECT_FALSE(run(w, v, 6).has_value());
+  ThreatWatch w2;
+  Visitor slow;
+  slow.fist_v = Vector3d(0, 0, -2.5);  // toward it, but slower than a blow (3 m/s)
+  EXPECT_FALSE(run(w2, slow, 6).has_value());
+}
+
+TEST(Threat, ALostGloveOrANanEndsItsHistoryAndASeenMeasurementIsNotTakenTwice) {
+  ThreatWatch w;
+  Visitor v;
+  v.fist_v = Vector3d(0, 0, -6);
+  EXPECT_FALSE(run(w, v, 6, false).has_value());
+  ThreatWatch w2;
+  run(w2, v, 6);
+  VisitorBody nan_body;
+  nan_body.role = Role::right_hand;
+  nan_body.position_m = Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0);
+  nan_body.tracked = true;
+  nan_body.t = 1;
+  const std::vector<VisitorBody> b{nan_body};
+  w2.observe(b, {});
+  EXPECT_FALSE(w2.velocity(Role::right_hand).has_value());
+  EXPECT_FALSE(w2.soonest(kTop, kBottom, 1).has_value());
+  // The same measurement twice: the velocity is that of the two distinct ones.
+  ThreatWatch w3;
+  VisitorBody a;
+  a.role = Role::right_hand;
+  a.tracked = true;
+  a.position_m = Vector3d(0, 1.4, -1.0);
+  a.t = 0;
+  std::vector<VisitorBody> one{a};
+  w3.observe(one, {});
+  w3.observe(one, {});
+  one[0].position_m.z() = -1.05;
+  one[0].t = 0.01;
+  w3.observe(one, {});
+  ASSERT_TRUE(w3.velocity(Role::right_hand).has_value());
+  EXPECT_NEAR(w3.velocity(Role::right_hand)->z(), -5, 1e-9);
+}
+
+TEST(Threat, ARecognisedStrikeAimedAtTheFighterIsAThreatBeforeTheFistIsFast) {
+  ThreatWatch w;
+  Visitor v;
+  v.fist_v = Vector3d(0, 0, -1);  // just starting: slower than min_speed_mps (3 m/s)
+  ASSERT_FALSE(run(w, v, 3).has_value());
+  VisitorStrikeSeen s;
+  s.type = kumite::recognition::EventType::begin;
+  s.limb = Role::right_hand;
+  s.impact_m = Vector3d(0.05, 1.45, -1.6);
+  const std::vector<VisitorStrikeSeen> strikes{s};
+  w.observe({}, strikes);
+  const auto th = w.soonest(kTop, kBottom, 2.0 / 120);
+  ASSERT_TRUE(th.has_value());
+  EXPECT_TRUE(th->recognised);
+  // A cancel takes it back.
+  s.type = kumite::recognition::EventType::cancel;
+  const std::vector<VisitorStrikeSeen> cancel{s};
+  w.observe({}, cancel);
+  EXPECT_FALSE(w.soonest(kTop, kBottom, 2.0 / 120).has_value());
+}
+
+TEST(Threat, TunablesOutOfRangeOrNanAreNamed) {
+  ThreatTunables t;
+  EXPECT_EQ(validate(t), "");
+  t.min_speed_mps = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(validate(t).find("threat_min_speed_mps"), std::string::npos);
+  t = {};
+  t.horizon_s = 5;
+  EXPECT_NE(validate(t).find("threat_horizon_s"), std::string::npos);
+  PlannerTunables p;
+  p.threat.aim_radius_m = -1;
+  EXPECT_NE(validate(p).find("threat_aim_radius_m"), std::string::npos);
+}
