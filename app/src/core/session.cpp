@@ -512,6 +512,7 @@ void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const S
   item.input.tracking.source = input.tracking.source;
   item.input.tracking.strikes.assign(input.tracking.strikes.begin(), input.tracking.strikes.end());
   item.input.tracking.recognition = input.tracking.recognition;
+  item.input.tracking.bodies = input.tracking.bodies;
   item.input.tracking_clock = input.tracking_clock;
   item.input.latch_ms = input.latch_ms;
   item.hashes = hashes;
