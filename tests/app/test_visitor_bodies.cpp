@@ -22,6 +22,7 @@
 #include "kumite/app/installation.hpp"
 #include "kumite/app/session.hpp"
 #include "kumite/app/tracking_input.hpp"
+#include "kumite/common/error.hpp"
 
 using namespace kumite::app;
 namespace fs = std::filesystem;
@@ -309,6 +310,22 @@ TEST(VisitorBodies, ARecordedSessionGivesTheBodiesBackBitForBit) {
   EXPECT_TRUE(rep.identical) << rep.first_difference_detail;
   EXPECT_EQ(rep.frames_replayed, 80u);
   EXPECT_EQ(compared, 80u);
+
+  // A body that is no role: refused in one line naming the file, line and key.
+  std::ifstream in(tmp.path / "s/session.jsonl");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto at = text.find("\"left_hand\":");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 11, "\"left_knee\"");
+  std::ofstream(tmp.path / "s/session.jsonl", std::ios::trunc) << text;
+  try {
+    (void)replay_session(tmp.path / "s");
+    ADD_FAILURE() << "a body named left_knee was read";
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("session.jsonl:2: input.tracking.bodies: not a role: \"left_knee\""),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 // The session in the repository was recorded at version 4, before the bodies: it still replays
