@@ -319,6 +319,25 @@ TEST(VisitorStrikes, GlovesTrackedFromCameraFramesGiveTheMocapsStrikes) {
   EXPECT_EQ(s.frame_sets, static_cast<std::uint64_t>(kUntil * 60) + 1);
   EXPECT_EQ(s.recognition.dropped, 0u);
   EXPECT_GE(s.recognition.samples, 4 * s.frame_sets) << "the gloves and shoes of nearly every set";
+  // The gloves and shoes reach the frame too (TrackingSnapshot::bodies), as measured: each where
+  // the mocap had it in the frame set that measured it (its timestamp), within the tracking's noise.
+  for (std::size_t r = 0; r < rec::kRoleCount; ++r) {
+    const auto role = static_cast<rec::Role>(r);
+    SCOPED_TRACE(rec::to_string(role));
+    ASSERT_TRUE(s.bodies[r]);
+    const kumite::BodyPose& p = *s.bodies[r];
+    EXPECT_EQ(p.body, static_cast<std::int32_t>(r)) << "config/tracking-gloves.toml's bodies are in role order";
+    const long n = std::lround((p.timestamp - 1000) * 60);  // the file's row of that set (60 Hz from 0)
+    EXPECT_NEAR(p.timestamp, 1000 + n / 60.0, 1e-9) << "a frame set's time: measured, not predicted";
+    EXPECT_GE(n, static_cast<long>(kUntil * 60) - 3) << "the newest sets measured it";
+    std::vector<rec::PoseSample> of_role;
+    for (const auto& smp : file.samples)
+      if (smp.role == role) of_role.push_back(smp);
+    ASSERT_LT(static_cast<std::size_t>(n), of_role.size());
+    const auto& want = of_role[static_cast<std::size_t>(n)].position;
+    const double d = std::hypot(p.position[0] - want[0], p.position[1] - want[1], p.position[2] - want[2]);
+    EXPECT_LT(d, 0.03) << "m from the mocap's row " << n;
+  }
   std::string seen;
   for (const auto& e : got)
     seen += fmt::format("{} {} {} {:.2f}; ", rec::to_string(e.type), rec::to_string(e.limb), rec::to_string(e.action), e.t - 1000);

@@ -34,6 +34,7 @@ class FixedHeadInput final : public TrackingInput {
     out.frame_sets = 0;
     out.cameras.clear();
     out.source = {};
+    out.bodies = {};
   }
   Timestamp clock() const override { return now(); }
   std::string describe() const override { return "none (" + why_ + ")"; }
@@ -390,14 +391,18 @@ void Installation::update_fighter(Timestamp now, double dt) {
   in.keep_away = near_wall_.has_value();
   in.orders = fighter_orders_;
   in.seed = config_.fighter.planner_seed;
+  // Every body the source has (glasses, gloves, shoes), in role order, as measured: its pose
+  // and the time it was measured; a body lost goes on with its last pose, tracked = false.
   visitor_bodies_.clear();
-  if (const auto& h = input_.tracking.head) {
+  for (std::size_t r = 0; r < input_.tracking.bodies.size(); ++r) {
+    const auto& p = input_.tracking.bodies[r];
+    if (!p) continue;
     content::VisitorBody b;
-    b.role = recognition::Role::head;
-    b.position_m = Eigen::Vector3d(h->position[0], h->position[1], h->position[2]);
-    b.orientation = Eigen::Quaterniond(h->orientation[0], h->orientation[1], h->orientation[2], h->orientation[3]);
-    b.tracked = h->status != TrackingStatus::lost;
-    b.t = h->timestamp;
+    b.role = static_cast<recognition::Role>(r);
+    b.position_m = Eigen::Vector3d(p->position[0], p->position[1], p->position[2]);
+    b.orientation = Eigen::Quaterniond(p->orientation[0], p->orientation[1], p->orientation[2], p->orientation[3]);
+    b.tracked = p->status != TrackingStatus::lost;
+    b.t = p->timestamp;
     visitor_bodies_.push_back(b);
   }
   in.bodies = visitor_bodies_;

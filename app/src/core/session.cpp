@@ -103,6 +103,12 @@ json input_json(const FrameInput& in) {
                          {"progress", k.progress}, {"confidence", k.confidence}, {"impact", k.impact}});
     t["strikes"] = std::move(strikes);
   }
+  // The visitor's bodies as measured, by role (version 5 on; always written, {} when none: its
+  // absence marks an older session).
+  json bodies = json::object();
+  for (std::size_t r = 0; r < s.bodies.size(); ++r)
+    if (s.bodies[r]) bodies[std::string(recognition::to_string(static_cast<recognition::Role>(r)))] = pose_json(*s.bodies[r]);
+  t["bodies"] = std::move(bodies);
   if (s.recognition.running)
     t["recognition"] = {s.recognition.samples, s.recognition.dropped, s.recognition.events, s.recognition.events_dropped};
   return {{"now", in.now},     {"shown_at", in.shown_at}, {"keyed", keyed}, {"tracking", t}, {"clock", in.tracking_clock},
@@ -112,6 +118,25 @@ json input_json(const FrameInput& in) {
 /// manifest.json and session.jsonl lines: errors are ("replay", "session").
 using LineReader = JsonLineReader;
 LineReader session_reader(std::string file) { return {"replay", "session", std::move(file), 0}; }
+
+/// A BodyPose as pose_json writes it; `key` names it in errors ("input.tracking.head").
+BodyPose parse_pose(const json& h, const LineReader& r, const std::string& key) {
+  const auto at = [&](const char* k) -> const json& { return r.at(h, k, key + "." + k); };
+  const auto name = [&](const char* k) { return key + "." + k; };
+  BodyPose p;
+  p.timestamp = r.num(at("timestamp"), name("timestamp"));
+  p.frame = static_cast<std::uint64_t>(r.whole(at("frame"), name("frame"), 0, 9007199254740992.0));
+  p.body = static_cast<std::int32_t>(r.whole(at("body"), name("body"), -1, 1e6));
+  const double st = r.num(at("status"), name("status"));
+  if (st != 0 && st != 1 && st != 2) r.fail(name("status"), "expected 0, 1 or 2");
+  p.status = static_cast<TrackingStatus>(static_cast<int>(st));
+  p.position = r.nums<3>(at("position"), name("position"));
+  p.orientation = r.nums<4>(at("orientation"), name("orientation"));
+  p.markers = static_cast<std::int32_t>(r.whole(at("markers"), name("markers"), 0, 1e6));
+  p.cameras = static_cast<std::int32_t>(r.whole(at("cameras"), name("cameras"), 0, 1e6));
+  p.ready_at = r.num(at("ready_at"), name("ready_at"));
+  return p;
+}
 
 FrameInput parse_input(const json& j, const LineReader& r) {
   FrameInput in;
@@ -216,20 +241,22 @@ FrameInput parse_input(const json& j, const LineReader& r) {
       *fields[k] = static_cast<std::uint64_t>(r.whole(c[k], "input.tracking.recognition", 0, 9007199254740992.0));
   }
   const json& h = r.at(t, "head", "input.tracking.head");
-  if (!h.is_null()) {
-    BodyPose p;
-    p.timestamp = r.num(r.at(h, "timestamp", "input.tracking.head.timestamp"), "input.tracking.head.timestamp");
-    p.frame = static_cast<std::uint64_t>(r.whole(r.at(h, "frame", "input.tracking.head.frame"), "input.tracking.head.frame", 0, 9007199254740992.0));
-    p.body = static_cast<std::int32_t>(r.whole(r.at(h, "body", "input.tracking.head.body"), "input.tracking.head.body", -1, 1e6));
-    const double st = r.num(r.at(h, "status", "input.tracking.head.status"), "input.tracking.head.status");
-    if (st != 0 && st != 1 && st != 2) r.fail("input.tracking.head.status", "expected 0, 1 or 2");
-    p.status = static_cast<TrackingStatus>(static_cast<int>(st));
-    p.position = r.nums<3>(r.at(h, "position", "input.tracking.head.position"), "input.tracking.head.position");
-    p.orientation = r.nums<4>(r.at(h, "orientation", "input.tracking.head.orientation"), "input.tracking.head.orientation");
-    p.markers = static_cast<std::int32_t>(r.whole(r.at(h, "markers", "input.tracking.head.markers"), "input.tracking.head.markers", 0, 1e6));
-    p.cameras = static_cast<std::int32_t>(r.whole(r.at(h, "cameras", "input.tracking.head.cameras"), "input.tracking.head.cameras", 0, 1e6));
-    p.ready_at = r.num(r.at(h, "ready_at", "input.tracking.head.ready_at"), "input.tracking.head.ready_at");
-    in.tracking.head = p;
+  if (!h.is_null()) in.tracking.head = parse_pose(h, r, "input.tracking.head");
+  if (t.contains("bodies")) {  // version 5 on: the visitor's bodies as measured, by role
+    const json& all = t["bodies"];
+    if (!all.is_object()) r.fail("input.tracking.bodies", "not an object");
+    for (const auto& [name, pose] : all.items()) {
+      const auto role = recognition::role_from_string(name);
+      if (!role)
+        r.fail("input.tracking.bodies",
+               fmt::format("not a role: \"{}\" (head, left_hand, right_hand, left_foot, right_foot)", name));
+      if (!pose.is_object()) r.fail("input.tracking.bodies." + name, "not an object");
+      in.tracking.bodies[static_cast<std::size_t>(*role)] = parse_pose(pose, r, "input.tracking.bodies." + name);
+    }
+  } else if (in.tracking.head) {
+    // Before version 5 the fighter was given the head alone, as predicted to the display
+    // (FighterInput::bodies): its replay gives it the same.
+    in.tracking.bodies[static_cast<std::size_t>(recognition::Role::head)] = in.tracking.head;
   }
   return in;
 }
@@ -485,6 +512,7 @@ void SessionRecorder::push(std::uint64_t frame, const FrameInput& input, const S
   item.input.tracking.source = input.tracking.source;
   item.input.tracking.strikes.assign(input.tracking.strikes.begin(), input.tracking.strikes.end());
   item.input.tracking.recognition = input.tracking.recognition;
+  item.input.tracking.bodies = input.tracking.bodies;
   item.input.tracking_clock = input.tracking_clock;
   item.input.latch_ms = input.latch_ms;
   item.hashes = hashes;
@@ -1067,8 +1095,10 @@ ReplayReport replay(const std::filesystem::path& dir, const ReplayOptions& optio
     std::vector<std::string> names;
     for (const auto& cam : rig.cameras) names.push_back(cam.name);
     const int head = head_body_index(c, tc);  // throws, naming the key, for a body that does not exist
+    TrackerReading reading;
+    reading.role_body = role_bodies(head, tc);  // the gloves and shoes re-tracked too
     rt.reset(new Retracking{tracking::Tracker(std::move(rig), std::move(tc)), tracking::CameraFramesReader(cameras),
-                            head, std::move(names), {}, std::nullopt, true, {}});
+                            head, std::move(names), reading, std::nullopt, true, {}});
     rep.retrack = ReplayReport::Retrack{};
   }
 

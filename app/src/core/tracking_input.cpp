@@ -105,6 +105,7 @@ class TrackerInput final : public TrackingInput {
         recognition_fault_(std::move(recognition_fault)), tracker_(rig, tc),
         head_(head_body_index(c, tc)), source_(c.tracking.source) {
     tracker_.set_realtime_priority(c.tracking.realtime_priority);
+    reading_.role_body = role_bodies(head_, tc);
     if (recognition_) feed_recognition(tracker_, c, tc, recognition_.get());
     // Camera frame sets to a session recorder while one records (record_frame_sets). The
     // tracker thread takes this lock once per set; the frame loop only to swap the recorder.
@@ -241,6 +242,7 @@ class RecordingOnSimulatedClock final : public TrackingInput {
                             std::unique_ptr<StrikeRecognition> recognition, std::string recognition_fault)
       : recognition_(std::move(recognition)), recognition_fault_(std::move(recognition_fault)), rig_(rig), tc_(tc),
         tracker_(rig, tc), head_(head_body_index(c, tc)), dir_(c.resolve(c.tracking.recording)) {
+    reading_.role_body = role_bodies(head_, tc);
     if (recognition_) feed_recognition(tracker_, c, tc, recognition_.get());
     for (const auto& cam : rig_.cameras) names_.push_back(cam.name);
     source_ = at_key(c, "tracking.recording", [&] { return open(); });
@@ -340,7 +342,8 @@ class PosesInput final : public TrackingInput {
   PosesInput(const InstallationConfig& c, recognition::PosesFile file, std::unique_ptr<StrikeRecognition> rec,
              std::string recognition_fault, bool simulated_clock)
       : file_(std::move(file)), loop_(c.tracking.poses_loop), recognition_(std::move(rec)),
-        recognition_fault_(std::move(recognition_fault)), simulated_(simulated_clock) {
+        recognition_fault_(std::move(recognition_fault)), simulated_(simulated_clock),
+        lost_after_s_(c.tracking.lost_after_s) {
     std::size_t heads = 0;
     for (const auto& smp : file_.samples) heads += smp.role == recognition::Role::head ? 1 : 0;
     const double span = file_.samples.empty() ? 0.0 : file_.samples.back().t - file_.samples.front().t;
@@ -414,6 +417,21 @@ class PosesInput final : public TrackingInput {
                                                        : TrackerState::lost;
     }
     if (ended_.load(std::memory_order_acquire)) s.state = TrackerState::stopped;
+    // Every body as its newest row measured it (no extrapolation): tracked while that row is
+    // fresh, coasting up to [tracking] lost_after_s, lost after that or when its newest row says lost.
+    const auto m = measured_.read();
+    for (std::size_t r = 0; r < s.bodies.size(); ++r) {
+      auto& out = s.bodies[r];
+      if (!m || m->state[r] == Measured::none) {
+        out.reset();
+        continue;
+      }
+      out = m->last[r];
+      const double age = now_s - out->timestamp;
+      out->status = m->state[r] == Measured::lost || age > lost_after_s_ ? TrackingStatus::lost
+                    : age <= kMaxGap_s                                    ? TrackingStatus::tracked
+                                                                          : TrackingStatus::coasting;
+    }
     take_strikes(recognition_.get(), s);
   }
   Timestamp clock() const override { return simulated_ ? sim_now_ : now(); }
@@ -433,6 +451,13 @@ class PosesInput final : public TrackingInput {
     BodyPose last, prev;
     bool has_prev = false;
   };
+  /// Per role (recognition::Role), the newest row that measured the body, and whether the
+  /// newest row of it did (`lost`: a row since says lost; `none`: no row measured it yet).
+  struct Measured {
+    enum State : std::uint8_t { none, tracked, lost };
+    std::array<BodyPose, recognition::kRoleCount> last{};
+    std::array<State, recognition::kRoleCount> state{};
+  };
   /// Where the playing stands: the next row, the loop's offset, the frame count, the head.
   struct Cursor {
     bool started = false, ended = false;
@@ -441,6 +466,7 @@ class PosesInput final : public TrackingInput {
     double offset = 0;     ///< s, the loops played so far
     std::uint64_t frame = 0;
     Head head;
+    Measured measured;
   };
 
   void start(Cursor& c, Timestamp t0) {
@@ -479,6 +505,26 @@ class PosesInput final : public TrackingInput {
       head.last.markers = smp.tracked ? 4 : 0;
       head.last.ready_at = ready;
       head_.publish(head);
+    }
+    {
+      Measured& m = c.measured;
+      const auto r = static_cast<std::size_t>(smp.role);
+      if (smp.tracked) {
+        BodyPose& p = m.last[r];
+        p = BodyPose{};
+        p.timestamp = due_at;
+        p.frame = c.frame;
+        p.body = static_cast<std::int32_t>(r);  // the file names bodies by role
+        p.status = TrackingStatus::tracked;
+        p.position = smp.position;
+        p.orientation = smp.orientation;
+        p.markers = 4;  // as the head's (the file keeps no marker count)
+        p.ready_at = ready;
+        m.state[r] = Measured::tracked;
+      } else if (m.state[r] != Measured::none) {
+        m.state[r] = Measured::lost;
+      }
+      measured_.publish(m);
     }
     if (recognition_) {
       recognition_->push(smp);
@@ -525,6 +571,8 @@ class PosesInput final : public TrackingInput {
   Cursor cursor_;         // simulated clock: the frame thread's
   Timestamp sim_now_ = 0; // simulated clock: the last poll's time
   LatestValue<Head> head_;
+  LatestValue<Measured> measured_;
+  double lost_after_s_ = 0.25;  // s, [tracking] lost_after_s: a body measured longer ago is lost
   std::atomic<std::uint64_t> frame_sets_{0};
   std::atomic<bool> ended_{false};
   PoseClock pose_clock_;
@@ -574,6 +622,16 @@ int head_body_index(const InstallationConfig& c, const tracking::TrackingConfig&
   return tc.head_body();
 }
 
+std::array<int, recognition::kRoleCount> role_bodies(int head, const tracking::TrackingConfig& tc) {
+  std::array<int, recognition::kRoleCount> out;
+  out.fill(-1);
+  out[static_cast<std::size_t>(recognition::Role::head)] = head;
+  for (std::size_t b = 0; b < tc.bodies.size(); ++b)
+    if (const auto r = recognition::role_from_string(tc.bodies[b].name); r && *r != recognition::Role::head)
+      if (out[static_cast<std::size_t>(*r)] < 0) out[static_cast<std::size_t>(*r)] = static_cast<int>(b);
+  return out;
+}
+
 void read_tracker(const tracking::Tracker& tracker, int head, Timestamp now_s, Timestamp display_time, bool threaded,
                   TrackerReading& carried, TrackingSnapshot& s) {
   s.head.reset();
@@ -605,6 +663,20 @@ void read_tracker(const tracking::Tracker& tracker, int head, Timestamp now_s, T
   }
   // A tracker whose thread ended says so, whatever its last pose was.
   if (threaded && !tracker.running()) s.state = TrackerState::stopped;
+  // The visitor's bodies as measured (not predicted), each with its status as of now.
+  for (std::size_t r = 0; r < s.bodies.size(); ++r) {
+    auto& out = s.bodies[r];
+    const int b = carried.role_body[r];
+    if (b < 0) {
+      out.reset();
+      continue;
+    }
+    auto& measured = carried.measured[r];
+    const auto newest = tracker.latest(b);
+    if (newest && newest->status == TrackingStatus::tracked) measured = *newest;
+    out = measured;
+    if (out) out->status = tracker.predict(b, now_s).status;
+  }
   s.frame_sets = tracker.frames_processed();
   s.cameras.resize(tracker.camera_count());  // its room kept from frame to frame
   for (std::size_t i = 0; i < s.cameras.size(); ++i) {

@@ -81,6 +81,17 @@ struct TrackingSnapshot {
   /// order (empty without [recognition]); a replay takes them from the session.
   std::vector<VisitorStrike> strikes;
   RecognitionStats recognition;
+  /// The visitor's tracked bodies by role (index: recognition::Role: head, left_hand,
+  /// right_hand, left_foot, right_foot), each the newest pose the source MEASURED of it: not
+  /// predicted to the display time as `head` is (the fighter judges a glove's threat from where
+  /// it was and when: `timestamp` is the camera time of the frame set, or the poses file's row,
+  /// that measured it; position m, room frame; orientation body -> room; frame, markers,
+  /// cameras, ready_at as measured). `status` is the body's as of the poll: tracked (measured
+  /// by the source's newest frame set or row), coasting (not measured since, still within the
+  /// source's coasting time), lost (longer, or the source says so): the pose then stays the
+  /// last one measured. nullopt: the source has no such body, or has not measured it yet.
+  /// A fixed array: filling it allocates nothing. A session records it (version 5 on).
+  std::array<std::optional<BodyPose>, recognition::kRoleCount> bodies{};
 };
 /// The tracking line of the console: "tracked, 1200 frame sets", "tracker stopped, 30 frame
 /// sets", or `none_why` when there is no tracker.
@@ -377,6 +388,10 @@ class Installation {
     if (!fighter_) return std::nullopt;
     return fighter_->planner_status();
   }
+  /// The visitor's bodies the last frame gave the fighter (content::FighterInput::bodies): every
+  /// body of TrackingSnapshot::bodies the source has, in role order, as measured (tracked =
+  /// status not lost; t = its measurement's time). Empty without a fighter.
+  std::span<const content::VisitorBody> visitor_bodies() const { return visitor_bodies_; }
   /// Its line for the console: "spar  guarding  next punch_left (timer) in 1.2 s  attacks 3  counters 2".
   std::string planner_line() const;
   std::span<const WallFrame> walls() const { return walls_; }

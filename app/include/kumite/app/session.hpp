@@ -14,7 +14,8 @@
 //   session.jsonl   a first line {"start": s, "unix_s", "has_tracker", "first_frame",
 //                   "cameras": [names]}, then one line per frame {"frame", "input": the
 //                   FrameInput (times, keyed orders, the tracker's snapshot: head, state, frame
-//                   sets, cameras, source counters; its clock; numbers written exactly), "hash":
+//                   sets, cameras, source counters, the visitor's bodies by role as measured,
+//                   its strikes; its clock; numbers written exactly), "hash":
 //                   {field: 16 hex digits}}: the state's hashes per field (state_hashes).
 // Lines are written by a writer thread (the frame loop only queues a copy; when the queue is
 // full the frame is dropped and counted, never waited for), one write(2) each, so a session
@@ -50,10 +51,12 @@ struct FrameSet;
 namespace kumite::app {
 
 /// Session format version this build writes and reads (1: no snapshot, the config by path).
-/// 4: the state hashes walk the frame's description (frame_fields.hpp) and the manifest keeps
+/// 5: the tracker's snapshot keeps the visitor's bodies as measured, by role ("bodies": the
+/// glasses, gloves and shoes the fighter is given; a session before it gave the fighter the
+/// head alone, as predicted, and its replay does the same); 4: the state hashes walk the frame's description (frame_fields.hpp) and the manifest keeps
 /// its "frame_version"; 3: the tracker's snapshot as numbers (state, frame sets, cameras,
 /// source counters) and the cameras' names in the start line; 2 kept it as a status line.
-constexpr int kSessionVersion = 4;
+constexpr int kSessionVersion = 5;
 
 /// Hashes (FNV-1a 64) of a frame's state, per group of fields (Field::hash).
 struct StateHashes {

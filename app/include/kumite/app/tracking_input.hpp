@@ -2,7 +2,9 @@
 // The tracker (tracking/) as the installation's TrackingInput: started on its own thread
 // from the config's calibration, tracking.toml and recording (or live cameras); poll()
 // reads the newest head pose without waiting and predicts it to the display time.
+#include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,8 +45,19 @@ int head_body_index(const InstallationConfig& config, const tracking::TrackingCo
 struct TrackerReading {
   Timestamp last_measured = -1;  ///< carried from call to call: the newest tracked measurement
   Timestamp last_ready = -1;
+  /// The tracker's body per role (recognition::Role; -1: none): the caller's, from
+  /// role_bodies(); all -1 leaves TrackingSnapshot::bodies empty.
+  std::array<int, recognition::kRoleCount> role_body{-1, -1, -1, -1, -1};
+  /// Carried: per role, the newest pose the tracker measured (status tracked in its frame set).
+  std::array<std::optional<BodyPose>, recognition::kRoleCount> measured{};
 };
-/// Fills `out` (its vectors' room reused: nothing allocated once warm).
+/// The tracker's body of each role: `head_body` (head_body_index: the glasses) for the head, and
+/// the bodies tracking.toml names left_hand, right_hand, left_foot, right_foot (-1: no such body).
+std::array<int, recognition::kRoleCount> role_bodies(int head_body, const tracking::TrackingConfig& tracking);
+/// Fills `out` (its vectors' room reused: nothing allocated once warm). `out.bodies`: per role
+/// of `carried.role_body`, the newest pose the tracker measured (a measurement missed between
+/// two calls leaves the one before: its age then errs long), its status as of `now`
+/// (Tracker::predict's: tracked, coasting, or lost past the body's coasting time).
 void read_tracker(const tracking::Tracker& tracker, int head_body, Timestamp now, Timestamp display_time, bool threaded,
                   TrackerReading& carried, TrackingSnapshot& out);
 
