@@ -179,7 +179,7 @@ int on_message(const char* path_c, const char* types_c, lo_arg** argv, int argc,
   } else {
     s.bad_once(std::string(path), fmt::format("{}: not a path Kumite reads: ignored", path));
   }
-  if (lone) s.finish();
+  if (lone && !s.packet_bad) s.finish();
   return 0;
 }
 
