@@ -94,7 +94,9 @@ TEST(DtrackReceiver, BadPacketsAreCountedAndSaidOneLineEach) {
   ASSERT_TRUE(tx.send_raw("fr 3\n6d 1 [0 1.0][1 2 3][1 0 0 0 1 0 0 0 1]" + std::string(1000, ' ')));  // oversized
   ASSERT_TRUE(tx.send_raw("fr 4\n6d 2 [0 1.0][1 2 3][1 0 0 0 1 0 0 0 1][9 1.0][1 2 3][1 0 0 0 1 0 0 0 1]\n"));
   ASSERT_TRUE(tx.send_raw("fr 5\n6d 1 [9 1.0][1 2 3][1 0 0 0 1 0 0 0 1]\n"));             // 9 again: said once
-  ASSERT_TRUE(wait_for([&] { return rx.counters().packets == 6; }));
+  // (packets is counted as a datagram is read, frames once it is published: wait for both)
+  ASSERT_TRUE(wait_for([&] { return rx.counters().packets == 6 && rx.counters().frames == 4; }));
+  kumite::sleep_until(kumite::now() + 0.05);  // nothing more comes
   const ReceiverCounters c = rx.counters();
   EXPECT_EQ(c.bad_packets, 4u);
   EXPECT_EQ(c.oversized, 1u);
@@ -194,7 +196,8 @@ TEST(OscReceiver, LoneMessagesAndBadOnes) {
   // A lone transformation (no bundle, no /frame/start): a frame of its own.
   ASSERT_GE(lo_send(to, "/rigidbody/3/transformation", "fffffff", 1.0f, 2.0f, 3.0f, 0.0f, 0.0f, 0.0f, 1.0f), 0);
   ASSERT_TRUE(wait_for([&] { return rx.counters().frames == 1; }));
-  const RoomBody* b = find_body(*rx.poll(), 3);
+  const RoomFrame lone = *rx.poll();
+  const RoomBody* b = find_body(lone, 3);
   ASSERT_NE(b, nullptr);
   EXPECT_NEAR(b->position_m[2], 3.0, 1e-6);
   // Framed by /frame/start ... /frame/end without a bundle: published at /frame/end.

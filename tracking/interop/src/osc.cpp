@@ -6,6 +6,7 @@
 #include <lo/lo.h>
 
 #include <charconv>
+#include <cstring>
 #include <cmath>
 #include <set>
 
@@ -78,13 +79,31 @@ void on_lo_error(int num, const char* msg, const char* where) {
   t_current->bad(fmt::format("{} ({}{}{})", msg ? msg : "liblo error", num, where ? ", " : "", where ? where : ""));
 }
 
-/// A number argument of any OSC numeric type; nullopt when not one.
-std::optional<double> arg_number(char type, lo_arg* a) {
+/// A number argument of any OSC numeric type; nullopt when not one. Read byte-wise: OSC
+/// arguments are 4-byte aligned and liblo's lo_arg union asks for 8 (UBSan: misaligned access).
+std::optional<double> arg_number(char type, const lo_arg* a) {
+  const auto* bytes = reinterpret_cast<const unsigned char*>(a);
   switch (type) {
-    case 'f': return static_cast<double>(a->f);
-    case 'd': return a->d;
-    case 'i': return static_cast<double>(a->i);
-    case 'h': return static_cast<double>(a->h);
+    case 'f': {
+      float v;
+      std::memcpy(&v, bytes, sizeof v);
+      return static_cast<double>(v);
+    }
+    case 'd': {
+      double v;
+      std::memcpy(&v, bytes, sizeof v);
+      return v;
+    }
+    case 'i': {
+      std::int32_t v;
+      std::memcpy(&v, bytes, sizeof v);
+      return static_cast<double>(v);
+    }
+    case 'h': {
+      std::int64_t v;
+      std::memcpy(&v, bytes, sizeof v);
+      return static_cast<double>(v);
+    }
     default: return std::nullopt;
   }
 }
