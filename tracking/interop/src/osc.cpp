@@ -279,7 +279,10 @@ OscSender::~OscSender() {
 }
 
 bool OscSender::send(const RoomFrame& frame) {
-  lo_bundle b = lo_bundle_new(LO_TT_IMMEDIATE);
+  lo_timetag immediately;  // LO_TT_IMMEDIATE, spelled out: the macro is a C99 compound literal (clang warns)
+  immediately.sec = 0;
+  immediately.frac = 1;
+  lo_bundle b = lo_bundle_new(immediately);
   const auto n = static_cast<std::int32_t>(frame.frame & 0x7fffffffU);
   auto add = [&](const std::string& path, lo_message m) { lo_bundle_add_message(b, path.c_str(), m); };
   lo_message start = lo_message_new();
