@@ -214,16 +214,18 @@ TEST(OscReceiver, LoneMessagesAndBadOnes) {
   ASSERT_GE(lo_send(to, "/rigidbody/3/transformation", "fffffff", 1.0f, 2.0f, 3.0f, 0.0f, 0.0f, 0.0f, 3.0f), 0);
   ASSERT_GE(lo_send(to, "/tracking/trackers/head/position", "fff", 1.0f, 2.0f, 3.0f), 0);
   ASSERT_GE(lo_send(to, "/tracking/trackers/head/position", "fff", 1.0f, 2.0f, 3.0f), 0);
+  ASSERT_GE(lo_send(to, "/frame/start", "s", "one"), 0);
   lo_address_free(to);
   DtrackSender dtrack("127.0.0.1", rx.port());
   ASSERT_TRUE(dtrack.send_raw("fr 1\n6d 0\n"));
-  ASSERT_TRUE(wait_for([&] { return rx.counters().bad_packets == 6; })) << rx.counters().bad_packets;
+  ASSERT_TRUE(wait_for([&] { return rx.counters().bad_packets == 7; })) << rx.counters().bad_packets;
   const std::string lines = joined(rx.take_problems());
   EXPECT_NE(lines.find("osc: /rigidbody/3/transformation: needs 7 numbers x y z qx qy qz qw, found 6"), std::string::npos) << lines;
   EXPECT_NE(lines.find("osc: /rigidbody/3/transformation: argument 1 must be a finite number, found nan"), std::string::npos) << lines;
   EXPECT_NE(lines.find("the quaternion's norm must be 1 (±0.1), found 3"), std::string::npos) << lines;
   EXPECT_NE(lines.find("osc: /tracking/trackers/head/position: not a path Kumite reads"), std::string::npos) << lines;
   EXPECT_EQ(lines.find("/tracking/trackers", lines.find("/tracking/trackers") + 1), std::string::npos) << lines;
+  EXPECT_NE(lines.find("osc: /frame/start: needs the frame number (an integer >= 0), types 's'"), std::string::npos) << lines;
   EXPECT_EQ(rx.counters().frames, 2u);  // none of them published anything
   rx.stop();
 }

@@ -130,7 +130,7 @@ int on_message(const char* path_c, const char* types_c, lo_arg** argv, int argc,
   if (path == "/frame/start" || path == "/frame/end") {
     std::optional<double> n;
     if (argc >= 1) n = arg_number(types[0], argv[0]);
-    if (!n || !std::isfinite(*n) || *n < 0) {
+    if (!n || !(*n >= 0 && *n <= 9007199254740992.0) || *n != std::floor(*n)) {
       s.bad(fmt::format("{}: needs the frame number (an integer >= 0), types '{}'", path, types));
       return 0;
     }
