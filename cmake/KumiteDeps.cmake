@@ -22,6 +22,8 @@ pkg_check_modules(SYSTEMD REQUIRED IMPORTED_TARGET libsystemd)
 # libyaml: a calibration file is parsed by it before OpenCV's FileStorage, whose YAML parser
 # (4.6) loops forever on some malformed files (found by fuzzing, one pattern after another).
 pkg_check_modules(LIBYAML REQUIRED IMPORTED_TARGET yaml-0.1)  # sd_notify: readiness and watchdog (app)
+# liblo (OSC over UDP): tracking_interop's OSC in and out (Debian liblo-dev 0.31).
+pkg_check_modules(LIBLO REQUIRED IMPORTED_TARGET liblo)
 if(KUMITE_BUILD_TESTS)
   find_package(GTest REQUIRED)
   include(GoogleTest)
