@@ -705,6 +705,8 @@ void Renderer::skin_on_gpu(int model, std::span<const Eigen::Matrix4f> palette, 
   m.feedback.resize(n * 6);
   glGetBufferSubData(GL_TRANSFORM_FEEDBACK_BUFFER, 0, bytes, m.feedback.data());
   glBindBufferBase(GL_TRANSFORM_FEEDBACK_BUFFER, 0, 0);
+  if (const GLenum e = glGetError(); e != GL_NO_ERROR)
+    throw Error("gl", "feedback", "transform feedback failed: GL error 0x" + std::to_string(e));
   positions.resize(n);
   normals.resize(n);
   for (std::size_t i = 0; i < n; ++i) {

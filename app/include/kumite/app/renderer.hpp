@@ -64,6 +64,7 @@ class Renderer {
   int upload_model(const body::SkinnedModel& model);
   /// The draw path's vertex shader run over `model`'s vertices with `palette`, captured by
   /// transform feedback (rasteriser off): skinned positions and normals (not renormalised).
+  /// Needs a complete framebuffer bound (a surfaceless context has none of its own).
   void skin_on_gpu(int model, std::span<const Eigen::Matrix4f> palette, std::vector<Eigen::Vector3f>& positions,
                    std::vector<Eigen::Vector3f>& normals);
 
