@@ -103,11 +103,21 @@ layout(location = 2) in float a_surface;  // 0 floor, 1 wall, 2 ceiling
 uniform mat4 u_view_projection;
 out vec3 v_world;
 out vec3 v_normal;
+out vec3 v_light;
 flat out int v_surface;
 void main() {
   v_world = a_position;
   v_normal = a_normal;
   v_surface = int(a_surface + 0.5);
+  // The lamps per vertex (the hall is a 0.5 m grid): the fragment shader only makes the look.
+  vec3 light = vec3(0.20);
+  const vec3 lamps[3] = vec3[3](vec3(0.0, 4.3, -2.5), vec3(0.0, 4.3, 0.5), vec3(0.0, 4.3, -5.5));
+  for (int i = 0; i < 3; ++i) {
+    vec3 l = lamps[i] - a_position;
+    float d2 = dot(l, l);
+    light += vec3(1.0, 0.93, 0.82) * (9.0 * max(dot(a_normal, l * inversesqrt(d2)), 0.0) / (1.0 + d2));
+  }
+  v_light = v_surface == 2 ? vec3(0.35) : light;
   gl_Position = u_view_projection * vec4(a_position, 1.0);
 }
 )";
@@ -115,34 +125,33 @@ void main() {
 constexpr const char* kHallFragment = R"(#version 330 core
 in vec3 v_world;
 in vec3 v_normal;
+in vec3 v_light;
 flat in int v_surface;
 out vec4 o_colour;
-float hash(vec2 p) { return fract(sin(dot(p, vec2(127.1, 311.7))) * 43758.5453); }
-// 1 on a seam of width w (m) at every multiple of `period` along x, antialiased.
-float seam(float x, float period, float w) {
+// Cheap per-cell variation (the R2 sequence): no sin, llvmpipe runs this per pixel.
+float hash(vec2 p) { return fract(p.x * 0.7548776 + p.y * 0.5698403 + 0.31); }
+// 1 on a seam of width w (m) at every multiple of `period` along x; aa: the pixel's footprint.
+float seam(float x, float period, float w, float aa) {
   float d = abs(fract(x / period + 0.5) - 0.5) * period;
-  float aa = max(fwidth(x), 1e-4);
   return 1.0 - smoothstep(w * 0.5, w * 0.5 + aa, d);
 }
+float seam(float x, float period, float w) { return seam(x, period, w, max(fwidth(x), 1e-4)); }
 vec3 floor_colour(vec2 p) {
+  float aa = max(fwidth(p.x) + fwidth(p.y), 1e-4);
   // The mat: 6 m x 8 m (x -3..3, z -6..2), panels 1 m x 2 m, a red border 0.3 m wide.
   vec2 q = p - vec2(0.0, -2.0);
   vec2 a = abs(q);
-  float aa = max(fwidth(p.x) + fwidth(p.y), 1e-4);
-  float mat = (1.0 - smoothstep(3.0, 3.0 + aa, a.x)) * (1.0 - smoothstep(4.0, 4.0 + aa, a.y));
-  float border = max(smoothstep(2.7, 2.7 + aa, a.x), smoothstep(3.7, 3.7 + aa, a.y));
-  vec3 panel = vec3(0.10, 0.17, 0.22) * (0.92 + 0.08 * hash(floor(vec2(q.x, q.y * 0.5))));
-  float seams = max(seam(q.x, 1.0, 0.012), seam(q.y, 2.0, 0.012));
-  vec3 m = mix(panel * (1.0 - 0.45 * seams), vec3(0.36, 0.06, 0.05), border);
+  if (a.x < 3.0 && a.y < 4.0) {
+    if (a.x > 2.7 || a.y > 3.7) return vec3(0.36, 0.06, 0.05);
+    vec3 panel = vec3(0.10, 0.17, 0.22) * (0.92 + 0.08 * hash(floor(vec2(q.x, q.y * 0.5))));
+    return panel * (1.0 - 0.45 * max(seam(q.x, 1.0, 0.012, aa), seam(q.y, 2.0, 0.012, aa)));
+  }
   // Wood: planks 0.18 m wide along z, 2.4 m long, staggered per row.
   float row = floor(p.x / 0.18);
   float z = p.y + hash(vec2(row, 7.0)) * 2.4;
-  float plank = floor(z / 2.4);
-  float tone = hash(vec2(row, plank));
+  float tone = hash(vec2(row, floor(z / 2.4)));
   vec3 wood = mix(vec3(0.30, 0.19, 0.11), vec3(0.42, 0.28, 0.16), tone);
-  wood *= 0.93 + 0.07 * sin(p.x * 140.0 + 9.0 * sin(z * 3.1 + tone * 6.0));  // grain
-  wood *= 1.0 - 0.5 * max(seam(p.x, 0.18, 0.004), seam(z, 2.4, 0.004));
-  return mix(wood, m, mat);
+  return wood * (1.0 - 0.5 * max(seam(p.x, 0.18, 0.004, aa), seam(z, 2.4, 0.004, aa)));
 }
 vec3 wall_colour(vec3 p) {
   float u = abs(v_normal.x) > 0.5 ? p.z : p.x;  // along the wall
@@ -161,16 +170,7 @@ vec3 ceiling_colour(vec3 p) {
 }
 void main() {
   vec3 base = v_surface == 0 ? floor_colour(v_world.xz) : (v_surface == 1 ? wall_colour(v_world) : ceiling_colour(v_world));
-  vec3 n = normalize(v_normal);
-  vec3 light = vec3(0.20);
-  const vec3 lamps[3] = vec3[3](vec3(0.0, 4.3, -2.5), vec3(0.0, 4.3, 0.5), vec3(0.0, 4.3, -5.5));
-  for (int i = 0; i < 3; ++i) {
-    vec3 l = lamps[i] - v_world;
-    float d2 = dot(l, l);
-    light += vec3(1.0, 0.93, 0.82) * (9.0 * max(dot(n, l * inversesqrt(d2)), 0.0) / (1.0 + d2));
-  }
-  if (v_surface == 2) light = vec3(0.35);
-  o_colour = vec4(base * light, 1.0);
+  o_colour = vec4(base * v_light, 1.0);
 }
 )";
 
@@ -367,8 +367,19 @@ struct HallVertex {
 std::vector<HallVertex> hall_vertices() {
   constexpr float x0 = -6, x1 = 6, z0 = -11, z1 = 6, y1 = 4.5f;
   std::vector<HallVertex> v;
+  // Each surface a grid of about 0.5 m cells: the lamps are lit per vertex.
   auto quad = [&](glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d, glm::vec3 n, float surface) {
-    for (const glm::vec3& p : {a, b, c, a, c, d}) v.push_back({{p.x, p.y, p.z}, {n.x, n.y, n.z}, surface});
+    const int nu = std::max(1, static_cast<int>(std::ceil(glm::length(b - a) / 0.5f)));
+    const int nv = std::max(1, static_cast<int>(std::ceil(glm::length(d - a) / 0.5f)));
+    auto at = [&](int i, int j) {
+      const float u = static_cast<float>(i) / static_cast<float>(nu), w = static_cast<float>(j) / static_cast<float>(nv);
+      return a + (b - a) * u + (d - a) * w;
+    };
+    (void)c;
+    for (int i = 0; i < nu; ++i)
+      for (int j = 0; j < nv; ++j)
+        for (const glm::vec3& p : {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)})
+          v.push_back({{p.x, p.y, p.z}, {n.x, n.y, n.z}, surface});
   };
   quad({x0, 0, z0}, {x0, 0, z1}, {x1, 0, z1}, {x1, 0, z0}, {0, 1, 0}, 0);       // floor
   quad({x0, y1, z0}, {x1, y1, z0}, {x1, y1, z1}, {x0, y1, z1}, {0, -1, 0}, 2);  // ceiling
