@@ -30,6 +30,7 @@ class HeadlessPresenter {
     context_ = std::make_unique<HeadlessContext>();
     spdlog::info("headless: {}", gl_description());
     renderer_ = std::make_unique<Renderer>(inst.walls());
+    renderer_->configure(cfg);
     for (const auto& w : cfg.walls) {
       const auto res = resolution.value_or(w.resolution);
       targets_.push_back(std::make_unique<OffscreenTarget>(res[0], res[1]));
@@ -49,6 +50,11 @@ class HeadlessPresenter {
     const bool contact = std::any_of(f.events.begin(), f.events.end(),
                                      [](const FrameEvent& e) { return is_strike_outcome(e.type); });
     const bool save = save_every_ > 0 && (i % save_every_ == 0 || contact);
+    {
+      const Timestamp r0 = now();
+      renderer_->begin_frame(f.fighter);  // the body's retarget and palette: once for all walls
+      render_s_ += now() - r0;
+    }
     for (std::size_t w = 0; w < targets_.size(); ++w) {
       for (int e = 0; e < (stereo_ ? 2 : 1); ++e) {
         const Timestamp r0 = now();

@@ -151,6 +151,7 @@ class Windows {
       glfwMakeContextCurrent(s.window);
       int fb_w = 0, fb_h = 0;
       glfwGetFramebufferSize(s.window, &fb_w, &fb_h);
+      s.renderer->begin_frame(f.fighter);
       s.renderer->clear(0, 0, fb_w, fb_h);
       for (std::size_t w : s.walls)
         draw_wall_stereo(*s.renderer, mode_, wall_viewport(cfg_.walls[w], s.config, fb_w, fb_h), f.views[w], f.items);
@@ -214,6 +215,7 @@ class Windows {
       glfwSetWindowUserPointer(s.window, keys);
       glfwSetKeyCallback(s.window, on_key);
       s.renderer = std::make_unique<Renderer>(inst.walls());
+      s.renderer->configure(cfg_);
       spdlog::info("window \"{}\": {} ({} stereo)", s.config.name, gl_description(), to_string(mode_));
     }
     for (std::size_t w = 0; w < cfg_.walls.size(); ++w) {

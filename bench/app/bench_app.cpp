@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include "kumite/app/bodies.hpp"
 #include "kumite/app/config.hpp"
 #include "kumite/app/headless.hpp"
 #include "kumite/app/installation.hpp"
@@ -145,6 +146,71 @@ void BM_HeadlessDemoFrame(benchmark::State& state) {
   state.counters["px_per_frame"] = px;
 }
 BENCHMARK(BM_HeadlessDemoFrame)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+/// The demo's fighter (kenji) in the middle of a right punch, from the demo database: a real
+/// pose for the skinned body. Null when there is no demo data.
+struct DemoFighter {
+  InstallationConfig cfg;
+  std::unique_ptr<Installation> inst;
+  const FrameData* frame = nullptr;
+  DemoFighter() {
+    cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
+    cfg.fighter.database = KUMITE_BINARY_DIR + "/demo/fighter.kdb";
+    cfg.tracking.source = TrackingSource::none;
+    cfg.orders_script.reset();
+    cfg.fighter.initial_character = 0;
+    inst = std::make_unique<Installation>(cfg, make_fixed_head_input("bench"), InstallationOptions{});
+    double t = 1000;
+    inst->start(t);
+    for (int i = 0; i < 60; ++i) {
+      if (i == 5) inst->order({t, kumite::OrderKind::punch_right, -1});
+      frame = &inst->step(t += 1.0 / 60);
+    }
+  }
+};
+
+/// The skinned body's CPU part per frame: the retarget of the fighter's pose onto kenji's body
+/// and its joint palette (FighterBodies::pose; the GPU then skins).
+void BM_BodyRetargetPalette(benchmark::State& state) {
+  DemoFighter d;
+  if (!d.frame->fighter.present) {
+    state.SkipWithError("no demo database (scripts/setup.sh)");
+    return;
+  }
+  FighterBodies bodies(d.cfg);
+  for (auto _ : state) benchmark::DoNotOptimize(bodies.pose(d.frame->fighter));
+}
+BENCHMARK(BM_BodyRetargetPalette);
+
+/// One 1920x1080 front-wall image of the demo's fighter mid-punch on llvmpipe, read back. Arg:
+/// 0 capsules in the void (as before), 1 capsules in the hall, 2 the skinned body in the hall
+/// (begin_frame's retarget and palette upload included, once per image here: a frame does it
+/// once for all its 8 images).
+void BM_HeadlessWallLook(benchmark::State& state) {
+  HeadlessContext context;
+  DemoFighter d;
+  if (!d.frame->fighter.present) {
+    state.SkipWithError("no demo database (scripts/setup.sh)");
+    return;
+  }
+  auto cfg = d.cfg;
+  cfg.render.fighter = state.range(0) == 2 ? FighterLook::skinned : FighterLook::capsules;
+  cfg.render.hall = state.range(0) > 0;
+  Renderer renderer(d.inst->walls());
+  renderer.configure(cfg);
+  OffscreenTarget target(1920, 1080);
+  const EyeView view = off_axis(d.inst->walls()[0], {0, 1.67, 0}, 0.05, 100);
+  std::vector<std::uint8_t> rgba;
+  for (auto _ : state) {
+    renderer.begin_frame(d.frame->fighter);
+    target.bind();
+    renderer.clear(0, 0, 1920, 1080);
+    renderer.draw(view, d.frame->items);
+    target.read(rgba);
+  }
+  state.counters["skinned"] = renderer.body_frame() != nullptr;
+}
+BENCHMARK(BM_HeadlessWallLook)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 }  // namespace
 

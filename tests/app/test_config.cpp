@@ -486,3 +486,35 @@ TEST(Config, KeyActionsAndEventTypesRoundTripThroughTheirText) {
   EXPECT_TRUE(is_strike_outcome(EventType::dodged));
   EXPECT_FALSE(is_strike_outcome(EventType::order_accepted));
 }
+
+TEST(Config, RenderSectionReadsChecksAndRoundTrips) {
+  // Absent: capsules in the hall, no debug marks.
+  const auto none = parse_installation_config(kBase, "base.toml");
+  EXPECT_EQ(none.render.fighter, FighterLook::capsules);
+  EXPECT_TRUE(none.render.hall);
+  EXPECT_FALSE(none.render.debug_marks);
+  const std::string render = "\n[render]\nfighter = \"skinned\"\nbodies = \"bodies.toml\"\ndebug_marks = true\nhall = false\n";
+  const auto c = parse_installation_config(kBase + render, "r.toml");
+  EXPECT_EQ(c.render.fighter, FighterLook::skinned);
+  EXPECT_EQ(c.render.bodies, "bodies.toml");
+  EXPECT_TRUE(c.render.debug_marks);
+  EXPECT_FALSE(c.render.hall);
+  EXPECT_EQ(parse_installation_config(to_toml(c), "again.toml"), c);
+  // The shipped demos wear bodies.
+  for (const char* demo : {"demo.toml", "demo-poses.toml", "demo-spar.toml"}) {
+    const auto d = load_installation_config(KUMITE_SOURCE_DIR + "/config/" + demo);
+    EXPECT_EQ(d.render.fighter, FighterLook::skinned) << demo;
+    EXPECT_TRUE(std::filesystem::exists(d.resolve(d.render.bodies))) << demo;
+    EXPECT_FALSE(d.render.debug_marks) << demo;
+  }
+  std::string code;
+  auto msg = error_of(kBase + "\n[render]\nfighter = \"voxels\"\nbodies = \"b.toml\"\n", &code);
+  EXPECT_EQ(code, "unknown_value");
+  EXPECT_NE(msg.find("bad.toml:26: render.fighter: unknown fighter look \"voxels\" (skinned, capsules)"), std::string::npos) << msg;
+  msg = error_of(kBase + "\n[render]\nfighter = \"skinned\"\n", &code);
+  EXPECT_EQ(code, "missing_key");
+  EXPECT_NE(msg.find("bad.toml:26: render.fighter: fighter = \"skinned\" needs render.bodies"), std::string::npos) << msg;
+  msg = error_of(kBase + "\n[render]\ndebug_mark = true\n", &code);
+  EXPECT_NE(msg.find("render"), std::string::npos) << msg;
+  EXPECT_NE(msg.find("debug_mark"), std::string::npos) << msg;
+}

@@ -110,6 +110,10 @@ std::pair<int, int> count_fighter_pixels(const Image& img, const nlohmann::json&
 
 TEST(Demo, HeadlessRunShowsTheFighterAndLogsTheOrders) {
   auto cfg = load_installation_config(kSource / "config/demo.toml");
+  // The checks read the capsules' colours: the technician's view, in the void (the skinned
+  // body in the hall: tests/app/test_body_render.cpp).
+  cfg.render.fighter = FighterLook::capsules;
+  cfg.render.hall = false;
   cfg.fighter.database = demo_database();
   cfg.tracking.source = TrackingSource::none;
   const fs::path out = fs::temp_directory_path() / ("kumite_app_test_demo_" + std::to_string(::getpid()));

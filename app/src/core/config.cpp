@@ -25,6 +25,14 @@ std::optional<KeyAction> parse_key_action(std::string_view text) {
   return KeyAction{KeyAction::Kind::order, o->kind, o->character};
 }
 
+std::string_view to_string(FighterLook l) { return l == FighterLook::skinned ? "skinned" : "capsules"; }
+
+std::optional<FighterLook> fighter_look_from_string(std::string_view s) {
+  if (s == "skinned") return FighterLook::skinned;
+  if (s == "capsules") return FighterLook::capsules;
+  return std::nullopt;
+}
+
 std::string to_string(const KeyAction& a) {
   if (a.kind == KeyAction::Kind::record) return "record";
   return a.kind == KeyAction::Kind::quit ? "quit" : to_string(a.to_order(0));
@@ -148,7 +156,7 @@ class Reader {
 
 void Reader::parse(const toml::table& root) {
   only_keys(root, "", {"display_rate_hz", "late_latch", "display_latency_ms", "data_dir", "windows", "walls", "stereo", "viewer",
-                       "projection", "keys", "characters", "fighter", "tracking", "recognition", "orders", "health", "safety", "record", "console", "log"});
+                       "projection", "keys", "characters", "fighter", "tracking", "recognition", "orders", "health", "safety", "record", "console", "log", "render"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
   boolean(root, "late_latch", "", cfg_.late_latch);
   number(root, "display_latency_ms", "", cfg_.display_latency_ms);
@@ -185,6 +193,20 @@ void Reader::parse(const toml::table& root) {
     only_keys(*sf, "safety", {"enabled", "wall_distance_m"});
     boolean(*sf, "enabled", "safety", cfg_.safety.enabled);
     number(*sf, "wall_distance_m", "safety", cfg_.safety.wall_distance_m);
+  }
+  if (const auto* rd = table(root, "render", "", false)) {
+    only_keys(*rd, "render", {"fighter", "bodies", "debug_marks", "hall"});
+    std::string look;
+    if (string(*rd, "fighter", "render", look)) {
+      const auto l = fighter_look_from_string(look);
+      if (!l)
+        fail("unknown_value", cfg_.line_of("render.fighter"), "render.fighter",
+             fmt::format("unknown fighter look \"{}\" (skinned, capsules)", look));
+      cfg_.render.fighter = *l;
+    }
+    path(*rd, "bodies", "render", cfg_.render.bodies);
+    boolean(*rd, "debug_marks", "render", cfg_.render.debug_marks);
+    boolean(*rd, "hall", "render", cfg_.render.hall);
   }
   if (const auto* r = table(root, "record", "", false)) {
     only_keys(*r, "record", {"budget_mb"});
@@ -478,7 +500,7 @@ bool InstallationConfig::operator==(const InstallationConfig& o) const {
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
          tracking == o.tracking && recognition == o.recognition && orders_script == o.orders_script && data_dir == o.data_dir &&
          health == o.health && safety == o.safety && record_budget_mb == o.record_budget_mb &&
-         console == o.console && frames_log_budget_mb == o.frames_log_budget_mb;
+         console == o.console && frames_log_budget_mb == o.frames_log_budget_mb && render == o.render;
 }
 
 std::string check_wall_geometry(const WallConfig& w) {
@@ -685,6 +707,7 @@ void validate(const InstallationConfig& c) {
     for (std::size_t i = 0; i < c.characters.size(); ++i)
       paths.emplace_back(fmt::format("characters[{}].bvh", i), c.characters[i].bvh);
     if (c.orders_script) paths.emplace_back("orders.script", *c.orders_script);
+    if (!c.render.bodies.empty()) paths.emplace_back("render.bodies", c.render.bodies);
     for (const auto& [key, p] : paths)
       if (after_data_dir(p))
         fail_at(c, "missing_key", key,
@@ -698,6 +721,9 @@ void validate(const InstallationConfig& c) {
     fail_at(c, "range", "tracking.realtime_priority", "must be 0..99 (0 = normal scheduling)");
   if (!(c.health.interval_s >= 0.1 && c.health.interval_s <= 60))
     fail_at(c, "range", "health.interval_s", "must be 0.1..60 s");
+  if (c.render.fighter == FighterLook::skinned && c.render.bodies.empty())
+    fail_at(c, "missing_key", "render.fighter",
+            "fighter = \"skinned\" needs render.bodies (a bodies.toml, e.g. body/assets/bodies.toml)");
   if (!(c.safety.wall_distance_m >= 0.05 && c.safety.wall_distance_m <= 2))
     fail_at(c, "range", "safety.wall_distance_m", "must be 0.05..2 m");
   if (c.health.file && std::filesystem::is_directory(c.resolve(*c.health.file)))
@@ -863,6 +889,13 @@ std::string to_toml(const InstallationConfig& c) {
                     {"quit_confirm_s", c.console.quit_confirm_s}};
     if (c.console.position) con.insert("position", toml::array{(*c.console.position)[0], (*c.console.position)[1]});
     root.insert("console", std::move(con));
+  }
+  if (c.render != RenderConfig{}) {
+    toml::table rd{{"fighter", std::string(to_string(c.render.fighter))},
+                   {"debug_marks", c.render.debug_marks},
+                   {"hall", c.render.hall}};
+    if (!c.render.bodies.empty()) rd.insert("bodies", c.render.bodies.generic_string());
+    root.insert("render", std::move(rd));
   }
   root.insert("record", toml::table{{"budget_mb", c.record_budget_mb}});
   std::ostringstream out;

@@ -44,6 +44,13 @@ glm::vec3 character_colour(int index) {
   return palette[((index % n) + n) % n];
 }
 
+bool is_fighter_item(const DrawItem& item, int character) {
+  const glm::vec3 c = character_colour(character);
+  return item.colour == c || item.colour == c * 0.8f;
+}
+
+bool is_target_item(const DrawItem& item) { return item.mesh == Mesh::sphere && item.colour == kTargetColour; }
+
 namespace {
 
 /// The cylinder's +Y axis onto the bone from a to b, scaled to radius r.

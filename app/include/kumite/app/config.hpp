@@ -194,6 +194,28 @@ struct HealthConfig {
   bool operator==(const HealthConfig&) const = default;
 };
 
+/// [render] fighter: how the fighter is drawn.
+enum class FighterLook { skinned, capsules };
+std::string_view to_string(FighterLook l);
+std::optional<FighterLook> fighter_look_from_string(std::string_view s);
+
+/// [render]: what the walls show besides the views.
+struct RenderConfig {
+  /// "skinned": each character wears its body from `bodies` (glTF, GPU-skinned; a body that
+  /// cannot be loaded is one warning and its capsules); "capsules": the technician's view
+  /// (a cylinder per bone, a sphere per joint). Absent: capsules; the shipped demos say skinned.
+  FighterLook fighter = FighterLook::capsules;
+  /// bodies.toml (body/assets/bodies.toml: which body and outfit each character wears), as
+  /// written; needed for fighter = "skinned".
+  std::filesystem::path bodies;
+  /// Technician's marks: the strike's target sphere, the floor grid and the walls' outlines.
+  /// Off in the show.
+  bool debug_marks = false;
+  /// The training hall around the fighter (floor, walls, contact shadow); false: the dark void.
+  bool hall = true;
+  bool operator==(const RenderConfig&) const = default;
+};
+
 /// The placeholder a path in the file may start with (see InstallationConfig::resolve).
 inline constexpr std::string_view kDataDirPlaceholder = "${data_dir}";
 /// Environment variable overriding `data_dir` (load_installation_config reads it).
@@ -227,6 +249,7 @@ struct InstallationConfig {
   HealthConfig health;
   SafetyConfig safety;
   ConsoleWindowConfig console;
+  RenderConfig render;
   /// [record] budget_mb: MB a session recording (kumite --record, the record key) may take on
   /// disk; recording stops there with a warning (kumite --record-budget-mb overrides).
   double record_budget_mb = 2048.0;

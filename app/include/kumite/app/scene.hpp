@@ -51,6 +51,13 @@ inline constexpr glm::vec3 kTargetColour{0.95f, 0.1f, 0.1f};
 void plan_fighter(const content::FighterFrame& fighter, glm::vec3 colour,
                   std::vector<DrawItem>& items);
 
+/// plan_fighter's capsules of character `character` (its colour or its joints' darker one):
+/// told from the wall glow by colour, as DrawItem carries no tag (its fields are the recorded
+/// frame's). The skinned body replaces exactly these.
+bool is_fighter_item(const DrawItem& item, int character);
+/// plan_fighter's strike-target sphere: a debug mark (drawn only with [render] debug_marks).
+bool is_target_item(const DrawItem& item);
+
 /// The most items plan_fighter appends for a skeleton of `joints` joints (a sphere per
 /// joint, a bone and a rounded end per non-root joint, the target).
 constexpr std::size_t most_fighter_items(std::size_t joints) { return 3 * joints + 1; }
