@@ -128,6 +128,11 @@ FrameData every_field() {
       e.fighter.contact_distance_m = 0.004 * k;
       e.fighter.out_of_reach = k % 2 == 1;
       e.fighter.character_count = 5;
+      e.fighter.limb = kumite::recognition::Role::left_foot;
+      e.fighter.side = k % 2;
+      e.fighter.margin_s = 0.0625 * k;
+      e.fighter.speed_mps = 4.5;
+      e.fighter.recognised = k % 2 == 0;
     } else {
       e.wall = k - 7;
       e.outside = k == 8;
@@ -159,9 +164,12 @@ FrameData every_field() {
 }  // namespace
 
 TEST(FrameBytes, TheRepositorysSessionEncodesHashesAndLogsAsRecorded) {
+  // A frame-version-2 file (kFrameVersion is 3 since the fighter's events carry the visitor's
+  // limb, the forearm, a margin and a speed): re-encoded at its own version.
+  const std::string header2 = "kumite-frame-states 2\n";
   const std::string file = read(kSession / "states.bin");
-  ASSERT_EQ(file.substr(0, kFrameStatesHeader.size()), kFrameStatesHeader);
-  const auto recorded = payloads(std::string_view(file).substr(kFrameStatesHeader.size()));
+  ASSERT_EQ(file.substr(0, header2.size()), header2);
+  const auto recorded = payloads(std::string_view(file).substr(header2.size()));
   std::ifstream lines(kSession / "session.jsonl");
   std::string line;
   ASSERT_TRUE(std::getline(lines, line));  // the start line
@@ -173,7 +181,7 @@ TEST(FrameBytes, TheRepositorysSessionEncodesHashesAndLogsAsRecorded) {
   std::size_t frames = 0, events = 0;
   while (reader.next(f)) {
     const bool with_skeleton = f.fighter.present && drawn.insert(f.fighter.character).second;
-    encode_frame_state(f, with_skeleton, encoded);
+    encode_frame_state(f, with_skeleton, encoded, 2);
     all += encoded;
     ASSERT_TRUE(std::getline(lines, line));
     const auto j = nlohmann::json::parse(line);
@@ -194,21 +202,27 @@ TEST(FrameBytes, TheRepositorysSessionEncodesHashesAndLogsAsRecorded) {
   const auto again = payloads(all);
   ASSERT_EQ(again.size(), recorded.size());
   for (std::size_t k = 0; k < again.size(); ++k) ASSERT_EQ(again[k], recorded[k]) << "record " << k;
-  EXPECT_EQ(all, file.substr(kFrameStatesHeader.size())) << "the records whole, zlib's packing included";
+  EXPECT_EQ(all, file.substr(header2.size())) << "the records whole, zlib's packing included";
   EXPECT_EQ(fmt::format("{:016x} {:016x}", log_stereo, log_mono), "dc6813c262837397 853d386ee45c4317");
 }
 
 TEST(FrameBytes, AFrameWithEveryFieldSetEncodesHashesAndLogsToItsPinnedBytes) {
   const FrameData f = every_field();
   std::string encoded;
+  // Version 2, as pinned before version 3 (the fighter's events' limb, side, margin_s,
+  // speed_mps, recognised) was added; then version 3, whose frame record differs.
+  encode_frame_state(f, true, encoded, 2);
+  auto p = payloads(encoded);
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(fmt::format("{:016x} {:016x}", kumite::fnv1a64(p[0]), kumite::fnv1a64(p[1])), "c0a03435b616d82b ec335f8e054c99c3");
   encode_frame_state(f, true, encoded);
-  const auto p = payloads(encoded);
+  p = payloads(encoded);
   ASSERT_EQ(p.size(), 2u);
   const std::string states = fmt::format("{:016x} {:016x}", kumite::fnv1a64(p[0]), kumite::fnv1a64(p[1]));
   const std::string hashes = hashes_text(state_hashes_v3(f));
   const ConsoleState c = console_of(f);
   const std::string stereo = frame_json(f, c, {"front", "left"}, true), mono = frame_json(f, c, {"front", "left"}, false);
-  EXPECT_EQ(states, "c0a03435b616d82b ec335f8e054c99c3");
+  EXPECT_EQ(states, "c0a03435b616d82b e0e4d918c844c35a");
   EXPECT_EQ(hashes, "c67e92f1806d1192 cbe4c998296f2803 4b6e8102b8b1bcf4 d6e2b36e29bdc4b0 66b976a4d40768e2 396bc9852c237b77 ");
   EXPECT_EQ(fmt::format("{:016x}", kumite::fnv1a64(stereo)), "d7bb0e114ee5fcb2") << stereo;
   EXPECT_EQ(fmt::format("{:016x}", kumite::fnv1a64(mono)), "7188c4d33fc24ffc") << mono;

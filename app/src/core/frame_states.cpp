@@ -90,7 +90,7 @@ struct In : walk::Reader {
 
 }  // namespace
 
-void encode_frame_state(const FrameData& f, bool with_skeleton, std::string& out) {
+void encode_frame_state(const FrameData& f, bool with_skeleton, std::string& out, int version) {
   out.clear();
   thread_local std::string raw;  // the writer's scratch: its room kept
   const FighterPose& p = f.fighter;
@@ -107,7 +107,7 @@ void encode_frame_state(const FrameData& f, bool with_skeleton, std::string& out
   record(out, raw, [&](Out& o) {
     o.u8(kFrame);
     walk::StringSink sink{o.s};
-    walk::Writer<walk::StringSink> w{sink};
+    walk::Writer<walk::StringSink> w{sink, version};
     describe(w, f);  // the frame's fields (frame_fields.hpp)
   });
 }

@@ -35,7 +35,9 @@ inline const std::string kFrameStatesHeader = "kumite-frame-states " + std::to_s
 
 /// Appends the records for `frame` to `out`: its character's skeleton first when `with_skeleton`
 /// (the writer's first frame of that character), then the frame. `out`'s room is reused.
-void encode_frame_state(const FrameData& frame, bool with_skeleton, std::string& out);
+/// `version`: the frame description's version to write (an older one leaves out the fields
+/// added since: what a file of that version holds; tests re-encode old files with it).
+void encode_frame_state(const FrameData& frame, bool with_skeleton, std::string& out, int version = kFrameVersion);
 
 class FrameStatesReader {
  public:
