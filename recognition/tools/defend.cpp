@@ -7,6 +7,7 @@
 #include "defend.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -85,6 +86,7 @@ nlohmann::json run_defence(const DefenceArgs& a) {
   int punches = 0, negatives_s_count = 0;
   double negative_s = 0;
   int phantom = 0;
+  std::vector<double> step_us;
   for (const Recording& rec : recs) {
     std::vector<PoseSample> samples = resample(rec.samples, a.tracker_hz);
     // A recording with punches is turned so that they go toward the fighter (-Z): the mean
@@ -158,7 +160,9 @@ nlohmann::json run_defence(const DefenceArgs& a) {
       }
       in.head_m = bodies[0].position_m;
       in.bodies = bodies;
+      const auto t0 = std::chrono::steady_clock::now();
       fighter->step(in, out);
+      step_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
       const FighterFrame& f = out.frame;
       clip.root_positions.push_back(f.root_joint);
       clip.local_rotations.insert(clip.local_rotations.end(), f.local_rotations.begin(), f.local_rotations.end());
@@ -212,6 +216,13 @@ nlohmann::json run_defence(const DefenceArgs& a) {
                        {"blocks_on_negatives", phantom},
                        {"phantom_blocks_per_minute", negative_s > 0 ? phantom / (negative_s / 60) : 0.0},
                        {"note", "the fighter's own events; the judgement of each punch is scripts/judge-blocks.py's"}};
+  // The whole fighter update (planner, threats, contacts, blocks, behaviour) per update, all
+  // recordings: on a shared machine the tail carries the machine's interruptions.
+  std::sort(step_us.begin(), step_us.end());
+  const auto pct = [&](double q) {
+    return step_us.empty() ? 0.0 : step_us[std::min(step_us.size() - 1, static_cast<std::size_t>(q * step_us.size()))];
+  };
+  report["summary"]["fighter_step_us"] = {{"updates", step_us.size()}, {"p50", pct(0.5)}, {"p99", pct(0.99)}, {"max", step_us.empty() ? 0.0 : step_us.back()}};
   write_file_atomically(a.out / "defence.json", report.dump(2) + "\n");
   return report["summary"];
 }
