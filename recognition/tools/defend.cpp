@@ -160,9 +160,9 @@ nlohmann::json run_defence(const DefenceArgs& a) {
       }
       in.head_m = bodies[0].position_m;
       in.bodies = bodies;
-      const auto t0 = std::chrono::steady_clock::now();
+      const auto step_start = std::chrono::steady_clock::now();
       fighter->step(in, out);
-      step_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
+      step_us.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - step_start).count());
       const FighterFrame& f = out.frame;
       clip.root_positions.push_back(f.root_joint);
       clip.local_rotations.insert(clip.local_rotations.end(), f.local_rotations.begin(), f.local_rotations.end());
