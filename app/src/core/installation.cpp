@@ -82,7 +82,10 @@ FrameEvent to_frame_event(const content::FighterEvent& e, const Order& order, Ti
   f.fighter = e;
   f.order = order;  // a strike's outcome: the strike's order
   f.type = e.kind;  // one enum: the fighter's kind is the frame event's type
-  if (e.kind == EventType::warning) f.order.reset();
+  // (a warning, and the visitor's strikes met by the fighter, concern no order)
+  if (e.kind == EventType::warning || e.kind == EventType::block || e.kind == EventType::blocked ||
+      e.kind == EventType::visitor_hit)
+    f.order.reset();
   return f;
 }
 
@@ -756,6 +759,10 @@ std::string Installation::planner_line() const {
     line += fmt::format("  next {} ({}) in {:.1f} s", to_string(st->next->kind), content::to_string(st->next->cause),
                         std::max(0.0, st->next->due - fighter_out_.frame.time));
   line += fmt::format("  attacks {}  counters {}", st->counts.attacks, st->counts.counters);
+  // The score: the visitor's hits and dodges, the fighter's hits and blocks (blocked: fists met).
+  const auto& sc = st->score;
+  line += fmt::format("  score: visitor hits {} dodges {}, fighter hits {} blocks {}{}", sc.visitor_hits, sc.visitor_dodges,
+                      sc.fighter_hits, sc.blocks, st->tunables.block ? fmt::format(" (met {})", sc.blocked) : " (off)");
   return line;
 }
 
