@@ -148,6 +148,7 @@ int main(int argc, char** argv) {
   df->add_option("--threat-speed", da.threat.min_speed_mps, "m/s: threat_min_speed_mps")->capture_default_str();
   df->add_option("--threat-aim", da.threat.aim_radius_m, "m: threat_aim_radius_m")->capture_default_str();
   df->add_option("--threat-horizon", da.threat.horizon_s, "s: threat_horizon_s")->capture_default_str();
+  df->add_option("--threat-window", da.threat.velocity_window_s, "s: threat_velocity_window_s")->capture_default_str();
   df->add_option("--place-z", da.place_z, "m: the visitor's head's mean z")->capture_default_str();
   df->add_option("--lead-in", da.lead_in_s, "s the visitor stands still first")->check(CLI::Range(0.0, 30.0))->capture_default_str();
 
