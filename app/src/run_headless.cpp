@@ -172,6 +172,7 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
                frames, wall_s, wall_s * 1e3 / std::max(frames, 1), presenter.render_s() * 1e3 / std::max(frames, 1),
                presenter.pngs().written(), opt.out.string());
   log_retrieval_timing(inst);
+  log_spar_summary(inst);
   if (presenter.pngs().dropped() > 0)
     spdlog::warn("headless: {} PNGs not written: the writer was behind (real time never waits for it; "
                  "--save-every larger, or --simulated-time, writes them all)",

@@ -318,6 +318,7 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
   if (log) log->close();
   if (opt.stop && opt.stop->load() != 0) spdlog::info("windows: stopped (signal {})", opt.stop->load());
   log_retrieval_timing(inst);
+  log_spar_summary(inst);
   return 0;
 }
 

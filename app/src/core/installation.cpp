@@ -422,8 +422,12 @@ void Installation::update_fighter(Timestamp now, double dt) {
     visitor_strikes_.push_back(v);
   }
   in.strikes = visitor_strikes_;
+  const bool leaving_spar = std::any_of(fighter_orders_.begin(), fighter_orders_.end(),
+                                        [](const Order& o) { return o.kind == OrderKind::orders_only; }) &&
+                            fighter_->planner_status().tunables.mode == content::PlannerMode::spar;
   fighter_->step(in, fighter_out_);
   fighter_orders_.clear();
+  if (leaving_spar) log_spar_summary(*this);  // the round ends
   const content::FighterFrame& f = fighter_out_.frame;
   const int character = config_of_fighter_.at(static_cast<std::size_t>(f.character));
   plan_fighter(f, character_colour(character), frame_.items);
@@ -482,6 +486,18 @@ void log_retrieval_timing(const Installation& inst) {
                "worker (longest {:.3f} ms, {:.3f} ms in all)",
                t.requests, content::kRetrievalDelayUpdates, t.rate_jobs, content::kStrikeRateDelayUpdates,
                t.rate_solve_max_us, t.waits, t.wait_max_ms, t.wait_total_ms);
+}
+
+void log_spar_summary(const Installation& inst) {
+  const auto st = inst.planner_status();
+  if (!st) return;
+  const auto& sc = st->score;
+  const auto& c = st->counts;
+  if (st->tunables.mode != content::PlannerMode::spar && c.engaged_s <= 0 && sc == content::Fighter::SparScore{}) return;
+  spdlog::info("spar round: {:.0f} s engaged; the visitor hit {} time(s), dodged {}; the fighter hit {} time(s), attacked {}, "
+               "countered {}; blocks {} ({} late, {} met the fist{}), threats unanswered {}",
+               c.engaged_s, sc.visitor_hits, sc.visitor_dodges, sc.fighter_hits, c.attacks, c.counters, sc.blocks, sc.blocks_late,
+               sc.blocked, st->tunables.block ? "" : "; blocks off", sc.unanswered);
 }
 
 content::RetrievalTiming Installation::retrieval_timing() const {

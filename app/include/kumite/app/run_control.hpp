@@ -24,6 +24,8 @@ void make_output_folder(const std::filesystem::path& dir, std::string_view what)
 /// One line at the end of a run: strike plans asked for, and how many updates had to wait
 /// for the retrieval worker (content::kRetrievalDelayUpdates).
 void log_retrieval_timing(const Installation& installation);
+/// One line at the end of a run that sparred (and when spar mode is left): the round's score.
+void log_spar_summary(const Installation& installation);
 
 /// Whether a display is there to open windows on ($DISPLAY or $WAYLAND_DISPLAY).
 bool display_available();
