@@ -220,7 +220,7 @@ TEST(DtrackSource, TheVisitorsBodiesArriveWhereTheySentThemAndASessionReplaysThe
   inst.record_to(&rec);
   kumite::tracking::DtrackSender tx("127.0.0.1", port);
 
-  constexpr int kMoving = 40, kFrames = 70, kFootUntil = 55;
+  constexpr int kMoving = 40, kFrames = 70, kFootUntil = 40;
   std::vector<Bodies> recorded;
   int predictions_checked = 0;
   inst.start(kumite::now());
@@ -276,7 +276,7 @@ TEST(DtrackSource, TheVisitorsBodiesArriveWhereTheySentThemAndASessionReplaysThe
   EXPECT_EQ(s.bodies[4]->frame, static_cast<std::uint64_t>(kFootUntil)) << "measured last by frame " << kFootUntil;
   EXPECT_NE(s.bodies[4]->status, TrackingStatus::tracked);
   const double foot_age = kumite::now() - s.bodies[4]->timestamp;
-  ASSERT_GT(foot_age, 0.25) << "15 frames at 60 Hz have passed since";
+  ASSERT_GT(foot_age, 0.4) << "30 frames at 60 Hz have passed since";
   EXPECT_EQ(s.bodies[4]->status, TrackingStatus::lost) << "not measured for " << foot_age << " s";
   // The fighter is given them (no fighter here: its database is missing), recognition every frame's.
   ASSERT_TRUE(step_until(inst, 3.0, [&] { return inst.input().tracking.recognition.samples >= 5u * kFrames; }))
@@ -413,4 +413,46 @@ TEST(DtrackSource, MalformedPacketsAreCountedAndSaidNeverAStall) {
   EXPECT_EQ(log.count("oversized"), 1);
   EXPECT_EQ(log.count("6d: cut short: 2 announced, 1 found"), 1);
   EXPECT_EQ(log.count("body 9 is not configured in [dtrack.bodies] (ignored; said once)"), 1);
+}
+
+// `source = "osc"`: the same input over the interop library's OscReceiver. A SYNTHETIC head and
+// glove sent as OSC bundles (in Kumite's room: no transform) reach the frame where they were
+// sent (float32 on the wire: within 1e-6 m), the head tracked and drawn.
+TEST(DtrackSource, OscFeedsTheHeadAndBodiesToo) {
+  Tmp tmp;
+  InstallationConfig cfg = room(tmp.path);
+  cfg.recognition.model.clear();
+  cfg.tracking.source = TrackingSource::osc;
+  cfg.tracking.osc.port = 0;
+  cfg.tracking.osc.role_body = {21, 22, -1, -1, -1};
+  auto input = make_tracking_input(cfg);
+  const int port = port_of(*input);
+  ASSERT_GT(port, 0) << input->describe();
+  Installation inst(cfg, std::move(input), {});
+  kumite::tracking::OscSender tx("127.0.0.1", port);
+  inst.start(kumite::now());
+  kumite::tracking::RoomFrame f;
+  f.body_count = 2;
+  f.bodies[0].id = 21;
+  f.bodies[0].tracked = true;
+  f.bodies[0].position_m = {0.25, 1.625, 0.5};
+  f.bodies[1].id = 22;
+  f.bodies[1].tracked = true;
+  f.bodies[1].position_m = {-0.25, 1.125, 0.25};
+  for (int k = 0; k < 5; ++k) {
+    f.frame = static_cast<std::uint64_t>(k + 1);
+    ASSERT_TRUE(tx.send(f)) << tx.last_error();
+    sleep_s(1.0 / 60);
+  }
+  ASSERT_TRUE(step_until(inst, 3.0, [&] { return inst.head_live() && inst.input().tracking.bodies[1]; }))
+      << inst.console().tracking_source;
+  const TrackingSnapshot& s = inst.input().tracking;
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_NEAR(s.head->position[k], f.bodies[0].position_m[k], 1e-6);
+    EXPECT_NEAR(s.bodies[1]->position[k], f.bodies[1].position_m[k], 1e-6);
+  }
+  EXPECT_EQ(s.bodies[1]->body, 22);
+  EXPECT_FALSE(s.bodies[2]);
+  EXPECT_EQ(inst.console().tracking_source.rfind(fmt::format("osc: port {}, ", port), 0), 0u)
+      << inst.console().tracking_source;
 }
