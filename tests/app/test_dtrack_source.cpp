@@ -33,6 +33,7 @@
 #include "kumite/app/installation.hpp"
 #include "kumite/app/session.hpp"
 #include "kumite/app/tracking_input.hpp"
+#include "kumite/common/error.hpp"
 #include "kumite/common/time.hpp"
 #include "kumite/tracking/interop.hpp"
 
@@ -455,4 +456,28 @@ TEST(DtrackSource, OscFeedsTheHeadAndBodiesToo) {
   EXPECT_FALSE(s.bodies[2]);
   EXPECT_EQ(inst.console().tracking_source.rfind(fmt::format("osc: port {}, ", port), 0), 0u)
       << inst.console().tracking_source;
+}
+
+// A port that cannot be opened (another program listens there) is one error naming the config's
+// file, line and table and the address; kumite then runs from the default head ("tracking
+// unavailable: ..."), as for a missing recording: the error is not a config mistake.
+TEST(DtrackSource, APortInUseIsOneErrorNamingTheTableAndAddress) {
+  Tmp tmp;
+  InstallationConfig cfg = room(tmp.path);
+  cfg.recognition.model.clear();
+  kumite::tracking::DtrackInput other;
+  other.port = 0;
+  other.bind_address = "127.0.0.1";
+  kumite::tracking::DtrackReceiver squatter(other);
+  squatter.start();
+  cfg.tracking.dtrack.port = squatter.port();
+  try {
+    (void)make_tracking_input(cfg);
+    ADD_FAILURE() << "listened on a port in use";
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(e.component(), "config");
+    const std::string what = e.what();
+    EXPECT_NE(what.find((tmp.path / "room.toml").string() + ":20: tracking.dtrack: "), std::string::npos) << what;
+    EXPECT_NE(what.find(fmt::format("cannot listen on udp 127.0.0.1:{}", squatter.port())), std::string::npos) << what;
+  }
 }
