@@ -612,7 +612,6 @@ class RoomTrackerInput final : public TrackingInput {
                    name_, table);
     }
     role_body_ = in.role_body;
-    port_ = in.port;
     if (osc_) {
       tracking::OscReceiver::Options o;
       o.multicast_group = in.multicast_group;
@@ -755,7 +754,6 @@ class RoomTrackerInput final : public TrackingInput {
   double lost_after_s_ = 0.25;
   bool osc_ = false;
   std::string name_, what_;
-  int port_ = 0;
   std::array<std::int32_t, 5> role_body_{-1, -1, -1, -1, -1};
   std::array<recognition::PoseSample, recognition::kRoleCount> fed_{};  // the receiver thread's
   // The frame thread's: per role the newest measurement and the one before, and whether the newest frame had it.
