@@ -501,7 +501,7 @@ TEST(Config, RenderSectionReadsChecksAndRoundTrips) {
   EXPECT_FALSE(c.render.hall);
   EXPECT_EQ(parse_installation_config(to_toml(c), "again.toml"), c);
   // The shipped demos wear bodies.
-  for (const char* demo : {"demo.toml", "demo-poses.toml", "demo-spar.toml"}) {
+  for (const char* demo : {"demo.toml", "demo-poses.toml", "demo-spar.toml", "demo-dtrack.toml"}) {
     const auto d = load_installation_config(KUMITE_SOURCE_DIR + "/config/" + demo);
     EXPECT_EQ(d.render.fighter, FighterLook::skinned) << demo;
     EXPECT_TRUE(std::filesystem::exists(d.resolve(d.render.bodies))) << demo;
@@ -517,4 +517,85 @@ TEST(Config, RenderSectionReadsChecksAndRoundTrips) {
   msg = error_of(kBase + "\n[render]\ndebug_mark = true\n", &code);
   EXPECT_NE(msg.find("render"), std::string::npos) << msg;
   EXPECT_NE(msg.find("debug_mark"), std::string::npos) << msg;
+}
+
+// Issue 55: `[tracking] source = "dtrack"` with the interop library's [tracking.dtrack] table
+// (port, multicast, room transform, body roles, per-role offsets), read from the same file;
+// its mistakes name file, line and key; to_toml gives it back (a rotation of its own, the
+// default room_axes, offsets). "osc" reads [tracking.osc]: port, multicast_group, bodies only.
+TEST(Config, DtrackSourceReadsItsTableAndRoundTrips) {
+  const std::string dtrack = R"([tracking]
+source = "dtrack"
+lost_after_s = 0.4
+[tracking.dtrack]
+port = 5123
+multicast_group = "224.0.1.7"
+rotation = [[0.0, 1.0, 0.0], [0.0, 0.0, 1.0], [1.0, 0.0, 0.0]]
+translation_m = [0.5, 0.0, -0.25]
+conjugate_body = false
+[tracking.dtrack.bodies]
+head = 3
+left_hand = 7
+right_foot = 11
+[tracking.dtrack.offsets]
+head = [0.0, -0.04, -0.09]
+)";
+  const auto c = parse_installation_config(kBase + dtrack, "room.toml");
+  EXPECT_EQ(c.tracking.source, TrackingSource::dtrack);
+  const auto& d = c.tracking.dtrack;
+  EXPECT_EQ(d.port, 5123);
+  EXPECT_EQ(d.multicast_group, "224.0.1.7");
+  EXPECT_EQ(d.room.rotation, (std::array<double, 9>{0, 1, 0, 0, 0, 1, 1, 0, 0}));
+  EXPECT_EQ(d.room.translation_m, (std::array<double, 3>{0.5, 0.0, -0.25}));
+  EXPECT_FALSE(d.room.conjugate_body);
+  EXPECT_EQ(d.role_body, (std::array<std::int32_t, 5>{3, 7, -1, -1, 11}));
+  EXPECT_EQ(d.role_offset_m[0], (std::array<double, 3>{0.0, -0.04, -0.09}));
+  EXPECT_EQ(d.role_offset_m[1], (std::array<double, 3>{0, 0, 0}));
+  EXPECT_EQ(parse_installation_config(to_toml(c), "again.toml"), c);
+  EXPECT_NE(to_toml(c).find("[tracking.dtrack.offsets]"), std::string::npos) << to_toml(c);
+
+  // Defaults: DTrack's own room (z_up), port 5000; written back as room_axes.
+  const auto plain = parse_installation_config(kBase + "[tracking]\nsource = \"dtrack\"\n", "room.toml");
+  EXPECT_EQ(plain.tracking.dtrack.port, 5000);
+  EXPECT_EQ(plain.tracking.dtrack.room, kumite::tracking::RoomTransform::z_up());
+  EXPECT_NE(to_toml(plain).find("room_axes = 'z_up'"), std::string::npos) << to_toml(plain);
+  EXPECT_EQ(parse_installation_config(to_toml(plain), "again.toml"), plain);
+
+  // OSC: its own port (9000 unless given) and roles; DTrack's room keys are not its own.
+  const auto osc = parse_installation_config(
+      kBase + "[tracking]\nsource = \"osc\"\n[tracking.osc]\nmulticast_group = \"239.1.2.3\"\n[tracking.osc.bodies]\nhead = 1\n",
+      "room.toml");
+  EXPECT_EQ(osc.tracking.source, TrackingSource::osc);
+  EXPECT_EQ(osc.tracking.osc.port, 9000);
+  EXPECT_EQ(osc.tracking.osc.multicast_group, "239.1.2.3");
+  EXPECT_EQ(osc.tracking.osc.role_body[0], 1);
+  EXPECT_EQ(parse_installation_config(to_toml(osc), "again.toml"), osc);
+
+  // The shipped example: DTrack's default room on port 5000, bodies 0..4 (kumite-dtrack send's).
+  const auto demo = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo-dtrack.toml");
+  EXPECT_EQ(demo.tracking.source, TrackingSource::dtrack);
+  EXPECT_EQ(demo.tracking.dtrack.port, 5000);
+  EXPECT_EQ(demo.tracking.dtrack.room, kumite::tracking::RoomTransform::z_up());
+  EXPECT_EQ(demo.tracking.dtrack.role_body, (std::array<std::int32_t, 5>{0, 1, 2, 3, 4}));
+  EXPECT_FALSE(demo.recognition.model.empty());
+  EXPECT_EQ(parse_installation_config(to_toml(demo), "again.toml"), demo);
+
+  // Mistakes: one line each, file:line: key: message (kBase has 23 lines).
+  std::string msg = error_of(kBase + replace(dtrack, "port = 5123", "port = 70000"));
+  EXPECT_NE(msg.find("bad.toml:28: tracking.dtrack.port: "), std::string::npos) << msg;
+  msg = error_of(kBase + replace(dtrack, "left_hand = 7", "left_hand = 3"));
+  EXPECT_NE(msg.find("bad.toml:35: tracking.dtrack.bodies.left_hand: body 3 is already head"), std::string::npos) << msg;
+  msg = error_of(kBase + replace(dtrack, "head = [0.0, -0.04, -0.09]", "head = [0.0, -40.0, -90.0]"));
+  EXPECT_NE(msg.find("bad.toml:38: tracking.dtrack.offsets.head: "), std::string::npos) << msg;
+  msg = error_of(kBase + replace(dtrack, "rotation = [[0.0, 1.0, 0.0]", "rotation = [[0.0, 2.0, 0.0]"));
+  EXPECT_NE(msg.find("bad.toml:30: tracking.dtrack.rotation: not a rotation"), std::string::npos) << msg;
+  msg = error_of(kBase + replace(dtrack, "port = 5123", "prot = 5123"));
+  EXPECT_NE(msg.find("bad.toml:28: tracking.dtrack.prot: "), std::string::npos) << msg;
+  msg = error_of(kBase + replace(dtrack, "source = \"dtrack\"", "source = \"vrpn\""));
+  EXPECT_NE(msg.find("bad.toml:25: tracking.source: unknown tracking source \"vrpn\" (none, recording, live, poses, "
+                     "dtrack, osc)"),
+            std::string::npos)
+      << msg;
+  msg = error_of(kBase + "[tracking]\nsource = \"osc\"\n[tracking.osc]\nroom_axes = \"y_up\"\n");
+  EXPECT_NE(msg.find("bad.toml:27: tracking.osc.room_axes: not an OSC key"), std::string::npos) << msg;
 }

@@ -207,3 +207,33 @@ TEST(DtrackConfig, EveryMistakeIsOneLineNamingFileLineAndKey) {
   EXPECT_NE(error_of("[dtrack]\nprot = 5000\n").find("room.toml:2: dtrack.prot: unknown key"), std::string::npos);
   EXPECT_NE(error_of("[dtrack\n").find("room.toml:1"), std::string::npos);
 }
+
+// [dtrack.offsets]: a role's point fixed to its body, in the body's frame (Kumite's axes with
+// the body in its calibrated pose), reported instead of DTrack's body origin; a body without a
+// role, or not tracked, is left as it is. Checked by hand: DTrack's Z-up room, the glasses yawed
+// 90° about DTrack's Z (= about Kumite's +Y), the eyes 10 cm ahead (-Z) end up 10 cm along -X.
+TEST(RoomTransform, OffsetsMoveARolesPointInItsBodysFrame) {
+  const DtrackInput in = parse_dtrack_config(
+      "[dtrack.bodies]\nhead = 0\nleft_hand = 1\n[dtrack.offsets]\nhead = [0.0, 0.0, -0.1]\nleft_hand = [0.0, 0.05, 0.0]\n",
+      "room.toml");
+  EXPECT_EQ(in.role_offset_m[0], (std::array<double, 3>{0, 0, -0.1}));
+  const DtrackFrame f = parse_dtrack(
+      "fr 1\n6d 3 [0 1.0][100 -500 1650 0 0 90][0 1 0 -1 0 0 0 0 1][1 1.0][0 0 1000 0 0 0][1 0 0 0 1 0 0 0 1]"
+      "[2 1.0][0 0 1000 0 0 0][1 0 0 0 1 0 0 0 1]\n");
+  ASSERT_TRUE(f.ok()) << f.problems.front();
+  RoomFrame room;
+  EXPECT_EQ(to_room_frame(f, in, room), 1);  // body 2: no role
+  const RoomBody* head = find_role(room, "head");
+  ASSERT_NE(head, nullptr);
+  EXPECT_NEAR(head->position_m[0], 0.1 - 0.1, 1e-12);
+  EXPECT_NEAR(head->position_m[1], 1.65, 1e-12);
+  EXPECT_NEAR(head->position_m[2], 0.5, 1e-12);
+  const RoomBody* hand = find_role(room, "left_hand");
+  ASSERT_NE(hand, nullptr);
+  EXPECT_NEAR(hand->position_m[1], 1.05, 1e-12);  // 5 cm up its own +Y (unrotated)
+  EXPECT_EQ(parse_dtrack_config("[dtrack]\n", "room.toml").role_offset_m[1], (std::array<double, 3>{0, 0, 0}));
+  EXPECT_NE(error_of("[dtrack.offsets]\nhead = [0, 0, 2]\n").find("room.toml:2: dtrack.offsets.head: "), std::string::npos)
+      << error_of("[dtrack.offsets]\nhead = [0, 0, 2]\n");
+  EXPECT_NE(error_of("[dtrack.offsets]\nnose = [0, 0, 0]\n").find("room.toml:2: dtrack.offsets.nose"), std::string::npos)
+      << error_of("[dtrack.offsets]\nnose = [0, 0, 0]\n");
+}

@@ -355,7 +355,9 @@ void Reader::parse_tracking(const toml::table& root) {
   if (!t) return;
   only_keys(*t, "tracking",
             {"source", "calibration", "tracking", "recording", "poses", "poses_loop", "head_body", "lost_after_s",
-             "recording_preload", "decode_threads", "realtime_priority"});
+             "recording_preload", "decode_threads", "realtime_priority", "dtrack", "osc"});
+  // [tracking.dtrack] and [tracking.osc]: the interop library's keys, read by
+  // tracking::parse_dtrack_config from the same text (parse_config).
   auto& c = cfg_.tracking;
   std::string src;
   if (string(*t, "source", "tracking", src)) {
@@ -363,9 +365,11 @@ void Reader::parse_tracking(const toml::table& root) {
     else if (src == "recording") c.source = TrackingSource::recording;
     else if (src == "live") c.source = TrackingSource::live;
     else if (src == "poses") c.source = TrackingSource::poses;
+    else if (src == "dtrack") c.source = TrackingSource::dtrack;
+    else if (src == "osc") c.source = TrackingSource::osc;
     else
       fail("unknown_source", cfg_.line_of("tracking.source"), "tracking.source",
-           fmt::format("unknown tracking source \"{}\" (none, recording, live, poses)", src));
+           fmt::format("unknown tracking source \"{}\" (none, recording, live, poses, dtrack, osc)", src));
   }
   path(*t, "calibration", "tracking", c.calibration);
   path(*t, "tracking", "tracking", c.tracking);
@@ -400,6 +404,37 @@ toml::array to_array(const std::array<int, N>& v) {
 }
 toml::array to_array(const std::array<double, 2>& v) { return toml::array{v[0], v[1]}; }
 
+/// [tracking.dtrack] / [tracking.osc] as parse_dtrack_config reads it back (`room`: with the
+/// room transform and offsets, DTrack's; OSC has none).
+toml::table dtrack_table(const tracking::DtrackInput& d, bool room) {
+  toml::table t{{"port", d.port}};
+  if (!d.multicast_group.empty()) t.insert("multicast_group", d.multicast_group);
+  if (room) {
+    t.insert("bind_address", d.bind_address);
+    if (d.room.rotation == tracking::RoomTransform::z_up().rotation) {
+      t.insert("room_axes", "z_up");
+    } else if (d.room.rotation == tracking::RoomTransform::y_up().rotation) {
+      t.insert("room_axes", "y_up");
+    } else {
+      toml::array rows;
+      for (std::size_t i = 0; i < 3; ++i)
+        rows.push_back(toml::array{d.room.rotation[i * 3], d.room.rotation[i * 3 + 1], d.room.rotation[i * 3 + 2]});
+      t.insert("rotation", std::move(rows));
+    }
+    t.insert("translation_m", to_array(d.room.translation_m));
+    t.insert("conjugate_body", d.room.conjugate_body);
+  }
+  toml::table bodies, offsets;
+  for (std::size_t r = 0; r < tracking::kRoleNames.size(); ++r) {
+    if (d.role_body[r] >= 0) bodies.insert(tracking::kRoleNames[r], d.role_body[r]);
+    if (room && d.role_offset_m[r] != std::array<double, 3>{0, 0, 0})
+      offsets.insert(tracking::kRoleNames[r], to_array(d.role_offset_m[r]));
+  }
+  if (!bodies.empty()) t.insert("bodies", std::move(bodies));
+  if (!offsets.empty()) t.insert("offsets", std::move(offsets));
+  return t;
+}
+
 }  // namespace
 
 std::string_view to_string(StereoMode m) {
@@ -426,6 +461,8 @@ std::string_view to_string(TrackingSource s) {
     case TrackingSource::recording: return "recording";
     case TrackingSource::live: return "live";
     case TrackingSource::poses: return "poses";
+    case TrackingSource::dtrack: return "dtrack";
+    case TrackingSource::osc: return "osc";
   }
   return "?";
 }
@@ -739,6 +776,17 @@ InstallationConfig parse_config(std::string_view text, const std::filesystem::pa
   const toml::table root = parse_toml(text, file_name.string(), "config");
   cfg.lines = toml_key_lines(root);
   Reader(file_name.string(), cfg).parse(root);
+  cfg.tracking.dtrack = tracking::parse_dtrack_config(text, file_name.string(), "tracking.dtrack");
+  if (cfg.lines.contains("tracking.osc")) {
+    // OSC poses come in Kumite's room: the room transform and offsets are DTrack's alone.
+    for (const char* key : {"bind_address", "room_axes", "rotation", "translation_m", "conjugate_body", "offsets"})
+      if (const std::string k = std::string("tracking.osc.") + key; cfg.lines.contains(k))
+        throw file_error("config", "unknown_key", file_name.string(), cfg.line_of(k), k,
+                         "not an OSC key (OSC sends poses in Kumite's room): port, multicast_group, bodies");
+    const int port = cfg.tracking.osc.port;
+    cfg.tracking.osc = tracking::parse_dtrack_config(text, file_name.string(), "tracking.osc");
+    if (!cfg.lines.contains("tracking.osc.port")) cfg.tracking.osc.port = port;
+  }
   content::parse_fighter_tunables(text, file_name.string(), cfg.fighter.behaviour, cfg.fighter.retrieval);
   content::parse_planner_tunables(text, file_name.string(), cfg.fighter.planner, cfg.fighter.planner_seed);
   validate(cfg);
@@ -871,6 +919,9 @@ std::string to_toml(const InstallationConfig& c) {
   if (!t.recording.empty()) tracking.insert("recording", t.recording.generic_string());
   if (!t.poses.empty()) tracking.insert("poses", t.poses.generic_string());
   if (!t.poses_loop) tracking.insert("poses_loop", false);
+  if (t.source == TrackingSource::dtrack || t.dtrack != tracking::DtrackInput{})
+    tracking.insert("dtrack", dtrack_table(t.dtrack, true));
+  if (t.source == TrackingSource::osc || t.osc != TrackingConfig{}.osc) tracking.insert("osc", dtrack_table(t.osc, false));
   root.insert("tracking", std::move(tracking));
   if (!c.recognition.model.empty())
     root.insert("recognition", toml::table{{"model", c.recognition.model.generic_string()}});

@@ -670,6 +670,7 @@ ConsoleState Installation::console(const FrameData& shown) const {
   c.frame_cpu_ms = frame_cpu_ms_;
   c.tracking = describe(snap, tracking_->none_why());
   c.tracking_source = describe(snap.source);
+  if (c.tracking_source.empty()) c.tracking_source = tracking_->source_line();
   if (const RecognitionStats& r = snap.recognition; r.running)
     c.recognition = fmt::format("strike recognition: {} pose samples, {} events{}", r.samples, r.events,
                                 r.dropped + r.events_dropped > 0

@@ -21,6 +21,7 @@
 #include "kumite/common/latest.hpp"
 #include "kumite/recognition/poses_file.hpp"
 #include "kumite/tracking/camera_frames.hpp"
+#include "kumite/tracking/interop.hpp"
 #include "kumite/tracking/pipeline.hpp"
 #include "kumite/tracking/tracker.hpp"
 
@@ -583,6 +584,290 @@ class PosesInput final : public TrackingInput {
   std::thread thread_;  // last: started once everything above is made
 };
 
+/// A room's own tracker (`[tracking] source = "dtrack"` or "osc", issue 55): the interop
+/// library's receiver (tracking::DtrackReceiver / OscReceiver) on its own thread publishes the
+/// newest frame, bodies already in Kumite's room with their roles; poll() takes it without
+/// waiting. Each role's body as measured, its measurement time the frame's receive time
+/// (kumite::now() when the datagram was read: the same clock as clock()); tracked while in the
+/// newest frame and that frame is fresh (<= kFresh_s), coasting when the newest frame lacks it
+/// (or quality < 0) or the frames stop, lost once [tracking] lost_after_s passed since it was
+/// last measured. The head is predicted to the display time as the poses file's is: its
+/// velocity from the measurement the poll before saw, at most kFresh_s ahead, only while
+/// fresh; the orientation as measured. Every published frame (not only the newest a poll
+/// sees) goes to the recognition thread from the receiver's thread. Network time is wall
+/// time: on the simulated clock this source stays on it (said once, as for live cameras).
+class RoomTrackerInput final : public TrackingInput {
+ public:
+  RoomTrackerInput(const InstallationConfig& c, std::unique_ptr<StrikeRecognition> rec, std::string recognition_fault)
+      : recognition_(std::move(rec)), recognition_fault_(std::move(recognition_fault)),
+        lost_after_s_(c.tracking.lost_after_s), osc_(c.tracking.source == TrackingSource::osc) {
+    name_ = osc_ ? "osc" : "dtrack";
+    last_source_t_.fill(-1);
+    prev_source_t_.fill(-1);
+    const char* table = osc_ ? "tracking.osc" : "tracking.dtrack";
+    tracking::DtrackInput in = osc_ ? c.tracking.osc : c.tracking.dtrack;
+    if (!in.has_roles()) {  // kumite-dtrack send's ids
+      in.role_body = {0, 1, 2, 3, 4};
+      spdlog::info("{}: {}.bodies not given: head is body 0, left_hand 1, right_hand 2, left_foot 3, right_foot 4",
+                   name_, table);
+    }
+    role_body_ = in.role_body;
+    if (osc_) {
+      tracking::OscReceiver::Options o;
+      o.multicast_group = in.multicast_group;
+      o.role_body = in.role_body;
+      rx_ = std::make_unique<tracking::OscReceiver>(in.port, o);
+    } else {
+      rx_ = std::make_unique<tracking::DtrackReceiver>(in);
+    }
+    if (recognition_) {
+      if (role_body_[static_cast<std::size_t>(recognition::Role::left_hand)] < 0 &&
+          role_body_[static_cast<std::size_t>(recognition::Role::right_hand)] < 0 &&
+          role_body_[static_cast<std::size_t>(recognition::Role::left_foot)] < 0 &&
+          role_body_[static_cast<std::size_t>(recognition::Role::right_foot)] < 0)
+        spdlog::warn("recognition: {}.bodies names no glove or shoe (left_hand, right_hand, left_foot, right_foot): "
+                     "no strike can be recognised",
+                     table);
+      // The receiver's thread, every frame it publishes: each configured role's pose (not
+      // tracked when the frame lacks it), then the set is whole. A lock-free push: never waits.
+      rx_->on_publish([this](const tracking::RoomFrame& f) { feed(f); });
+    }
+    at_key(c, table, [&] {
+      rx_->start();
+      return 0;
+    });
+    what_ = fmt::format("{} on UDP port {}{}", osc_ ? "OSC" : "DTrack", rx_->port(),
+                        in.multicast_group.empty() ? std::string() : ", multicast group " + in.multicast_group);
+    spdlog::info("tracking: {}", what_);
+  }
+  ~RoomTrackerInput() override { rx_->stop(); }  // before recognition_: its hook pushes there
+
+  void poll(Timestamp /*now_s*/, Timestamp display_time, TrackingSnapshot& s) override;
+  Timestamp clock() const override { return now(); }
+  std::string describe() const override { return what_; }
+  std::vector<std::string> faults() const override {
+    std::vector<std::string> f = faults_of(recognition_fault_);
+    const double since = silent_since_.load();
+    if (since >= 0) f.push_back(silence_line(now() - since + kSilence_s));
+    return f;
+  }
+  std::string source_line() const override {
+    const tracking::ReceiverCounters n = rx_->counters();
+    std::string line = fmt::format("{}: port {}, {} frames, {} bad packets", name_, rx_->port(), n.frames, n.bad_packets);
+    if (n.oversized > 0) line += fmt::format(" ({} oversized)", n.oversized);
+    if (n.unconfigured_bodies > 0) line += fmt::format(", {} bodies of unconfigured ids", n.unconfigured_bodies);
+    if (n.frame_gaps > 0) line += fmt::format(", {} frames skipped by the sender", n.frame_gaps);
+    if (const auto f = rx_->poll()) {
+      const std::string from = rx_->last_sender();
+      line += fmt::format(", last {}{:.2f} s ago", from.empty() ? "" : "from " + from + " ", now() - f->received_at);
+      if (f->latency_us >= 0) line += fmt::format(" (DTrack's latency {:.1f} ms)", f->latency_us * 1e-3);
+    } else {
+      line += n.packets > 0 ? ", no usable frame yet" : ", waiting for the first packet";
+    }
+    return line;
+  }
+  PoseTiming pose_timing(Timestamp t) override {
+    std::optional<BodyPose> newest;
+    if (const auto f = rx_->poll()) {
+      BodyPose p;
+      p.frame = f->sequence;
+      p.timestamp = f->received_at;
+      p.ready_at = f->published_at;
+      newest = p;
+    }
+    return timing_of(pose_clock_, newest, t);
+  }
+
+ private:
+  static constexpr double kFresh_s = 0.1;    // s: a measurement older than this coasts; no extrapolation past it
+  static constexpr double kSilence_s = 1.0;  // s without a packet: said once
+
+  std::string silence_line(double s) const {
+    const std::string from = rx_->last_sender();
+    return fmt::format("{}: no {} packets for {:.1f} s{}: the head and the visitor's bodies coast, then are lost", name_,
+                       osc_ ? "OSC" : "DTrack", s, from.empty() ? std::string() : " (the last from " + from + ")");
+  }
+
+  /// The receiver's thread (on_publish): the frame's role bodies to the recognition thread.
+  void feed(const tracking::RoomFrame& f) {
+    for (std::size_t r = 0; r < role_body_.size(); ++r) {
+      if (role_body_[r] < 0) continue;
+      recognition::PoseSample smp;
+      smp.t = f.received_at;
+      smp.role = static_cast<recognition::Role>(r);
+      const tracking::RoomBody* b = body_of(f, r);
+      smp.tracked = b && b->tracked;
+      if (smp.tracked) {
+        smp.position = {b->position_m[0], b->position_m[1], b->position_m[2]};
+        smp.orientation = b->orientation;
+        fed_[r] = smp;
+      } else {
+        smp.position = fed_[r].position;  // the last known (not used while untracked)
+        smp.orientation = fed_[r].orientation;
+      }
+      recognition_->push(smp);
+    }
+    recognition_->end_of_set(f.received_at);
+  }
+
+  static const tracking::RoomBody* body_of(const tracking::RoomFrame& f, std::size_t role) {
+    for (int i = 0; i < f.body_count; ++i) {
+      const tracking::RoomBody& b = f.bodies[static_cast<std::size_t>(i)];
+      if (b.role == static_cast<int>(role) && b.kind == tracking::RoomBodyKind::body) return &b;
+    }
+    return nullptr;
+  }
+
+  /// A frame the polls have not seen yet: each role measured in it becomes its newest measurement.
+  void take(const tracking::RoomFrame& f) {
+    for (std::size_t r = 0; r < role_body_.size(); ++r) {
+      const tracking::RoomBody* b = role_body_[r] >= 0 ? body_of(f, r) : nullptr;
+      in_newest_[r] = b && b->tracked;
+      if (!in_newest_[r]) continue;
+      prev_[r] = last_[r];
+      prev_source_t_[r] = last_source_t_[r];
+      last_source_t_[r] = f.source_time_s;
+      BodyPose& p = last_[r].emplace();
+      p.timestamp = f.received_at;
+      p.frame = f.sequence;
+      p.body = b->id;
+      p.status = TrackingStatus::tracked;
+      p.position = b->position_m;
+      p.orientation = b->orientation;
+      p.markers = 0;  // a room's tracker does not say
+      p.cameras = 0;
+      p.ready_at = f.published_at;
+    }
+  }
+
+  TrackingStatus status_of(std::size_t r, Timestamp t) const {
+    const double age = t - last_[r]->timestamp;
+    if (age > lost_after_s_) return TrackingStatus::lost;
+    return in_newest_[r] && age <= kFresh_s ? TrackingStatus::tracked : TrackingStatus::coasting;
+  }
+
+  void watch_packets(Timestamp t, std::uint64_t packets);
+  void log_problems(Timestamp t);
+
+  std::unique_ptr<StrikeRecognition> recognition_;  // before rx_: its hook pushes there
+  std::string recognition_fault_;
+  double lost_after_s_ = 0.25;
+  bool osc_ = false;
+  std::string name_, what_;
+  std::array<std::int32_t, 5> role_body_{-1, -1, -1, -1, -1};
+  std::array<recognition::PoseSample, recognition::kRoleCount> fed_{};  // the receiver thread's
+  // The frame thread's: per role the newest measurement and the one before, and whether the newest frame had it.
+  std::array<std::optional<BodyPose>, recognition::kRoleCount> last_{}, prev_{};
+  std::array<bool, recognition::kRoleCount> in_newest_{};
+  std::array<double, recognition::kRoleCount> last_source_t_{}, prev_source_t_{};  // the sender's time (-1: none)
+  std::uint64_t seen_ = 0;        // the newest frame's sequence taken
+  std::uint64_t packets_ = 0;     // packets at the last poll
+  Timestamp started_ = -1, last_packet_at_ = -1;
+  bool said_none_ = false;
+  std::atomic<double> silent_since_{-1};  // s, when the silence was said (-1: packets flow)
+  Timestamp problems_window_ = -1;
+  int problems_in_window_ = 0, problems_held_ = 0;
+  PoseClock pose_clock_;
+  std::unique_ptr<tracking::Receiver> rx_;  // last: its thread stops first
+};
+
+void RoomTrackerInput::watch_packets(Timestamp t, std::uint64_t packets) {
+  if (started_ < 0) started_ = t;
+  if (packets != packets_) {
+    packets_ = packets;
+    if (const double since = silent_since_.load(); since >= 0) {
+      spdlog::info("{}: packets again from {} after {:.1f} s without", name_, rx_->last_sender(),
+                   t - last_packet_at_);
+      silent_since_.store(-1);
+    }
+    last_packet_at_ = t;
+    return;
+  }
+  if (last_packet_at_ < 0) {
+    if (!said_none_ && t - started_ > kSilence_s) {
+      said_none_ = true;
+      spdlog::warn("{}: no {} packets on UDP port {} in {:.1f} s since the start: is the tracker sending to this "
+                   "machine and port?",
+                   name_, osc_ ? "OSC" : "DTrack", rx_->port(), t - started_);
+    }
+    return;
+  }
+  if (silent_since_.load() < 0 && t - last_packet_at_ > kSilence_s) {
+    silent_since_.store(t);
+    spdlog::warn("{}", silence_line(t - last_packet_at_));
+  }
+}
+
+void RoomTrackerInput::log_problems(Timestamp t) {
+  // One line each, as the receiver words them (bad packets, bodies of unconfigured ids said
+  // once each), at most kPerSecond a second: a flood of bad packets is counted, not printed.
+  constexpr int kPerSecond = 10;
+  if (problems_window_ < 0 || t - problems_window_ >= 1.0) {
+    if (problems_held_ > 0)
+      spdlog::warn("{}: {} more problem lines in the last second not shown ({} bad packets in all)", name_,
+                   problems_held_, rx_->counters().bad_packets);
+    problems_window_ = t;
+    problems_in_window_ = problems_held_ = 0;
+  }
+  for (const std::string& line : rx_->take_problems()) {
+    if (problems_in_window_++ < kPerSecond) spdlog::warn("{}", line);
+    else ++problems_held_;
+  }
+}
+
+void RoomTrackerInput::poll(Timestamp /*now_s*/, Timestamp display_time, TrackingSnapshot& s) {
+  // Ages on the receive clock (kumite::now()); the display time relative to the frame's own now.
+  const Timestamp t = now();
+  s.head.reset();
+  s.measured_at = -1;
+  s.measured_ready_at = -1;
+  s.cameras.clear();
+  s.source = {};
+  const tracking::ReceiverCounters n = rx_->counters();
+  s.frame_sets = n.frames;
+  watch_packets(t, n.packets);
+  log_problems(t);
+  if (rx_->version() != seen_) {
+    if (const auto f = rx_->poll(); f && f->sequence != seen_) {
+      seen_ = f->sequence;
+      take(*f);
+    }
+  }
+  for (std::size_t r = 0; r < s.bodies.size(); ++r) {
+    auto& out = s.bodies[r];
+    out = last_[r];
+    if (out) out->status = status_of(r, t);
+  }
+  const auto h = static_cast<std::size_t>(recognition::Role::head);
+  if (!last_[h]) {
+    s.state = TrackerState::waiting;
+  } else {
+    BodyPose p = *last_[h];
+    p.status = status_of(h, t);
+    // Extrapolated to the display time while fresh, from the measurement before (as the poses file's head).
+    if (p.status == TrackingStatus::tracked && prev_[h]) {
+      // The interval on the sender's clock when it sends one (DTrack's ts: packets that
+      // arrive in a burst would make a velocity of the receive times jump), else on ours.
+      const double src_dt = last_source_t_[h] - prev_source_t_[h];
+      const double dt = last_source_t_[h] >= 0 && prev_source_t_[h] >= 0 && src_dt > 0
+                            ? src_dt
+                            : p.timestamp - prev_[h]->timestamp;
+      if (dt > 1e-4 && dt <= kFresh_s) {
+        const double ahead = std::clamp(display_time - p.timestamp, 0.0, kFresh_s);
+        for (std::size_t k = 0; k < 3; ++k) p.position[k] += (last_[h]->position[k] - prev_[h]->position[k]) / dt * ahead;
+      }
+    }
+    s.head = p;
+    s.measured_at = last_[h]->timestamp;
+    s.measured_ready_at = last_[h]->ready_at;
+    s.state = p.status == TrackingStatus::tracked    ? TrackerState::tracked
+              : p.status == TrackingStatus::coasting ? TrackerState::coasting
+                                                     : TrackerState::lost;
+  }
+  if (!rx_->running()) s.state = TrackerState::stopped;
+  take_strikes(recognition_.get(), s);
+}
+
 /// The recognition thread [recognition] asks for (nullptr: none). A model that cannot be read
 /// (missing, cut, damaged) takes out recognition alone: one error line, and `fault` says so
 /// for the console and the health report; the tracker starts as ever.
@@ -738,10 +1023,17 @@ std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& con
     return make_fixed_head_input("tracking.source = \"none\"");
   // On the simulated clock a source with a clock of its own (a file) follows the frames'
   // time; live cameras cannot, and stay on the wall clock (said once).
-  const bool simulated = options.simulated_clock && config.tracking.source != TrackingSource::live;
+  const bool network = config.tracking.source == TrackingSource::dtrack || config.tracking.source == TrackingSource::osc;
+  const bool simulated = options.simulated_clock && config.tracking.source != TrackingSource::live && !network;
   if (options.simulated_clock && !simulated)
-    spdlog::warn("tracking: live cameras run on the wall clock: under simulated time the frames and the visitor drift "
-                 "apart as the machine's load decides");
+    spdlog::warn("tracking: {} run on the wall clock: under simulated time the frames and the visitor drift "
+                 "apart as the machine's load decides",
+                 network ? "a room's tracker's packets" : "live cameras");
+  if (network) {
+    std::string fault;
+    auto rec = make_recognition(config, fault);
+    return std::make_unique<RoomTrackerInput>(config, std::move(rec), std::move(fault));
+  }
   if (config.tracking.source == TrackingSource::poses) {
     auto file = at_key(config, "tracking.poses",
                        [&] { return recognition::read_poses_csv(config.resolve(config.tracking.poses)); });

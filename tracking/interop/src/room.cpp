@@ -132,8 +132,13 @@ int to_room_frame(const DtrackFrame& in, const DtrackInput& input, RoomFrame& ou
     r.tracked = b.tracked();
     r.quality = b.quality;
     if (r.tracked) {
+      const Mat rot = input.room.apply_rotation(b.rotation);
       r.position_m = input.room.apply_position(b.position_m);
-      r.orientation = quaternion_from_rotation(input.room.apply_rotation(b.rotation));
+      if (role >= 0) {  // the point of interest, not DTrack's body origin ([dtrack.offsets])
+        const Vec d = mul(rot, input.role_offset_m[static_cast<std::size_t>(role)]);
+        for (std::size_t k = 0; k < 3; ++k) r.position_m[k] += d[k];
+      }
+      r.orientation = quaternion_from_rotation(rot);
     }
   };
   for (const auto& b : in.bodies) {
@@ -175,7 +180,7 @@ namespace {
 
 void read_dtrack_table(const TomlTable* t, DtrackInput& cfg) {
   t->only({"port", "bind_address", "multicast_group", "room_axes", "rotation", "translation_m", "conjugate_body",
-           "bodies"});
+           "bodies", "offsets"});
   t->read("port", cfg.port, 1, 65535);
   if (t->read("bind_address", cfg.bind_address, false)) {
     in_addr a{};
@@ -234,6 +239,12 @@ void read_dtrack_table(const TomlTable* t, DtrackInput& cfg) {
         cfg.role_body[r] = static_cast<std::int32_t>(*id);
       }
     }
+  }
+  if (const auto offsets = t->opt_table("offsets")) {
+    std::vector<std::string_view> roles(kRoleNames.begin(), kRoleNames.end());
+    offsets->only(roles);
+    for (std::size_t r = 0; r < kRoleNames.size(); ++r)
+      offsets->read(kRoleNames[r], cfg.role_offset_m[r], {-1, 1, "m"});
   }
 }
 

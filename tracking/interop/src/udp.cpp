@@ -77,6 +77,17 @@ void Receiver::publish(RoomFrame& frame) {
   frame.published_at = now();
   latest_.publish(frame);
   frames_.fetch_add(1, std::memory_order_relaxed);
+  if (on_publish_) on_publish_(frame);
+}
+
+std::string Receiver::last_sender() const {
+  const std::uint64_t v = last_sender_.load(std::memory_order_relaxed);
+  if (!(v >> 48)) return {};
+  in_addr a{};
+  a.s_addr = static_cast<std::uint32_t>(v >> 16);
+  char host[INET_ADDRSTRLEN] = "?";
+  inet_ntop(AF_INET, &a, host, sizeof host);
+  return fmt::format("{}:{}", host, static_cast<unsigned>(v & 0xffff));
 }
 
 void Receiver::problem(std::string line) {
@@ -172,6 +183,7 @@ void DtrackReceiver::run() {
       if (n < 0) break;  // EAGAIN: none left (or an error the next poll() reports again)
       const Timestamp received = now();
       packets_.fetch_add(1, std::memory_order_relaxed);
+      note_sender(from.sin_addr.s_addr, ntohs(from.sin_port));
       if (static_cast<std::size_t>(n) > options_.buffer_bytes) {
         oversized_.fetch_add(1, std::memory_order_relaxed);
         bad_packets_.fetch_add(1, std::memory_order_relaxed);

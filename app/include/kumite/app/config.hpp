@@ -21,6 +21,7 @@
 
 #include "kumite/content/planner.hpp"
 #include "kumite/content/tunables.hpp"
+#include "kumite/tracking/interop.hpp"
 
 namespace kumite::app {
 
@@ -139,8 +140,10 @@ struct FighterSection {
 
 /// none: the head at its default; recording: the tracker on recorded camera frames; live: on
 /// the cameras; poses: a poses.csv (kumite-track --out, or a room's own tracker) played on its
-/// timestamps as if tracked (issue 14).
-enum class TrackingSource { none, recording, live, poses };
+/// timestamps as if tracked (issue 14); dtrack: a room's own ART DTrack tracker (DTrack ASCII
+/// over UDP, [tracking.dtrack]); osc: poses sent as OSC (/rigidbody/<id>/transformation, in
+/// Kumite's room, [tracking.osc]; e.g. an OptiTrack room through NatNetThree2OSC) (issue 55).
+enum class TrackingSource { none, recording, live, poses, dtrack, osc };
 std::string_view to_string(TrackingSource s);
 
 struct TrackingConfig {
@@ -150,6 +153,16 @@ struct TrackingConfig {
   std::filesystem::path recording;    ///< recording folder (source = "recording")
   std::filesystem::path poses;        ///< poses.csv (source = "poses")
   bool poses_loop = true;             ///< source = "poses": start the file again at its end
+  /// [tracking.dtrack] (source = "dtrack"): port, multicast group, room transform, body id of
+  /// each role, per-role offsets; read by kumite::tracking::parse_dtrack_config (tracking/README.md).
+  tracking::DtrackInput dtrack;
+  /// [tracking.osc] (source = "osc"): port, multicast_group and [tracking.osc.bodies] only (the
+  /// poses come in Kumite's room: no room transform). Default port 9000.
+  tracking::DtrackInput osc = [] {
+    tracking::DtrackInput o;
+    o.port = 9000;
+    return o;
+  }();
   /// The glasses' body: by default the body tracking.toml names by its role, `head` (body 0,
   /// said once, when none is named so); `head_body = N` picks body N by its index instead.
   std::optional<int> head_body;

@@ -112,6 +112,10 @@ class TrackingInput {
   virtual std::string describe() const = 0;
   /// The console's tracking line when there is no tracker (TrackerState::none).
   virtual std::string none_why() const { return "no tracking"; }
+  /// The source's own line for the console when the snapshot's SourceStats say nothing (a
+  /// room's tracker: "dtrack: port 5000, 1200 frames, 0 bad packets, last from ... 0.01 s
+  /// ago"); made when asked, live only (a replay has none). "": nothing to say.
+  virtual std::string source_line() const { return {}; }
   /// The cameras' names, in the order of TrackingSnapshot::cameras (fixed once it is made).
   virtual const std::vector<std::string>& camera_names() const {
     static const std::vector<std::string> none;

@@ -152,16 +152,24 @@ struct DtrackInput {
   /// DTrack body id of each role (index as kRoleNames), -1 = none. With at least one set,
   /// bodies of other ids are counted and said once each ("not configured"), never used.
   std::array<std::int32_t, 5> role_body{-1, -1, -1, -1, -1};
+  /// m, per role (index as kRoleNames): a point fixed to the body, in the body's own frame as
+  /// RoomBody::orientation maps it (with conjugate_body: Kumite's axes when the body is in its
+  /// calibrated pose, +X right, +Y up, +Z back), reported instead of DTrack's body origin
+  /// ([<table>.offsets], each coordinate within ±1 m; default 0: the origin). Applied by
+  /// to_room_frame to tracked bodies with a role; to_dtrack_frame does not take it back out.
+  std::array<std::array<double, 3>, 5> role_offset_m{};
   bool has_roles() const;
   /// The role of a body id, -1 when none.
   int role_of(std::int32_t id) const;
+  bool operator==(const DtrackInput&) const = default;
 };
 
 /// Reads the table at `table_path` (dotted: "dtrack", "tracking.dtrack") of a TOML document.
 /// Keys (all optional): port (1..65535), bind_address, multicast_group (224.0.0.0/4),
 /// room_axes ("z_up" | "y_up"), rotation ([[r00,r01,r02],[..],[..]], a rotation, det +1; over
 /// room_axes), translation_m ([x,y,z], |v| <= 100 m), conjugate_body (bool), and
-/// [<table>.bodies] head/left_hand/right_hand/left_foot/right_foot = id (0..255, each id once).
+/// [<table>.bodies] head/left_hand/right_hand/left_foot/right_foot = id (0..255, each id once),
+/// [<table>.offsets] the same roles = [x, y, z] (m, the body's frame, each within ±1 m).
 /// Throws kumite::Error "file:line: key: message". No table: the defaults.
 DtrackInput parse_dtrack_config(std::string_view text, std::string_view file,
                                 std::string_view table_path = "dtrack");
@@ -251,6 +259,13 @@ class Receiver {
   /// ("dtrack 127.0.0.1:40123: packet:2: 6d: ..."); at most 100 are kept between calls (the
   /// rest only counted: a last line says how many were left out).
   std::vector<std::string> take_problems();
+  /// Where the newest datagram came from ("127.0.0.1:40123"; "" before the first, or when the
+  /// receiver does not know: OSC).
+  std::string last_sender() const;
+  /// Called on the receiver's thread with each frame as it is published (after poll() can see
+  /// it): every frame, where poll() gives the newest only. Set it before start(); keep it short
+  /// and without waiting (the installation pushes the roles' poses to its recognition thread).
+  void on_publish(std::function<void(const RoomFrame&)> hook) { on_publish_ = std::move(hook); }
 
  protected:
   Receiver() = default;
@@ -260,14 +275,20 @@ class Receiver {
   void publish(RoomFrame& frame);      ///< stamps published_at and sequence
   void problem(std::string line);
   void note_frame_number(std::uint64_t frame);
+  /// Notes a datagram's sender (IPv4 address in network order, port in host order).
+  void note_sender(std::uint32_t address_be, std::uint16_t port) {
+    last_sender_.store((std::uint64_t{1} << 48) | (std::uint64_t{address_be} << 16) | port, std::memory_order_relaxed);
+  }
 
   std::atomic<bool> stopping_{false};
   std::atomic<int> bound_port_{0};
   std::atomic<std::uint64_t> packets_{0}, frames_{0}, bad_packets_{0}, oversized_{0}, unconfigured_{0},
       frame_gaps_{0};
+  std::atomic<std::uint64_t> last_sender_{0};  ///< bit 48 set: known; address << 16 | port
 
  private:
   LatestValue<RoomFrame> latest_;
+  std::function<void(const RoomFrame&)> on_publish_;
   std::thread thread_;
   std::uint64_t sequence_ = 0;
   bool have_frame_number_ = false;
