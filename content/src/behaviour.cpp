@@ -964,7 +964,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
        (outside_area && !paused_)))
     following = true;
   if (following) {
-    const double step = std::min(off.norm(), (approach() || reel_goal_ ? tun_.step_in_speed_mps : tun_.walk_speed_mps) * dt);
+    const double step = std::min(off.norm(), (approach() ? tun_.step_in_speed_mps : tun_.walk_speed_mps) * dt);
     if (off.norm() > 1e-9) spot_xz_m_ += off / off.norm() * step;
     if (off.norm() > 1e-9 && dt > 0) spot_velocity_ = off / off.norm() * step / dt;
     if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m) {

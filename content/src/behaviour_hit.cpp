@@ -4,7 +4,7 @@
 // velocity), so the struck point first moves along the blow. Each chain is a damped spring
 // (stepped exactly, not integrated: the same numbers at any frame rate's steps) whose peak is
 // the chain's largest reel times the blow's share; it is laid on the pose composed from the
-// motion (pose_) before the decode, so it rides on whatever plays (rest, following, strikes,
+// motion (pose_) before the decode (the arms turned with their shoulders), so it rides on whatever plays (rest, following, strikes,
 // blocks), and d(t) and the held feet act on top of it as on any pose. The legs are not
 // touched: held feet stay held.
 #include <algorithm>
@@ -171,8 +171,13 @@ bool Behaviour::reel_pose() {
   f.chest = (rt * f.chest).normalized();
   f.head_dir = rh * (rt * f.head_dir);
   for (int s = 0; s < 2; ++s) {
-    const Quaterniond rs = rotation_of(reel_.theta[s == kLeft ? kShoulderL : kShoulderR]);
-    f.clavicle_dir[static_cast<std::size_t>(s)] = rs * (rt * f.clavicle_dir[static_cast<std::size_t>(s)]);
+    // The arm rides with its shoulder girdle: its direction and pole turn with it (held in the
+    // room while the shoulder moved, the elbow swung 67 mm a frame under two full blows).
+    const auto us = static_cast<std::size_t>(s);
+    const Quaterniond r = rotation_of(reel_.theta[s == kLeft ? kShoulderL : kShoulderR]) * rt;
+    f.clavicle_dir[us] = r * f.clavicle_dir[us];
+    f.arm_n[us] = r * f.arm_n[us];
+    f.arm_pole[us] = r * f.arm_pole[us];
   }
   return true;
 }
