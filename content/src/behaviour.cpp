@@ -900,6 +900,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   Vector2d goal = spot_xz_m_;
   if (dist > 1e-6) goal = head_xz - to_head / dist * follow_distance_m_;
   if (recentre_goal_) goal = *recentre_goal_;
+  if (reel_goal_) goal = *reel_goal_;  // stepping back from a large blow
   if (const Approach* a = approach()) {
     goal = a->goal_xz;  // stepping in before a strike
   } else if (strike_pending()) {
@@ -928,7 +929,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   // the visitor stands stance_step_min_m farther than the strike distance, the fighter waits.
   bool wait = false;
   if (tun_.stance_step_min_m > 0 && !walk_segments_.empty() && !approach() && !strike_pending() && !paused_ &&
-      dist > 0.05) {
+      !reel_goal_ && dist > 0.05) {
     const Vector2d fwd(std::sin(facing_rad_), std::cos(facing_rad_));
     const double along = off.dot(fwd);
     const double sideways = (off - along * fwd).norm();
@@ -959,7 +960,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
                                                        tun_.arrive_tolerance_m;
   if (outside_area && !paused_) wait = false;
   if (!wait && !following &&
-      (off.norm() > tun_.follow_tolerance_m || (approach() && off.norm() > tun_.arrive_tolerance_m) || (outside_area && !paused_)))
+      (off.norm() > tun_.follow_tolerance_m || ((approach() || reel_goal_) && off.norm() > tun_.arrive_tolerance_m) ||
+       (outside_area && !paused_)))
     following = true;
   if (following) {
     const double step = std::min(off.norm(), (approach() ? tun_.step_in_speed_mps : tun_.walk_speed_mps) * dt);
@@ -968,6 +970,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
     if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m) {
       following = false;
       recentre_goal_.reset();
+      reel_goal_.reset();
     }
   }
   // Face the visitor; while stepping in or back before a strike, or setting a kick's support
@@ -1098,6 +1101,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   previous_.time_s += dt * previous_.rate;
   blend_elapsed_s_ += dt;
   if (!switch_offsets_due_) switch_elapsed_s_ += dt;
+  // A blow (hit()): a strike of its own before its contact leaves for rest (behaviour_hit.cpp).
+  if (abort_until_ >= 0) abort_strike_for_blow(now);
   const bool contact_now = striking() && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
   // (a block, in place before its cross-fade in is done, holds its clip until it is: leaving
   // mid-blend would drop the motion it blends from, and the body jumped 25 cm in one frame)
@@ -1110,6 +1115,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   if (recovering() && blend_elapsed_s_ >= tun_.blend_time_s && previous_.time_s >= strike_.release_end_s) enter(Idle{AtSpot{}});
   // (not while a strike's plan is awaited: it starts from the step, not from a blend out of it)
   if (stance_step() && !pending() && current_.time_s >= stance_step()->end_s) end_stance_step(now);
+  if (reel_goal_ && now > reel_goal_until_) reel_goal_.reset();  // a large blow's step back, given up
   if (locomotion()) update_follow(dt, head);
   update_step_in(dt);
   update_support_step(dt);
@@ -1143,6 +1149,9 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       strike_.contact_time_s = current_.time_s;
       strike_.release_end_s = release_end_s(strike_.contact_time_s);
       ramp = 1;
+    } else if (strike_.aborted) {
+      // Aborted by a blow: from its weight then to none over release_time_s.
+      ramp = strike_.abort_ramp * (1 - smoothstep((t - strike_.abort_s) / std::max(1e-6, strike_.release_end_s - strike_.abort_s)));
     } else {
       ramp = strike_.contact_done ? ramp_out(t) : ramp_in(t);
     }
@@ -1181,9 +1190,12 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   }
   locks_.min_root_drop_m = std::clamp(last_drop + v_lo * dt, 0.0, tun_.max_root_drop_m);
   locks_.max_root_drop_m = std::clamp(std::min(last_drop + v_hi * dt, most_drop), locks_.min_root_drop_m, tun_.max_root_drop_m);
+  // A blow's reel laid on the pose (hit(): none in orders mode, nor before a blow).
+  advance_reel(dt);
+  const bool reeled = reel_pose();
   AdaptJob job;
   job.rig = &rig;
-  job.pose = &pose_;
+  job.pose = reeled ? &reeled_pose_ : &pose_;
   job.reach = reach;
   job.feet = have_pose_ ? &locks_ : nullptr;
   job.local_rotations = std::span(local_).first(n);

@@ -392,6 +392,7 @@ class FighterImpl final : public Fighter {
   template <class Joint>
   void judge_contacts(const FighterInput& in, const Eigen::Vector3d& head, const Eigen::Vector3d& neck,
                       const Eigen::Vector3d& pelvis, const Joint& joint) {
+    const PlannerTunables& t = spar_.tunables();
     for (const VisitorBody& b : in.bodies) {
       const auto r = static_cast<std::size_t>(b.role);
       if (b.role == recognition::Role::head || r >= last_seen_.size()) continue;
@@ -407,7 +408,7 @@ class FighterImpl final : public Fighter {
       ls = LastSeen{b.position_m, b.t, true};
       if (!had || dt <= 0 || dt > 0.1 || in.now < contact_until_[r]) continue;
       const double speed = (b.position_m - from).norm() / dt;
-      if (speed < kContactSpeed_mps) continue;
+      if (speed < t.hit_min_speed_mps) continue;  // a touch, not a blow
       int side = -1;
       for (int s = 0; s < 2; ++s) {
         const auto el = joint(s == 0 ? CanonicalJoint::l_elbow : CanonicalJoint::r_elbow);
@@ -426,7 +427,36 @@ class FighterImpl final : public Fighter {
       e.target = b.position_m;
       own_events_.push_back(e);
       contact_until_[r] = in.now + kStrikeOver_s;
+      if (side < 0) reel(t, from, b.position_m, dt, head, neck, pelvis, in.now);
     }
+  }
+  /// A blow to the body: the fighter reels from the next drawn frame (this update's), at the
+  /// place the fist's way first entered the head or torso, along the fist's velocity.
+  void reel(const PlannerTunables& t, const Eigen::Vector3d& from, const Eigen::Vector3d& to, double dt,
+            const Eigen::Vector3d& head, const Eigen::Vector3d& neck, const Eigen::Vector3d& pelvis, Timestamp now) {
+    const int n = std::clamp(static_cast<int>((to - from).norm() / 0.005), 1, 64);
+    Behaviour::HitOrder h;
+    h.point_m = to;
+    for (int i = 0; i <= n; ++i) {
+      const Eigen::Vector3d p = from + (to - from) * (static_cast<double>(i) / n);
+      const bool in_head = segment_distance(p, p, head, head) <= kFistRadius_m + kHeadRadius_m;
+      if (in_head || segment_distance(p, p, neck, pelvis) <= kFistRadius_m + kTorsoRadius_m) {
+        h.point_m = p;
+        h.head = in_head;
+        break;
+      }
+    }
+    h.velocity_mps = (to - from) / dt;
+    const double speed = h.velocity_mps.norm();
+    h.share = std::clamp((speed - t.hit_min_speed_mps) / (t.hit_full_speed_mps - t.hit_min_speed_mps), 0.0, 1.0);
+    constexpr double kRad = 3.14159265358979323846 / 180;
+    h.head_max_rad = t.hit_head_max_deg * kRad;
+    h.trunk_max_rad = t.hit_trunk_max_deg * kRad;
+    h.shoulder_max_rad = t.hit_shoulder_max_deg * kRad;
+    h.stiffness_rad_s = t.hit_stiffness_rad_s;
+    h.damping_ratio = t.hit_damping_ratio;
+    h.step_back_m = h.share >= t.hit_step_back_share ? t.hit_step_back_m : 0.0;
+    behaviour_.hit(h, now);
   }
   /// m: the least distance between segments a0-a1 and b0-b1 (sampled finely enough for a
   /// fist's way in one frame against a bone: 1 mm steps up to 64 samples, then exact on b).
@@ -444,7 +474,6 @@ class FighterImpl final : public Fighter {
     return best;
   }
   static constexpr double kStrikeOver_s = 0.3;        ///< s after a strike's arrival before the same limb counts again
-  static constexpr double kContactSpeed_mps = 1.5;    ///< m/s: slower is a touch, not a blow
   static constexpr double kFistRadius_m = 0.05;       ///< m, a glove or shoe round its tracked point
   static constexpr double kForearmRadius_m = 0.05;    ///< m, the fighter's forearm capsule
   static constexpr double kHeadRadius_m = 0.12;       ///< m, round the fighter's head joint

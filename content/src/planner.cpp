@@ -68,6 +68,17 @@ std::string validate(const PlannerTunables& t) {
   if (!in(t.kick_share, 0, 1)) return range("kick_share", t.kick_share, 0, 1, "");
   if (!in(t.block_max_rate, 1, 4)) return range("block_max_rate", t.block_max_rate, 1, 4, "");
   if (std::string threat = validate(t.threat); !threat.empty()) return threat;
+  if (!in(t.hit_min_speed_mps, 0.1, 20)) return range("hit_min_speed_mps", t.hit_min_speed_mps, 0.1, 20, "m/s");
+  if (!in(t.hit_full_speed_mps, 0.2, 50)) return range("hit_full_speed_mps", t.hit_full_speed_mps, 0.2, 50, "m/s");
+  if (!(t.hit_full_speed_mps > t.hit_min_speed_mps))
+    return fmt::format("hit_full_speed_mps: {} must be above hit_min_speed_mps ({}) m/s", t.hit_full_speed_mps, t.hit_min_speed_mps);
+  if (!in(t.hit_head_max_deg, 0, 45)) return range("hit_head_max_deg", t.hit_head_max_deg, 0, 45, "deg");
+  if (!in(t.hit_trunk_max_deg, 0, 30)) return range("hit_trunk_max_deg", t.hit_trunk_max_deg, 0, 30, "deg");
+  if (!in(t.hit_shoulder_max_deg, 0, 45)) return range("hit_shoulder_max_deg", t.hit_shoulder_max_deg, 0, 45, "deg");
+  if (!in(t.hit_stiffness_rad_s, 4, 40)) return range("hit_stiffness_rad_s", t.hit_stiffness_rad_s, 4, 40, "rad/s");
+  if (!in(t.hit_damping_ratio, 0.4, 1)) return range("hit_damping_ratio", t.hit_damping_ratio, 0.4, 1, "");
+  if (!in(t.hit_step_back_m, 0, 0.8)) return range("hit_step_back_m", t.hit_step_back_m, 0, 0.8, "m");
+  if (!in(t.hit_step_back_share, 0, 1)) return range("hit_step_back_share", t.hit_step_back_share, 0, 1, "");
   return "";
 }
 

@@ -1242,6 +1242,215 @@ int run_spar(const SparArgs& a) {
   return 0;
 }
 
+// ---- hits ---------------------------------------------------------------------------------
+// Hit reactions against a SYNTHETIC visitor: scripted blows of its right fist into the sparring
+// fighter's drawn head or torso. Each blow's figures are judged on the drawn joints beside a
+// run the same in everything up to that blow, with the fist held still where the blow starts.
+
+struct HitsArgs {
+  std::string db, out, report;
+  std::string character = "kenji";
+};
+
+void add_hits(CLI::App& app, HitsArgs& a) {
+  auto* cmd = app.add_subcommand("hits", "Hit reactions: SYNTHETIC blows into the sparring fighter's head and torso (and a "
+                                         "slow touch, and a blow during its own punch); the fighter's BVH and, per blow, the "
+                                         "struck point's move beside a run without it, as JSON");
+  cmd->add_option("--db", a.db, "fighter.kdb")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--out", a.out, "hits.bvh (the fighter, every blow)")->required();
+  cmd->add_option("--report", a.report, "hits.json")->required();
+  cmd->add_option("--character", a.character, "character name or BVH file")->capture_default_str();
+}
+
+namespace {
+struct ScriptedBlow {
+  std::string label;
+  double at_s = 0;           ///< s: the fist starts 0.30 m in front of its aim
+  CanonicalJoint aim = CanonicalJoint::head;
+  double aside_m = 0;        ///< m toward the fighter's left shoulder (negative: right)
+  double speed_mps = 0;
+  bool punch_first = false;  ///< the fighter is ordered a right punch 3 updates before (its own strike under way)
+  // Found from the run without it:
+  int k0 = -1;
+  Eigen::Vector3d start{0, 0, 0}, dir{0, 0, -1};
+};
+struct HitsRun {
+  Clip clip;
+  std::vector<std::vector<Eigen::Vector3d>> joints;
+  std::vector<FighterAction> actions;
+  std::vector<std::pair<int, FighterEvent>> events;
+};
+constexpr double kHitsDt = 1.0 / 60;
+const Eigen::Vector3d kHitsVisitorHead(0, 1.65, -1.6);
+const Eigen::Vector3d kHitsGuard(-0.15, 1.45, -1.8);
+
+/// The session with `blows` (those with k0 set); `held`: the last one's fist stays where it starts.
+HitsRun run_hits(const FighterConfig& cfg, const Rig& rig, const std::vector<ScriptedBlow>& blows, bool held, int updates) {
+  auto f = Fighter::create(cfg);
+  HitsRun r;
+  r.clip.name = "hits";
+  r.clip.skeleton = rig.skeleton;
+  r.clip.unit_m = rig.unit_m;
+  r.clip.frame_time_s = kHitsDt;
+  const auto n = static_cast<std::size_t>(rig.joint_count());
+  FighterOutput out;
+  constexpr double kTravel_m = 0.45, kStill_s = 0.3;
+  for (int k = 0; k < updates; ++k) {
+    FighterInput in;
+    in.now = k * kHitsDt;
+    in.dt_s = k ? kHitsDt : 0;
+    in.head_m = kHitsVisitorHead;
+    Eigen::Vector3d fist = kHitsGuard;
+    bool tracked = true;
+    std::vector<kumite::Order> orders;
+    for (std::size_t i = 0; i < blows.size(); ++i) {
+      const ScriptedBlow& b = blows[i];
+      if (b.k0 < 0) continue;
+      if (b.punch_first && k == b.k0 - 3) orders.push_back(kumite::Order{in.now, kumite::OrderKind::punch_right, 0});
+      if (k < b.k0) continue;
+      const double gone = kHitsDt * (k - b.k0);
+      const bool last = held && i + 1 == blows.size();
+      const double travel_s = kTravel_m / b.speed_mps;
+      if (last || gone <= travel_s + kStill_s) {
+        fist = b.start + b.dir * (last ? 0.0 : std::min(kTravel_m, b.speed_mps * gone));
+      } else if (gone <= travel_s + kStill_s + 2 * kHitsDt) {
+        tracked = false;  // lost a moment, then back at the guard (no way through the body judged)
+      }
+    }
+    std::vector<VisitorBody> bodies(2);
+    bodies[0].role = kumite::recognition::Role::head;
+    bodies[0].position_m = kHitsVisitorHead;
+    bodies[0].tracked = true;
+    bodies[0].t = in.now;
+    bodies[1].role = kumite::recognition::Role::right_hand;
+    bodies[1].position_m = fist;
+    bodies[1].tracked = tracked;
+    bodies[1].t = in.now;
+    in.bodies = bodies;
+    in.orders = orders;
+    f->step(in, out);
+    r.joints.emplace_back(out.frame.joints.begin(), out.frame.joints.end());
+    r.actions.push_back(out.frame.action);
+    for (const FighterEvent& e : out.events) r.events.emplace_back(k, e);
+    r.clip.root_positions.push_back(out.frame.root_joint);
+    r.clip.local_rotations.insert(r.clip.local_rotations.end(), out.frame.local_rotations.begin(),
+                                  out.frame.local_rotations.begin() + static_cast<std::ptrdiff_t>(n));
+    ++r.clip.frame_count;
+  }
+  return r;
+}
+}  // namespace
+
+int run_hits(const HitsArgs& a) {
+  prepare_output("--out", a.out);
+  prepare_output("--report", a.report);
+  using CJ = CanonicalJoint;
+  FighterConfig cfg = g_fighter;
+  cfg.database = a.db;
+  const fs::path file = fs::exists(a.character) ? fs::path(a.character) : default_content_dir() / "characters" / (a.character + ".bvh");
+  cfg.characters = {file};
+  cfg.character_names = {a.character};
+  cfg.planner.mode = PlannerMode::spar;
+  cfg.planner.attack_rate_per_s = 0;
+  cfg.planner.counter_probability = 0;
+  const Rig rig = load_character_rig(file.string());
+  const int updates = 60 * 19;
+  std::vector<ScriptedBlow> script = {
+      {"head, 4 m/s", 3.0, CJ::head, 0, 4.0},
+      {"head, slow touch 1 m/s (under hit_min_speed_mps)", 5.0, CJ::head, 0, 1.0},
+      {"torso 0.12 m left of the midline, 9 m/s (full: steps back)", 7.0, CJ::chest, 0.12, 9.0},
+      {"head, 6 m/s, during its own right punch", 11.0, CJ::head, 0, 6.0, true},
+      {"torso 0.12 m right of the midline, 5 m/s", 15.0, CJ::chest, -0.12, 5.0},
+  };
+  nlohmann::json blows_json = nlohmann::json::array();
+  std::vector<ScriptedBlow> done;
+  std::vector<HitsRun> without;
+  for (ScriptedBlow b : script) {
+    // Aimed from the run with the blows before it (and this one's fist held where it starts).
+    ScriptedBlow probe = b;
+    probe.k0 = static_cast<int>(std::lround(b.at_s / kHitsDt));
+    probe.start = kHitsGuard;
+    std::vector<ScriptedBlow> before = done;
+    before.push_back(probe);
+    const HitsRun pre = run_hits(cfg, rig, before, true, probe.k0);
+    Eigen::Vector3d aim = pre.joints.back()[static_cast<std::size_t>(rig.skeleton.index(b.aim))];
+    const Eigen::Vector3d across =
+        (pre.joints.back()[static_cast<std::size_t>(rig.skeleton.index(CJ::l_shoulder))] -
+         pre.joints.back()[static_cast<std::size_t>(rig.skeleton.index(CJ::r_shoulder))]).normalized();
+    aim += across * b.aside_m;
+    Eigen::Vector3d u = kHitsVisitorHead - aim;
+    u.y() = 0;
+    u.normalize();
+    b.k0 = probe.k0;
+    b.start = aim + u * 0.30;
+    b.dir = -u;
+    done.push_back(b);
+    without.push_back(run_hits(cfg, rig, done, true, updates));
+  }
+  const HitsRun with = run_hits(cfg, rig, done, false, updates);
+  for (std::size_t i = 0; i < done.size(); ++i) {
+    const ScriptedBlow& b = done[i];
+    const HitsRun& w = without[i];
+    int kh = -1;
+    for (const auto& [k, e] : with.events)
+      if (kh < 0 && k >= b.k0 && k < b.k0 + 30 && e.kind == EventKind::visitor_hit) kh = k;
+    const auto diff = [&](int k, std::size_t j) {
+      return Eigen::Vector3d(with.joints[static_cast<std::size_t>(k)][j] - w.joints[static_cast<std::size_t>(k)][j]);
+    };
+    // The first update (from the blow's start) whose drawn joints differ from the run without it.
+    int first_moved = -1;
+    double most_diff = 0;
+    const int end = i + 1 < done.size() ? done[i + 1].k0 : updates;
+    for (int k = b.k0; k < end; ++k)
+      for (std::size_t j = 0; j < with.joints[0].size(); ++j) {
+        const double d = diff(k, j).norm();
+        most_diff = std::max(most_diff, d);
+        if (d > 0 && first_moved < 0) first_moved = k;
+      }
+    nlohmann::json bj = {{"label", b.label}, {"start_update", b.k0}, {"fist_speed_mps", b.speed_mps},
+                         {"fist_dir", {b.dir.x(), b.dir.y(), b.dir.z()}}, {"struck_joint", std::string(to_string(b.aim))},
+                         {"visitor_hit_update", kh}, {"first_update_drawn_differently", first_moved},
+                         {"largest_joint_difference_m", most_diff}};
+    if (kh >= 0) {
+      const auto j = static_cast<std::size_t>(rig.skeleton.index(b.aim));
+      const Eigen::Vector3d first = diff(kh, j);
+      double peak = 0;
+      int peak_at = kh;
+      for (int k = kh; k < std::min(end, kh + 30); ++k)
+        if (diff(k, j).dot(b.dir) > peak) peak = diff(k, j).dot(b.dir), peak_at = k;
+      bj["struck_point_on_contact_frame_m"] = {first.x(), first.y(), first.z()};
+      bj["struck_point_along_blow_on_contact_frame_m"] = first.dot(b.dir);
+      bj["struck_point_along_blow_peak_m"] = peak;
+      bj["peak_frames_after_contact"] = peak_at - kh;
+      bj["joints_before_contact_identical"] = first_moved < 0 || first_moved >= kh;
+      const int kr = static_cast<int>(std::find(with.actions.begin() + kh, with.actions.end(), FighterAction::recovering) -
+                                      with.actions.begin());
+      if (b.punch_first) {
+        int kc = -1;
+        for (const auto& [k, e] : w.events)
+          if (kc < 0 && k >= b.k0 && (e.kind == EventKind::hit || e.kind == EventKind::dodged || e.kind == EventKind::miss)) kc = k;
+        bool contact = false;
+        for (const auto& [k, e] : with.events)
+          if (k >= b.k0 && k < end && (e.kind == EventKind::hit || e.kind == EventKind::dodged || e.kind == EventKind::miss)) contact = true;
+        bj["own_punch_contact_update_without_blow"] = kc;
+        bj["own_punch_left_for_rest_update"] = kr;
+        bj["own_punch_reached_contact"] = contact;
+      }
+    }
+    blows_json.push_back(bj);
+  }
+  write_bvh(a.out, with.clip);
+  nlohmann::json report = {
+      {"visitor", "SYNTHETIC: head still at (0, 1.65, -1.6) m; its right fist at a guard, then per blow from 0.30 m in front of "
+                  "the fighter's drawn joint (+ aside along its shoulders) straight at it from the visitor's side for 0.45 m, "
+                  "held 0.3 s, lost two updates, back at the guard"},
+      {"fighter", {{"character", a.character}, {"mode", "spar"}, {"attack_rate_per_s", 0}, {"counter_probability", 0}}},
+      {"frame_rate_hz", 60}, {"bvh", a.out}, {"blows", blows_json}};
+  kumite::write_file_atomically(a.report, report.dump(2) + "\n");
+  fmt::print("{}\nwrote {} and {}\n", blows_json.dump(2), a.report, a.out);
+  return 0;
+}
+
 // ---- bench ---------------------------------------------------------------------------------
 
 struct BenchArgs {
@@ -1503,6 +1712,8 @@ int main(int argc, char** argv) {
   add_bout(app, bout_args);
   SparArgs spar_args;
   add_spar(app, spar_args);
+  HitsArgs hits_args;
+  add_hits(app, hits_args);
   CLI11_PARSE(app, argc, argv);
   try {
     if (!tunables_file.empty()) read_fighter_tunables(tunables_file, g_fighter.behaviour, g_fighter.retrieval);
@@ -1518,6 +1729,7 @@ int main(int argc, char** argv) {
     if (app.got_subcommand("quality")) return run_quality(quality_args);
     if (app.got_subcommand("bout")) return run_bout(bout_args);
     if (app.got_subcommand("spar")) return run_spar(spar_args);
+    if (app.got_subcommand("hits")) return run_hits(hits_args);
   } catch (const kumite::Error& e) {
     std::fprintf(stderr, "kumite-motion: %s\n", e.what());
     return 1;

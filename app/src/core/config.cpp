@@ -904,7 +904,16 @@ std::string to_toml(const InstallationConfig& c) {
                                           {"threat_min_closing_mps", p.threat.min_closing_mps},
                                           {"threat_horizon_s", p.threat.horizon_s},
                                           {"threat_aim_radius_m", p.threat.aim_radius_m},
-                                          {"threat_velocity_window_s", p.threat.velocity_window_s}});
+                                          {"threat_velocity_window_s", p.threat.velocity_window_s},
+                                          {"hit_min_speed_mps", p.hit_min_speed_mps},
+                                          {"hit_full_speed_mps", p.hit_full_speed_mps},
+                                          {"hit_head_max_deg", p.hit_head_max_deg},
+                                          {"hit_trunk_max_deg", p.hit_trunk_max_deg},
+                                          {"hit_shoulder_max_deg", p.hit_shoulder_max_deg},
+                                          {"hit_stiffness_rad_s", p.hit_stiffness_rad_s},
+                                          {"hit_damping_ratio", p.hit_damping_ratio},
+                                          {"hit_step_back_m", p.hit_step_back_m},
+                                          {"hit_step_back_share", p.hit_step_back_share}});
   }
   root.insert("fighter", std::move(fighter));
   const auto& t = c.tracking;

@@ -221,6 +221,34 @@ class Behaviour {
   /// there until the fist has passed. A strike order under way before its strike is dropped
   /// (order_ignored, blocking). False: it cannot (can_block) or no block fits.
   bool block(const BlockOrder& order, Timestamp now);
+  /// A blow the fighter took (the Fighter's contact judgement, spar mode): the visitor's fist
+  /// or foot entered its drawn head or torso. The struck chain reels (a damped spring on the
+  /// head about the neck, the trunk about the pelvis, the struck side's shoulder when the
+  /// blow lands off the midline) on top of whatever the fighter plays, starting with this
+  /// update; a strike of its own under way before its contact is aborted (a blend into rest,
+  /// once its own cross-fade in is done); a large blow steps it back.
+  struct HitOrder {
+    Eigen::Vector3d point_m{0, 0, 0};        ///< m, room: where the fist entered the body
+    Eigen::Vector3d velocity_mps{0, 0, 0};   ///< m/s, room: the fist's
+    bool head = false;                       ///< the head was struck (else the torso)
+    double share = 0;                        ///< 0..1: the blow's size (0: nothing happens)
+    double head_max_rad = 0.26, trunk_max_rad = 0.14, shoulder_max_rad = 0.21;  ///< rad, each chain's reel at share 1
+    double stiffness_rad_s = 10;             ///< rad/s, the spring's undamped angular frequency
+    double damping_ratio = 0.8;              ///< 0.4..1
+    double step_back_m = 0;                  ///< m stepped back (0: none)
+  };
+  /// False (nothing changed): a share of 0, a point or velocity not finite, or no pose yet.
+  bool hit(const HitOrder& order, Timestamp now);
+  /// The reel under way: the head, trunk and shoulders' rotation vectors (rad, room frame:
+  /// axis times angle) at the last update; all zero when none is.
+  struct ReelState {
+    bool active = false;
+    Eigen::Vector3d trunk{0, 0, 0}, head{0, 0, 0};
+    std::array<Eigen::Vector3d, 2> shoulder{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  };
+  ReelState reel() const;
+  /// Strikes aborted by a blow so far.
+  int strikes_aborted() const { return strikes_aborted_; }
   /// Strike toward an explicit room-frame target (tools, tests); same rules as order().
   void order_strike(const Order& order, const Eigen::Vector3d& target_room_m);
   /// Visitor safety: while on, the fighter backs off to keep_away_extra_m beyond its strike
@@ -324,6 +352,11 @@ class Behaviour {
     Timestamp in_place_t = -1;      ///< s: when the forearm was in place (-1: not yet)
     double fist_speed_mps = 0;
     Eigen::Vector3d intercept_m{0, 0, 0};  ///< m, room: the forearm's middle is brought here
+    // Aborted by a blow before its contact: d(t) goes from its weight then to none over
+    // release_time_s (segment s from abort_s to release_end_s) while the clip blends into rest.
+    bool aborted = false;
+    double abort_s = 0;       ///< segment s at the abort
+    double abort_ramp = 0;    ///< d(t)'s weight at the abort
   };
   const StrikeInfo& strike() const { return strike_; }
   int update_count() const { return updates_; }
@@ -457,6 +490,11 @@ class Behaviour {
   int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect = nullptr) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
+  /// Hit reactions (behaviour_hit.cpp): the springs advanced by dt; a strike aborted if one is
+  /// due and can leave now; the reel laid on pose_ into reeled_pose_ (false: none under way).
+  void advance_reel(double dt);
+  void abort_strike_for_blow(Timestamp now);
+  bool reel_pose();
   void judge_block_in_place(Timestamp now);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
                      double distance = 0);
@@ -677,6 +715,20 @@ class Behaviour {
   TrunkLean trunk_floor_;  ///< the least trunk fallback this frame (the last frame's, easing out)
   int trunk_floor_side_ = -1;  ///< the arm whose strike made it (-1: no punch yet)
   std::vector<FighterEvent> events_;
+  // Hit reactions: per chain (trunk, head, left shoulder, right shoulder) a rotation vector
+  // (rad, room) and its rate, a damped spring each (behaviour_hit.cpp).
+  struct Reel {
+    bool active = false;
+    std::array<Eigen::Vector3d, 4> theta{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    std::array<Eigen::Vector3d, 4> rate{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    double stiffness_rad_s = 10, damping_ratio = 0.8;
+    double since_s = 0;  ///< s since the last blow
+  } reel_;
+  MkmFrame reeled_pose_;                   ///< pose_ with the reel laid on (what is drawn while one is under way)
+  Timestamp abort_until_ = -1;             ///< s: a strike of its own before contact is aborted until then
+  std::optional<Eigen::Vector2d> reel_goal_;  ///< m, room: the spot a large blow steps the fighter back to
+  Timestamp reel_goal_until_ = 0;          ///< s: given up then
+  int strikes_aborted_ = 0;
   Timestamp time_ = 0;
   int updates_ = 0;
   double ramp_ = 0;

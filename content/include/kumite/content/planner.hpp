@@ -63,6 +63,18 @@ struct PlannerTunables {
   bool block = false;
  double block_max_rate = 2.0;                ///< a block is played up to this fast (segment s per s) to be in place in time
   ThreatTunables threat;                      ///< threat_* keys: what counts as a fist coming at it
+  /// Hit reactions (spar): the visitor's fist or foot entering the fighter's drawn head or
+  /// torso at least this fast is a blow (visitor_hit) and the fighter reels; slower is a touch
+  /// (nothing). Also the least speed of a fist meeting a forearm (blocked).
+  double hit_min_speed_mps = 1.5;
+  double hit_full_speed_mps = 6.0;            ///< m/s: a blow this fast or faster reels the fighter fully
+  double hit_head_max_deg = 15;               ///< deg: the head's largest reel about the neck (a full head blow)
+  double hit_trunk_max_deg = 8;               ///< deg: the trunk's about the pelvis (a full torso blow)
+  double hit_shoulder_max_deg = 12;           ///< deg: the struck side's shoulder's (a full blow off the midline)
+  double hit_stiffness_rad_s = 10;            ///< rad/s: the reel's spring (undamped angular frequency)
+  double hit_damping_ratio = 0.8;             ///< the spring's damping ratio (1: critical, < 1 overshoots a little)
+  double hit_step_back_m = 0.3;               ///< m: a large blow steps the fighter back this far (0: never)
+  double hit_step_back_share = 0.6;           ///< a blow of at least this share of full size steps back
   bool operator==(const PlannerTunables&) const = default;
 };
 
