@@ -1019,12 +1019,7 @@ void Behaviour::judge_contact(Timestamp now, const Vector3d& head) {
                     : strike_.target_reached ? FighterEvent::Kind::dodged
                                              : FighterEvent::Kind::miss;
   FighterEvent& e = emit(kind, now, strike_.order, FighterEvent::Reason::none, strike_.hit ? 0.0 : gap);
-  e.target = strike_.target_room_m;
-  e.segment = strike_.plan.segment;
-  e.start_frame = strike_.plan.start_frame;
-  e.contact_frame = strike_.plan.contact_frame;
-  e.contact_distance_m = strike_.contact_distance_m;
-  e.out_of_reach = !strike_.contact_reached;
+  describe_contact(strike_, e);
 }
 
 void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {

@@ -25,20 +25,6 @@ constexpr double kHoldPast_s = 0.12;
 constexpr double kInPlaceMargin_s = 1.0 / 60;
 }  // namespace
 
-BlockChoice StrikePlanner::plan_block(const BlockRequest& r) const {
-  const double k = db_->actor.leg_length_m / r.character_leg_length_m;
-  MkmFrame now = r.now, before = r.before;
-  before.root_xz_m = now.root_xz_m + (before.root_xz_m - now.root_xz_m) * k;
-  CanonicalPose pn, pb;
-  decode_canonical(actor_, now, pn);
-  decode_canonical(actor_, before, pb);
-  BlockQuery q;
-  pose_features(pn, pb, r.dt_s, ground_frame_of(pn), db_->actor.leg_length_m, db_->velocity_weight_s, q.features);
-  q.fist.point_m = (r.fist_local_m * k).cast<float>();
-  q.fist.velocity_mps = (r.fist_velocity_local_mps * k).cast<float>();
-  return retrieve_block(*db_, q, tunables_);
-}
-
 bool Behaviour::can_block() const {
   if (paused_ || !have_pose_ || db_->block_index.size == 0) return false;
   if (!(as<Idle>() || as<AwaitingPlan>() || as<Retaking>())) return false;
@@ -153,12 +139,8 @@ void Behaviour::judge_block_in_place(Timestamp now) {
   strike_.contact_distance_m = (wrist - strike_.target_room_m).norm();
   strike_.contact_reached = report_.reached;
   FighterEvent& e = emit(FighterEvent::Kind::block, now, strike_.order, FighterEvent::Reason::none);
+  describe_contact(strike_, e);
   e.target = strike_.intercept_m;
-  e.segment = strike_.plan.segment;
-  e.start_frame = strike_.plan.start_frame;
-  e.contact_frame = strike_.plan.contact_frame;
-  e.contact_distance_m = strike_.contact_distance_m;
-  e.out_of_reach = !strike_.contact_reached;
   e.limb = strike_.block_limb;
   e.side = strike_.effector.side;
   e.margin_s = strike_.fist_arrival_t - now;

@@ -22,6 +22,18 @@ using Eigen::Vector2d;
 /// moves the foot at (FootPlanter::redirect; a 0.3 m procedural step of step_time_s peaks near 2.1 m/s).
 inline constexpr double kRedirectPeakSpeed_mps = 2.5;
 
+/// A strike's (or block's) contact event: its target, the clip's segment, start and contact
+/// frames, how far the end was from its target and whether the limb reached (judge_contact,
+/// judge_block_in_place).
+inline void describe_contact(const Behaviour::StrikeInfo& s, FighterEvent& e) {
+  e.target = s.target_room_m;
+  e.segment = s.plan.segment;
+  e.start_frame = s.plan.start_frame;
+  e.contact_frame = s.plan.contact_frame;
+  e.contact_distance_m = s.contact_distance_m;
+  e.out_of_reach = !s.contact_reached;
+}
+
 inline double smoothstep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);

@@ -1,5 +1,6 @@
 // StrikePlanner: a strike request (pose, target) to a plan (segment, start and contact
 // frame): retarget onto the actor, features, retrieve(). Runs on the retrieval worker.
+#include <array>
 #include <chrono>
 
 #include "behaviour_internal.hpp"
@@ -14,20 +15,38 @@ Rig actor_rig(const Database& db) { return make_rig(db.actor_skeleton, {}, db.ac
 StrikePlanner::StrikePlanner(std::shared_ptr<const Database> db, RetrievalTunables tunables)
     : db_(std::move(db)), actor_(actor_rig(*db_)), tunables_(tunables) {}
 
-RetrievalQuery StrikePlanner::make_query(const StrikeRequest& r) const {
-  const double k = db_->actor.leg_length_m / r.character_leg_length_m;
+namespace {
+/// The query's pose features of the fighter's pose `now` (and `before`, dt_s earlier) on the
+/// database's actor; returns k = actor leg / character leg, which scales the query's points.
+double actor_pose_features(const Database& db, const Rig& actor, const MkmFrame& now_in, const MkmFrame& before_in,
+                           double dt_s, double character_leg_length_m, std::array<float, kFeatureDim>& features) {
+  const double k = db.actor.leg_length_m / character_leg_length_m;
   // Retarget onto the actor: MKM is normalised already except the root's horizontal
   // displacement, which scales with leg length (about the current root).
-  MkmFrame now = r.now, before = r.before;
+  MkmFrame now = now_in, before = before_in;
   before.root_xz_m = now.root_xz_m + (before.root_xz_m - now.root_xz_m) * k;
   CanonicalPose pn, pb;
-  decode_canonical(actor_, now, pn);
-  decode_canonical(actor_, before, pb);
+  decode_canonical(actor, now, pn);
+  decode_canonical(actor, before, pb);
+  pose_features(pn, pb, dt_s, ground_frame_of(pn), db.actor.leg_length_m, db.velocity_weight_s, features);
+  return k;
+}
+}  // namespace
+
+RetrievalQuery StrikePlanner::make_query(const StrikeRequest& r) const {
   RetrievalQuery q;
   q.group = r.group;
-  pose_features(pn, pb, r.dt_s, ground_frame_of(pn), db_->actor.leg_length_m, db_->velocity_weight_s, q.features);
+  const double k = actor_pose_features(*db_, actor_, r.now, r.before, r.dt_s, r.character_leg_length_m, q.features);
   q.target_m = (r.target_local_m * k).cast<float>();
   return q;
+}
+
+BlockChoice StrikePlanner::plan_block(const BlockRequest& r) const {
+  BlockQuery q;
+  const double k = actor_pose_features(*db_, actor_, r.now, r.before, r.dt_s, r.character_leg_length_m, q.features);
+  q.fist.point_m = (r.fist_local_m * k).cast<float>();
+  q.fist.velocity_mps = (r.fist_velocity_local_mps * k).cast<float>();
+  return retrieve_block(*db_, q, tunables_);
 }
 
 StrikePlan StrikePlanner::plan(const StrikeRequest& r) const {
