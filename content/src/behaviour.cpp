@@ -194,7 +194,7 @@ FighterAction Behaviour::action() const {
     FighterAction operator()(const Striking&) const { return FighterAction::striking; }
     FighterAction operator()(const Recovering&) const { return FighterAction::recovering; }
   };
-  if (striking() && strike_.block) return FighterAction::blocking;
+  if ((striking() && strike_.block) || parrying()) return FighterAction::blocking;
   return std::visit(Of{}, action_);
 }
 
@@ -1126,6 +1126,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
       pose_.arm_pole[side] = limit_folded_pole_turn(arm_poles_[static_cast<std::size_t>(side)], pose_.arm_pole[side], pose_.arm_n[side],
                                                     m.upper_arm_m[side], m.forearm_m[side], dt);
   }
+  // Sparring with blocks on: the guard and a parry laid on the arms (behaviour_guard.cpp).
+  apply_guard(dt, now);
   if (!have_pose_) pose_before_ = pose_;
 
   // d(t): zero at the strike start, the full error at contact, then back to zero over at least

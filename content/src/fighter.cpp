@@ -100,8 +100,9 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
                          e.target.y(), e.target.z());
     case K::block: {
       const char* arm = e.side == 0 ? "left" : "right";
-      const std::string what = fmt::format("{} (frames {}->{}) against the visitor's {}{} ({:.1f} m/s)", segment_name(e.segment),
-                                           e.start_frame, e.contact_frame, recognition::to_string(e.limb),
+      const std::string clip = e.segment < 0 ? std::string("a parry from the guard")
+                                             : fmt::format("{} (frames {}->{})", segment_name(e.segment), e.start_frame, e.contact_frame);
+      const std::string what = fmt::format("{} against the visitor's {}{} ({:.1f} m/s)", clip, recognition::to_string(e.limb),
                                            e.recognised ? ", recognised" : ", seen coming", e.speed_mps);
       if (e.margin_s < 0) return fmt::format("{}: late, the {} forearm in place {:.0f} ms after the fist", what, arm, -e.margin_s * 1000);
       return fmt::format("{}: the {} forearm in place {:.0f} ms before the fist", what, arm, e.margin_s * 1000);
@@ -304,6 +305,8 @@ class FighterImpl final : public Fighter {
     if (const std::optional<Order> o = spar_.step(p)) behaviour_.order(*o);
     // Sparring, it keeps the fighting distance (the visitor's fist reaches it).
     behaviour_.follow_at(t.mode == PlannerMode::spar ? t.fighting_distance_m : strike_distance_m_);
+    // Sparring with blocks on, it keeps its guard up (behaviour_guard.cpp).
+    behaviour_.set_guard(t.mode == PlannerMode::spar && t.block);
     if (t.mode == PlannerMode::spar) defend(in, f);
   }
   void set_planner(const PlannerTunables& tunables) override { spar_.set_tunables(tunables); }
@@ -385,7 +388,10 @@ class FighterImpl final : public Fighter {
     b.max_rate = t.block_max_rate;
     // Answered (or not) once per strike: the next block for this limb after it has passed.
     answered_until_[limb] = in.now + th->arrival_s + kStrikeOver_s;
-    if (!behaviour_.block(b, in.now)) ++score_.unanswered;
+    // From the guard a parry (none when both arms are busy with one); a block clip while the
+    // guard is not up (it comes up over 0.4 s after a strike of its own).
+    const bool answered = behaviour_.guarding() ? behaviour_.parry(b, in.now) : behaviour_.block(b, in.now);
+    if (!answered) ++score_.unanswered;
   }
   /// The visitor's fist or foot meeting the fighter's forearm (blocked) or body (visitor_hit):
   /// the way it moved since its last measurement against capsules on the drawn joints.

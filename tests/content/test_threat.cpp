@@ -9,6 +9,8 @@
 #include <limits>
 #include <vector>
 
+#include "kumite/content/behaviour.hpp"
+#include "kumite/content/canonical.hpp"
 #include "kumite/content/fighter.hpp"
 #include "kumite/content/threat.hpp"
 
@@ -160,7 +162,8 @@ namespace {
 struct PunchRun {
   std::vector<FighterEvent> events;
   std::vector<FighterAction> actions;
-  std::vector<Eigen::Vector3d> wrist_l, wrist_r;  // the drawn wrists (canonical joints found by name)
+  /// Per update: the drawn head, elbows and wrists (the character's canonical joints) and the fist.
+  std::vector<Eigen::Vector3d> head, elbow_l, wrist_l, elbow_r, wrist_r, fist;
   Fighter::SparScore score;
 };
 
@@ -173,6 +176,10 @@ PunchRun punch_at(const PlannerTunables& planner, bool nan_glove = false) {
   cfg.character_names = {"kenji"};
   cfg.planner = planner;
   auto f = Fighter::create(cfg);
+  const Rig rig = load_character_rig(cfg.characters[0].string());
+  const auto drawn = [&](const FighterOutput& o, CanonicalJoint j) {
+    return o.frame.joints[static_cast<std::size_t>(rig.skeleton.index(j))];
+  };
   FighterOutput out;
   const double dt = 1.0 / 60;
   Vector3d head(0, 1.65, -1.6);
@@ -197,6 +204,12 @@ PunchRun punch_at(const PlannerTunables& planner, bool nan_glove = false) {
     f->step(in, out);
     r.events.insert(r.events.end(), out.events.begin(), out.events.end());
     r.actions.push_back(out.frame.action);
+    r.head.push_back(drawn(out, CanonicalJoint::head));
+    r.elbow_l.push_back(drawn(out, CanonicalJoint::l_elbow));
+    r.wrist_l.push_back(drawn(out, CanonicalJoint::l_wrist));
+    r.elbow_r.push_back(drawn(out, CanonicalJoint::r_elbow));
+    r.wrist_r.push_back(drawn(out, CanonicalJoint::r_wrist));
+    r.fist.push_back(bodies[1].position_m);
     for (const Eigen::Vector3d& j : out.frame.joints)
       if (!j.allFinite()) ADD_FAILURE() << "a drawn joint is not finite at update " << k;
   }
@@ -237,6 +250,61 @@ TEST(Blocks, ASparringFighterWithBlocksOnBlocksAPunchSeenComingAndOnlyThen) {
   const PunchRun orders = punch_at(p);
   EXPECT_FALSE(has(orders.events, EventKind::block));
   EXPECT_EQ(std::count(orders.actions.begin(), orders.actions.end(), FighterAction::blocking), 0);
+}
+
+/// m: the least distance between the fist's step a0-a1 and the segment b0-b1 (sampled along the step).
+static double step_to_segment(const Vector3d& a0, const Vector3d& a1, const Vector3d& b0, const Vector3d& b1) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int i = 0; i <= 40; ++i) {
+    const Vector3d p = a0 + (a1 - a0) * (i / 40.0);
+    const Vector3d bb = b1 - b0;
+    const double s = std::clamp((p - b0).dot(bb) / std::max(1e-12, bb.squaredNorm()), 0.0, 1.0);
+    best = std::min(best, (p - (b0 + s * bb)).norm());
+  }
+  return best;
+}
+
+TEST(Blocks, TheGuardIsUpAndAParryPutsTheDrawnForearmAcrossTheFistsPathBeforeItReachesTheHeadWithoutAWhip) {
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  PlannerTunables p;
+  p.mode = PlannerMode::spar;
+  p.attack_rate_per_s = 0;
+  p.counter_probability = 0;
+  p.block = true;
+  const PunchRun on = punch_at(p);
+  p.block = false;
+  const PunchRun off = punch_at(p);
+  // The guard, judged on the drawn joints: 2-3 s (before the punch) both wrists well above where
+  // the same fighter without blocks holds them, and near the head's height.
+  double up_on = 0, up_off = 0;
+  for (int k = 120; k < 180; ++k) {
+    up_on += 0.5 * (on.wrist_l[k].y() + on.wrist_r[k].y()) / 60;
+    up_off += 0.5 * (off.wrist_l[k].y() + off.wrist_r[k].y()) / 60;
+  }
+  EXPECT_GT(up_on - up_off, 0.2) << "wrists at " << up_on << " m with the guard, " << up_off << " m without";
+  EXPECT_GT(up_on, on.head[150].y() - 0.15) << "the guard's wrists near the head's height";
+  // The fist's steps from the punch's start: the first that comes within fist + head radius
+  // (0.05 + 0.12 m) of the drawn head is its arrival; some step up to it passes within fist +
+  // forearm radius (0.05 + 0.05 m) of a drawn forearm.
+  int arrival = -1, met = -1;
+  for (int k = 181; k < 200 && arrival < 0; ++k) {
+    const Vector3d &a0 = on.fist[k - 1], &a1 = on.fist[k];
+    if (met < 0 && (step_to_segment(a0, a1, on.elbow_l[k], on.wrist_l[k]) <= 0.1 ||
+                    step_to_segment(a0, a1, on.elbow_r[k], on.wrist_r[k]) <= 0.1))
+      met = k;
+    if (step_to_segment(a0, a1, on.head[k], on.head[k]) <= 0.17) arrival = k;
+  }
+  ASSERT_GE(met, 0) << "no drawn forearm on the fist's path";
+  if (arrival >= 0) {
+    EXPECT_LE(met, arrival) << "the forearm was there after the fist reached the head";
+  }
+  // No whip: no drawn elbow or wrist faster than 10 m/s at any update (the fist itself: 6 m/s).
+  double fastest = 0;
+  for (std::size_t k = 1; k < on.wrist_l.size(); ++k)
+    for (const auto* v : {&on.elbow_l, &on.wrist_l, &on.elbow_r, &on.wrist_r})
+      fastest = std::max(fastest, ((*v)[k] - (*v)[k - 1]).norm() * 60);
+  EXPECT_LT(fastest, 10.0);
 }
 
 TEST(Blocks, AGloveThatReadsNanNowAndThenNeitherStopsNorBreaksTheFighter) {

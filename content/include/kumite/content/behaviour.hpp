@@ -221,6 +221,24 @@ class Behaviour {
   /// there until the fist has passed. A strike order under way before its strike is dropped
   /// (order_ignored, blocking). False: it cannot (can_block) or no block fits.
   bool block(const BlockOrder& order, Timestamp now);
+  /// Spar with blocks on (the Fighter sets it every update): the fighter keeps its guard up,
+  /// both forearms raised before its face and chest, whenever it is not striking; the guard
+  /// eases in over 0.4 s and out over 0.15 s as a strike starts (behaviour_guard.cpp).
+  void set_guard(bool on) { guard_.wanted = on; }
+  /// The guard's weight at the last update (0: the motion's own arms, 1: the guard).
+  double guard_weight() const;
+  /// The guard is up (spar, blocks on, no strike of its own): a fist seen coming is parried.
+  bool guarding() const;
+  /// A parry can start now: guarding, and an arm free (not moving to a parry or holding one).
+  bool can_parry() const;
+  /// A parry is moving to its place or held there.
+  bool parrying() const;
+  /// A parry from the guard: the free forearm that can be across the fist's path soonest is brought there where
+  /// the fist will be once the forearm can be there (a minimum-jerk move of the wrist, its
+  /// peak speed at most 6 m/s), held until the fist has passed, then eased back to the guard.
+  /// Emits `block` once the forearm is in place (its margin over the fist's arrival at the
+  /// forearm, negative when late). False: it cannot (can_parry) or the order is not finite.
+  bool parry(const BlockOrder& order, Timestamp now);
   /// A blow the fighter took (the Fighter's contact judgement, spar mode): the visitor's fist
   /// or foot entered its drawn head or torso. The struck chain reels (a damped spring on the
   /// head about the neck, the trunk about the pelvis, the struck side's shoulder when the
@@ -496,6 +514,8 @@ class Behaviour {
   void abort_strike_for_blow(Timestamp now);
   bool reel_pose();
   void judge_block_in_place(Timestamp now);
+  /// The guard and a parry laid on pose_'s arms (behaviour_guard.cpp); emits the parry's block event.
+  void apply_guard(double dt, Timestamp now);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
                      double distance = 0);
 
@@ -724,6 +744,35 @@ class Behaviour {
     double stiffness_rad_s = 10, damping_ratio = 0.8;
     double since_s = 0;  ///< s since the last blow
   } reel_;
+  // The guard and parries (behaviour_guard.cpp): arm directions laid on the composed pose.
+  struct Guard {
+    bool wanted = false;        ///< set by the Fighter (spar, blocks on)
+    double up = 0;              ///< 0..1 the guard's progress (its weight is smoothstep(up))
+    double weight = 0;          ///< the weight drawn at the last update
+    std::array<Eigen::Vector3d, 2> last_arm_n{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};   ///< [side] as drawn last
+    std::array<Eigen::Vector3d, 2> last_arm_pole{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    bool have_last = false;
+    // A parry per arm [side].
+    struct Parry {
+      bool on = false;
+      double t_s = 0;           ///< s since it began
+      double move_s = 0;        ///< s the wrist takes to its place
+      double hold_end_s = 0;    ///< s (since it began) it starts back to the guard
+      double back_s = 0.3;      ///< s back to the guard
+      Eigen::Vector3d from_arm_n{0, 0, 0}, from_pole{0, 0, 0};  ///< the arm as drawn when it began
+      Eigen::Vector3d wrist_m{0, 0, 0};   ///< m, room: the wrist in place
+      Eigen::Vector3d elbow_m{0, 0, 0};   ///< m, room: where the elbow is wanted in place
+      Eigen::Vector3d cross_m{0, 0, 0};   ///< m, room: where the fist's path crosses the forearm
+      bool said = false;        ///< its block event emitted
+      Timestamp meet_t = 0;     ///< s: when the fist is due at the forearm
+      recognition::Role limb = recognition::Role::right_hand;
+      bool recognised = false;
+      double fist_speed_mps = 0;
+      /// Moving to its place or held there (not going back).
+      bool busy() const { return on && t_s < hold_end_s; }
+    };
+    std::array<Parry, 2> parry{};
+  } guard_;
   MkmFrame reeled_pose_;                   ///< pose_ with the reel laid on (what is drawn while one is under way)
   Timestamp abort_until_ = -1;             ///< s: a strike of its own before contact is aborted until then
   std::optional<Eigen::Vector2d> reel_goal_;  ///< m, room: the spot a large blow steps the fighter back to

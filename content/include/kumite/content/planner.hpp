@@ -47,7 +47,7 @@ std::string_view to_string(PlannerMode m);
 /// [fighter.planner] (the installation file). Units on every name.
 struct PlannerTunables {
   PlannerMode mode = PlannerMode::orders;     ///< "orders": the supervisor's alone; "spar": the planner's too
-  double fighting_distance_m = 0.75;          ///< m, fighter root -> visitor head, horizontal: engaged within it
+  double fighting_distance_m = 0.65;          ///< m, fighter root -> visitor head, horizontal: engaged within it
   double engage_tolerance_m = 0.25;           ///< m: engaged while no farther than fighting distance + this
   /// 1/s: the rate of its own attacks (0: none). An exponential timer that runs while the
   /// fighter is engaged and could strike (idle), so this is attacks per second of that time.

@@ -1,0 +1,227 @@
+// Behaviour: the guard and parries (issue 53, item 3). Sparring with blocks on, the fighter
+// keeps both forearms raised before its face and chest whenever it is not striking (the
+// karate stance's hands hang at the hips: a block from there needs 0.2-0.4 s of clip, and a
+// punch is seen coming 50-170 ms before it lands). A fist seen coming is parried from the
+// guard: the forearm nearer its path is brought across it, where the fist will be once the
+// forearm can be there, by a minimum-jerk move of the wrist (peak speed bounded: no whip),
+// held until the fist has passed, and eased back to the guard.
+//
+// Both are laid on the composed pose (MkmFrame: each arm's shoulder -> wrist direction and
+// elbow pole, room frame) before the decode, so the arm IK, the reel of a blow and the feet
+// act on top as on any pose; the legs and trunk are the motion's own.
+#include <algorithm>
+#include <cmath>
+
+#include "behaviour_internal.hpp"
+#include "kumite/content/behaviour.hpp"
+#include "kumite/content/canonical.hpp"
+#include "kumite/content/ik.hpp"
+
+namespace kumite::content {
+
+using namespace behaviour_detail;
+using CJ = CanonicalJoint;
+using Eigen::Vector3d;
+
+namespace {
+/// s: the guard comes up over this (smoothstep) and goes down over kGuardOut_s as a strike starts.
+constexpr double kGuardIn_s = 0.4;
+constexpr double kGuardOut_s = 0.15;
+/// The guard's weight from which the fighter parries (below it a block clip answers).
+constexpr double kGuardUp = 0.9;
+/// The guard's wrist and elbow from the shoulder, in arm lengths, in the chest's frame (x
+/// toward the fighter's left, y up along the neck, z forward), for the left arm (x mirrored
+/// for the right): the fist before the chin, a little inside the shoulder, the elbow below
+/// it in front of the ribs.
+const Vector3d kGuardWrist(-0.22, 0.30, 0.32);
+const Vector3d kGuardElbow(-0.05, -0.45, 0.20);
+/// m/s: a parry's wrist and elbow move at most this fast on the straight way (a minimum-jerk move peaks at 1.875 x its mean speed).
+constexpr double kParryPeak_mps = 6.0;
+/// s: the shortest parry move.
+constexpr double kParryMin_s = 0.05;
+/// s: the forearm is planned in place at least this before the fist (one display frame at 60 Hz).
+constexpr double kParryMargin_s = 1.0 / 60;
+/// s it stays across the path after the fist's predicted arrival at it.
+constexpr double kParryHoldPast_s = 0.15;
+/// s back to the guard.
+constexpr double kParryBack_s = 0.3;
+/// The wrist stays within this share of the arm's length from the shoulder (a straight arm
+/// parries nothing and its elbow flips).
+constexpr double kParryReach = 0.92;
+/// s: intercepts are tried this far apart along the fist's path.
+constexpr double kParryStep_s = 1.0 / 240;
+
+double min_jerk(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * x * (10 - 15 * x + 6 * x * x);
+}
+
+Vector3d mirrored(const Vector3d& v, int side) { return side == kLeft ? v : Vector3d(-v.x(), v.y(), v.z()); }
+
+/// `pole` made unit and across `axis` (the elbow's direction off the shoulder -> wrist line);
+/// `fallback` where it lies along it.
+Vector3d unit_across(const Vector3d& pole, const Vector3d& axis, const Vector3d& fallback) {
+  const double n = axis.norm();
+  if (n < 1e-9) return fallback;
+  const Vector3d a = axis / n;
+  const Vector3d p = pole - pole.dot(a) * a;
+  return p.norm() > 1e-6 ? Vector3d(p.normalized()) : fallback;
+}
+/// The elbow, from the shoulder, of an arm whose wrist lies at `wrist` from the shoulder, bent
+/// toward `pole` (unit, across): where the decode's two-bone IK puts it.
+Vector3d elbow_of(const Vector3d& wrist, const Vector3d& pole, double upper_m, double fore_m) {
+  const double d = std::clamp(wrist.norm(), std::abs(upper_m - fore_m) + 1e-6, upper_m + fore_m);
+  const TwoBoneBend b = two_bone_bend(upper_m, fore_m, d);
+  const Vector3d axis = wrist.norm() > 1e-9 ? Vector3d(wrist.normalized()) : Vector3d::UnitY();
+  return axis * b.along_m + pole * b.off_m;
+}
+}  // namespace
+
+double Behaviour::guard_weight() const { return guard_.weight; }
+
+bool Behaviour::guarding() const {
+  return !paused_ && have_pose_ && guard_.have_last && !(striking() && !strike_.block) && guard_.weight >= kGuardUp;
+}
+
+bool Behaviour::can_parry() const {
+  return guarding() && (!guard_.parry[0].busy() || !guard_.parry[1].busy());
+}
+
+bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
+  if (!can_parry() || !b.fist_m.allFinite() || !b.velocity_mps.allFinite() || !std::isfinite(b.arrival_s)) return false;
+  const double speed = b.velocity_mps.norm();
+  if (!(speed > 1e-3)) return false;
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const Morphology& m = rig.morphology;
+  const auto joint = [&](CJ j) { return rig_positions_[static_cast<std::size_t>(rig.skeleton.index(j))]; };
+  const Vector3d v_unit = b.velocity_mps / speed;
+  struct Pick {
+    int side = -1;
+    double t_s = 0, move_s = 0, late_s = 1e9;
+    Vector3d wrist, elbow, cross;
+  } best;
+  const double horizon = std::max(0.0, b.arrival_s);
+  for (int side = 0; side < 2; ++side) {
+    if (guard_.parry[static_cast<std::size_t>(side)].busy()) continue;
+    const Vector3d sh = joint(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+    const Vector3d wr = joint(side == kLeft ? CJ::l_wrist : CJ::r_wrist);
+    const Vector3d el = joint(side == kLeft ? CJ::l_elbow : CJ::r_elbow);
+    const double arm = m.arm_length(side), half = 0.5 * m.forearm_m[side];
+    // The forearm lies across the path, its middle on it: turned from the guard's forearm (its
+    // part along the fist's way taken out), or pointing from where the elbow is now to the
+    // path (the elbow then hardly moves); the one needing the shorter move.
+    std::array<Vector3d, 2> dirs{pose_.chest * mirrored(kGuardWrist - kGuardElbow, side), Vector3d::Zero()};
+    for (double t = 0; t <= horizon + 1e-9; t += kParryStep_s) {
+      const Vector3d cross = b.fist_m + b.velocity_mps * t;
+      dirs[1] = cross - el;
+      for (Vector3d f : dirs) {
+        f -= f.dot(v_unit) * v_unit;
+        if (f.norm() < 1e-6) continue;
+        f.normalize();
+        const Vector3d wrist = cross + f * half, elbow = cross - f * half;
+        if ((wrist - sh).norm() > kParryReach * arm) continue;
+        // The move's length: the wrist's way or the elbow's, the longer (both are moved along
+        // straight lines at most kParryPeak_mps).
+        const double d = std::max((wrist - wr).norm(), (elbow - el).norm());
+        const double move = std::max(kParryMin_s, 1.875 * d / kParryPeak_mps);
+        const double late = move + kParryMargin_s - t;
+        const bool in_time = late <= 0;
+        // The intercept needing the shortest move among those the forearm can be in place for
+        // in time; where none can, the one it is least late for.
+        const bool better = best.side < 0 || (in_time && (best.late_s > 0 || move < best.move_s)) ||
+                            (!in_time && best.late_s > 0 && late < best.late_s);
+        if (better) best = Pick{side, t, move, late, wrist, elbow, cross};
+      }
+    }
+  }
+  if (best.side < 0) return false;  // nowhere on its path within a free arm's reach
+  Guard::Parry& g = guard_.parry[static_cast<std::size_t>(best.side)];
+  g.on = true;
+  g.t_s = 0;
+  g.move_s = best.move_s;
+  g.hold_end_s = std::max(best.move_s, best.t_s) + kParryHoldPast_s;
+  g.back_s = kParryBack_s;
+  g.from_arm_n = guard_.last_arm_n[static_cast<std::size_t>(best.side)];
+  g.from_pole = guard_.last_arm_pole[static_cast<std::size_t>(best.side)];
+  g.wrist_m = best.wrist;
+  g.elbow_m = best.elbow;
+  g.cross_m = best.cross;
+  g.said = false;
+  g.meet_t = now + best.t_s;
+  g.limb = b.limb;
+  g.recognised = b.recognised;
+  g.fist_speed_mps = speed;
+  return true;
+}
+
+bool Behaviour::parrying() const { return guard_.parry[0].busy() || guard_.parry[1].busy(); }
+
+void Behaviour::apply_guard(double dt, Timestamp now) {
+  Guard& g = guard_;
+  const bool want = g.wanted && !paused_ && !(striking() && !strike_.block);
+  g.up = std::clamp(g.up + (want ? dt / kGuardIn_s : -dt / kGuardOut_s), 0.0, 1.0);
+  const double w = g.up > 0 ? smoothstep(g.up) : 0.0;
+  g.weight = w;
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const Morphology& m = rig.morphology;
+  for (int side = 0; side < 2; ++side) {
+    const auto s = static_cast<std::size_t>(side);
+    Guard::Parry& pr = g.parry[s];
+    if (!g.wanted && g.up <= 0) pr.on = false;
+    if (pr.on) pr.t_s += dt;
+    if (pr.on && pr.t_s >= pr.hold_end_s + pr.back_s) pr.on = false;
+    Vector3d a = pose_.arm_n[s], p = pose_.arm_pole[s];
+    if (w > 0 && have_pose_) {
+      const Vector3d ag = pose_.chest * mirrored(kGuardWrist, side);
+      const Vector3d pg = unit_across(pose_.chest * mirrored(kGuardElbow, side), ag, p);
+      a = (1 - w) * a + w * ag;
+      p = unit_across((1 - w) * p + w * pg, a, p);
+    }
+    if (pr.on && have_pose_) {
+      // The wrist and the elbow (from the shoulder) each moved along a straight line, the arm
+      // drawn through them (its direction to the wrist, its pole toward the elbow).
+      const double arm = m.arm_length(side), up = m.upper_arm_m[s], fore = m.forearm_m[s];
+      const Vector3d sh = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder))];
+      Vector3d w1 = pr.wrist_m - sh;
+      if (w1.norm() > kParryReach * arm) w1 *= kParryReach * arm / w1.norm();
+      const Vector3d e1 = pr.elbow_m - sh;
+      Vector3d wp, ep;
+      if (pr.t_s < pr.move_s) {
+        const double x = min_jerk(pr.t_s / pr.move_s);
+        const Vector3d w0 = pr.from_arm_n * arm;
+        const Vector3d e0 = elbow_of(w0, pr.from_pole, up, fore);
+        wp = (1 - x) * w0 + x * w1;
+        ep = (1 - x) * e0 + x * e1;
+      } else if (pr.t_s < pr.hold_end_s) {
+        wp = w1;
+        ep = e1;
+      } else {
+        const double x = min_jerk((pr.t_s - pr.hold_end_s) / pr.back_s);
+        wp = (1 - x) * w1 + x * (a * arm);
+        ep = (1 - x) * e1 + x * elbow_of(a * arm, p, up, fore);
+      }
+      a = wp / arm;
+      p = unit_across(ep, wp, p);
+      if (!pr.said && pr.t_s >= pr.move_s) {
+        pr.said = true;
+        FighterEvent& e = emit(FighterEvent::Kind::block, now, Order{}, FighterEvent::Reason::none);
+        e.segment = -1;  // a parry from the guard, no clip
+        e.target = pr.cross_m;
+        e.limb = pr.limb;
+        e.side = side;
+        e.margin_s = pr.meet_t - now;
+        e.speed_mps = pr.fist_speed_mps;
+        e.recognised = pr.recognised;
+      }
+    }
+    if (w > 0 || pr.on) {
+      pose_.arm_n[s] = a;
+      pose_.arm_pole[s] = p;
+    }
+    g.last_arm_n[s] = pose_.arm_n[s];
+    g.last_arm_pole[s] = pose_.arm_pole[s];
+  }
+  g.have_last = have_pose_ || g.have_last;
+}
+
+}  // namespace kumite::content
