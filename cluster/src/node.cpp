@@ -185,8 +185,9 @@ std::string_view Node::state() const { return impl_->state; }
 void Node::ready() {
   auto& n = *impl_;
   // Out of the barrier the master waits for no READY: HELLO (keep_in_touch) brings it back.
-  if (n.welcomed) n.send(MessageType::ready, n.state_h.frame);
+  // The time before the send: after it, the GO it completes may already be out.
   if (!n.timings.empty() && n.timings.back().frame == n.state_h.frame) n.timings.back().ready_tx_s = now();
+  if (n.welcomed) n.send(MessageType::ready, n.state_h.frame);
 }
 
 bool Node::wait_go() {

@@ -81,9 +81,10 @@ Defect decode_message(std::string_view bytes, std::uint64_t config_hash, Header&
   h.master_time_s = get<double>(p + 24);
   h.payload_bytes = n;
   if (!std::isfinite(h.master_time_s)) return Defect::not_finite;
-  // HELLO carries the node's hash for the master to refuse with a line; everything else of
-  // another installation file is dropped here.
-  if (h.config_hash != config_hash && h.type != MessageType::hello) return Defect::wrong_config;
+  // HELLO carries the node's hash for the master to compare, REFUSED the master's to say why;
+  // everything else of another installation file is dropped here.
+  if (h.config_hash != config_hash && h.type != MessageType::hello && h.type != MessageType::refused)
+    return Defect::wrong_config;
   payload = bytes.substr(kHeaderBytes, n);
   return Defect::none;
 }

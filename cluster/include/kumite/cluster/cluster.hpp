@@ -92,7 +92,8 @@ std::string_view to_string(Defect d);
 /// Writes header + payload into `out` (its room reused).
 void encode_message(const Header& h, std::span<const std::byte> payload, std::string& out);
 /// Reads a message: its header and payload (a view into `bytes`), or what is wrong with it.
-/// `config_hash`: the installation file's; another is Defect::wrong_config.
+/// `config_hash`: the installation file's; another is Defect::wrong_config (but for HELLO and
+/// REFUSED, which carry the other side's hash to compare and say).
 Defect decode_message(std::string_view bytes, std::uint64_t config_hash, Header& h, std::string_view& payload);
 
 struct DefectCounts {
