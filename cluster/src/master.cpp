@@ -59,12 +59,12 @@ struct Master::Impl {
 
   /// One control message from a node, if any is waiting.
   bool handle_one() {
-    if (!router.recv(id_msg, zmq::recv_flags::dontwait)) return false;
+    if (!detail::try_recv(router, id_msg)) return false;
     if (!id_msg.more()) return true;  // a malformed multipart: no body
-    if (!router.recv(body_msg, zmq::recv_flags::dontwait)) return true;
+    if (!detail::try_recv(router, body_msg)) return true;
     while (body_msg.more()) {  // extra parts: not ours
       zmq::message_t extra;
-      if (!router.recv(extra, zmq::recv_flags::dontwait)) break;
+      if (!detail::try_recv(router, extra)) break;
       stats.defects.count(Defect::oversized);
     }
     const std::string_view name(static_cast<const char*>(id_msg.data()), id_msg.size());
@@ -174,7 +174,7 @@ const BarrierReport& Master::release() {
       break;
     }
     zmq::pollitem_t item{m.router.handle(), 0, ZMQ_POLLIN, 0};
-    zmq::poll(&item, 1, detail::poll_ms(std::min(left, 0.002)));
+    detail::poll(&item, 1, detail::poll_ms(std::min(left, 0.002)));
     m.handle_waiting();
   }
   r.members = owed;

@@ -69,7 +69,7 @@ struct Node::Impl {
   }
 
   void control() {
-    while (dealer.recv(msg, zmq::recv_flags::dontwait)) {
+    while (detail::try_recv(dealer, msg)) {
       Header h;
       std::string_view payload;
       const Defect d = decode_message(msg.to_string_view(), opt.config_hash, h, payload);
@@ -100,7 +100,7 @@ struct Node::Impl {
 
   /// Reads what the SUB socket holds: the newest STATE into `pending`, GO frames into latest_go.
   void drain() {
-    while (sub.recv(msg, zmq::recv_flags::dontwait)) {
+    while (detail::try_recv(sub, msg)) {
       Header h;
       std::string_view payload;
       const Defect d = decode_message(msg.to_string_view(), opt.config_hash, h, payload);
@@ -137,7 +137,7 @@ struct Node::Impl {
 
   void poll(double seconds) {
     zmq::pollitem_t items[2] = {{sub.handle(), 0, ZMQ_POLLIN, 0}, {dealer.handle(), 0, ZMQ_POLLIN, 0}};
-    zmq::poll(items, 2, detail::poll_ms(seconds));
+    detail::poll(items, 2, detail::poll_ms(seconds));
   }
 };
 
@@ -206,7 +206,7 @@ bool Node::wait_go() {
     const double left = deadline - now();
     if (left <= 0) break;
     zmq::pollitem_t item{n.sub.handle(), 0, ZMQ_POLLIN, 0};
-    zmq::poll(&item, 1, detail::poll_ms(std::min(left, 0.001)));
+    detail::poll(&item, 1, detail::poll_ms(std::min(left, 0.001)));
   }
   const Timestamp t = now();
   if (released) ++n.stats.gos;

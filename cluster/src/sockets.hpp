@@ -1,5 +1,6 @@
 #pragma once
 // The ZeroMQ side both ends share: socket options and sending one message without blocking.
+#include <cerrno>
 #include <chrono>
 #include <string>
 
@@ -23,6 +24,25 @@ inline void common_options(zmq::socket_t& s) {
 inline std::chrono::milliseconds poll_ms(double seconds) {
   if (!(seconds > 0)) return std::chrono::milliseconds(0);
   return std::chrono::milliseconds(static_cast<long>(seconds * 1e3) + 1);
+}
+
+/// zmq::poll that takes a signal's interruption (SIGTERM ending a run) for a timeout.
+inline void poll(zmq::pollitem_t* items, std::size_t n, std::chrono::milliseconds timeout) {
+  try {
+    zmq::poll(items, n, timeout);
+  } catch (const zmq::error_t& e) {
+    if (e.num() != EINTR) throw;
+  }
+}
+
+/// A message if one is waiting (a signal's interruption: none).
+inline bool try_recv(zmq::socket_t& s, zmq::message_t& m) {
+  try {
+    return s.recv(m, zmq::recv_flags::dontwait).has_value();
+  } catch (const zmq::error_t& e) {
+    if (e.num() != EINTR) throw;
+    return false;
+  }
 }
 
 }  // namespace kumite::cluster::detail

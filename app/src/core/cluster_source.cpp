@@ -186,6 +186,9 @@ ConsoleState ClusterNodeSource::console(const FrameData& f) const {
   ConsoleState c;
   c.fighter_state = f.fighter.present ? std::string(content::to_string(f.fighter.state)) : "none";
   c.character = f.fighter.character;
+  if (const auto& chars = subset_.config().characters; f.fighter.character >= 0 &&
+                                                       f.fighter.character < static_cast<int>(chars.size()))
+    c.character_name = chars[static_cast<std::size_t>(f.fighter.character)].name;
   c.head_live = f.head_live;
   c.pose_age_ms = f.pose_age_ms;
   c.latch_ms = f.latch_ms;
