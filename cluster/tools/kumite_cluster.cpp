@@ -171,6 +171,32 @@ std::map<std::uint64_t, double> read_publish(const std::filesystem::path& p) {
   }
   return rows;
 }
+struct BarrierRow {
+  double publish_s = 0;
+  int members = 0, ready = 0;
+};
+std::map<std::uint64_t, BarrierRow> read_barrier(const std::filesystem::path& p) {
+  std::map<std::uint64_t, BarrierRow> rows;
+  std::ifstream in(p);
+  std::string line;
+  std::getline(in, line);
+  while (std::getline(in, line)) {
+    unsigned long long f = 0;
+    BarrierRow r;
+    if (std::sscanf(line.c_str(), "%llu,%lf,%d,%d", &f, &r.publish_s, &r.members, &r.ready) == 4) rows[f] = r;
+  }
+  return rows;
+}
+
+/// s from `since` to the first frame published after it whose barrier satisfies `pred`
+/// (NAN: none).
+template <typename P>
+double first_after(const std::map<std::uint64_t, BarrierRow>& rows, double since, P pred) {
+  for (const auto& [f, r] : rows)
+    if (r.publish_s > since && pred(r)) return r.publish_s - since;
+  return NAN;
+}
+
 double pct(std::vector<double> v, double q) {
   if (v.empty()) return NAN;
   std::sort(v.begin(), v.end());
@@ -248,7 +274,48 @@ int run_bench(const std::vector<int>& counts, int frames, const std::string& tra
                 pct(latency, 0.5) * 1e3, pct(latency, 0.99) * 1e3, ci + 1 < counts.size() ? "," : "");
     std::fflush(stdout);
   }
-  std::printf("  ]\n}\n");
+  std::printf("  ],\n");
+  // Faults, 3 nodes: n0 stopped (SIGSTOP) then continued, n1 killed (SIGKILL) then restarted.
+  // Times from the signal to the first frame the master publishes with the node out of (or
+  // back in) its barrier, read from the master's per-frame log.
+  {
+    const int n = 3;
+    const std::string config = write_config(dir, n, transport, 27790);
+    const auto node_args = [&](int i) {
+      return std::vector<std::string>{"kumite-cluster", "node", "--config", config, "--node", fmt::format("n{}", i),
+                                      "--draw-ms", fmt::format("{}", draw_ms), "--idle-exit-s", "1.5"};
+    };
+    std::vector<pid_t> pids;
+    for (int i = 0; i < n; ++i) pids.push_back(spawn(node_args(i)));
+    const int frames_f = static_cast<int>(rate * 6);
+    const pid_t master = spawn({"kumite-cluster", "master", "--config", config, "--frames", std::to_string(frames_f), "--rate",
+                                fmt::format("{}", rate), "--payload", std::to_string(payload), "--log",
+                                (dir / "faults.csv").string()});
+    const auto after = [](double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); };
+    after(1.5);
+    const double t_stop = now();
+    kill(pids[0], SIGSTOP);
+    after(1.0);
+    const double t_cont = now();
+    kill(pids[0], SIGCONT);
+    after(1.0);
+    const double t_kill = now();
+    kill(pids[1], SIGKILL);
+    int status = 0;
+    waitpid(pids[1], &status, 0);
+    after(0.5);
+    const double t_restart = now();
+    pids[1] = spawn(node_args(1));
+    waitpid(master, &status, 0);
+    for (pid_t p : pids) waitpid(p, &status, 0);
+    const auto rows = read_barrier(dir / "faults.csv");
+    const auto out_of = [&](const BarrierRow& r) { return r.members == n - 1; };
+    const auto all_in = [&](const BarrierRow& r) { return r.members == n && r.ready == n; };
+    std::printf("  \"faults_3_nodes_ms\": {\"stopped_node_dropped_within\": %.0f, \"continued_node_back_within\": %.0f, "
+                "\"killed_node_dropped_within\": %.0f, \"restarted_node_back_within\": %.0f}\n}\n",
+                first_after(rows, t_stop, out_of) * 1e3, first_after(rows, t_cont, all_in) * 1e3,
+                first_after(rows, t_kill, out_of) * 1e3, first_after(rows, t_restart, all_in) * 1e3);
+  }
   std::filesystem::remove_all(dir);
   return 0;
 }
