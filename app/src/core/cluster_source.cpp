@@ -78,8 +78,10 @@ WallSubset::WallSubset(const InstallationConfig& full, const std::vector<std::st
     if (used_windows.contains(w.name)) config_.windows.push_back(w);
   // A wall whose window this process does not open is shown in its first one.
   for (auto& w : config_.walls)
-    if (std::none_of(config_.windows.begin(), config_.windows.end(), [&](const WindowConfig& x) { return x.name == w.window; }))
-      w.window.clear(), w.viewport.reset();
+    if (std::none_of(config_.windows.begin(), config_.windows.end(), [&](const WindowConfig& x) { return x.name == w.window; })) {
+      w.window.clear();
+      w.viewport.reset();
+    }
 }
 
 const FrameData& WallSubset::apply(const FrameData& full) {
