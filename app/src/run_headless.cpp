@@ -8,6 +8,7 @@
 
 #include "gl.hpp"
 #include "kumite/app/frame_log.hpp"
+#include "kumite/app/frame_source.hpp"
 #include "kumite/app/headless.hpp"
 #include "kumite/app/renderer.hpp"
 #include "kumite/app/run.hpp"
@@ -22,14 +23,14 @@ namespace kumite::app {
 /// the writer thread, log the frame to frames.jsonl.
 class HeadlessPresenter {
  public:
-  HeadlessPresenter(const Installation& inst, const std::filesystem::path& out, int save_every,
+  HeadlessPresenter(const FrameSource& source, const std::filesystem::path& out, int save_every,
                     std::optional<std::array<int, 2>> resolution, bool wait_for_pngs)
       : out_(out), save_every_(save_every) {
-    const auto& cfg = inst.config();
+    const auto& cfg = source.config();
     make_output_folder(out, "headless output folder");
     context_ = std::make_unique<HeadlessContext>();
     spdlog::info("headless: {}", gl_description());
-    renderer_ = std::make_unique<Renderer>(inst.walls());
+    renderer_ = std::make_unique<Renderer>(source.walls());
     renderer_->configure(cfg);
     for (const auto& w : cfg.walls) {
       const auto res = resolution.value_or(w.resolution);
@@ -43,7 +44,7 @@ class HeadlessPresenter {
   }
 
   /// Draws frame `i` (its number in the PNG names) and logs it.
-  void present(const Installation& inst, const FrameData& f, int i) {
+  void present(const FrameSource& source, const FrameData& f, int i) {
     const char* eye_names[2] = {stereo_ ? "left" : "mono", "right"};
     // Every K-th frame, and each strike's moment of contact (a hit or a miss), which a
     // strike-long run would otherwise rarely catch.
@@ -77,7 +78,7 @@ class HeadlessPresenter {
       }
     }
     for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
-    log_->write(f, inst.console(f), names_, stereo_);
+    log_->write(f, source.console(f), names_, stereo_);
     // Nothing queued behind the frame just drawn: without a swap chain nothing else throttles
     // the driver, and Mesa's software renderer (the headless demo's, CI's) keeps every scene it
     // ever had to queue when its threads fell behind (the soak's RSS stepped up whenever the
@@ -111,58 +112,28 @@ class HeadlessPresenter {
   double render_s_ = 0;
 };
 
-namespace {
-/// s: where a simulated clock of its own starts (exactly representable, > 0: a time of 0 means
-/// "none yet" in places).
-constexpr Timestamp kSimulatedClockStart_s = 1.0;
-}  // namespace
-
-int run_headless(Installation& inst, const HeadlessOptions& opt) {
-  const auto& cfg = inst.config();
-  HeadlessPresenter presenter(inst, opt.out, opt.save_every, opt.resolution, !opt.real_time);
-  const double step = 1.0 / cfg.display_rate_hz;
-  // Simulated time with nothing on the wall clock (no tracker, or one that follows the frames'
-  // clock): the clock starts at a fixed second, not at the machine's uptime, so every time the
-  // frames compute (t - start, a pose's age) rounds the same on any machine at any uptime.
-  const bool own_clock = !opt.real_time && (!inst.has_tracker() || inst.tracking_follows_frames());
-  const Timestamp wall0 = now();
-  const Timestamp t0 = own_clock ? kSimulatedClockStart_s : wall0;
-  inst.start(t0);
+int present_headless(FrameSource& source, const HeadlessOptions& opt) {
+  HeadlessPresenter presenter(source, opt.out, opt.save_every, opt.resolution, !opt.real_time);
   const auto stopping = [&] { return opt.stop && opt.stop->load() != 0; };
-  int frames = 0;  // rendered and logged
-  for (int i = 0; i < opt.frames && !inst.quit_requested() && !stopping(); ++i) {
-    // Real time: wait for the frame's slot; when rendering is slower than the display rate,
-    // the frame is late and takes the present time (the fighter and tracker move on in real
-    // time). Simulated: exact steps of 1/rate, as fast as rendering goes.
-    Timestamp t = t0 + i * step;
-    Timestamp shown = t;  // simulated: the frame is its own moment
-    // Simulated time: a poses file or a camera recording follows the frames' clock (the
-    // tracking input hands over what is due by t), so frames go as fast as rendering goes.
-    // Live cameras stamp their poses on the real clock: with them simulated time never runs
-    // ahead of it (frames faster than the display rate would find every pose too old).
-    if (!opt.real_time && inst.has_tracker() && !inst.tracking_follows_frames()) sleep_until(t);
-    if (opt.real_time) {
-      // Late latching (config late_latch) as in windows: the frame's pose just after the
-      // tracker's next one is out, when this frame's work still fits before the next tick,
-      // which is when it counts as shown (a window's next vsync).
-      shown = t + step;
-      sleep_until(t);
-      t = std::max(t, inst.latch(now(), shown));
-    }
-    const FrameData& f = inst.step(t, shown);
-    presenter.present(inst, f, i);
-    frames = i + 1;
-    if (opt.monitor) opt.monitor->frame_done(inst, f);
-    if (opt.real_time && cfg.late_latch) {
-      // The frame's whole work (GPU, reading PNG frames back, log) is what the latch must
-      // leave room for before the next tick: a frame that saves PNGs holds the budget up for
-      // the next 120 frames.
-      glFinish();
-      inst.drawn(now() - t);
-    }
+  const Timestamp wall0 = now();
+  source.begin();
+  int frames = 0;  // drawn and logged
+  while (frames < opt.frames && !stopping()) {
+    const FrameData* f = source.next();
+    if (!f) break;
+    presenter.present(source, *f, static_cast<int>(f->frame));
+    // present() waited for the GPU (glFinish): the frame's whole work is done.
+    source.drawn();
+    source.shown(now());
+    ++frames;
+    if (opt.monitor && source.installation()) opt.monitor->frame_done(*source.installation(), *f);
+    if (source.ending()) break;
   }
+  if (stopping()) source.stop();
   glFinish();
-  if (opt.monitor) opt.monitor->stopping(stopping() ? fmt::format("signal {}", opt.stop->load()) : "run complete", &inst);
+  if (opt.monitor)
+    opt.monitor->stopping(stopping() ? fmt::format("signal {}", opt.stop->load()) : "run complete",
+                          source.installation());
   const double wall_s = now() - wall0;
   if (stopping())
     spdlog::info("headless: stopped (signal {}) after {} of {} frames; writing the PNGs queued", opt.stop->load(),
@@ -171,8 +142,6 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   spdlog::info("headless: {} frames in {:.2f} s ({:.1f} ms/frame, GL {:.1f} ms of it); {} PNGs written -> {}",
                frames, wall_s, wall_s * 1e3 / std::max(frames, 1), presenter.render_s() * 1e3 / std::max(frames, 1),
                presenter.pngs().written(), opt.out.string());
-  log_retrieval_timing(inst);
-  log_spar_summary(inst);
   if (presenter.pngs().dropped() > 0)
     spdlog::warn("headless: {} PNGs not written: the writer was behind (real time never waits for it; "
                  "--save-every larger, or --simulated-time, writes them all)",
@@ -180,28 +149,23 @@ int run_headless(Installation& inst, const HeadlessOptions& opt) {
   return 0;
 }
 
+int run_headless(Installation& inst, const HeadlessOptions& opt) {
+  LiveSource source(inst, opt.real_time ? LivePacing::real_time : LivePacing::simulated);
+  const int rc = present_headless(source, opt);
+  log_retrieval_timing(inst);
+  log_spar_summary(inst);
+  return rc;
+}
+
 int replay_headless(const std::filesystem::path& session, ReplayOptions options, const HeadlessOptions& opt,
                     ReplayReport& report) {
-  // The replay's installation is made inside replay_session: the presenter with it.
-  std::unique_ptr<HeadlessPresenter> presenter;
-  const Installation* installation = nullptr;
-  int shown = 0;
-  options.on_start = [&](const Installation& inst) {
-    installation = &inst;
-    presenter = std::make_unique<HeadlessPresenter>(inst, opt.out, opt.save_every, opt.resolution, true);
-  };
-  const auto inner = options.on_frame;
-  options.on_frame = [&](const FrameData& f) {
-    if (inner) inner(f);
-    if (!presenter || shown >= opt.frames) return;
-    presenter->present(*installation, f, static_cast<int>(f.frame));  // named by the session's frame
-    ++shown;
-  };
-  report = replay_session(session, options);
-  if (presenter) {
-    presenter->finish();
-    spdlog::info("replay: {} frames drawn, {} PNGs written -> {}", shown, presenter->pngs().written(), opt.out.string());
-  }
+  SessionSource source(session, std::move(options));
+  HeadlessOptions ho = opt;
+  ho.real_time = false;  // every PNG asked for is written: a replay waits for the writer
+  ho.monitor = nullptr;
+  ho.stop = nullptr;
+  present_headless(source, ho);
+  report = source.finish();  // the frames past --frames are still replayed and compared
   return 0;
 }
 

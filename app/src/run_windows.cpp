@@ -14,6 +14,7 @@
 
 #include "console.hpp"
 #include "kumite/app/frame_log.hpp"
+#include "kumite/app/frame_source.hpp"
 #include "kumite/app/headless.hpp"
 #include "kumite/app/run.hpp"
 #include "kumite/app/service.hpp"
@@ -102,9 +103,6 @@ Error stereo_error(const InstallationConfig& cfg, const std::string& why) {
   return Error("app", "no_stereo", fmt::format("--stereo {}: {}", to_string(cfg.stereo.mode), why));
 }
 
-/// s: a swap that returns this close before the next tick is taken to have waited for vsync.
-constexpr double kVsyncTolerance_s = 0.001;
-
 void screenshot(GLFWwindow* w, const std::filesystem::path& path) {
   int fb_w = 0, fb_h = 0;
   glfwGetFramebufferSize(w, &fb_w, &fb_h);
@@ -127,11 +125,11 @@ class Windows {
  public:
   /// `keys`: every window's key and close target. Throws kumite::Error when a window or the
   /// stereo mode asked for cannot be had.
-  Windows(const Installation& inst, bool with_console, KeyContext* keys) : cfg_(inst.config()) {
+  Windows(const FrameSource& source, bool with_console, KeyContext* keys) : cfg_(source.config()) {
     glfwSetErrorCallback(glfw_error);
     if (!glfwInit()) throw Error("app", "display", "cannot open the display (GLFW init failed): use --headless");
     try {
-      open(inst, with_console, keys);
+      open(source, with_console, keys);
     } catch (...) {
       close();
       throw;
@@ -181,7 +179,7 @@ class Windows {
   }
 
  private:
-  void open(const Installation& inst, bool with_console, KeyContext* keys) {
+  void open(const FrameSource& source, bool with_console, KeyContext* keys) {
     mode_ = cfg_.stereo.mode;
     std::vector<WindowConfig> windows = cfg_.windows;
     if (windows.empty()) windows.push_back(WindowConfig{"main"});
@@ -214,7 +212,7 @@ class Windows {
       glfwSwapInterval(i == 0 ? 1 : 0);
       glfwSetWindowUserPointer(s.window, keys);
       glfwSetKeyCallback(s.window, on_key);
-      s.renderer = std::make_unique<Renderer>(inst.walls());
+      s.renderer = std::make_unique<Renderer>(source.walls());
       s.renderer->configure(cfg_);
       spdlog::info("window \"{}\": {} ({} stereo)", s.config.name, gl_description(), to_string(mode_));
     }
@@ -255,10 +253,12 @@ class Windows {
 
 }  // namespace
 
-int run_windows(Installation& inst, const WindowOptions& opt) {
-  const auto& cfg = inst.config();
-  KeyContext keys{&inst};
-  Windows windows(inst, opt.console, &keys);
+int present_windows(FrameSource& source, const WindowOptions& opt) {
+  const auto& cfg = source.config();
+  // Keys order the installation the frames are stepped by; a recording's or the network's
+  // frames take no orders: their quit key (or closing a window) ends the run.
+  KeyContext keys{source.orders(), source.orders() ? nullptr : &cfg};
+  Windows windows(source, opt.console && source.installation() != nullptr, &keys);
   const StereoMode mode = windows.mode();
 
   std::unique_ptr<FrameLog> log;
@@ -266,110 +266,87 @@ int run_windows(Installation& inst, const WindowOptions& opt) {
   for (const auto& w : cfg.walls) names.push_back(w.name);
   if (opt.log) log = std::make_unique<FrameLog>(*opt.log, static_cast<std::uint64_t>(cfg.frames_log_budget_mb * 1e6));
 
-  const Timestamp t0 = now();
-  inst.start(t0);
-  const double period = 1.0 / cfg.display_rate_hz;
-  Timestamp slot = t0;  // this frame's start: the swap came back (vsync), or the loop's tick
+  const bool finish = source.wait_for_gpu();
+  const auto stopped = [&] { return opt.stop && opt.stop->load() != 0; };  // SIGINT/SIGTERM: as a quit
+  source.begin();
+  FrameData kept;  // the last frame shown, for a screenshot taken after the source ended
+  bool kept_any = false, shot = false;
   bool done = false;
   while (!done) {
     glfwPollEvents();
-    // Late latching: take the pose just after the tracker's next one is out, if drawing
-    // still fits before the next vsync; the picture shows at the same vsync either way.
-    // The picture is seen at the next vsync: the head is predicted to then.
-    const Timestamp t = inst.latch(now(), slot + period);
-    const FrameData& f = inst.step(t, slot + period);
-    // The drawing time the latch must leave room for is the GPU's too: wait for it.
-    windows.draw(f, cfg.late_latch);
-    inst.drawn(now() - t);
-    const bool stopped = opt.stop && opt.stop->load() != 0;  // SIGINT/SIGTERM: as a quit
-    const bool last = inst.quit_requested() || stopped || (opt.seconds && t - t0 >= *opt.seconds);
+    const FrameData* fp = source.next();
+    if (!fp) break;
+    const FrameData& f = *fp;
+    windows.draw(f, finish);
+    source.drawn();
+    const bool last = source.ending() || stopped() || keys.quit || (opt.seconds && f.time_s >= *opt.seconds);
     if (last && opt.screenshot) {
       glfwMakeContextCurrent(windows.first());
       screenshot(windows.first(), *opt.screenshot);
+      shot = true;
+    } else if (opt.screenshot) {
+      kept = f;
+      kept_any = true;
     }
-    // Drivers that queue the swap return at once: wait for the flip, so `swapped` is the
-    // vsync and the next frame's drawing time does not include this one's.
-    windows.swap(cfg.late_latch);
+    // Drivers that queue the swap return at once: wait for the flip (late latching), so the
+    // swap's return is the vsync and the next frame's drawing time does not include this one's.
+    windows.swap(finish);
     const Timestamp swapped = now();
     if (Console* console = windows.console()) {
-      console->frame(inst, f, &inst);
+      console->frame(*source.installation(), f, source.orders());
       if (last && opt.screenshot) {
         auto p = *opt.screenshot;
         screenshot(console->window(), p.replace_filename(p.stem().string() + "-console.png"));
       }
       console->swap();
     }
-    if (log) log->write(f, inst.console(), names, mode != StereoMode::mono);
-    if (opt.monitor) opt.monitor->frame_done(inst, f);
-    // Closing the console (or a wall window) is a quit like the quit key's: armed by the
-    // first, done by a second within [console] quit_confirm_s (a stray click ends no show).
-    if (windows.close_asked() && inst.quit_key(now())) done = true;
+    if (log) log->write(f, source.console(f), names, mode != StereoMode::mono);
+    if (opt.monitor && source.installation()) opt.monitor->frame_done(*source.installation(), f);
+    // Closing the console (or a wall window) ends the run: the live show's after a second
+    // close within [console] quit_confirm_s (a stray click ends no show).
+    if (windows.close_asked() && source.close_asked(now())) done = true;
+    if (keys.quit) done = true;
     if (last) done = true;
-    // The next frame starts at the vsync the swap waited for: a swap that came back at most
-    // kVsyncTolerance_s before the next tick did wait for one (a display a little faster than
-    // display_rate_hz: anchored to its vsync, the ticks do not drift away from it). One that
-    // came back earlier did not (Xvfb, no vsync): the next tick holds the display rate. Late
-    // frames start at once.
-    slot = swapped > slot + period - kVsyncTolerance_s ? swapped : slot + period;
-    sleep_until(slot);
+    if (done) source.stop();
+    source.shown(swapped);
+  }
+  // A source that ended by itself (a replay's last frame): the last frame shown, drawn again
+  // for the screenshot (the windows' back buffers hold nothing after a swap).
+  if (opt.screenshot && !shot && kept_any) {
+    windows.draw(kept, true);
+    glfwMakeContextCurrent(windows.first());
+    screenshot(windows.first(), *opt.screenshot);
+    if (Console* console = windows.console()) {
+      console->frame(*source.installation(), kept, source.orders());
+      auto p = *opt.screenshot;
+      screenshot(console->window(), p.replace_filename(p.stem().string() + "-console.png"));
+    }
   }
   if (opt.monitor)
-    opt.monitor->stopping(opt.stop && opt.stop->load() != 0 ? fmt::format("signal {}", opt.stop->load()) : "quit", &inst);
+    opt.monitor->stopping(stopped() ? fmt::format("signal {}", opt.stop->load()) : "quit", source.installation());
   if (log) log->close();
-  if (opt.stop && opt.stop->load() != 0) spdlog::info("windows: stopped (signal {})", opt.stop->load());
+  if (stopped()) spdlog::info("windows: stopped (signal {})", opt.stop->load());
+  return 0;
+}
+
+int run_windows(Installation& inst, const WindowOptions& opt) {
+  LiveSource source(inst, LivePacing::display);
+  const int rc = present_windows(source, opt);
   log_retrieval_timing(inst);
   log_spar_summary(inst);
-  return 0;
+  return rc;
 }
 
 int replay_windows(const std::filesystem::path& session, ReplayOptions options, const WindowOptions& opt,
                    ReplayReport& report) {
-  // The replay's installation is made inside replay_session: the windows with it. Keys and
-  // the console's buttons give no orders (the frames are the recording's); the quit key, or
-  // closing a window, ends the replay.
-  std::unique_ptr<Windows> windows;
-  const Installation* installation = nullptr;  // replay_session's, while it runs
-  KeyContext keys{nullptr};
-  FrameData last;  // for the screenshot, when asked for
-  bool shown = false;
-  options.on_start = [&](const Installation& inst) {
-    installation = &inst;
-    keys.replay_config = &inst.config();
-    windows = std::make_unique<Windows>(inst, opt.console, &keys);
-  };
-  const auto inner = options.on_frame;
-  options.on_frame = [&](const FrameData& f) {
-    if (inner) inner(f);
-    if (!windows) return;
-    if (opt.screenshot) last = f;
-    shown = true;
-    glfwPollEvents();
-    windows->draw(f, false);
-    windows->swap(false);
-    if (Console* console = windows->console()) {
-      console->frame(*installation, f, nullptr);
-      console->swap();
-    }
-    if (windows->close_asked()) keys.quit = true;
-  };
-  const auto inner_stop = options.stop_requested;
-  options.stop_requested = [&] {
-    return keys.quit || (opt.stop && opt.stop->load() != 0) || (inner_stop && inner_stop());
-  };
-  options.on_end = [&](const Installation& inst) {
-    if (!windows || !shown || !opt.screenshot) return;
-    // The last frame shown, drawn again (the windows' back buffers hold nothing after a swap).
-    windows->draw(last, true);
-    glfwMakeContextCurrent(windows->first());
-    screenshot(windows->first(), *opt.screenshot);
-    if (Console* console = windows->console()) {
-      console->frame(inst, last, nullptr);
-      auto p = *opt.screenshot;
-      screenshot(console->window(), p.replace_filename(p.stem().string() + "-console.png"));
-    }
-  };
-  report = replay_session(session, options);
-  windows.reset();
+  SessionSource source(session, std::move(options));
+  {
+    WindowOptions wo = opt;
+    wo.monitor = nullptr;
+    wo.seconds.reset();
+    present_windows(source, wo);
+  }
+  report = source.finish();
   return 0;
 }
 

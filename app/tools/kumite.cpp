@@ -12,6 +12,7 @@
 #include <limits>
 
 
+#include "kumite/app/cluster_source.hpp"
 #include "kumite/app/config.hpp"
 #include "kumite/app/export.hpp"
 #include "kumite/app/installation.hpp"
@@ -28,6 +29,8 @@ namespace {
 
 struct Args {
   std::string config = "config/demo.toml";
+  std::string node;            ///< --node NAME: a render node of the file's [cluster]
+  std::string cluster_timing;  ///< --cluster-timing FILE: CSV of every frame's cluster times
   bool headless = false;
   int frames = 300;
   std::string out = "out/kumite";
@@ -179,6 +182,29 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
       kumite::app::make_output_folder(folder_of(file).empty() ? "." : folder_of(file), what);
     }
   }
+  // A render node draws the master's frames: no tracker, no fighter, no installation of its own.
+  kumite::app::ClusterRunOptions cluster_run;
+  cluster_run.stop = &stop;
+  if (!a.cluster_timing.empty()) cluster_run.timing_log = a.cluster_timing;
+  if (!a.node.empty()) {
+    kumite::app::ClusterNodeSource source(config, a.node, cluster_run);
+    if (headless) {
+      kumite::app::HeadlessOptions ho;
+      ho.frames = a.frames_given ? a.frames : std::numeric_limits<int>::max();
+      ho.out = a.out;
+      ho.save_every = a.save_every;
+      ho.resolution = parse_resolution(a.resolution);
+      ho.real_time = false;  // paced by the master: every PNG asked for is written
+      ho.stop = &stop;
+      return kumite::app::present_headless(source, ho);
+    }
+    kumite::app::WindowOptions wo;
+    if (a.seconds > 0) wo.seconds = a.seconds;
+    if (!a.screenshot.empty()) wo.screenshot = a.screenshot;
+    if (!a.log.empty()) wo.log = a.log;
+    wo.stop = &stop;
+    return kumite::app::present_windows(source, wo);
+  }
   // The health report: --health-file, else the config's [health] file (made like an output).
   std::optional<std::filesystem::path> health_file;
   if (!a.health_file.empty()) health_file = a.health_file;
@@ -271,6 +297,15 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
     ho.real_time = !a.simulated;
     ho.stop = &stop;
     ho.monitor = &monitor;
+    if (config.cluster) {
+      // The cluster's master: the live step, its state to every node, the swap barrier.
+      kumite::app::ClusterMasterSource master(
+          inst, a.simulated ? kumite::app::LivePacing::simulated : kumite::app::LivePacing::real_time, cluster_run);
+      const int rc = kumite::app::present_headless(master, ho);
+      kumite::app::log_retrieval_timing(inst);
+      kumite::app::log_spar_summary(inst);
+      return finish(rc);
+    }
     return finish(kumite::app::run_headless(inst, ho));
   }
   kumite::app::WindowOptions wo;
@@ -280,6 +315,13 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
   if (!a.log.empty()) wo.log = a.log;
   wo.stop = &stop;
   wo.monitor = &monitor;
+  if (config.cluster) {
+    kumite::app::ClusterMasterSource master(inst, kumite::app::LivePacing::display, cluster_run);
+    const int rc = kumite::app::present_windows(master, wo);
+    kumite::app::log_retrieval_timing(inst);
+    kumite::app::log_spar_summary(inst);
+    return finish(rc);
+  }
   return finish(kumite::app::run_windows(inst, wo));
 }
 
@@ -368,6 +410,11 @@ int main(int argc, char** argv) {
   Args a;
   app.add_option("--config", a.config, "installation file (TOML)")->capture_default_str();
   app.add_flag("--headless", a.headless, "render off-screen (EGL) even with a display");
+  app.add_option("--node", a.node,
+                 "run as this render node of the file's [cluster] (draws its walls from the master's frames); "
+                 "without it, a file with [cluster] makes this process the master");
+  app.add_option("--cluster-timing", a.cluster_timing,
+                 "cluster: CSV of every frame's times (master: barrier; node: STATE received, READY sent, GO received)");
   app.add_option("--frames", a.frames, "headless: frames to render")
       ->check(CLI::Range(1, std::numeric_limits<int>::max()))
       ->capture_default_str();

@@ -599,3 +599,25 @@ head = [0.0, -0.04, -0.09]
   msg = error_of(kBase + "[tracking]\nsource = \"osc\"\n[tracking.osc]\nroom_axes = \"y_up\"\n");
   EXPECT_NE(msg.find("bad.toml:27: tracking.osc.room_axes: not an OSC key"), std::string::npos) << msg;
 }
+
+TEST(Config, TheClusterNodeLevelIsReadCheckedAgainstTheWallsAndWrittenBack) {
+  const std::string cluster = "\n[cluster]\nstate = \"tcp://10.0.0.1:7700\"\ncontrol = \"tcp://10.0.0.1:7701\"\n"
+                              "deadline_ms = 30\n[[cluster.nodes]]\nname = \"front\"\naddress = \"10.0.0.11\"\n"
+                              "walls = [\"front\"]\nwindows = [\"main\"]\n";
+  const auto a = parse_installation_config(kBase + cluster, "room.toml");
+  ASSERT_TRUE(a.cluster);
+  EXPECT_EQ(a.cluster->nodes.at(0).walls, std::vector<std::string>{"front"});
+  EXPECT_NE(a.file_hash, parse_installation_config(kBase, "room.toml").file_hash);
+  const auto b = parse_installation_config(to_toml(a), "again.toml");
+  EXPECT_EQ(a, b);  // the node level survives a session's snapshot
+  EXPECT_NE(a, parse_installation_config(kBase, "room.toml"));
+  // A node's wall or window that the file does not have; a wall drawn by two nodes.
+  EXPECT_EQ(error_of(kBase + replace(cluster, "walls = [\"front\"]", "walls = [\"ceiling\"]")),
+            "bad.toml:32: cluster.nodes[0].walls: node \"front\": no wall \"ceiling\" in [[walls]]");
+  EXPECT_EQ(error_of(kBase + replace(cluster, "windows = [\"main\"]", "windows = [\"side\"]")),
+            "bad.toml:33: cluster.nodes[0].windows: node \"front\": no window \"side\" in [[windows]]");
+  EXPECT_EQ(error_of(kBase + cluster + "[[cluster.nodes]]\nname = \"again\"\nwalls = [\"front\"]\n"),
+            "bad.toml:36: cluster.nodes[1].walls: wall \"front\" is drawn by nodes \"front\" and \"again\": one node per wall");
+  EXPECT_EQ(error_of(kBase + replace(cluster, "deadline_ms = 30", "deadline_ms = inf")).substr(0, 34),
+            "bad.toml:28: cluster.deadline_ms: ");
+}

@@ -156,7 +156,7 @@ class Reader {
 
 void Reader::parse(const toml::table& root) {
   only_keys(root, "", {"display_rate_hz", "late_latch", "display_latency_ms", "data_dir", "windows", "walls", "stereo", "viewer",
-                       "projection", "keys", "characters", "fighter", "tracking", "recognition", "orders", "health", "safety", "record", "console", "log", "render"});
+                       "projection", "keys", "characters", "fighter", "tracking", "recognition", "orders", "health", "safety", "record", "console", "log", "render", "cluster"});
   number(root, "display_rate_hz", "", cfg_.display_rate_hz);
   boolean(root, "late_latch", "", cfg_.late_latch);
   number(root, "display_latency_ms", "", cfg_.display_latency_ms);
@@ -537,7 +537,8 @@ bool InstallationConfig::operator==(const InstallationConfig& o) const {
          keys == o.keys && characters == o.characters && fighter == o.fighter &&
          tracking == o.tracking && recognition == o.recognition && orders_script == o.orders_script && data_dir == o.data_dir &&
          health == o.health && safety == o.safety && record_budget_mb == o.record_budget_mb &&
-         console == o.console && frames_log_budget_mb == o.frames_log_budget_mb && render == o.render;
+         console == o.console && frames_log_budget_mb == o.frames_log_budget_mb && render == o.render &&
+         cluster == o.cluster;
 }
 
 std::string check_wall_geometry(const WallConfig& w) {
@@ -622,8 +623,32 @@ void validate_ranges(const InstallationConfig& c) {
 }
 }  // namespace
 
+namespace {
+/// The cluster's nodes against the walls and windows (cluster::parse_cluster_config checked
+/// each node alone): every wall and window a node names exists, no wall is drawn by two nodes.
+void validate_cluster(const InstallationConfig& c) {
+  if (!c.cluster) return;
+  std::map<std::string, std::string> drawn_by;
+  for (std::size_t i = 0; i < c.cluster->nodes.size(); ++i) {
+    const auto& n = c.cluster->nodes[i];
+    const std::string p = fmt::format("cluster.nodes[{}]", i);
+    for (const auto& w : n.walls) {
+      if (std::none_of(c.walls.begin(), c.walls.end(), [&](const WallConfig& x) { return x.name == w; }))
+        fail_at(c, "unknown_wall", p + ".walls", fmt::format("node \"{}\": no wall \"{}\" in [[walls]]", n.name, w));
+      if (const auto [it, fresh] = drawn_by.emplace(w, n.name); !fresh)
+        fail_at(c, "duplicate", p + ".walls",
+                fmt::format("wall \"{}\" is drawn by nodes \"{}\" and \"{}\": one node per wall", w, it->second, n.name));
+    }
+    for (const auto& w : n.windows)
+      if (std::none_of(c.windows.begin(), c.windows.end(), [&](const WindowConfig& x) { return x.name == w; }))
+        fail_at(c, "unknown_window", p + ".windows", fmt::format("node \"{}\": no window \"{}\" in [[windows]]", n.name, w));
+  }
+}
+}  // namespace
+
 void validate(const InstallationConfig& c) {
   validate_ranges(c);
+  validate_cluster(c);
   if (!(c.display_rate_hz > 0 && c.display_rate_hz <= 1000))
     fail_at(c, "range", "display_rate_hz", "must be in (0, 1000] Hz");
   if (!(c.record_budget_mb > 0 && c.record_budget_mb <= 1e7))
@@ -787,6 +812,8 @@ InstallationConfig parse_config(std::string_view text, const std::filesystem::pa
     cfg.tracking.osc = tracking::parse_dtrack_config(text, file_name.string(), "tracking.osc");
     if (!cfg.lines.contains("tracking.osc.port")) cfg.tracking.osc.port = port;
   }
+  cfg.cluster = cluster::parse_cluster_config(text, file_name.string());
+  cfg.file_hash = cluster::config_hash(text);
   content::parse_fighter_tunables(text, file_name.string(), cfg.fighter.behaviour, cfg.fighter.retrieval);
   content::parse_planner_tunables(text, file_name.string(), cfg.fighter.planner, cfg.fighter.planner_seed);
   validate(cfg);
@@ -958,6 +985,25 @@ std::string to_toml(const InstallationConfig& c) {
     root.insert("render", std::move(rd));
   }
   root.insert("record", toml::table{{"budget_mb", c.record_budget_mb}});
+  if (const auto& cl = c.cluster) {
+    toml::table t{{"state", cl->state}, {"control", cl->control}, {"max_misses", cl->max_misses},
+                  {"master_lost_ms", cl->master_lost_ms}};
+    if (cl->state_bind) t.insert("state_bind", *cl->state_bind);
+    if (cl->control_bind) t.insert("control_bind", *cl->control_bind);
+    if (cl->deadline_ms) t.insert("deadline_ms", *cl->deadline_ms);
+    toml::array nodes;
+    for (const auto& n : cl->nodes) {
+      toml::array walls, windows;
+      for (const auto& w : n.walls) walls.push_back(w);
+      for (const auto& w : n.windows) windows.push_back(w);
+      toml::table nt{{"name", n.name}, {"walls", std::move(walls)}};
+      if (n.address) nt.insert("address", *n.address);
+      if (!n.windows.empty()) nt.insert("windows", std::move(windows));
+      nodes.push_back(std::move(nt));
+    }
+    t.insert("nodes", std::move(nodes));
+    root.insert("cluster", std::move(t));
+  }
   std::ostringstream out;
   out << root << "\n";
   return out.str();

@@ -88,6 +88,63 @@ struct In : walk::Reader {
   }
 };
 
+
+/// One record's payload (its 16-byte header read: `sum` is the header's checksum): checked,
+/// unpacked into `raw`, and read: a skeleton into `skeletons`, or a frame into `f` (then
+/// `is_frame`). Returns "" or what is wrong, in words.
+std::string read_record(std::string_view payload, std::uint64_t sum, int version, std::string& raw,
+                        std::map<int, std::shared_ptr<const FighterSkeleton>>& skeletons, FrameData& f, bool& is_frame) {
+  is_frame = false;
+  if (fnv1a64(payload) != sum) return "checksum does not match (damaged)";
+  std::uint32_t raw_bytes = 0;
+  if (payload.size() < 4) return "record too short";
+  std::memcpy(&raw_bytes, payload.data(), 4);
+  if (raw_bytes > kMaxPayload) return fmt::format("record of {} bytes unpacked: too large", raw_bytes);
+  raw.resize(raw_bytes);
+  uLongf unpacked = raw_bytes;
+  if (uncompress(reinterpret_cast<Bytef*>(raw.data()), &unpacked, reinterpret_cast<const Bytef*>(payload.data() + 4),
+                 static_cast<uLong>(payload.size() - 4)) != Z_OK ||
+      unpacked != raw_bytes)
+    return "does not unpack (damaged)";
+  In in;
+  in.p = raw;
+  in.version = version;
+  const std::uint8_t kind = in.u8();
+  if (kind == kSkeleton) {
+    auto s = std::make_shared<FighterSkeleton>();
+    s->character = in.get<std::int32_t>();
+    const auto n = in.count();
+    for (std::uint32_t j = 0; j < n && in.ok; ++j) {
+      s->joint_names.push_back(in.str());
+      s->parents.push_back(in.get<std::int32_t>());
+      if (s->parents.back() < -1 || s->parents.back() >= static_cast<int>(j)) in.ok = false;
+    }
+    if (!in.ok || !in.p.empty()) return "a skeleton record that does not read whole";
+    // The same skeleton again (a network frame carries its skeleton each time): kept as it was.
+    if (const auto it = skeletons.find(s->character);
+        it == skeletons.end() || it->second->joint_names != s->joint_names || it->second->parents != s->parents)
+      skeletons[s->character] = s;
+    return "";
+  }
+  if (kind != kFrame) return fmt::format("unknown record kind {}", kind);
+  FrameData& r = f;
+  walk::Reader& fields = in;
+  describe(fields, r);  // the frame's fields (frame_fields.hpp)
+  FighterPose& p = r.fighter;
+  if (!in.ok || !in.p.empty()) return "a frame record that does not read whole (or a number not finite)";
+  if (p.present) {
+    const auto s = skeletons.find(p.character);
+    if (s == skeletons.end()) return fmt::format("character {} drawn before its skeleton record", p.character);
+    if (s->second->joint_names.size() != p.joints.size())
+      return fmt::format("{} joints for a skeleton of {}", p.joints.size(), s->second->joint_names.size());
+    p.skeleton = s->second;
+  } else {
+    p.skeleton.reset();
+  }
+  is_frame = true;
+  return "";
+}
+
 }  // namespace
 
 void encode_frame_state(const FrameData& f, bool with_skeleton, std::string& out, int version) {
@@ -153,56 +210,47 @@ bool FrameStatesReader::next(FrameData& f) {
     buffer_.resize(bytes);
     in_.read(buffer_.data(), bytes);
     if (in_.gcount() != static_cast<std::streamsize>(bytes)) return fail("cut short (a recorder killed mid-write)");
-    if (fnv1a64(buffer_) != sum) return fail("checksum does not match (damaged)");
-    std::uint32_t raw_bytes = 0;
-    if (bytes < 4) return fail("record too short");
-    std::memcpy(&raw_bytes, buffer_.data(), 4);
-    if (raw_bytes > kMaxPayload) return fail(fmt::format("record of {} bytes unpacked: too large", raw_bytes));
-    raw_.resize(raw_bytes);
-    uLongf unpacked = raw_bytes;
-    if (uncompress(reinterpret_cast<Bytef*>(raw_.data()), &unpacked, reinterpret_cast<const Bytef*>(buffer_.data() + 4),
-                   static_cast<uLong>(bytes - 4)) != Z_OK ||
-        unpacked != raw_bytes)
-      return fail("does not unpack (damaged)");
-    In in;
-    in.p = raw_;
-    in.version = version_;
-    const std::uint8_t kind = in.u8();
-    if (kind == kSkeleton) {
-      auto s = std::make_shared<FighterSkeleton>();
-      s->character = in.get<std::int32_t>();
-      const auto n = in.count();
-      for (std::uint32_t j = 0; j < n && in.ok; ++j) {
-        s->joint_names.push_back(in.str());
-        s->parents.push_back(in.get<std::int32_t>());
-        if (s->parents.back() < -1 || s->parents.back() >= static_cast<int>(j)) in.ok = false;
-      }
-      if (!in.ok || !in.p.empty()) return fail("a skeleton record that does not read whole");
-      skeletons_[s->character] = s;
-    } else if (kind == kFrame) {
-      FrameData r;
-      walk::Reader& fields = in;
-      describe(fields, r);  // the frame's fields (frame_fields.hpp)
-      FighterPose& p = r.fighter;
-      if (!in.ok || !in.p.empty()) return fail("a frame record that does not read whole (or a number not finite)");
-      if (p.present) {
-        const auto s = skeletons_.find(p.character);
-        if (s == skeletons_.end()) return fail(fmt::format("character {} drawn before its skeleton record", p.character));
-        if (s->second->joint_names.size() != p.joints.size())
-          return fail(fmt::format("{} joints for a skeleton of {}", p.joints.size(), s->second->joint_names.size()));
-        p.skeleton = s->second;
-      }
-      offset_ += sizeof head + bytes;
-      ++records_;
+    // A fresh frame: the fields a file of an older version lacks take their defaults.
+    bool is_frame = false;
+    FrameData r;
+    if (auto why = read_record(buffer_, sum, version_, raw_, skeletons_, r, is_frame); !why.empty()) return fail(why);
+    offset_ += sizeof head + bytes;
+    ++records_;
+    if (is_frame) {
       ++frames_;
       f = std::move(r);
       return true;
-    } else {
-      return fail(fmt::format("unknown record kind {}", kind));
     }
-    offset_ += sizeof head + bytes;
-    ++records_;
   }
+}
+
+bool FrameStateDecoder::decode(std::string_view bytes, FrameData& out) {
+  problem_.clear();
+  bool got = false;
+  while (!bytes.empty()) {
+    if (bytes.size() < 16) return fail("a record cut short");
+    std::uint32_t magic = 0, n = 0;
+    std::uint64_t sum = 0;
+    std::memcpy(&magic, bytes.data(), 4);
+    std::memcpy(&n, bytes.data() + 4, 4);
+    std::memcpy(&sum, bytes.data() + 8, 8);
+    if (magic != kMagic) return fail("not a frame state record");
+    if (n > kMaxPayload || n > bytes.size() - 16) return fail(fmt::format("a record of {} bytes in {}: cut short", n, bytes.size() - 16));
+    bool is_frame = false;
+    if (auto why = read_record(bytes.substr(16, n), sum, kFrameVersion, raw_, skeletons_, out, is_frame); !why.empty())
+      return fail(why);
+    bytes.remove_prefix(16 + n);
+    if (is_frame) {
+      if (!bytes.empty()) return fail("bytes after the frame record");
+      got = true;
+    }
+  }
+  return got ? true : fail("no frame record");
+}
+
+bool FrameStateDecoder::fail(std::string what) {
+  problem_ = std::move(what);
+  return false;
 }
 
 std::optional<std::string> first_difference(const FrameData& recorded, const FrameData& now) {

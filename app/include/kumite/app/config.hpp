@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "kumite/cluster/cluster.hpp"
 #include "kumite/common/wire.hpp"
 
 #include "kumite/content/planner.hpp"
@@ -269,6 +270,13 @@ struct InstallationConfig {
   /// [log] frames_budget_mb: MB frames.jsonl may take on disk, kept as two halves
   /// (frames.jsonl, the newest, and frames.1.jsonl): a run of any length stays bounded.
   double frames_log_budget_mb = 2048.0;
+  /// [cluster] and its [[cluster.nodes]]: the render cluster (none: one process draws every
+  /// wall). Checked against the walls and windows: every node's walls and windows exist, and no
+  /// wall is drawn by two nodes.
+  std::optional<cluster::ClusterConfig> cluster;
+  /// The file's bytes' hash (cluster::config_hash): every cluster message carries it, and a
+  /// node whose file differs from the master's is refused. 0 when built in code.
+  std::uint64_t file_hash = 0;
 
   /// Source line of each key path ("walls[1].lower_left", "stereo.mode"); 0 when unknown.
   std::map<std::string, int> lines;
@@ -283,7 +291,7 @@ struct InstallationConfig {
   /// The window index showing wall `w` (after validate(), always valid).
   int window_of(std::size_t w) const;
 
-  bool operator==(const InstallationConfig& o) const;  ///< ignores `file` and `lines`
+  bool operator==(const InstallationConfig& o) const;  ///< ignores `file`, `lines` and `file_hash`
 };
 
 /// Reads and validates an installation file. Throws kumite::Error("config", ...) whose message

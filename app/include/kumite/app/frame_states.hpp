@@ -63,6 +63,23 @@ class FrameStatesReader {
   std::map<int, std::shared_ptr<const FighterSkeleton>> skeletons_;
 };
 
+/// Frames from bytes in memory (a render node's STATE payload): the records encode_frame_state
+/// wrote for one frame, its skeleton's record included or sent before. The skeletons are kept
+/// from frame to frame; a frame's vectors reuse the room of the frame decoded into before
+/// (this build's version only: every field is there).
+class FrameStateDecoder {
+ public:
+  /// Reads one frame's records into `out`; false (problem() says why, in words) when they are
+  /// cut, damaged, not a frame state, or hold no frame (then `out` is not to be used).
+  bool decode(std::string_view records, FrameData& out);
+  const std::string& problem() const { return problem_; }
+
+ private:
+  bool fail(std::string what);
+  std::string raw_, problem_;
+  std::map<int, std::shared_ptr<const FighterSkeleton>> skeletons_;
+};
+
 /// The first difference between a recorded frame and the same frame made again, as one line
 /// naming the field and both values ("fighter.joints[LeftHand]: recorded (0.312, 1.204,
 /// -0.553) m, now (0.318, 1.204, -0.553) m, 6.0 mm apart"); nullopt when they are identical,

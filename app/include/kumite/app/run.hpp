@@ -30,6 +30,13 @@ struct HeadlessOptions {
   /// Told of every frame drawn (watchdog pings, readiness, health report); none: nothing.
   RunMonitor* monitor = nullptr;
 };
+class FrameSource;  // frame_source.hpp
+
+/// The headless presenter loop: at most `options.frames` frames of `source` drawn off-screen
+/// (PNGs every `save_every` frames and at each contact, named by the frame's number) and
+/// logged to frames.jsonl, until the source ends or `options.stop`. Returns the exit code.
+int present_headless(FrameSource& source, const HeadlessOptions& options);
+/// A live run headless: the installation's step (LiveSource) through present_headless.
 /// Renders `options.frames` frames. Returns the process exit code.
 int run_headless(Installation& installation, const HeadlessOptions& options);
 
@@ -61,6 +68,9 @@ std::optional<int> glfw_key_code(std::string_view name);
 int replay_windows(const std::filesystem::path& session, ReplayOptions options, const WindowOptions& window,
                    ReplayReport& report);
 
+/// The windowed presenter loop: `source`'s frames in the installation's windows (and the
+/// console, where the source has an installation), until the source ends, quit, or `seconds`.
+int present_windows(FrameSource& source, const WindowOptions& options);
 /// Opens the windows and runs until quit (Escape / closing a window) or `seconds`.
 /// Throws kumite::Error when a window or the requested stereo mode cannot be had.
 int run_windows(Installation& installation, const WindowOptions& options);

@@ -1,0 +1,192 @@
+// The render cluster through the kumite binary: a master (the demo, simulated time) and two
+// headless render nodes (`--node`) on one machine over ipc://; the nodes draw the frames the
+// master stepped, as a single process stepping the same demo makes them; a node with another
+// installation file is refused in one line.
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kSource = KUMITE_SOURCE_DIR;
+
+fs::path fresh_dir(const std::string& name) {
+  const fs::path d = fs::temp_directory_path() / ("kumite_cluster_run_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+void replace_all(std::string& s, const std::string& from, const std::string& to) {
+  for (std::size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
+}
+
+/// config/demo-cluster.toml (or demo.toml, `cluster` false) written into `dir` with its
+/// relative paths made absolute and its ipc endpoints in `dir`; `extra` appended.
+fs::path write_config(const fs::path& dir, const std::string& name, bool cluster, const std::string& extra = "") {
+  std::ifstream in(kSource / (cluster ? "config/demo-cluster.toml" : "config/demo.toml"));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string t = ss.str();
+  const std::string src = kSource.string() + "/";
+  replace_all(t, "\"../", "\"" + src);
+  replace_all(t, "\"rig/", "\"" + src + "config/rig/");
+  replace_all(t, "\"tracking.toml\"", "\"" + src + "config/tracking.toml\"");
+  replace_all(t, "\"orders-demo.csv\"", "\"" + src + "config/orders-demo.csv\"");
+  replace_all(t, "ipc:///tmp/kumite-demo-", "ipc://" + dir.string() + "/");
+  const fs::path p = dir / name;
+  std::ofstream(p) << t << extra;
+  return p;
+}
+
+pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
+  const std::string exe = std::string(KUMITE_BINARY_DIR) + "/bin/kumite";
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    dup2(fd, 1);
+    dup2(fd, 2);
+    std::vector<char*> argv{const_cast<char*>(exe.c_str())};
+    for (const auto& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    execv(exe.c_str(), argv.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+int wait_exit(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+}
+
+std::map<std::uint64_t, nlohmann::json> frames_of(const fs::path& file) {
+  std::map<std::uint64_t, nlohmann::json> out;
+  std::ifstream in(file);
+  for (std::string line; std::getline(in, line);) {
+    auto j = nlohmann::json::parse(line, nullptr, false);
+    if (j.is_discarded()) continue;
+    const auto frame = j["frame"].get<std::uint64_t>();
+    out[frame] = std::move(j);
+  }
+  return out;
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+bool demo_data() { return fs::exists(kSource / "build/demo/fighter.kdb"); }
+
+}  // namespace
+
+TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
+  if (!demo_data()) GTEST_SKIP() << "no demo data (scripts/make-demo-data.sh)";
+  const fs::path dir = fresh_dir("nodes");
+  const fs::path cfg = write_config(dir, "room.toml", true);
+  const std::vector<std::string> small{"--headless", "--resolution", "32x18", "--save-every", "0", "-v", "1"};
+  std::vector<pid_t> nodes;
+  for (const std::string name : {"walls", "floor"}) {
+    std::vector<std::string> args{"--config", cfg.string(), "--node", name, "--out", (dir / name).string(),
+                                  "--cluster-timing", (dir / (name + ".csv")).string()};
+    args.insert(args.end(), small.begin(), small.end());
+    nodes.push_back(spawn(args, dir / (name + ".log")));
+  }
+  // The master waits for nobody: nodes join when they are up. It steps until both have been
+  // in the barrier a while (its frames are simulated, as fast as the barrier lets them go).
+  std::vector<std::string> margs{"--config", cfg.string(), "--simulated-time", "--frames", "90", "--out",
+                                 (dir / "master").string(), "--cluster-timing", (dir / "master.csv").string()};
+  margs.insert(margs.end(), small.begin(), small.end());
+  // Nodes up first (EGL and the config take a moment), so that they see most frames.
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  ASSERT_EQ(wait_exit(spawn(margs, dir / "master.log")), 0) << read(dir / "master.log");
+  // Both nodes wait for the master (not exit) until told to stop.
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));
+  for (pid_t p : nodes) EXPECT_EQ(waitpid(p, nullptr, WNOHANG), 0) << "a node exited without being told";
+  for (pid_t p : nodes) kill(p, SIGTERM);
+  for (pid_t p : nodes) EXPECT_EQ(wait_exit(p), 128 + SIGTERM);
+  EXPECT_NE(read(dir / "walls.log").find("waiting for master"), std::string::npos) << read(dir / "walls.log");
+
+  // The same demo in one process: the reference frames.
+  const fs::path one = write_config(dir, "one.toml", false);
+  std::vector<std::string> rargs{"--config", one.string(), "--simulated-time", "--frames", "90", "--out", (dir / "one").string()};
+  rargs.insert(rargs.end(), small.begin(), small.end());
+  ASSERT_EQ(wait_exit(spawn(rargs, dir / "one.log")), 0) << read(dir / "one.log");
+  const auto ref = frames_of(dir / "one/frames.jsonl");
+  ASSERT_EQ(ref.size(), 90u);
+  const auto master = frames_of(dir / "master/frames.jsonl");
+  ASSERT_EQ(master.size(), 90u);
+  for (const auto& [f, j] : master) EXPECT_EQ(j["fighter"], ref.at(f)["fighter"]) << "master frame " << f;
+  for (const std::string name : {"walls", "floor"}) {
+    const auto got = frames_of(dir / name / "frames.jsonl");
+    EXPECT_GE(got.size(), 30u) << name << " drew too few of the master's frames";
+    std::uint64_t last = 0;
+    for (const auto& [f, j] : got) {
+      EXPECT_TRUE(last == 0 || f > last);
+      last = f;
+      const auto& r = ref.at(f);
+      for (const char* key : {"head", "eyes", "fighter"}) EXPECT_EQ(j[key], r[key]) << name << " frame " << f << " " << key;
+      // Its walls only, each drawn from the views one process computes for that frame.
+      ASSERT_EQ(j["walls"].size(), name == "walls" ? 3u : 1u);
+      for (const auto& [wall, views] : j["walls"].items()) EXPECT_EQ(views, r["walls"][wall]) << name << " " << f << " " << wall;
+    }
+    // Its timing log: every frame's STATE received, READY sent, GO received, in that order.
+    std::ifstream csv(dir / (name + ".csv"));
+    std::string line;
+    std::getline(csv, line);
+    EXPECT_EQ(line, "frame,master_time_s,state_rx_s,ready_tx_s,go_rx_s,bytes");
+    int released = 0;
+    while (std::getline(csv, line)) {
+      unsigned long long f = 0;
+      double mt = 0, rx = 0, ready = 0, go = 0;
+      unsigned bytes = 0;
+      ASSERT_EQ(std::sscanf(line.c_str(), "%llu,%lf,%lf,%lf,%lf,%u", &f, &mt, &rx, &ready, &go, &bytes), 6) << line;
+      EXPECT_LT(bytes, 10000u) << "frame state over 10 kB";
+      EXPECT_GT(bytes, 1000u);
+      if (go >= 0) {
+        ++released;
+        EXPECT_LE(rx, ready);
+        EXPECT_LE(ready, go);
+      }
+    }
+    EXPECT_GE(released, 20) << name;
+  }
+}
+
+TEST(ClusterRun, ANodeWithAnotherInstallationFileIsRefusedInOneLine) {
+  if (!demo_data()) GTEST_SKIP() << "no demo data (scripts/make-demo-data.sh)";
+  const fs::path dir = fresh_dir("refused");
+  const fs::path cfg = write_config(dir, "room.toml", true);
+  const fs::path other = write_config(dir, "other.toml", true, "\n# edited on the node's machine only\n");
+  const pid_t node = spawn({"--config", other.string(), "--node", "floor", "--headless", "--resolution", "32x18", "--out",
+                            (dir / "floor").string()},
+                           dir / "floor.log");
+  const pid_t master = spawn({"--config", cfg.string(), "--headless", "--resolution", "32x18", "--simulated-time",
+                              "--frames", "600", "--save-every", "0", "--out", (dir / "master").string()},
+                             dir / "master.log");
+  const int rc = wait_exit(node);
+  kill(master, SIGTERM);
+  wait_exit(master);
+  EXPECT_EQ(rc, 1) << read(dir / "floor.log");
+  const std::string log = read(dir / "floor.log");
+  EXPECT_NE(log.find("kumite: node \"floor\" refused: its installation file (hash"), std::string::npos) << log;
+}
