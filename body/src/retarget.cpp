@@ -371,7 +371,8 @@ bool RetargetJob::Validate() const {
   const std::size_t nt = setup->target.names.size();
   return local_rotations.size() >= ns && source_positions.size() >= ns && source_rotations.size() >= ns &&
          deltas.size() >= nt && rotations.size() >= nt && positions.size() >= nt &&
-         (locals.empty() || locals.size() >= nt) && (palette.empty() || palette.size() >= nt) && root_position.allFinite();
+         (locals.empty() || locals.size() >= nt) && (palette.empty() || palette.size() >= nt) && root_position.allFinite() &&
+         (drawn_positions.empty() || drawn_positions.size() >= ns);
 }
 
 bool RetargetJob::Run() const {
@@ -382,6 +383,9 @@ bool RetargetJob::Run() const {
   const std::size_t nt = t.names.size();
   content::forward_kinematics(s.source, root_position, local_rotations.first(ns), source_positions.first(ns),
                               source_rotations.first(ns));
+  if (!drawn_positions.empty())
+    for (std::size_t j = 0; j < ns; ++j)
+      if (drawn_positions[j].allFinite()) source_positions[j] = drawn_positions[j];
   // Mapped joint j: its world rotation delta (rest -> now) and linear part with the stretch.
   auto mapped = [&](std::size_t j, Eigen::Quaterniond& delta, Eigen::Matrix3d& linear) {
     const std::size_t src = static_cast<std::size_t>(t.source[j]);

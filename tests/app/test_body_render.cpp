@@ -356,3 +356,63 @@ TEST(BodyRender, ABodyThatCannotBeWornIsOneWarningNamingTheFileAndCapsules) {
   EXPECT_NE(none.warnings()[0].find("nowhere.toml"), std::string::npos) << none.warnings()[0];
   fs::remove_all(dir);
 }
+
+// A character switch eases the drawn joints from the old character's pose to the new one's
+// (blend_time_s); the new body follows the eased joints, not the new pose's forward kinematics
+// (which popped it onto the new pose in one frame while the skeleton eased).
+TEST(BodyRender, ACharacterSwitchEasesTheBodyWithTheDrawnJoints) {
+  const fs::path db = fs::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!fs::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = db;
+  cfg.tracking.source = TrackingSource::none;
+  cfg.orders_script.reset();
+  cfg.fighter.initial_character = 0;
+  Installation inst(cfg, make_fixed_head_input("test"), {});
+  FighterBodies bodies(cfg);
+  ASSERT_TRUE(bodies.warnings().empty()) << bodies.warnings().front();
+  const double t0 = 1000;
+  inst.start(t0);
+  double worst_body = 0, most_eased = 0;
+  int switched_frames = 0;
+  std::vector<Eigen::Vector3d> fk_pos;
+  std::vector<Eigen::Quaterniond> fk_rot, locals;
+  for (int i = 0; i < 150; ++i) {
+    const double t = t0 + i / 60.0;
+    if (i == 40) inst.order({t, OrderKind::punch_right, -1});
+    if (i == 70) inst.order({t, OrderKind::select_character, 1});  // kenji -> mei, mid-punch
+    const FrameData& f = inst.step(t);
+    ASSERT_TRUE(f.fighter.present);
+    const BodyFrame* body = bodies.pose(f.fighter);
+    ASSERT_NE(body, nullptr) << "frame " << i;
+    const body::RetargetSetup& s = *bodies.characters()[static_cast<std::size_t>(f.fighter.character)].setup;
+    switched_frames += f.fighter.character == 1;
+    // How far the drawn joints are from the pose's own forward kinematics (the easing).
+    const std::size_t n = f.fighter.local_rotations.size();
+    locals.resize(n);
+    fk_pos.resize(n);
+    fk_rot.resize(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto& q = f.fighter.local_rotations[j];
+      locals[j] = Eigen::Quaterniond(q.w, q.x, q.y, q.z);
+    }
+    content::forward_kinematics(s.source, Eigen::Vector3d(f.fighter.root_joint.x, f.fighter.root_joint.y, f.fighter.root_joint.z),
+                                locals, fk_pos, fk_rot);
+    const content::CanonicalJoint joints[3] = {content::CanonicalJoint::pelvis, content::CanonicalJoint::l_ankle,
+                                               content::CanonicalJoint::r_ankle};
+    for (std::size_t k = 0; k < 3; ++k) {
+      const int src = s.source.canonical[static_cast<std::size_t>(joints[k])];
+      ASSERT_GE(src, 0);
+      const glm::dvec3& d = f.fighter.joints[static_cast<std::size_t>(src)];
+      const Eigen::Vector3d drawn(d.x, d.y, d.z);
+      most_eased = std::max(most_eased, (drawn - fk_pos[static_cast<std::size_t>(src)]).norm());
+      worst_body = std::max(worst_body, (body->shadow_points[k].cast<double>() - drawn).norm());
+    }
+  }
+  EXPECT_GT(switched_frames, 60) << "the switch to mei did not happen";
+  EXPECT_GT(most_eased, 0.02) << "m: no easing to follow (the check would prove nothing)";
+  EXPECT_LT(worst_body, 1e-3) << "m: the body's pelvis or ankles off the drawn skeleton's";
+  std::printf("switch kenji -> mei mid-punch: drawn joints eased up to %.3f m off the new pose; the body's pelvis and "
+              "ankles at most %.2g m off the drawn joints\n",
+              most_eased, worst_body);
+}

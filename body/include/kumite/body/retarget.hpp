@@ -110,6 +110,11 @@ struct RetargetJob {
   const RetargetSetup* setup = nullptr;
   std::span<const Eigen::Quaterniond> local_rotations;  ///< source, per joint (FighterFrame.local_rotations)
   Eigen::Vector3d root_position{0, 0, 0};               ///< m, the source root joint (FighterFrame.root_joint)
+  /// Optional (empty: forward kinematics' positions): the source joints as drawn, which may
+  /// differ from forward kinematics of local_rotations (a character switch eases the drawn
+  /// joints from the old character's pose: FighterFrame.joints). The body is placed on these
+  /// and its bones point along them; the rotations about the bones stay forward kinematics'.
+  std::span<const Eigen::Vector3d> drawn_positions;
   std::span<Eigen::Vector3d> source_positions;          ///< scratch, source joints
   std::span<Eigen::Quaterniond> source_rotations;       ///< scratch, source joints
   std::span<Eigen::Matrix4d> deltas;           ///< out, target: rest world -> posed world (D_j)
