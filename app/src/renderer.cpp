@@ -92,86 +92,28 @@ void main() {
 }
 )";
 
-// The training hall: a floor, walls and a ceiling whose look is made here from the position
-// (no textures): a wooden floor of staggered planks with a square mat of panels in the
-// middle, walls of dark wood panelling under plaster between pillars, a beamed ceiling; lit by
-// three lamps over the mat (falling off with distance) and an ambient.
+// The training hall: a wooden floor of staggered planks with a mat of panels in the middle,
+// panelled walls under plaster between pillars, a beamed ceiling; lit by three lamps over the
+// mat and an ambient. Its look is geometry: each plank, panel, pillar and beam a rectangle with
+// its colour and the lamps' light baked per vertex on the CPU (hall_vertices()), so that a pixel
+// only interpolates a colour. On llvmpipe (the CI's and the headless demo's renderer) the hall
+// covers every pixel of every wall and eye: a per-pixel procedural look made the demo's frame
+// five times slower than the void.
 constexpr const char* kHallVertex = R"(#version 330 core
 layout(location = 0) in vec3 a_position;
-layout(location = 1) in vec3 a_normal;
-layout(location = 2) in float a_surface;  // 0 floor, 1 wall, 2 ceiling
+layout(location = 1) in vec3 a_colour;  // base colour times the lamps' light
 uniform mat4 u_view_projection;
-out vec3 v_world;
-out vec3 v_normal;
-out vec3 v_light;
-flat out int v_surface;
+out vec3 v_colour;
 void main() {
-  v_world = a_position;
-  v_normal = a_normal;
-  v_surface = int(a_surface + 0.5);
-  // The lamps per vertex (the hall is a 0.5 m grid): the fragment shader only makes the look.
-  vec3 light = vec3(0.20);
-  const vec3 lamps[3] = vec3[3](vec3(0.0, 4.3, -2.5), vec3(0.0, 4.3, 0.5), vec3(0.0, 4.3, -5.5));
-  for (int i = 0; i < 3; ++i) {
-    vec3 l = lamps[i] - a_position;
-    float d2 = dot(l, l);
-    light += vec3(1.0, 0.93, 0.82) * (9.0 * max(dot(a_normal, l * inversesqrt(d2)), 0.0) / (1.0 + d2));
-  }
-  v_light = v_surface == 2 ? vec3(0.35) : light;
+  v_colour = a_colour;
   gl_Position = u_view_projection * vec4(a_position, 1.0);
 }
 )";
 
 constexpr const char* kHallFragment = R"(#version 330 core
-in vec3 v_world;
-in vec3 v_normal;
-in vec3 v_light;
-flat in int v_surface;
+in vec3 v_colour;
 out vec4 o_colour;
-// Cheap per-cell variation (the R2 sequence): no sin, llvmpipe runs this per pixel.
-float hash(vec2 p) { return fract(p.x * 0.7548776 + p.y * 0.5698403 + 0.31); }
-// 1 on a seam of width w (m) at every multiple of `period` along x; aa: the pixel's footprint.
-float seam(float x, float period, float w, float aa) {
-  float d = abs(fract(x / period + 0.5) - 0.5) * period;
-  return 1.0 - smoothstep(w * 0.5, w * 0.5 + aa, d);
-}
-float seam(float x, float period, float w) { return seam(x, period, w, max(fwidth(x), 1e-4)); }
-vec3 floor_colour(vec2 p) {
-  float aa = max(fwidth(p.x) + fwidth(p.y), 1e-4);
-  // The mat: 6 m x 8 m (x -3..3, z -6..2), panels 1 m x 2 m, a red border 0.3 m wide.
-  vec2 q = p - vec2(0.0, -2.0);
-  vec2 a = abs(q);
-  if (a.x < 3.0 && a.y < 4.0) {
-    if (a.x > 2.7 || a.y > 3.7) return vec3(0.36, 0.06, 0.05);
-    vec3 panel = vec3(0.10, 0.17, 0.22) * (0.92 + 0.08 * hash(floor(vec2(q.x, q.y * 0.5))));
-    return panel * (1.0 - 0.45 * max(seam(q.x, 1.0, 0.012, aa), seam(q.y, 2.0, 0.012, aa)));
-  }
-  // Wood: planks 0.18 m wide along z, 2.4 m long, staggered per row.
-  float row = floor(p.x / 0.18);
-  float z = p.y + hash(vec2(row, 7.0)) * 2.4;
-  float tone = hash(vec2(row, floor(z / 2.4)));
-  vec3 wood = mix(vec3(0.30, 0.19, 0.11), vec3(0.42, 0.28, 0.16), tone);
-  return wood * (1.0 - 0.5 * max(seam(p.x, 0.18, 0.004, aa), seam(z, 2.4, 0.004, aa)));
-}
-vec3 wall_colour(vec3 p) {
-  float u = abs(v_normal.x) > 0.5 ? p.z : p.x;  // along the wall
-  float aa = max(fwidth(p.y), 1e-4);
-  vec3 plaster = vec3(0.58, 0.54, 0.48);
-  vec3 panel = vec3(0.24, 0.15, 0.09) * (1.0 - 0.35 * seam(u, 0.6, 0.01));
-  vec3 c = mix(panel, plaster, smoothstep(1.1, 1.1 + aa, p.y));
-  c = mix(c, vec3(0.20, 0.12, 0.07), 1.0 - smoothstep(0.0, aa, abs(p.y - 1.1) - 0.04));  // a rail
-  float pillar = 1.0 - smoothstep(0.15, 0.15 + fwidth(u), abs(fract(u / 3.0 + 0.5) - 0.5) * 3.0);
-  c = mix(c, vec3(0.27, 0.17, 0.10), pillar);
-  c = mix(c, vec3(0.22, 0.14, 0.08), 1.0 - smoothstep(0.0, aa, abs(p.y - 3.4) - 0.12));  // a beam
-  return c;
-}
-vec3 ceiling_colour(vec3 p) {
-  return vec3(0.14, 0.12, 0.10) * (1.0 - 0.4 * seam(p.z, 2.0, 0.2));
-}
-void main() {
-  vec3 base = v_surface == 0 ? floor_colour(v_world.xz) : (v_surface == 1 ? wall_colour(v_world) : ceiling_colour(v_world));
-  o_colour = vec4(base * v_light, 1.0);
-}
+void main() { o_colour = vec4(v_colour, 1.0); }
 )";
 
 // The contact shadow: soft dark discs on the floor under the pelvis and each foot, fading as
@@ -357,37 +299,227 @@ struct SkinnedVertex {
 };
 static_assert(sizeof(SkinnedVertex) == 48);
 
-/// The hall: floor, four walls, ceiling (m, room frame), inward normals, a surface id.
+/// The hall's geometry: position (m, room frame) and lit colour per vertex.
 struct HallVertex {
   float position[3];
-  float normal[3];
-  float surface;
+  float colour[3];
 };
 
-std::vector<HallVertex> hall_vertices() {
-  constexpr float x0 = -6, x1 = 6, z0 = -11, z1 = 6, y1 = 4.5f;
-  std::vector<HallVertex> v;
-  // Each surface a grid of about 0.5 m cells: the lamps are lit per vertex.
-  auto quad = [&](glm::vec3 a, glm::vec3 b, glm::vec3 c, glm::vec3 d, glm::vec3 n, float surface) {
-    const int nu = std::max(1, static_cast<int>(std::ceil(glm::length(b - a) / 0.5f)));
-    const int nv = std::max(1, static_cast<int>(std::ceil(glm::length(d - a) / 0.5f)));
-    auto at = [&](int i, int j) {
-      const float u = static_cast<float>(i) / static_cast<float>(nu), w = static_cast<float>(j) / static_cast<float>(nv);
-      return a + (b - a) * u + (d - a) * w;
-    };
-    (void)c;
-    for (int i = 0; i < nu; ++i)
-      for (int j = 0; j < nv; ++j)
-        for (const glm::vec3& p : {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)})
-          v.push_back({{p.x, p.y, p.z}, {n.x, n.y, n.z}, surface});
+/// The hall's size (m, room frame): walls at x = ±6, z = -11 (behind the fighter) and +6, 4.5 m
+/// tall; the mat 6 m x 8 m (x -3..3, z -6..2).
+constexpr float kHallX0 = -6, kHallX1 = 6, kHallZ0 = -11, kHallZ1 = 6, kHallHeight = 4.5f;
+constexpr float kMatX0 = -3, kMatX1 = 3, kMatZ0 = -6, kMatZ1 = 2, kMatBorder = 0.3f;
+
+/// Cheap per-cell variation in [0, 1) (the R2 sequence).
+float hall_hash(float a, float b) {
+  const float v = a * 0.7548776f + b * 0.5698403f + 0.31f;
+  return v - std::floor(v);
+}
+
+/// The light falling on a point of the hall with inward normal n: an ambient and three lamps
+/// over the mat (warm, falling off with distance); the ceiling only the ambient it bounces.
+glm::vec3 hall_light(const glm::vec3& p, const glm::vec3& n) {
+  if (n.y < -0.5f) return glm::vec3(0.35f);
+  glm::vec3 light(0.20f);
+  for (const glm::vec3& lamp : {glm::vec3(0.0f, 4.3f, -2.5f), glm::vec3(0.0f, 4.3f, 0.5f), glm::vec3(0.0f, 4.3f, -5.5f)}) {
+    const glm::vec3 l = lamp - p;
+    const float d2 = glm::dot(l, l);
+    light += glm::vec3(1.0f, 0.93f, 0.82f) * (9.0f * std::max(glm::dot(n, l / std::sqrt(d2)), 0.0f) / (1.0f + d2));
+  }
+  return light;
+}
+
+/// Appends a rectangle of the hall: corner `o`, edges `u` and `w` (m), inward normal `n`,
+/// one base colour; cut into cells of at most `cell` m so that the lamps' light, computed at the
+/// vertices, falls off smoothly across it.
+void hall_rect(std::vector<HallVertex>& out, glm::vec3 o, glm::vec3 u, glm::vec3 w, glm::vec3 n, glm::vec3 base,
+               float cell = 0.75f) {
+  const int nu = std::max(1, static_cast<int>(std::ceil(glm::length(u) / cell)));
+  const int nw = std::max(1, static_cast<int>(std::ceil(glm::length(w) / cell)));
+  auto at = [&](int i, int j) {
+    const glm::vec3 p = o + u * (static_cast<float>(i) / static_cast<float>(nu)) + w * (static_cast<float>(j) / static_cast<float>(nw));
+    const glm::vec3 c = base * hall_light(p, n);
+    return HallVertex{{p.x, p.y, p.z}, {c.x, c.y, c.z}};
   };
-  quad({x0, 0, z0}, {x0, 0, z1}, {x1, 0, z1}, {x1, 0, z0}, {0, 1, 0}, 0);       // floor
-  quad({x0, y1, z0}, {x1, y1, z0}, {x1, y1, z1}, {x0, y1, z1}, {0, -1, 0}, 2);  // ceiling
-  quad({x0, 0, z0}, {x1, 0, z0}, {x1, y1, z0}, {x0, y1, z0}, {0, 0, 1}, 1);     // behind the fighter
-  quad({x0, 0, z1}, {x0, y1, z1}, {x1, y1, z1}, {x1, 0, z1}, {0, 0, -1}, 1);    // behind the visitor
-  quad({x0, 0, z0}, {x0, y1, z0}, {x0, y1, z1}, {x0, 0, z1}, {1, 0, 0}, 1);     // left
-  quad({x1, 0, z0}, {x1, 0, z1}, {x1, y1, z1}, {x1, y1, z0}, {-1, 0, 0}, 1);    // right
+  for (int i = 0; i < nu; ++i)
+    for (int j = 0; j < nw; ++j)
+      for (const HallVertex& v : {at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j), at(i + 1, j + 1), at(i, j + 1)})
+        out.push_back(v);
+}
+
+/// A floor rectangle x0..x1, z0..z1 (y = 0).
+void floor_rect(std::vector<HallVertex>& out, float x0, float x1, float z0, float z1, glm::vec3 base, float cell = 0.75f) {
+  if (x1 <= x0 || z1 <= z0) return;
+  hall_rect(out, {x0, 0, z0}, {0, 0, z1 - z0}, {x1 - x0, 0, 0}, {0, 1, 0}, base, cell);
+}
+
+/// The floor outside the mat: planks 0.18 m wide along z, 2.4 m long, staggered per row, each
+/// its own tone; the mat's rectangle cut out of every plank that crosses it.
+void wood_floor(std::vector<HallVertex>& out) {
+  constexpr float width = 0.18f, length = 2.4f;
+  const int rows = static_cast<int>(std::ceil((kHallX1 - kHallX0) / width));
+  for (int r = 0; r < rows; ++r) {
+    const float x0 = kHallX0 + static_cast<float>(r) * width, x1 = std::min(kHallX1, x0 + width);
+    const float row = std::floor(x0 / width);
+    const float shift = hall_hash(row, 7.0f) * length;
+    for (float z = kHallZ0 - shift; z < kHallZ1; z += length) {
+      const float z0 = std::max(z, kHallZ0), z1 = std::min(z + length, kHallZ1);
+      const float tone = hall_hash(row, std::floor((z + shift) / length));
+      // A thin dark seam at the plank's end and along one side: the plank reads as a plank.
+      const glm::vec3 wood = glm::mix(glm::vec3(0.30f, 0.19f, 0.11f), glm::vec3(0.42f, 0.28f, 0.16f), tone);
+      const glm::vec3 seam = wood * 0.5f;
+      // The plank (less its seams) and its seams, each cut by the mat.
+      auto cut = [&](float a0, float a1, float b0, float b1, glm::vec3 c, float cell) {
+        if (a1 <= kMatX0 || a0 >= kMatX1 || b1 <= kMatZ0 || b0 >= kMatZ1) {
+          floor_rect(out, a0, a1, b0, b1, c, cell);
+          return;
+        }
+        floor_rect(out, a0, std::min(a1, kMatX0), b0, b1, c, cell);
+        floor_rect(out, std::max(a0, kMatX1), a1, b0, b1, c, cell);
+        floor_rect(out, std::max(a0, kMatX0), std::min(a1, kMatX1), b0, std::min(b1, kMatZ0), c, cell);
+        floor_rect(out, std::max(a0, kMatX0), std::min(a1, kMatX1), std::max(b0, kMatZ1), b1, c, cell);
+      };
+      constexpr float s = 0.006f;
+      cut(x0, x1 - s, z0, z1 - s, wood, 1.2f);
+      cut(x1 - s, x1, z0, z1, seam, 100.0f);
+      cut(x0, x1 - s, z1 - s, z1, seam, 100.0f);
+    }
+  }
+}
+
+/// The mat: panels 1 m x 2 m (each its own shade of blue) with dark seams, a red border.
+void mat_floor(std::vector<HallVertex>& out) {
+  const glm::vec3 red(0.36f, 0.06f, 0.05f);
+  const float b = kMatBorder;
+  floor_rect(out, kMatX0, kMatX1, kMatZ0, kMatZ0 + b, red);
+  floor_rect(out, kMatX0, kMatX1, kMatZ1 - b, kMatZ1, red);
+  floor_rect(out, kMatX0, kMatX0 + b, kMatZ0 + b, kMatZ1 - b, red);
+  floor_rect(out, kMatX1 - b, kMatX1, kMatZ0 + b, kMatZ1 - b, red);
+  const float cx = 0.5f * (kMatX0 + kMatX1), cz = 0.5f * (kMatZ0 + kMatZ1);
+  constexpr float seam = 0.012f;
+  // Seams at every metre across x and every 2 m along z from the mat's centre.
+  std::vector<float> xs{kMatX0 + b}, zs{kMatZ0 + b};
+  for (float x = std::ceil(kMatX0 + b - cx) + cx; x < kMatX1 - b; x += 1.0f) xs.push_back(x);
+  for (float z = 2.0f * std::ceil((kMatZ0 + b - cz) / 2.0f) + cz; z < kMatZ1 - b; z += 2.0f) zs.push_back(z);
+  xs.push_back(kMatX1 - b);
+  zs.push_back(kMatZ1 - b);
+  const glm::vec3 dark = glm::vec3(0.10f, 0.17f, 0.22f) * 0.55f;
+  for (std::size_t i = 0; i + 1 < xs.size(); ++i)
+    for (std::size_t j = 0; j + 1 < zs.size(); ++j) {
+      const float x0 = xs[i] + (i > 0 ? seam / 2 : 0), x1 = xs[i + 1] - (i + 2 < xs.size() ? seam / 2 : 0);
+      const float z0 = zs[j] + (j > 0 ? seam / 2 : 0), z1 = zs[j + 1] - (j + 2 < zs.size() ? seam / 2 : 0);
+      const float tone = hall_hash(std::floor(0.5f * (x0 + x1) - cx), std::floor(0.25f * (z0 + z1 - 2 * cz)));
+      floor_rect(out, x0, x1, z0, z1, glm::vec3(0.10f, 0.17f, 0.22f) * (0.92f + 0.08f * tone), 0.5f);
+      if (i > 0) floor_rect(out, xs[i] - seam / 2, xs[i] + seam / 2, z0, z1, dark, 0.5f);
+      if (j > 0) floor_rect(out, x0, x1, zs[j] - seam / 2, zs[j] + seam / 2, dark, 0.5f);
+      if (i > 0 && j > 0) floor_rect(out, xs[i] - seam / 2, xs[i] + seam / 2, zs[j] - seam / 2, zs[j] + seam / 2, dark);
+    }
+}
+
+/// The first edge after u of stripes `half` wide on either side of every multiple of `period`
+/// (k: the multiple nearest u).
+float next_edge(float u, float k, float period, float half) {
+  float best = k + period + half;
+  for (const float c : {k - half, k + half, k + period - half})
+    if (c > u + 1e-4f) best = std::min(best, c);
+  return best;
+}
+
+/// A wall from `a` along `along` (unit, m of length `length`), inward normal `n`: dark wood
+/// panelling (seams every 0.6 m) up to a rail at 1.1 m, plaster above, a beam at 3.4 m, pillars
+/// every 3 m along it.
+void hall_wall(std::vector<HallVertex>& out, glm::vec3 a, glm::vec3 along, float length, glm::vec3 n) {
+  const glm::vec3 up(0, 1, 0);
+  const glm::vec3 panel(0.24f, 0.15f, 0.09f), plaster(0.58f, 0.54f, 0.48f), rail(0.20f, 0.12f, 0.07f),
+      pillar(0.27f, 0.17f, 0.10f), beam(0.22f, 0.14f, 0.08f);
+  // Bands up the wall: panelling, rail, plaster, beam, plaster.
+  const std::array<std::pair<float, glm::vec3>, 5> bands{{{1.06f, panel}, {1.14f, rail}, {3.28f, plaster}, {3.52f, beam}, {kHallHeight, plaster}}};
+  // Along the wall: pillars 0.3 m wide centred on every multiple of 3 m of the room's axis.
+  const float start = glm::dot(a, along);
+  std::vector<std::pair<float, bool>> spans;  // (end along the wall, a pillar)
+  float t = 0;
+  while (t < length - 1e-4f) {
+    const float u = start + t;
+    const float k = std::round(u / 3.0f) * 3.0f;
+    const float end = std::min(length, next_edge(u, k, 3.0f, 0.15f) - start);
+    const float mid = 0.5f * (u + start + end);
+    const bool is_pillar = std::abs(mid - std::round(mid / 3.0f) * 3.0f) < 0.15f;
+    spans.push_back({end, is_pillar});
+    t = end;
+  }
+  float from = 0;
+  for (const auto& [to, is_pillar] : spans) {
+    float y0 = 0;
+    for (const auto& [y1, colour] : bands) {
+      const glm::vec3 c = is_pillar && colour != beam ? pillar : colour;
+      hall_rect(out, a + along * from + up * y0, along * (to - from), up * (y1 - y0), n, c);
+      y0 = y1;
+    }
+    if (!is_pillar)  // the panelling's seams
+      for (float u = std::ceil((start + from) / 0.6f) * 0.6f; u < start + to - 0.02f; u += 0.6f)
+        if (u - start > from + 0.02f)
+          hall_rect(out, a + along * (u - start - 0.005f) + n * 0.001f, along * 0.01f, up * 1.06f, n, panel * 0.65f, 10.0f);
+    from = to;
+  }
+}
+
+/// The hall: the floor (wood, then the mat), the walls, the ceiling with beams every 2 m. Every
+/// surface is a face of one box seen from inside: nothing hides anything else, so it is drawn
+/// without the depth test (the seams, drawn after what they lie on, land on top).
+std::vector<HallVertex> hall_vertices(std::size_t* floor_vertices) {
+  std::vector<HallVertex> v;
+  wood_floor(v);
+  mat_floor(v);
+  *floor_vertices = v.size();
+  hall_wall(v, {kHallX0, 0, kHallZ0}, {1, 0, 0}, kHallX1 - kHallX0, {0, 0, 1});   // behind the fighter
+  hall_wall(v, {kHallX0, 0, kHallZ1}, {1, 0, 0}, kHallX1 - kHallX0, {0, 0, -1});  // behind the visitor
+  hall_wall(v, {kHallX0, 0, kHallZ0}, {0, 0, 1}, kHallZ1 - kHallZ0, {1, 0, 0});   // left
+  hall_wall(v, {kHallX1, 0, kHallZ0}, {0, 0, 1}, kHallZ1 - kHallZ0, {-1, 0, 0});  // right
+  const glm::vec3 ceiling(0.14f, 0.12f, 0.10f);
+  for (float z = kHallZ0; z < kHallZ1 - 1e-4f;) {  // beams 0.2 m wide on every even metre
+    const float k = std::round(z / 2.0f) * 2.0f;
+    const float end = std::min(kHallZ1, next_edge(z, k, 2.0f, 0.1f));
+    const float mid = 0.5f * (z + end);
+    const bool beam = std::abs(mid - std::round(mid / 2.0f) * 2.0f) < 0.1f;
+    hall_rect(v, {kHallX0, kHallHeight, z}, {kHallX1 - kHallX0, 0, 0}, {0, 0, end - z}, {0, -1, 0},
+              beam ? ceiling * 0.6f : ceiling, 1.5f);
+    z = end;
+  }
   return v;
+}
+
+/// The hall's floor drawn once for a view that maps the floor to its pixels the way an earlier
+/// view did, and copied 1:1 after (a blit is a memory copy on llvmpipe). A wall lying on the
+/// floor (the CAVE's floor projection) has the floor on its own plane: every eye sees it at the
+/// same pixels, so its hall is drawn once for the whole run.
+struct FloorCache {
+  GLuint fbo = 0, colour = 0;
+  int width = 0, height = 0;
+  std::array<float, 9> key{};  ///< the view's map from the floor (x, z, 1) to clip (x, y, w), unit norm
+  std::uint64_t used = 0;      ///< draw number of its last use (the least recent is replaced)
+};
+
+/// How a view maps the floor plane (y = 0) to the image, up to scale (the two eyes of a wall
+/// on the floor differ only in scale): rows x, y, w of clip space, columns x, z, 1.
+std::array<float, 9> floor_map(const glm::mat4& vp) {
+  std::array<float, 9> k{};
+  const int rows[3] = {0, 1, 3}, cols[3] = {0, 2, 3};
+  float norm = 0;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      k[static_cast<std::size_t>(3 * r + c)] = vp[cols[c]][rows[r]];
+      norm += vp[cols[c]][rows[r]] * vp[cols[c]][rows[r]];
+    }
+  norm = std::sqrt(norm);
+  if (k[8] < 0) norm = -norm;  // the floor's origin in front of the eye: w > 0
+  for (float& x : k) x /= norm;
+  return k;
+}
+
+bool same_map(const std::array<float, 9>& a, const std::array<float, 9>& b) {
+  for (std::size_t i = 0; i < a.size(); ++i)
+    if (std::abs(a[i] - b[i]) > 1e-6f) return false;
+  return true;
 }
 
 /// A contact shadow disc: centre on the floor, radii, strength.
@@ -408,7 +540,12 @@ struct Renderer::Impl {
   GLuint line_vao = 0, line_vbo = 0;
   GLsizei line_count = 0;
   GLuint hall_vao = 0, hall_vbo = 0;
-  GLsizei hall_count = 0;
+  GLsizei hall_count = 0, floor_count = 0;  ///< vertices: all, the floor's (first)
+  std::array<FloorCache, 4> floor_caches{};
+  std::array<std::array<float, 9>, 8> recent_maps{};  ///< floor maps of the last views drawn
+  std::size_t recent_next = 0;
+  std::uint64_t draws = 0;
+  bool draw_cached_floor(const glm::mat4& vp);
   GLuint quad_vao = 0, quad_vbo = 0;
   GLuint palette_ubo = 0;
   GLuint feedback_buffer = 0;
@@ -466,16 +603,17 @@ Renderer::Renderer(std::span<const WallFrame> walls) : impl_(std::make_unique<Im
   glEnableVertexAttribArray(0);
   glEnableVertexAttribArray(1);
   m.line_count = static_cast<GLsizei>(lines.size());
-  const auto hall = hall_vertices();
+  std::size_t floor_vertices = 0;
+  const auto hall = hall_vertices(&floor_vertices);
+  m.floor_count = static_cast<GLsizei>(floor_vertices);
   glGenVertexArrays(1, &m.hall_vao);
   glBindVertexArray(m.hall_vao);
   glGenBuffers(1, &m.hall_vbo);
   glBindBuffer(GL_ARRAY_BUFFER, m.hall_vbo);
   glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(hall.size() * sizeof(HallVertex)), hall.data(), GL_STATIC_DRAW);
   glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, sizeof(HallVertex), nullptr);
-  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, sizeof(HallVertex), reinterpret_cast<const void*>(offsetof(HallVertex, normal)));
-  glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, sizeof(HallVertex), reinterpret_cast<const void*>(offsetof(HallVertex, surface)));
-  for (GLuint a = 0; a < 3; ++a) glEnableVertexAttribArray(a);
+  glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, sizeof(HallVertex), reinterpret_cast<const void*>(offsetof(HallVertex, colour)));
+  for (GLuint a = 0; a < 2; ++a) glEnableVertexAttribArray(a);
   m.hall_count = static_cast<GLsizei>(hall.size());
   const float quad[] = {-1, -1, 1, -1, 1, 1, -1, -1, 1, 1, -1, 1};
   glGenVertexArrays(1, &m.quad_vao);
@@ -508,6 +646,11 @@ Renderer::~Renderer() {
   glDeleteBuffers(1, &m.line_vbo);
   glDeleteVertexArrays(1, &m.line_vao);
   glDeleteBuffers(1, &m.hall_vbo);
+  for (const FloorCache& c : m.floor_caches)
+    if (c.fbo) {
+      glDeleteFramebuffers(1, &c.fbo);
+      glDeleteRenderbuffers(1, &c.colour);
+    }
   glDeleteVertexArrays(1, &m.hall_vao);
   glDeleteBuffers(1, &m.quad_vbo);
   glDeleteVertexArrays(1, &m.quad_vao);
@@ -606,8 +749,77 @@ void Renderer::clear(int x, int y, int width, int height) {
   if (impl_->options.mask) glClearColor(0.0f, 0.0f, 0.0f, 1.0f);
   else glClearColor(0.06f, 0.07f, 0.09f, 1.0f);
   glClearDepth(1.0);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  // The hall covers every pixel of a view from inside it (draw() clears the colour of one from
+  // outside): its colour is not cleared first (on llvmpipe a clear writes every pixel).
+  glClear(impl_->options.hall && !impl_->options.mask ? GL_DEPTH_BUFFER_BIT : GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_SCISSOR_TEST);
+}
+
+/// The floor of the hall for this view from a cache, when an earlier view mapped the floor to
+/// the same pixels (the hall program and its vertex array bound). False: draw it.
+bool Renderer::Impl::draw_cached_floor(const glm::mat4& vp) {
+  Impl& m = *this;
+  ++m.draws;
+  // A blit ignores the colour mask (anaglyph) and cannot write a multisampled window.
+  GLboolean mask[4] = {};
+  glGetBooleanv(GL_COLOR_WRITEMASK, mask);
+  GLint samples = 0;
+  glGetIntegerv(GL_SAMPLE_BUFFERS, &samples);
+  if (!mask[0] || !mask[1] || !mask[2] || !mask[3] || samples != 0) return false;
+  GLint rect[4] = {};
+  glGetIntegerv(GL_VIEWPORT, rect);
+  const std::array<float, 9> key = floor_map(vp);
+  FloorCache* cache = nullptr;
+  for (FloorCache& c : m.floor_caches)
+    if (c.fbo && c.width == rect[2] && c.height == rect[3] && same_map(c.key, key)) cache = &c;
+  if (!cache) {
+    // Cached only once seen before: a moving head's views never repeat.
+    const bool seen = std::any_of(m.recent_maps.begin(), m.recent_maps.end(), [&](const auto& k) { return same_map(k, key); });
+    m.recent_maps[m.recent_next++ % m.recent_maps.size()] = key;
+    if (!seen) return false;
+    cache = &*std::min_element(m.floor_caches.begin(), m.floor_caches.end(),
+                               [](const FloorCache& a, const FloorCache& b) { return a.used < b.used; });
+    if (!cache->fbo || cache->width != rect[2] || cache->height != rect[3]) {
+      if (cache->fbo) {
+        glDeleteFramebuffers(1, &cache->fbo);
+        glDeleteRenderbuffers(1, &cache->colour);
+      }
+      glGenRenderbuffers(1, &cache->colour);
+      glBindRenderbuffer(GL_RENDERBUFFER, cache->colour);
+      glRenderbufferStorage(GL_RENDERBUFFER, GL_RGBA8, rect[2], rect[3]);
+      glGenFramebuffers(1, &cache->fbo);
+      cache->width = rect[2];
+      cache->height = rect[3];
+    }
+    GLint draw_fbo = 0;
+    glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &draw_fbo);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, cache->fbo);
+    glFramebufferRenderbuffer(GL_DRAW_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, cache->colour);
+    const bool complete = glCheckFramebufferStatus(GL_DRAW_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
+    if (complete) {
+      glViewport(0, 0, rect[2], rect[3]);
+      glClearColor(0.06f, 0.07f, 0.09f, 1.0f);
+      glClear(GL_COLOR_BUFFER_BIT);
+      glDrawArrays(GL_TRIANGLES, 0, m.floor_count);
+      glViewport(rect[0], rect[1], rect[2], rect[3]);
+    }
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(draw_fbo));
+    if (!complete) {
+      glDeleteFramebuffers(1, &cache->fbo);
+      glDeleteRenderbuffers(1, &cache->colour);
+      *cache = {};
+      return false;
+    }
+    cache->key = key;
+  }
+  cache->used = m.draws;
+  GLint read_fbo = 0;
+  glGetIntegerv(GL_READ_FRAMEBUFFER_BINDING, &read_fbo);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, cache->fbo);
+  glBlitFramebuffer(0, 0, rect[2], rect[3], rect[0], rect[1], rect[0] + rect[2], rect[1] + rect[3], GL_COLOR_BUFFER_BIT,
+                    GL_NEAREST);
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, static_cast<GLuint>(read_fbo));
+  return true;
 }
 
 void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
@@ -618,18 +830,31 @@ void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
   glDepthFunc(GL_LESS);
   glDisable(GL_CULL_FACE);  // open cylinders: their insides may show at the ends
   if (o.hall && !o.mask) {
+    // The inside of a box: no surface hides another, no depth test (nor depth written: the
+    // fighter, drawn after, is inside it).
+    glDisable(GL_DEPTH_TEST);
+    const glm::dvec3 eye = glm::inverse(view.view)[3];
+    constexpr double margin = 0.2;  // m: more than any near plane
+    if (!(eye.x > kHallX0 + margin && eye.x < kHallX1 - margin && eye.y > margin && eye.y < kHallHeight - margin &&
+          eye.z > kHallZ0 + margin && eye.z < kHallZ1 - margin)) {
+      GLint rect[4] = {};
+      glGetIntegerv(GL_VIEWPORT, rect);
+      glEnable(GL_SCISSOR_TEST);
+      glScissor(rect[0], rect[1], rect[2], rect[3]);
+      glClear(GL_COLOR_BUFFER_BIT);
+      glDisable(GL_SCISSOR_TEST);
+    }
     glUseProgram(m.hall);
     glUniformMatrix4fv(m.hall_vp, 1, GL_FALSE, glm::value_ptr(vp));
     glBindVertexArray(m.hall_vao);
-    glDrawArrays(GL_TRIANGLES, 0, m.hall_count);
+    if (!m.draw_cached_floor(vp)) glDrawArrays(GL_TRIANGLES, 0, m.floor_count);
+    glDrawArrays(GL_TRIANGLES, m.floor_count, m.hall_count - m.floor_count);
     if (m.blob_count > 0) {
-      // Multiplied into the floor just drawn; no depth written (the body stands in it).
+      // Multiplied into the floor just drawn.
       glUseProgram(m.shadow);
       glUniformMatrix4fv(m.shadow_vp, 1, GL_FALSE, glm::value_ptr(vp));
       glEnable(GL_BLEND);
       glBlendFunc(GL_DST_COLOR, GL_ZERO);
-      glDepthMask(GL_FALSE);
-      glDepthFunc(GL_LEQUAL);
       glBindVertexArray(m.quad_vao);
       for (std::size_t i = 0; i < m.blob_count; ++i) {
         const Blob& b = m.blobs[i];
@@ -639,10 +864,9 @@ void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
         glUniform1f(m.shadow_strength, b.strength);
         glDrawArrays(GL_TRIANGLES, 0, 6);
       }
-      glDepthMask(GL_TRUE);
-      glDepthFunc(GL_LESS);
       glDisable(GL_BLEND);
     }
+    glEnable(GL_DEPTH_TEST);
   }
   if ((o.debug_marks || !o.hall) && !o.mask) {
     glUseProgram(m.lines);

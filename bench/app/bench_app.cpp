@@ -4,6 +4,10 @@
 #include <benchmark/benchmark.h>
 
 #include <Eigen/Core>
+#ifndef GL_GLEXT_PROTOTYPES
+#define GL_GLEXT_PROTOTYPES 1
+#endif
+#include <GL/glcorearb.h>
 
 #include "kumite/app/bodies.hpp"
 #include "kumite/app/config.hpp"
@@ -211,6 +215,78 @@ void BM_HeadlessWallLook(benchmark::State& state) {
   state.counters["skinned"] = renderer.body_frame() != nullptr;
 }
 BENCHMARK(BM_HeadlessWallLook)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->MinTime(2.0);
+
+/// The headless demo's drawing of one frame (every wall of config/demo.toml at its resolution,
+/// both eyes, glFinish) in four looks, interleaved in every iteration so that a loaded machine
+/// slows them alike: capsules and the skinned body, in the void and in the hall. The head moves
+/// 1 cm a frame on a circle, as a visitor's does (views that never repeat; only the floor
+/// wall's image of the floor does, for every eye). Counters: the median ms per frame of each
+/// look and the hall's factor over the void (the installation's target: at most 1.5 on
+/// llvmpipe).
+void BM_DemoFrameLooks(benchmark::State& state) {
+  HeadlessContext context;
+  DemoFighter d;
+  if (!d.frame->fighter.present) {
+    state.SkipWithError("no demo database (scripts/setup.sh)");
+    return;
+  }
+  auto cfg = d.cfg;
+  cfg.render.fighter = FighterLook::capsules;
+  Renderer capsules(d.inst->walls());
+  capsules.configure(cfg);
+  cfg.render.fighter = FighterLook::skinned;
+  Renderer skinned(d.inst->walls());
+  skinned.configure(cfg);
+  std::vector<std::unique_ptr<OffscreenTarget>> targets;
+  for (const auto& w : d.cfg.walls) targets.push_back(std::make_unique<OffscreenTarget>(w.resolution[0], w.resolution[1]));
+  struct Look {
+    const char* name;
+    Renderer* renderer;
+    bool hall;
+    std::vector<double> ms;
+  };
+  std::array<Look, 4> looks{{{"void_capsules_ms", &capsules, false, {}},
+                             {"void_skinned_ms", &skinned, false, {}},
+                             {"hall_capsules_ms", &capsules, true, {}},
+                             {"hall_skinned_ms", &skinned, true, {}}}};
+  const FrameData& f = *d.frame;
+  const auto& walls = d.inst->walls();
+  std::vector<std::array<EyeView, 2>> views(walls.size());
+  std::size_t turn = 0;
+  for (auto _ : state) {
+    const double a = 0.2 * static_cast<double>(turn);  // 5 cm circle, 1 cm a frame
+    const glm::dvec3 head(0.05 * std::sin(a), 1.67, 0.05 * std::cos(a));
+    for (std::size_t w = 0; w < walls.size(); ++w)
+      for (std::size_t e = 0; e < 2; ++e)
+        views[w][e] = off_axis(walls[w], head + glm::dvec3(e == 0 ? -0.032 : 0.032, 0, 0), 0.05, 100);
+    for (std::size_t k = 0; k < looks.size(); ++k) {
+      Look& look = looks[(k + turn) % looks.size()];  // a different look first each time
+      SceneOptions o = look.renderer->options();
+      o.hall = look.hall;
+      look.renderer->set_options(o);
+      const double t0 = kumite::now();
+      look.renderer->begin_frame(f.fighter);
+      for (std::size_t w = 0; w < targets.size(); ++w)
+        for (std::size_t e = 0; e < 2; ++e) {
+          targets[w]->bind();
+          look.renderer->clear(0, 0, targets[w]->width(), targets[w]->height());
+          look.renderer->draw(views[w][e], f.items);
+          glFlush();
+        }
+      glFinish();
+      look.ms.push_back((kumite::now() - t0) * 1e3);
+    }
+    ++turn;
+  }
+  auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v.empty() ? 0.0 : v[v.size() / 2];
+  };
+  for (const Look& l : looks) state.counters[l.name] = median(l.ms);
+  state.counters["hall_factor_skinned"] = median(looks[3].ms) / median(looks[1].ms);
+  state.counters["hall_factor_capsules"] = median(looks[2].ms) / median(looks[0].ms);
+}
+BENCHMARK(BM_DemoFrameLooks)->Unit(benchmark::kMillisecond)->Iterations(21);
 
 }  // namespace
 

@@ -192,6 +192,20 @@ TargetRig model_rig(const SkinnedModel& model, const content::Skeleton& source, 
   }
   if (r.canonical[idx(CJ::pelvis)] < 0 || r.source[static_cast<std::size_t>(r.canonical[idx(CJ::pelvis)])] < 0)
     throw Error("body", "bone_map", model.source + ": the " + map.family + " bone map finds no pelvis to follow the fighter's");
+  // The shoes: vertices whose largest weight is on an ankle or a joint under it, at rest.
+  for (int side = 0; side < 2; ++side) {
+    const int ankle = r.canonical[idx(side == 0 ? CJ::l_ankle : CJ::r_ankle)];
+    if (ankle < 0) continue;
+    std::vector<bool> under(s.names.size(), false);
+    for (std::size_t j = 0; j < s.names.size(); ++j)
+      under[j] = static_cast<int>(j) == ankle || (s.parents[j] >= 0 && under[static_cast<std::size_t>(s.parents[j])]);
+    for (std::size_t v = 0; v < model.vertex_count(); ++v) {
+      const std::size_t j = model.joints[v][0];  // weights sorted largest first
+      if (j >= under.size() || !under[j]) continue;
+      const Eigen::Vector4d p = r.bind[j] * model.positions[v].cast<double>().homogeneous();
+      r.foot_points[static_cast<std::size_t>(side)].push_back(p.head<3>());
+    }
+  }
   for (const auto& n : s.names) r.finger.push_back(is_finger(n));
   for (std::size_t c = 0; c < content::kCanonicalJointCount; ++c)  // a mapped joint is never curled
     if (r.canonical[c] >= 0) r.finger[static_cast<std::size_t>(r.canonical[c])] = false;
@@ -279,6 +293,7 @@ RetargetSetup RetargetSetup::build(const content::Skeleton& source, const Eigen:
   s.align.assign(nt, Eigen::Quaterniond::Identity());
   s.rest_direction.assign(nt, Eigen::Vector3d::Zero());
   s.rest_length.assign(nt, 0.0);
+  s.foot_toe.assign(nt, -1);
   for (std::size_t j = 0; j < nt; ++j) {
     const int src = target.source[j];
     if (src < 0) continue;
@@ -294,9 +309,48 @@ RetargetSetup RetargetSetup::build(const content::Skeleton& source, const Eigen:
         continue;
       }
     }
+    // An ankle without a toe joint keeps the model's rest orientation: both rests stand on
+    // the floor, the shoe flat under the character's flat foot (the shin's alignment pitched
+    // and rolled it by the legs' difference: a heel or an edge 1 cm through the floor).
+    for (int side = 0; side < 2; ++side) {
+      const CJ ankle = side == 0 ? CJ::l_ankle : CJ::r_ankle, toe = side == 0 ? CJ::l_toe : CJ::r_toe;
+      if (static_cast<int>(j) != target.canonical[idx(ankle)]) continue;
+      // It turns with the character's foot: a swing from its rest ankle -> toe (the model's
+      // rest the character's) onto the character's now (pitch and heading; roll its own).
+      const int st = source.canonical[idx(toe)];
+      if (st >= 0) {
+        const Eigen::Vector3d d = spos(st) - s.source_rest_positions[static_cast<std::size_t>(src)];
+        if (d.norm() > 1e-3) {
+          s.foot_toe[j] = st;
+          s.rest_direction[j] = d.normalized();
+        }
+      }
+    }
+    if (static_cast<int>(j) == target.canonical[idx(CJ::l_ankle)] || static_cast<int>(j) == target.canonical[idx(CJ::r_ankle)])
+      continue;
     // No bone of its own (head, hands, a zero-length source bone): keep its parent's alignment.
     for (int p = target.parents[j]; p != -1; p = target.parents[static_cast<std::size_t>(p)])
       if (target.source[static_cast<std::size_t>(p)] >= 0) { s.align[j] = s.align[static_cast<std::size_t>(p)]; break; }
+  }
+  // The foot fit: the model's sole under its ankle onto the character's floor.
+  s.foot_side.assign(nt, -1);
+  for (int side = 0; side < 2; ++side) {
+    const std::size_t k = static_cast<std::size_t>(side);
+    const int ta = target.canonical[idx(side == 0 ? CJ::l_ankle : CJ::r_ankle)];
+    const int sa = source.canonical[idx(side == 0 ? CJ::l_ankle : CJ::r_ankle)];
+    const int st = source.canonical[idx(side == 0 ? CJ::l_toe : CJ::r_toe)];
+    if (ta < 0 || sa < 0 || st < 0 || target.foot_points[k].empty()) continue;
+    double lowest = 1e300;
+    for (const Eigen::Vector3d& p : target.foot_points[k]) lowest = std::min(lowest, (s.normalise * p.homogeneous()).y());
+    const double ankle_y = s.rest_positions[static_cast<std::size_t>(ta)].y();
+    s.sole_depth[k] = ankle_y - lowest;
+    s.ankle_height[k] = spos(sa).y() - std::min(spos(sa).y(), spos(st).y());
+    const double fit = s.sole_depth[k] > 1e-3 ? s.ankle_height[k] / s.sole_depth[k] : 1.0;
+    if (!(fit >= 0.5 && fit <= 1.5)) continue;
+    s.foot_fit[k] = fit;
+    for (std::size_t j = 0; j < nt; ++j)
+      if (static_cast<int>(j) == ta || (target.parents[j] >= 0 && s.foot_side[static_cast<std::size_t>(target.parents[j])] == side))
+        s.foot_side[j] = side;
   }
   // The fist: fingers curl about the body's forward axis, toward the palm (down in a T-pose).
   s.curl.assign(nt, Eigen::Quaterniond::Identity());
@@ -317,7 +371,8 @@ bool RetargetJob::Validate() const {
   const std::size_t nt = setup->target.names.size();
   return local_rotations.size() >= ns && source_positions.size() >= ns && source_rotations.size() >= ns &&
          deltas.size() >= nt && rotations.size() >= nt && positions.size() >= nt &&
-         (locals.empty() || locals.size() >= nt) && (palette.empty() || palette.size() >= nt) && root_position.allFinite();
+         (locals.empty() || locals.size() >= nt) && (palette.empty() || palette.size() >= nt) && root_position.allFinite() &&
+         (drawn_positions.empty() || drawn_positions.size() >= ns);
 }
 
 bool RetargetJob::Run() const {
@@ -328,12 +383,25 @@ bool RetargetJob::Run() const {
   const std::size_t nt = t.names.size();
   content::forward_kinematics(s.source, root_position, local_rotations.first(ns), source_positions.first(ns),
                               source_rotations.first(ns));
+  if (!drawn_positions.empty())
+    for (std::size_t j = 0; j < ns; ++j)
+      if (drawn_positions[j].allFinite()) source_positions[j] = drawn_positions[j];
   // Mapped joint j: its world rotation delta (rest -> now) and linear part with the stretch.
   auto mapped = [&](std::size_t j, Eigen::Quaterniond& delta, Eigen::Matrix3d& linear) {
     const std::size_t src = static_cast<std::size_t>(t.source[j]);
     const Eigen::Quaterniond q = source_rotations[src] * s.source_rest_rotations[src].conjugate();
     delta = (q * s.align[j]).normalized();
     linear = delta.toRotationMatrix();
+    if (s.foot_toe[j] >= 0) {
+      // An ankle without a toe joint: the shoe swung from the rest foot onto the character's
+      // foot now, without the foot's roll about its own length (a flat foot's shoe stays flat:
+      // the mocap's rolled feet sank a shoe's edge 1-3 cm into the floor).
+      const Eigen::Vector3d now = source_positions[static_cast<std::size_t>(s.foot_toe[j])] - source_positions[src];
+      if (now.norm() < 1e-9) return;
+      delta = Eigen::Quaterniond::FromTwoVectors(s.rest_direction[j], now).normalized();
+      linear = delta.toRotationMatrix();
+      return;
+    }
     const int k = s.direction_child[j];
     if (k < 0 || s.rest_length[j] <= 0) return;
     const Eigen::Vector3d now = source_positions[static_cast<std::size_t>(t.source[static_cast<std::size_t>(k)])] - source_positions[src];
@@ -347,6 +415,15 @@ bool RetargetJob::Run() const {
       linear = linear * (Eigen::Matrix3d::Identity() + (len / s.rest_length[j] - 1.0) * u * u.transpose());
     }
   };
+  // The foot fit: the shoe scaled vertically about its joint in the rest frame.
+  auto fit_foot = [&](std::size_t j, Eigen::Matrix3d& linear) {
+    const int side = s.foot_side[j];
+    if (side < 0) return;
+    const double k = s.foot_fit[static_cast<std::size_t>(side)];
+    Eigen::Matrix3d f = Eigen::Matrix3d::Identity();
+    f(1, 1) = k;
+    linear = linear * f;
+  };
   Eigen::Quaterniond pelvis_delta;
   Eigen::Matrix3d pelvis_linear;
   mapped(static_cast<std::size_t>(s.pelvis), pelvis_delta, pelvis_linear);
@@ -357,6 +434,7 @@ bool RetargetJob::Run() const {
     if (t.source[j] >= 0) {
       Eigen::Matrix3d linear;
       mapped(j, delta, linear);
+      fit_foot(j, linear);
       Eigen::Vector3d at = source_positions[static_cast<std::size_t>(t.source[j])];
       if (!s.options.proportions && t.parents[j] >= 0 && static_cast<int>(j) != s.pelvis) {
         const Eigen::Matrix4d& dp = deltas[static_cast<std::size_t>(t.parents[j])];

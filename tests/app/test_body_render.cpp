@@ -174,6 +174,31 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
     // at the edge of the bodies' toeless shoes, up to 2 px out; every other joint is within 1.
     constexpr int kTolerancePx = 2;
     double worst_floor_rest = 0, lowest_any = 1e9;
+    // The planted feet: per foot, its shoe's lowest vertex (the vertices the ankle or a joint
+    // under it moves most: body::skin_cpu of the drawn palette, not the retarget's numbers) on
+    // the frames where the drawn skeleton's foot stands (its toe joint on the floor, its ankle
+    // at most 2 cm above its height while resting).
+    const auto& first_model = renderer.bodies()->models()[static_cast<std::size_t>(
+        renderer.bodies()->characters()[static_cast<std::size_t>(character)].model)];
+    std::array<std::vector<bool>, 2> shoe;
+    {
+      const body::BoneMap* map = body::detect_bone_map(first_model.skeleton.names);
+      ASSERT_NE(map, nullptr);
+      for (int side = 0; side < 2; ++side) {
+        const int ankle = body::find_joint(first_model.skeleton.names,
+                                           map->joint(side == 0 ? content::CanonicalJoint::l_ankle : content::CanonicalJoint::r_ankle));
+        ASSERT_GE(ankle, 0);
+        const auto& parents = first_model.skeleton.parents;
+        std::vector<bool> under(parents.size(), false);
+        for (std::size_t j = 0; j < parents.size(); ++j)
+          under[j] = static_cast<int>(j) == ankle || (parents[j] >= 0 && under[static_cast<std::size_t>(parents[j])]);
+        shoe[static_cast<std::size_t>(side)].resize(first_model.vertex_count());
+        for (std::size_t v = 0; v < first_model.vertex_count(); ++v) shoe[static_cast<std::size_t>(side)][v] = under[first_model.joints[v][0]];
+      }
+    }
+    double worst_planted = 0;
+    int planted_feet = 0;
+    std::array<double, 2> resting_ankle_y{-1, -1};
     std::vector<Eigen::Vector3f> vp, vn;
     std::string outside_joints;
     for (int i = 0; i < 4 * 75; ++i) {
@@ -196,6 +221,25 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
       lowest_any = std::min(lowest_any, static_cast<double>(lowest));
       if (f.fighter.state == content::FighterState::resting && std::abs(lowest) > std::abs(worst_floor_rest))
         worst_floor_rest = lowest;
+      const auto& sk = *f.fighter.skeleton;
+      for (int side = 0; side < 2; ++side) {
+        const std::size_t k = static_cast<std::size_t>(side);
+        const auto joint_y = [&](const char* a, const char* b) {
+          for (std::size_t j = 0; j < sk.joint_names.size(); ++j)
+            if (sk.joint_names[j] == a || sk.joint_names[j] == b) return f.fighter.joints[j].y;
+          return -1.0;
+        };
+        const double ankle_y = side == 0 ? joint_y("lfoot", "LeftFoot") : joint_y("rfoot", "RightFoot");
+        const double toe_y = side == 0 ? joint_y("ltoes", "LeftToeBase") : joint_y("rtoes", "RightToeBase");
+        ASSERT_GT(ankle_y, 0.0) << "no ankle joint named as the shipped characters name it";
+        if (f.fighter.state == content::FighterState::resting) resting_ankle_y[k] = ankle_y;
+        if (resting_ankle_y[k] < 0 || toe_y > 0.01 || ankle_y > resting_ankle_y[k] + 0.02) continue;
+        float foot_lowest = 1e9f;
+        for (std::size_t v = 0; v < vp.size(); ++v)
+          if (shoe[k][v]) foot_lowest = std::min(foot_lowest, vp[v].y());
+        ++planted_feet;
+        if (std::abs(foot_lowest) > std::abs(worst_planted)) worst_planted = foot_lowest;
+      }
       const glm::dvec3 at(f.fighter.root.x, 0.95, f.fighter.root.z);
       for (const auto& [side, from] : {std::pair<const char*, glm::dvec3>{"front", {0, 0, 1}}, {"side", {1, 0, 0}}}) {
         const EyeView view = camera(at, from, 4.5);
@@ -255,12 +299,17 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
       }
     }
     EXPECT_EQ(outside, 0) << name << ": joints outside the silhouette:" << outside_joints;
-    // The issue asks for +-2 cm; mei (female_casual) is 2.7 cm into the floor: the retarget puts
-    // the ankles on the character's, and the model's sole lies further below its ankle.
-    EXPECT_LT(std::abs(worst_floor_rest), 0.03) << name << ": m, the lowest vertex off the floor while resting";
+    // The issue's +-2 cm: the retarget fits each shoe's sole under the character's ankle.
+    EXPECT_LT(std::abs(worst_floor_rest), 0.02) << name << ": m, the lowest vertex off the floor while resting";
+    EXPECT_GT(planted_feet, frames / 2) << name << ": too few planted feet to judge";
+    // 2.5 cm: viktor's drawn skeleton has a planted toe joint 1.0 cm under the floor (frame
+    // 254; content's foot planting), and his shoe follows it to -2.2 cm.
+    EXPECT_LT(std::abs(worst_planted), 0.025) << name << ": m, a planted foot's lowest vertex off the floor";
     std::printf("%s: %d frames x front, side: %d joint projections, %d joints outside the body's mask (farthest %d px; "
-                "end sites %d px); lowest vertex %.3f m (any frame), %.3f m while resting\n",
-                name.c_str(), frames, checked, outside, worst_joint_px, worst_end_px, lowest_any, worst_floor_rest);
+                "end sites %d px); lowest vertex %.3f m (any frame), %.3f m while resting; planted feet (%d): "
+                "lowest vertex worst %.3f m\n",
+                name.c_str(), frames, checked, outside, worst_joint_px, worst_end_px, lowest_any, worst_floor_rest,
+                planted_feet, worst_planted);
   }
 }
 
@@ -306,4 +355,64 @@ TEST(BodyRender, ABodyThatCannotBeWornIsOneWarningNamingTheFileAndCapsules) {
   ASSERT_EQ(none.warnings().size(), 1u);
   EXPECT_NE(none.warnings()[0].find("nowhere.toml"), std::string::npos) << none.warnings()[0];
   fs::remove_all(dir);
+}
+
+// A character switch eases the drawn joints from the old character's pose to the new one's
+// (blend_time_s); the new body follows the eased joints, not the new pose's forward kinematics
+// (which popped it onto the new pose in one frame while the skeleton eased).
+TEST(BodyRender, ACharacterSwitchEasesTheBodyWithTheDrawnJoints) {
+  const fs::path db = fs::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!fs::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = db;
+  cfg.tracking.source = TrackingSource::none;
+  cfg.orders_script.reset();
+  cfg.fighter.initial_character = 0;
+  Installation inst(cfg, make_fixed_head_input("test"), {});
+  FighterBodies bodies(cfg);
+  ASSERT_TRUE(bodies.warnings().empty()) << bodies.warnings().front();
+  const double t0 = 1000;
+  inst.start(t0);
+  double worst_body = 0, most_eased = 0;
+  int switched_frames = 0;
+  std::vector<Eigen::Vector3d> fk_pos;
+  std::vector<Eigen::Quaterniond> fk_rot, locals;
+  for (int i = 0; i < 150; ++i) {
+    const double t = t0 + i / 60.0;
+    if (i == 40) inst.order({t, OrderKind::punch_right, -1});
+    if (i == 70) inst.order({t, OrderKind::select_character, 1});  // kenji -> mei, mid-punch
+    const FrameData& f = inst.step(t);
+    ASSERT_TRUE(f.fighter.present);
+    const BodyFrame* body = bodies.pose(f.fighter);
+    ASSERT_NE(body, nullptr) << "frame " << i;
+    const body::RetargetSetup& s = *bodies.characters()[static_cast<std::size_t>(f.fighter.character)].setup;
+    switched_frames += f.fighter.character == 1;
+    // How far the drawn joints are from the pose's own forward kinematics (the easing).
+    const std::size_t n = f.fighter.local_rotations.size();
+    locals.resize(n);
+    fk_pos.resize(n);
+    fk_rot.resize(n);
+    for (std::size_t j = 0; j < n; ++j) {
+      const auto& q = f.fighter.local_rotations[j];
+      locals[j] = Eigen::Quaterniond(q.w, q.x, q.y, q.z);
+    }
+    content::forward_kinematics(s.source, Eigen::Vector3d(f.fighter.root_joint.x, f.fighter.root_joint.y, f.fighter.root_joint.z),
+                                locals, fk_pos, fk_rot);
+    const content::CanonicalJoint joints[3] = {content::CanonicalJoint::pelvis, content::CanonicalJoint::l_ankle,
+                                               content::CanonicalJoint::r_ankle};
+    for (std::size_t k = 0; k < 3; ++k) {
+      const int src = s.source.canonical[static_cast<std::size_t>(joints[k])];
+      ASSERT_GE(src, 0);
+      const glm::dvec3& d = f.fighter.joints[static_cast<std::size_t>(src)];
+      const Eigen::Vector3d drawn(d.x, d.y, d.z);
+      most_eased = std::max(most_eased, (drawn - fk_pos[static_cast<std::size_t>(src)]).norm());
+      worst_body = std::max(worst_body, (body->shadow_points[k].cast<double>() - drawn).norm());
+    }
+  }
+  EXPECT_GT(switched_frames, 60) << "the switch to mei did not happen";
+  EXPECT_GT(most_eased, 0.02) << "m: no easing to follow (the check would prove nothing)";
+  EXPECT_LT(worst_body, 1e-3) << "m: the body's pelvis or ankles off the drawn skeleton's";
+  std::printf("switch kenji -> mei mid-punch: drawn joints eased up to %.3f m off the new pose; the body's pelvis and "
+              "ankles at most %.2g m off the drawn joints\n",
+              most_eased, worst_body);
 }

@@ -93,6 +93,7 @@ FighterBodies::FighterBodies(const InstallationConfig& config) {
   locals_.resize(most_source);
   src_rot_.resize(most_source);
   src_pos_.resize(most_source);
+  drawn_.resize(most_source);
   rot_.resize(most_target);
   pos_.resize(most_target);
   deltas_.resize(most_target);
@@ -115,6 +116,12 @@ const BodyFrame* FighterBodies::pose(const FighterPose& p) {
   job.setup = &s;
   job.local_rotations = std::span<const Eigen::Quaterniond>(locals_.data(), ns);
   job.root_position = Eigen::Vector3d(p.root_joint.x, p.root_joint.y, p.root_joint.z);
+  // The joints as drawn: a character switch eases them from the old character's pose, and the
+  // new body follows the easing (forward kinematics alone popped it onto the new pose).
+  if (p.joints.size() == ns) {
+    for (std::size_t j = 0; j < ns; ++j) drawn_[j] = Eigen::Vector3d(p.joints[j].x, p.joints[j].y, p.joints[j].z);
+    job.drawn_positions = std::span<const Eigen::Vector3d>(drawn_.data(), ns);
+  }
   job.source_positions = std::span(src_pos_.data(), ns);
   job.source_rotations = std::span(src_rot_.data(), ns);
   job.deltas = std::span(deltas_.data(), nt);

@@ -62,7 +62,7 @@ class FighterBodies {
   std::vector<std::string> warnings_;
   // Scratch of the per-frame retarget (sized to the largest skeleton / model).
   std::vector<Eigen::Quaterniond> locals_, src_rot_, rot_;
-  std::vector<Eigen::Vector3d> src_pos_, pos_;
+  std::vector<Eigen::Vector3d> src_pos_, pos_, drawn_;
   std::vector<Eigen::Matrix4d> deltas_;
   std::vector<Eigen::Matrix4f> palette_;
   BodyFrame frame_;

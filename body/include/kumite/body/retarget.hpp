@@ -51,6 +51,10 @@ struct TargetRig {
   std::vector<int> source;                     ///< per joint: source skeleton joint, -1 unmapped
   std::vector<bool> finger;                    ///< per joint: curled into the fist
   std::array<int, content::kCanonicalJointCount> canonical{};  ///< target joint per canonical joint, -1
+  /// Per side (left, right): the rest positions (target world) of the mesh's vertices that the
+  /// ankle or a joint under it moves most (the shoe): where the sole lies under the ankle.
+  /// Empty without a mesh (then the foot is not fitted).
+  std::array<std::vector<Eigen::Vector3d>, 2> foot_points;
   int joint_count() const { return static_cast<int>(names.size()); }
 };
 
@@ -88,6 +92,16 @@ struct RetargetSetup {
   std::vector<double> rest_length;                  ///< m, target rest bone length (source world)
   std::vector<Eigen::Quaterniond> curl;             ///< fingers' fist rotation (world, about the joint)
   std::vector<Eigen::Matrix4f> bind;                ///< normalise · G_rest · IBM per joint
+  /// The foot fit, per side (left, right): the model's sole depth under its ankle at rest (m,
+  /// after the leg-length scale), the character's standing ankle height (its rest ankle above
+  /// its toe joint, the floor content plants it on) and their ratio, by which the ankle's joints
+  /// are scaled vertically (rest frame) so that the sole meets the floor where the character's
+  /// foot stands (1: not fitted: no mesh, no toe joint, or a ratio outside 0.5..1.5).
+  std::array<double, 2> sole_depth{0, 0}, ankle_height{0, 0}, foot_fit{1, 1};
+  std::vector<int> foot_side;                       ///< per target joint: 0/1 the ankle's subtree, -1
+  /// Per target joint: an ankle without a toe joint of its own follows the source's toe joint
+  /// (its rest_direction: the character's rest ankle -> toe), -1.
+  std::vector<int> foot_toe;
 };
 
 /// One frame's retarget, ozz-style: inputs and caller-owned outputs in spans; Run() allocates
@@ -96,6 +110,11 @@ struct RetargetJob {
   const RetargetSetup* setup = nullptr;
   std::span<const Eigen::Quaterniond> local_rotations;  ///< source, per joint (FighterFrame.local_rotations)
   Eigen::Vector3d root_position{0, 0, 0};               ///< m, the source root joint (FighterFrame.root_joint)
+  /// Optional (empty: forward kinematics' positions): the source joints as drawn, which may
+  /// differ from forward kinematics of local_rotations (a character switch eases the drawn
+  /// joints from the old character's pose: FighterFrame.joints). The body is placed on these
+  /// and its bones point along them; the rotations about the bones stay forward kinematics'.
+  std::span<const Eigen::Vector3d> drawn_positions;
   std::span<Eigen::Vector3d> source_positions;          ///< scratch, source joints
   std::span<Eigen::Quaterniond> source_rotations;       ///< scratch, source joints
   std::span<Eigen::Matrix4d> deltas;           ///< out, target: rest world -> posed world (D_j)
