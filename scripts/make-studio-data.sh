@@ -8,9 +8,9 @@
 # Usage: scripts/make-studio-data.sh OUT_DIR [BIN_DIR]   (then kumite-motion build
 #        --annotations OUT_DIR/motions.toml --out OUT_DIR/studio.kdb)
 set -euo pipefail
+OUT=$(realpath -m "${1:?usage: make-studio-data.sh OUT_DIR [BIN_DIR]}")
+BIN=$(realpath -m "${2:-$(dirname "$0")/../build/bin}")
 cd "$(dirname "$0")/.."
-OUT=${1:?usage: make-studio-data.sh OUT_DIR [BIN_DIR]}
-BIN=${2:-build/bin}
 MOCAP=${KUMITE_MOCAP_DIR:-../shared/data/mocap}
 [[ -d "$MOCAP/hdm05" ]] || { echo "no mocap at $MOCAP" >&2; exit 77; }
 mkdir -p "$OUT"
