@@ -133,12 +133,14 @@ std::string format_annotations(const AnnotationSet& set) {
   out += "# peak_speed_mps (m/s) and extension (1 = limb straight) are informational.\n";
   out += "# repair_frames = [a, b] (optional): frames where the capture glitched, rebuilt at build time by\n";
   out += "# interpolating each joint between frames a - 1 and b + 1 (inside the segment, at most 8 frames).\n";
+  out += "# unit_m (clips, optional): metres per file unit, instead of the guess from the rest pose.\n";
   out += fmt::format("version = {}\n", set.version);
   for (const ClipAnnotation& c : set.clips) {
     out += "\n[[clip]]\n";
     out += fmt::format("file = {}\n", toml_string(c.file));
     out += fmt::format("name = {}\n", toml_string(c.name));
     out += fmt::format("mirror = {}\n", c.mirror ? "true" : "false");
+    if (c.unit_m) out += fmt::format("unit_m = {}\n", toml_number(*c.unit_m));
     for (const MotionAnnotation& m : c.motions) {
       out += "\n[[clip.motion]]\n";
       out += fmt::format("name = {}\n", toml_string(m.name));
@@ -217,13 +219,15 @@ std::vector<Clip> load_annotated_clips(const AnnotationSet& set) {
       throw file_error("annotation", "missing_file", set.source.string(), set.clips[i].line,
                        fmt::format("clip[{}].file", i), fmt::format("'{}' not found", path.string()));
     }
-    Clip clip = read_bvh(path);
+    BvhReadOptions read_options;
+    read_options.unit_m = set.clips[i].unit_m;  // stated: no guess, nothing to check it against
+    Clip clip = read_bvh(path, read_options);
     clip.name = set.clips[i].name;
     if (clip.skeleton.dialect.empty()) map_canonical(clip.skeleton, path.string());
-    if (const BvhUnitCheck u = check_bvh_unit(clip, path.string()); !u.plausible) {
+    if (const BvhUnitCheck u = check_bvh_unit(clip, path.string()); !set.clips[i].unit_m && !u.plausible) {
       // The database needs true metres: a clip at the wrong scale would retrieve wrong reaches.
       throw file_error("annotation", "unit", set.source.string(), set.clips[i].line, fmt::format("clip[{}].file", i),
-                       "refused: " + u.warning);
+                       "refused: " + u.warning + "; if its unit is known, state it in the clip's unit_m (metres per file unit)");
     }
     validate_annotations(set, i, clip);
     clips.push_back(std::move(clip));

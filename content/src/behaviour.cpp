@@ -1172,8 +1172,18 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // update (landing, lifted again) does not flick the pelvis down and up (the knees popped).
   const double last_drop = have_pose_ ? report_.root_drop_m : 0.0;
   const double v = have_pose_ ? drop_rate_mps_ : 0.0;
-  const double v_lo = std::max(-tun_.max_drop_rate_mps, v - tun_.max_drop_accel_mps2 * dt);
-  const double v_hi = std::min(tun_.max_drop_rate_mps, v + tun_.max_drop_accel_mps2 * dt);
+  // The rate changes by max_drop_accel_mps2 * dt, but the step (rate * dt) by no more than
+  // kMostDropStepGain_m an update: at 30 Hz (30 fps clips played at their rate) 60 m/s^2 let a
+  // foot's hold lift the whole body 5.9 cm in one update after 0.4 cm in the one before (the
+  // motion-quality check's one-frame jump); 120 and 60 Hz stay under the bound (0.4 and 1.7 cm;
+  // foot_planting.cpp's kMostStepGain_m, the same 3 cm). A tighter bound (1 cm) also kept a
+  // nearly straight leg's knee, which moves 2-3x what the pelvis does, from jumping at 30 and
+  // 60 Hz, but at 60 Hz the shipped sweep's pelvis then lagged its feet: both feet off in 8899
+  // frames instead of 6757, 3 snaps instead of 0.
+  constexpr double kMostDropStepGain_m = 0.03;
+  const double dv = dt > 0 ? std::min(tun_.max_drop_accel_mps2 * dt, kMostDropStepGain_m / dt) : 0.0;
+  const double v_lo = std::max(-tun_.max_drop_rate_mps, v - dv);
+  const double v_hi = std::min(tun_.max_drop_rate_mps, v + dv);
   // A punch's pelvis goes no lower than keeps its target within the arm's reach at
   // max_punch_aim_deg from the shoulder: a lunge's back foot held out of the legs' reach sank
   // the pelvis 0.29 m and a head-height punch went up with the elbow above the head. The foot

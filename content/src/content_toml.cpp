@@ -193,7 +193,7 @@ AnnotationSet parse_annotations(std::string_view text, std::string_view source) 
     const toml::node& node = (*clips)[i];
     if (!node.is_table()) throw file_error("annotation", "type", source, static_cast<int>(node.source().begin.line), prefix, "must be a table ([[clip]])");
     const Table c(*node.as_table(), source, prefix, "annotation");
-    c.only({"file", "name", "mirror", "motion"});
+    c.only({"file", "name", "mirror", "unit_m", "motion"});
     ClipAnnotation clip;
     clip.line = c.line();
     clip.file = c.string("file");
@@ -205,6 +205,7 @@ AnnotationSet parse_annotations(std::string_view text, std::string_view source) 
       if (!mirror->is_boolean()) c.fail("type", "mirror", "must be true or false");
       clip.mirror = mirror->as_boolean()->get();
     }
+    clip.unit_m = c.opt_number("unit_m", {kClipUnitRangeM[0], kClipUnitRangeM[1], "m per file unit"});
     if (const toml::array* motions = c.opt_array("motion")) {
       for (std::size_t j = 0; j < motions->size(); ++j) {
         const std::string mp = fmt::format("{}.motion[{}]", prefix, j);

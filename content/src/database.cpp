@@ -100,6 +100,34 @@ Morphology skeleton_morphology(const Skeleton& sk, std::string_view what) {
   return measure_morphology(rest, what);
 }
 
+// Whether a canonical pose stands: the head above the pelvis above both ankles.
+bool standing(const CanonicalPose& p) {
+  constexpr double kMost_m = 0.1;  // m: each at least this far above the next
+  return at(p, CJ::head).y() > at(p, CJ::pelvis).y() + kMost_m &&
+         at(p, CJ::pelvis).y() > std::max(at(p, CJ::l_ankle).y(), at(p, CJ::r_ankle).y()) + kMost_m;
+}
+
+// A clip's body, measured on its rest pose; where that is no standing body (a studio's export
+// with every bone along its joint's local X puts every joint at one height, and the pelvis's
+// drop to the hips, measured along the pelvis's up, came out 10 cm short) on its first frame.
+// Bone lengths are the same in any pose; the rest pose's standing references are measured again
+// on each segment (add_segment).
+Morphology clip_morphology(const Clip& clip) {
+  const Skeleton& sk = clip.skeleton;
+  require_canonical_joints(sk, clip.name);
+  const auto n = static_cast<std::size_t>(sk.joint_count());
+  std::vector<Eigen::Quaterniond> id(n, Eigen::Quaterniond::Identity()), gr(n);
+  std::vector<Vector3d> gp(n);
+  forward_kinematics(sk, Vector3d::Zero(), id, gp, gr);
+  CanonicalPose pose;
+  canonical_positions(sk, gp, pose);
+  if (!standing(pose) && clip.frame_count > 0) {
+    forward_kinematics(clip, 0, gp, gr);
+    canonical_positions(sk, gp, pose);
+  }
+  return measure_morphology(pose, clip.name);
+}
+
 double lowest_foot(const std::vector<CanonicalPose>& poses) {
   double lo = std::numeric_limits<double>::infinity();
   for (const auto& p : poses) {
@@ -517,6 +545,20 @@ Database build_database(std::span<const SegmentSource> sources, const BuildOptio
   db.actor_name = sources.front().clip->name;
   db.actor_skeleton = sources.front().clip->skeleton;
   db.actor = skeleton_morphology(db.actor_skeleton, db.actor_name);
+  {
+    // The actor is measured on its rest pose here and again when the database is loaded.
+    const auto n = static_cast<std::size_t>(db.actor_skeleton.joint_count());
+    std::vector<Eigen::Quaterniond> id(n, Eigen::Quaterniond::Identity()), gr(n);
+    std::vector<Vector3d> gp(n);
+    forward_kinematics(db.actor_skeleton, Vector3d::Zero(), id, gp, gr);
+    CanonicalPose rest;
+    canonical_positions(db.actor_skeleton, gp, rest);
+    if (!standing(rest)) {
+      throw Error("database", "actor", fmt::format("{}: the first clip is the database's actor and its rest pose is no standing "
+                                                   "body (head above pelvis above ankles): put a clip with one first",
+                                                   db.actor_name));
+    }
+  }
   db.actor_stature_m = measure_proportions(db.actor_skeleton).stature_m;
   db.block_index.group_count = kBlockGroupCount;
   // Blocks after every other segment (strike, rest and walk segments keep their indices).
@@ -528,7 +570,7 @@ Database build_database(std::span<const SegmentSource> sources, const BuildOptio
     const std::size_t i = order[k];
     const SegmentSource& src = sources[i];
     if (o.progress) o.progress(src.name, static_cast<double>(k) / static_cast<double>(sources.size()));
-    const Morphology m = skeleton_morphology(src.clip->skeleton, src.clip->name);
+    const Morphology m = clip_morphology(*src.clip);
     auto poses = clip_poses(*src.clip, src.first_frame, src.last_frame);
     repair_glitch(src, poses);
     add_segment(db, src, poses, m, false, o);

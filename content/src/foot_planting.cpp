@@ -20,6 +20,16 @@ constexpr double kShedPerTravel = 0.5;
 constexpr double kReturnAccel_mps2 = 40;
 /// m/s^2: the most a swinging foot's speed along the floor grows (FootPlanter's way to its landing).
 constexpr double kSwingAccel_mps2 = 100;
+/// m: the most a foot's step may grow from one update to the next, whatever the update rate. The
+/// accelerations above are per second, applied as a * dt^2 on the last step: at 120 or 60 Hz
+/// that is 0.3-2.8 cm, but at 30 Hz (a database of 30 fps clips, played at the clip's rate) a
+/// still foot could go 11 cm in one update and stop dead in the next: a one-frame jump (the
+/// motion-quality check's isolated step: > 5 cm and > 3x both neighbours). A step that grows
+/// by at most 3 cm a frame is never 3x the one before it above 4.5 cm. (The pelvis drop has the
+/// same bound: behaviour.cpp.)
+constexpr double kMostStepGain_m = 0.03;
+/// The most a step grows in an update of dt seconds at `accel_mps2`.
+double step_gain(double accel_mps2, double dt) { return std::min(accel_mps2 * dt * dt, kMostStepGain_m); }
 /// m: a kicking foot taken this far above its standing height (mid-step) is in the air already.
 constexpr double kTakenInTheAir_m = 0.01;
 /// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
@@ -237,7 +247,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           const double d = to.norm(), step = tun_.return_speed_mps * dt;
           const Vector3d want = d > step ? Vector3d(to * (step / d)) : to;
           Vector3d change = want - f.last_move;
-          const double most = kReturnAccel_mps2 * dt * dt;
+          const double most = step_gain(kReturnAccel_mps2, dt);
           if (change.norm() > most) change *= most / change.norm();
           f.lock += f.last_move + change;
           f.offset = f.lock - in.free_ankle_m;
@@ -297,7 +307,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
               // update while the composed ankle rose 0.4 cm (viktor's HDM_dg_017 kick, the knee
               // 7 cm). A foot lifted off the floor keeps the rule whole (kept low, it slid).
               if (y > next.y() && f.swing_from.y() > in.standing_ankle_y_m + kTakenInTheAir_m)
-                y = std::min(y, std::max(next.y(), f.lock.y() + std::max(0.0, f.last_move.y()) + kSwingAccel_mps2 * dt * dt));
+                y = std::min(y, std::max(next.y(), f.lock.y() + std::max(0.0, f.last_move.y()) + step_gain(kSwingAccel_mps2, dt)));
               next.y() = y;
             }
           }
@@ -328,7 +338,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           // strike started mid-stride lifts a still foot whose source already moves at 5 m/s
           // (viktor's lunge from its frame 11: the foot 8 cm in its first frame, the knee 9 cm).
           const double source_gain = step_h - Eigen::Vector2d(in.source_step_before_m.x(), in.source_step_before_m.z()).norm();
-          const double most = Eigen::Vector2d(f.last_move.x(), f.last_move.z()).norm() + std::max(kSwingAccel_mps2 * dt * dt, source_gain);
+          const double most = Eigen::Vector2d(f.last_move.x(), f.last_move.z()).norm() + std::max(step_gain(kSwingAccel_mps2, dt), source_gain);
           if (move.norm() > most) move *= most / move.norm();
           f.lock += move;
           // The height follows the source's own; the lift below is a floor above it, never
@@ -371,7 +381,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           // near-straight leg 5 cm, a 135_06 punch started from frame 20 after a step-in).
           {
             const Vector3d moved = f.lock - lock_before;
-            const double most_3d = f.last_move.norm() + std::max(kSwingAccel_mps2 * dt * dt, source_gain);
+            const double most_3d = f.last_move.norm() + std::max(step_gain(kSwingAccel_mps2, dt), source_gain);
             if (moved.norm() > most_3d) {
               f.lock = lock_before + moved * (most_3d / moved.norm());
               f.follow_y = std::min(f.follow_y, f.lock.y());

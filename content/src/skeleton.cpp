@@ -1,6 +1,11 @@
 #include "kumite/content/skeleton.hpp"
 
 #include <cassert>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "kumite/common/error.hpp"
 
 namespace kumite::content {
 
@@ -80,6 +85,45 @@ std::vector<Eigen::Vector3d> all_joint_positions(const Clip& clip) {
   std::vector<Eigen::Quaterniond> rot(n);
   for (int f = 0; f < clip.frame_count; ++f) {
     forward_kinematics(clip, f, std::span(out.data() + static_cast<std::size_t>(f) * n, n), rot);
+  }
+  return out;
+}
+
+Clip resample_clip(const Clip& clip, double frame_time_s) {
+  if (!std::isfinite(frame_time_s) || !(frame_time_s > 0) || !(frame_time_s <= 10)) {
+    throw Error("skeleton", "resample", fmt::format("frame time {} s must be finite, > 0 and at most 10 s", frame_time_s));
+  }
+  if (clip.frame_count < 1) throw Error("skeleton", "resample", fmt::format("clip '{}' has no frames", clip.name));
+  const auto n = static_cast<std::size_t>(clip.skeleton.joint_count());
+  const double duration = (clip.frame_count - 1) * clip.frame_time_s;
+  const auto frames = static_cast<int>(std::floor(duration / frame_time_s + 1e-9 / frame_time_s)) + 1;
+  Clip out = clip;
+  out.frame_time_s = frame_time_s;
+  out.frame_count = frames;
+  out.root_positions.assign(static_cast<std::size_t>(frames), Eigen::Vector3d::Zero());
+  out.local_rotations.assign(static_cast<std::size_t>(frames) * n, Eigen::Quaterniond::Identity());
+  if (!clip.local_translations.empty()) out.local_translations.assign(static_cast<std::size_t>(frames) * n, Eigen::Vector3d::Zero());
+  for (int k = 0; k < frames; ++k) {
+    const double s = k * frame_time_s / clip.frame_time_s;  // in source frames
+    int i = static_cast<int>(std::floor(s + 1e-9));
+    double u = s - i;
+    if (i >= clip.frame_count - 1) {
+      i = clip.frame_count - 1;
+      u = 0;
+    }
+    if (std::abs(u) < 1e-9) u = 0;
+    const int j = u > 0 ? i + 1 : i;
+    const auto fi = static_cast<std::size_t>(i), fj = static_cast<std::size_t>(j), fk = static_cast<std::size_t>(k);
+    out.root_positions[fk] = (1 - u) * clip.root_positions[fi] + u * clip.root_positions[fj];
+    for (std::size_t b = 0; b < n; ++b) {
+      const Eigen::Quaterniond& qa = clip.local_rotations[fi * n + b];
+      const Eigen::Quaterniond& qb = clip.local_rotations[fj * n + b];
+      out.local_rotations[fk * n + b] = u > 0 ? qa.slerp(u, qb).normalized() : qa;
+      if (!clip.local_translations.empty()) {
+        out.local_translations[fk * n + b] =
+            (1 - u) * clip.local_translations[fi * n + b] + u * clip.local_translations[fj * n + b];
+      }
+    }
   }
   return out;
 }

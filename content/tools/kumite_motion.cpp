@@ -4,6 +4,8 @@
 //                                            generate the shipped character skeletons
 //   build --annotations motions.toml --out fighter.kdb
 //                                            the fighter's motion database
+//   resample clip.bvh --fps 30 --out clip30.bvh
+//                                            a clip at another frame rate (slerp / lerp)
 //   strike --db fighter.kdb --character <name|file.bvh> --order punch_right --target X,Y,Z
 //          --out strike.bvh --report strike.json
 //                                            one adapted strike, written as BVH + JSON report
@@ -264,6 +266,32 @@ int run_build(const BuildArgs& a) {
              "candidates in {} clusters, {} block candidates; actor {} (leg length {:.3f} m); {:.1f} s\n",
              a.out, db.segments.size(), strikes, blocks, rest, walks, db.index.size, db.index.clusters.size(),
              db.block_index.size, db.actor_name, db.actor.leg_length_m, now_s() - t0);
+  return 0;
+}
+
+// ---- resample ------------------------------------------------------------------------------
+
+struct ResampleArgs {
+  std::string in, out;
+  double fps = 0;
+};
+
+void add_resample(CLI::App& app, ResampleArgs& a) {
+  auto* cmd = app.add_subcommand(
+      "resample", "Write a BVH clip at another frame rate (rotations slerped, positions lerped; same skeleton and unit)");
+  cmd->add_option("in", a.in, "clip.bvh")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--fps", a.fps, "frames per second of the output (e.g. 30, 60)")->required();
+  cmd->add_option("--out", a.out, "output BVH (written atomically)")->required();
+}
+
+int run_resample(const ResampleArgs& a) {
+  if (!std::isfinite(a.fps) || !(a.fps >= 1) || !(a.fps <= 1000))
+    throw kumite::Error("resample", "argument", fmt::format("--fps: {} must be within 1..1000", a.fps));
+  const Clip clip = read_bvh(a.in);
+  const Clip out = resample_clip(clip, 1.0 / a.fps);
+  write_bvh(a.out, out);
+  fmt::print("wrote {}: {} frames at {:g} fps from {} at {:g} fps\n", a.out, out.frame_count, a.fps, clip.frame_count,
+             clip.frame_rate_hz());
   return 0;
 }
 
@@ -1702,6 +1730,8 @@ int main(int argc, char** argv) {
   add_make_characters(app, make_characters_args);
   BuildArgs build_args;
   add_build(app, build_args);
+  ResampleArgs resample_args;
+  add_resample(app, resample_args);
   StrikeArgs strike_args;
   add_strike(app, strike_args);
   BenchArgs bench_args;
@@ -1724,6 +1754,7 @@ int main(int argc, char** argv) {
     if (app.got_subcommand("annotate")) return run_annotate(annotate_args);
     if (app.got_subcommand("make-characters")) return run_make_characters(make_characters_args);
     if (app.got_subcommand("build")) return run_build(build_args);
+    if (app.got_subcommand("resample")) return run_resample(resample_args);
     if (app.got_subcommand("strike")) return run_strike(strike_args);
     if (app.got_subcommand("bench")) return run_bench(bench_args);
     if (app.got_subcommand("quality")) return run_quality(quality_args);

@@ -1,12 +1,17 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdlib>
 #include <fstream>
 #include <map>
 
+#include <fmt/format.h>
+
 #include "kumite/common/error.hpp"
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/bvh.hpp"
+#include "kumite/content/database.hpp"
+#include "kumite/content/mkm.hpp"
 #include "mocap_data.hpp"
 
 using namespace kumite::content;
@@ -490,4 +495,153 @@ TEST(AnnotationMocap, ThirtyFpsMetresOtherNames) {
   ASSERT_EQ(p.size(), 8u);
   const int peaks[] = {304, 530, 760, 1000, 1312, 1525, 1711, 1899};
   for (std::size_t i = 0; i < 8; ++i) EXPECT_NEAR(*p[i]->hit_frame * 4, peaks[i], 12) << i;
+}
+
+// ---- A stated unit (unit_m) ------------------------------------------------------------------
+
+namespace {
+/// SYNTHETIC: the shipped 135_03 (stance steps, cm), its actor made 12 % taller (1.78 m: every
+/// offset and root position scaled).
+Clip scaled_original() {
+  Clip c = read_bvh(kumite::content::testing::source_dir() / "content" / "motions" / "135_03.bvh");
+  for (auto& o : c.skeleton.offsets) o *= 1.12;
+  for (auto& p : c.root_positions) p *= 1.12;
+  return c;
+}
+/// SYNTHETIC: scaled_original() re-exported as some studios export: every
+/// joint's frame turned so that its bone to its first child lies along its local +X (the
+/// right side's along -X, as a mirrored rig has it), offsets and rotations re-expressed so
+/// that every frame's joint positions are the clip's own. Its rest pose (all rotations zero)
+/// is no standing body: each chain lies along a line, left arm and leg out along +X, right
+/// along -X: 2.57 m from the right toes to the left fingers, no human's size in any unit.
+Clip along_local_x() {
+  const Clip c = scaled_original();
+  const Skeleton& s = c.skeleton;
+  const auto n = static_cast<std::size_t>(s.joint_count());
+  std::vector<Eigen::Quaterniond> a(n, Eigen::Quaterniond::Identity());  // new frame = old frame * a[j]
+  for (std::size_t j = 0; j < n; ++j) {
+    for (std::size_t k = j + 1; k < n; ++k) {
+      if (s.parents[k] != static_cast<int>(j) || s.offsets[k].norm() < 1e-9) continue;
+      const bool right = s.names[j] != "root" && s.names[j].front() == 'r';  // CMU: rfemur, rhumerus, ...
+      const double side = right ? -1.0 : 1.0;
+      a[j] = Eigen::Quaterniond::FromTwoVectors(side * Eigen::Vector3d::UnitX(), s.offsets[k].normalized());
+      break;
+    }
+  }
+  Clip x = c;
+  for (std::size_t j = 1; j < n; ++j)
+    x.skeleton.offsets[j] = a[static_cast<std::size_t>(s.parents[j])].conjugate() * s.offsets[j];
+  for (int f = 0; f < c.frame_count; ++f) {
+    for (std::size_t j = 0; j < n; ++j) {
+      const std::size_t i = static_cast<std::size_t>(f) * n + j;
+      const Eigen::Quaterniond parent = s.parents[j] < 0 ? Eigen::Quaterniond::Identity() : a[static_cast<std::size_t>(s.parents[j])];
+      x.local_rotations[i] = (parent.conjugate() * c.local_rotations[i] * a[j]).normalized();
+    }
+  }
+  return x;
+}
+}  // namespace
+
+TEST(Annotation, StatedUnitImportsAClipWhoseRestPoseIsNoBody) {
+  const Clip original = scaled_original();
+  const Clip x = along_local_x();
+  const auto dir = std::filesystem::path(KUMITE_BINARY_DIR) / "test_unit_m";
+  std::filesystem::create_directories(dir);
+  write_bvh(dir / "walk_x.bvh", x);  // centimetres, as 135_03
+  const std::string clip = "version = 1\n\n[[clip]]\nfile = \"walk_x.bvh\"\n";
+  const std::string walk = "\n[[clip.motion]]\nname = \"step\"\nsemantics = \"walk\"\nframes = [113, 238]\n";
+  // Without a stated unit: refused, in one line naming the file, line and key, and what to do.
+  try {
+    load_annotated_clips(parse_annotations(clip + walk, (dir / "motions.toml").string()));
+    FAIL() << "a clip whose rest pose is no body's was loaded with a guessed unit";
+  } catch (const kumite::Error& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind((dir / "motions.toml").string() + ":3: clip[0].file: refused: ", 0), 0u) << what;
+    EXPECT_NE(what.find("not a human's"), std::string::npos) << what;
+    EXPECT_NE(what.find("unit_m"), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+  }
+  // With unit_m = 0.01 (centimetres): loaded, every joint where the original has it.
+  const AnnotationSet set = parse_annotations(clip + "unit_m = 0.01\n" + walk, (dir / "motions.toml").string());
+  ASSERT_TRUE(set.clips[0].unit_m.has_value());
+  const std::vector<Clip> clips = load_annotated_clips(set);
+  ASSERT_EQ(clips.size(), 1u);
+  EXPECT_DOUBLE_EQ(clips[0].unit_m, 0.01);
+  EXPECT_FALSE(clips[0].skeleton.dialect.empty());
+  ASSERT_EQ(clips[0].frame_count, original.frame_count);
+  const auto p = all_joint_positions(clips[0]), q = all_joint_positions(original);
+  ASSERT_EQ(p.size(), q.size());
+  double worst = 0;
+  for (std::size_t i = 0; i < p.size(); ++i) worst = std::max(worst, (p[i] - q[i]).norm());
+  EXPECT_LT(worst, 1e-5) << "m: the re-exported clip's joints against the original's";
+  // Into a database beside the clip it came from (first: the actor, whose rest pose stands): the
+  // same walk, frame for frame, though its rest pose is no body (measured on its first frame).
+  write_bvh(dir / "walk.bvh", original);
+  const AnnotationSet both = parse_annotations(
+      "version = 1\n\n[[clip]]\nfile = \"walk.bvh\"\n\n[[clip.motion]]\nname = \"o\"\nsemantics = \"walk\"\n"
+      "frames = [113, 238]\n\n[[clip]]\nfile = \"walk_x.bvh\"\nunit_m = 0.01\n\n[[clip.motion]]\nname = \"x\"\n"
+      "semantics = \"walk\"\nframes = [113, 238]\n",
+      (dir / "both.toml").string());
+  const std::vector<Clip> both_clips = load_annotated_clips(both);
+  const Database db = build_database(segment_sources(both, both_clips), BuildOptions{});
+  const auto seg = [&](const std::string& name) -> const MotionSegment& {
+    for (const auto& sg : db.segments)
+      if (sg.name == name) return sg;
+    throw std::runtime_error("no segment " + name);
+  };
+  const MotionSegment& o = seg("o");
+  const MotionSegment& xs = seg("x");
+  ASSERT_EQ(o.frames.size(), xs.frames.size());
+  double worst_mkm = 0;
+  for (std::size_t f = 0; f < o.frames.size(); ++f) {
+    const MkmFrame &a = o.frames[f], &b = xs.frames[f];
+    worst_mkm = std::max({worst_mkm, std::abs(a.root_height_n - b.root_height_n), (a.root_xz_m - b.root_xz_m).norm()});
+    for (int sd = 0; sd < 2; ++sd) {
+      worst_mkm = std::max({worst_mkm, (a.leg_n[sd] - b.leg_n[sd]).norm(), (a.arm_n[sd] - b.arm_n[sd]).norm(),
+                            (a.foot_dir[sd] - b.foot_dir[sd]).norm()});
+      EXPECT_EQ(a.planted[sd], b.planted[sd]) << "frame " << f;
+    }
+  }
+  EXPECT_LT(worst_mkm, 1e-4) << "the walk re-exported along local X against the original, in the database";
+  // ...but not as the database's actor: measured on its rest pose, a line, it is refused.
+  const AnnotationSet x_first = parse_annotations(clip + "unit_m = 0.01\n" + walk, (dir / "motions.toml").string());
+  try {
+    build_database(segment_sources(x_first, load_annotated_clips(x_first)), BuildOptions{});
+    FAIL() << "an actor whose rest pose is no body was accepted";
+  } catch (const kumite::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("rest pose is no standing body"), std::string::npos) << e.what();
+  }
+  // A stated unit that is wrong is taken as stated (it is the annotator's word): metres here.
+  const std::vector<Clip> in_m = load_annotated_clips(parse_annotations(clip + "unit_m = 1.0\n" + walk, (dir / "motions.toml").string()));
+  EXPECT_DOUBLE_EQ(in_m[0].unit_m, 1.0);
+}
+
+TEST(Annotation, StatedUnitIsCheckedAndWrittenBack) {
+  const std::string head = "version = 1\n[[clip]]\nfile = \"a.bvh\"\n";
+  const auto error_of = [&](const std::string& value) -> std::string {
+    try {
+      parse_annotations(head + "unit_m = " + value + "\n", "motions.toml");
+    } catch (const kumite::Error& e) {
+      return e.what();
+    }
+    return "";
+  };
+  for (const std::string bad : {"0", "-0.01", "0.00001", "11", "1e300"}) {
+    const std::string e = error_of(bad);
+    EXPECT_EQ(e.rfind("motions.toml:4: clip[0].unit_m: must be in [0.0001, 10] m per file unit, found ", 0), 0u) << bad << ": " << e;
+  }
+  for (const std::string bad : {"nan", "inf", "-inf"}) EXPECT_EQ(error_of(bad), "motions.toml:4: clip[0].unit_m: must be a finite number") << bad;
+  EXPECT_EQ(error_of("\"cm\""), "motions.toml:4: clip[0].unit_m: must be a number");
+  // In range: read, written back, read again the same.
+  for (const double ok : {0.0001, 0.001, 0.01, 0.0254, 0.0254 / 0.45, 1.0, 10.0}) {
+    const AnnotationSet set = parse_annotations(head + fmt::format("unit_m = {}\n", ok), "motions.toml");
+    ASSERT_TRUE(set.clips[0].unit_m.has_value());
+    EXPECT_EQ(*set.clips[0].unit_m, ok);
+    const AnnotationSet again = parse_annotations(format_annotations(set), "again.toml");
+    ASSERT_TRUE(again.clips[0].unit_m.has_value());
+    EXPECT_EQ(*again.clips[0].unit_m, ok);
+    EXPECT_EQ(format_annotations(again), format_annotations(set));
+  }
+  EXPECT_FALSE(parse_annotations(head, "motions.toml").clips[0].unit_m.has_value());
+  EXPECT_EQ(format_annotations(parse_annotations(head, "motions.toml")).find("\nunit_m"), std::string::npos);
 }

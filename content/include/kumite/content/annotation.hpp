@@ -11,6 +11,8 @@
 //   file = "135_04.bvh"          # relative to the motions.toml folder
 //   name = "135_04"              # optional (default: file stem); unique
 //   mirror = true                # optional (default true): database adds the mirrored clip
+//   unit_m = 0.01                # optional: metres per file unit, instead of the guess from the
+//                                # rest pose (1e-4..10; a rest pose that is no standing body)
 //   [[clip.motion]]
 //   name = "135_04_kick_right_1" # unique in the file
 //   semantics = "kick"           # punch | kick | block | walk | rest | other
@@ -116,6 +118,10 @@ struct ClipAnnotation {
   std::string file;   ///< BVH path as written (relative to the motions.toml folder)
   std::string name;   ///< clip name (default: file stem)
   bool mirror = true; ///< the database also adds the mirrored clip
+  /// Metres per file unit, stated (kClipUnitRangeM): read with it instead of the unit guessed
+  /// from the rest pose's size, which is no body's where a studio exports its rest offsets
+  /// along each joint's local X (a line, not a standing figure). Unset: guessed and checked.
+  std::optional<double> unit_m;
   std::vector<MotionAnnotation> motions;
   int line = 0;       ///< line of the [[clip]] header (0 = not from a file)
 };
@@ -130,6 +136,9 @@ struct AnnotationSet {
 };
 
 inline constexpr int kAnnotationVersion = 1;
+/// The range a stated `unit_m` must lie in (metres per file unit): from a tenth of a millimetre
+/// to 10 m (millimetres 0.001, centimetres 0.01, inches 0.0254, metres 1).
+inline constexpr double kClipUnitRangeM[2] = {1e-4, 10.0};
 
 /// Parses and validates the schema (types, unknown keys, names, frame order, strike fields).
 AnnotationSet parse_annotations(std::string_view text, std::string_view source);
@@ -143,7 +152,9 @@ void write_annotations(const std::filesystem::path& path, const AnnotationSet& s
 /// joints mapped). Throws kumite::Error "file:line: clip[i].motion[j].key: message".
 void validate_annotations(const AnnotationSet& set, std::size_t clip_index, const Clip& clip);
 
-/// Reads every clip of the set (mapping canonical joints) and validates it.
+/// Reads every clip of the set (mapping canonical joints) and validates it. A clip with a stated
+/// unit_m is read in it; one without has its unit guessed, and is refused (file:line:
+/// clip[i].file: refused: ...) where the guess gives no human's size.
 std::vector<Clip> load_annotated_clips(const AnnotationSet& set);
 
 // ---- The proposer --------------------------------------------------------------------------

@@ -94,4 +94,13 @@ void forward_kinematics(const Clip& clip, int frame, std::span<Eigen::Vector3d> 
 /// Global joint positions (m) of every frame: [frame * joint_count + joint]. Offline use.
 std::vector<Eigen::Vector3d> all_joint_positions(const Clip& clip);
 
+/// The clip sampled every `frame_time_s` seconds from its first frame to its last (the last
+/// new frame at or before the source's last; 1e-9 s of rounding allowed): each sample between
+/// source frames i and i + 1 at u = (t - i dt) / dt, local rotations by slerp (shortest arc),
+/// root positions and per-joint translations by lerp. A sample on a source frame is that
+/// frame's values exactly. What a studio delivering at another frame rate gives (the tests
+/// resample the 120 fps development mocap to 30 and 60 fps: `kumite-motion resample`).
+/// Throws kumite::Error when frame_time_s is not finite and > 0 or the clip has no frames.
+Clip resample_clip(const Clip& clip, double frame_time_s);
+
 }  // namespace kumite::content
