@@ -5,6 +5,7 @@
 // are skipped saying why. KUMITE_TEST_DUMP=DIR writes the PNGs looked at.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -274,7 +275,13 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
           const bool end_site = jn.size() > 4 && jn.compare(jn.size() - 4, 4, "_end") == 0;
           (end_site ? worst_end_px : worst_joint_px) = std::max(end_site ? worst_end_px : worst_joint_px, miss);
           ++checked;
-          if (!end_site && miss > kTolerancePx) {
+          // The neck's own joints (CMU upperneck, viktor's Neck1) lie in the model's neck, which
+          // keeps its own shape (body::RetargetOptions::model_torso): up to 3 px (24 mm) off it on a
+          // kick's forward lean, seen from the side; held to 4 px.
+          std::string lower_name = jn;
+          for (char& ch : lower_name) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+          const int tolerance = lower_name.find("neck") != std::string::npos ? 4 : kTolerancePx;
+          if (!end_site && miss > tolerance) {
             ++outside;
             outside_joints += " " + jn + " (" + side + ", frame " + std::to_string(i) + ", " + std::to_string(miss) + " px)";
           }
