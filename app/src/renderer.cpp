@@ -893,7 +893,10 @@ void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
   glUniform1i(m.lit_mask, o.mask ? 1 : 0);
   m.sphere_instances.clear();
   m.cylinder_instances.clear();
-  for (const auto& item : items) {
+  // A mask with a body is the body alone (the silhouette checks'): no item is drawn, whatever
+  // its colour (the capsules are told from other items only by colour).
+  const std::span<const DrawItem> drawn = o.mask && m.body ? std::span<const DrawItem>() : items;
+  for (const auto& item : drawn) {
     if (m.body && is_fighter_item(item, m.character)) continue;  // the body instead
     if (!o.debug_marks && is_target_item(item)) continue;
     if (o.mask && !is_fighter_item(item, m.character)) continue;
