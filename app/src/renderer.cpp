@@ -749,9 +749,9 @@ void Renderer::clear(int x, int y, int width, int height) {
   if (impl_->options.mask) glClearColor(0.0f, 0.0f, 0.0f, 1.0f);
   else glClearColor(0.06f, 0.07f, 0.09f, 1.0f);
   glClearDepth(1.0);
-  // The hall covers every pixel of a view from inside it (draw() clears the colour of one from
-  // outside): its colour is not cleared first (on llvmpipe a clear writes every pixel).
-  glClear(impl_->options.hall && !impl_->options.mask ? GL_DEPTH_BUFFER_BIT : GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  // Cleared under the hall too: where its rectangles meet edge to a cut edge (T-junctions)
+  // the rasteriser may leave a pixel uncovered, which would keep the last image's colour.
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glDisable(GL_SCISSOR_TEST);
 }
 
@@ -833,17 +833,6 @@ void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
     // The inside of a box: no surface hides another, no depth test (nor depth written: the
     // fighter, drawn after, is inside it).
     glDisable(GL_DEPTH_TEST);
-    const glm::dvec3 eye = glm::inverse(view.view)[3];
-    constexpr double margin = 0.2;  // m: more than any near plane
-    if (!(eye.x > kHallX0 + margin && eye.x < kHallX1 - margin && eye.y > margin && eye.y < kHallHeight - margin &&
-          eye.z > kHallZ0 + margin && eye.z < kHallZ1 - margin)) {
-      GLint rect[4] = {};
-      glGetIntegerv(GL_VIEWPORT, rect);
-      glEnable(GL_SCISSOR_TEST);
-      glScissor(rect[0], rect[1], rect[2], rect[3]);
-      glClear(GL_COLOR_BUFFER_BIT);
-      glDisable(GL_SCISSOR_TEST);
-    }
     glUseProgram(m.hall);
     glUniformMatrix4fv(m.hall_vp, 1, GL_FALSE, glm::value_ptr(vp));
     glBindVertexArray(m.hall_vao);
@@ -893,7 +882,10 @@ void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
   glUniform1i(m.lit_mask, o.mask ? 1 : 0);
   m.sphere_instances.clear();
   m.cylinder_instances.clear();
-  for (const auto& item : items) {
+  // A mask with a body is the body alone (the silhouette checks'): no item is drawn, whatever
+  // its colour (the capsules are told from other items only by colour).
+  const std::span<const DrawItem> drawn = o.mask && m.body ? std::span<const DrawItem>() : items;
+  for (const auto& item : drawn) {
     if (m.body && is_fighter_item(item, m.character)) continue;  // the body instead
     if (!o.debug_marks && is_target_item(item)) continue;
     if (o.mask && !is_fighter_item(item, m.character)) continue;

@@ -332,6 +332,19 @@ RetargetSetup RetargetSetup::build(const content::Skeleton& source, const Eigen:
     for (int p = target.parents[j]; p != -1; p = target.parents[static_cast<std::size_t>(p)])
       if (target.source[static_cast<std::size_t>(p)] >= 0) { s.align[j] = s.align[static_cast<std::size_t>(p)]; break; }
   }
+  // The model's torso: its joints placed by their parents, the bones pointing at them unstretched.
+  s.rigid.assign(nt, false);
+  s.unstretched.assign(nt, false);
+  if (options.model_torso)
+    for (CJ c : {CJ::spine, CJ::chest, CJ::neck, CJ::head, CJ::l_clavicle, CJ::r_clavicle})
+      if (const int j = target.canonical[idx(c)]; j >= 0 && j != pelvis) s.rigid[static_cast<std::size_t>(j)] = true;
+  for (std::size_t j = 0; j < nt; ++j)
+    s.unstretched[j] = s.direction_child[j] >= 0 && s.rigid[static_cast<std::size_t>(s.direction_child[j])];
+  if (const int th = target.canonical[idx(CJ::head)], sh = source.canonical[idx(CJ::head)]; options.model_torso && th >= 0 && sh >= 0) {
+    const double model_torso = (s.rest_positions[static_cast<std::size_t>(th)] - s.rest_positions[static_cast<std::size_t>(pelvis)]).norm();
+    const double character_torso = (spos(sh) - sp).norm();
+    if (model_torso > 1e-6) s.torso_scale = std::clamp(character_torso / model_torso, 0.7, 1.3);
+  }
   // The foot fit: the model's sole under its ankle onto the character's floor.
   s.foot_side.assign(nt, -1);
   for (int side = 0; side < 2; ++side) {
@@ -410,7 +423,7 @@ bool RetargetJob::Run() const {
     const Eigen::Vector3d was = delta * s.rest_direction[j];
     delta = (Eigen::Quaterniond::FromTwoVectors(was, now) * delta).normalized();
     linear = delta.toRotationMatrix();
-    if (s.options.proportions) {
+    if (s.options.proportions && !s.unstretched[j]) {
       const Eigen::Vector3d& u = s.rest_direction[j];
       linear = linear * (Eigen::Matrix3d::Identity() + (len / s.rest_length[j] - 1.0) * u * u.transpose());
     }
@@ -436,9 +449,11 @@ bool RetargetJob::Run() const {
       mapped(j, delta, linear);
       fit_foot(j, linear);
       Eigen::Vector3d at = source_positions[static_cast<std::size_t>(t.source[j])];
-      if (!s.options.proportions && t.parents[j] >= 0 && static_cast<int>(j) != s.pelvis) {
-        const Eigen::Matrix4d& dp = deltas[static_cast<std::size_t>(t.parents[j])];
+      if ((!s.options.proportions || s.rigid[j]) && t.parents[j] >= 0 && static_cast<int>(j) != s.pelvis) {
+        const std::size_t p = static_cast<std::size_t>(t.parents[j]);
+        const Eigen::Matrix4d& dp = deltas[p];
         at = dp.topLeftCorner<3, 3>() * b + dp.topRightCorner<3, 1>();
+        if (s.rigid[j]) at = positions[p] + s.torso_scale * (at - positions[p]);
       }
       deltas[j] = affine(linear, at - linear * b);
     } else if (t.parents[j] >= 0) {

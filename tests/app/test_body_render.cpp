@@ -5,6 +5,7 @@
 // are skipped saying why. KUMITE_TEST_DUMP=DIR writes the PNGs looked at.
 #include <gtest/gtest.h>
 
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -274,7 +275,13 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
           const bool end_site = jn.size() > 4 && jn.compare(jn.size() - 4, 4, "_end") == 0;
           (end_site ? worst_end_px : worst_joint_px) = std::max(end_site ? worst_end_px : worst_joint_px, miss);
           ++checked;
-          if (!end_site && miss > kTolerancePx) {
+          // The neck's own joints (CMU upperneck, viktor's Neck1) lie in the model's neck, which
+          // keeps its own shape (body::RetargetOptions::model_torso): up to 3 px (24 mm) off it on a
+          // kick's forward lean, seen from the side; held to 4 px.
+          std::string lower_name = jn;
+          for (char& ch : lower_name) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+          const int tolerance = lower_name.find("neck") != std::string::npos ? 4 : kTolerancePx;
+          if (!end_site && miss > tolerance) {
             ++outside;
             outside_joints += " " + jn + " (" + side + ", frame " + std::to_string(i) + ", " + std::to_string(miss) + " px)";
           }
@@ -415,4 +422,67 @@ TEST(BodyRender, ACharacterSwitchEasesTheBodyWithTheDrawnJoints) {
   std::printf("switch kenji -> mei mid-punch: drawn joints eased up to %.3f m off the new pose; the body's pelvis and "
               "ankles at most %.2g m off the drawn joints\n",
               most_eased, worst_body);
+}
+
+// The hall's floor is drawn once for a view that maps the floor to the same pixels as an
+// earlier one (the floor wall, every eye) and copied after: the copy equals the floor drawn
+// anew, for the other eye too, and a view that maps it otherwise (a vertical wall, the head
+// moved) is drawn, not copied.
+TEST(BodyRender, TheHallsCopiedFloorEqualsTheFloorDrawn) {
+  std::string why;
+  const auto context = context_or_reason(why);
+  if (!context) GTEST_SKIP() << why;
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  std::vector<WallFrame> walls;
+  for (const auto& wc : cfg.walls) walls.push_back(wall_frame(wc));
+  std::size_t floor_wall = walls.size(), front_wall = walls.size();
+  for (std::size_t w = 0; w < walls.size(); ++w) {
+    if (cfg.walls[w].name == "floor") floor_wall = w;
+    if (cfg.walls[w].name == "front") front_wall = w;
+  }
+  ASSERT_LT(floor_wall, walls.size());
+  ASSERT_LT(front_wall, walls.size());
+  const int w = 320, h = 320;
+  OffscreenTarget target(w, h);
+  const SceneOptions hall{.hall = true, .debug_marks = false, .mask = false};
+  auto image = [&](Renderer& r, const WallFrame& wall, const glm::dvec3& eye) {
+    target.bind();
+    r.clear(0, 0, w, h);
+    r.draw(off_axis(wall, eye, 0.05, 100), {});
+    std::vector<std::uint8_t> rgba;
+    target.read(rgba);
+    return rgba;
+  };
+  auto differing = [](const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b) {
+    std::size_t n = 0;
+    for (std::size_t i = 0; i < a.size(); i += 4)
+      n += a[i] != b[i] || a[i + 1] != b[i + 1] || a[i + 2] != b[i + 2];
+    return n;
+  };
+  Renderer cached(walls), fresh(walls);
+  cached.set_options(hall);
+  fresh.set_options(hall);
+  const glm::dvec3 left(-0.032, 1.67, 0.1), right(0.032, 1.67, 0.1), moved(0.3, 1.5, -0.2);
+  // The floor wall: left eye (drawn), right eye (seen before up to scale: cached and copied),
+  // then both again; each against a renderer drawing that view for the first time.
+  (void)image(cached, walls[floor_wall], left);
+  for (const auto& eye : {right, left, moved}) {
+    Renderer first(walls);
+    first.set_options(hall);
+    // Up to 0.1 % of the pixels: on a seam's edge the eyes' matrices, equal up to scale, round
+    // the other way (7 of 102400 seen); a copy out of place differs over the whole image.
+    EXPECT_LE(differing(image(cached, walls[floor_wall], eye), image(first, walls[floor_wall], eye)),
+              static_cast<std::size_t>(w * h / 1000));
+  }
+  // A vertical wall from two heads: the floor seen otherwise each time, never a stale copy.
+  for (const auto& eye : {left, left, moved, moved}) {
+    Renderer first(walls);
+    first.set_options(hall);
+    EXPECT_EQ(differing(image(cached, walls[front_wall], eye), image(first, walls[front_wall], eye)), 0u);
+  }
+  // The floor wall's hall is not empty (the check compares something).
+  const auto floor = image(fresh, walls[floor_wall], left);
+  std::size_t lit = 0;
+  for (std::size_t i = 0; i < floor.size(); i += 4) lit += floor[i] + floor[i + 1] + floor[i + 2] > 30;
+  EXPECT_GT(lit, static_cast<std::size_t>(w * h / 2));
 }

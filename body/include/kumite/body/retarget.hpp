@@ -68,6 +68,12 @@ TargetRig skeleton_rig(const content::Skeleton& target, const content::Skeleton&
 struct RetargetOptions {
   bool proportions = true;  ///< stretch mapped bones to the character's lengths
   double fist_deg = 55;     ///< curl per finger joint (thumb: half)
+  /// The torso (spine, chest, neck, head, clavicles) keeps the model's own shape (the
+  /// hip-height scale), turned as the character's: only the limbs are put on the character's
+  /// joints. Skeletons disagree where those joints sit (the CMU lowerneck 20 cm under the
+  /// bodies' neck, its clavicles starting at the sternum): stretched onto them, the neck grew
+  /// threefold and the shoulders rose into a V.
+  bool model_torso = true;
 };
 
 /// What is computed once per (source skeleton, target). Immutable once built.
@@ -99,6 +105,11 @@ struct RetargetSetup {
   /// foot stands (1: not fitted: no mesh, no toe joint, or a ratio outside 0.5..1.5).
   std::array<double, 2> sole_depth{0, 0}, ankle_height{0, 0}, foot_fit{1, 1};
   std::vector<int> foot_side;                       ///< per target joint: 0/1 the ankle's subtree, -1
+  std::vector<bool> rigid;     ///< per target joint: placed by its parent (model_torso), not on the character's
+  std::vector<bool> unstretched;  ///< per target joint: its bone keeps its length (it points at a rigid joint)
+  /// The rigid torso's offsets scaled by the character's rest pelvis-to-head length over the
+  /// model's (0.7..1.3): its head lands on the character's at rest.
+  double torso_scale = 1;
   /// Per target joint: an ankle without a toe joint of its own follows the source's toe joint
   /// (its rest_direction: the character's rest ankle -> toe), -1.
   std::vector<int> foot_toe;
