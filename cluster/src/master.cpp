@@ -35,8 +35,8 @@ struct Master::Impl {
 
   explicit Impl(MasterOptions o) : opt(std::move(o)) {
     for (const auto& n : opt.config.nodes) members[n.name] = {};
-    detail::common_options(pub);
-    detail::common_options(router);
+    detail::common_options(pub, false);
+    detail::common_options(router, true);
     pub.set(zmq::sockopt::sndhwm, 8);  // a stopped node's backlog: a few frames, then dropped
     pub.set(zmq::sockopt::tcp_keepalive, 1);
     const std::string sb = opt.config.state_bind.value_or(opt.config.state);

@@ -42,8 +42,8 @@ struct Node::Impl {
       for (const auto& n : opt.config.nodes) known += (known.empty() ? "" : ", ") + n.name;
       throw Error("cluster", "node", fmt::format("--node {}: not a node of the installation file (its nodes: {})", opt.name, known));
     }
-    detail::common_options(sub);
-    detail::common_options(dealer);
+    detail::common_options(sub, false);
+    detail::common_options(dealer, true);
     sub.set(zmq::sockopt::rcvhwm, 8);
     sub.set(zmq::sockopt::subscribe, "");
     // The routing id: the node's name and this process's id, so that the master tells a second
