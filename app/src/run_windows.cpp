@@ -300,7 +300,7 @@ int present_windows(FrameSource& source, const WindowOptions& opt) {
       }
       console->swap();
     }
-    if (log) log->write(f, source.console(f), names, mode != StereoMode::mono);
+    if (log && !source.repeated()) log->write(f, source.console(f), names, mode != StereoMode::mono);
     if (opt.monitor && source.installation()) opt.monitor->frame_done(*source.installation(), f);
     // Closing the console (or a wall window) ends the run: the live show's after a second
     // close within [console] quit_confirm_s (a stray click ends no show).

@@ -187,6 +187,8 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
   cluster_run.stop = &stop;
   if (!a.cluster_timing.empty()) cluster_run.timing_log = a.cluster_timing;
   if (!a.node.empty()) {
+    // In windows, a node waiting for its master keeps its last picture and its windows answer.
+    cluster_run.repeat_while_waiting = !headless;
     kumite::app::ClusterNodeSource source(config, a.node, cluster_run);
     if (headless) {
       kumite::app::HeadlessOptions ho;

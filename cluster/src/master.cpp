@@ -17,6 +17,7 @@ struct Master::Impl {
     int misses = 0;
     std::uint64_t from_frame = 0;  ///< the first frame whose READY it owes
     bool ready = false;
+    std::string peer;              ///< routing id ("name#process") of the process that is this node
   };
   MasterOptions opt;
   zmq::context_t ctx{1};
@@ -34,11 +35,10 @@ struct Master::Impl {
 
   explicit Impl(MasterOptions o) : opt(std::move(o)) {
     for (const auto& n : opt.config.nodes) members[n.name] = {};
-    detail::common_options(pub);
-    detail::common_options(router);
+    detail::common_options(pub, false);
+    detail::common_options(router, true);
     pub.set(zmq::sockopt::sndhwm, 8);  // a stopped node's backlog: a few frames, then dropped
     pub.set(zmq::sockopt::tcp_keepalive, 1);
-    router.set(zmq::sockopt::router_handover, 1);  // a node restarted under its name takes over
     const std::string sb = opt.config.state_bind.value_or(opt.config.state);
     const std::string cb = opt.config.control_bind.value_or(opt.config.control);
     for (auto [s, e] : {std::pair{&pub, sb}, std::pair{&router, cb}}) {
@@ -67,7 +67,9 @@ struct Master::Impl {
       if (!detail::try_recv(router, extra)) break;
       stats.defects.count(Defect::oversized);
     }
-    const std::string_view name(static_cast<const char*>(id_msg.data()), id_msg.size());
+    // The routing id is "name#process": the node's name, and which process is it.
+    const std::string_view peer(static_cast<const char*>(id_msg.data()), id_msg.size());
+    const std::string_view name = peer.substr(0, peer.find('#'));
     Header h;
     std::string_view payload;
     const Defect d = decode_message(body_msg.to_string_view(), opt.config_hash, h, payload);
@@ -85,13 +87,19 @@ struct Master::Impl {
                             name, h.config_hash, opt.config_hash);
         else if (it == members.end())
           why = fmt::format("node \"{}\" refused: not a node of the installation file's [[cluster.nodes]]", name);
+        // Another process under a name whose process is in the barrier now: the name is taken
+        // (a node killed and restarted has left the barrier by the time it is back).
+        if (why.empty() && it->second.active && it->second.peer != peer)
+          why = fmt::format("node \"{}\" refused: named twice: another process is node \"{}\" and is in the barrier",
+                            name, name);
         if (!why.empty()) {
           ++stats.refusals;
           events.push_back(why);
-          send_to(name, MessageType::refused, why);
+          send_to(peer, MessageType::refused, why);
           return true;
         }
         Member& m = it->second;
+        m.peer = std::string(peer);
         if (!m.active) {
           ++stats.joins;
           events.push_back(fmt::format("node \"{}\" joined the barrier at frame {}", name, published ? frame + 1 : frame));
@@ -100,18 +108,19 @@ struct Master::Impl {
         m.misses = 0;
         m.ready = false;
         m.from_frame = published ? frame + 1 : frame;  // not the frame being gathered: it has not its STATE
-        send_to(name, MessageType::welcome);
+        send_to(peer, MessageType::welcome);
         return true;
       }
       case MessageType::ready:
-        if (it == members.end() || !it->second.active) {
-          if (it != members.end()) send_to(name, MessageType::left);  // say HELLO to come back
+        if (it == members.end() || it->second.peer != peer) return true;  // not the node's process
+        if (!it->second.active) {
+          send_to(peer, MessageType::left);  // say HELLO to come back
           return true;
         }
         if (published && h.frame == frame) it->second.ready = true;
         return true;
       case MessageType::bye:
-        if (it != members.end() && it->second.active) {
+        if (it != members.end() && it->second.active && it->second.peer == peer) {
           it->second.active = false;
           ++stats.leaves;
           events.push_back(fmt::format("node \"{}\" said goodbye", name));
@@ -193,7 +202,7 @@ const BarrierReport& Master::release() {
         r.left.push_back(name);
         m.events.push_back(fmt::format("node \"{}\" left the barrier at frame {}: {} deadlines missed in a row", name,
                                        m.frame, mem.misses));
-        m.send_to(name, MessageType::left);
+        m.send_to(mem.peer, MessageType::left);
       }
     }
   } else {

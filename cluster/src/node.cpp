@@ -1,5 +1,8 @@
 // A render node: the newest STATE, READY when drawn, GO to swap; HELLO until welcomed.
+#include <random>
 #include <utility>
+
+#include <unistd.h>
 
 #include <fmt/format.h>
 
@@ -39,11 +42,15 @@ struct Node::Impl {
       for (const auto& n : opt.config.nodes) known += (known.empty() ? "" : ", ") + n.name;
       throw Error("cluster", "node", fmt::format("--node {}: not a node of the installation file (its nodes: {})", opt.name, known));
     }
-    detail::common_options(sub);
-    detail::common_options(dealer);
+    detail::common_options(sub, false);
+    detail::common_options(dealer, true);
     sub.set(zmq::sockopt::rcvhwm, 8);
     sub.set(zmq::sockopt::subscribe, "");
-    dealer.set(zmq::sockopt::routing_id, opt.name);
+    // The routing id: the node's name and this process's id, so that the master tells a second
+    // process under a name in use from the node coming back (killed and restarted, continued).
+    std::random_device rd;
+    const std::uint64_t instance = (static_cast<std::uint64_t>(rd()) << 32) ^ rd() ^ static_cast<std::uint64_t>(getpid());
+    dealer.set(zmq::sockopt::routing_id, fmt::format("{}#{:016x}", opt.name, instance));
     dealer.set(zmq::sockopt::immediate, 1);  // nothing queued for a master not there
     dealer.set(zmq::sockopt::sndhwm, 16);
     try {

@@ -10,12 +10,18 @@
 
 namespace kumite::cluster::detail {
 
-/// Every socket: closes at once (no linger), dead peers seen within 300 ms by heartbeats.
-inline void common_options(zmq::socket_t& s) {
+/// Every socket: closes at once (no linger), reconnects within 50-250 ms. `heartbeats`: dead
+/// peers seen within 300 ms (the control sockets only). The STATE/GO sockets have none: a
+/// heartbeat timeout on a connection whose input is stalled by its high-water mark (a node busy
+/// while the master publishes) trips libzmq 4.3.4's `_input_stopped` assertion on reconnect
+/// (zeromq/libzmq#3937); a node sees a lost master by its STATEs stopping instead.
+inline void common_options(zmq::socket_t& s, bool heartbeats) {
   s.set(zmq::sockopt::linger, 0);
-  s.set(zmq::sockopt::heartbeat_ivl, 100);
-  s.set(zmq::sockopt::heartbeat_timeout, 300);
-  s.set(zmq::sockopt::heartbeat_ttl, 300);
+  if (heartbeats) {
+    s.set(zmq::sockopt::heartbeat_ivl, 100);
+    s.set(zmq::sockopt::heartbeat_timeout, 300);
+    s.set(zmq::sockopt::heartbeat_ttl, 300);
+  }
   s.set(zmq::sockopt::reconnect_ivl, 50);
   s.set(zmq::sockopt::reconnect_ivl_max, 250);
 }

@@ -447,3 +447,42 @@ TEST(ClusterProcesses, NodesWaitForARestartedMasterAndRejoinIt) {
   EXPECT_LT(now() - restarted, 5.0);
   std::printf("[ figures  ] a restarted master had both nodes in step within %.0f ms\n", (now() - restarted) * 1e3);
 }
+
+TEST(ClusterBarrier, ASecondProcessUnderATakenNameIsRefusedAndTheFirstStays) {
+  const auto dir = temp_dir("twice");
+  const std::string text = cluster_text(1, dir);
+  const auto cfg = *kc::parse_cluster_config(text, "room.toml");
+  const std::uint64_t hash = kc::config_hash(text);
+  MasterThread master;
+  master.options = {cfg, hash, 0.02};
+  master.start();
+  std::atomic<bool> stop{false};
+  std::atomic<int> drawn{0};
+  std::thread first([&] {
+    kc::Node node({cfg, "n0", hash});
+    while (!stop) {
+      if (node.next_state(0.05) != kc::Node::Wait::state) continue;
+      node.ready();
+      if (node.wait_go() && node.in_barrier()) ++drawn;
+    }
+  });
+  for (int i = 0; i < 300 && drawn < 20; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_GE(drawn.load(), 20) << "the first n0 did not join";
+  kc::Node second({cfg, "n0", hash});
+  kc::Node::Wait w = kc::Node::Wait::timeout;
+  for (int i = 0; i < 60 && w != kc::Node::Wait::refused; ++i) {
+    w = second.next_state(0.05);
+    if (w == kc::Node::Wait::state) {
+      second.ready();
+      second.wait_go();
+    }
+  }
+  ASSERT_EQ(w, kc::Node::Wait::refused);
+  EXPECT_EQ(*second.refused(), "node \"n0\" refused: named twice: another process is node \"n0\" and is in the barrier");
+  // The first goes on drawing in the barrier.
+  const int before = drawn;
+  for (int i = 0; i < 300 && drawn < before + 30; ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_GE(drawn.load(), before + 30);
+  stop = true;
+  first.join();
+}

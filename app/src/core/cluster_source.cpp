@@ -167,12 +167,19 @@ ClusterNodeSource::ClusterNodeSource(const InstallationConfig& c, const std::str
 }
 
 const FrameData* ClusterNodeSource::next() {
+  repeated_ = false;
   for (;;) {
     if (options_.stop && options_.stop->load() != 0) return nullptr;
-    const auto w = node_->next_state(0.1);
+    const auto w = node_->next_state(options_.repeat_while_waiting ? options_.repeat_s : 0.1);
     for (const auto& e : node_->take_events()) spdlog::info("cluster: {}", e);
     if (w == cluster::Node::Wait::refused) throw Error("cluster", "refused", *node_->refused());
-    if (w != cluster::Node::Wait::state) continue;
+    if (w != cluster::Node::Wait::state) {
+      if (options_.repeat_while_waiting && have_frame_ && node_->waiting_for_master()) {
+        repeated_ = true;  // the last picture kept, the windows' events handled
+        return &frame_;
+      }
+      continue;
+    }
     if (!decoder_.decode(node_->state(), frame_)) {
       if (undecodable_++ == 0)
         spdlog::warn("cluster node {}: frame {}: its state does not read ({}): skipped (counted)", name_,
@@ -180,6 +187,7 @@ const FrameData* ClusterNodeSource::next() {
       continue;
     }
     subset_.apply_in_place(frame_);
+    have_frame_ = true;
     return &frame_;
   }
 }
@@ -200,6 +208,7 @@ ConsoleState ClusterNodeSource::console(const FrameData& f) const {
 }
 
 void ClusterNodeSource::drawn() {
+  if (repeated_) return;  // not a frame of the master's: no READY, no GO
   node_->ready();
   node_->wait_go();
 }

@@ -986,23 +986,23 @@ std::string to_toml(const InstallationConfig& c) {
   }
   root.insert("record", toml::table{{"budget_mb", c.record_budget_mb}});
   if (const auto& cl = c.cluster) {
-    toml::table t{{"state", cl->state}, {"control", cl->control}, {"max_misses", cl->max_misses},
+    toml::table ct{{"state", cl->state}, {"control", cl->control}, {"max_misses", cl->max_misses},
                   {"master_lost_ms", cl->master_lost_ms}};
-    if (cl->state_bind) t.insert("state_bind", *cl->state_bind);
-    if (cl->control_bind) t.insert("control_bind", *cl->control_bind);
-    if (cl->deadline_ms) t.insert("deadline_ms", *cl->deadline_ms);
+    if (cl->state_bind) ct.insert("state_bind", *cl->state_bind);
+    if (cl->control_bind) ct.insert("control_bind", *cl->control_bind);
+    if (cl->deadline_ms) ct.insert("deadline_ms", *cl->deadline_ms);
     toml::array nodes;
     for (const auto& n : cl->nodes) {
-      toml::array walls, windows;
-      for (const auto& w : n.walls) walls.push_back(w);
-      for (const auto& w : n.windows) windows.push_back(w);
-      toml::table nt{{"name", n.name}, {"walls", std::move(walls)}};
+      toml::array node_walls, node_windows;
+      for (const auto& w : n.walls) node_walls.push_back(w);
+      for (const auto& w : n.windows) node_windows.push_back(w);
+      toml::table nt{{"name", n.name}, {"walls", std::move(node_walls)}};
       if (n.address) nt.insert("address", *n.address);
-      if (!n.windows.empty()) nt.insert("windows", std::move(windows));
+      if (!n.windows.empty()) nt.insert("windows", std::move(node_windows));
       nodes.push_back(std::move(nt));
     }
-    t.insert("nodes", std::move(nodes));
-    root.insert("cluster", std::move(t));
+    ct.insert("nodes", std::move(nodes));
+    root.insert("cluster", std::move(ct));
   }
   std::ostringstream out;
   out << root << "\n";

@@ -49,6 +49,10 @@ struct ClusterRunOptions {
   std::optional<std::filesystem::path> timing_log;
   /// The run ends at its next frame when this is non-zero (a node waiting for its master too).
   const std::atomic<int>* stop = nullptr;
+  /// A node waiting for its master hands its last frame again every `repeat_s` (windows: they
+  /// stay responsive and keep their picture); false: it waits inside next() (headless).
+  bool repeat_while_waiting = false;
+  double repeat_s = 0.1;
 };
 
 class ClusterMasterSource final : public FrameSource {
@@ -103,6 +107,7 @@ class ClusterNodeSource final : public FrameSource {
   ConsoleState console(const FrameData& frame) const override;
   void drawn() override;
   bool wait_for_gpu() const override { return true; }
+  bool repeated() const override { return repeated_; }
   const cluster::Node& node() const { return *node_; }
   /// Frames whose state could not be read (damaged records): counted, skipped.
   std::uint64_t undecodable() const { return undecodable_; }
@@ -114,6 +119,8 @@ class ClusterNodeSource final : public FrameSource {
   std::unique_ptr<cluster::Node> node_;
   FrameStateDecoder decoder_;
   FrameData frame_;
+  bool have_frame_ = false;
+  bool repeated_ = false;  ///< the frame handed out is the last one again (no READY for it)
   std::uint64_t undecodable_ = 0;
 };
 

@@ -52,6 +52,9 @@ class FrameSource {
   /// A window asked to close at `at`: whether that ends the run (the live show: the quit key's
   /// two presses; a replay: at once).
   virtual bool close_asked(Timestamp /*at*/) { return true; }
+  /// The frame just returned is the one before again (a render node waiting for its master
+  /// keeps its picture): drawn, not logged.
+  virtual bool repeated() const { return false; }
   /// The viewer ends the run after the frame just returned (no more frames are drawn).
   virtual void stop() {}
 };

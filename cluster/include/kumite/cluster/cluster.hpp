@@ -4,8 +4,9 @@
 //
 // Transport: ZeroMQ (libzmq + cppzmq, Debian). The master binds a PUB socket (`state`:
 // STATE and GO to every node) and a ROUTER (`control`: HELLO, READY, BYE from the nodes;
-// WELCOME, REFUSED, LEFT back). Each node connects a SUB and a DEALER whose routing id is its
-// name. Every message is one frame: a 40-byte header, then a payload:
+// WELCOME, REFUSED, LEFT back). Each node connects a SUB and a DEALER whose routing id is
+// "name#process" (its name and a random id of its process: a second process under a name whose
+// process is in the barrier is refused, a node killed and restarted is welcomed back). Every message is one frame: a 40-byte header, then a payload:
 //   u32 magic "KCL1", u16 protocol version, u8 type, u8 0, u64 config hash, u64 frame number,
 //   f64 master time (s), u32 payload bytes, u32 0; little-endian.
 // STATE's payload is the frame's whole state (never a delta: a node that joins late draws the
