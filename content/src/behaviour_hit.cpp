@@ -144,6 +144,12 @@ void Behaviour::advance_reel(double dt) {
   if (rest) reel_ = Reel{};
 }
 
+bool Behaviour::attacking() const { return striking() && !strike_.block && !strike_.contact_done && !strike_.aborted; }
+
+void Behaviour::abort_strike(Timestamp now) {
+  if (attacking()) abort_until_ = std::max(abort_until_, now + kAbortWindow_s);
+}
+
 void Behaviour::abort_strike_for_blow(Timestamp now) {
   if (!(now <= abort_until_) || !striking() || strike_.block || strike_.contact_done) return;
   // Not before its own cross-fade in is done: leaving mid-blend drops the motion it blends

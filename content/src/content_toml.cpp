@@ -341,7 +341,7 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   const auto t = fighter->opt_table("planner");
   if (!t) return;
   t->only({"mode", "preset", "seed", "fighting_distance_m", "engage_tolerance_m", "attack_rate_per_s", "counter_probability",
-           "reaction_time_s", "counter_deadline_s", "kick_share", "block", "block_max_rate", "threat_min_speed_mps",
+           "reaction_time_s", "counter_deadline_s", "kick_share", "abort_probability", "block", "block_max_rate", "threat_min_speed_mps",
            "threat_min_closing_mps", "threat_horizon_s", "threat_aim_radius_m", "threat_velocity_window_s", "hit_min_speed_mps",
            "hit_full_speed_mps", "hit_head_max_deg", "hit_trunk_max_deg", "hit_shoulder_max_deg", "hit_stiffness_rad_s",
            "hit_damping_ratio", "hit_step_back_m", "hit_step_back_share"});
@@ -364,6 +364,7 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   t->read("reaction_time_s", p.reaction_time_s, {0, 5, "s"});
   t->read("counter_deadline_s", p.counter_deadline_s, {0, 10, "s"});
   t->read("kick_share", p.kick_share, {0, 1, ""});
+  t->read("abort_probability", p.abort_probability, {0, 1, ""});
   if (const auto b = t->opt_boolean("block")) p.block = *b;
   t->read("block_max_rate", p.block_max_rate, {1, 4, ""});
   t->read("threat_min_speed_mps", p.threat.min_speed_mps, {0.1, 50, "m/s"});

@@ -302,7 +302,9 @@ class FighterImpl final : public Fighter {
     p.fighter_idle = f.action == FighterAction::idle && !behaviour_.paused() && !behaviour_.keeping_away();
     p.supervisor_strike = std::any_of(in.orders.begin(), in.orders.end(), [](const Order& o) { return behaviour_detail::effector_of(o.kind).has_value(); });
     p.strikes = in.strikes;
+    p.fighter_attacking = behaviour_.attacking();
     if (const std::optional<Order> o = spar_.step(p)) behaviour_.order(*o);
+    if (spar_.take_abort()) behaviour_.abort_strike(in.now);
     // Sparring, it keeps the fighting distance (the visitor's fist reaches it).
     behaviour_.follow_at(t.mode == PlannerMode::spar ? t.fighting_distance_m : strike_distance_m_);
     // Sparring with blocks on, it keeps its guard up (behaviour_guard.cpp).

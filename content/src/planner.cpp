@@ -42,12 +42,14 @@ std::optional<PlannerTunables> planner_preset(std::string_view name) {
   if (name == "aggressive_unskilled") {
     t.attack_rate_per_s = 1.0;
     t.counter_probability = 0.0;
+    t.abort_probability = 0.0;
     t.reaction_time_s = 0.6;
     return t;
   }
   if (name == "defensive_skilled") {
     t.attack_rate_per_s = 0.3;
     t.counter_probability = 0.8;
+    t.abort_probability = 0.8;
     t.reaction_time_s = 0.1;
     return t;
   }
@@ -63,6 +65,7 @@ std::string validate(const PlannerTunables& t) {
   if (!in(t.engage_tolerance_m, 0, 2)) return range("engage_tolerance_m", t.engage_tolerance_m, 0, 2, "m");
   if (!in(t.attack_rate_per_s, 0, 10)) return range("attack_rate_per_s", t.attack_rate_per_s, 0, 10, "1/s");
   if (!in(t.counter_probability, 0, 1)) return range("counter_probability", t.counter_probability, 0, 1, "");
+  if (!in(t.abort_probability, 0, 1)) return range("abort_probability", t.abort_probability, 0, 1, "");
   if (!in(t.reaction_time_s, 0, 5)) return range("reaction_time_s", t.reaction_time_s, 0, 5, "s");
   if (!in(t.counter_deadline_s, 0, 10)) return range("counter_deadline_s", t.counter_deadline_s, 0, 10, "s");
   if (!in(t.kick_share, 0, 1)) return range("kick_share", t.kick_share, 0, 1, "");
@@ -133,6 +136,14 @@ std::optional<Order> SparPlanner::step(const PlannerInput& in) {
   for (const VisitorStrikeSeen& s : in.strikes) {
     if (s.type != recognition::EventType::begin) continue;
     ++counts_.visitor_strikes;
+    // Its own strike under way is aborted with abort_probability (a draw only while one is).
+    if (in.fighter_attacking) {
+      ++counts_.abort_draws;
+      if (uniform(in.seed) < tun_.abort_probability) {
+        ++counts_.aborts;
+        abort_ = true;
+      }
+    }
     const double u = uniform(in.seed);
     attack_.reset();
     if (u < tun_.counter_probability) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <tuple>
 #include <vector>
 
 #include "kumite/content/fighter.hpp"
@@ -262,4 +263,83 @@ TEST(Planner, TheSparAndOrdersOrdersSwitchTheModeAndTheFighterStrikesOnItsOwnOnl
   EXPECT_EQ(f->planner_status().tunables.mode, PlannerMode::orders);
   EXPECT_GE(accepted_sparring, 3) << "14 s of sparring at 1 attack/s of idle time";
   EXPECT_EQ(accepted_after, 0) << "orders only: it strikes only when ordered";
+}
+
+TEST(Planner, AbortsItsStrikeUnderWayWithTheConfiguredProbabilityWhenAVisitorStrikeBegins) {
+  PlannerTunables t = spar(0, 0, 0.1);
+  t.abort_probability = 0.3;
+  SparPlanner p(t);
+  const double dt = 1.0 / 60;
+  int aborts = 0, begins = 0;
+  for (int k = 0; k < 60 * 2000; ++k) {
+    PlannerInput in = engaged(k * dt, 11);
+    in.fighter_attacking = (k / 60) % 2 == 0;  // its own strike under way every other second
+    VisitorStrikeSeen s;
+    if (k % 30 == 0) {  // a visitor strike begins every 0.5 s
+      s.t = in.now;
+      s.type = recognition::EventType::begin;
+      in.strikes = std::span<const VisitorStrikeSeen>(&s, 1);
+      begins += in.fighter_attacking;
+    }
+    p.step(in);
+    if (p.take_abort()) {
+      ++aborts;
+      EXPECT_TRUE(in.fighter_attacking) << "an abort drawn with no strike of its own under way, at " << in.now << " s";
+      EXPECT_FALSE(p.take_abort()) << "taken once";
+    }
+  }
+  EXPECT_EQ(p.counts().abort_draws, begins);
+  EXPECT_EQ(p.counts().aborts, aborts);
+  EXPECT_NEAR(static_cast<double>(aborts) / begins, 0.3, 0.03) << aborts << " of " << begins;
+  t.abort_probability = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_NE(validate(t).find("abort_probability"), std::string::npos);
+  t.abort_probability = 1.5;
+  EXPECT_NE(validate(t).find("abort_probability"), std::string::npos);
+}
+
+TEST(Planner, AFighterWhoseStrikeIsUnderWayWhenAVisitorStrikeBeginsAbortsItAtProbabilityOne) {
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  const auto run = [&](double abort_p) {
+    FighterConfig cfg;
+    cfg.database = db;
+    cfg.characters = {std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh"};
+    cfg.character_names = {"kenji"};
+    cfg.planner = spar(0, 0, 0.1);
+    cfg.planner.abort_probability = abort_p;
+    auto f = Fighter::create(cfg);
+    FighterOutput out;
+    const double dt = 1.0 / 60;
+    int contacts = 0, recovering_within = -1, sent = -1;
+    for (int k = 0; k < 60 * 6; ++k) {
+      FighterInput in;
+      in.now = k * dt;
+      in.dt_s = k ? dt : 0;
+      in.seed = 5;
+      in.head_m = {0, 1.65, -1.6};
+      const Order punch{in.now, OrderKind::punch_right, -1};
+      if (k == 120) in.orders = std::span<const Order>(&punch, 1);
+      VisitorStrikeSeen s;
+      if (sent < 0 && out.frame.action == FighterAction::striking) {  // its strike began last update
+        s.t = in.now;
+        s.type = recognition::EventType::begin;
+        in.strikes = std::span<const VisitorStrikeSeen>(&s, 1);
+        sent = k;
+      }
+      f->step(in, out);
+      for (const auto& e : out.events)
+        if (e.kind == FighterEvent::Kind::hit || e.kind == FighterEvent::Kind::miss || e.kind == FighterEvent::Kind::dodged) ++contacts;
+      if (sent >= 0 && recovering_within < 0 && out.frame.action == FighterAction::recovering) recovering_within = k - sent;
+    }
+    return std::tuple{sent, contacts, recovering_within, f->planner_status().counts.aborts};
+  };
+  const auto [sent, contacts, recovering, aborts] = run(1.0);
+  ASSERT_GE(sent, 0) << "the ordered punch never started";
+  EXPECT_EQ(aborts, 1);
+  EXPECT_EQ(contacts, 0) << "the aborted punch reached no contact";
+  EXPECT_GE(recovering, 0);
+  EXPECT_LE(recovering, 19) << "back to rest within the 0.3 s abort window";
+  const auto [sent0, contacts0, recovering0, aborts0] = run(0.0);
+  EXPECT_EQ(aborts0, 0);
+  EXPECT_EQ(contacts0, 1) << "not aborted, the punch lands (hit, miss or dodged)";
 }

@@ -925,6 +925,7 @@ std::string to_toml(const InstallationConfig& c) {
                                           {"reaction_time_s", p.reaction_time_s},
                                           {"counter_deadline_s", p.counter_deadline_s},
                                           {"kick_share", p.kick_share},
+                                          {"abort_probability", p.abort_probability},
                                           {"block", p.block},
                                           {"block_max_rate", p.block_max_rate},
                                           {"threat_min_speed_mps", p.threat.min_speed_mps},

@@ -265,8 +265,13 @@ class Behaviour {
     std::array<Eigen::Vector3d, 2> shoulder{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   };
   ReelState reel() const;
-  /// Strikes aborted by a blow so far.
+  /// Strikes aborted so far (by a blow, or by abort_strike).
   int strikes_aborted() const { return strikes_aborted_; }
+  /// A strike of its own is under way before its contact (not a block).
+  bool attacking() const;
+  /// Aborts its strike under way before contact (the sparring planner's abort_probability): it
+  /// leaves for rest as from a blow, once its own cross-fade in is done (within 0.3 s).
+  void abort_strike(Timestamp now);
   /// Strike toward an explicit room-frame target (tools, tests); same rules as order().
   void order_strike(const Order& order, const Eigen::Vector3d& target_room_m);
   /// Visitor safety: while on, the fighter backs off to keep_away_extra_m beyond its strike

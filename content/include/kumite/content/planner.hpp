@@ -14,6 +14,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <utility>
 
 #include <Eigen/Core>
 
@@ -56,10 +57,12 @@ struct PlannerTunables {
   double reaction_time_s = 0.3;               ///< s: mean of the exponential delay from the visitor's strike to the counter
   double counter_deadline_s = 1.0;            ///< s: a counter the fighter cannot start this late after it was due is dropped
   double kick_share = 0.25;                   ///< share of its own attacks (not counters) that are kicks
-  /// Spar: blocks a fist or foot coming at its head or torso (ThreatWatch: seen coming, or
-  /// recognised), when it can (Behaviour::can_block). Off by default: judged by
-  /// scripts/judge-blocks.py the blocks do not yet put the forearm across the fist's path
-  /// (content/README.md, "Blocks").
+  /// A strike of its own under way (before its contact) is aborted with this probability when a
+  /// visitor strike begins (recognised begin): it goes back to its guard. Hit, it always aborts.
+  double abort_probability = 0.3;
+  /// Spar: keeps a guard up and parries a fist or foot coming at its head or torso (ThreatWatch:
+  /// seen coming, or recognised; Behaviour::parry, a block clip while the guard is not up).
+  /// Off by default (content/README.md, "Blocks": judged on punches of unseen visitors).
   bool block = false;
  double block_max_rate = 2.0;                ///< a block is played up to this fast (segment s per s) to be in place in time
   ThreatTunables threat;                      ///< threat_* keys: what counts as a fist coming at it
@@ -111,6 +114,7 @@ struct PlannerInput {
   Eigen::Vector3d fighter_root_m{0, 0, 0};      ///< m, room: the fighter's root on the floor
   bool fighter_idle = false;                    ///< the fighter can take a strike order now
   bool supervisor_strike = false;               ///< the supervisor ordered a strike this update (comes first)
+  bool fighter_attacking = false;               ///< a strike of its own is under way, before its contact (it may be aborted)
   std::span<const VisitorStrikeSeen> strikes;   ///< the visitor's strikes recognised since the last update
 };
 
@@ -125,6 +129,8 @@ struct PlannerCounts {
   double reaction_sum_s = 0;  ///< s, summed delay visitor strike -> counter order
   double engaged_s = 0;       ///< s spent engaged (guarding or countering)
   double timer_running_s = 0; ///< s the attack timer ran (engaged, the fighter idle, no counter due)
+  int abort_draws = 0;        ///< visitor strike begins seen while its own strike was under way
+  int aborts = 0;             ///< of those, drawn to abort it (abort_probability)
 };
 
 class SparPlanner {
@@ -139,6 +145,8 @@ class SparPlanner {
   /// The next decision while one is drawn (the attack timer's or a due counter).
   std::optional<PlannerDecision> next() const;
   const PlannerCounts& counts() const { return counts_; }
+  /// True once after an update that drew to abort the fighter's strike under way.
+  bool take_abort() { return std::exchange(abort_, false); }
 
  private:
   double uniform(std::uint64_t seed);  ///< [0, 1), 53 bits; advances the draw counter
@@ -151,6 +159,7 @@ class SparPlanner {
   Timestamp counter_strike_t_ = 0;  ///< s: when the strike the due counter answers was seen
   Timestamp last_now_ = 0;
   bool have_now_ = false;
+  bool abort_ = false;
   PlannerCounts counts_;
 };
 
