@@ -217,6 +217,16 @@ PunchRun punch_at(const PlannerTunables& planner, bool nan_glove = false) {
   return r;
 }
 
+/// Spar with blocks on, no attacks and no counters: the fighter's defence alone.
+PlannerTunables defence_alone() {
+  PlannerTunables p;
+  p.mode = PlannerMode::spar;
+  p.attack_rate_per_s = 0;
+  p.counter_probability = 0;
+  p.block = true;
+  return p;
+}
+
 bool has(const std::vector<FighterEvent>& ev, EventKind k) {
   return std::any_of(ev.begin(), ev.end(), [&](const FighterEvent& e) { return e.kind == k; });
 }
@@ -226,11 +236,7 @@ bool has(const std::vector<FighterEvent>& ev, EventKind k) {
 TEST(Blocks, ASparringFighterWithBlocksOnBlocksAPunchSeenComingAndOnlyThen) {
   const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
   if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
-  PlannerTunables p;
-  p.mode = PlannerMode::spar;
-  p.attack_rate_per_s = 0;
-  p.counter_probability = 0;
-  p.block = true;
+  PlannerTunables p = defence_alone();
   const PunchRun on = punch_at(p);
   ASSERT_TRUE(has(on.events, EventKind::block));
   const auto first_block = std::find(on.actions.begin(), on.actions.end(), FighterAction::blocking) - on.actions.begin();
@@ -267,11 +273,7 @@ static double step_to_segment(const Vector3d& a0, const Vector3d& a1, const Vect
 TEST(Blocks, TheGuardIsUpAndAParryPutsTheDrawnForearmAcrossTheFistsPathBeforeItReachesTheHeadWithoutAWhip) {
   const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
   if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
-  PlannerTunables p;
-  p.mode = PlannerMode::spar;
-  p.attack_rate_per_s = 0;
-  p.counter_probability = 0;
-  p.block = true;
+  PlannerTunables p = defence_alone();
   const PunchRun on = punch_at(p);
   p.block = false;
   const PunchRun off = punch_at(p);
@@ -310,11 +312,7 @@ TEST(Blocks, TheGuardIsUpAndAParryPutsTheDrawnForearmAcrossTheFistsPathBeforeItR
 TEST(Blocks, AGloveThatReadsNanNowAndThenNeitherStopsNorBreaksTheFighter) {
   const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
   if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
-  PlannerTunables p;
-  p.mode = PlannerMode::spar;
-  p.attack_rate_per_s = 0;
-  p.counter_probability = 0;
-  p.block = true;
+  PlannerTunables p = defence_alone();
   const PunchRun r = punch_at(p, true);  // joints checked finite every update inside
   EXPECT_GT(std::count(r.actions.begin(), r.actions.end(), FighterAction::idle), 200);
 }
