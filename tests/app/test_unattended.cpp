@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <cstdlib>
 #include <cstring>
 #include <functional>
@@ -324,16 +325,28 @@ TEST(Unattended, TheSparDemoStrikesWithoutOrdersAndRepeatsItself) {
   ASSERT_EQ(runs[1].size(), runs[0].size());
   for (std::size_t i = 0; i < runs[0].size(); ++i) ASSERT_EQ(runs[0][i], runs[1][i]) << "frame " << i;
   int orders = 0, outcomes = 0, visitor_strikes = 0;
+  // The score each frame logs ("spar") against the events logged up to it, counted here.
+  std::map<std::string, int> seen;
   for (const std::string& line : runs[0]) {
     const auto frame = nlohmann::json::parse(line);
-    if (!frame.contains("events")) continue;
-    for (const auto& e : frame["events"]) {
-      const std::string type = e.value("type", "");
-      orders += type == "order";
-      outcomes += type == "hit" || type == "dodged" || type == "miss";
-      visitor_strikes += type == "visitor_strike";
-    }
+    if (frame.contains("events"))
+      for (const auto& e : frame["events"]) {
+        const std::string type = e.value("type", "");
+        orders += type == "order";
+        outcomes += type == "hit" || type == "dodged" || type == "miss";
+        visitor_strikes += type == "visitor_strike";
+        ++seen[type];
+      }
+    ASSERT_TRUE(frame.contains("spar")) << "frame " << frame["frame"] << ": spar mode logs the bout";
+    const auto& sp = frame["spar"];
+    EXPECT_NE(sp["state"].get<std::string>(), "off");
+    EXPECT_EQ(sp["fighter_hits"].get<int>(), seen["hit"]) << "frame " << frame["frame"];
+    EXPECT_EQ(sp["visitor_dodges"].get<int>(), seen["dodged"]) << "frame " << frame["frame"];
+    EXPECT_EQ(sp["visitor_hits"].get<int>(), seen["visitor_hit"]) << "frame " << frame["frame"];
+    EXPECT_EQ(sp["blocks"].get<int>(), seen["block"]) << "frame " << frame["frame"];
+    EXPECT_EQ(sp["blocked"].get<int>(), seen["blocked"]) << "frame " << frame["frame"];
   }
+  EXPECT_GE(seen["hit"] + seen["dodged"] + seen["block"], 1) << "a bout with nothing to score";
   EXPECT_GE(orders, 3) << "no orders script: every strike is the planner's";
   EXPECT_GE(outcomes, 2);
   EXPECT_GE(visitor_strikes, 1) << "the mocap visitor's strikes are recognised";

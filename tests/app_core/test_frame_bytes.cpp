@@ -108,6 +108,8 @@ FrameData every_field() {
   p.root = {0.0, 0.0, -1.0};
   p.heading_rad = 0.125;
   f.visitor_near_wall = VisitorNearWall{1, 0.35, false, true};
+  f.spar = SparFrame{.state = kumite::content::PlannerState::countering, .visitor_hits = 1, .visitor_dodges = 2,
+                     .fighter_hits = 3, .blocks = 4, .blocks_late = 5, .blocked = 6, .unanswered = 7};
   for (int k = 0; k <= static_cast<int>(EventType::stepping_back); ++k) {
     FrameEvent e;
     e.type = static_cast<EventType>(k);
@@ -210,11 +212,16 @@ TEST(FrameBytes, AFrameWithEveryFieldSetEncodesHashesAndLogsToItsPinnedBytes) {
   const FrameData f = every_field();
   std::string encoded;
   // Version 2, as pinned before version 3 (the fighter's events' limb, side, margin_s,
-  // speed_mps, recognised) was added; then version 3, whose frame record differs.
+  // speed_mps, recognised) was added; then versions 3 and 4, whose frame records differ.
   encode_frame_state(f, true, encoded, 2);
   auto p = payloads(encoded);
   ASSERT_EQ(p.size(), 2u);
   EXPECT_EQ(fmt::format("{:016x} {:016x}", kumite::fnv1a64(p[0]), kumite::fnv1a64(p[1])), "c0a03435b616d82b ec335f8e054c99c3");
+  encode_frame_state(f, true, encoded, 3);
+  p = payloads(encoded);
+  ASSERT_EQ(p.size(), 2u);
+  EXPECT_EQ(fmt::format("{:016x} {:016x}", kumite::fnv1a64(p[0]), kumite::fnv1a64(p[1])), "c0a03435b616d82b e0e4d918c844c35a");
+  // Version 4 adds the spar bout (FrameData::spar).
   encode_frame_state(f, true, encoded);
   p = payloads(encoded);
   ASSERT_EQ(p.size(), 2u);
@@ -222,8 +229,8 @@ TEST(FrameBytes, AFrameWithEveryFieldSetEncodesHashesAndLogsToItsPinnedBytes) {
   const std::string hashes = hashes_text(state_hashes_v3(f));
   const ConsoleState c = console_of(f);
   const std::string stereo = frame_json(f, c, {"front", "left"}, true), mono = frame_json(f, c, {"front", "left"}, false);
-  EXPECT_EQ(states, "c0a03435b616d82b e0e4d918c844c35a");
+  EXPECT_EQ(states, "c0a03435b616d82b 3c35ae0fe033b366");
   EXPECT_EQ(hashes, "c67e92f1806d1192 cbe4c998296f2803 4b6e8102b8b1bcf4 d6e2b36e29bdc4b0 66b976a4d40768e2 396bc9852c237b77 ");
-  EXPECT_EQ(fmt::format("{:016x}", kumite::fnv1a64(stereo)), "d7bb0e114ee5fcb2") << stereo;
-  EXPECT_EQ(fmt::format("{:016x}", kumite::fnv1a64(mono)), "7188c4d33fc24ffc") << mono;
+  EXPECT_EQ(fmt::format("{:016x}", kumite::fnv1a64(stereo)), "dfcc729368493960") << stereo;
+  EXPECT_EQ(fmt::format("{:016x}", kumite::fnv1a64(mono)), "1510c422d01249ea") << mono;
 }

@@ -32,6 +32,7 @@ constexpr recognition::EventType last_of(recognition::EventType) { return recogn
 constexpr recognition::Role last_of(recognition::Role) { return recognition::Role::right_foot; }
 constexpr recognition::Action last_of(recognition::Action) { return recognition::Action::roundhouse_kick; }
 constexpr Mesh last_of(Mesh) { return Mesh::cylinder; }
+constexpr content::PlannerState last_of(content::PlannerState) { return content::PlannerState::countering; }
 
 namespace walk {
 

@@ -381,6 +381,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
     pose.local_rotations.clear();
     pose.skeleton.reset();
     pose.target.reset();
+    frame_.spar.reset();
     return;
   }
   // The fighter's whole input as plain data: the orders this frame took, the eyes' midpoint,
@@ -428,6 +429,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
   fighter_->step(in, fighter_out_);
   fighter_orders_.clear();
   if (leaving_spar) log_spar_summary(*this);  // the round ends
+  note_spar(fighter_->planner_status());
   const content::FighterFrame& f = fighter_out_.frame;
   const int character = config_of_fighter_.at(static_cast<std::size_t>(f.character));
   plan_fighter(f, character_colour(character), frame_.items);
@@ -439,6 +441,22 @@ void Installation::update_fighter(Timestamp now, double dt) {
       order.character = config_of_fighter_[static_cast<std::size_t>(order.character)];
     note(to_frame_event(e, order, start_));
   }
+}
+
+void Installation::note_spar(const content::Fighter::PlannerStatus& st) {
+  if (st.tunables.mode != content::PlannerMode::spar) {
+    frame_.spar.reset();
+    return;
+  }
+  const auto& sc = st.score;
+  frame_.spar = SparFrame{.state = st.state,
+                          .visitor_hits = sc.visitor_hits,
+                          .visitor_dodges = sc.visitor_dodges,
+                          .fighter_hits = sc.fighter_hits,
+                          .blocks = sc.blocks,
+                          .blocks_late = sc.blocks_late,
+                          .blocked = sc.blocked,
+                          .unanswered = sc.unanswered};
 }
 
 void Installation::copy_pose(const content::FighterFrame& f, int character, FighterPose& pose) {

@@ -29,8 +29,9 @@ namespace kumite::app {
 /// ("frame_version"). A file of an older version lacks the fields added since (`Field::since`):
 /// they read as their defaults and are neither hashed nor compared. 2: a visitor_strike event
 /// carries its recognition event. 3: the fighter's events carry the visitor's limb, the
-/// forearm, a margin and a speed (block, blocked, visitor_hit).
-inline constexpr int kFrameVersion = 3;
+/// forearm, a margin and a speed (block, blocked, visitor_hit). 4: the spar bout's planner
+/// state and score (FrameData::spar).
+inline constexpr int kFrameVersion = 4;
 
 /// What a number measures.
 enum class Unit : std::uint8_t {
@@ -150,6 +151,18 @@ void describe(V& v, T&... x) {
   v(Field{.name = "lost", .log = Log::plain}, x.lost...);
 }
 
+template <class V, class... T> requires AllOf<SparFrame, T...>
+void describe(V& v, T&... x) {
+  v(Field{.name = "state", .log = Log::plain}, x.state...);
+  v(Field{.name = "visitor_hits", .log = Log::plain}, x.visitor_hits...);
+  v(Field{.name = "visitor_dodges", .log = Log::plain}, x.visitor_dodges...);
+  v(Field{.name = "fighter_hits", .log = Log::plain}, x.fighter_hits...);
+  v(Field{.name = "blocks", .log = Log::plain}, x.blocks...);
+  v(Field{.name = "blocks_late", .log = Log::plain}, x.blocks_late...);
+  v(Field{.name = "blocked", .log = Log::plain}, x.blocked...);
+  v(Field{.name = "unanswered", .log = Log::plain}, x.unanswered...);
+}
+
 template <class V, class... T> requires AllOf<content::FighterEvent, T...>
 void describe(V& v, T&... x) {
   v(Field{.name = "time", .unit = Unit::clock_s}, x.time...);
@@ -229,6 +242,7 @@ void describe(V& v, T&... x) {
   v(Field{.name = "visitor_near_wall", .log = Log::plain, .hash = Hashed::head}, x.visitor_near_wall...);
   v(Field{.name = "events", .log = Log::plain, .hash = Hashed::events}, x.events...);
   v(Field{.name = "items", .hash = Hashed::fighter}, x.items...);  // what was drawn: the fighter, its target, a wall's glow
+  v(Field{.name = "spar", .log = Log::plain, .hash = Hashed::fighter, .since = 4}, x.spar...);
 }
 
 /// `t` as its base `B`, keeping its constness: a frame type that extends FrameData describes

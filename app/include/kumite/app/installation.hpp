@@ -251,6 +251,20 @@ struct VisitorNearWall {
   bool lost = false;       ///< tracking lost while near this wall: the visitor left the tracked area there
 };
 
+/// The bout in spar mode (FrameData::spar): the sparring planner's state and the score so far,
+/// counted from the fighter's events (content::Fighter::SparScore).
+struct SparFrame {
+  content::PlannerState state = content::PlannerState::off;
+  int visitor_hits = 0;    ///< the visitor's fist or foot entered the fighter's body fast
+  int visitor_dodges = 0;  ///< the fighter's strikes that reached their target with the visitor gone
+  int fighter_hits = 0;    ///< the fighter's strikes that touched the visitor
+  int blocks = 0;          ///< blocks begun against a visitor strike (late ones included)
+  int blocks_late = 0;     ///< of those, in place after the fist's predicted arrival
+  int blocked = 0;         ///< the visitor's fist or foot met a forearm
+  int unanswered = 0;      ///< visitor strikes seen that no block could answer
+  bool operator==(const SparFrame&) const = default;
+};
+
 /// Everything a renderer and the log need about one frame.
 struct FrameData {
   std::uint64_t frame = 0;
@@ -273,6 +287,9 @@ struct FrameData {
   /// The visitor within [safety] wall_distance_m of a wall, beyond one, or lost near one
   /// (none: clear, or [safety] enabled = false).
   std::optional<VisitorNearWall> visitor_near_wall;
+  /// The bout while the fighter spars (none: orders mode, or no fighter). The score stays
+  /// counted across spar rounds of one run.
+  std::optional<SparFrame> spar;
 };
 
 /// The most one frame's vectors hold in this installation: a session recorder reserves its
@@ -416,6 +433,8 @@ class Installation {
   void update_head(Timestamp now, Timestamp shown_at);
   void apply_orders(Timestamp now);
   void update_fighter(Timestamp now, double dt);
+  /// frame_.spar from the planner's status after the fighter's update (none outside spar mode).
+  void note_spar(const content::Fighter::PlannerStatus& st);
   void update_safety(Timestamp now);
   void copy_pose(const content::FighterFrame& f, int character, FighterPose& pose);
   void note(const FrameEvent& e);
