@@ -340,6 +340,13 @@ RetargetSetup RetargetSetup::build(const content::Skeleton& source, const Eigen:
       if (const int j = target.canonical[idx(c)]; j >= 0 && j != pelvis) s.rigid[static_cast<std::size_t>(j)] = true;
   for (std::size_t j = 0; j < nt; ++j)
     s.unstretched[j] = s.direction_child[j] >= 0 && s.rigid[static_cast<std::size_t>(s.direction_child[j])];
+  // The clavicles keep their length too, pointing at the character's shoulders: the CMU
+  // humerus joints lie wider than the bodies' (stretched onto them, a clavicle pulled the top
+  // of the shoulder and the collar out into a wing, the shoulders 1.6-1.7 times the joints'
+  // distance wide in front; the upper arm's own skin now bridges the gap).
+  if (options.model_torso)
+    for (CJ c : {CJ::l_clavicle, CJ::r_clavicle})
+      if (const int j = target.canonical[idx(c)]; j >= 0) s.unstretched[static_cast<std::size_t>(j)] = true;
   if (const int th = target.canonical[idx(CJ::head)], sh = source.canonical[idx(CJ::head)]; options.model_torso && th >= 0 && sh >= 0) {
     const double model_torso = (s.rest_positions[static_cast<std::size_t>(th)] - s.rest_positions[static_cast<std::size_t>(pelvis)]).norm();
     const double character_torso = (spos(sh) - sp).norm();

@@ -114,7 +114,9 @@ struct RetargetSetup {
   std::array<std::vector<Eigen::Vector3d>, 2> shoe_points;
   std::array<int, 2> shoe_ankle{-1, -1}, shoe_toe{-1, -1};
   std::vector<bool> rigid;     ///< per target joint: placed by its parent (model_torso), not on the character's
-  std::vector<bool> unstretched;  ///< per target joint: its bone keeps its length (it points at a rigid joint)
+  /// Per target joint: its bone keeps its length (it points at a rigid joint, or a clavicle
+  /// with model_torso).
+  std::vector<bool> unstretched;
   /// The rigid torso's offsets scaled by the character's rest pelvis-to-head length over the
   /// model's (0.7..1.3): its head lands on the character's at rest.
   double torso_scale = 1;
