@@ -340,6 +340,13 @@ RetargetSetup RetargetSetup::build(const content::Skeleton& source, const Eigen:
       if (const int j = target.canonical[idx(c)]; j >= 0 && j != pelvis) s.rigid[static_cast<std::size_t>(j)] = true;
   for (std::size_t j = 0; j < nt; ++j)
     s.unstretched[j] = s.direction_child[j] >= 0 && s.rigid[static_cast<std::size_t>(s.direction_child[j])];
+  // The clavicles keep their length too, pointing at the character's shoulders: the CMU
+  // humerus joints lie wider than the bodies' (stretched onto them, a clavicle pulled the top
+  // of the shoulder and the collar out into a wing, the shoulders 1.6-1.7 times the joints'
+  // distance wide in front; the upper arm's own skin now bridges the gap).
+  if (options.model_torso)
+    for (CJ c : {CJ::l_clavicle, CJ::r_clavicle})
+      if (const int j = target.canonical[idx(c)]; j >= 0) s.unstretched[static_cast<std::size_t>(j)] = true;
   if (const int th = target.canonical[idx(CJ::head)], sh = source.canonical[idx(CJ::head)]; options.model_torso && th >= 0 && sh >= 0) {
     const double model_torso = (s.rest_positions[static_cast<std::size_t>(th)] - s.rest_positions[static_cast<std::size_t>(pelvis)]).norm();
     const double character_torso = (spos(sh) - sp).norm();
@@ -361,6 +368,9 @@ RetargetSetup RetargetSetup::build(const content::Skeleton& source, const Eigen:
     const double fit = s.sole_depth[k] > 1e-3 ? s.ankle_height[k] / s.sole_depth[k] : 1.0;
     if (!(fit >= 0.5 && fit <= 1.5)) continue;
     s.foot_fit[k] = fit;
+    s.shoe_ankle[k] = ta;
+    s.shoe_toe[k] = st;
+    for (const Eigen::Vector3d& p : target.foot_points[k]) s.shoe_points[k].push_back((s.normalise * p.homogeneous()).head<3>());
     for (std::size_t j = 0; j < nt; ++j)
       if (static_cast<int>(j) == ta || (target.parents[j] >= 0 && s.foot_side[static_cast<std::size_t>(target.parents[j])] == side))
         s.foot_side[j] = side;
@@ -473,6 +483,28 @@ bool RetargetJob::Run() const {
     }
     rotations[j] = (delta * s.rest_rotations[j]).normalized();
     positions[j] = deltas[j].topLeftCorner<3, 3>() * b + deltas[j].topRightCorner<3, 1>();
+  }
+  // The floor: a shoe under it (its lowest vertex as its ankle's deltas pose it) is lifted
+  // onto it, the ankle's subtree with it; where the character's own toe is under the floor,
+  // only up to that toe (the shoe stays on the foot it is drawn on).
+  for (std::size_t k = 0; k < 2; ++k) {
+    const int ankle = s.shoe_ankle[k];
+    if (ankle < 0) continue;
+    const double floor_y = std::min(0.0, source_positions[static_cast<std::size_t>(s.shoe_toe[k])].y());
+    const Eigen::Matrix4d& d = deltas[static_cast<std::size_t>(ankle)];
+    double lowest = floor_y;
+    for (const Eigen::Vector3d& p : s.shoe_points[k]) lowest = std::min(lowest, d.row(1).head<3>().dot(p) + d(1, 3));
+    // At most 2.5 cm: a steeply pitched toeless shoe (the heel raised, the character's toes
+    // bent flat on the floor) dips its tip up to 5 cm; lifted that far it would leave the
+    // character's toe joint under it (3 px out of the mask, seen from the side).
+    constexpr double kMaxLift = 0.025;
+    const double lift = std::min(floor_y - lowest, kMaxLift);
+    if (!(lift > 0)) continue;
+    for (std::size_t j = 0; j < nt; ++j)
+      if (s.foot_side[j] == static_cast<int>(k)) {
+        deltas[j](1, 3) += lift;
+        positions[j].y() += lift;
+      }
   }
   if (!locals.empty())
     for (std::size_t j = 0; j < nt; ++j) {

@@ -197,7 +197,7 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
         for (std::size_t v = 0; v < first_model.vertex_count(); ++v) shoe[static_cast<std::size_t>(side)][v] = under[first_model.joints[v][0]];
       }
     }
-    double worst_planted = 0;
+    double worst_planted = 0, shoulder_ratio = 0;
     int planted_feet = 0;
     std::array<double, 2> resting_ankle_y{-1, -1};
     std::vector<Eigen::Vector3f> vp, vn;
@@ -251,6 +251,24 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
         target.read(rgba);
         std::vector<std::uint8_t> marked;
         if (dump) marked = rgba;
+        if (side[0] == 'f' && f.fighter.state == content::FighterState::resting) {
+          // The shoulders: the body's width in the mask along the row through the drawn
+          // skeleton's shoulder joints, over those joints' distance (both in px).
+          std::array<Pixel, 2> sh{};
+          int found = 0;
+          for (std::size_t j = 0; j < sk.joint_names.size(); ++j)
+            for (const char* n : {"lhumerus", "LeftArm", "rhumerus", "RightArm"})
+              if (sk.joint_names[j] == n) sh[static_cast<std::size_t>(n[0] == 'r' || n[0] == 'R')] = project(view, f.fighter.joints[j], w, h), ++found;
+          ASSERT_EQ(found, 2) << "no shoulder joints named as the shipped characters name them";
+          const int row = static_cast<int>(0.5 * (sh[0].y + sh[1].y));
+          const int x0 = static_cast<int>(std::min(sh[0].x, sh[1].x)), x1 = static_cast<int>(std::max(sh[0].x, sh[1].x));
+          int left = x0, right = x1;
+          auto white = [&](int x) { return x >= 0 && x < w && rgba[(static_cast<std::size_t>(row) * w + x) * 4] > 127; };
+          while (white(left - 1)) --left;
+          while (white(right + 1)) ++right;
+          const double ratio = (right - left + 1) / std::hypot(sh[0].x - sh[1].x, sh[0].y - sh[1].y);
+          shoulder_ratio = std::max(shoulder_ratio, ratio);
+        }
         for (std::size_t j = 0; j < f.fighter.joints.size(); ++j) {
           const Pixel px = project(view, f.fighter.joints[j], w, h);
           ASSERT_TRUE(px.in_front);
@@ -309,9 +327,14 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
     // The issue's +-2 cm: the retarget fits each shoe's sole under the character's ankle.
     EXPECT_LT(std::abs(worst_floor_rest), 0.02) << name << ": m, the lowest vertex off the floor while resting";
     EXPECT_GT(planted_feet, frames / 2) << name << ": too few planted feet to judge";
-    // 2.5 cm: viktor's drawn skeleton has a planted toe joint 1.0 cm under the floor (frame
-    // 254; content's foot planting), and his shoe follows it to -2.2 cm.
-    EXPECT_LT(std::abs(worst_planted), 0.025) << name << ": m, a planted foot's lowest vertex off the floor";
+    // A person's shoulders (deltoid to deltoid) are about 1.35-1.4 times as wide as the centres
+    // of their shoulder joints lie apart; stretched onto the CMU humerus joints, the bodies'
+    // clavicles made them 1.56-1.71.
+    EXPECT_LT(shoulder_ratio, 1.45) << name << ": the shoulders wider than the skeleton's";
+    // The issue's +-2 cm: a shoe under the floor is lifted onto it, or onto the character's own
+    // toe where content plants that under the floor (viktor's and bruno's, 1.0 cm).
+    EXPECT_LT(std::abs(worst_planted), 0.02) << name << ": m, a planted foot's lowest vertex off the floor";
+    std::printf("%s: shoulders %.2f x the drawn shoulder joints' distance wide (front, resting)\n", name.c_str(), shoulder_ratio);
     std::printf("%s: %d frames x front, side: %d joint projections, %d joints outside the body's mask (farthest %d px; "
                 "end sites %d px); lowest vertex %.3f m (any frame), %.3f m while resting; planted feet (%d): "
                 "lowest vertex worst %.3f m\n",
@@ -380,7 +403,7 @@ TEST(BodyRender, ACharacterSwitchEasesTheBodyWithTheDrawnJoints) {
   ASSERT_TRUE(bodies.warnings().empty()) << bodies.warnings().front();
   const double t0 = 1000;
   inst.start(t0);
-  double worst_body = 0, most_eased = 0;
+  double worst_body = 0, most_eased = 0, most_lifted = 0;
   int switched_frames = 0;
   std::vector<Eigen::Vector3d> fk_pos;
   std::vector<Eigen::Quaterniond> fk_rot, locals;
@@ -413,15 +436,22 @@ TEST(BodyRender, ACharacterSwitchEasesTheBodyWithTheDrawnJoints) {
       const glm::dvec3& d = f.fighter.joints[static_cast<std::size_t>(src)];
       const Eigen::Vector3d drawn(d.x, d.y, d.z);
       most_eased = std::max(most_eased, (drawn - fk_pos[static_cast<std::size_t>(src)]).norm());
-      worst_body = std::max(worst_body, (body->shadow_points[k].cast<double>() - drawn).norm());
+      Eigen::Vector3d off = body->shadow_points[k].cast<double>() - drawn;
+      if (k > 0) {
+        // An ankle may be lifted with its shoe onto the floor (up to 2.5 cm: body::RetargetSetup::
+        // shoe_points): the eased joints mix two characters' feet, a shoe may dip.
+        most_lifted = std::max(most_lifted, off.y());
+        if (off.y() > 0 && off.y() <= 0.025 + 1e-5) off.y() = 0;  // 1e-5: float positions
+      }
+      worst_body = std::max(worst_body, off.norm());
     }
   }
   EXPECT_GT(switched_frames, 60) << "the switch to mei did not happen";
   EXPECT_GT(most_eased, 0.02) << "m: no easing to follow (the check would prove nothing)";
   EXPECT_LT(worst_body, 1e-3) << "m: the body's pelvis or ankles off the drawn skeleton's";
   std::printf("switch kenji -> mei mid-punch: drawn joints eased up to %.3f m off the new pose; the body's pelvis and "
-              "ankles at most %.2g m off the drawn joints\n",
-              most_eased, worst_body);
+              "ankles at most %.2g m off the drawn joints (an ankle lifted with its shoe onto the floor by up to %.3f m)\n",
+              most_eased, worst_body, most_lifted);
 }
 
 // The hall's floor is drawn once for a view that maps the floor to the same pixels as an

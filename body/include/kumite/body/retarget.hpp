@@ -105,8 +105,18 @@ struct RetargetSetup {
   /// foot stands (1: not fitted: no mesh, no toe joint, or a ratio outside 0.5..1.5).
   std::array<double, 2> sole_depth{0, 0}, ankle_height{0, 0}, foot_fit{1, 1};
   std::vector<int> foot_side;                       ///< per target joint: 0/1 the ankle's subtree, -1
+  /// Per side: the shoe's vertices (TargetRig::foot_points) at rest in the source world, the
+  /// ankle joint they ride on (-1: not fitted) and the source's toe joint. A posed shoe whose
+  /// lowest of these lies under the floor (y = 0) is lifted onto it with its ankle's subtree,
+  /// or only up to the character's own toe where that is under the floor, by at most 2.5 cm:
+  /// the mocap's planted feet sink a toe up to 1 cm through the floor, and a pitched shoe's
+  /// sole went 1 cm deeper.
+  std::array<std::vector<Eigen::Vector3d>, 2> shoe_points;
+  std::array<int, 2> shoe_ankle{-1, -1}, shoe_toe{-1, -1};
   std::vector<bool> rigid;     ///< per target joint: placed by its parent (model_torso), not on the character's
-  std::vector<bool> unstretched;  ///< per target joint: its bone keeps its length (it points at a rigid joint)
+  /// Per target joint: its bone keeps its length (it points at a rigid joint, or a clavicle
+  /// with model_torso).
+  std::vector<bool> unstretched;
   /// The rigid torso's offsets scaled by the character's rest pelvis-to-head length over the
   /// model's (0.7..1.3): its head lands on the character's at rest.
   double torso_scale = 1;
