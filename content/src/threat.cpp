@@ -21,6 +21,7 @@ std::string validate(const ThreatTunables& t) {
   if (bad(t.aim_radius_m, 0.05, 1)) return fmt::format("threat_aim_radius_m: {} is not in [0.05, 1] m", t.aim_radius_m);
   if (bad(t.velocity_window_s, 0.005, 0.5))
     return fmt::format("threat_velocity_window_s: {} is not in [0.005, 0.5] s", t.velocity_window_s);
+  if (bad(t.min_extension, 0, 1)) return fmt::format("threat_min_extension: {} is not in [0, 1]", t.min_extension);
   return {};
 }
 
@@ -121,6 +122,35 @@ std::optional<Threat> ThreatWatch::path_threat(const Vector3d& p, const Vector3d
   return t;
 }
 
+std::optional<Vector3d> ThreatWatch::window_mean(recognition::Role role) const {
+  const History& h = hist_[static_cast<std::size_t>(role)];
+  if (h.count < 1) return std::nullopt;
+  const Timestamp t_new = h.newest().t;
+  Vector3d sum = Vector3d::Zero();
+  int n = 0;
+  for (int k = 0; k < h.count; ++k) {
+    const Sample& s = h.newest(k);
+    if (k >= 2 && t_new - s.t > tun_.velocity_window_s) break;
+    sum += s.p;
+    ++n;
+  }
+  return Vector3d(sum / n);
+}
+
+bool ThreatWatch::extends(recognition::Role role, const Vector3d& rel) const {
+  if (tun_.min_extension <= 0) return true;
+  if (role != recognition::Role::left_hand && role != recognition::Role::right_hand) return true;
+  // The fist and the head where the fitted velocity holds: at the window's mean time (the fist
+  // now would lag a curved path's velocity by half the window: a hand on a circle would seem
+  // to move outward).
+  const std::optional<Vector3d> fist = window_mean(role), head = window_mean(recognition::Role::head);
+  if (!fist || !head) return true;  // no head to measure from: the path alone decides
+  const Vector3d out = *fist - *head;
+  const double r = out.norm(), speed = rel.norm();
+  if (r < 1e-6 || speed < 1e-9) return true;
+  return rel.dot(out) / (r * speed) >= tun_.min_extension;
+}
+
 std::optional<Threat> ThreatWatch::soonest(const Vector3d& top, const Vector3d& bottom, Timestamp now) const {
   if (!top.allFinite() || !bottom.allFinite() || !std::isfinite(now)) return std::nullopt;
   const std::optional<Vector3d> head_v = velocity(recognition::Role::head);
@@ -135,7 +165,7 @@ std::optional<Threat> ThreatWatch::soonest(const Vector3d& top, const Vector3d& 
     const std::optional<Vector3d> v = velocity(role);
     if (v) {
       const Vector3d rel = *v - head_v.value_or(Vector3d::Zero());
-      if (rel.norm() >= tun_.min_speed_mps) t = path_threat(s.p + *v * ahead, *v, top, bottom);
+      if (rel.norm() >= tun_.min_speed_mps && extends(role, rel)) t = path_threat(s.p + *v * ahead, *v, top, bottom);
     }
     if (!t && recognised_[static_cast<std::size_t>(r)]) {
       // Recognised: the path toward the predicted impact point, at the limb's speed or at

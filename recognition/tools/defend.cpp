@@ -70,6 +70,7 @@ nlohmann::json run_defence(const DefenceArgs& a) {
   cfg.planner.counter_probability = 0; // and no counters
   cfg.planner.block = true;
   cfg.planner.threat = a.threat;
+  cfg.planner.fighting_distance_m = a.fighting_distance_m;
   const content::Rig rig = content::load_character_rig(a.character.string());
 
   nlohmann::json report = {

@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "kumite/content/planner.hpp"
 #include "kumite/content/threat.hpp"
 #include "offline.hpp"
 
@@ -20,6 +21,7 @@ struct DefenceArgs {
   double lead_in_s = 3;
   std::uint64_t seed = 1;
   content::ThreatTunables threat;   ///< what counts as a fist coming (the planner's threat_* keys)
+  double fighting_distance_m = content::PlannerTunables{}.fighting_distance_m;  ///< m, the planner's fighting_distance_m
 };
 /// Runs every recording; writes the files; returns the summary.
 nlohmann::json run_defence(const DefenceArgs& a);

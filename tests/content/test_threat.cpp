@@ -87,6 +87,46 @@ TEST(Threat, AFastSwingThatPassesBesideTheFighterIsNoThreat) {
   EXPECT_FALSE(run(w2, slow, 6).has_value());
 }
 
+// A hand swung round on a circle (an arm circle, a throw's wind-up: HDM05's rotateArms clips
+// drew phantom blocks) heads for the fighter as fast as a punch but keeps its distance from the
+// visitor's head; a punch's fist moves away from it. SYNTHETIC circle about a point level with
+// the head, radius 0.65 m, 6 m/s, sampled at 120 Hz: here the hand 40 deg below the horizontal
+// in front, going up and forward, its straight path through the fighter's head-pelvis line.
+TEST(Threat, AHandSwungRoundTheShoulderIsNoThreatWhereAPunchIs) {
+  const Vector3d head(0, 1.65, -0.9), centre(0.1, 1.65, -0.9);
+  const double radius = 0.65, omega = 6.0 / radius, dt = 1.0 / 120;
+  const auto feed = [&](ThreatWatch& w) {
+    double t = 0;
+    for (int k = 0; k < 8; ++k) {
+      t = k * dt;
+      const double a = -40.0 * M_PI / 180 - (7 - k) * dt * omega;  // reaches -40 deg at the last sample
+      std::vector<VisitorBody> bodies(2);
+      bodies[0].role = Role::head;
+      bodies[0].position_m = head;
+      bodies[0].tracked = true;
+      bodies[0].t = t;
+      bodies[1].role = Role::right_hand;
+      bodies[1].position_m = centre + radius * Vector3d(0, std::sin(a), -std::cos(a));
+      bodies[1].tracked = true;
+      bodies[1].t = t;
+      w.observe(bodies, {});
+    }
+    return w.soonest(kTop, kBottom, t);
+  };
+  ThreatTunables any_direction;
+  any_direction.min_extension = 0;
+  ThreatWatch loose(any_direction);
+  EXPECT_TRUE(feed(loose).has_value()) << "the path alone: it heads for the fighter";
+  ThreatWatch w;  // the default asks the fist to move away from the head
+  EXPECT_GT(w.tunables().min_extension, 0.1);
+  EXPECT_FALSE(feed(w).has_value()) << "an arm circle is not a punch";
+  // The straight punch of the first test is still one.
+  Visitor v;
+  v.fist_v = Vector3d(0, 0, -6);
+  ThreatWatch p;
+  EXPECT_TRUE(run(p, v, 4).has_value());
+}
+
 TEST(Threat, ALostGloveOrANanEndsItsHistoryAndASeenMeasurementIsNotTakenTwice) {
   ThreatWatch w;
   Visitor v;
@@ -152,6 +192,11 @@ TEST(Threat, TunablesOutOfRangeOrNanAreNamed) {
   PlannerTunables p;
   p.threat.aim_radius_m = -1;
   EXPECT_NE(validate(p).find("threat_aim_radius_m"), std::string::npos);
+  for (double bad : {std::numeric_limits<double>::quiet_NaN(), -0.1, 1.5}) {
+    t = {};
+    t.min_extension = bad;
+    EXPECT_NE(validate(t).find("threat_min_extension"), std::string::npos) << bad;
+  }
 }
 
 namespace {

@@ -933,6 +933,7 @@ std::string to_toml(const InstallationConfig& c) {
                                           {"threat_horizon_s", p.threat.horizon_s},
                                           {"threat_aim_radius_m", p.threat.aim_radius_m},
                                           {"threat_velocity_window_s", p.threat.velocity_window_s},
+                                          {"threat_min_extension", p.threat.min_extension},
                                           {"hit_min_speed_mps", p.hit_min_speed_mps},
                                           {"hit_full_speed_mps", p.hit_full_speed_mps},
                                           {"hit_head_max_deg", p.hit_head_max_deg},

@@ -8,9 +8,10 @@
 // least `min_speed_mps` relative to the visitor's head (a walk carries the hands with the head:
 // not a threat), and its straight path from where it is now (extrapolated from its measurement
 // to `now`) comes within `aim_radius_m` of the fighter's head-to-pelvis segment within
-// `horizon_s`, closing on it at least `min_closing_mps`. Recognised strike begins add the
-// limb's path toward the predicted impact point (the recogniser's early word, before the fist
-// is fast). Everything in the room frame: metres, seconds.
+// `horizon_s`, closing on it at least `min_closing_mps`; a fist also only while it moves away
+// from the visitor's head (`min_extension`: the arm extends, as in a punch). Recognised strike
+// begins add the limb's path toward the predicted impact point (the recogniser's early word,
+// before the fist is fast). Everything in the room frame: metres, seconds.
 #include <array>
 #include <cstdint>
 #include <optional>
@@ -34,6 +35,11 @@ struct ThreatTunables {
   double horizon_s = 0.4;          ///< s: it arrives within this
   double aim_radius_m = 0.25;     ///< m: its path passes within this of the fighter's head-pelvis line
   double velocity_window_s = 0.05; ///< s of measurements its velocity is fitted over (at least two)
+  /// A fist threatens only while it moves away from the visitor's own head at least this share
+  /// of its speed (relative to the head): a punch extends the arm; a hand swung round the
+  /// shoulder (arm circles, a throw's wind-up) keeps its distance. 0: any direction. Feet are not
+  /// held to it (a kick's foot rises toward the head).
+  double min_extension = 0.2;
   bool operator==(const ThreatTunables&) const = default;
 };
 /// "" when finite and in range, else "key: message".
@@ -79,6 +85,12 @@ class ThreatWatch {
   };
   std::optional<Threat> path_threat(const Eigen::Vector3d& p, const Eigen::Vector3d& v, const Eigen::Vector3d& top,
                                     const Eigen::Vector3d& bottom) const;
+  /// A fist moving away from the head by min_extension of its relative velocity `rel` (feet,
+  /// and a fist with no head measured, always).
+  bool extends(recognition::Role role, const Eigen::Vector3d& rel) const;
+  /// The mean of the limb's measurements over the velocity window (the fitted line's point at
+  /// their mean time), if it has one.
+  std::optional<Eigen::Vector3d> window_mean(recognition::Role role) const;
   ThreatTunables tun_;
   std::array<History, recognition::kRoleCount> hist_{};
   /// A recognised strike's begin per limb (cleared by its end or cancel): its impact point.
