@@ -100,21 +100,18 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   facing_rad_ = 0;
   use_synchronous_planner(std::make_shared<StrikePlanner>(db_, config.retrieval));
   sync_rate_solver_ = std::make_shared<StrikeRateSolver>(db_, tun_);
-  submit_rate_ = [this](const StrikeRateJob& job) { sync_rate_result_ = sync_rate_solver_->solve(job); };
-  poll_rate_ = [this] { return std::exchange(sync_rate_result_, std::nullopt); };
+  rate_channel_.submit = [this](const StrikeRateJob& job) { sync_rate_result_ = sync_rate_solver_->solve(job); };
+  rate_channel_.poll = [this] { return std::exchange(sync_rate_result_, std::nullopt); };
   start_rest(0);
   blend_elapsed_s_ = 1e9;
 }
 
-void Behaviour::set_planner(Submit submit, Poll poll) {
-  submit_ = std::move(submit);
-  poll_ = std::move(poll);
-}
+void Behaviour::set_planner(PlanChannel channel) { plan_channel_ = std::move(channel); }
 
 void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> planner) {
   sync_planner_ = std::move(planner);
-  submit_ = [this](const StrikeRequest& r) { sync_results_.push_back(sync_planner_->plan(r)); };
-  poll_ = [this]() -> std::optional<StrikePlan> {
+  plan_channel_.submit = [this](const StrikeRequest& r) { sync_results_.push_back(sync_planner_->plan(r)); };
+  plan_channel_.poll = [this]() -> std::optional<StrikePlan> {
     if (sync_results_.empty()) return std::nullopt;
     StrikePlan p = sync_results_.front();
     sync_results_.pop_front();
@@ -122,10 +119,7 @@ void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> pla
   };
 }
 
-void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
-  submit_rate_ = std::move(submit);
-  poll_rate_ = std::move(poll);
-}
+void Behaviour::set_rate_solver(RateChannel channel) { rate_channel_ = std::move(channel); }
 
 bool Behaviour::strike_pending() const { return pending() || approach() || support_step() || retaking(); }
 
@@ -361,7 +355,7 @@ void Behaviour::take_order(const QueuedOrder& queued, Timestamp now, const Vecto
                      as<Idle>()->loco});
   // Taken again after stepping in (or a kick's support step): accepted already.
   if (!queued.stepped_first && !queued.support_stepped && !queued.after_stance_step) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
-  submit_(r);
+  plan_channel_.submit(r);
 }
 
 const Vector3d* Behaviour::step_target() const {
@@ -643,7 +637,7 @@ void Behaviour::start_strike(const PendingStrike& pending, const StrikePlan& pla
     job.plan_lowest_shoulder_y_m = lowest_shoulder_y_m();
     job.pole_turns = pole_turns_;
     as<Striking>()->rate = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment, character_};
-    submit_rate_(job);
+    rate_channel_.submit(job);
   }
   (void)now;
 }
@@ -657,7 +651,7 @@ void Behaviour::apply_strike_rate(double dt) {
   std::optional<PendingRate>& rate = as<Striking>()->rate;
   const PendingRate due = *rate;
   rate.reset();
-  const std::optional<StrikeRateResult> r = poll_rate_();
+  const std::optional<StrikeRateResult> r = rate_channel_.poll();
   if (!r || r->id != due.job || !(r->rate > 0) || r->rate >= 1) return;
   if (strike_.contact_done || current_.segment != due.segment) return;
   current_.rate = r->rate;
@@ -1038,7 +1032,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
 
   handle_orders(now, head);
   if (const AwaitingPlan* w = as<AwaitingPlan>()) {
-    if (auto p = poll_(); p && p->id == w->strike.request) {
+    if (auto p = plan_channel_.poll(); p && p->id == w->strike.request) {
       // (copies: the plan's outcome replaces the alternative they live in)
       const PendingStrike pending = w->strike;
       const Locomotion loco = w->loco;

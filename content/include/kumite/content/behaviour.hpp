@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -26,6 +27,7 @@
 #include "kumite/content/fighter.hpp"
 #include "kumite/content/foot_planting.hpp"
 #include "kumite/content/retrieval.hpp"
+#include "kumite/content/worker_channel.hpp"
 
 namespace kumite::content {
 
@@ -182,24 +184,30 @@ class StrikeRateSolver {
 /// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
 class Behaviour {
  public:
-  using Submit = std::function<void(const StrikeRequest&)>;
-  using Poll = std::function<std::optional<StrikePlan>()>;
-  using SubmitRate = std::function<void(const StrikeRateJob&)>;
-  /// Called on the update the job is due (kStrikeRateDelayUpdates after its submission): the
-  /// job's result, waiting for it if the solver is late (nullopt: play at the clip's rate).
-  using PollRate = std::function<std::optional<StrikeRateResult>()>;
+  /// The two jobs handed to a worker (worker_channel.hpp): planning a strike, and finding its
+  /// playback rate. The rate channel's poll is called on the update the job is due
+  /// (kStrikeRateDelayUpdates after its submission): the job's result, waiting for it if the
+  /// solver is late (nullopt: play at the clip's rate).
+  using PlanChannel = WorkerChannel<StrikeRequest, StrikePlan>;
+  using RateChannel = WorkerChannel<StrikeRateJob, StrikeRateResult>;
+  using Submit = PlanChannel::Submit;
+  using Poll = PlanChannel::Poll;
+  using SubmitRate = RateChannel::Submit;
+  using PollRate = RateChannel::Poll;
 
   /// Tunables from config.behaviour (and config.retrieval for the synchronous planner);
   /// throws kumite::Error when they are out of range (validate()).
   Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config);
 
   /// Where plans come from. Default: synchronous planning inside update() via `planner`.
-  void set_planner(Submit submit, Poll poll);
+  void set_planner(PlanChannel channel);
+  void set_planner(Submit submit, Poll poll) { set_planner(PlanChannel{std::move(submit), std::move(poll)}); }
   void use_synchronous_planner(std::shared_ptr<const StrikePlanner> planner);
   /// Who finds a strike's playback rate (StrikeRateJob, sent on the update the strike starts,
   /// polled kStrikeRateDelayUpdates later). Default: a StrikeRateSolver run inside update()
   /// at the submission (the frame pays ~0.2-0.3 ms); the Fighter runs it on its worker thread.
-  void set_rate_solver(SubmitRate submit, PollRate poll);
+  void set_rate_solver(RateChannel channel);
+  void set_rate_solver(SubmitRate submit, PollRate poll) { set_rate_solver(RateChannel{std::move(submit), std::move(poll)}); }
 
   /// Queue an order (processed at the next update).
   void order(const Order& order);
@@ -529,8 +537,7 @@ class Behaviour {
   std::vector<Rig> characters_;
   FighterConfig config_;
   BehaviourTunables tun_;
-  Submit submit_;
-  Poll poll_;
+  PlanChannel plan_channel_;  ///< strikes planned (set_planner; synchronous by default)
   std::shared_ptr<const StrikePlanner> sync_planner_;
   std::deque<StrikePlan> sync_results_;
 
@@ -661,8 +668,7 @@ class Behaviour {
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> rig_positions_, positions_;
   // The strike's playback rate (StrikeRateJob): who solves it, and the job out.
-  SubmitRate submit_rate_;
-  PollRate poll_rate_;
+  RateChannel rate_channel_;
   std::shared_ptr<StrikeRateSolver> sync_rate_solver_;
   std::optional<StrikeRateResult> sync_rate_result_;
   std::uint64_t next_rate_job_ = 1;
