@@ -894,7 +894,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   Vector2d goal = spot_xz_m_;
   if (dist > 1e-6) goal = head_xz - to_head / dist * follow_distance_m_;
   if (recentre_goal_) goal = *recentre_goal_;
-  if (reel_goal_) goal = *reel_goal_;  // stepping back from a large blow
+  if (reel_.step_back()) goal = *reel_.step_back();  // stepping back from a large blow
   if (const Approach* a = approach()) {
     goal = a->goal_xz;  // stepping in before a strike
   } else if (strike_pending()) {
@@ -923,7 +923,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   // the visitor stands stance_step_min_m farther than the strike distance, the fighter waits.
   bool wait = false;
   if (tun_.stance_step_min_m > 0 && !walk_segments_.empty() && !approach() && !strike_pending() && !paused_ &&
-      !reel_goal_ && dist > 0.05) {
+      !reel_.step_back() && dist > 0.05) {
     const Vector2d fwd(std::sin(facing_rad_), std::cos(facing_rad_));
     const double along = off.dot(fwd);
     const double sideways = (off - along * fwd).norm();
@@ -954,7 +954,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
                                                        tun_.arrive_tolerance_m;
   if (outside_area && !paused_) wait = false;
   if (!wait && !following &&
-      (off.norm() > tun_.follow_tolerance_m || ((approach() || reel_goal_) && off.norm() > tun_.arrive_tolerance_m) ||
+      (off.norm() > tun_.follow_tolerance_m || ((approach() || reel_.step_back()) && off.norm() > tun_.arrive_tolerance_m) ||
        (outside_area && !paused_)))
     following = true;
   if (following) {
@@ -964,7 +964,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
     if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m) {
       following = false;
       recentre_goal_.reset();
-      reel_goal_.reset();
+      reel_.end_step_back();
     }
   }
   // Face the visitor; while stepping in or back before a strike, or setting a kick's support
@@ -1104,7 +1104,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   if (recovering() && blend_elapsed_s_ >= tun_.blend_time_s && previous_.time_s >= strike_.release_end_s) enter(Idle{AtSpot{}});
   // (not while a strike's plan is awaited: it starts from the step, not from a blend out of it)
   if (stance_step() && !pending() && current_.time_s >= stance_step()->end_s) end_stance_step(now);
-  if (reel_goal_ && now > reel_goal_until_) reel_goal_.reset();  // a large blow's step back, given up
+  reel_.give_up_step_back(now);  // a large blow's step back, given up
   if (locomotion()) update_follow(dt, head);
   update_step_in(dt);
   update_support_step(dt);
@@ -1121,7 +1121,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
                                                     m.upper_arm_m[side], m.forearm_m[side], dt);
   }
   // Sparring with blocks on: the guard and a parry laid on the arms (behaviour_guard.cpp).
-  apply_guard(dt, now);
+  guard_.lay(dt, now, !paused_ && !(striking() && !strike_.block), have_pose_, characters_[static_cast<std::size_t>(character_)],
+             rig_positions_, pose_, events_);
   if (!have_pose_) pose_before_ = pose_;
 
   // d(t): zero at the strike start, the full error at contact, then back to zero over at least
@@ -1192,11 +1193,11 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   locks_.min_root_drop_m = std::clamp(last_drop + v_lo * dt, 0.0, tun_.max_root_drop_m);
   locks_.max_root_drop_m = std::clamp(std::min(last_drop + v_hi * dt, most_drop), locks_.min_root_drop_m, tun_.max_root_drop_m);
   // A blow's reel laid on the pose (hit(): none in orders mode, nor before a blow).
-  advance_reel(dt);
-  const bool reeled = reel_pose();
+  reel_.advance(dt);
+  const MkmFrame* reeled = reel_.lay(pose_);
   AdaptJob job;
   job.rig = &rig;
-  job.pose = reeled ? &reeled_pose_ : &pose_;
+  job.pose = reeled ? reeled : &pose_;
   job.reach = reach;
   job.feet = have_pose_ ? &locks_ : nullptr;
   job.local_rotations = std::span(local_).first(n);

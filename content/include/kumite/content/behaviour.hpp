@@ -26,6 +26,8 @@
 #include "kumite/content/database.hpp"
 #include "kumite/content/fighter.hpp"
 #include "kumite/content/foot_planting.hpp"
+#include "kumite/content/guard.hpp"
+#include "kumite/content/hit_reel.hpp"
 #include "kumite/content/retrieval.hpp"
 #include "kumite/content/worker_channel.hpp"
 
@@ -211,15 +213,8 @@ class Behaviour {
 
   /// Queue an order (processed at the next update).
   void order(const Order& order);
-  /// A block against a fist seen coming (the Fighter's defence, spar mode).
-  struct BlockOrder {
-    recognition::Role limb = recognition::Role::right_hand;
-    Eigen::Vector3d fist_m{0, 0, 0};         ///< m, room: the fist now
-    Eigen::Vector3d velocity_mps{0, 0, 0};   ///< m/s, room
-    double arrival_s = 0;                    ///< s from now until it reaches the body (ThreatWatch)
-    bool recognised = false;
-    double max_rate = 2.0;                   ///< segment s per s the block may be played at to be in place in time
-  };
+  /// A block against a fist seen coming (the Fighter's defence, spar mode; guard.hpp).
+  using BlockOrder = content::BlockOrder;
   /// A block can start now: not paused, no strike or block playing or blending out, no
   /// cross-fade under way (a block cuts no blend: the pose would jump).
   bool can_block() const;
@@ -232,7 +227,7 @@ class Behaviour {
   /// Spar with blocks on (the Fighter sets it every update): the fighter keeps its guard up,
   /// both forearms raised before its face and chest, whenever it is not striking; the guard
   /// eases in over 0.4 s and out over 0.15 s as a strike starts (behaviour_guard.cpp).
-  void set_guard(bool on) { guard_.wanted = on; }
+  void set_guard(bool on) { guard_.want(on); }
   /// The guard's weight at the last update (0: the motion's own arms, 1: the guard).
   double guard_weight() const;
   /// The guard is up (spar, blocks on, no strike of its own): a fist seen coming is parried.
@@ -253,25 +248,12 @@ class Behaviour {
   /// blow lands off the midline) on top of whatever the fighter plays, starting with this
   /// update; a strike of its own under way before its contact is aborted (a blend into rest,
   /// once its own cross-fade in is done); a large blow steps it back.
-  struct HitOrder {
-    Eigen::Vector3d point_m{0, 0, 0};        ///< m, room: where the fist entered the body
-    Eigen::Vector3d velocity_mps{0, 0, 0};   ///< m/s, room: the fist's
-    bool head = false;                       ///< the head was struck (else the torso)
-    double share = 0;                        ///< 0..1: the blow's size (0: nothing happens)
-    double head_max_rad = 0.26, trunk_max_rad = 0.14, shoulder_max_rad = 0.21;  ///< rad, each chain's reel at share 1
-    double stiffness_rad_s = 10;             ///< rad/s, the spring's undamped angular frequency
-    double damping_ratio = 0.8;              ///< 0.4..1
-    double step_back_m = 0;                  ///< m stepped back (0: none)
-  };
+  using HitOrder = content::HitOrder;  ///< hit_reel.hpp
   /// False (nothing changed): a share of 0, a point or velocity not finite, or no pose yet.
   bool hit(const HitOrder& order, Timestamp now);
   /// The reel under way: the head, trunk and shoulders' rotation vectors (rad, room frame:
   /// axis times angle) at the last update; all zero when none is.
-  struct ReelState {
-    bool active = false;
-    Eigen::Vector3d trunk{0, 0, 0}, head{0, 0, 0};
-    std::array<Eigen::Vector3d, 2> shoulder{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-  };
+  using ReelState = content::ReelState;  ///< hit_reel.hpp
   ReelState reel() const;
   /// Strikes aborted so far (by a blow, or by abort_strike).
   int strikes_aborted() const { return strikes_aborted_; }
@@ -521,14 +503,9 @@ class Behaviour {
   int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect = nullptr) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
-  /// Hit reactions (behaviour_hit.cpp): the springs advanced by dt; a strike aborted if one is
-  /// due and can leave now; the reel laid on pose_ into reeled_pose_ (false: none under way).
-  void advance_reel(double dt);
+  /// A blow's abort (behaviour_hit.cpp): a strike of its own aborted if one is due and can leave now.
   void abort_strike_for_blow(Timestamp now);
-  bool reel_pose();
   void judge_block_in_place(Timestamp now);
-  /// The guard and a parry laid on pose_'s arms (behaviour_guard.cpp); emits the parry's block event.
-  void apply_guard(double dt, Timestamp now);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
                      double distance = 0);
 
@@ -746,48 +723,9 @@ class Behaviour {
   TrunkLean trunk_floor_;  ///< the least trunk fallback this frame (the last frame's, easing out)
   int trunk_floor_side_ = -1;  ///< the arm whose strike made it (-1: no punch yet)
   std::vector<FighterEvent> events_;
-  // Hit reactions: per chain (trunk, head, left shoulder, right shoulder) a rotation vector
-  // (rad, room) and its rate, a damped spring each (behaviour_hit.cpp).
-  struct Reel {
-    bool active = false;
-    std::array<Eigen::Vector3d, 4> theta{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    std::array<Eigen::Vector3d, 4> rate{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    double stiffness_rad_s = 10, damping_ratio = 0.8;
-    double since_s = 0;  ///< s since the last blow
-  } reel_;
-  // The guard and parries (behaviour_guard.cpp): arm directions laid on the composed pose.
-  struct Guard {
-    bool wanted = false;        ///< set by the Fighter (spar, blocks on)
-    double up = 0;              ///< 0..1 the guard's progress (its weight is smoothstep(up))
-    double weight = 0;          ///< the weight drawn at the last update
-    std::array<Eigen::Vector3d, 2> last_arm_n{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};   ///< [side] as drawn last
-    std::array<Eigen::Vector3d, 2> last_arm_pole{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    bool have_last = false;
-    // A parry per arm [side].
-    struct Parry {
-      bool on = false;
-      double t_s = 0;           ///< s since it began
-      double move_s = 0;        ///< s the wrist takes to its place
-      double hold_end_s = 0;    ///< s (since it began) it starts back to the guard
-      double back_s = 0.3;      ///< s back to the guard
-      Eigen::Vector3d from_arm_n{0, 0, 0}, from_pole{0, 0, 0};  ///< the arm as drawn when it began
-      Eigen::Vector3d wrist_m{0, 0, 0};   ///< m, room: the wrist in place
-      Eigen::Vector3d elbow_m{0, 0, 0};   ///< m, room: where the elbow is wanted in place
-      Eigen::Vector3d cross_m{0, 0, 0};   ///< m, room: where the fist's path crosses the forearm
-      bool said = false;        ///< its block event emitted
-      Timestamp meet_t = 0;     ///< s: when the fist is due at the forearm
-      recognition::Role limb = recognition::Role::right_hand;
-      bool recognised = false;
-      double fist_speed_mps = 0;
-      /// Moving to its place or held there (not going back).
-      bool busy() const { return on && t_s < hold_end_s; }
-    };
-    std::array<Parry, 2> parry{};
-  } guard_;
-  MkmFrame reeled_pose_;                   ///< pose_ with the reel laid on (what is drawn while one is under way)
+  HitReel reel_;  ///< a blow's reel and step back (hit_reel.hpp, behaviour_hit.cpp)
+  Guard guard_;   ///< the guard and parries (guard.hpp, behaviour_guard.cpp)
   Timestamp abort_until_ = -1;             ///< s: a strike of its own before contact is aborted until then
-  std::optional<Eigen::Vector2d> reel_goal_;  ///< m, room: the spot a large blow steps the fighter back to
-  Timestamp reel_goal_until_ = 0;          ///< s: given up then
   int strikes_aborted_ = 0;
   Timestamp time_ = 0;
   int updates_ = 0;
