@@ -191,12 +191,12 @@ void Behaviour::abort_strike_for_blow(Timestamp now) {
   // Not before its own cross-fade in is done: leaving mid-blend drops the motion it blends
   // from in one frame (a block leaving so jumped the body 25 cm). The reel shows the blow
   // meanwhile.
-  if (blend_elapsed_s_ < tun_.blend_time_s) return;
-  const double t = current_.time_s;
+  if (player_.blend_elapsed_s() < tun_.blend_time_s) return;
+  const double t = player_.current().time_s;
   strike_.aborted = true;
   strike_.abort_s = t;
   strike_.abort_ramp = ramp_in(t);
-  strike_.release_end_s = t + tun_.release_time_s * current_.rate;
+  strike_.release_end_s = t + tun_.release_time_s * player_.current().rate;
   abort_until_ = -1;
   ++strikes_aborted_;
   start_rest(now);

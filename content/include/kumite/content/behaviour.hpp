@@ -28,6 +28,7 @@
 #include "kumite/content/foot_planting.hpp"
 #include "kumite/content/guard.hpp"
 #include "kumite/content/hit_reel.hpp"
+#include "kumite/content/motion_player.hpp"
 #include "kumite/content/retrieval.hpp"
 #include "kumite/content/worker_channel.hpp"
 
@@ -81,41 +82,6 @@ class StrikePlanner {
   RetrievalTunables tunables_;
 };
 
-
-/// A motion being played: a database segment at a segment time, placed in the room (the
-/// current source and the one it cross-fades from). Plain data: a copy can be played on another
-/// thread (StrikeRateSolver) with its own EasedTravelCache.
-struct PlaybackSource {
-  int segment = -1;
-  double time_s = 0;
-  GroundFrame placement;
-  Eigen::Vector2d anchor_xz_m{0, 0};
-  bool loop = false;
-  /// Segment seconds played per second (a strike whose correction lengthens its way is
-  /// played slower: StrikeRateSolver). Times inside the segment stay segment times.
-  double rate = 1;
-  /// A strike's floor travel scaled (a shorter or longer lunge): the root moves `scale` times
-  /// the clip's own travel from `from_s` to `contact_s`, then eases back to the clip's own
-  /// speed over `release_s` (position and speed continuous). 1: the clip as captured.
-  struct Travel {
-    double scale = 1;
-    double from_s = 0;     ///< s, segment time where the scaling starts
-    double contact_s = 0;  ///< s, segment time of contact
-    double release_s = 0.25;
-    double rise_n = 0;     ///< pelvis raised by this (/ leg length) at contact, eased in from
-                           ///< `from_s` and out over `release_s` (a high target)
-    bool operator==(const Travel&) const = default;
-  } travel;
-};
-
-/// The strike's eased travel after contact (PlaybackSource::Travel), summed per frame: cum[0] =
-/// 0 at contact, cum[i] at the i-th knot (each frame time, then the release's end). Filled by
-/// the first sample of a strike that scales its travel; one per thread that samples.
-struct EasedTravelCache {
-  int segment = -1;
-  PlaybackSource::Travel travel;
-  std::vector<Eigen::Vector2d> cum;
-};
 
 /// Updates between the update that starts a strike and the one its playback rate is applied
 /// on (BehaviourTunables::min_strike_rate): the rate is found off the frame (the retrieval
@@ -451,10 +417,6 @@ class Behaviour {
   /// The same from another pose and feet (a stance the fighter would take first).
   Source strike_source(const StrikePlan& plan, StrikeFit& fit, const MkmFrame& from, const HeldFeet& feet) const;
   void select_character(int index, Timestamp now);
-  void sample(const Source& s, MkmFrame& out) const;
-  Eigen::Vector2d scaled_travel(const Source& s, const MotionSegment& seg, double t) const;
-  void sample_frame(const Source& s, int frame, MkmFrame& out) const;
-  void place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const;
   double stride_scale() const;
   void start_rest(Timestamp now, int segment = -1);
   void update_follow(double dt, const Eigen::Vector3d& head);
@@ -489,10 +451,6 @@ class Behaviour {
   void keep_elbow_below_head();
   /// The straight arm's part of it: the highest aim at the target's horizontal distance.
   void aim_straight_arm_below_head();
-  /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into the blend (cur_pose: `cur`
-  /// alone), as update() composes every frame.
-  void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out,
-               PoleTurns* turns = nullptr) const;
   double ramp_in(double t) const;   ///< d(t)'s weight at segment time t before contact
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
@@ -523,12 +481,9 @@ class Behaviour {
   bool keep_away_ = false;
   double follow_distance_m_ = 0;  ///< m, follow_at() (set from the config at construction)
   int rest_segment_ = 0;
-  Source current_, previous_;
-  double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
-  /// The drawn cross-fade's limb-pole turns, carried from update to update (PoleTurns).
-  PoleTurns pole_turns_;
-  /// Per arm, its drawn pole (limit_folded_pole_turn).
-  std::array<DrawnPole, 2> arm_poles_{};
+  /// The sources playing (the current one and the one it cross-fades from), the cross-fade
+  /// and the arms' drawn poles (motion_player.hpp, motion_playback.cpp).
+  MotionPlayer player_;
   double facing_rad_ = 0;  ///< rad: the way the fighter faces (toward the visitor)
   /// rad: the rest motion's hips (its first frame's ground yaw) turned this far off facing_rad_
   /// (0: the default rest; after a stance step, its stance's own hips).
@@ -634,8 +589,6 @@ class Behaviour {
     double way_left_m = 0;               ///< m, horizontal path from last_m to the landing
   };
   std::array<SwingPath, 2> swing_paths_{};
-  /// The strike's eased travel (EasedTravelCache) for this thread's sampling.
-  mutable EasedTravelCache eased_;
 
   // Switch easing: per joint of the current rig, an offset fading to zero.
   std::vector<Eigen::Vector3d> switch_offset_;
@@ -663,9 +616,9 @@ class Behaviour {
   // spot, walking it, or carried by a stance step from the mocap), carried over from one
   // alternative to the next. paused_, keep_away_ and recentre_goal_ are standing orders, not
   // modes. Every change of alternative goes through enter(), which allows only the table's.
-  /// A stance step from the mocap playing while following: current_ plays `segment` from its
-  /// first frame (floor travel scaled by Source::Travel); at `end_s` (segment s) the rest
-  /// motion blends in.
+  /// A stance step from the mocap playing while following: the player's current source plays
+  /// `segment` from its first frame (floor travel scaled by Source::Travel); at `end_s`
+  /// (segment s) the rest motion blends in.
   struct StanceStep {
     int segment = -1;
     double end_s = 0;  ///< s, segment time the rest motion starts blending in
