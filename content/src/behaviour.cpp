@@ -66,11 +66,12 @@ constexpr double kStanceStepFeetWait_s = 0.5;
 
 Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config)
     : db_(std::move(db)), block_planner_(std::make_shared<StrikePlanner>(db_, config.retrieval)),
-      characters_(std::move(characters)), config_(config), tun_(config.behaviour), feet_(config.behaviour.feet) {
+      characters_(std::move(characters)), config_(config), tun_(config.behaviour), player_(db_, 1.0), feet_(config.behaviour.feet) {
   validate(config.behaviour, config.retrieval);
   if (characters_.empty()) throw Error("fighter", "config", "no characters to show");
   if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
   character_ = std::clamp(config.initial_character, 0, character_count() - 1);
+  player_.rescale(stride_scale());  // (nothing plays yet: the scale only)
   rest_segment_ = find_segment(*db_, SegmentKind::rest).value_or(0);
   {
     const MotionSegment& rest = db_->segments[static_cast<std::size_t>(rest_segment_)];
@@ -90,7 +91,6 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
   switch_offset_.assign(max_joints, Vector3d::Zero());
-  eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames: no allocation while playing
   // Orders swap between these two each update; an order taken again after stepping in is
   // queued from inside update(): room kept in both, so that allocates nothing.
   orders_.reserve(16);
@@ -100,21 +100,18 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   facing_rad_ = 0;
   use_synchronous_planner(std::make_shared<StrikePlanner>(db_, config.retrieval));
   sync_rate_solver_ = std::make_shared<StrikeRateSolver>(db_, tun_);
-  submit_rate_ = [this](const StrikeRateJob& job) { sync_rate_result_ = sync_rate_solver_->solve(job); };
-  poll_rate_ = [this] { return std::exchange(sync_rate_result_, std::nullopt); };
+  rate_channel_.submit = [this](const StrikeRateJob& job) { sync_rate_result_ = sync_rate_solver_->solve(job); };
+  rate_channel_.poll = [this] { return std::exchange(sync_rate_result_, std::nullopt); };
   start_rest(0);
-  blend_elapsed_s_ = 1e9;
+  player_.end_blend();
 }
 
-void Behaviour::set_planner(Submit submit, Poll poll) {
-  submit_ = std::move(submit);
-  poll_ = std::move(poll);
-}
+void Behaviour::set_planner(PlanChannel channel) { plan_channel_ = std::move(channel); }
 
 void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> planner) {
   sync_planner_ = std::move(planner);
-  submit_ = [this](const StrikeRequest& r) { sync_results_.push_back(sync_planner_->plan(r)); };
-  poll_ = [this]() -> std::optional<StrikePlan> {
+  plan_channel_.submit = [this](const StrikeRequest& r) { sync_results_.push_back(sync_planner_->plan(r)); };
+  plan_channel_.poll = [this]() -> std::optional<StrikePlan> {
     if (sync_results_.empty()) return std::nullopt;
     StrikePlan p = sync_results_.front();
     sync_results_.pop_front();
@@ -122,10 +119,7 @@ void Behaviour::use_synchronous_planner(std::shared_ptr<const StrikePlanner> pla
   };
 }
 
-void Behaviour::set_rate_solver(SubmitRate submit, PollRate poll) {
-  submit_rate_ = std::move(submit);
-  poll_rate_ = std::move(poll);
-}
+void Behaviour::set_rate_solver(RateChannel channel) { rate_channel_ = std::move(channel); }
 
 bool Behaviour::strike_pending() const { return pending() || approach() || support_step() || retaking(); }
 
@@ -248,29 +242,15 @@ void Behaviour::select_character(int index, Timestamp now) {
     return;
   }
   if (index == character_) return;
-  // Keep the root where it is under the new stride scale (re-base each source's origin).
-  const double old_scale = stride_scale();
+  // Keep the root where it is under the new stride scale (the player re-bases each source's
+  // origin; the arms' drawn poles were measured on the old body).
   character_ = index;
-  const double new_scale = stride_scale();
-  for (Source* s : {&current_, &previous_}) {
-    if (s->segment < 0) continue;
-    MkmFrame f;
-    const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s->segment)];
-    (void)seg;
-    Source probe = *s;
-    sample(probe, f);  // with the new scale
-    const Vector2d d_new = f.root_xz_m;
-    // Root under the old scale: origin + R (old * (root - anchor)) == what was shown.
-    const Vector2d rel = (d_new - s->placement.origin_xz) / new_scale;
-    const Vector2d d_old = s->placement.origin_xz + rel * old_scale;
-    s->placement.origin_xz += d_old - d_new;
-  }
+  player_.rescale(stride_scale());
   // The feet on the floor stay where they stand (the easing hides the rest of the change):
   // re-planted on the new legs, a lunge's held back foot came out of the new legs' reach as
   // the pelvis drop carried over was let go, and stepped with the other foot in the air (the
   // knee 5 cm, the elbow 9 cm in a frame, in the bout with stance steps on).
   feet_.keep_held_only();
-  for (auto& a : arm_poles_) a.drawn_radius_m = 0;  // measured on the old body
   switch_offsets_due_ = true;  // the easing's offsets: after this update's solve
   if (striking()) compute_reach_error(strike_.contact_time_s);
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
@@ -284,7 +264,7 @@ bool Behaviour::deferred(const QueuedOrder& queued) const {
   // drop the motion it blends from in one frame), and one taken again after a stance step
   // while that step plays.
   return effector_of(queued.order.kind) &&
-         (recovering() || (queued.after_stance_step && stance_step()) || (!striking() && blend_elapsed_s_ < tun_.blend_time_s));
+         (recovering() || (queued.after_stance_step && stance_step()) || (!striking() && player_.blend_elapsed_s() < tun_.blend_time_s));
 }
 
 void Behaviour::handle_orders(Timestamp now, const Vector3d& head) {
@@ -361,7 +341,7 @@ void Behaviour::take_order(const QueuedOrder& queued, Timestamp now, const Vecto
                      as<Idle>()->loco});
   // Taken again after stepping in (or a kick's support step): accepted already.
   if (!queued.stepped_first && !queued.support_stepped && !queued.after_stance_step) emit(FighterEvent::Kind::order_accepted, now, o, FighterEvent::Reason::strike).target = target;
-  submit_(r);
+  plan_channel_.submit(r);
 }
 
 const Vector3d* Behaviour::step_target() const {
@@ -431,7 +411,7 @@ std::optional<Behaviour::Restance> Behaviour::restance_for(const PendingStrike& 
   // keeps the stance (content/README, "Following with stance steps"). The rest stances the
   // strikes are made for are taken instead on the way: the rest (or its mirror) placed at the
   // spot facing the target, each foot stepped to where it has it.
-  if (!current_.loop || current_.segment == rest_segment_ || current_.segment == mirrored_rest_segment_)
+  if (!player_.current().loop || player_.current().segment == rest_segment_ || player_.current().segment == mirrored_rest_segment_)
     return std::nullopt;
   const Vector3d& target = pending.target_room_m;
   Vector2d dir(target.x() - spot_xz_m_.x(), target.z() - spot_xz_m_.y());
@@ -447,7 +427,7 @@ std::optional<Behaviour::Restance> Behaviour::restance_for(const PendingStrike& 
     at_spot.origin_xz = spot_xz_m_;
     at_spot.yaw_rad = face;
     MkmFrame f;
-    sample(placed_at(db_->segments[static_cast<std::size_t>(rest)], rest, at_spot), f);
+    player_.sample(placed_at(db_->segments[static_cast<std::size_t>(rest)], rest, at_spot), f);
     HeldFeet feet;
     for (int side = 0; side < 2; ++side) {
       feet.held[static_cast<std::size_t>(side)] = true;
@@ -522,7 +502,7 @@ void Behaviour::update_step_in(double dt) {
   a.elapsed_s += dt;
   // (a rest stance taken on the way: once it has blended in, the feet may want to step)
   const bool at_spot = state() == FighterState::resting && (spot_xz_m_ - a.goal_xz).norm() <= tun_.arrive_tolerance_m &&
-                       (!restance || blend_elapsed_s_ >= tun_.blend_time_s);
+                       (!restance || player_.blend_elapsed_s() >= tun_.blend_time_s);
   a.at_spot_s = at_spot ? a.at_spot_s + dt : 0;
   // (a rest stance taken on the way: both feet where it has them)
   const bool arrived = at_spot && ((feet_.settled(kLeft) && feet_.settled(kRight)) ||
@@ -560,7 +540,7 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
   Source at_down = source;
   at_down.time_s = k * seg.frame_time_s;
   MkmFrame placed;
-  sample(at_down, placed);
+  player_.sample(at_down, placed);
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   CanonicalPose& c = scratch_pose_;
   decode_canonical(rig, placed, c);
@@ -595,9 +575,7 @@ void Behaviour::update_support_step(double dt) {
 void Behaviour::start_strike(const PendingStrike& pending, const StrikePlan& plan, const Source& source, const StrikeFit& fit, Timestamp now, double dt) {
   const int landing_support = fit.landing_support;
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
-  previous_ = current_;
-  blend_elapsed_s_ = 0;
-  current_ = source;  // (a strike ordered mid-step starts from the step)
+  player_.play(source);  // (a strike ordered mid-step starts from the step)
   // The foot the clip is aligned on where it comes down: a procedural step it is in ends here
   // (down where it is), not at its old target while the clip stands on it.
   if (landing_support >= 0) feet_.land(landing_support);
@@ -610,12 +588,12 @@ void Behaviour::start_strike(const PendingStrike& pending, const StrikePlan& pla
   strike_.effector = *seg.effector();
   strike_.start_time_s = plan.start_frame * seg.frame_time_s;
   strike_.clip_contact_time_s = plan.contact_frame * seg.frame_time_s;
-  strike_.contact_time_s = contact_frame_time(current_.time_s, strike_.clip_contact_time_s, dt * current_.rate);
+  strike_.contact_time_s = contact_frame_time(player_.current().time_s, strike_.clip_contact_time_s, dt * player_.current().rate);
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   strike_.start_update = updates_;
   enter(Striking{});  // (a stance step under way ends here)
-  if (!strike_.effector.leg) strike_.plan_feet = feet_through_contact(current_, strike_.contact_time_s);
+  if (!strike_.effector.leg) strike_.plan_feet = feet_through_contact(player_.current(), strike_.contact_time_s);
   compute_reach_error(strike_.contact_time_s);
   if (!strike_.effector.leg) keep_elbow_below_head();
   // A correction that lengthens the hit point's way plays the strike slower. Finding how much
@@ -626,9 +604,9 @@ void Behaviour::start_strike(const PendingStrike& pending, const StrikePlan& pla
     job.id = next_rate_job_++;
     job.rig = &characters_[static_cast<std::size_t>(character_)];
     job.stride_scale = stride_scale();
-    job.current = current_;
-    job.previous = previous_;
-    job.blend_elapsed_s = blend_elapsed_s_;
+    job.current = player_.current();
+    job.previous = player_.previous();
+    job.blend_elapsed_s = player_.blend_elapsed_s();
     job.lead_s = kStrikeRateDelayUpdates * std::max(0.0, dt);
     job.effector = strike_.effector;
     job.start_time_s = strike_.start_time_s;
@@ -641,9 +619,9 @@ void Behaviour::start_strike(const PendingStrike& pending, const StrikePlan& pla
     job.target_room_m = strike_.target_room_m;
     job.plan_feet = strike_.plan_feet;
     job.plan_lowest_shoulder_y_m = lowest_shoulder_y_m();
-    job.pole_turns = pole_turns_;
+    job.pole_turns = player_.pole_turns();
     as<Striking>()->rate = PendingRate{job.id, updates_ + kStrikeRateDelayUpdates, plan.segment, character_};
-    submit_rate_(job);
+    rate_channel_.submit(job);
   }
   (void)now;
 }
@@ -657,14 +635,14 @@ void Behaviour::apply_strike_rate(double dt) {
   std::optional<PendingRate>& rate = as<Striking>()->rate;
   const PendingRate due = *rate;
   rate.reset();
-  const std::optional<StrikeRateResult> r = poll_rate_();
+  const std::optional<StrikeRateResult> r = rate_channel_.poll();
   if (!r || r->id != due.job || !(r->rate > 0) || r->rate >= 1) return;
-  if (strike_.contact_done || current_.segment != due.segment) return;
-  current_.rate = r->rate;
+  if (strike_.contact_done || player_.current().segment != due.segment) return;
+  player_.set_rate(r->rate);
   strike_.rate = r->rate;
   strike_.rate_update = updates_;
   strike_.rate_lead_updates = updates_ - strike_.start_update;
-  strike_.contact_time_s = contact_frame_time(current_.time_s, strike_.clip_contact_time_s, dt * current_.rate);
+  strike_.contact_time_s = contact_frame_time(player_.current().time_s, strike_.clip_contact_time_s, dt * player_.current().rate);
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   if (r->has_reach && character_ == due.character) {
     strike_.error_m = r->error_m;
@@ -674,11 +652,6 @@ void Behaviour::apply_strike_rate(double dt) {
   } else {
     compute_reach_error(strike_.contact_time_s);
   }
-}
-
-void Behaviour::compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose,
-                        MkmFrame& out, PoleTurns* turns) const {
-  Playback{*db_, stride_scale(), eased_}.compose(cur, prev, blend_elapsed_s, tun_.blend_time_s, cur_pose, out, turns);
 }
 
 double Behaviour::ramp_in(double t) const { return reach_ramp_in(strike_.start_time_s, strike_.contact_time_s, t); }
@@ -692,22 +665,22 @@ ReachGoal Behaviour::reach_goal(double ramp) const {
 }
 
 double Behaviour::release_end_s(double contact_time_s) const {
-  return std::max(contact_time_s + strike_.hold_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s * current_.rate);
+  return std::max(contact_time_s + strike_.hold_s + tun_.release_time_s, strike_.end_time_s - tun_.blend_time_s * player_.current().rate);
 }
 
 void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   // The pose at segment time `at_time_s`, composed exactly as update() will compose it then
   // (same sources, same blend weight), decoded without the offset: d(t) must close exactly
   // that gap.
-  const Source* strike_src = current_.segment == strike_.plan.segment && striking() ? &current_ : nullptr;
+  const Source* strike_src = player_.current().segment == strike_.plan.segment && striking() ? &player_.current() : nullptr;
   if (!strike_src) return;
-  const double ahead = at_time_s - current_.time_s;  // segment seconds
-  const double ahead_wall = ahead / current_.rate;   // s
-  Source cur = current_, prev = previous_;
+  const double ahead = at_time_s - player_.current().time_s;  // segment seconds
+  const double ahead_wall = ahead / player_.current().rate;   // s
+  Source cur = player_.current(), prev = player_.previous();
   cur.time_s += ahead;
   prev.time_s += ahead_wall * prev.rate;
   MkmFrame b, pose;
-  compose(cur, prev, blend_elapsed_s_ + ahead_wall, b, pose);
+  player_.compose(cur, prev, player_.blend_elapsed_s() + ahead_wall, tun_.blend_time_s, b, pose);
   // scratch_pose_ keeps its room: a strike's start allocates nothing.
   const ReachCorrection r = reach_correction(characters_[static_cast<std::size_t>(character_)], strike_.effector,
                                              strike_.target_room_m, pose, scratch_pose_, plan_lean, &strike_.plan_feet,
@@ -749,7 +722,7 @@ FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s
         f.ankle_m[us] = *end;
       } else if (feet_.phase(side) == FootPlanter::Phase::landing) {
         MkmFrame g;
-        sample_frame(s, down, g);
+        player_.sample_frame(s, down, g);
         f.supporting[us] = true;
         f.heading_weight[us] = 0;
         f.ankle_m[us].y() = std::min(f.ankle_m[us].y(), mkm_ankle(rig, g, side).y());
@@ -761,7 +734,7 @@ FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s
     // Put down on the way: the planter holds it where the clip has it at contact
     // (strike_hold_frame: down from there through contact).
     MkmFrame g;
-    sample_frame(s, contact, g);
+    player_.sample_frame(s, contact, g);
     f.weight[us] = 1;
     f.supporting[us] = true;
     f.heading_weight[us] = 0;
@@ -900,7 +873,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   Vector2d goal = spot_xz_m_;
   if (dist > 1e-6) goal = head_xz - to_head / dist * follow_distance_m_;
   if (recentre_goal_) goal = *recentre_goal_;
-  if (reel_goal_) goal = *reel_goal_;  // stepping back from a large blow
+  if (reel_.step_back()) goal = *reel_.step_back();  // stepping back from a large blow
   if (const Approach* a = approach()) {
     goal = a->goal_xz;  // stepping in before a strike
   } else if (strike_pending()) {
@@ -929,7 +902,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   // the visitor stands stance_step_min_m farther than the strike distance, the fighter waits.
   bool wait = false;
   if (tun_.stance_step_min_m > 0 && !walk_segments_.empty() && !approach() && !strike_pending() && !paused_ &&
-      !reel_goal_ && dist > 0.05) {
+      !reel_.step_back() && dist > 0.05) {
     const Vector2d fwd(std::sin(facing_rad_), std::cos(facing_rad_));
     const double along = off.dot(fwd);
     const double sideways = (off - along * fwd).norm();
@@ -944,7 +917,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
       // A step starts from both feet on the floor: one still stepping (or landing) is waited
       // for, a little (kStanceStepFeetWait_s), rather than following with procedural steps.
       // (and from a blend done: one begun mid-blend would drop the motion blended from)
-      const bool feet_down = feet_.held(kLeft) && feet_.held(kRight) && blend_elapsed_s_ >= tun_.blend_time_s;
+      const bool feet_down = feet_.held(kLeft) && feet_.held(kRight) && player_.blend_elapsed_s() >= tun_.blend_time_s;
       stance_wait_s_ = (forward || back) && !feet_down ? stance_wait_s_ + dt : 0;
       if ((forward || back) && feet_down && begin_stance_step(goal)) return;
 
@@ -960,7 +933,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
                                                        tun_.arrive_tolerance_m;
   if (outside_area && !paused_) wait = false;
   if (!wait && !following &&
-      (off.norm() > tun_.follow_tolerance_m || ((approach() || reel_goal_) && off.norm() > tun_.arrive_tolerance_m) ||
+      (off.norm() > tun_.follow_tolerance_m || ((approach() || reel_.step_back()) && off.norm() > tun_.arrive_tolerance_m) ||
        (outside_area && !paused_)))
     following = true;
   if (following) {
@@ -970,7 +943,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
     if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m) {
       following = false;
       recentre_goal_.reset();
-      reel_goal_.reset();
+      reel_.end_step_back();
     }
   }
   // Face the visitor; while stepping in or back before a strike, or setting a kick's support
@@ -984,9 +957,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
     const double turn = std::clamp(wrap(want - facing_rad_), -tun_.turn_speed_rad_s * dt, tun_.turn_speed_rad_s * dt);
     facing_rad_ = wrap(facing_rad_ + turn);
   }
-  const MotionSegment& rest = db_->segments[static_cast<std::size_t>(current_.segment)];
-  current_.placement.origin_xz = spot_xz_m_;
-  current_.placement.yaw_rad = wrap(facing_rad_ + rest_yaw_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
+  const MotionSegment& rest = db_->segments[static_cast<std::size_t>(player_.current().segment)];
+  player_.place(spot_xz_m_, wrap(facing_rad_ + rest_yaw_rad_ - ground_frame_of(rest.frames[0]).yaw_rad));
   set_locomotion(following ? Locomotion{Walking{}} : Locomotion{AtSpot{}});
 }
 
@@ -1038,7 +1010,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
 
   handle_orders(now, head);
   if (const AwaitingPlan* w = as<AwaitingPlan>()) {
-    if (auto p = poll_(); p && p->id == w->strike.request) {
+    if (auto p = plan_channel_.poll(); p && p->id == w->strike.request) {
       // (copies: the plan's outcome replaces the alternative they live in)
       const PendingStrike pending = w->strike;
       const Locomotion loco = w->loco;
@@ -1092,25 +1064,23 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
 
   // Advance the clocks by the whole frame: the contact frame is the first frame at or past the
   // planned contact time, a real frame of motion (no sub-frame hold, no copy of the last).
-  current_.time_s += dt * current_.rate;
-  previous_.time_s += dt * previous_.rate;
-  blend_elapsed_s_ += dt;
+  player_.advance(dt);
   if (!switch_offsets_due_) switch_elapsed_s_ += dt;
   // A blow (hit()): a strike of its own before its contact leaves for rest (behaviour_hit.cpp).
   if (abort_until_ >= 0) abort_strike_for_blow(now);
-  const bool contact_now = striking() && !strike_.contact_done && current_.time_s >= strike_.contact_time_s;
+  const bool contact_now = striking() && !strike_.contact_done && player_.current().time_s >= strike_.contact_time_s;
   // (a block, in place before its cross-fade in is done, holds its clip until it is: leaving
   // mid-blend would drop the motion it blends from, and the body jumped 25 cm in one frame)
-  if (striking() && strike_.contact_done && current_.time_s >= strike_.end_time_s - tun_.blend_time_s * current_.rate &&
-      (!strike_.block || blend_elapsed_s_ >= tun_.blend_time_s)) {
+  if (striking() && strike_.contact_done && player_.current().time_s >= strike_.end_time_s - tun_.blend_time_s * player_.current().rate &&
+      (!strike_.block || player_.blend_elapsed_s() >= tun_.blend_time_s)) {
     start_rest(now);
     enter(Recovering{});
   }
   // Recovering lasts until the blend into rest is done and d(t) is back to zero.
-  if (recovering() && blend_elapsed_s_ >= tun_.blend_time_s && previous_.time_s >= strike_.release_end_s) enter(Idle{AtSpot{}});
+  if (recovering() && player_.blend_elapsed_s() >= tun_.blend_time_s && player_.previous().time_s >= strike_.release_end_s) enter(Idle{AtSpot{}});
   // (not while a strike's plan is awaited: it starts from the step, not from a blend out of it)
-  if (stance_step() && !pending() && current_.time_s >= stance_step()->end_s) end_stance_step(now);
-  if (reel_goal_ && now > reel_goal_until_) reel_goal_.reset();  // a large blow's step back, given up
+  if (stance_step() && !pending() && player_.current().time_s >= stance_step()->end_s) end_stance_step(now);
+  reel_.give_up_step_back(now);  // a large blow's step back, given up
   if (locomotion()) update_follow(dt, head);
   update_step_in(dt);
   update_support_step(dt);
@@ -1118,16 +1088,11 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // Compose the pose: cross-fade previous -> current.
   pose_before_ = pose_;
   MkmFrame cur;
-  compose(current_, previous_, blend_elapsed_s_, cur, pose_, &pole_turns_);
-  // A folded arm's elbow swings no farther than the source's (limit_folded_pole_turn).
-  {
-    const Morphology& m = characters_[static_cast<std::size_t>(character_)].morphology;
-    for (int side = 0; side < 2; ++side)
-      pose_.arm_pole[side] = limit_folded_pole_turn(arm_poles_[static_cast<std::size_t>(side)], pose_.arm_pole[side], pose_.arm_n[side],
-                                                    m.upper_arm_m[side], m.forearm_m[side], dt);
-  }
+  // (a folded arm's elbow swinging no farther than the source's: limit_folded_pole_turn)
+  player_.compose_update(dt, tun_.blend_time_s, characters_[static_cast<std::size_t>(character_)].morphology, cur, pose_);
   // Sparring with blocks on: the guard and a parry laid on the arms (behaviour_guard.cpp).
-  apply_guard(dt, now);
+  guard_.lay(dt, now, !paused_ && !(striking() && !strike_.block), have_pose_, characters_[static_cast<std::size_t>(character_)],
+             rig_positions_, pose_, events_);
   if (!have_pose_) pose_before_ = pose_;
 
   // d(t): zero at the strike start, the full error at contact, then back to zero over at least
@@ -1136,14 +1101,14 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   const ReachGoal* reach = nullptr;
   double ramp = 0;
   if (strike_.active) {
-    const Source& s = striking() ? current_ : previous_;
+    const Source& s = striking() ? player_.current() : player_.previous();
     const double t = s.time_s;
     if (contact_now) {
       // The error of this very frame, so the contact frame lands on the target. The trunk lean
       // stays the one planned (eased in since the start: found anew here it would jump; the
       // trunk fallback takes what is left).
-      compute_reach_error(current_.time_s, false);
-      strike_.contact_time_s = current_.time_s;
+      compute_reach_error(player_.current().time_s, false);
+      strike_.contact_time_s = player_.current().time_s;
       strike_.release_end_s = release_end_s(strike_.contact_time_s);
       ramp = 1;
     } else if (strike_.aborted) {
@@ -1198,11 +1163,11 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   locks_.min_root_drop_m = std::clamp(last_drop + v_lo * dt, 0.0, tun_.max_root_drop_m);
   locks_.max_root_drop_m = std::clamp(std::min(last_drop + v_hi * dt, most_drop), locks_.min_root_drop_m, tun_.max_root_drop_m);
   // A blow's reel laid on the pose (hit(): none in orders mode, nor before a blow).
-  advance_reel(dt);
-  const bool reeled = reel_pose();
+  reel_.advance(dt);
+  const MkmFrame* reeled = reel_.lay(pose_);
   AdaptJob job;
   job.rig = &rig;
-  job.pose = reeled ? &reeled_pose_ : &pose_;
+  job.pose = reeled ? reeled : &pose_;
   job.reach = reach;
   job.feet = have_pose_ ? &locks_ : nullptr;
   job.local_rotations = std::span(local_).first(n);
@@ -1230,14 +1195,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.report = &report_;
   job.Run();
   if (job.reach && !job.reach->effector.leg) trunk_floor_side_ = job.reach->effector.side;  // the fallback's arm
-  for (int side = 0; side < 2; ++side) {  // each drawn elbow's distance from its arm's line
-    const auto idx = [&](CJ j) { return rig_positions_[static_cast<std::size_t>(rig.skeleton.index(j))]; };
-    const Vector3d sh = idx(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
-    const Vector3d el = idx(side == kLeft ? CJ::l_elbow : CJ::r_elbow);
-    const Vector3d wr = idx(side == kLeft ? CJ::l_wrist : CJ::r_wrist);
-    const Vector3d axis = wr - sh;
-    arm_poles_[static_cast<std::size_t>(side)].drawn_radius_m = axis.norm() > 1e-9 ? (el - sh).cross(axis).norm() / axis.norm() : 0.0;
-  }
+  player_.note_drawn_arms(rig, rig_positions_);  // each drawn elbow's distance from its arm's line
   drop_rate_mps_ = have_pose_ && dt > 0 ? (report_.root_drop_m - last_drop) / dt : 0.0;
   have_pose_ = true;
   last_dt_ = dt > 0 ? dt : last_dt_;

@@ -28,7 +28,7 @@ constexpr double kInPlaceMargin_s = 1.0 / 60;
 bool Behaviour::can_block() const {
   if (paused_ || !have_pose_ || db_->block_index.size == 0) return false;
   if (!(as<Idle>() || as<AwaitingPlan>() || as<Retaking>())) return false;
-  return blend_elapsed_s_ >= tun_.blend_time_s;
+  return player_.blend_elapsed_s() >= tun_.blend_time_s;
 }
 
 bool Behaviour::block(const BlockOrder& b, Timestamp now) {
@@ -76,16 +76,14 @@ bool Behaviour::block(const BlockOrder& b, Timestamp now) {
   s.travel.contact_s = (seg.frame_count() - 1) * seg.frame_time_s;
   s.travel.release_s = seg.frame_time_s;
 
-  previous_ = current_;
-  blend_elapsed_s_ = 0;
-  current_ = s;
+  player_.play(s);
   if (fit.landing_support >= 0) feet_.land(fit.landing_support);
   if (fit.redirect_support >= 0) feet_.redirect(fit.redirect_support, fit.redirect_to_m, kRedirectPeakSpeed_mps);
   // In place before the fist: as fast as that needs, up to max_rate (a block's lead over the
   // fist's arrival at the guard, or at the body when that is sooner).
   const double until_s = aim_s - kInPlaceMargin_s;
   const double rate = std::clamp(until_s > 1e-3 ? lead_s / until_s : b.max_rate, 1.0, std::max(1.0, b.max_rate));
-  current_.rate = rate;
+  player_.set_rate(rate);
   const double dt = last_dt_ > 0 ? last_dt_ : 1.0 / 60;
 
   strike_ = StrikeInfo{};
@@ -99,17 +97,17 @@ bool Behaviour::block(const BlockOrder& b, Timestamp now) {
   strike_.effector = *seg.effector();  // the forearm's arm
   strike_.start_time_s = plan.start_frame * seg.frame_time_s;
   strike_.clip_contact_time_s = plan.contact_frame * seg.frame_time_s;
-  strike_.contact_time_s = contact_frame_time(current_.time_s, strike_.clip_contact_time_s, dt * current_.rate);
+  strike_.contact_time_s = contact_frame_time(player_.current().time_s, strike_.clip_contact_time_s, dt * player_.current().rate);
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
   // Held across the path until the fist has passed (segment seconds), within the clip.
-  const double in_place_wall_s = (strike_.contact_time_s - current_.time_s) / rate;
+  const double in_place_wall_s = (strike_.contact_time_s - player_.current().time_s) / rate;
   const double hold_wall_s = std::max(0.0, strike_.fist_arrival_t - now - in_place_wall_s) + kHoldPast_s;
   strike_.hold_s = std::min(hold_wall_s * rate, std::max(0.0, strike_.end_time_s - strike_.contact_time_s));
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   strike_.start_update = updates_;
   strike_.rate = rate;
   enter(Striking{});
-  strike_.plan_feet = feet_through_contact(current_, strike_.contact_time_s);
+  strike_.plan_feet = feet_through_contact(player_.current(), strike_.contact_time_s);
   // d(t) brings the wrist where it puts the forearm's middle on the intercept: the wrist
   // target is the intercept plus the half forearm (elbow -> wrist) as the clip holds it there.
   strike_.target_room_m = intercept;

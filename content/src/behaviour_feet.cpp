@@ -22,13 +22,13 @@ std::array<bool, 2> Behaviour::feet_locked() const { return {feet_.held(kLeft), 
 
 double Behaviour::swing_left_s(int side) const {
   // Time until the motion now playing puts this foot down again.
-  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
-  if (current_.loop) return 0;  // the rest motion: nothing to follow (the shortest swing applies)
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(player_.current().segment)];
+  if (player_.current().loop) return 0;  // the rest motion: nothing to follow (the shortest swing applies)
   const int n = seg.frame_count();
-  const int first = std::clamp(static_cast<int>(std::ceil(current_.time_s / seg.frame_time_s - 1e-9)), 0, n);
+  const int first = std::clamp(static_cast<int>(std::ceil(player_.current().time_s / seg.frame_time_s - 1e-9)), 0, n);
   for (int k = first; k < n; ++k)
-    if (clip_planted(seg, k, side)) return (k * seg.frame_time_s - current_.time_s) / current_.rate;
-  return ((n - 1) * seg.frame_time_s - current_.time_s) / current_.rate + tun_.blend_time_s;  // the rest motion after it
+    if (clip_planted(seg, k, side)) return (k * seg.frame_time_s - player_.current().time_s) / player_.current().rate;
+  return ((n - 1) * seg.frame_time_s - player_.current().time_s) / player_.current().rate + tun_.blend_time_s;  // the rest motion after it
 }
 
 int Behaviour::strike_hold_frame(int side, int land) const {
@@ -38,9 +38,9 @@ int Behaviour::strike_hold_frame(int side, int land) const {
   // out of the leg's reach by contact and steps while the front foot swings (mei's opening
   // lunge, 135_06_punch_right_2:mirror from frame 0: both feet off for 12 frames). Held where
   // the clip has it at contact, the leg reaches it there, as the clip's own does.
-  if (!striking() || strike_.contact_done || current_.loop) return land;
+  if (!striking() || strike_.contact_done || player_.current().loop) return land;
   if (strike_.effector.leg && strike_.effector.side == side) return land;
-  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(player_.current().segment)];
   const int contact = std::clamp(static_cast<int>(std::lround(strike_.clip_contact_time_s / seg.frame_time_s)), 0, seg.frame_count() - 1);
   if (contact <= land) return land;
   for (int k = land; k <= contact; ++k)
@@ -71,9 +71,9 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   // The motion being played, one update earlier: how far it moved each foot since.
   MkmFrame before, before2;
-  Source earlier = current_;
-  earlier.time_s -= dt * current_.rate;
-  sample(earlier, before);
+  Source earlier = player_.current();
+  earlier.time_s -= dt * player_.current().rate;
+  player_.sample(earlier, before);
   // ...and one before that, sampled only for a lifted foot (its swing reads how fast the
   // source's foot gathers speed): not on every update a fighter stands.
   bool have_before2 = false;
@@ -111,42 +111,41 @@ void Behaviour::update_feet(double dt, const ReachGoal* reach, const MkmFrame& c
     if (!f.planted) {
       if (!have_before2) {
         Source earlier2 = earlier;
-        earlier2.time_s -= dt * current_.rate;
-        sample(earlier2, before2);
+        earlier2.time_s -= dt * player_.current().rate;
+        player_.sample(earlier2, before2);
         have_before2 = true;
       }
       f.source_step_before_m = mkm_ankle(rig, before, s, hip_local) - mkm_ankle(rig, before2, s, hip_local);
     }
-    if (!f.planted && !current_.loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
+    if (!f.planted && !player_.current().loop && std::isfinite(f.swing_left_s) && f.swing_left_s > 0) {
       // Where the motion puts this foot down next, and the horizontal way its ankle still goes.
-      const double land_t = current_.time_s + f.swing_left_s * current_.rate;
-      const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+      const double land_t = player_.current().time_s + f.swing_left_s * player_.current().rate;
+      const MotionSegment& seg = db_->segments[static_cast<std::size_t>(player_.current().segment)];
       const int land = std::min(static_cast<int>(std::lround(land_t / seg.frame_time_s)), seg.frame_count() - 1);
       const int hold = strike_hold_frame(s, land);
       const Vector3d now_m = mkm_ankle(rig, cur, s, hip_local);
       SwingPath& sp = swing_paths_[us];
       // The walk depends on the landing frame only (a strike's rate entering mid-swing moves
       // the landing time of a foot that stays up past the clip's end, not its frame).
-      const bool same = sp.segment == current_.segment && sp.character == character_ && sp.land_frame == land && sp.hold_frame == hold &&
-                        sp.placement.origin_xz == current_.placement.origin_xz && sp.placement.yaw_rad == current_.placement.yaw_rad &&
-                        sp.anchor_xz_m == current_.anchor_xz_m && sp.travel == current_.travel;
+      const bool same = sp.segment == player_.current().segment && sp.character == character_ && sp.land_frame == land && sp.hold_frame == hold &&
+                        sp.placement.origin_xz == player_.current().placement.origin_xz && sp.placement.yaw_rad == player_.current().placement.yaw_rad &&
+                        sp.anchor_xz_m == player_.current().anchor_xz_m && sp.travel == player_.current().travel;
       if (same) {
         sp.way_left_m = std::max(0.0, sp.way_left_m - Eigen::Vector2d(now_m.x() - sp.last_m.x(), now_m.z() - sp.last_m.z()).norm());
       } else {
         // The source's own frames from now to the landing (swing_left_s ends on a frame).
-        const Playback play{*db_, stride_scale(), eased_};
-        const Eigen::Quaterniond turn = current_.placement.rotation();
+        const Eigen::Quaterniond turn = player_.current().placement.rotation();
         Vector3d last = now_m;
         double path = 0;
-        for (int k = static_cast<int>(std::floor(current_.time_s / seg.frame_time_s)) + 1; k <= land; ++k) {
-          const Vector3d p = play.frame_ankle(current_, turn, k, rig, s, hip_local);
+        for (int k = static_cast<int>(std::floor(player_.current().time_s / seg.frame_time_s)) + 1; k <= land; ++k) {
+          const Vector3d p = player_.frame_ankle(player_.current(), turn, k, rig, s, hip_local);
           path += Eigen::Vector2d(p.x() - last.x(), p.z() - last.z()).norm();
           last = p;
         }
         // A strike's foot put down before contact and kept down through it lands where the
         // clip has it at contact (strike_hold_frame), its way walked to the landing as the source's.
-        const Vector3d at = hold == land ? last : play.frame_ankle(current_, turn, hold, rig, s, hip_local);
-        sp = SwingPath{current_.segment, character_, land, hold, current_.placement, current_.anchor_xz_m, current_.travel, at, now_m, path};
+        const Vector3d at = hold == land ? last : player_.frame_ankle(player_.current(), turn, hold, rig, s, hip_local);
+        sp = SwingPath{player_.current().segment, character_, land, hold, player_.current().placement, player_.current().anchor_xz_m, player_.current().travel, at, now_m, path};
       }
       sp.last_m = now_m;
       f.has_landing = true;

@@ -1,4 +1,4 @@
-// Behaviour: the guard and parries (issue 53, item 3). Sparring with blocks on, the fighter
+// The guard and parries (Guard, guard.hpp; issue 53, item 3). Sparring with blocks on, the fighter
 // keeps both forearms raised before its face and chest whenever it is not striking (the
 // karate stance's hands hang at the hips: a block from there needs 0.2-0.4 s of clip, and a
 // punch is seen coming 50-170 ms before it lands). A fist seen coming is parried from the
@@ -11,6 +11,8 @@
 // act on top as on any pose; the legs and trunk are the motion's own.
 #include <algorithm>
 #include <cmath>
+
+#include "kumite/content/guard.hpp"
 
 #include "behaviour_internal.hpp"
 #include "kumite/content/behaviour.hpp"
@@ -77,23 +79,20 @@ Vector3d elbow_of(const Vector3d& wrist, const Vector3d& pole, double upper_m, d
 }
 }  // namespace
 
-double Behaviour::guard_weight() const { return guard_.weight; }
+// ---- Guard ---------------------------------------------------------------------------
 
-bool Behaviour::guarding() const {
-  return !paused_ && have_pose_ && guard_.have_last && !(striking() && !strike_.block) && guard_.weight >= kGuardUp;
-}
+bool Guard::up() const { return have_last_ && weight_ >= kGuardUp; }
 
-bool Behaviour::can_parry() const {
-  return guarding() && (!guard_.parry[0].busy() || !guard_.parry[1].busy());
-}
+bool Guard::arm_free() const { return !parry_[0].busy() || !parry_[1].busy(); }
 
-bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
-  if (!can_parry() || !b.fist_m.allFinite() || !b.velocity_mps.allFinite() || !std::isfinite(b.arrival_s)) return false;
+bool Guard::parrying() const { return parry_[0].busy() || parry_[1].busy(); }
+
+bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<const Vector3d> drawn, const Eigen::Quaterniond& chest) {
+  if (!b.fist_m.allFinite() || !b.velocity_mps.allFinite() || !std::isfinite(b.arrival_s)) return false;
   const double speed = b.velocity_mps.norm();
   if (!(speed > 1e-3)) return false;
-  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   const Morphology& m = rig.morphology;
-  const auto joint = [&](CJ j) { return rig_positions_[static_cast<std::size_t>(rig.skeleton.index(j))]; };
+  const auto joint = [&](CJ j) { return drawn[static_cast<std::size_t>(rig.skeleton.index(j))]; };
   const Vector3d v_unit = b.velocity_mps / speed;
   struct Pick {
     int side = -1;
@@ -102,7 +101,7 @@ bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
   } best;
   const double horizon = std::max(0.0, b.arrival_s);
   for (int side = 0; side < 2; ++side) {
-    if (guard_.parry[static_cast<std::size_t>(side)].busy()) continue;
+    if (parry_[static_cast<std::size_t>(side)].busy()) continue;
     const Vector3d sh = joint(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
     const Vector3d wr = joint(side == kLeft ? CJ::l_wrist : CJ::r_wrist);
     const Vector3d el = joint(side == kLeft ? CJ::l_elbow : CJ::r_elbow);
@@ -110,7 +109,7 @@ bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
     // The forearm lies across the path, its middle on it: turned from the guard's forearm (its
     // part along the fist's way taken out), or pointing from where the elbow is now to the
     // path (the elbow then hardly moves); the one needing the shorter move.
-    std::array<Vector3d, 2> dirs{pose_.chest * mirrored(kGuardWrist - kGuardElbow, side), Vector3d::Zero()};
+    std::array<Vector3d, 2> dirs{chest * mirrored(kGuardWrist - kGuardElbow, side), Vector3d::Zero()};
     for (double t = 0; t <= horizon + 1e-9; t += kParryStep_s) {
       const Vector3d cross = b.fist_m + b.velocity_mps * t;
       dirs[1] = cross - el;
@@ -135,14 +134,14 @@ bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
     }
   }
   if (best.side < 0) return false;  // nowhere on its path within a free arm's reach
-  Guard::Parry& g = guard_.parry[static_cast<std::size_t>(best.side)];
+  Guard::Parry& g = parry_[static_cast<std::size_t>(best.side)];
   g.on = true;
   g.t_s = 0;
   g.move_s = best.move_s;
   g.hold_end_s = std::max(best.move_s, best.t_s) + kParryHoldPast_s;
   g.back_s = kParryBack_s;
-  g.from_arm_n = guard_.last_arm_n[static_cast<std::size_t>(best.side)];
-  g.from_pole = guard_.last_arm_pole[static_cast<std::size_t>(best.side)];
+  g.from_arm_n = last_arm_n_[static_cast<std::size_t>(best.side)];
+  g.from_pole = last_arm_pole_[static_cast<std::size_t>(best.side)];
   g.wrist_m = best.wrist;
   g.elbow_m = best.elbow;
   g.cross_m = best.cross;
@@ -154,34 +153,32 @@ bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
   return true;
 }
 
-bool Behaviour::parrying() const { return guard_.parry[0].busy() || guard_.parry[1].busy(); }
 
-void Behaviour::apply_guard(double dt, Timestamp now) {
-  Guard& g = guard_;
-  const bool want = g.wanted && !paused_ && !(striking() && !strike_.block);
-  g.up = std::clamp(g.up + (want ? dt / kGuardIn_s : -dt / kGuardOut_s), 0.0, 1.0);
-  const double w = g.up > 0 ? smoothstep(g.up) : 0.0;
-  g.weight = w;
-  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const Rig& rig, std::span<const Vector3d> drawn,
+                MkmFrame& pose, std::vector<FighterEvent>& events) {
+  const bool want = wanted_ && allowed;
+  up_ = std::clamp(up_ + (want ? dt / kGuardIn_s : -dt / kGuardOut_s), 0.0, 1.0);
+  const double w = up_ > 0 ? smoothstep(up_) : 0.0;
+  weight_ = w;
   const Morphology& m = rig.morphology;
   for (int side = 0; side < 2; ++side) {
     const auto s = static_cast<std::size_t>(side);
-    Guard::Parry& pr = g.parry[s];
-    if (!g.wanted && g.up <= 0) pr.on = false;
+    Parry& pr = parry_[s];
+    if (!wanted_ && up_ <= 0) pr.on = false;
     if (pr.on) pr.t_s += dt;
     if (pr.on && pr.t_s >= pr.hold_end_s + pr.back_s) pr.on = false;
-    Vector3d a = pose_.arm_n[s], p = pose_.arm_pole[s];
-    if (w > 0 && have_pose_) {
-      const Vector3d ag = pose_.chest * mirrored(kGuardWrist, side);
-      const Vector3d pg = unit_across(pose_.chest * mirrored(kGuardElbow, side), ag, p);
+    Vector3d a = pose.arm_n[s], p = pose.arm_pole[s];
+    if (w > 0 && drawn_before) {
+      const Vector3d ag = pose.chest * mirrored(kGuardWrist, side);
+      const Vector3d pg = unit_across(pose.chest * mirrored(kGuardElbow, side), ag, p);
       a = (1 - w) * a + w * ag;
       p = unit_across((1 - w) * p + w * pg, a, p);
     }
-    if (pr.on && have_pose_) {
+    if (pr.on && drawn_before) {
       // The wrist and the elbow (from the shoulder) each moved along a straight line, the arm
       // drawn through them (its direction to the wrist, its pole toward the elbow).
       const double arm = m.arm_length(side), up = m.upper_arm_m[s], fore = m.forearm_m[s];
-      const Vector3d sh = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder))];
+      const Vector3d sh = drawn[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder))];
       Vector3d w1 = pr.wrist_m - sh;
       if (w1.norm() > kParryReach * arm) w1 *= kParryReach * arm / w1.norm();
       const Vector3d e1 = pr.elbow_m - sh;
@@ -204,7 +201,12 @@ void Behaviour::apply_guard(double dt, Timestamp now) {
       p = unit_across(ep, wp, p);
       if (!pr.said && pr.t_s >= pr.move_s) {
         pr.said = true;
-        FighterEvent& e = emit(FighterEvent::Kind::block, now, Order{}, FighterEvent::Reason::none);
+        FighterEvent& e = events.emplace_back();  // as Behaviour::emit makes it
+        e.time = now;
+        e.kind = FighterEvent::Kind::block;
+        e.order = Order{};
+        e.reason = FighterEvent::Reason::none;
+        e.distance_m = 0;
         e.segment = -1;  // a parry from the guard, no clip
         e.target = pr.cross_m;
         e.limb = pr.limb;
@@ -215,13 +217,28 @@ void Behaviour::apply_guard(double dt, Timestamp now) {
       }
     }
     if (w > 0 || pr.on) {
-      pose_.arm_n[s] = a;
-      pose_.arm_pole[s] = p;
+      pose.arm_n[s] = a;
+      pose.arm_pole[s] = p;
     }
-    g.last_arm_n[s] = pose_.arm_n[s];
-    g.last_arm_pole[s] = pose_.arm_pole[s];
+    last_arm_n_[s] = pose.arm_n[s];
+    last_arm_pole_[s] = pose.arm_pole[s];
   }
-  g.have_last = have_pose_ || g.have_last;
+  have_last_ = drawn_before || have_last_;
 }
+
+// ---- Behaviour's guard: what the Guard may do now ------------------------------------
+
+double Behaviour::guard_weight() const { return guard_.weight(); }
+
+bool Behaviour::guarding() const { return !paused_ && have_pose_ && !(striking() && !strike_.block) && guard_.up(); }
+
+bool Behaviour::can_parry() const { return guarding() && guard_.arm_free(); }
+
+bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
+  if (!can_parry()) return false;
+  return guard_.parry(b, now, characters_[static_cast<std::size_t>(character_)], rig_positions_, pose_.chest);
+}
+
+bool Behaviour::parrying() const { return guard_.parrying(); }
 
 }  // namespace kumite::content

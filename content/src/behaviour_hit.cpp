@@ -1,4 +1,4 @@
-// Behaviour: hit reactions (issue 53, item 4). A blow the Fighter judged (the visitor's fist
+// Hit reactions (HitReel, hit_reel.hpp; issue 53, item 4). A blow the Fighter judged (the visitor's fist
 // or foot entering the drawn head or torso fast) gives each struck chain a push: a rotation
 // rate about the axis r x v (r from the chain's pivot to where the fist entered, v the fist's
 // velocity), so the struck point first moves along the blow. Each chain is a damped spring
@@ -9,6 +9,8 @@
 // touched: held feet stay held.
 #include <algorithm>
 #include <cmath>
+
+#include "kumite/content/hit_reel.hpp"
 
 #include "behaviour_internal.hpp"
 #include "kumite/content/behaviour.hpp"
@@ -70,14 +72,15 @@ Quaterniond rotation_of(const Vector3d& theta) {
 }
 }  // namespace
 
-bool Behaviour::hit(const HitOrder& h, Timestamp now) {
-  if (!have_pose_ || !(h.share > 0) || !h.point_m.allFinite() || !h.velocity_mps.allFinite()) return false;
+// ---- HitReel --------------------------------------------------------------------------
+
+bool HitReel::take(const HitOrder& h, const Rig& rig, std::span<const Vector3d> drawn) {
+  if (!(h.share > 0) || !h.point_m.allFinite() || !h.velocity_mps.allFinite()) return false;
   if (!(h.stiffness_rad_s > 0) || !(h.damping_ratio > 0) || !std::isfinite(h.head_max_rad) || !std::isfinite(h.trunk_max_rad) ||
       !std::isfinite(h.shoulder_max_rad))
     return false;
   const double share = std::min(1.0, h.share);
-  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  const auto joint = [&](CJ j) { return rig_positions_[static_cast<std::size_t>(rig.skeleton.index(j))]; };
+  const auto joint = [&](CJ j) { return drawn[static_cast<std::size_t>(rig.skeleton.index(j))]; };
   const Vector3d& v = h.velocity_mps;
   // The unit rotation axis a push along v at the fist gives a chain turning about `pivot`.
   const auto axis = [&](const Vector3d& pivot) -> Vector3d {
@@ -89,7 +92,7 @@ bool Behaviour::hit(const HitOrder& h, Timestamp now) {
   const double peak = unit_peak(w, z);
   // A chain's rate for `angle` at its peak, added to what it has, and no more than its full reel.
   const auto push = [&](Chain c, const Vector3d& dir, double angle, double most) {
-    Vector3d& r = reel_.rate[c];
+    Vector3d& r = springs_.rate[c];
     r += dir * (angle / peak);
     const double cap = std::abs(most) / peak;
     if (r.norm() > cap) r *= cap / r.norm();
@@ -111,38 +114,71 @@ bool Behaviour::hit(const HitOrder& h, Timestamp now) {
       }
     }
   }
-  reel_.active = true;
-  reel_.stiffness_rad_s = w;
-  reel_.damping_ratio = z;
-  reel_.since_s = 0;
-  abort_until_ = now + kAbortWindow_s;
-  const Vector2d along(v.x(), v.z());
-  if (h.step_back_m > 0 && along.norm() > 1e-6) {
-    reel_goal_ = clamp_to_area(config_, spot_xz_m_ + along.normalized() * h.step_back_m);
-    reel_goal_until_ = now + kStepBackFor_s;
-  }
+  springs_.active = true;
+  springs_.stiffness_rad_s = w;
+  springs_.damping_ratio = z;
+  springs_.since_s = 0;
   return true;
 }
 
-Behaviour::ReelState Behaviour::reel() const {
+void HitReel::step_back_to(const Vector2d& goal_xz, Timestamp until) {
+  step_back_ = goal_xz;
+  step_back_until_ = until;
+}
+
+ReelState HitReel::state() const {
   ReelState r;
-  r.active = reel_.active;
-  r.trunk = reel_.theta[kTrunk];
-  r.head = reel_.theta[kHead];
-  r.shoulder = {reel_.theta[kShoulderL], reel_.theta[kShoulderR]};
+  r.active = springs_.active;
+  r.trunk = springs_.theta[kTrunk];
+  r.head = springs_.theta[kHead];
+  r.shoulder = {springs_.theta[kShoulderL], springs_.theta[kShoulderR]};
   return r;
 }
 
-void Behaviour::advance_reel(double dt) {
-  if (!reel_.active) return;
-  reel_.since_s += dt;
-  bool rest = reel_.since_s >= kReelMin_s;
-  for (std::size_t c = 0; c < reel_.theta.size(); ++c) {
-    spring_step(reel_.theta[c], reel_.rate[c], reel_.stiffness_rad_s, reel_.damping_ratio, dt);
-    rest = rest && reel_.theta[c].norm() < kReelRestRad && reel_.rate[c].norm() < kReelRestRadPerS;
+void HitReel::advance(double dt) {
+  if (!springs_.active) return;
+  springs_.since_s += dt;
+  bool rest = springs_.since_s >= kReelMin_s;
+  for (std::size_t c = 0; c < springs_.theta.size(); ++c) {
+    spring_step(springs_.theta[c], springs_.rate[c], springs_.stiffness_rad_s, springs_.damping_ratio, dt);
+    rest = rest && springs_.theta[c].norm() < kReelRestRad && springs_.rate[c].norm() < kReelRestRadPerS;
   }
-  if (rest) reel_ = Reel{};
+  if (rest) springs_ = Springs{};
 }
+
+const MkmFrame* HitReel::lay(const MkmFrame& pose) {
+  if (!springs_.active) return nullptr;
+  reeled_ = pose;
+  MkmFrame& f = reeled_;
+  const Quaterniond rt = rotation_of(springs_.theta[kTrunk]);
+  const Quaterniond rh = rotation_of(springs_.theta[kHead]);
+  f.spine_dir = rt * f.spine_dir;
+  f.chest = (rt * f.chest).normalized();
+  f.head_dir = rh * (rt * f.head_dir);
+  for (int s = 0; s < 2; ++s) {
+    // The arm rides with its shoulder girdle: its direction and pole turn with it (held in the
+    // room while the shoulder moved, the elbow swung 67 mm a frame under two full blows).
+    const auto us = static_cast<std::size_t>(s);
+    const Quaterniond r = rotation_of(springs_.theta[s == kLeft ? kShoulderL : kShoulderR]) * rt;
+    f.clavicle_dir[us] = r * f.clavicle_dir[us];
+    f.arm_n[us] = r * f.arm_n[us];
+    f.arm_pole[us] = r * f.arm_pole[us];
+  }
+  return &reeled_;
+}
+
+// ---- Behaviour's side of a blow: the reel, a strike aborted, a step back ------------------
+
+bool Behaviour::hit(const HitOrder& h, Timestamp now) {
+  if (!have_pose_ || !reel_.take(h, characters_[static_cast<std::size_t>(character_)], rig_positions_)) return false;
+  abort_until_ = now + kAbortWindow_s;
+  const Vector2d along(h.velocity_mps.x(), h.velocity_mps.z());
+  if (h.step_back_m > 0 && along.norm() > 1e-6)
+    reel_.step_back_to(clamp_to_area(config_, spot_xz_m_ + along.normalized() * h.step_back_m), now + kStepBackFor_s);
+  return true;
+}
+
+Behaviour::ReelState Behaviour::reel() const { return reel_.state(); }
 
 bool Behaviour::attacking() const { return striking() && !strike_.block && !strike_.contact_done && !strike_.aborted; }
 
@@ -155,37 +191,16 @@ void Behaviour::abort_strike_for_blow(Timestamp now) {
   // Not before its own cross-fade in is done: leaving mid-blend drops the motion it blends
   // from in one frame (a block leaving so jumped the body 25 cm). The reel shows the blow
   // meanwhile.
-  if (blend_elapsed_s_ < tun_.blend_time_s) return;
-  const double t = current_.time_s;
+  if (player_.blend_elapsed_s() < tun_.blend_time_s) return;
+  const double t = player_.current().time_s;
   strike_.aborted = true;
   strike_.abort_s = t;
   strike_.abort_ramp = ramp_in(t);
-  strike_.release_end_s = t + tun_.release_time_s * current_.rate;
+  strike_.release_end_s = t + tun_.release_time_s * player_.current().rate;
   abort_until_ = -1;
   ++strikes_aborted_;
   start_rest(now);
   enter(Recovering{});
-}
-
-bool Behaviour::reel_pose() {
-  if (!reel_.active) return false;
-  reeled_pose_ = pose_;
-  MkmFrame& f = reeled_pose_;
-  const Quaterniond rt = rotation_of(reel_.theta[kTrunk]);
-  const Quaterniond rh = rotation_of(reel_.theta[kHead]);
-  f.spine_dir = rt * f.spine_dir;
-  f.chest = (rt * f.chest).normalized();
-  f.head_dir = rh * (rt * f.head_dir);
-  for (int s = 0; s < 2; ++s) {
-    // The arm rides with its shoulder girdle: its direction and pole turn with it (held in the
-    // room while the shoulder moved, the elbow swung 67 mm a frame under two full blows).
-    const auto us = static_cast<std::size_t>(s);
-    const Quaterniond r = rotation_of(reel_.theta[s == kLeft ? kShoulderL : kShoulderR]) * rt;
-    f.clavicle_dir[us] = r * f.clavicle_dir[us];
-    f.arm_n[us] = r * f.arm_n[us];
-    f.arm_pole[us] = r * f.arm_pole[us];
-  }
-  return true;
 }
 
 }  // namespace kumite::content

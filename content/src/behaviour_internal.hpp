@@ -1,9 +1,11 @@
 #pragma once
-// Behaviour's own helpers, shared by its three files (content/src, not installed):
+// Behaviour's own helpers, shared by its files (content/src, not installed):
 //   behaviour.cpp        decisions: orders, the state machine, strikes, following, contact
-//   motion_playback.cpp  playing sources: sampling, placement, a strike's scaled travel
+//   motion_playback.cpp  the MotionPlayer (sampling, placement, a strike's scaled travel) and
+//                        a strike's placement on its support foot
 //   behaviour_feet.cpp   what the motion says of each foot, for the FootPlanter
 //   behaviour_steps.cpp  following with stance steps cut from the mocap
+//   behaviour_block.cpp, behaviour_guard.cpp (Guard), behaviour_hit.cpp (HitReel): spar mode
 #include <limits>
 #include <algorithm>
 #include <cmath>

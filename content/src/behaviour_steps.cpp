@@ -42,8 +42,8 @@ Vector2d layout(const Vector3d& left, const Vector3d& right) { return {right.x()
 int Behaviour::rest_for_stance() const {
   // A stance step cut from a take whose actor then stood still (135_03: a step, a rest, a
   // step...): that rest, the mocap's own continuation, in the stance the step ends in.
-  if (!current_.loop && current_.segment >= 0) {
-    const MotionSegment& step = db_->segments[static_cast<std::size_t>(current_.segment)];
+  if (!player_.current().loop && player_.current().segment >= 0) {
+    const MotionSegment& step = db_->segments[static_cast<std::size_t>(player_.current().segment)];
     const int next = step.source_first_frame + step.frame_count();
     for (std::size_t i = 0; i < db_->segments.size(); ++i) {
       const MotionSegment& r = db_->segments[i];
@@ -59,10 +59,10 @@ int Behaviour::rest_for_stance() const {
   // last frame), else the feet drawn now.
   Vector2d want = layout(rig_positions_[static_cast<std::size_t>(rig.skeleton.index(CJ::l_ankle))],
                          rig_positions_[static_cast<std::size_t>(rig.skeleton.index(CJ::r_ankle))]);
-  if (!current_.loop && current_.segment >= 0) {
-    const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+  if (!player_.current().loop && player_.current().segment >= 0) {
+    const MotionSegment& seg = db_->segments[static_cast<std::size_t>(player_.current().segment)];
     MkmFrame end;
-    sample_frame(current_, seg.frame_count() - 1, end);
+    player_.sample_frame(player_.current(), seg.frame_count() - 1, end);
     want = layout(mkm_ankle(rig, end, kLeft), mkm_ankle(rig, end, kRight));
   }
   GroundFrame g = ground_frame_of(pose_);
@@ -74,7 +74,7 @@ int Behaviour::rest_for_stance() const {
     PlaybackSource s = placed_at(seg, i, g);
     s.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(seg.frames[0]).yaw_rad);
     MkmFrame f;
-    sample_frame(s, 0, f);
+    player_.sample_frame(s, 0, f);
     const double cost = (layout(mkm_ankle(rig, f, kLeft), mkm_ankle(rig, f, kRight)) - want).norm();
     if (cost < best_cost) {
       best_cost = cost;
@@ -90,7 +90,7 @@ bool Behaviour::rest_with(int segment) {
     return false;
   if (stance_step()) set_locomotion(Walking{});  // (the stance step's clip no longer plays)
   start_rest(time_, segment);
-  blend_elapsed_s_ = 1e9;
+  player_.end_blend();
   feet_.reset();
   return true;
 }
@@ -114,8 +114,8 @@ bool Behaviour::begin_stance_step(const Vector2d& goal) {
     const MotionSegment& seg = db_->segments[static_cast<std::size_t>(i)];
     Source s = placed_at(seg, i, g);
     MkmFrame first, last;
-    sample_frame(s, 0, first);
-    sample_frame(s, seg.frame_count() - 1, last);
+    player_.sample_frame(s, 0, first);
+    player_.sample_frame(s, seg.frame_count() - 1, last);
     const Vector2d clip = layout(mkm_ankle(rig, first, kLeft), mkm_ankle(rig, first, kRight));
     // (sideways counts half: the stepping foot leaves from where it stands, and stances of the
     // same length but wider or narrower are the same stance to the eye)
@@ -166,9 +166,7 @@ bool Behaviour::begin_stance_step(const Vector2d& goal) {
   best_source.travel.contact_s = end_s;
   best_source.travel.release_s = 0;
   best_source.travel.rise_n = 0;
-  previous_ = current_;
-  blend_elapsed_s_ = 0;
-  current_ = best_source;
+  player_.play(best_source);
   set_locomotion(StanceStepping{StanceStep{best, std::max(0.0, end_s - tun_.blend_time_s), best_source.travel.scale, best_support}});
   ++stance_steps_;
   return true;
@@ -179,9 +177,9 @@ void Behaviour::end_stance_step(Timestamp now) {
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   // Where the step puts the body and the feet at its last frame (the rest blends in over its
   // last blend_time_s): the foot it stands on where it is held, the other where it lands.
-  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(current_.segment)];
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(player_.current().segment)];
   MkmFrame end;
-  sample_frame(current_, seg.frame_count() - 1, end);
+  player_.sample_frame(player_.current(), seg.frame_count() - 1, end);
   std::array<Vector3d, 2> feet;
   for (int side = 0; side < 2; ++side)
     feet[static_cast<std::size_t>(side)] =
@@ -193,19 +191,18 @@ void Behaviour::end_stance_step(Timestamp now) {
   // than follow_tolerance_m is not walked to with procedural steps).
   set_locomotion(AtSpot{});
   spot_xz_m_ = end.root_xz_m;
-  current_.placement.origin_xz = spot_xz_m_;
   // The rest motion turned as the step ends: a karate stance stands with the hips turned off
   // the way it faces, the other way after each step (the steps turn the pelvis 0.5-1 rad).
   // The fighter still faces the visitor (facing_rad_); the rest keeps the step's hips.
   const MotionSegment& rest_seg = db_->segments[static_cast<std::size_t>(rest)];
   rest_yaw_rad_ = wrap(ground_frame_of(end).yaw_rad - facing_rad_);
-  current_.placement.yaw_rad = wrap(facing_rad_ + rest_yaw_rad_ - ground_frame_of(rest_seg.frames[0]).yaw_rad);
+  player_.place(spot_xz_m_, wrap(facing_rad_ + rest_yaw_rad_ - ground_frame_of(rest_seg.frames[0]).yaw_rad));
   // Centred over those feet (a step scaled shorter or longer than captured ends in a longer or
   // shorter stance than the rest motion's): each foot then lies half the stances' difference
   // from where the rest motion has it, within the leg's reach, rather than one foot on it and
   // the other out of reach (both would step at once: a hop).
   MkmFrame f;
-  sample(current_, f);
+  player_.sample(player_.current(), f);
   Vector2d shift(0, 0);
   for (int side = 0; side < 2; ++side) {
     const Vector3d a = mkm_ankle(rig, f, side);
@@ -213,7 +210,7 @@ void Behaviour::end_stance_step(Timestamp now) {
   }
   if (shift.norm() > tun_.max_support_shift_m) shift *= tun_.max_support_shift_m / shift.norm();
   spot_xz_m_ += shift;
-  current_.placement.origin_xz += shift;
+  player_.shift(shift);
 }
 
 }  // namespace kumite::content

@@ -277,10 +277,10 @@ class FighterImpl final : public Fighter {
       return hook ? hook(*solver, job) : solver->solve(job);
     };
     worker_ = std::make_unique<RetrievalWorker>(std::move(plan), std::move(rate), options.retrieval_delay_updates);
-    behaviour_.set_planner([this](const StrikeRequest& r) { worker_->submit(r); },
-                           [this] { return worker_->poll(); });
-    behaviour_.set_rate_solver([this](const StrikeRateJob& job) { worker_->submit_rate(job); },
-                               [this] { return worker_->poll_rate(); });
+    behaviour_.set_planner(Behaviour::PlanChannel{[this](const StrikeRequest& r) { worker_->submit(r); },
+                                                  [this] { return worker_->poll(); }});
+    behaviour_.set_rate_solver(Behaviour::RateChannel{[this](const StrikeRateJob& job) { worker_->submit_rate(job); },
+                                                      [this] { return worker_->poll_rate(); }});
   }
   void order(const Order& order) override {
     if (order.kind == OrderKind::spar || order.kind == OrderKind::orders_only) {

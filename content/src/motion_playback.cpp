@@ -1,6 +1,7 @@
-// Behaviour: playing its sources (the motion now and the one it fades from): sampling a
-// segment at a time, placing it in the room, a strike's scaled floor travel and pelvis rise, a
-// clip moved onto its support foot, the rest motion started where the body is.
+// Playing sources (the motion now and the one it fades from): sampling a segment at a time,
+// placing it in the room, a strike's scaled floor travel and pelvis rise (Playback, and the
+// MotionPlayer that owns Behaviour's sources); Behaviour's side: a strike's clip moved onto its
+// support foot and its travel fitted, the rest motion started where the body is.
 #include "kumite/content/behaviour.hpp"
 
 #include <algorithm>
@@ -93,13 +94,6 @@ void Playback::sample(const PlaybackSource& s, MkmFrame& out) const {
   place_sample(s, seg, t, mixed, out);
 }
 
-void Behaviour::sample_frame(const Source& s, int frame, MkmFrame& out) const {
-  // A strike source at one of its own frames: the frame itself, no blend (s.loop is false).
-  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
-  MkmFrame f = seg.frames[static_cast<std::size_t>(std::clamp(frame, 0, seg.frame_count() - 1))];
-  place_sample(s, seg, frame * seg.frame_time_s, f, out);
-}
-
 void Playback::place_sample(const PlaybackSource& s, const MotionSegment& seg, double t, MkmFrame& mixed,
                             MkmFrame& out) const {
   if (!s.loop && s.travel.scale != 1) mixed.root_xz_m += (s.travel.scale - 1) * scaled_travel(s, seg, t);
@@ -143,30 +137,99 @@ void Playback::compose(const PlaybackSource& cur, const PlaybackSource& prev, do
   }
 }
 
-// Behaviour's own sources play on its update thread, with its own cache.
-void Behaviour::sample(const Source& s, MkmFrame& out) const { Playback{*db_, stride_scale(), eased_}.sample(s, out); }
+// ---- MotionPlayer: the sources on Behaviour's update thread, with their own cache ----------
 
-Vector2d Behaviour::scaled_travel(const Source& s, const MotionSegment& seg, double t) const {
-  return Playback{*db_, stride_scale(), eased_}.scaled_travel(s, seg, t);
+MotionPlayer::MotionPlayer(std::shared_ptr<const Database> db, double stride_scale)
+    : db_(std::move(db)), stride_scale_(stride_scale) {
+  eased_.cum.reserve(256);  // a release of 0.25 s holds ~32 frames: no allocation while playing
 }
 
-void Behaviour::place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const {
-  Playback{*db_, stride_scale(), eased_}.place_sample(s, seg, t, mixed, out);
+void MotionPlayer::play(const Source& next) {
+  previous_ = current_;
+  blend_elapsed_s_ = 0;
+  current_ = next;
 }
+
+void MotionPlayer::place(const Vector2d& origin_xz, double yaw_rad) {
+  current_.placement.origin_xz = origin_xz;
+  current_.placement.yaw_rad = yaw_rad;
+}
+
+void MotionPlayer::advance(double dt) {
+  current_.time_s += dt * current_.rate;
+  previous_.time_s += dt * previous_.rate;
+  blend_elapsed_s_ += dt;
+}
+
+void MotionPlayer::rescale(double stride_scale) {
+  const double old_scale = stride_scale_;
+  stride_scale_ = stride_scale;
+  const double new_scale = stride_scale_;
+  for (Source* s : {&current_, &previous_}) {
+    if (s->segment < 0) continue;
+    MkmFrame f;
+    sample(*s, f);  // with the new scale
+    const Vector2d d_new = f.root_xz_m;
+    // Root under the old scale: origin + R (old * (root - anchor)) == what was shown.
+    const Vector2d rel = (d_new - s->placement.origin_xz) / new_scale;
+    const Vector2d d_old = s->placement.origin_xz + rel * old_scale;
+    s->placement.origin_xz += d_old - d_new;
+  }
+  for (auto& a : arm_poles_) a.drawn_radius_m = 0;  // measured on the old body
+}
+
+void MotionPlayer::sample(const Source& s, MkmFrame& out) const { Playback{*db_, stride_scale_, eased_}.sample(s, out); }
+
+void MotionPlayer::sample_frame(const Source& s, int frame, MkmFrame& out) const {
+  // A strike source at one of its own frames: the frame itself, no blend (s.loop is false).
+  const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
+  MkmFrame f = seg.frames[static_cast<std::size_t>(std::clamp(frame, 0, seg.frame_count() - 1))];
+  Playback{*db_, stride_scale_, eased_}.place_sample(s, seg, frame * seg.frame_time_s, f, out);
+}
+
+Vector3d MotionPlayer::frame_ankle(const Source& s, const Eigen::Quaterniond& placement_rotation, int frame, const Rig& rig, int side,
+                                   const Vector3d& hip_local) const {
+  return Playback{*db_, stride_scale_, eased_}.frame_ankle(s, placement_rotation, frame, rig, side, hip_local);
+}
+
+void MotionPlayer::compose(const Source& cur, const Source& prev, double blend_elapsed_s, double blend_time_s, MkmFrame& cur_pose,
+                           MkmFrame& out) const {
+  Playback{*db_, stride_scale_, eased_}.compose(cur, prev, blend_elapsed_s, blend_time_s, cur_pose, out);
+}
+
+void MotionPlayer::compose_update(double dt, double blend_time_s, const Morphology& m, MkmFrame& cur_pose, MkmFrame& out) {
+  Playback{*db_, stride_scale_, eased_}.compose(current_, previous_, blend_elapsed_s_, blend_time_s, cur_pose, out, &pole_turns_);
+  // A folded arm's elbow swings no farther than the source's (limit_folded_pole_turn).
+  for (int side = 0; side < 2; ++side)
+    out.arm_pole[side] = limit_folded_pole_turn(arm_poles_[static_cast<std::size_t>(side)], out.arm_pole[side], out.arm_n[side],
+                                                m.upper_arm_m[side], m.forearm_m[side], dt);
+}
+
+void MotionPlayer::note_drawn_arms(const Rig& rig, std::span<const Vector3d> drawn) {
+  for (int side = 0; side < 2; ++side) {
+    const auto idx = [&](CJ j) { return drawn[static_cast<std::size_t>(rig.skeleton.index(j))]; };
+    const Vector3d sh = idx(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+    const Vector3d el = idx(side == kLeft ? CJ::l_elbow : CJ::r_elbow);
+    const Vector3d wr = idx(side == kLeft ? CJ::l_wrist : CJ::r_wrist);
+    const Vector3d axis = wr - sh;
+    arm_poles_[static_cast<std::size_t>(side)].drawn_radius_m = axis.norm() > 1e-9 ? (el - sh).cross(axis).norm() / axis.norm() : 0.0;
+  }
+}
+
+// ---- Behaviour's sources ---------------------------------------------------------------
 
 void Behaviour::start_rest(Timestamp, int segment) {
   if (segment < 0) segment = rest_segment_;
   const MotionSegment& rest = db_->segments[static_cast<std::size_t>(segment)];
   if (have_pose_) spot_xz_m_ = pose_.root_xz_m;
-  previous_ = current_;
-  blend_elapsed_s_ = 0;
-  current_ = Source{};
-  current_.segment = segment;
-  current_.loop = true;
-  current_.anchor_xz_m = rest.frames[0].root_xz_m;
-  current_.placement.origin_xz = spot_xz_m_;
+  Source next;
+  next.segment = segment;
+  next.loop = true;
+  next.anchor_xz_m = rest.frames[0].root_xz_m;
+  next.placement.origin_xz = spot_xz_m_;
   rest_yaw_rad_ = 0;
-  current_.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
+  next.placement.yaw_rad = wrap(facing_rad_ - ground_frame_of(rest.frames[0]).yaw_rad);
+  player_.play(next);
 }
 
 int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect) const {
@@ -190,7 +253,7 @@ int Behaviour::align_to_support_foot(Source& s, double contact_time_s, const Hel
     Source at_frame = s;
     at_frame.time_s = frame * seg.frame_time_s;
     MkmFrame placed;
-    sample(at_frame, placed);
+    player_.sample(at_frame, placed);
     CanonicalPose& c = scratch_pose_;  // its room kept: a strike's start allocates nothing
     decode_canonical(rig, placed, c);
     const Vector3d& a = at(c, side == kLeft ? CJ::l_ankle : CJ::r_ankle);
@@ -300,8 +363,8 @@ Vector2d Behaviour::strike_travel(const Source& s, double contact_time_s, MkmFra
   Source at_contact = s;
   at_contact.time_s = contact_time_s;
   MkmFrame start_pose;
-  sample(s, start_pose);
-  sample(at_contact, contact_pose);
+  player_.sample(s, start_pose);
+  player_.sample(at_contact, contact_pose);
   return contact_pose.root_xz_m - start_pose.root_xz_m;
 }
 

@@ -15,6 +15,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -25,7 +26,11 @@
 #include "kumite/content/database.hpp"
 #include "kumite/content/fighter.hpp"
 #include "kumite/content/foot_planting.hpp"
+#include "kumite/content/guard.hpp"
+#include "kumite/content/hit_reel.hpp"
+#include "kumite/content/motion_player.hpp"
 #include "kumite/content/retrieval.hpp"
+#include "kumite/content/worker_channel.hpp"
 
 namespace kumite::content {
 
@@ -77,41 +82,6 @@ class StrikePlanner {
   RetrievalTunables tunables_;
 };
 
-
-/// A motion being played: a database segment at a segment time, placed in the room (the
-/// current source and the one it cross-fades from). Plain data: a copy can be played on another
-/// thread (StrikeRateSolver) with its own EasedTravelCache.
-struct PlaybackSource {
-  int segment = -1;
-  double time_s = 0;
-  GroundFrame placement;
-  Eigen::Vector2d anchor_xz_m{0, 0};
-  bool loop = false;
-  /// Segment seconds played per second (a strike whose correction lengthens its way is
-  /// played slower: StrikeRateSolver). Times inside the segment stay segment times.
-  double rate = 1;
-  /// A strike's floor travel scaled (a shorter or longer lunge): the root moves `scale` times
-  /// the clip's own travel from `from_s` to `contact_s`, then eases back to the clip's own
-  /// speed over `release_s` (position and speed continuous). 1: the clip as captured.
-  struct Travel {
-    double scale = 1;
-    double from_s = 0;     ///< s, segment time where the scaling starts
-    double contact_s = 0;  ///< s, segment time of contact
-    double release_s = 0.25;
-    double rise_n = 0;     ///< pelvis raised by this (/ leg length) at contact, eased in from
-                           ///< `from_s` and out over `release_s` (a high target)
-    bool operator==(const Travel&) const = default;
-  } travel;
-};
-
-/// The strike's eased travel after contact (PlaybackSource::Travel), summed per frame: cum[0] =
-/// 0 at contact, cum[i] at the i-th knot (each frame time, then the release's end). Filled by
-/// the first sample of a strike that scales its travel; one per thread that samples.
-struct EasedTravelCache {
-  int segment = -1;
-  PlaybackSource::Travel travel;
-  std::vector<Eigen::Vector2d> cum;
-};
 
 /// Updates between the update that starts a strike and the one its playback rate is applied
 /// on (BehaviourTunables::min_strike_rate): the rate is found off the frame (the retrieval
@@ -182,36 +152,35 @@ class StrikeRateSolver {
 /// Behaviour + adaptation for one fighter. Characters are Rigs; the database is shared.
 class Behaviour {
  public:
-  using Submit = std::function<void(const StrikeRequest&)>;
-  using Poll = std::function<std::optional<StrikePlan>()>;
-  using SubmitRate = std::function<void(const StrikeRateJob&)>;
-  /// Called on the update the job is due (kStrikeRateDelayUpdates after its submission): the
-  /// job's result, waiting for it if the solver is late (nullopt: play at the clip's rate).
-  using PollRate = std::function<std::optional<StrikeRateResult>()>;
+  /// The two jobs handed to a worker (worker_channel.hpp): planning a strike, and finding its
+  /// playback rate. The rate channel's poll is called on the update the job is due
+  /// (kStrikeRateDelayUpdates after its submission): the job's result, waiting for it if the
+  /// solver is late (nullopt: play at the clip's rate).
+  using PlanChannel = WorkerChannel<StrikeRequest, StrikePlan>;
+  using RateChannel = WorkerChannel<StrikeRateJob, StrikeRateResult>;
+  using Submit = PlanChannel::Submit;
+  using Poll = PlanChannel::Poll;
+  using SubmitRate = RateChannel::Submit;
+  using PollRate = RateChannel::Poll;
 
   /// Tunables from config.behaviour (and config.retrieval for the synchronous planner);
   /// throws kumite::Error when they are out of range (validate()).
   Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config);
 
   /// Where plans come from. Default: synchronous planning inside update() via `planner`.
-  void set_planner(Submit submit, Poll poll);
+  void set_planner(PlanChannel channel);
+  void set_planner(Submit submit, Poll poll) { set_planner(PlanChannel{std::move(submit), std::move(poll)}); }
   void use_synchronous_planner(std::shared_ptr<const StrikePlanner> planner);
   /// Who finds a strike's playback rate (StrikeRateJob, sent on the update the strike starts,
   /// polled kStrikeRateDelayUpdates later). Default: a StrikeRateSolver run inside update()
   /// at the submission (the frame pays ~0.2-0.3 ms); the Fighter runs it on its worker thread.
-  void set_rate_solver(SubmitRate submit, PollRate poll);
+  void set_rate_solver(RateChannel channel);
+  void set_rate_solver(SubmitRate submit, PollRate poll) { set_rate_solver(RateChannel{std::move(submit), std::move(poll)}); }
 
   /// Queue an order (processed at the next update).
   void order(const Order& order);
-  /// A block against a fist seen coming (the Fighter's defence, spar mode).
-  struct BlockOrder {
-    recognition::Role limb = recognition::Role::right_hand;
-    Eigen::Vector3d fist_m{0, 0, 0};         ///< m, room: the fist now
-    Eigen::Vector3d velocity_mps{0, 0, 0};   ///< m/s, room
-    double arrival_s = 0;                    ///< s from now until it reaches the body (ThreatWatch)
-    bool recognised = false;
-    double max_rate = 2.0;                   ///< segment s per s the block may be played at to be in place in time
-  };
+  /// A block against a fist seen coming (the Fighter's defence, spar mode; guard.hpp).
+  using BlockOrder = content::BlockOrder;
   /// A block can start now: not paused, no strike or block playing or blending out, no
   /// cross-fade under way (a block cuts no blend: the pose would jump).
   bool can_block() const;
@@ -224,7 +193,7 @@ class Behaviour {
   /// Spar with blocks on (the Fighter sets it every update): the fighter keeps its guard up,
   /// both forearms raised before its face and chest, whenever it is not striking; the guard
   /// eases in over 0.4 s and out over 0.15 s as a strike starts (behaviour_guard.cpp).
-  void set_guard(bool on) { guard_.wanted = on; }
+  void set_guard(bool on) { guard_.want(on); }
   /// The guard's weight at the last update (0: the motion's own arms, 1: the guard).
   double guard_weight() const;
   /// The guard is up (spar, blocks on, no strike of its own): a fist seen coming is parried.
@@ -245,25 +214,12 @@ class Behaviour {
   /// blow lands off the midline) on top of whatever the fighter plays, starting with this
   /// update; a strike of its own under way before its contact is aborted (a blend into rest,
   /// once its own cross-fade in is done); a large blow steps it back.
-  struct HitOrder {
-    Eigen::Vector3d point_m{0, 0, 0};        ///< m, room: where the fist entered the body
-    Eigen::Vector3d velocity_mps{0, 0, 0};   ///< m/s, room: the fist's
-    bool head = false;                       ///< the head was struck (else the torso)
-    double share = 0;                        ///< 0..1: the blow's size (0: nothing happens)
-    double head_max_rad = 0.26, trunk_max_rad = 0.14, shoulder_max_rad = 0.21;  ///< rad, each chain's reel at share 1
-    double stiffness_rad_s = 10;             ///< rad/s, the spring's undamped angular frequency
-    double damping_ratio = 0.8;              ///< 0.4..1
-    double step_back_m = 0;                  ///< m stepped back (0: none)
-  };
+  using HitOrder = content::HitOrder;  ///< hit_reel.hpp
   /// False (nothing changed): a share of 0, a point or velocity not finite, or no pose yet.
   bool hit(const HitOrder& order, Timestamp now);
   /// The reel under way: the head, trunk and shoulders' rotation vectors (rad, room frame:
   /// axis times angle) at the last update; all zero when none is.
-  struct ReelState {
-    bool active = false;
-    Eigen::Vector3d trunk{0, 0, 0}, head{0, 0, 0};
-    std::array<Eigen::Vector3d, 2> shoulder{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-  };
+  using ReelState = content::ReelState;  ///< hit_reel.hpp
   ReelState reel() const;
   /// Strikes aborted so far (by a blow, or by abort_strike).
   int strikes_aborted() const { return strikes_aborted_; }
@@ -461,10 +417,6 @@ class Behaviour {
   /// The same from another pose and feet (a stance the fighter would take first).
   Source strike_source(const StrikePlan& plan, StrikeFit& fit, const MkmFrame& from, const HeldFeet& feet) const;
   void select_character(int index, Timestamp now);
-  void sample(const Source& s, MkmFrame& out) const;
-  Eigen::Vector2d scaled_travel(const Source& s, const MotionSegment& seg, double t) const;
-  void sample_frame(const Source& s, int frame, MkmFrame& out) const;
-  void place_sample(const Source& s, const MotionSegment& seg, double t, MkmFrame& mixed, MkmFrame& out) const;
   double stride_scale() const;
   void start_rest(Timestamp now, int segment = -1);
   void update_follow(double dt, const Eigen::Vector3d& head);
@@ -499,10 +451,6 @@ class Behaviour {
   void keep_elbow_below_head();
   /// The straight arm's part of it: the highest aim at the target's horizontal distance.
   void aim_straight_arm_below_head();
-  /// The pose of `cur` cross-faded from `prev` `blend_elapsed_s` into the blend (cur_pose: `cur`
-  /// alone), as update() composes every frame.
-  void compose(const Source& cur, const Source& prev, double blend_elapsed_s, MkmFrame& cur_pose, MkmFrame& out,
-               PoleTurns* turns = nullptr) const;
   double ramp_in(double t) const;   ///< d(t)'s weight at segment time t before contact
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
@@ -513,14 +461,9 @@ class Behaviour {
   int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect = nullptr) const;
   double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
-  /// Hit reactions (behaviour_hit.cpp): the springs advanced by dt; a strike aborted if one is
-  /// due and can leave now; the reel laid on pose_ into reeled_pose_ (false: none under way).
-  void advance_reel(double dt);
+  /// A blow's abort (behaviour_hit.cpp): a strike of its own aborted if one is due and can leave now.
   void abort_strike_for_blow(Timestamp now);
-  bool reel_pose();
   void judge_block_in_place(Timestamp now);
-  /// The guard and a parry laid on pose_'s arms (behaviour_guard.cpp); emits the parry's block event.
-  void apply_guard(double dt, Timestamp now);
   FighterEvent& emit(FighterEvent::Kind kind, Timestamp t, const Order& o, FighterEvent::Reason reason,
                      double distance = 0);
 
@@ -529,8 +472,7 @@ class Behaviour {
   std::vector<Rig> characters_;
   FighterConfig config_;
   BehaviourTunables tun_;
-  Submit submit_;
-  Poll poll_;
+  PlanChannel plan_channel_;  ///< strikes planned (set_planner; synchronous by default)
   std::shared_ptr<const StrikePlanner> sync_planner_;
   std::deque<StrikePlan> sync_results_;
 
@@ -539,12 +481,9 @@ class Behaviour {
   bool keep_away_ = false;
   double follow_distance_m_ = 0;  ///< m, follow_at() (set from the config at construction)
   int rest_segment_ = 0;
-  Source current_, previous_;
-  double blend_elapsed_s_ = 1e9;  ///< s since the current source started (cross-fade)
-  /// The drawn cross-fade's limb-pole turns, carried from update to update (PoleTurns).
-  PoleTurns pole_turns_;
-  /// Per arm, its drawn pole (limit_folded_pole_turn).
-  std::array<DrawnPole, 2> arm_poles_{};
+  /// The sources playing (the current one and the one it cross-fades from), the cross-fade
+  /// and the arms' drawn poles (motion_player.hpp, motion_playback.cpp).
+  MotionPlayer player_;
   double facing_rad_ = 0;  ///< rad: the way the fighter faces (toward the visitor)
   /// rad: the rest motion's hips (its first frame's ground yaw) turned this far off facing_rad_
   /// (0: the default rest; after a stance step, its stance's own hips).
@@ -650,8 +589,6 @@ class Behaviour {
     double way_left_m = 0;               ///< m, horizontal path from last_m to the landing
   };
   std::array<SwingPath, 2> swing_paths_{};
-  /// The strike's eased travel (EasedTravelCache) for this thread's sampling.
-  mutable EasedTravelCache eased_;
 
   // Switch easing: per joint of the current rig, an offset fading to zero.
   std::vector<Eigen::Vector3d> switch_offset_;
@@ -661,8 +598,7 @@ class Behaviour {
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> rig_positions_, positions_;
   // The strike's playback rate (StrikeRateJob): who solves it, and the job out.
-  SubmitRate submit_rate_;
-  PollRate poll_rate_;
+  RateChannel rate_channel_;
   std::shared_ptr<StrikeRateSolver> sync_rate_solver_;
   std::optional<StrikeRateResult> sync_rate_result_;
   std::uint64_t next_rate_job_ = 1;
@@ -680,9 +616,9 @@ class Behaviour {
   // spot, walking it, or carried by a stance step from the mocap), carried over from one
   // alternative to the next. paused_, keep_away_ and recentre_goal_ are standing orders, not
   // modes. Every change of alternative goes through enter(), which allows only the table's.
-  /// A stance step from the mocap playing while following: current_ plays `segment` from its
-  /// first frame (floor travel scaled by Source::Travel); at `end_s` (segment s) the rest
-  /// motion blends in.
+  /// A stance step from the mocap playing while following: the player's current source plays
+  /// `segment` from its first frame (floor travel scaled by Source::Travel); at `end_s`
+  /// (segment s) the rest motion blends in.
   struct StanceStep {
     int segment = -1;
     double end_s = 0;  ///< s, segment time the rest motion starts blending in
@@ -740,48 +676,9 @@ class Behaviour {
   TrunkLean trunk_floor_;  ///< the least trunk fallback this frame (the last frame's, easing out)
   int trunk_floor_side_ = -1;  ///< the arm whose strike made it (-1: no punch yet)
   std::vector<FighterEvent> events_;
-  // Hit reactions: per chain (trunk, head, left shoulder, right shoulder) a rotation vector
-  // (rad, room) and its rate, a damped spring each (behaviour_hit.cpp).
-  struct Reel {
-    bool active = false;
-    std::array<Eigen::Vector3d, 4> theta{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    std::array<Eigen::Vector3d, 4> rate{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    double stiffness_rad_s = 10, damping_ratio = 0.8;
-    double since_s = 0;  ///< s since the last blow
-  } reel_;
-  // The guard and parries (behaviour_guard.cpp): arm directions laid on the composed pose.
-  struct Guard {
-    bool wanted = false;        ///< set by the Fighter (spar, blocks on)
-    double up = 0;              ///< 0..1 the guard's progress (its weight is smoothstep(up))
-    double weight = 0;          ///< the weight drawn at the last update
-    std::array<Eigen::Vector3d, 2> last_arm_n{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};   ///< [side] as drawn last
-    std::array<Eigen::Vector3d, 2> last_arm_pole{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    bool have_last = false;
-    // A parry per arm [side].
-    struct Parry {
-      bool on = false;
-      double t_s = 0;           ///< s since it began
-      double move_s = 0;        ///< s the wrist takes to its place
-      double hold_end_s = 0;    ///< s (since it began) it starts back to the guard
-      double back_s = 0.3;      ///< s back to the guard
-      Eigen::Vector3d from_arm_n{0, 0, 0}, from_pole{0, 0, 0};  ///< the arm as drawn when it began
-      Eigen::Vector3d wrist_m{0, 0, 0};   ///< m, room: the wrist in place
-      Eigen::Vector3d elbow_m{0, 0, 0};   ///< m, room: where the elbow is wanted in place
-      Eigen::Vector3d cross_m{0, 0, 0};   ///< m, room: where the fist's path crosses the forearm
-      bool said = false;        ///< its block event emitted
-      Timestamp meet_t = 0;     ///< s: when the fist is due at the forearm
-      recognition::Role limb = recognition::Role::right_hand;
-      bool recognised = false;
-      double fist_speed_mps = 0;
-      /// Moving to its place or held there (not going back).
-      bool busy() const { return on && t_s < hold_end_s; }
-    };
-    std::array<Parry, 2> parry{};
-  } guard_;
-  MkmFrame reeled_pose_;                   ///< pose_ with the reel laid on (what is drawn while one is under way)
+  HitReel reel_;  ///< a blow's reel and step back (hit_reel.hpp, behaviour_hit.cpp)
+  Guard guard_;   ///< the guard and parries (guard.hpp, behaviour_guard.cpp)
   Timestamp abort_until_ = -1;             ///< s: a strike of its own before contact is aborted until then
-  std::optional<Eigen::Vector2d> reel_goal_;  ///< m, room: the spot a large blow steps the fighter back to
-  Timestamp reel_goal_until_ = 0;          ///< s: given up then
   int strikes_aborted_ = 0;
   Timestamp time_ = 0;
   int updates_ = 0;
