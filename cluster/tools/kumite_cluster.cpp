@@ -71,7 +71,10 @@ int run_master(const std::string& config, int frames, double rate, std::size_t p
   for (int i = 0; (frames <= 0 || i < frames) && !g_stop; ++i) {
     const kumite::Timestamp t = t0 + i * period;
     kumite::sleep_until(t);
-    for (std::size_t k = 0; k < std::min<std::size_t>(payload, 8); ++k) state[k] = static_cast<std::byte>(i >> (8 * k));
+    // The frame number's 8 bytes, little-endian (shifted as 64 bits: an int shifted by 32 or
+    // more is undefined, UBSan's finding).
+    const auto number = static_cast<std::uint64_t>(i);
+    for (std::size_t k = 0; k < std::min<std::size_t>(payload, 8); ++k) state[k] = static_cast<std::byte>(number >> (8 * k));
     const kumite::Timestamp pub = now();
     master.publish(static_cast<std::uint64_t>(i), t - t0, state);
     const auto& r = master.release();
