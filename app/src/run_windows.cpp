@@ -143,16 +143,20 @@ class Windows {
   Console* console() { return console_.get(); }
   GLFWwindow* first() const { return slots_[0].window; }
 
-  /// Draws `f` into every wall's viewport (`finish`: and waits for the GPU).
-  void draw(const FrameData& f, bool finish) {
+  /// Draws `f` into every wall's viewport, `notice` across each (none: empty), (`finish`: and
+  /// waits for the GPU).
+  void draw(const FrameData& f, bool finish, std::string_view notice = {}) {
     for (auto& s : slots_) {
       glfwMakeContextCurrent(s.window);
       int fb_w = 0, fb_h = 0;
       glfwGetFramebufferSize(s.window, &fb_w, &fb_h);
       s.renderer->begin_frame(f.fighter);
       s.renderer->clear(0, 0, fb_w, fb_h);
-      for (std::size_t w : s.walls)
-        draw_wall_stereo(*s.renderer, mode_, wall_viewport(cfg_.walls[w], s.config, fb_w, fb_h), f.views[w], f.items);
+      for (std::size_t w : s.walls) {
+        const Viewport v = wall_viewport(cfg_.walls[w], s.config, fb_w, fb_h);
+        draw_wall_stereo(*s.renderer, mode_, v, f.views[w], f.items);
+        draw_notice_stereo(mode_, v, notice);
+      }
       if (finish) glFinish();
     }
   }
@@ -277,7 +281,7 @@ int present_windows(FrameSource& source, const WindowOptions& opt) {
     const FrameData* fp = source.next();
     if (!fp) break;
     const FrameData& f = *fp;
-    windows.draw(f, finish);
+    windows.draw(f, finish, source.notice());
     source.drawn();
     const bool last = source.ending() || stopped() || keys.quit || (opt.seconds && f.time_s >= *opt.seconds);
     if (last && opt.screenshot) {
