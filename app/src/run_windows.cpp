@@ -21,6 +21,7 @@
 #include "kumite/app/session.hpp"
 #include "kumite/app/stereo.hpp"
 #include "kumite/common/error.hpp"
+#include "swap_group_glx.hpp"
 
 namespace kumite::app {
 
@@ -125,11 +126,18 @@ class Windows {
  public:
   /// `keys`: every window's key and close target. Throws kumite::Error when a window or the
   /// stereo mode asked for cannot be had.
-  Windows(const FrameSource& source, bool with_console, KeyContext* keys) : cfg_(source.config()) {
+  Windows(const FrameSource& source, bool with_console, KeyContext* keys,
+          const std::optional<SwapGroupRequest>& swap_group = std::nullopt)
+      : cfg_(source.config()) {
     glfwSetErrorCallback(glfw_error);
     if (!glfwInit()) throw Error("app", "display", "cannot open the display (GLFW init failed): use --headless");
     try {
       open(source, with_console, keys);
+      if (swap_group) {
+        std::vector<GLFWwindow*> walls;
+        for (const auto& s : slots_) walls.push_back(s.window);
+        join_swap_group(walls, *swap_group);
+      }
     } catch (...) {
       close();
       throw;
@@ -262,7 +270,7 @@ int present_windows(FrameSource& source, const WindowOptions& opt) {
   // Keys order the installation the frames are stepped by; a recording's or the network's
   // frames take no orders: their quit key (or closing a window) ends the run.
   KeyContext keys{source.orders(), source.orders() ? nullptr : &cfg};
-  Windows windows(source, opt.console && source.installation() != nullptr, &keys);
+  Windows windows(source, opt.console && source.installation() != nullptr, &keys, opt.swap_group);
   const StereoMode mode = windows.mode();
 
   std::unique_ptr<FrameLog> log;

@@ -293,3 +293,26 @@ TEST(ClusterRun, ANodeWhoseMasterIsGoneSaysSoOnItsWalls) {
   const cv::Mat before = cv::imread((out / "floor_left_00000_notice.png").string());
   EXPECT_EQ(letters_in(before, layout).pixels, lit);
 }
+
+// A node asking for a hardware swap group on a display without GLX_NV_swap_group (Xvfb): one
+// line says so and what its walls do instead; the node runs on. Needs a display (the ctest
+// ClusterWindows.UnderXvfb runs it under xvfb-run); skipped without one.
+TEST(ClusterWindows, ASwapGroupTheDisplayDoesNotOfferIsSaidInOneLine) {
+  const char* display = std::getenv("DISPLAY");
+  if (!display || !*display) GTEST_SKIP() << "no display (ctest ClusterWindows.UnderXvfb runs this under xvfb-run)";
+  const fs::path dir = fresh_dir("swap_group");
+  // The file's last table is the floor node's: it asks for group 1 bound to barrier 1.
+  const fs::path cfg = write_config(dir, "room.toml", true, "swap_group = 1\nswap_barrier = 1\n");
+  const pid_t node = spawn({"--config", cfg.string(), "--node", "floor", "-v", "1"}, dir / "floor.log");
+  const std::string line =
+      "node floor: swap_group = 1, swap_barrier = 1 asked for, but the display does not offer GLX_NV_swap_group";
+  bool said = false;
+  for (int i = 0; i < 600 && !said; ++i) {
+    said = read(dir / "floor.log").find(line) != std::string::npos;
+    if (!said) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(waitpid(node, nullptr, WNOHANG), 0) << "the node stopped: " << read(dir / "floor.log");
+  kill(node, SIGTERM);
+  EXPECT_EQ(wait_exit(node), 128 + SIGTERM) << read(dir / "floor.log");
+  EXPECT_TRUE(said) << read(dir / "floor.log");
+}

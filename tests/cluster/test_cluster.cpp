@@ -116,6 +116,16 @@ TEST(ClusterConfig, NodesReadAndMistakesSaidWithFileLineAndKey) {
   EXPECT_EQ(error_of(head + node + node), "room.toml:8: cluster.nodes[1].name: node \"a\" named twice");
   EXPECT_EQ(error_of(head + "[[cluster.nodes]]\nname = \"a\"\n").substr(0, 35), "room.toml:4: cluster.nodes[0].walls");
   EXPECT_EQ(error_of(head), "room.toml:1: cluster.nodes: a cluster has at least one [[cluster.nodes]]");
+  // A hardware swap group (and barrier) asked for by a node: 1..16; a barrier needs a group.
+  const auto g = kc::parse_cluster_config(head + node + "swap_group = 2\nswap_barrier = 1\n", "room.toml");
+  ASSERT_TRUE(g);
+  EXPECT_EQ(g->nodes[0].swap_group, 2);
+  EXPECT_EQ(g->nodes[0].swap_barrier, 1);
+  EXPECT_FALSE(c->nodes[0].swap_group);
+  EXPECT_EQ(error_of(head + node + "swap_group = 0\n").substr(0, 42), "room.toml:7: cluster.nodes[0].swap_group: ");
+  EXPECT_EQ(error_of(head + node + "swap_group = 1.5\n").substr(0, 42), "room.toml:7: cluster.nodes[0].swap_group: ");
+  EXPECT_EQ(error_of(head + node + "swap_barrier = 1\n"),
+            "room.toml:7: cluster.nodes[0].swap_barrier: binds a swap group to a barrier: give swap_group too");
 }
 
 namespace {

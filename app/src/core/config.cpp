@@ -1021,6 +1021,8 @@ std::string to_toml(const InstallationConfig& c) {
       toml::table nt{{"name", n.name}, {"walls", std::move(node_walls)}};
       if (n.address) nt.insert("address", *n.address);
       if (!n.windows.empty()) nt.insert("windows", std::move(node_windows));
+      if (n.swap_group) nt.insert("swap_group", *n.swap_group);
+      if (n.swap_barrier) nt.insert("swap_barrier", *n.swap_barrier);
       nodes.push_back(std::move(nt));
     }
     ct.insert("nodes", std::move(nodes));
