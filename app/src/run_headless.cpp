@@ -15,6 +15,7 @@
 #include "kumite/app/service.hpp"
 #include "kumite/app/session.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/app/wall_notice.hpp"
 
 namespace kumite::app {
 
@@ -43,14 +44,18 @@ class HeadlessPresenter {
     pngs_ = std::make_unique<PngWriter>(2 * targets_.size() * (stereo_ ? 2 : 1), wait_for_pngs);
   }
 
-  /// Draws frame `i` (its number in the PNG names) and logs it.
+  /// Draws frame `i` (its number in the PNG names) and logs it. A frame the source hands again
+  /// (repeated(): a render node waiting for its master) is drawn with its notice, saved as
+  /// WALL_EYE_NNNNN_notice.png (whenever PNGs are saved at all) and not logged.
   void present(const FrameSource& source, const FrameData& f, int i) {
+    const bool again = source.repeated();
+    const std::string_view notice = source.notice();
     const char* eye_names[2] = {stereo_ ? "left" : "mono", "right"};
     // Every K-th frame, and each strike's moment of contact (a hit or a miss), which a
     // strike-long run would otherwise rarely catch.
     const bool contact = std::any_of(f.events.begin(), f.events.end(),
                                      [](const FrameEvent& e) { return is_strike_outcome(e.type); });
-    const bool save = save_every_ > 0 && (i % save_every_ == 0 || contact);
+    const bool save = save_every_ > 0 && (i % save_every_ == 0 || contact || again);
     {
       const Timestamp r0 = now();
       renderer_->begin_frame(f.fighter);  // the body's retarget and palette: once for all walls
@@ -63,6 +68,7 @@ class HeadlessPresenter {
         target.bind();
         renderer_->clear(0, 0, target.width(), target.height());
         renderer_->draw(f.views[w][static_cast<std::size_t>(e)], f.items);
+        draw_wall_notice(notice, 0, 0, target.width(), target.height());
         if (!save) {
           glFlush();
           render_s_ += now() - r0;
@@ -70,7 +76,8 @@ class HeadlessPresenter {
         }
         target.read(pixels_);
         render_s_ += now() - r0;
-        if (!pngs_->push(out_ / fmt::format("{}_{}_{:05}.png", names_[w], eye_names[e], i), target.width(),
+        if (!pngs_->push(out_ / fmt::format("{}_{}_{:05}{}.png", names_[w], eye_names[e], i, again ? "_notice" : ""),
+                         target.width(),
                          target.height(), std::move(pixels_)) &&
             pngs_->dropped() == 1)
           spdlog::warn("headless: frame {}: the PNG writer is behind, images are being dropped", i);
@@ -78,7 +85,7 @@ class HeadlessPresenter {
       }
     }
     for (const auto& e : pngs_->take_errors()) spdlog::warn("headless: {}", e);
-    log_->write(f, source.console(f), names_, stereo_);
+    if (!again) log_->write(f, source.console(f), names_, stereo_);
     // Nothing queued behind the frame just drawn: without a swap chain nothing else throttles
     // the driver, and Mesa's software renderer (the headless demo's, CI's) keeps every scene it
     // ever had to queue when its threads fell behind (the soak's RSS stepped up whenever the
@@ -125,6 +132,7 @@ int present_headless(FrameSource& source, const HeadlessOptions& opt) {
     // present() waited for the GPU (glFinish): the frame's whole work is done.
     source.drawn();
     source.shown(now());
+    if (source.repeated()) continue;  // the last frame again (its notice drawn): not counted
     ++frames;
     if (opt.monitor && source.installation()) opt.monitor->frame_done(*source.installation(), *f);
     if (source.ending()) break;

@@ -21,6 +21,7 @@
 #include "kumite/app/session.hpp"
 #include "kumite/app/stereo.hpp"
 #include "kumite/common/error.hpp"
+#include "swap_group_glx.hpp"
 
 namespace kumite::app {
 
@@ -125,11 +126,18 @@ class Windows {
  public:
   /// `keys`: every window's key and close target. Throws kumite::Error when a window or the
   /// stereo mode asked for cannot be had.
-  Windows(const FrameSource& source, bool with_console, KeyContext* keys) : cfg_(source.config()) {
+  Windows(const FrameSource& source, bool with_console, KeyContext* keys,
+          const std::optional<SwapGroupRequest>& swap_group = std::nullopt)
+      : cfg_(source.config()) {
     glfwSetErrorCallback(glfw_error);
     if (!glfwInit()) throw Error("app", "display", "cannot open the display (GLFW init failed): use --headless");
     try {
       open(source, with_console, keys);
+      if (swap_group) {
+        std::vector<GLFWwindow*> walls;
+        for (const auto& s : slots_) walls.push_back(s.window);
+        join_swap_group(walls, *swap_group);
+      }
     } catch (...) {
       close();
       throw;
@@ -143,16 +151,20 @@ class Windows {
   Console* console() { return console_.get(); }
   GLFWwindow* first() const { return slots_[0].window; }
 
-  /// Draws `f` into every wall's viewport (`finish`: and waits for the GPU).
-  void draw(const FrameData& f, bool finish) {
+  /// Draws `f` into every wall's viewport, `notice` across each (none: empty), (`finish`: and
+  /// waits for the GPU).
+  void draw(const FrameData& f, bool finish, std::string_view notice = {}) {
     for (auto& s : slots_) {
       glfwMakeContextCurrent(s.window);
       int fb_w = 0, fb_h = 0;
       glfwGetFramebufferSize(s.window, &fb_w, &fb_h);
       s.renderer->begin_frame(f.fighter);
       s.renderer->clear(0, 0, fb_w, fb_h);
-      for (std::size_t w : s.walls)
-        draw_wall_stereo(*s.renderer, mode_, wall_viewport(cfg_.walls[w], s.config, fb_w, fb_h), f.views[w], f.items);
+      for (std::size_t w : s.walls) {
+        const Viewport v = wall_viewport(cfg_.walls[w], s.config, fb_w, fb_h);
+        draw_wall_stereo(*s.renderer, mode_, v, f.views[w], f.items);
+        draw_notice_stereo(mode_, v, notice);
+      }
       if (finish) glFinish();
     }
   }
@@ -258,7 +270,7 @@ int present_windows(FrameSource& source, const WindowOptions& opt) {
   // Keys order the installation the frames are stepped by; a recording's or the network's
   // frames take no orders: their quit key (or closing a window) ends the run.
   KeyContext keys{source.orders(), source.orders() ? nullptr : &cfg};
-  Windows windows(source, opt.console && source.installation() != nullptr, &keys);
+  Windows windows(source, opt.console && source.installation() != nullptr, &keys, opt.swap_group);
   const StereoMode mode = windows.mode();
 
   std::unique_ptr<FrameLog> log;
@@ -277,7 +289,7 @@ int present_windows(FrameSource& source, const WindowOptions& opt) {
     const FrameData* fp = source.next();
     if (!fp) break;
     const FrameData& f = *fp;
-    windows.draw(f, finish);
+    windows.draw(f, finish, source.notice());
     source.drawn();
     const bool last = source.ending() || stopped() || keys.quit || (opt.seconds && f.time_s >= *opt.seconds);
     if (last && opt.screenshot) {

@@ -1,6 +1,7 @@
 #include "kumite/app/stereo.hpp"
 
 #include "gl.hpp"
+#include "kumite/app/wall_notice.hpp"
 
 namespace kumite::app {
 
@@ -44,6 +45,32 @@ void draw_wall_stereo(Renderer& r, StereoMode mode, const Viewport& v,
       glDrawBuffer(GL_BACK_RIGHT);
       eye(v.x, v.y, v.width, v.height, 1);
       glDrawBuffer(GL_BACK);
+      break;
+  }
+}
+
+void draw_notice_stereo(StereoMode mode, const Viewport& v, std::string_view text) {
+  if (text.empty()) return;
+  switch (mode) {
+    case StereoMode::side_by_side: {
+      const int half = v.width / 2;
+      draw_wall_notice(text, v.x, v.y, half, v.height);
+      draw_wall_notice(text, v.x + half, v.y, v.width - half, v.height);
+      break;
+    }
+    case StereoMode::top_bottom: {
+      const int half = v.height / 2;
+      draw_wall_notice(text, v.x, v.y + (v.height - half), v.width, half);
+      draw_wall_notice(text, v.x, v.y, v.width, v.height - half);
+      break;
+    }
+    case StereoMode::quad_buffer:
+      glDrawBuffer(GL_BACK);  // both eyes' back buffers
+      draw_wall_notice(text, v.x, v.y, v.width, v.height);
+      break;
+    case StereoMode::anaglyph:  // the letters in both colours: seen with either eye
+    case StereoMode::mono:
+      draw_wall_notice(text, v.x, v.y, v.width, v.height);
       break;
   }
 }

@@ -205,6 +205,8 @@ int run(const Args& a, const std::atomic<int>& stop, kumite::Timestamp process_s
     if (!a.screenshot.empty()) wo.screenshot = a.screenshot;
     if (!a.log.empty()) wo.log = a.log;
     wo.stop = &stop;
+    if (const auto* n = config.cluster->node(a.node); n && n->swap_group)
+      wo.swap_group = kumite::app::SwapGroupRequest{a.node, *n->swap_group, n->swap_barrier};
     return kumite::app::present_windows(source, wo);
   }
   // The health report: --health-file, else the config's [health] file (made like an output).

@@ -35,13 +35,17 @@ std::vector<std::string> names(const TomlTable& t, std::string_view key) {
 
 /// One [[cluster.nodes]] table.
 NodeConfig read_node(const TomlTable& t) {
-  t.only({"name", "address", "walls", "windows"});
+  t.only({"name", "address", "walls", "windows", "swap_group", "swap_barrier"});
   NodeConfig n;
   n.line = t.line();
   n.name = t.string("name", false);
   n.address = t.opt_string("address", false);
   n.walls = names(t, "walls");
   n.windows = names(t, "windows");
+  if (const auto g = t.opt_integer("swap_group", 1, 16)) n.swap_group = static_cast<int>(*g);
+  if (const auto b = t.opt_integer("swap_barrier", 1, 16)) n.swap_barrier = static_cast<int>(*b);
+  if (n.swap_barrier && !n.swap_group)
+    t.fail("missing_key", "swap_barrier", "binds a swap group to a barrier: give swap_group too");
   if (n.walls.empty()) t.fail("missing_key", "walls", "a node draws at least one wall (walls = [\"front\"])");
   std::set<std::string> seen;
   for (const auto& w : n.walls)

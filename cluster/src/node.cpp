@@ -75,15 +75,21 @@ struct Node::Impl {
     ++stats.hellos;
   }
 
-  void control() {
-    while (detail::try_recv(dealer, msg)) {
+  /// Takes every message `socket` holds, each one read (its defects counted and dropped) and
+  /// handed to `on(header, payload)`.
+  template <typename F>
+  void receive(zmq::socket_t& socket, F&& on) {
+    while (detail::try_recv(socket, msg)) {
       Header h;
       std::string_view payload;
       const Defect d = decode_message(msg.to_string_view(), opt.config_hash, h, payload);
-      if (d != Defect::none) {
-        stats.defects.count(d);
-        continue;
-      }
+      if (d != Defect::none) stats.defects.count(d);
+      else on(h, payload);
+    }
+  }
+
+  void control() {
+    receive(dealer, [this](const Header& h, std::string_view payload) {
       switch (h.type) {
         case MessageType::welcome:
           if (!welcomed) events.push_back(fmt::format("node {}: in the barrier", opt.name));
@@ -102,19 +108,12 @@ struct Node::Impl {
           break;
         default: stats.defects.count(Defect::bad_type); break;
       }
-    }
+    });
   }
 
   /// Reads what the SUB socket holds: the newest STATE into `pending`, GO frames into latest_go.
   void drain() {
-    while (detail::try_recv(sub, msg)) {
-      Header h;
-      std::string_view payload;
-      const Defect d = decode_message(msg.to_string_view(), opt.config_hash, h, payload);
-      if (d != Defect::none) {
-        stats.defects.count(d);
-        continue;
-      }
+    receive(sub, [this](const Header& h, std::string_view payload) {
       if (h.type == MessageType::state) {
         if (has_pending) ++stats.skipped;
         pending.assign(payload);  // room reused
@@ -127,7 +126,7 @@ struct Node::Impl {
       } else {
         stats.defects.count(Defect::bad_type);
       }
-    }
+    });
   }
 
   void keep_in_touch() {

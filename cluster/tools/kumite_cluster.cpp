@@ -65,17 +65,25 @@ int run_master(const std::string& config, int frames, double rate, std::size_t p
   kc::Master master(mo);
   std::vector<std::byte> state(payload);
   std::FILE* out = log.empty() ? nullptr : std::fopen(log.c_str(), "w");
-  if (out) std::fprintf(out, "frame,publish_s,members,ready,deadline_hit,gather_ms\n");
+  if (out) std::fprintf(out, "frame,publish_s,members,ready,deadline_hit,gather_ms,step_ms\n");
   const double period = 1.0 / rate;
   const kumite::Timestamp t0 = now();
   for (int i = 0; (frames <= 0 || i < frames) && !g_stop; ++i) {
     const kumite::Timestamp t = t0 + i * period;
     kumite::sleep_until(t);
-    for (std::size_t k = 0; k < std::min<std::size_t>(payload, 8); ++k) state[k] = static_cast<std::byte>(i >> (8 * k));
+    // The frame number's 8 bytes, little-endian (shifted as 64 bits: an int shifted by 32 or
+    // more is undefined, UBSan's finding).
+    const auto number = static_cast<std::uint64_t>(i);
+    for (std::size_t k = 0; k < std::min<std::size_t>(payload, 8); ++k) state[k] = static_cast<std::byte>(number >> (8 * k));
     const kumite::Timestamp pub = now();
     master.publish(static_cast<std::uint64_t>(i), t - t0, state);
+    // The master's own work for the frame: publishing the state (to every node's pipe); the
+    // gather that follows waits for the nodes and is the barrier's, not the step's.
+    const double step_ms = (now() - pub) * 1e3;
     const auto& r = master.release();
-    if (out) std::fprintf(out, "%d,%.6f,%d,%d,%d,%.3f\n", i, pub, r.members, r.ready, r.deadline_hit ? 1 : 0, r.gather_s * 1e3);
+    if (out)
+      std::fprintf(out, "%d,%.6f,%d,%d,%d,%.3f,%.4f\n", i, pub, r.members, r.ready, r.deadline_hit ? 1 : 0,
+                   r.gather_s * 1e3, step_ms);
     for (const auto& e : master.take_events()) std::fprintf(stderr, "master: %s\n", e.c_str());
   }
   if (out) std::fclose(out);
@@ -159,15 +167,23 @@ std::map<std::uint64_t, Row> read_log(const std::filesystem::path& p) {
   }
   return rows;
 }
-std::map<std::uint64_t, double> read_publish(const std::filesystem::path& p) {
-  std::map<std::uint64_t, double> rows;
+struct PublishRow {
+  double publish_s = 0, step_ms = 0;
+  int members = 0;
+};
+std::map<std::uint64_t, PublishRow> read_publish(const std::filesystem::path& p) {
+  std::map<std::uint64_t, PublishRow> rows;
   std::ifstream in(p);
   std::string line;
   std::getline(in, line);
   while (std::getline(in, line)) {
     unsigned long long f = 0;
-    double t = 0;
-    if (std::sscanf(line.c_str(), "%llu,%lf", &f, &t) == 2) rows[f] = t;
+    PublishRow r;
+    int ready = 0, hit = 0;
+    double gather = 0;
+    if (std::sscanf(line.c_str(), "%llu,%lf,%d,%d,%d,%lf,%lf", &f, &r.publish_s, &r.members, &ready, &hit, &gather,
+                    &r.step_ms) == 7)
+      rows[f] = r;
   }
   return rows;
 }
@@ -235,7 +251,8 @@ int run_bench(const std::vector<int>& counts, int frames, const std::string& tra
               "  \"runs\": [\n", transport.c_str(), rate, payload, frames, draw_ms);
   for (std::size_t ci = 0; ci < counts.size(); ++ci) {
     const int n = counts[ci];
-    const std::string config = write_config(dir, n, transport, 27700 + 10 * static_cast<int>(ci));
+    // A cluster names one node at least: with none attached, n0 is named and never started.
+    const std::string config = write_config(dir, std::max(n, 1), transport, 27700 + 10 * static_cast<int>(ci));
     std::vector<pid_t> pids;
     for (int i = 0; i < n; ++i)
       pids.push_back(spawn({"kumite-cluster", "node", "--config", config, "--node", fmt::format("n{}", i), "--draw-ms",
@@ -252,8 +269,11 @@ int run_bench(const std::vector<int>& counts, int frames, const std::string& tra
     std::vector<std::map<std::uint64_t, Row>> logs;
     for (int i = 0; i < n; ++i) logs.push_back(read_log(dir / fmt::format("n{}.csv", i)));
     const auto published = read_publish(dir / "master.csv");
-    std::vector<double> skew, latency;
-    for (const auto& [f, pub] : published) {
+    std::vector<double> skew, latency, step;
+    for (const auto& [f, row] : published) {
+      // The master's step: frames with every node in the barrier (all of them with none).
+      if (row.members == n) step.push_back(row.step_ms * 1e-3);
+      const double pub = row.publish_s;
       double lo = INFINITY, hi = -INFINITY;
       bool all = true;
       for (const auto& l : logs) {
@@ -266,12 +286,16 @@ int run_bench(const std::vector<int>& counts, int frames, const std::string& tra
         hi = std::max(hi, it->second.go_rx);
         latency.push_back(it->second.state_rx - pub);
       }
-      if (all) skew.push_back(hi - lo);
+      if (all && !logs.empty()) skew.push_back(hi - lo);
     }
-    std::printf("    {\"nodes\": %d, \"frames_all_released\": %zu, \"go_skew_ms\": {\"p50\": %.3f, \"p99\": %.3f, \"max\": %.3f}, "
-                "\"state_to_node_ms\": {\"p50\": %.3f, \"p99\": %.3f}}%s\n",
-                n, skew.size(), pct(skew, 0.5) * 1e3, pct(skew, 0.99) * 1e3, pct(skew, 1.0) * 1e3,
-                pct(latency, 0.5) * 1e3, pct(latency, 0.99) * 1e3, ci + 1 < counts.size() ? "," : "");
+    // JSON has no NaN: a figure without frames (no nodes: no skew) is null.
+    const auto ms = [](double s) { return std::isfinite(s) ? fmt::format("{:.3f}", s * 1e3) : std::string("null"); };
+    std::printf("    {\"nodes\": %d, \"frames_all_released\": %zu, \"go_skew_ms\": {\"p50\": %s, \"p99\": %s, \"max\": %s}, "
+                "\"state_to_node_ms\": {\"p50\": %s, \"p99\": %s}, "
+                "\"master_step_ms\": {\"frames\": %zu, \"p50\": %s, \"p99\": %s}}%s\n",
+                n, skew.size(), ms(pct(skew, 0.5)).c_str(), ms(pct(skew, 0.99)).c_str(), ms(pct(skew, 1.0)).c_str(),
+                ms(pct(latency, 0.5)).c_str(), ms(pct(latency, 0.99)).c_str(), step.size(), ms(pct(step, 0.5)).c_str(),
+                ms(pct(step, 0.99)).c_str(), ci + 1 < counts.size() ? "," : "");
     std::fflush(stdout);
   }
   std::printf("  ],\n");
@@ -359,7 +383,8 @@ int main(int argc, char** argv) {
     std::stringstream ss(nodes_list);
     for (std::string item; std::getline(ss, item, ',');) {
       const int c = std::atoi(item.c_str());
-      if (c < 1 || c > 64) throw kumite::Error("cli", "nodes", fmt::format("--nodes: \"{}\": counts 1 to 64", item));
+      if (c < 0 || c > 64 || item.find_first_not_of("0123456789") != std::string::npos || item.empty())
+        throw kumite::Error("cli", "nodes", fmt::format("--nodes: \"{}\": counts 0 to 64 (0: the master alone)", item));
       counts.push_back(c);
     }
     return run_bench(counts, frames, transport, payload, rate, draw_ms);

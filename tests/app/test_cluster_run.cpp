@@ -1,7 +1,7 @@
 // The render cluster through the kumite binary: a master (the demo, simulated time) and two
 // headless render nodes (`--node`) on one machine over ipc://; the nodes draw the frames the
 // master stepped, as a single process stepping the same demo makes them; a node with another
-// installation file is refused in one line.
+// installation file is refused in one line; a node whose master is gone says so on its walls.
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -18,6 +18,9 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "kumite/app/wall_notice.hpp"
 
 namespace fs = std::filesystem;
 
@@ -189,4 +192,127 @@ TEST(ClusterRun, ANodeWithAnotherInstallationFileIsRefusedInOneLine) {
   EXPECT_EQ(rc, 1) << read(dir / "floor.log");
   const std::string log = read(dir / "floor.log");
   EXPECT_NE(log.find("kumite: node \"floor\" refused: its installation file (hash"), std::string::npos) << log;
+}
+
+namespace {
+
+/// Waits until `pred` holds (true) or `seconds` pass (false).
+template <typename P>
+bool within(double seconds, P pred) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    if (pred()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  return pred();
+}
+
+std::size_t count_of(const std::string& text, const std::string& what) {
+  std::size_t n = 0;
+  for (std::size_t at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+  return n;
+}
+
+/// The notice's letters in a wall's PNG (BGR, top row first): how many of its pixels are the
+/// letters' colour, and whether any of them lies outside the notice's band.
+struct Letters {
+  std::size_t pixels = 0;
+  bool outside_band = false;
+};
+Letters letters_in(const cv::Mat& img, const kumite::app::NoticeLayout& l) {
+  Letters out;
+  for (int y = 0; y < img.rows; ++y)
+    for (int x = 0; x < img.cols; ++x) {
+      const auto& p = img.at<cv::Vec3b>(y, x);
+      bool lit = true;
+      for (int k = 0; k < 3; ++k)
+        if (std::abs(p[2 - k] - static_cast<int>(kumite::app::kNoticeText[k] * 255.0f + 0.5f)) > 2) lit = false;
+      if (!lit) continue;
+      ++out.pixels;
+      const int gl_y = img.rows - 1 - y;
+      if (gl_y < l.band_y || gl_y >= l.band_y + l.band_h) out.outside_band = true;
+    }
+  return out;
+}
+
+}  // namespace
+
+TEST(ClusterRun, ANodeWhoseMasterIsGoneSaysSoOnItsWalls) {
+  if (!demo_data()) GTEST_SKIP() << "no demo data (scripts/make-demo-data.sh)";
+  const fs::path dir = fresh_dir("notice");
+  const fs::path cfg = write_config(dir, "room.toml", true);
+  const fs::path out = dir / "floor";
+  const pid_t node = spawn({"--config", cfg.string(), "--node", "floor", "--headless", "--resolution", "320x320",
+                            "--save-every", "1", "--out", out.string(), "-v", "1"},
+                           dir / "floor.log");
+  const std::string text = "waiting for master";
+  const auto layout = kumite::app::notice_layout(text.size(), 320, 320);
+  const std::size_t lit = kumite::app::notice_pixels_lit(text) * static_cast<std::size_t>(layout.scale * layout.scale);
+  // No master yet: once master_lost_ms has passed, the empty room with the notice.
+  ASSERT_TRUE(within(60, [&] { return fs::exists(out / "floor_left_00000_notice.png"); })) << read(dir / "floor.log");
+  const std::vector<std::string> margs{"--config", cfg.string(), "--headless", "--resolution", "32x18", "--simulated-time",
+                                       "--frames", "30", "--save-every", "0", "--out", (dir / "master").string()};
+  ASSERT_EQ(wait_exit(spawn(margs, dir / "master.log")), 0) << read(dir / "master.log");
+  // The master gone: the node waits for it again (its second wait), its last frame shown.
+  ASSERT_TRUE(within(30, [&] { return count_of(read(dir / "floor.log"), "waiting for master") >= 2; }))
+      << read(dir / "floor.log");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  kill(node, SIGTERM);
+  ASSERT_EQ(wait_exit(node), 128 + SIGTERM) << read(dir / "floor.log");
+
+  const auto frames = frames_of(out / "frames.jsonl");
+  ASSERT_FALSE(frames.empty()) << read(dir / "floor.log");
+  // The notice's frames are drawn, not logged: one line per frame of the master's.
+  std::ifstream lines(out / "frames.jsonl");
+  std::size_t n = 0;
+  for (std::string line; std::getline(lines, line);) ++n;
+  EXPECT_EQ(n, frames.size());
+  const std::uint64_t last = frames.rbegin()->first;
+  for (const std::string eye : {"left", "right"}) {
+    char name[64];
+    std::snprintf(name, sizeof name, "floor_%s_%05llu", eye.c_str(), static_cast<unsigned long long>(last));
+    const cv::Mat shown = cv::imread((out / (std::string(name) + ".png")).string());
+    const cv::Mat notice = cv::imread((out / (std::string(name) + "_notice.png")).string());
+    ASSERT_FALSE(shown.empty()) << name;
+    ASSERT_FALSE(notice.empty()) << name << "_notice.png: the walls did not say that the master is gone";
+    ASSERT_EQ(notice.size(), shown.size());
+    // The letters, all of them, on the band; above and below it the last frame kept as it was.
+    const Letters l = letters_in(notice, layout);
+    EXPECT_EQ(l.pixels, lit) << name;
+    EXPECT_FALSE(l.outside_band);
+    EXPECT_EQ(letters_in(shown, layout).pixels, 0u) << name << ": letters on a frame of the master's";
+    std::size_t differ = 0;
+    for (int y = 0; y < shown.rows; ++y) {
+      const int gl_y = shown.rows - 1 - y;
+      if (gl_y >= layout.band_y && gl_y < layout.band_y + layout.band_h) continue;
+      for (int x = 0; x < shown.cols; ++x)
+        if (shown.at<cv::Vec3b>(y, x) != notice.at<cv::Vec3b>(y, x)) ++differ;
+    }
+    EXPECT_EQ(differ, 0u) << name << ": the last picture was not kept around the notice";
+  }
+  const cv::Mat before = cv::imread((out / "floor_left_00000_notice.png").string());
+  EXPECT_EQ(letters_in(before, layout).pixels, lit);
+}
+
+// A node asking for a hardware swap group on a display without GLX_NV_swap_group (Xvfb): one
+// line says so and what its walls do instead; the node runs on. Needs a display (the ctest
+// ClusterWindows.UnderXvfb runs it under xvfb-run); skipped without one.
+TEST(ClusterWindows, ASwapGroupTheDisplayDoesNotOfferIsSaidInOneLine) {
+  const char* display = std::getenv("DISPLAY");
+  if (!display || !*display) GTEST_SKIP() << "no display (ctest ClusterWindows.UnderXvfb runs this under xvfb-run)";
+  const fs::path dir = fresh_dir("swap_group");
+  // The file's last table is the floor node's: it asks for group 1 bound to barrier 1.
+  const fs::path cfg = write_config(dir, "room.toml", true, "swap_group = 1\nswap_barrier = 1\n");
+  const pid_t node = spawn({"--config", cfg.string(), "--node", "floor", "-v", "1"}, dir / "floor.log");
+  const std::string line =
+      "node floor: swap_group = 1, swap_barrier = 1 asked for, but the display does not offer GLX_NV_swap_group";
+  bool said = false;
+  for (int i = 0; i < 600 && !said; ++i) {
+    said = read(dir / "floor.log").find(line) != std::string::npos;
+    if (!said) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_EQ(waitpid(node, nullptr, WNOHANG), 0) << "the node stopped: " << read(dir / "floor.log");
+  kill(node, SIGTERM);
+  EXPECT_EQ(wait_exit(node), 128 + SIGTERM) << read(dir / "floor.log");
+  EXPECT_TRUE(said) << read(dir / "floor.log");
 }

@@ -1,4 +1,5 @@
 // The render cluster: protocol and config, then a master with render nodes on one machine.
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -115,6 +116,16 @@ TEST(ClusterConfig, NodesReadAndMistakesSaidWithFileLineAndKey) {
   EXPECT_EQ(error_of(head + node + node), "room.toml:8: cluster.nodes[1].name: node \"a\" named twice");
   EXPECT_EQ(error_of(head + "[[cluster.nodes]]\nname = \"a\"\n").substr(0, 35), "room.toml:4: cluster.nodes[0].walls");
   EXPECT_EQ(error_of(head), "room.toml:1: cluster.nodes: a cluster has at least one [[cluster.nodes]]");
+  // A hardware swap group (and barrier) asked for by a node: 1..16; a barrier needs a group.
+  const auto g = kc::parse_cluster_config(head + node + "swap_group = 2\nswap_barrier = 1\n", "room.toml");
+  ASSERT_TRUE(g);
+  EXPECT_EQ(g->nodes[0].swap_group, 2);
+  EXPECT_EQ(g->nodes[0].swap_barrier, 1);
+  EXPECT_FALSE(c->nodes[0].swap_group);
+  EXPECT_EQ(error_of(head + node + "swap_group = 0\n").substr(0, 42), "room.toml:7: cluster.nodes[0].swap_group: ");
+  EXPECT_EQ(error_of(head + node + "swap_group = 1.5\n").substr(0, 42), "room.toml:7: cluster.nodes[0].swap_group: ");
+  EXPECT_EQ(error_of(head + node + "swap_barrier = 1\n"),
+            "room.toml:7: cluster.nodes[0].swap_barrier: binds a swap group to a barrier: give swap_group too");
 }
 
 namespace {
@@ -485,4 +496,44 @@ TEST(ClusterBarrier, ASecondProcessUnderATakenNameIsRefusedAndTheFirstStays) {
   EXPECT_GE(drawn.load(), before + 30);
   stop = true;
   first.join();
+}
+
+// The tool's own master and node (the bench's synthetic frames) as processes that end by
+// themselves: both exit 0 having passed every frame (under ASan + UBSan, a finding in either
+// ends it with another status: the master's synthetic state once shifted an int by 32).
+TEST(ClusterProcesses, TheToolsMasterAndNodeRunTheirFramesAndExitCleanly) {
+  const auto dir = temp_dir("tool");
+  const std::string text = cluster_text(1, dir);
+  const auto config = (dir / "room.toml").string();
+  std::ofstream(config) << text;
+  const std::string exe = KUMITE_BINARY_DIR + "/bin/kumite-cluster";
+  const auto run = [&](std::vector<std::string> args, const std::filesystem::path& log) {
+    const pid_t pid = fork();
+    if (pid == 0) {
+      const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+      dup2(fd, 2);
+      std::vector<char*> argv{const_cast<char*>(exe.c_str())};
+      for (auto& a : args) argv.push_back(a.data());
+      argv.push_back(nullptr);
+      execv(exe.c_str(), argv.data());
+      _exit(127);
+    }
+    return pid;
+  };
+  const auto status = [](pid_t pid) {
+    int s = 0;
+    waitpid(pid, &s, 0);
+    return WIFEXITED(s) ? WEXITSTATUS(s) : 128 + WTERMSIG(s);
+  };
+  const auto read = [](const std::filesystem::path& p) {
+    std::ifstream in(p);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  // The node leaves 1.5 s after its last state; the master runs 2 s at 120 Hz with 32-byte states.
+  const pid_t node = run({"node", "--config", config, "--node", "n0", "--idle-exit-s", "1.5"}, dir / "node.log");
+  const pid_t master = run({"master", "--config", config, "--frames", "240", "--rate", "120", "--payload", "32"}, dir / "master.log");
+  EXPECT_EQ(status(master), 0) << read(dir / "master.log");
+  EXPECT_EQ(status(node), 0) << read(dir / "node.log");
+  EXPECT_NE(read(dir / "master.log").find("master: 240 frames, 72 bytes/frame"), std::string::npos) << read(dir / "master.log");
+  EXPECT_NE(read(dir / "node.log").find("node n0: "), std::string::npos) << read(dir / "node.log");
 }

@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "kumite/app/scene.hpp"
 #include "kumite/common/error.hpp"
 
 namespace kumite::app {
@@ -174,12 +175,17 @@ const FrameData* ClusterNodeSource::next() {
     for (const auto& e : node_->take_events()) spdlog::info("cluster: {}", e);
     if (w == cluster::Node::Wait::refused) throw Error("cluster", "refused", *node_->refused());
     if (w != cluster::Node::Wait::state) {
-      if (options_.repeat_while_waiting && have_frame_ && node_->waiting_for_master()) {
-        repeated_ = true;  // the last picture kept, the windows' events handled
+      // The walls say that the master is gone: the last picture with the notice over it (the
+      // windows' events handled meanwhile), every repeat_s in windows, once per wait headless.
+      if (node_->waiting_for_master() && (options_.repeat_while_waiting || !notice_shown_)) {
+        if (!have_frame_) empty_room();
+        notice_shown_ = true;
+        repeated_ = true;
         return &frame_;
       }
       continue;
     }
+    notice_shown_ = false;
     if (!decoder_.decode(node_->state(), frame_)) {
       if (undecodable_++ == 0)
         spdlog::warn("cluster node {}: frame {}: its state does not read ({}): skipped (counted)", name_,
@@ -190,6 +196,20 @@ const FrameData* ClusterNodeSource::next() {
     have_frame_ = true;
     return &frame_;
   }
+}
+
+std::string_view ClusterNodeSource::notice() const {
+  return node_->waiting_for_master() ? "waiting for master" : std::string_view{};
+}
+
+void ClusterNodeSource::empty_room() {
+  // No frame of a master's yet: the room as it stands, seen from the default head.
+  const InstallationConfig& c = subset_.config();
+  frame_ = FrameData{};
+  frame_.head.position = {c.viewer.default_head_m[0], c.viewer.default_head_m[1], c.viewer.default_head_m[2]};
+  const auto& off = c.viewer.eye_offset_m;
+  frame_.eyes = eyes_from_head(frame_.head, c.viewer.interpupillary_distance_m, {off[0], off[1], off[2]});
+  plan_views(subset_.walls(), frame_.eyes, c.projection.near_m, c.projection.far_m, frame_.views);
 }
 
 ConsoleState ClusterNodeSource::console(const FrameData& f) const {

@@ -355,7 +355,7 @@ void Reader::parse_tracking(const toml::table& root) {
   if (!t) return;
   only_keys(*t, "tracking",
             {"source", "calibration", "tracking", "recording", "poses", "poses_loop", "head_body", "lost_after_s",
-             "recording_preload", "decode_threads", "realtime_priority", "dtrack", "osc"});
+             "recording_preload", "decode_threads", "realtime_priority", "dtrack", "osc", "out"});
   // [tracking.dtrack] and [tracking.osc]: the interop library's keys, read by
   // tracking::parse_dtrack_config from the same text (parse_config).
   auto& c = cfg_.tracking;
@@ -381,6 +381,21 @@ void Reader::parse_tracking(const toml::table& root) {
   integer(*t, "recording_preload", "tracking", c.recording_preload);
   integer(*t, "decode_threads", "tracking", c.decode_threads);
   integer(*t, "realtime_priority", "tracking", c.realtime_priority);
+  if (const auto* out = table(*t, "out", "tracking", false)) {
+    only_keys(*out, "tracking.out", {"dtrack", "osc"});
+    for (const auto& [key, value] : {std::pair{"dtrack", &c.out_dtrack}, std::pair{"osc", &c.out_osc}}) {
+      if (!string(*out, key, "tracking.out", *value)) continue;
+      const std::string k = std::string("tracking.out.") + key;
+      // host:port: a host (a name, an IPv4 address or a multicast group) and a port 1..65535.
+      const auto colon = value->rfind(':');
+      const std::string host = colon == std::string::npos ? "" : value->substr(0, colon);
+      const std::string port = colon == std::string::npos ? "" : value->substr(colon + 1);
+      const bool digits = !port.empty() && port.size() <= 5 &&
+                          std::all_of(port.begin(), port.end(), [](char ch) { return ch >= '0' && ch <= '9'; });
+      if (host.empty() || !digits || std::stoi(port) < 1 || std::stoi(port) > 65535)
+        fail("format", cfg_.line_of(k), k, fmt::format("\"{}\": must be \"host:port\" (port 1..65535)", *value));
+    }
+  }
 }
 
 [[noreturn]] void fail_at(const InstallationConfig& c, std::string_view code,
@@ -960,6 +975,12 @@ std::string to_toml(const InstallationConfig& c) {
   if (t.source == TrackingSource::dtrack || t.dtrack != tracking::DtrackInput{})
     tracking.insert("dtrack", dtrack_table(t.dtrack, true));
   if (t.source == TrackingSource::osc || t.osc != TrackingConfig{}.osc) tracking.insert("osc", dtrack_table(t.osc, false));
+  if (!t.out_dtrack.empty() || !t.out_osc.empty()) {
+    toml::table out;
+    if (!t.out_dtrack.empty()) out.insert("dtrack", t.out_dtrack);
+    if (!t.out_osc.empty()) out.insert("osc", t.out_osc);
+    tracking.insert("out", std::move(out));
+  }
   root.insert("tracking", std::move(tracking));
   if (!c.recognition.model.empty())
     root.insert("recognition", toml::table{{"model", c.recognition.model.generic_string()}});
@@ -1001,6 +1022,8 @@ std::string to_toml(const InstallationConfig& c) {
       toml::table nt{{"name", n.name}, {"walls", std::move(node_walls)}};
       if (n.address) nt.insert("address", *n.address);
       if (!n.windows.empty()) nt.insert("windows", std::move(node_windows));
+      if (n.swap_group) nt.insert("swap_group", *n.swap_group);
+      if (n.swap_barrier) nt.insert("swap_barrier", *n.swap_barrier);
       nodes.push_back(std::move(nt));
     }
     ct.insert("nodes", std::move(nodes));

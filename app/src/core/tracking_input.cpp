@@ -1018,7 +1018,120 @@ std::optional<std::string> source_problem(const SourceStats& src) {
       100 * src.rates[0] / all, src.rates[2], src.rates[1]);
 }
 
+namespace {
+
+/// "host:port" (checked by the config reader) split.
+std::pair<std::string, int> host_port(const std::string& s) {
+  const auto colon = s.rfind(':');
+  return {s.substr(0, colon), std::stoi(s.substr(colon + 1))};
+}
+
+/// A sender that cannot be made (a host that does not resolve) is the file's mistake: one line
+/// at its key, and the run does not start.
+template <typename F>
+auto checked(const InstallationConfig& c, const char* key, F&& make) {
+  try {
+    return make();
+  } catch (const Error& e) {
+    throw file_error("config", "tracking_out", c.file.string(), c.line_of(key), key, e.what());
+  }
+}
+
+/// [tracking.out]: another input's visitor bodies sent on, each time the source has measured
+/// something new (the newest measurement's time advances), as DTrack ASCII and/or OSC. Sent on
+/// the thread that polls (the frame's): a sendto of a few hundred bytes; OSC through liblo,
+/// which allocates its bundle. Everything else is the inner input's.
+class TrackerOutput final : public TrackingInput {
+ public:
+  TrackerOutput(const InstallationConfig& c, std::unique_ptr<TrackingInput> inner)
+      : inner_(std::move(inner)), dtrack_in_(c.tracking.dtrack) {
+    if (!c.tracking.out_dtrack.empty()) {
+      const auto [host, port] = host_port(c.tracking.out_dtrack);
+      dtrack_ = checked(c, "tracking.out.dtrack", [&] { return std::make_unique<tracking::DtrackSender>(host, port); });
+      dtrack_to_ = c.tracking.out_dtrack;
+    }
+    if (!c.tracking.out_osc.empty()) {
+      const auto [host, port] = host_port(c.tracking.out_osc);
+      osc_ = checked(c, "tracking.out.osc", [&] { return std::make_unique<tracking::OscSender>(host, port); });
+      osc_to_ = c.tracking.out_osc;
+    }
+    spdlog::info("tracking out: the visitor's bodies{}{} (ids: {})",
+                 dtrack_ ? " as DTrack ASCII to " + dtrack_to_ : "", osc_ ? " as OSC to " + osc_to_ : "",
+                 dtrack_in_.has_roles() ? "[tracking.dtrack.bodies]" : "head 0, left_hand 1, right_hand 2, left_foot 3, right_foot 4");
+  }
+  ~TrackerOutput() override {
+    spdlog::info("tracking out: {} measurements sent{}{}", sent_,
+                 dtrack_ ? fmt::format(", DTrack {} failed", dtrack_failed_) : "",
+                 osc_ ? fmt::format(", OSC {} failed", osc_failed_) : "");
+  }
+
+  void poll(Timestamp now_s, Timestamp display_time, TrackingSnapshot& s) override {
+    inner_->poll(now_s, display_time, s);
+    Timestamp newest = -1;
+    for (const auto& b : s.bodies)
+      if (b && b->status == TrackingStatus::tracked) newest = std::max(newest, b->timestamp);
+    if (newest <= last_) return;  // nothing measured since the last send
+    last_ = newest;
+    room_.frame = ++sent_;
+    room_.source_time_s = newest;
+    room_.body_count = 0;
+    for (std::size_t r = 0; r < s.bodies.size(); ++r) {
+      if (!s.bodies[r]) continue;
+      const BodyPose& p = *s.bodies[r];
+      auto& b = room_.bodies[static_cast<std::size_t>(room_.body_count++)];
+      b.role = static_cast<std::int32_t>(r);
+      b.id = dtrack_in_.role_body[r] >= 0 ? dtrack_in_.role_body[r] : static_cast<std::int32_t>(r);
+      // Measured in this set: tracked; coasting or lost: not (DTrack leaves it out of 6d).
+      b.tracked = p.status == TrackingStatus::tracked && p.timestamp == newest;
+      b.quality = b.tracked ? 1.0 : -1.0;
+      b.position_m = p.position;
+      b.orientation = p.orientation;
+    }
+    if (dtrack_) {
+      tracking::to_dtrack_frame(room_, dtrack_in_.room, dtrack_frame_);
+      dtrack_frame_.timestamp_s = newest;
+      if (!dtrack_->send(dtrack_frame_) && dtrack_failed_++ == 0)
+        spdlog::warn("tracking out: DTrack to {}: {} (said once; counted)", dtrack_to_, dtrack_->last_error());
+    }
+    if (osc_ && !osc_->send(room_) && osc_failed_++ == 0)
+      spdlog::warn("tracking out: OSC to {}: {} (said once; counted)", osc_to_, osc_->last_error());
+  }
+  Timestamp clock() const override { return inner_->clock(); }
+  std::string describe() const override { return inner_->describe(); }
+  std::string none_why() const override { return inner_->none_why(); }
+  std::string source_line() const override { return inner_->source_line(); }
+  const std::vector<std::string>& camera_names() const override { return inner_->camera_names(); }
+  PoseTiming pose_timing(Timestamp t) override { return inner_->pose_timing(t); }
+  bool has_tracker() const override { return inner_->has_tracker(); }
+  bool follows_simulated_clock() const override { return inner_->follows_simulated_clock(); }
+  bool loading() const override { return inner_->loading(); }
+  std::vector<std::string> faults() const override { return inner_->faults(); }
+  void record_frame_sets(SessionRecorder* recorder) override { inner_->record_frame_sets(recorder); }
+
+ private:
+  std::unique_ptr<TrackingInput> inner_;
+  tracking::DtrackInput dtrack_in_;
+  std::unique_ptr<tracking::DtrackSender> dtrack_;
+  std::unique_ptr<tracking::OscSender> osc_;
+  std::string dtrack_to_, osc_to_;
+  tracking::RoomFrame room_;
+  tracking::DtrackFrame dtrack_frame_;
+  Timestamp last_ = -1;
+  std::uint64_t sent_ = 0, dtrack_failed_ = 0, osc_failed_ = 0;
+};
+
+std::unique_ptr<TrackingInput> make_source(const InstallationConfig& config, const TrackingInputOptions& options);
+
+}  // namespace
+
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config, const TrackingInputOptions& options) {
+  auto in = make_source(config, options);
+  if (config.tracking.out_dtrack.empty() && config.tracking.out_osc.empty()) return in;
+  return std::make_unique<TrackerOutput>(config, std::move(in));
+}
+
+namespace {
+std::unique_ptr<TrackingInput> make_source(const InstallationConfig& config, const TrackingInputOptions& options) {
   if (config.tracking.source == TrackingSource::none)
     return make_fixed_head_input("tracking.source = \"none\"");
   // On the simulated clock a source with a clock of its own (a file) follows the frames'
@@ -1052,6 +1165,7 @@ std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& con
                                                        std::move(fault));
   return std::make_unique<TrackerInput>(config, std::move(rig), std::move(tc), nullptr, std::move(rec), std::move(fault));
 }
+}  // namespace
 
 std::unique_ptr<TrackingInput> make_tracking_input(const InstallationConfig& config,
                                                    std::unique_ptr<tracking::FrameSource> source) {

@@ -49,8 +49,10 @@ struct ClusterRunOptions {
   std::optional<std::filesystem::path> timing_log;
   /// The run ends at its next frame when this is non-zero (a node waiting for its master too).
   const std::atomic<int>* stop = nullptr;
-  /// A node waiting for its master hands its last frame again every `repeat_s` (windows: they
-  /// stay responsive and keep their picture); false: it waits inside next() (headless).
+  /// A node waiting for its master hands its last frame (before any: the empty room from the
+  /// default head) again every `repeat_s`, "waiting for master" across its walls (windows: they
+  /// stay responsive and keep their picture); false: once per wait, then it waits inside next()
+  /// (headless: one picture of the walls saying so).
   bool repeat_while_waiting = false;
   double repeat_s = 0.1;
 };
@@ -100,7 +102,8 @@ class ClusterNodeSource final : public FrameSource {
   ~ClusterNodeSource() override;
   const InstallationConfig& config() const override { return subset_.config(); }
   std::span<const WallFrame> walls() const override { return subset_.walls(); }
-  /// The master's next frame (waits for it, saying "waiting for master" when none comes);
+  /// The master's next frame (waits for it; when none comes for master_lost_ms, the last frame
+  /// again with notice() "waiting for master", see ClusterRunOptions::repeat_while_waiting);
   /// nullptr when stopped. Throws kumite::Error("cluster", "refused") with the master's one
   /// line when it refuses this node (another installation file).
   const FrameData* next() override;
@@ -108,11 +111,14 @@ class ClusterNodeSource final : public FrameSource {
   void drawn() override;
   bool wait_for_gpu() const override { return true; }
   bool repeated() const override { return repeated_; }
+  /// "waiting for master" while the node waits for one; empty otherwise.
+  std::string_view notice() const override;
   const cluster::Node& node() const { return *node_; }
   /// Frames whose state could not be read (damaged records): counted, skipped.
   std::uint64_t undecodable() const { return undecodable_; }
 
  private:
+  void empty_room();  ///< frame_: the room without a fighter, from the default head
   std::string name_;
   WallSubset subset_;
   ClusterRunOptions options_;
@@ -121,6 +127,7 @@ class ClusterNodeSource final : public FrameSource {
   FrameData frame_;
   bool have_frame_ = false;
   bool repeated_ = false;  ///< the frame handed out is the last one again (no READY for it)
+  bool notice_shown_ = false;  ///< this wait for the master has been shown on the walls
   std::uint64_t undecodable_ = 0;
 };
 

@@ -178,6 +178,14 @@ struct TrackingConfig {
   /// then ready about a millisecond after each frame set whatever the renderer does. Needs
   /// CAP_SYS_NICE or an rtprio limit; without them the tracker says so and runs normally.
   int realtime_priority = 0;
+  /// [tracking.out]: the visitor's tracked bodies sent on as the tracker measures them, from
+  /// whichever source (own cameras, a poses file, a room's tracker), so that other software
+  /// reads Kumite's tracker. `dtrack`: "host:port", DTrack ASCII (fr, ts, 6dcal, 6d with Euler
+  /// angles) in DTrack's room ([tracking.dtrack]'s transform inverted; ids from
+  /// [tracking.dtrack.bodies], else head 0, left_hand 1, right_hand 2, left_foot 3, right_foot 4).
+  /// `osc`: "host:port", one OSC bundle per measurement (/rigidbody/<id>/transformation, Kumite's
+  /// room, the same ids). Empty: not sent.
+  std::string out_dtrack, out_osc;
   bool operator==(const TrackingConfig&) const = default;
 };
 

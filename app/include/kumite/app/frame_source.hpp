@@ -13,6 +13,7 @@
 #include <optional>
 #include <span>
 #include <string>
+#include <string_view>
 #include <thread>
 
 #include "kumite/app/installation.hpp"
@@ -55,6 +56,9 @@ class FrameSource {
   /// The frame just returned is the one before again (a render node waiting for its master
   /// keeps its picture): drawn, not logged.
   virtual bool repeated() const { return false; }
+  /// A line every wall shows over the frame just returned, in letters across its middle (a
+  /// render node waiting for its master: "waiting for master"); empty: none.
+  virtual std::string_view notice() const { return {}; }
   /// The viewer ends the run after the frame just returned (no more frames are drawn).
   virtual void stop() {}
 };

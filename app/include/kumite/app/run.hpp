@@ -10,6 +10,7 @@
 
 #include "kumite/app/installation.hpp"
 #include "kumite/app/run_control.hpp"
+#include "kumite/app/swap_group.hpp"
 
 namespace kumite::app {
 
@@ -57,6 +58,9 @@ struct WindowOptions {
   const std::atomic<int>* stop = nullptr;
   /// Told of every frame drawn (watchdog pings, readiness, health report); none: nothing.
   RunMonitor* monitor = nullptr;
+  /// A render node's hardware swap group ([[cluster.nodes]] swap_group): its windows join it
+  /// where the display offers GLX_NV_swap_group, else one line says so; none: not asked.
+  std::optional<SwapGroupRequest> swap_group;
 };
 /// The GLFW key code of a canonical key name (canonical_key_name in config.hpp), or nullopt:
 /// the key map's names become codes only here, next to the windowed runner.

@@ -46,9 +46,14 @@ struct NodeConfig {
   std::optional<std::string> address;     ///< its host, informational ("10.0.0.12")
   std::vector<std::string> walls;         ///< the walls it draws, by name (at least one)
   std::vector<std::string> windows;       ///< the windows it opens, by name (empty: those of its walls)
+  /// A hardware swap group (GLX_NV_swap_group) its windows join, 1..16, where the driver offers
+  /// one (none: not asked); `swap_barrier` (1..16, needs swap_group) binds the group to a swap
+  /// barrier shared with other machines (a frame-lock board, e.g. Quadro Sync).
+  std::optional<int> swap_group, swap_barrier;
   int line = 0;                           ///< the file's line of its [[cluster.nodes]] table
   bool operator==(const NodeConfig& o) const {
-    return name == o.name && address == o.address && walls == o.walls && windows == o.windows;
+    return name == o.name && address == o.address && walls == o.walls && windows == o.windows &&
+           swap_group == o.swap_group && swap_barrier == o.swap_barrier;
   }
 };
 
