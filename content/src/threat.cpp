@@ -142,10 +142,14 @@ bool ThreatWatch::extends(recognition::Role role, const Vector3d& rel) const {
   if (role != recognition::Role::left_hand && role != recognition::Role::right_hand) return true;
   // The fist and the head where the fitted velocity holds: at the window's mean time (the fist
   // now would lag a curved path's velocity by half the window: a hand on a circle would seem
-  // to move outward).
+  // to move outward). Measured from the middle of the shoulders, taken kShouldersBelowHead_m under the tracked head
+  // (the glasses, at eye level): a punch from the hip (karate's chambered fist) keeps its
+  // distance from the head but extends from the shoulder; an arm circled round a shoulder keeps
+  // its distance from that point too (its circle lies beside it).
+  constexpr double kShouldersBelowHead_m = 0.22;
   const std::optional<Vector3d> fist = window_mean(role), head = window_mean(recognition::Role::head);
   if (!fist || !head) return true;  // no head to measure from: the path alone decides
-  const Vector3d out = *fist - *head;
+  const Vector3d out = *fist - (*head - Vector3d(0, kShouldersBelowHead_m, 0));
   const double r = out.norm(), speed = rel.norm();
   if (r < 1e-6 || speed < 1e-9) return true;
   return rel.dot(out) / (r * speed) >= tun_.min_extension;

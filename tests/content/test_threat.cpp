@@ -87,13 +87,14 @@ TEST(Threat, AFastSwingThatPassesBesideTheFighterIsNoThreat) {
   EXPECT_FALSE(run(w2, slow, 6).has_value());
 }
 
-// A hand swung round on a circle (an arm circle, a throw's wind-up: HDM05's rotateArms clips
-// drew phantom blocks) heads for the fighter as fast as a punch but keeps its distance from the
-// visitor's head; a punch's fist moves away from it. SYNTHETIC circle about a point level with
-// the head, radius 0.65 m, 6 m/s, sampled at 120 Hz: here the hand 40 deg below the horizontal
-// in front, going up and forward, its straight path through the fighter's head-pelvis line.
-TEST(Threat, AHandSwungRoundTheShoulderIsNoThreatWhereAPunchIs) {
-  const Vector3d head(0, 1.65, -0.9), centre(0.1, 1.65, -0.9);
+// With threat_min_extension: a straight arm swung round the shoulder (an arm circle, a throw's
+// wind-up: HDM05's rotateArms clips drew phantom blocks) heads for the fighter as fast as a
+// punch but keeps its distance from the middle of the shoulders; a punch's fist moves away from
+// it. SYNTHETIC circle about the right shoulder (0.18 m beside the point 0.22 m under the head),
+// radius 0.65 m, 6 m/s, sampled at 120 Hz: the hand 40 deg below the horizontal in front,
+// going up and forward, its straight path through the fighter's head-pelvis line.
+TEST(Threat, WithMinExtensionAnArmCircledRoundTheShoulderIsNoThreatWhereAPunchIs) {
+  const Vector3d head(0, 1.65, -0.9), centre(0.18, 1.65 - 0.22, -0.9);
   const double radius = 0.65, omega = 6.0 / radius, dt = 1.0 / 120;
   const auto feed = [&](ThreatWatch& w) {
     double t = 0;
@@ -117,13 +118,15 @@ TEST(Threat, AHandSwungRoundTheShoulderIsNoThreatWhereAPunchIs) {
   any_direction.min_extension = 0;
   ThreatWatch loose(any_direction);
   EXPECT_TRUE(feed(loose).has_value()) << "the path alone: it heads for the fighter";
-  ThreatWatch w;  // the default asks the fist to move away from the head
-  EXPECT_GT(w.tunables().min_extension, 0.1);
+  EXPECT_EQ(ThreatWatch().tunables().min_extension, 0) << "off by default";
+  ThreatTunables extending;
+  extending.min_extension = 0.2;
+  ThreatWatch w(extending);
   EXPECT_FALSE(feed(w).has_value()) << "an arm circle is not a punch";
   // The straight punch of the first test is still one.
   Visitor v;
   v.fist_v = Vector3d(0, 0, -6);
-  ThreatWatch p;
+  ThreatWatch p(extending);
   EXPECT_TRUE(run(p, v, 4).has_value());
 }
 

@@ -8,8 +8,8 @@
 // least `min_speed_mps` relative to the visitor's head (a walk carries the hands with the head:
 // not a threat), and its straight path from where it is now (extrapolated from its measurement
 // to `now`) comes within `aim_radius_m` of the fighter's head-to-pelvis segment within
-// `horizon_s`, closing on it at least `min_closing_mps`; a fist also only while it moves away
-// from the visitor's head (`min_extension`: the arm extends, as in a punch). Recognised strike
+// `horizon_s`, closing on it at least `min_closing_mps`; with `min_extension`, a fist also only
+// while it moves away from the visitor's shoulders (the arm extends, as in a straight punch). Recognised strike
 // begins add the limb's path toward the predicted impact point (the recogniser's early word,
 // before the fist is fast). Everything in the room frame: metres, seconds.
 #include <array>
@@ -35,11 +35,12 @@ struct ThreatTunables {
   double horizon_s = 0.4;          ///< s: it arrives within this
   double aim_radius_m = 0.25;     ///< m: its path passes within this of the fighter's head-pelvis line
   double velocity_window_s = 0.05; ///< s of measurements its velocity is fitted over (at least two)
-  /// A fist threatens only while it moves away from the visitor's own head at least this share
-  /// of its speed (relative to the head): a punch extends the arm; a hand swung round the
-  /// shoulder (arm circles, a throw's wind-up) keeps its distance. 0: any direction. Feet are not
-  /// held to it (a kick's foot rises toward the head).
-  double min_extension = 0.2;
+  /// A fist threatens only while it moves away from the middle of the visitor's shoulders (0.22 m
+  /// under the tracked head) at least this share of its speed relative to the head: a straight
+  /// punch extends the arm; a hand swung round the shoulder (arm circles, a throw's wind-up)
+  /// keeps its distance -- and so does a bent arm's rising or hooking fist (the kata's), which
+  /// is why it is off by default. 0: any direction. Feet are not held to it.
+  double min_extension = 0.0;
   bool operator==(const ThreatTunables&) const = default;
 };
 /// "" when finite and in range, else "key: message".
