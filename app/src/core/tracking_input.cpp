@@ -1046,13 +1046,14 @@ class TrackerOutput final : public TrackingInput {
   TrackerOutput(const InstallationConfig& c, std::unique_ptr<TrackingInput> inner)
       : inner_(std::move(inner)), dtrack_in_(c.tracking.dtrack) {
     if (!c.tracking.out_dtrack.empty()) {
-      const auto [host, port] = host_port(c.tracking.out_dtrack);
-      dtrack_ = checked(c, "tracking.out.dtrack", [&] { return std::make_unique<tracking::DtrackSender>(host, port); });
+      // Not a structured binding: clang 14 (the fuzz build's) cannot capture one in a lambda.
+      const auto hp = host_port(c.tracking.out_dtrack);
+      dtrack_ = checked(c, "tracking.out.dtrack", [&] { return std::make_unique<tracking::DtrackSender>(hp.first, hp.second); });
       dtrack_to_ = c.tracking.out_dtrack;
     }
     if (!c.tracking.out_osc.empty()) {
-      const auto [host, port] = host_port(c.tracking.out_osc);
-      osc_ = checked(c, "tracking.out.osc", [&] { return std::make_unique<tracking::OscSender>(host, port); });
+      const auto hp = host_port(c.tracking.out_osc);
+      osc_ = checked(c, "tracking.out.osc", [&] { return std::make_unique<tracking::OscSender>(hp.first, hp.second); });
       osc_to_ = c.tracking.out_osc;
     }
     spdlog::info("tracking out: the visitor's bodies{}{} (ids: {})",
