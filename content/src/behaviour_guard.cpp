@@ -48,8 +48,12 @@ constexpr double kParryHoldPast_s = 0.15;
 /// s back to the guard.
 constexpr double kParryBack_s = 0.3;
 /// The wrist stays within this share of the arm's length from the shoulder (a straight arm
-/// parries nothing and its elbow flips).
+/// parries nothing and its elbow flips) and beyond kParryFold of it (an arm folded onto its
+/// shoulder swings its elbow round on a small move of the wrist, and shields nothing).
 constexpr double kParryReach = 0.92;
+constexpr double kParryFold = 0.35;
+/// Samples along a parry's move to find how fast the drawn elbow goes (it turns on an arc).
+constexpr int kParryPathSamples = 24;
 /// s: intercepts are tried this far apart along the fist's path.
 constexpr double kParryStep_s = 1.0 / 240;
 
@@ -76,6 +80,34 @@ Vector3d elbow_of(const Vector3d& wrist, const Vector3d& pole, double upper_m, d
   const TwoBoneBend b = two_bone_bend(upper_m, fore_m, d);
   const Vector3d axis = wrist.norm() > 1e-9 ? Vector3d(wrist.normalized()) : Vector3d::UnitY();
   return axis * b.along_m + pole * b.off_m;
+}
+
+/// A parry's arm (from the shoulder) at the share x of its move: the wrist and the wanted
+/// elbow each along a straight line, the arm drawn through them (Guard::lay).
+struct ArmAt {
+  Vector3d wrist, elbow;  ///< m from the shoulder; `elbow` where the two-bone IK draws it
+};
+ArmAt parry_arm_at(double x, const Vector3d& w0, const Vector3d& e0, const Vector3d& w1, const Vector3d& e1, const Vector3d& pole0,
+                   double upper_m, double fore_m) {
+  const Vector3d wp = (1 - x) * w0 + x * w1, ep = (1 - x) * e0 + x * e1;
+  return {wp, elbow_of(wp, unit_across(ep, wp, pole0), upper_m, fore_m)};
+}
+
+/// s: the shortest minimum-jerk move from (w0, e0) to (w1, e1) in which neither the wrist nor
+/// the elbow as drawn goes faster than kParryPeak_mps. The drawn elbow turns about the
+/// shoulder -> wrist line as the wanted elbow moves past it, so its way is sampled rather than
+/// taken as the straight line between its ends.
+double parry_move_s(const Vector3d& w0, const Vector3d& e0, const Vector3d& w1, const Vector3d& e1, const Vector3d& pole0,
+                    double upper_m, double fore_m) {
+  double most = 0;  // m per unit of the move's share of time: the fastest part of the way
+  ArmAt prev = parry_arm_at(0, w0, e0, w1, e1, pole0, upper_m, fore_m);
+  for (int k = 1; k <= kParryPathSamples; ++k) {
+    const double ds = 1.0 / kParryPathSamples;
+    const ArmAt now = parry_arm_at(min_jerk(k * ds), w0, e0, w1, e1, pole0, upper_m, fore_m);
+    most = std::max({most, (now.wrist - prev.wrist).norm() / ds, (now.elbow - prev.elbow).norm() / ds});
+    prev = now;
+  }
+  return std::max(kParryMin_s, most / kParryPeak_mps);
 }
 }  // namespace
 
@@ -118,10 +150,14 @@ bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
         if (f.norm() < 1e-6) continue;
         f.normalize();
         const Vector3d wrist = cross + f * half, elbow = cross - f * half;
-        if ((wrist - sh).norm() > kParryReach * arm) continue;
-        // The move's length: the wrist's way or the elbow's, the longer (both are moved along
-        // straight lines at most kParryPeak_mps).
-        const double d = std::max((wrist - wr).norm(), (elbow - el).norm());
+        const double reach = (wrist - sh).norm();
+        if (reach > kParryReach * arm || reach < kParryFold * arm) continue;
+        // The move's length: the wrist's way or the elbow's (where the IK draws it, bent
+        // toward the wanted elbow), the longer; the chosen one's time is then taken along
+        // its drawn path (parry_move_s).
+        const Vector3d drawn_elbow = sh + elbow_of(wrist - sh, unit_across(elbow - sh, wrist - sh, el - sh), m.upper_arm_m[side],
+                                                   m.forearm_m[side]);
+        const double d = std::max((wrist - wr).norm(), (drawn_elbow - el).norm());
         const double move = std::max(kParryMin_s, 1.875 * d / kParryPeak_mps);
         const double late = move + kParryMargin_s - t;
         const bool in_time = late <= 0;
@@ -134,7 +170,15 @@ bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
     }
   }
   if (best.side < 0) return false;  // nowhere on its path within a free arm's reach
-  Guard::Parry& g = parry_[static_cast<std::size_t>(best.side)];
+  const auto bs = static_cast<std::size_t>(best.side);
+  Guard::Parry& g = parry_[bs];
+  {
+    // The move's time along the way Guard::lay draws it, from the arm as it was drawn last.
+    const Vector3d sh = joint(best.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
+    const double arm = m.arm_length(best.side), up = m.upper_arm_m[bs], fore = m.forearm_m[bs];
+    const Vector3d w0 = last_arm_n_[bs] * arm, e0 = elbow_of(w0, last_arm_pole_[bs], up, fore);
+    best.move_s = std::max(best.move_s, parry_move_s(w0, e0, best.wrist - sh, best.elbow - sh, last_arm_pole_[bs], up, fore));
+  }
   g.on = true;
   g.t_s = 0;
   g.move_s = best.move_s;
