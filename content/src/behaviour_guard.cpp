@@ -54,6 +54,10 @@ constexpr double kParryReach = 0.92;
 constexpr double kParryFold = 0.35;
 /// Samples along a parry's move to find how fast the drawn elbow goes (it turns on an arc).
 constexpr int kParryPathSamples = 24;
+/// m: the hand's length beyond the wrist (fingers' ends; CMU hands 0.15-0.2 m) and the thumb's
+/// reach across the forearm: the forearm's turn and twist swing them faster than the wrist.
+constexpr double kHand_m = 0.2;
+constexpr double kThumb_m = 0.1;
 /// s: intercepts are tried this far apart along the fist's path.
 constexpr double kParryStep_s = 1.0 / 240;
 
@@ -86,15 +90,20 @@ Vector3d elbow_of(const Vector3d& wrist, const Vector3d& pole, double upper_m, d
 /// elbow each along a straight line, the arm drawn through them (Guard::lay).
 struct ArmAt {
   Vector3d wrist, elbow;  ///< m from the shoulder; `elbow` where the two-bone IK draws it
+  Vector3d hand;          ///< m from the shoulder: kHand_m on along the forearm
+  Vector3d thumb;         ///< m from the shoulder: kThumb_m from the wrist toward the elbow's pole
 };
 ArmAt parry_arm_at(double x, const Vector3d& w0, const Vector3d& e0, const Vector3d& w1, const Vector3d& e1, const Vector3d& pole0,
                    double upper_m, double fore_m) {
   const Vector3d wp = (1 - x) * w0 + x * w1, ep = (1 - x) * e0 + x * e1;
-  return {wp, elbow_of(wp, unit_across(ep, wp, pole0), upper_m, fore_m)};
+  const Vector3d pole = unit_across(ep, wp, pole0);
+  const Vector3d el = elbow_of(wp, pole, upper_m, fore_m);
+  const Vector3d fore = wp - el;
+  return {wp, el, fore.norm() > 1e-9 ? Vector3d(wp + fore.normalized() * kHand_m) : wp, wp + pole * kThumb_m};
 }
 
-/// s: the shortest minimum-jerk move from (w0, e0) to (w1, e1) in which neither the wrist nor
-/// the elbow as drawn goes faster than kParryPeak_mps. The drawn elbow turns about the
+/// s: the shortest minimum-jerk move from (w0, e0) to (w1, e1) in which neither the wrist,
+/// the elbow as drawn nor the hand's end or thumb goes faster than kParryPeak_mps. The drawn elbow turns about the
 /// shoulder -> wrist line as the wanted elbow moves past it, so its way is sampled rather than
 /// taken as the straight line between its ends.
 double parry_move_s(const Vector3d& w0, const Vector3d& e0, const Vector3d& w1, const Vector3d& e1, const Vector3d& pole0,
@@ -104,7 +113,8 @@ double parry_move_s(const Vector3d& w0, const Vector3d& e0, const Vector3d& w1, 
   for (int k = 1; k <= kParryPathSamples; ++k) {
     const double ds = 1.0 / kParryPathSamples;
     const ArmAt now = parry_arm_at(min_jerk(k * ds), w0, e0, w1, e1, pole0, upper_m, fore_m);
-    most = std::max({most, (now.wrist - prev.wrist).norm() / ds, (now.elbow - prev.elbow).norm() / ds});
+    most = std::max({most, (now.wrist - prev.wrist).norm() / ds, (now.elbow - prev.elbow).norm() / ds,
+                     (now.hand - prev.hand).norm() / ds, (now.thumb - prev.thumb).norm() / ds});
     prev = now;
   }
   return std::max(kParryMin_s, most / kParryPeak_mps);
@@ -119,21 +129,30 @@ bool Guard::arm_free() const { return !parry_[0].busy() || !parry_[1].busy(); }
 
 bool Guard::parrying() const { return parry_[0].busy() || parry_[1].busy(); }
 
-bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<const Vector3d> drawn, const Eigen::Quaterniond& chest) {
-  if (!b.fist_m.allFinite() || !b.velocity_mps.allFinite() || !std::isfinite(b.arrival_s)) return false;
+namespace {
+/// A parry's place: the arm, the time along the fist's path at which the forearm meets it,
+/// the move's time and how late it is (negative: in time, with that margin).
+struct ParryPick {
+  int side = -1;
+  double t_s = 0, move_s = 0, late_s = 1e9;
+  Vector3d wrist, elbow, cross;
+};
+
+/// The place for a parry against `b` by an arm for which `may(side)` holds: the intercept
+/// needing the shortest move among those the forearm can be in place for in time; where none
+/// can, the one it is least late for. `drawn`: the joints drawn last on `rig` (m, room).
+template <class May>
+ParryPick pick_parry(const BlockOrder& b, const Rig& rig, std::span<const Vector3d> drawn, const Eigen::Quaterniond& chest,
+                     const May& may) {
+  ParryPick best;
   const double speed = b.velocity_mps.norm();
-  if (!(speed > 1e-3)) return false;
+  if (!(speed > 1e-3)) return best;
   const Morphology& m = rig.morphology;
   const auto joint = [&](CJ j) { return drawn[static_cast<std::size_t>(rig.skeleton.index(j))]; };
   const Vector3d v_unit = b.velocity_mps / speed;
-  struct Pick {
-    int side = -1;
-    double t_s = 0, move_s = 0, late_s = 1e9;
-    Vector3d wrist, elbow, cross;
-  } best;
   const double horizon = std::max(0.0, b.arrival_s);
   for (int side = 0; side < 2; ++side) {
-    if (parry_[static_cast<std::size_t>(side)].busy()) continue;
+    if (!may(side)) continue;
     const Vector3d sh = joint(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder);
     const Vector3d wr = joint(side == kLeft ? CJ::l_wrist : CJ::r_wrist);
     const Vector3d el = joint(side == kLeft ? CJ::l_elbow : CJ::r_elbow);
@@ -165,10 +184,20 @@ bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
         // in time; where none can, the one it is least late for.
         const bool better = best.side < 0 || (in_time && (best.late_s > 0 || move < best.move_s)) ||
                             (!in_time && best.late_s > 0 && late < best.late_s);
-        if (better) best = Pick{side, t, move, late, wrist, elbow, cross};
+        if (better) best = ParryPick{side, t, move, late, wrist, elbow, cross};
       }
     }
   }
+  return best;
+}
+}  // namespace
+
+bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<const Vector3d> drawn, const Eigen::Quaterniond& chest) {
+  if (!b.fist_m.allFinite() || !b.velocity_mps.allFinite() || !std::isfinite(b.arrival_s)) return false;
+  const double speed = b.velocity_mps.norm();
+  const Morphology& m = rig.morphology;
+  const auto joint = [&](CJ j) { return drawn[static_cast<std::size_t>(rig.skeleton.index(j))]; };
+  ParryPick best = pick_parry(b, rig, drawn, chest, [&](int side) { return !parry_[static_cast<std::size_t>(side)].busy(); });
   if (best.side < 0) return false;  // nowhere on its path within a free arm's reach
   const auto bs = static_cast<std::size_t>(best.side);
   Guard::Parry& g = parry_[bs];
@@ -190,6 +219,8 @@ bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
   g.elbow_m = best.elbow;
   g.cross_m = best.cross;
   g.said = false;
+  g.reaim_t_s = -1;
+  g.reaim_s = 0;
   g.meet_t = now + best.t_s;
   g.limb = b.limb;
   g.recognised = b.recognised;
@@ -197,6 +228,45 @@ bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
   return true;
 }
 
+Vector3d Guard::Parry::wrist_target() const {
+  if (reaim_t_s < 0) return wrist_m;
+  return wrist_from_m + min_jerk((t_s - reaim_t_s) / std::max(reaim_s, 1e-6)) * (wrist_m - wrist_from_m);
+}
+
+Vector3d Guard::Parry::elbow_target() const {
+  if (reaim_t_s < 0) return elbow_m;
+  return elbow_from_m + min_jerk((t_s - reaim_t_s) / std::max(reaim_s, 1e-6)) * (elbow_m - elbow_from_m);
+}
+
+bool Guard::reaim(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<const Vector3d> drawn, const Eigen::Quaterniond& chest) {
+  if (!b.fist_m.allFinite() || !b.velocity_mps.allFinite() || !std::isfinite(b.arrival_s)) return false;
+  int side = -1;
+  for (int s = 0; s < 2; ++s)
+    if (parry_[static_cast<std::size_t>(s)].busy() && parry_[static_cast<std::size_t>(s)].limb == b.limb) side = s;
+  if (side < 0) return false;
+  const ParryPick p = pick_parry(b, rig, drawn, chest, [&](int s) { return s == side; });
+  if (p.side < 0) return false;  // the new path is beyond this arm: it keeps its aim
+  Parry& g = parry_[static_cast<std::size_t>(side)];
+  // The targets shift from where they are now (mid-shift if re-aimed before) to the new
+  // place; the shift starts at rest, so the drawn arm keeps its place and speed.
+  const Vector3d wrist_now = g.wrist_target(), elbow_now = g.elbow_target();
+  const Morphology& m = rig.morphology;
+  const auto s = static_cast<std::size_t>(side);
+  const Vector3d sh = drawn[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder))];
+  g.wrist_from_m = wrist_now;
+  g.elbow_from_m = elbow_now;
+  g.wrist_m = p.wrist;
+  g.elbow_m = p.elbow;
+  g.cross_m = p.cross;
+  g.reaim_t_s = g.t_s;
+  g.reaim_s = parry_move_s(wrist_now - sh, elbow_now - sh, p.wrist - sh, p.elbow - sh, last_arm_pole_[s], m.upper_arm_m[s],
+                           m.forearm_m[s]);
+  g.meet_t = now + p.t_s;
+  g.hold_end_s = std::max(g.in_place_s(), g.t_s + p.t_s) + kParryHoldPast_s;
+  g.recognised = b.recognised;
+  g.fist_speed_mps = b.velocity_mps.norm();
+  return true;
+}
 
 void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const Rig& rig, std::span<const Vector3d> drawn,
                 MkmFrame& pose, std::vector<FighterEvent>& events) {
@@ -223,9 +293,9 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
       // drawn through them (its direction to the wrist, its pole toward the elbow).
       const double arm = m.arm_length(side), up = m.upper_arm_m[s], fore = m.forearm_m[s];
       const Vector3d sh = drawn[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder))];
-      Vector3d w1 = pr.wrist_m - sh;
+      Vector3d w1 = pr.wrist_target() - sh;
       if (w1.norm() > kParryReach * arm) w1 *= kParryReach * arm / w1.norm();
-      const Vector3d e1 = pr.elbow_m - sh;
+      const Vector3d e1 = pr.elbow_target() - sh;
       Vector3d wp, ep;
       if (pr.t_s < pr.move_s) {
         const double x = min_jerk(pr.t_s / pr.move_s);
@@ -243,7 +313,7 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
       }
       a = wp / arm;
       p = unit_across(ep, wp, p);
-      if (!pr.said && pr.t_s >= pr.move_s) {
+      if (!pr.said && pr.t_s >= pr.in_place_s()) {
         pr.said = true;
         FighterEvent& e = events.emplace_back();  // as Behaviour::emit makes it
         e.time = now;
@@ -284,5 +354,10 @@ bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
 }
 
 bool Behaviour::parrying() const { return guard_.parrying(); }
+
+bool Behaviour::reaim_parry(const BlockOrder& b, Timestamp now) {
+  if (!have_pose_) return false;
+  return guard_.reaim(b, now, characters_[static_cast<std::size_t>(character_)], rig_positions_, pose_.chest);
+}
 
 }  // namespace kumite::content

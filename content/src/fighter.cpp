@@ -377,17 +377,30 @@ class FighterImpl final : public Fighter {
     if (!head || !pelvis) return;
     judge_contacts(in, *head, neck.value_or(*head), *pelvis, joint);
     if (!t.block) return;
+    const auto order_of = [&](const Threat& th) {
+      Behaviour::BlockOrder b;
+      b.limb = th.limb;
+      b.fist_m = th.point_m;
+      b.velocity_mps = th.velocity_mps;
+      b.arrival_s = th.arrival_s;
+      b.recognised = th.recognised;
+      b.max_rate = t.block_max_rate;
+      return b;
+    };
+    // A switch of a recognised strike already answered by a parry re-aims that parry (the
+    // dual-buffer boxer's action switching): the same arm, from where it is, to the path the
+    // limb takes now.
+    for (const VisitorStrikeSeen& s : in.strikes) {
+      const auto l = static_cast<std::size_t>(s.limb);
+      if (s.type != recognition::EventType::switch_ || l >= answered_until_.size() || !(in.now < answered_until_[l])) continue;
+      const std::optional<Threat> th = threats_.soonest(*head, *pelvis, in.now, s.limb);
+      if (th && behaviour_.reaim_parry(order_of(*th), in.now)) answered_until_[l] = in.now + th->arrival_s + kStrikeOver_s;
+    }
     const std::optional<Threat> th = threats_.soonest(*head, *pelvis, in.now);
     if (!th) return;
     const auto limb = static_cast<std::size_t>(th->limb);
     if (in.now < answered_until_[limb]) return;
-    Behaviour::BlockOrder b;
-    b.limb = th->limb;
-    b.fist_m = th->point_m;
-    b.velocity_mps = th->velocity_mps;
-    b.arrival_s = th->arrival_s;
-    b.recognised = th->recognised;
-    b.max_rate = t.block_max_rate;
+    const Behaviour::BlockOrder b = order_of(*th);
     // Answered (or not) once per strike: the next block for this limb after it has passed.
     answered_until_[limb] = in.now + th->arrival_s + kStrikeOver_s;
     // From the guard a parry (none when both arms are busy with one); a block clip while the

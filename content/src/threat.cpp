@@ -155,12 +155,14 @@ bool ThreatWatch::extends(recognition::Role role, const Vector3d& rel) const {
   return rel.dot(out) / (r * speed) >= tun_.min_extension;
 }
 
-std::optional<Threat> ThreatWatch::soonest(const Vector3d& top, const Vector3d& bottom, Timestamp now) const {
+std::optional<Threat> ThreatWatch::soonest(const Vector3d& top, const Vector3d& bottom, Timestamp now,
+                                           std::optional<recognition::Role> only) const {
   if (!top.allFinite() || !bottom.allFinite() || !std::isfinite(now)) return std::nullopt;
   const std::optional<Vector3d> head_v = velocity(recognition::Role::head);
   std::optional<Threat> best;
   for (int r = 1; r < recognition::kRoleCount; ++r) {
     const auto role = static_cast<recognition::Role>(r);
+    if (only && role != *only) continue;
     const History& h = hist_[static_cast<std::size_t>(r)];
     if (h.count < 1) continue;
     const Sample& s = h.newest();

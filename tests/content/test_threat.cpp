@@ -437,3 +437,128 @@ TEST(Blocks, AParryFromWhereverTheArmIsMovesNoDrawnJointInOneFrameFasterThanAPun
   std::printf("%d parries from the guard for %d punches\n", parries, punches);
   EXPECT_GT(parries, punches / 2) << "the punches were parried from the guard";
 }
+
+namespace {
+
+/// The fighter (defence alone, guard up) against a SYNTHETIC visitor whose right glove, still
+/// before its face, is recognised at 3 s as a punch at the fighter's head, then (`switch_to_body`)
+/// at 3.05 s switched to a punch at its chest, and goes there at 2.5 m/s (under the speed a
+/// fist is seen coming at: only the recognised path aims the parry). Returns per update the
+/// drawn forearms and the glove, and the events.
+PunchRun recognised_then_switched(bool switch_to_body) {
+  PunchRun r;
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  FighterConfig cfg;
+  cfg.database = db;
+  cfg.characters = {std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh"};
+  cfg.character_names = {"kenji"};
+  cfg.planner = defence_alone();
+  auto f = Fighter::create(cfg);
+  const Rig rig = load_character_rig(cfg.characters[0].string());
+  const auto drawn = [&](const FighterOutput& o, CanonicalJoint j) {
+    return o.frame.joints[static_cast<std::size_t>(rig.skeleton.index(j))];
+  };
+  FighterOutput out;
+  const double dt = 1.0 / 60;
+  const Vector3d head(0, 1.65, -1.6), guard(-0.15, 1.45, head.z() - 0.2);
+  Vector3d head_aim, body_aim;
+  for (int k = 0; k < 60 * 5; ++k) {
+    FighterInput in;
+    in.now = k * dt;
+    in.dt_s = k ? dt : 0;
+    in.head_m = head;
+    std::vector<VisitorStrikeSeen> strikes;
+    if (k == 180) {  // 3 s: a straight punch at the head, as drawn now
+      head_aim = drawn(out, CanonicalJoint::head);
+      body_aim = drawn(out, CanonicalJoint::chest);
+      VisitorStrikeSeen s;
+      s.t = in.now;
+      s.type = kumite::recognition::EventType::begin;
+      s.limb = Role::right_hand;
+      s.action = kumite::recognition::Action::straight_punch;
+      s.progress = 0.2;
+      s.confidence = 0.8;
+      s.impact_m = head_aim;
+      strikes.push_back(s);
+    }
+    if (k == 183 && switch_to_body) {
+      VisitorStrikeSeen s;
+      s.t = in.now;
+      s.type = kumite::recognition::EventType::switch_;
+      s.limb = Role::right_hand;
+      s.action = kumite::recognition::Action::straight_punch;
+      s.progress = 0.3;
+      s.confidence = 0.8;
+      s.impact_m = body_aim;
+      strikes.push_back(s);
+    }
+    // The glove: at the guard until 3.05 s, then toward the chest at 2.5 m/s, stopping there.
+    Vector3d glove = guard;
+    if (k > 183) {
+      const Vector3d way = body_aim - guard;
+      glove = guard + way.normalized() * std::min(way.norm(), 2.5 * (in.now - 183 * dt));
+    }
+    std::vector<VisitorBody> bodies(2);
+    bodies[0].role = Role::head;
+    bodies[0].position_m = head;
+    bodies[0].tracked = true;
+    bodies[0].t = in.now;
+    bodies[1].role = Role::right_hand;
+    bodies[1].position_m = glove;
+    bodies[1].tracked = true;
+    bodies[1].t = in.now;
+    in.bodies = bodies;
+    in.strikes = strikes;
+    f->step(in, out);
+    r.events.insert(r.events.end(), out.events.begin(), out.events.end());
+    r.actions.push_back(out.frame.action);
+    r.head.push_back(drawn(out, CanonicalJoint::head));
+    r.elbow_l.push_back(drawn(out, CanonicalJoint::l_elbow));
+    r.wrist_l.push_back(drawn(out, CanonicalJoint::l_wrist));
+    r.elbow_r.push_back(drawn(out, CanonicalJoint::r_elbow));
+    r.wrist_r.push_back(drawn(out, CanonicalJoint::r_wrist));
+    r.fist.push_back(glove);
+    r.joints.emplace_back(out.frame.joints.begin(), out.frame.joints.end());
+  }
+  r.names = rig.skeleton.names;
+  return r;
+}
+
+/// The first update at which the glove's step passes within fist + forearm radius (0.1 m) of a
+/// drawn forearm, from update `from`; -1: none.
+int forearm_met(const PunchRun& r, int from) {
+  for (int k = from; k < static_cast<int>(r.fist.size()); ++k) {
+    const auto u = static_cast<std::size_t>(k);
+    if (step_to_segment(r.fist[u - 1], r.fist[u], r.elbow_l[u], r.wrist_l[u]) <= 0.1 ||
+        step_to_segment(r.fist[u - 1], r.fist[u], r.elbow_r[u], r.wrist_r[u]) <= 0.1)
+      return k;
+  }
+  return -1;
+}
+
+}  // namespace
+
+TEST(Blocks, ASwitchOfTheRecognisedStrikeReaimsTheParryUnderWayFromWhereTheArmIs) {
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  const PunchRun kept = recognised_then_switched(false), switched = recognised_then_switched(true);
+  // The glove's arrival at the chest (its last step), judged on the glove's own path.
+  int arrival = 184;
+  while (arrival + 1 < static_cast<int>(switched.fist.size()) && (switched.fist[arrival + 1] - switched.fist[arrival]).norm() > 1e-9) ++arrival;
+  const int met_kept = forearm_met(kept, 181), met_switched = forearm_met(switched, 181);
+  ASSERT_GE(met_switched, 0) << "no drawn forearm on the glove's way to the chest after the switch";
+  EXPECT_LE(met_switched, arrival) << "the re-aimed forearm came after the glove";
+  EXPECT_TRUE(met_kept < 0 || met_kept > arrival) << "without the switch the head's parry met the glove anyway: the test shows nothing";
+  // One block event: a re-aim is the same answer (no second block), and no restart: every
+  // drawn joint under 6 m/s and no judge-bvh snap through the switch.
+  EXPECT_EQ(std::count_if(switched.events.begin(), switched.events.end(), [](const FighterEvent& e) { return e.kind == EventKind::block; }), 1);
+  const std::size_t n = switched.joints.size();
+  for (std::size_t j = 0; j < switched.names.size(); ++j) {
+    std::vector<double> step(n, 0.0);
+    for (std::size_t k = 1; k < n; ++k) step[k] = (switched.joints[k][j] - switched.joints[k - 1][j]).norm();
+    for (std::size_t k = 120; k + 1 < n; ++k) {
+      EXPECT_LT(step[k] * 60, 6.0) << switched.names[j] << " at update " << k;
+      EXPECT_FALSE(step[k] > 0.05 && step[k] > 3 * step[k - 1] && step[k] > 3 * step[k + 1]) << "snap: " << switched.names[j] << " at update " << k;
+    }
+  }
+}

@@ -208,6 +208,11 @@ class Behaviour {
   /// Emits `block` once the forearm is in place (its margin over the fist's arrival at the
   /// forearm, negative when late). False: it cannot (can_parry) or the order is not finite.
   bool parry(const BlockOrder& order, Timestamp now);
+  /// The parry under way against `order.limb` re-aimed at `order`'s path (a `switch` of the
+  /// recognised strike): its targets move to the new crossing from where they are, the arm's
+  /// way continuing without a restart (Guard::reaim). False: no parry of that limb is moving
+  /// or held, or no place on the new path is within its arm's reach.
+  bool reaim_parry(const BlockOrder& order, Timestamp now);
   /// A blow the fighter took (the Fighter's contact judgement, spar mode): the visitor's fist
   /// or foot entered its drawn head or torso. The struck chain reels (a damped spring on the
   /// head about the neck, the trunk about the pelvis, the struck side's shoulder when the

@@ -3,6 +3,7 @@
 // pose before the decode (behaviour_guard.cpp). The Guard is the only owner of the guard's
 // progress, the arms as it drew them and the parries under way; Behaviour tells it whether
 // the guard may be up and hands it the pose, the drawn joints and the time step.
+#include <algorithm>
 #include <array>
 #include <span>
 #include <vector>
@@ -48,6 +49,13 @@ class Guard {
   /// composed pose's chest frame. False: no free arm reaches the path, or the order is not finite.
   bool parry(const BlockOrder& order, Timestamp now, const Rig& rig, std::span<const Eigen::Vector3d> drawn,
              const Eigen::Quaterniond& chest);
+  /// The parry of the arm answering `order.limb` (moving to its place or held there) re-aimed
+  /// at `order`'s path: the wrist's and elbow's targets move to the new crossing by a
+  /// minimum-jerk shift laid on the way under way (no restart: the drawn arm keeps its place
+  /// and speed at that moment); the forearm is in place, and the hold ends, from the new
+  /// crossing's timing. False: no such parry, or no place on the new path within the arm's reach.
+  bool reaim(const BlockOrder& order, Timestamp now, const Rig& rig, std::span<const Eigen::Vector3d> drawn,
+             const Eigen::Quaterniond& chest);
   /// Advances the guard and the parries by dt and lays them on `pose`'s arms. `allowed`: the
   /// guard may be up (not paused, no strike of its own); `drawn_before`: a pose was drawn
   /// before this update (`drawn` holds its joints). A parry whose forearm comes in place
@@ -67,6 +75,10 @@ class Guard {
     Eigen::Vector3d wrist_m{0, 0, 0};   ///< m, room: the wrist in place
     Eigen::Vector3d elbow_m{0, 0, 0};   ///< m, room: where the elbow is wanted in place
     Eigen::Vector3d cross_m{0, 0, 0};   ///< m, room: where the fist's path crosses the forearm
+    /// A re-aim: the targets (m, room) shift from these to wrist_m / elbow_m over reaim_s from
+    /// reaim_t_s (s since the parry began; negative: never re-aimed).
+    Eigen::Vector3d wrist_from_m{0, 0, 0}, elbow_from_m{0, 0, 0};
+    double reaim_t_s = -1, reaim_s = 0;
     bool said = false;        ///< its block event emitted
     Timestamp meet_t = 0;     ///< s: when the fist is due at the forearm
     recognition::Role limb = recognition::Role::right_hand;
@@ -74,6 +86,11 @@ class Guard {
     double fist_speed_mps = 0;
     /// Moving to its place or held there (not going back).
     bool busy() const { return on && t_s < hold_end_s; }
+    /// s since it began when the forearm is in place (its move done, and any re-aim's shift).
+    double in_place_s() const { return reaim_t_s >= 0 ? std::max(move_s, reaim_t_s + reaim_s) : move_s; }
+    /// m, room: the wrist's and elbow's targets at t_s (shifting during a re-aim).
+    Eigen::Vector3d wrist_target() const;
+    Eigen::Vector3d elbow_target() const;
   };
   bool wanted_ = false;
   double up_ = 0;       ///< 0..1 the guard's progress (its weight is smoothstep(up_))

@@ -67,8 +67,9 @@ class ThreatWatch {
   /// lost body ends its limb's history) and recognised strikes.
   void observe(std::span<const VisitorBody> bodies, std::span<const VisitorStrikeSeen> strikes);
   /// The threat arriving soonest at the segment `top_m`..`bottom_m` (the fighter's head and
-  /// pelvis as drawn) at time `now`, if any.
-  std::optional<Threat> soonest(const Eigen::Vector3d& top_m, const Eigen::Vector3d& bottom_m, Timestamp now) const;
+  /// pelvis as drawn) at time `now`, if any; with `only`, that limb's alone.
+  std::optional<Threat> soonest(const Eigen::Vector3d& top_m, const Eigen::Vector3d& bottom_m, Timestamp now,
+                                std::optional<recognition::Role> only = std::nullopt) const;
   /// The limb's fitted velocity (m/s, room) over the window, if it has two measurements.
   std::optional<Eigen::Vector3d> velocity(recognition::Role role) const;
   void reset();
