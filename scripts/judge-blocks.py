@@ -7,7 +7,9 @@ visitor's tracked wrists and ankles per fighter frame (the input the fighter was
 labelled punches. Per labelled punch:
   - arrival: the first frame whose fist step (previous frame -> this) passes within fist + body
     radius of the drawn fighter's head (sphere) or torso (neck -> pelvis capsule); without one
-    the punch never reaches the fighter (out of reach) and the frame of its nearest approach is used
+    the punch never reaches the fighter (out of reach) and the frame of its nearest approach is used;
+    in_reach_with_shoulders also counts a fist reaching the line between the shoulder joints
+    (capsule r 0.07 m): a punch landing on a shoulder, beside the thin neck -> pelvis capsule
   - blocked: the fist step of some frame up to the arrival passes within fist + forearm radius of
     a drawn forearm (elbow -> wrist): the forearm is across the fist's path before the fist is
     at the body
@@ -31,11 +33,14 @@ FIST_R = 0.05      # m, a glove round the tracked wrist
 FOREARM_R = 0.05   # m
 HEAD_R = 0.12      # m
 TORSO_R = 0.15     # m
+SHOULDER_R = 0.07  # m, the line between the shoulder joints (in_reach_with_shoulders only)
 
 NAMES = {
     "head": ("head", "Head"),
     "neck": ("lowerneck", "Neck", "neck"),
     "pelvis": ("root", "Hips", "hips", "pelvis"),
+    "l_shoulder": ("lhumerus", "LeftArm", "l_shoulder"),
+    "r_shoulder": ("rhumerus", "RightArm", "r_shoulder"),
     "l_elbow": ("lradius", "LeftForeArm", "l_elbow"),
     "l_wrist": ("lwrist", "LeftHand", "l_wrist"),
     "r_elbow": ("rradius", "RightForeArm", "r_elbow"),
@@ -82,12 +87,15 @@ def judge_recording(folder, trace):
         li = order.index(s["limb"])
         first, last = s["first"], min(s["last"], len(frames) - 1, len(body) - 1)
         arrival, nearest, nearest_d = None, None, 1e9
+        reaches_shoulders = False
         for k in range(max(first, 1), last + 1):
             a, b = frames[k - 1]["limbs"][li][:3], frames[k]["limbs"][li][:3]
             j = body[k]
             d_head = seg_seg(a, b, j["head"], j["head"]) - HEAD_R
             d_torso = seg_seg(a, b, j["neck"], j["pelvis"]) - TORSO_R
             d = min(d_head, d_torso) - FIST_R
+            if seg_seg(a, b, j["l_shoulder"], j["r_shoulder"]) - SHOULDER_R - FIST_R <= 0:
+                reaches_shoulders = True
             if d < nearest_d:
                 nearest, nearest_d = k, d
             if d <= 0:
@@ -106,6 +114,7 @@ def judge_recording(folder, trace):
                 break
         out.append({
             "punch": s["name"], "limb": s["limb"], "in_reach": arrival is not None,
+            "in_reach_with_shoulders": arrival is not None or reaches_shoulders,
             "arrival_frame": arrival, "nearest_gap_m": round(nearest_d, 3),
             "blocked": blocked_at is not None, "blocked_frame": blocked_at,
             "blocked_before_arrival_s": None if blocked_at is None or end is None else round((end - blocked_at) * dt, 3),
@@ -146,13 +155,14 @@ def main():
         "blocked_before_arrival": sum(p["blocked"] for p in punches),
         "blocked_share": round(sum(p["blocked"] for p in punches) / n, 3) if n else None,
         "in_reach_share": round(sum(p["in_reach"] for p in punches) / n, 3) if n else None,
+        "in_reach_with_shoulders_share": round(sum(p["in_reach_with_shoulders"] for p in punches) / n, 3) if n else None,
         "negative_minutes": round(negatives_s / 60, 3),
         "phantom_blocks": phantom,
         "phantom_per_minute": round(phantom / (negatives_s / 60), 2) if negatives_s else None,
         "phantom_note": "block starts the fighter reports (its trace's action) on strike-free recordings",
     }
     for p in punches:
-        print(f"{p['recording']:34s} {p['punch']:34s} reach={'y' if p['in_reach'] else 'n'} "
+        print(f"{p['recording']:34s} {p['punch']:34s} reach={'y' if p['in_reach'] else 'n'}{'' if p['in_reach'] == p['in_reach_with_shoulders'] else '(shoulder)'} "
               f"blocked={'y' if p['blocked'] else 'n'} before={p['blocked_before_arrival_s']} gap={p['nearest_gap_m']}")
     print(json.dumps(summary, indent=2))
     if out_json:
