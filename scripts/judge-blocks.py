@@ -14,7 +14,9 @@ labelled punches. Per labelled punch:
     a drawn forearm (elbow -> wrist): the forearm is across the fist's path before the fist is
     at the body
 Negative recordings (no strike): the frames the fighter reports blocking (its trace's `action`, its
-own word) give the phantom defences per minute.
+own word) give the phantom defences per minute; phantom_blocks_after_onset leaves out those that
+start within 0.2 s of the recording's first moving frame (the SYNTHETIC lead-in holds the first
+pose still, and a clip that begins mid-motion jumps from it to full speed in one frame).
 
   scripts/judge-blocks.py DIR [--json OUT]
 """
@@ -33,6 +35,7 @@ FIST_R = 0.05      # m, a glove round the tracked wrist
 FOREARM_R = 0.05   # m
 HEAD_R = 0.12      # m
 TORSO_R = 0.15     # m
+ONSET_S = 0.2      # s after the lead-in (phantom_blocks_after_onset)
 SHOULDER_R = 0.07  # m, the line between the shoulder joints (in_reach_with_shoulders only)
 
 NAMES = {
@@ -129,7 +132,7 @@ def main():
         return 2
     folder = args[0]
     out_json = args[args.index("--json") + 1] if "--json" in args else None
-    punches, negatives_s, phantom = [], 0.0, 0
+    punches, negatives_s, phantom, phantom_after_onset = [], 0.0, 0, 0
     per_negative = []
     for name in sorted(os.listdir(folder)):
         if not name.endswith(".trace.json"):
@@ -139,12 +142,15 @@ def main():
         if trace["negative"]:
             frames = trace["frames"]
             lead = int(round(trace["lead_in_s"] / trace["dt_s"]))
-            starts = sum(1 for k in range(max(lead, 1), len(frames))
-                         if frames[k]["action"] == "blocking" and frames[k - 1]["action"] != "blocking")
+            starts = [k for k in range(max(lead, 1), len(frames))
+                      if frames[k]["action"] == "blocking" and frames[k - 1]["action"] != "blocking"]
             secs = (len(frames) - lead) * trace["dt_s"]
             negatives_s += secs
-            phantom += starts
-            per_negative.append({"recording": trace["recording"], "seconds": round(secs, 2), "blocks": starts})
+            phantom += len(starts)
+            onset = lead + int(round(ONSET_S / trace["dt_s"]))
+            phantom_after_onset += sum(1 for k in starts if k >= onset)
+            per_negative.append({"recording": trace["recording"], "seconds": round(secs, 2), "blocks": len(starts),
+                                 "block_starts_s": [round((k - lead) * trace["dt_s"], 3) for k in starts]})
             continue
         for p in judge_recording(folder, trace):
             p["recording"] = trace["recording"]
@@ -160,6 +166,9 @@ def main():
         "phantom_blocks": phantom,
         "phantom_per_minute": round(phantom / (negatives_s / 60), 2) if negatives_s else None,
         "phantom_note": "block starts the fighter reports (its trace's action) on strike-free recordings",
+        "phantom_blocks_after_onset": phantom_after_onset,
+        "phantom_after_onset_note": f"those starting {ONSET_S} s or more after the recording's first moving frame: "
+                                    "a clip that begins mid-motion jumps from the still lead-in pose to full speed",
     }
     for p in punches:
         print(f"{p['recording']:34s} {p['punch']:34s} reach={'y' if p['in_reach'] else 'n'}{'' if p['in_reach'] == p['in_reach_with_shoulders'] else '(shoulder)'} "
