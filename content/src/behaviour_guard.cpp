@@ -17,6 +17,7 @@
 #include "behaviour_internal.hpp"
 #include "kumite/content/behaviour.hpp"
 #include "kumite/content/canonical.hpp"
+#include "kumite/content/hit_reel.hpp"
 #include "kumite/content/ik.hpp"
 
 namespace kumite::content {
@@ -58,6 +59,10 @@ constexpr int kParryPathSamples = 24;
 /// reach across the forearm: the forearm's turn and twist swing them faster than the wrist.
 constexpr double kHand_m = 0.2;
 constexpr double kThumb_m = 0.1;
+/// A slip's lean: the trunk's turn at its peak (rad: 0.25 moves a head 0.6 m above the pelvis
+/// ~15 cm) and the share of its way that goes back along the fist's way.
+constexpr double kSlipTrunk_rad = 0.25;
+constexpr double kSlipBack = 0.5;
 /// s: intercepts are tried this far apart along the fist's path.
 constexpr double kParryStep_s = 1.0 / 240;
 
@@ -354,6 +359,32 @@ bool Behaviour::parry(const BlockOrder& b, Timestamp now) {
 }
 
 bool Behaviour::parrying() const { return guard_.parrying(); }
+
+bool Behaviour::slip(const BlockOrder& b, Timestamp /*now*/) {
+  if (paused_ || !have_pose_ || striking() || !b.fist_m.allFinite() || !b.velocity_mps.allFinite()) return false;
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  const Vector3d head = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(CJ::head))];
+  // Horizontal: the way the fist comes, and the head's side of its path (a path through the
+  // head: the side away from the striking limb's own side of the visitor).
+  Vector3d along(b.velocity_mps.x(), 0, b.velocity_mps.z());
+  if (along.norm() < 1e-6) return false;
+  along.normalize();
+  Vector3d off = head - b.fist_m;
+  off.y() = 0;
+  off -= off.dot(along) * along;
+  if (off.norm() < 0.03) {
+    const Vector3d left_of_path = Vector3d::UnitY().cross(along);  // the path's left, seen along it
+    const bool right_limb = b.limb == recognition::Role::right_hand || b.limb == recognition::Role::right_foot;
+    off = right_limb ? left_of_path : Vector3d(-left_of_path);
+  }
+  HitOrder h;
+  h.point_m = head;
+  h.velocity_mps = (off.normalized() + kSlipBack * along).normalized() * b.velocity_mps.norm();
+  h.head = false;  // the trunk leans, carrying the head
+  h.share = 1;
+  h.trunk_max_rad = kSlipTrunk_rad;
+  return reel_.take(h, rig, rig_positions_);
+}
 
 bool Behaviour::reaim_parry(const BlockOrder& b, Timestamp now) {
   if (!have_pose_) return false;

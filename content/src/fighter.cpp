@@ -405,8 +405,11 @@ class FighterImpl final : public Fighter {
     answered_until_[limb] = in.now + th->arrival_s + kStrikeOver_s;
     // From the guard a parry (none when both arms are busy with one); a block clip while the
     // guard is not up (it comes up over 0.4 s after a strike of its own).
-    const bool answered = behaviour_.guarding() ? behaviour_.parry(b, in.now) : behaviour_.block(b, in.now);
+    const bool guarding = behaviour_.guarding();
+    const bool answered = guarding ? behaviour_.parry(b, in.now) : behaviour_.block(b, in.now);
     if (!answered) ++score_.unanswered;
+    // Where no forearm can be sent across the fist's path, the fighter slips it instead.
+    if (!answered) behaviour_.slip(b, in.now);
   }
   /// The visitor's fist or foot meeting the fighter's forearm (blocked) or body (visitor_hit):
   /// the way it moved since its last measurement against capsules on the drawn joints.

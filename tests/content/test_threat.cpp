@@ -562,3 +562,91 @@ TEST(Blocks, ASwitchOfTheRecognisedStrikeReaimsTheParryUnderWayFromWhereTheArmIs
     }
   }
 }
+
+namespace {
+
+/// The fighter (defence alone) against a SYNTHETIC visitor who throws a left and a right at the
+/// drawn head (3.0 and 3.05 s, 5 m/s), then, with both forearms busy parrying, a right kick at
+/// it (3.15 s, 6 m/s, from the right foot at hip height) -- or (`kick` false) not. Per update the
+/// drawn head, the kicking foot and the events.
+PunchRun two_punches_and_a_kick(bool kick) {
+  PunchRun r;
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  FighterConfig cfg;
+  cfg.database = db;
+  cfg.characters = {std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh"};
+  cfg.character_names = {"kenji"};
+  cfg.planner = defence_alone();
+  auto f = Fighter::create(cfg);
+  const Rig rig = load_character_rig(cfg.characters[0].string());
+  const auto drawn = [&](const FighterOutput& o, CanonicalJoint j) {
+    return o.frame.joints[static_cast<std::size_t>(rig.skeleton.index(j))];
+  };
+  FighterOutput out;
+  const double dt = 1.0 / 60;
+  const Vector3d head(0, 1.65, -1.6);
+  struct Limb {
+    Role role;
+    Vector3d rest;
+    double t0, speed;
+    Vector3d dir{0, 0, -1};
+  };
+  std::array<Limb, 3> limbs{Limb{Role::left_hand, Vector3d(0.15, 1.45, head.z() - 0.2), 3.0, 5.0},
+                            Limb{Role::right_hand, Vector3d(-0.15, 1.45, head.z() - 0.2), 3.05, 5.0},
+                            Limb{Role::right_foot, Vector3d(-0.15, 0.9, head.z() - 0.1), kick ? 3.15 : 1e9, 6.0}};
+  for (int k = 0; k < 60 * 5; ++k) {
+    FighterInput in;
+    in.now = k * dt;
+    in.dt_s = k ? dt : 0;
+    in.head_m = head;
+    std::vector<VisitorBody> bodies(4);
+    bodies[0].role = Role::head;
+    bodies[0].position_m = head;
+    for (std::size_t i = 0; i < limbs.size(); ++i) {
+      Limb& l = limbs[i];
+      if (k > 0 && std::abs(in.now - l.t0) < 0.5 * dt) l.dir = (r.head.back() - l.rest).normalized();  // aimed at the head as drawn
+      const double tp = in.now - l.t0, reach_s = 0.8 / l.speed;
+      const double out_m = tp < 0 ? 0 : tp < reach_s ? l.speed * tp : std::max(0.0, 0.8 - 2 * (tp - reach_s));
+      bodies[i + 1].role = l.role;
+      bodies[i + 1].position_m = l.rest + l.dir * out_m;
+    }
+    for (VisitorBody& b : bodies) {
+      b.tracked = true;
+      b.t = in.now;
+    }
+    in.bodies = bodies;
+    f->step(in, out);
+    r.events.insert(r.events.end(), out.events.begin(), out.events.end());
+    r.actions.push_back(out.frame.action);
+    r.head.push_back(drawn(out, CanonicalJoint::head));
+    r.fist.push_back(bodies[3].position_m);
+    r.joints.emplace_back(out.frame.joints.begin(), out.frame.joints.end());
+  }
+  r.score = f->planner_status().score;
+  r.names = rig.skeleton.names;
+  return r;
+}
+
+}  // namespace
+
+TEST(Blocks, AStrikeNoForearmIsFreeToMeetIsSlippedTheDrawnHeadLeavesItsPath) {
+  // Judged on the drawn head: its distance from the kick's line (the foot's way from where it
+  // started) when the foot comes nearest, against the same fighter's head at that update in
+  // the run without the kick.
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  const PunchRun with = two_punches_and_a_kick(true), without = two_punches_and_a_kick(false);
+  EXPECT_GE(with.score.blocks, 2) << "both punches parried";
+  EXPECT_GE(with.score.unanswered, 1) << "the kick found no free forearm";
+  const std::size_t k0 = 189;  // 3.15 s: the kick starts
+  const Vector3d from = with.fist[k0], way = (with.fist[k0 + 2] - from).normalized();
+  const auto off_line = [&](const Vector3d& p) { const Vector3d d = p - from; return (d - d.dot(way) * way).norm(); };
+  std::size_t nearest = k0;
+  for (std::size_t k = k0; k < k0 + 20; ++k)
+    if ((with.fist[k] - with.head[k]).norm() < (with.fist[nearest] - with.head[nearest]).norm()) nearest = k;
+  const double slipped = off_line(with.head[nearest]), stood = off_line(without.head[nearest]);
+  EXPECT_GT(slipped - stood, 0.05) << "the drawn head " << slipped * 100 << " cm off the kick's line, " << stood * 100
+                                   << " cm without the kick (update " << nearest << ")";
+  // A slip, not a whip: the drawn head no faster than 3 m/s.
+  for (std::size_t k = 1; k < with.head.size(); ++k) EXPECT_LT((with.head[k] - with.head[k - 1]).norm() * 60, 3.0) << "update " << k;
+}

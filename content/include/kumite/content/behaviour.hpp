@@ -213,6 +213,12 @@ class Behaviour {
   /// way continuing without a restart (Guard::reaim). False: no parry of that limb is moving
   /// or held, or no place on the new path is within its arm's reach.
   bool reaim_parry(const BlockOrder& order, Timestamp now);
+  /// A slip: where no forearm can be sent across the fist's path (both busy, or none reaches
+  /// it), the trunk leans the head off the path (sideways, away from it, and back), a damped
+  /// spring laid on the motion as a blow's reel is (HitReel), peaking about 0.1 s later; no
+  /// strike is aborted, nothing is scored. False: striking, paused, no pose yet, or the order
+  /// is not finite.
+  bool slip(const BlockOrder& order, Timestamp now);
   /// A blow the fighter took (the Fighter's contact judgement, spar mode): the visitor's fist
   /// or foot entered its drawn head or torso. The struck chain reels (a damped spring on the
   /// head about the neck, the trunk about the pelvis, the struck side's shoulder when the
