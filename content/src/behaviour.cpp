@@ -1,7 +1,7 @@
 // Behaviour's decisions: orders, the state machine (resting, following, striking,
 // recovering), starting a strike and its reach offset d(t), following the visitor, judging
 // contact, and update() composing them. Playing sources: motion_playback.cpp; what the
-// motion says of the feet: behaviour_feet.cpp; holding them: foot_planting.cpp.
+// motion says of the feet and the pelvis drop: feet.cpp (Feet); holding them: foot_planting.cpp.
 #include "kumite/content/behaviour.hpp"
 
 #include <algorithm>
@@ -66,7 +66,7 @@ constexpr double kStanceStepFeetWait_s = 0.5;
 
 Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config)
     : db_(std::move(db)), block_planner_(std::make_shared<StrikePlanner>(db_, config.retrieval)),
-      characters_(std::move(characters)), config_(config), tun_(config.behaviour), player_(db_, 1.0), feet_(config.behaviour.feet) {
+      characters_(std::move(characters)), config_(config), tun_(config.behaviour), player_(db_, 1.0), feet_(db_, config.behaviour) {
   validate(config.behaviour, config.retrieval);
   if (characters_.empty()) throw Error("fighter", "config", "no characters to show");
   if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
@@ -349,6 +349,8 @@ const Vector3d* Behaviour::step_target() const {
   if (const Approach* a = approach()) return &a->target_room_m;
   return nullptr;
 }
+
+std::array<bool, 2> Behaviour::feet_locked() const { return {feet_.held(kLeft), feet_.held(kRight)}; }
 
 Behaviour::HeldFeet Behaviour::held_feet() const {
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
@@ -696,7 +698,7 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
 }
 
 FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s) const {
-  FootLocks f = locks_;  // as the last update held them
+  FootLocks f = feet_.locks();  // as the last update held them
   f.min_root_drop_m = 0;
   f.max_root_drop_m = tun_.max_root_drop_m;
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
@@ -732,7 +734,7 @@ FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s
       continue;
     }
     // Put down on the way: the planter holds it where the clip has it at contact
-    // (strike_hold_frame: down from there through contact).
+    // (Feet's hold_frame: down from there through contact).
     MkmFrame g;
     player_.sample_frame(s, contact, g);
     f.weight[us] = 1;
@@ -1122,46 +1124,47 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   }
   ramp_ = ramp;
   motion_planted_ = cur.planted;
-  update_feet(dt, reach, cur);
-  if (reach && strike_.effector.leg && !feet_.held(strike_.effector.side)) {
-    // The kicking foot leaves its hold on the same ramp as d(t): fully free at contact, so the
-    // goal there is exactly the motion's own foot turned by d(t) (what compute_reach_error
-    // assumed), and back under the hold as d(t) is released. Once put down it is held.
-    locks_.weight[static_cast<std::size_t>(strike_.effector.side)] *= std::clamp(1 - ramp, 0.0, 1.0);
-  }
-
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   const auto n = static_cast<std::size_t>(rig.joint_count());
-  // The pelvis drop for held feet changes at a bounded rate and a bounded acceleration: a foot
-  // lifted or put down never moves the whole body in one frame, and a foot held for a single
-  // update (landing, lifted again) does not flick the pelvis down and up (the knees popped).
-  const double last_drop = have_pose_ ? report_.root_drop_m : 0.0;
-  const double v = have_pose_ ? drop_rate_mps_ : 0.0;
-  // The rate changes by max_drop_accel_mps2 * dt, but the step (rate * dt) by no more than
-  // kMostDropStepGain_m an update: at 30 Hz (30 fps clips played at their rate) 60 m/s^2 let a
-  // foot's hold lift the whole body 5.9 cm in one update after 0.4 cm in the one before (the
-  // motion-quality check's one-frame jump); 120 and 60 Hz stay under the bound (0.4 and 1.7 cm;
-  // foot_planting.cpp's kMostStepGain_m, the same 3 cm). A tighter bound (1 cm) also kept a
-  // nearly straight leg's knee, which moves 2-3x what the pelvis does, from jumping at 30 and
-  // 60 Hz, but at 60 Hz the shipped sweep's pelvis then lagged its feet: both feet off in 8899
-  // frames instead of 6757, 3 snaps instead of 0.
-  constexpr double kMostDropStepGain_m = 0.03;
-  const double dv = dt > 0 ? std::min(tun_.max_drop_accel_mps2 * dt, kMostDropStepGain_m / dt) : 0.0;
-  const double v_lo = std::max(-tun_.max_drop_rate_mps, v - dv);
-  const double v_hi = std::min(tun_.max_drop_rate_mps, v + dv);
-  // A punch's pelvis goes no lower than keeps its target within the arm's reach at
-  // max_punch_aim_deg from the shoulder: a lunge's back foot held out of the legs' reach sank
-  // the pelvis 0.29 m and a head-height punch went up with the elbow above the head. The foot
-  // steps instead (a foot the leg cannot reach steps at once: FootPlanter).
-  double most_drop = tun_.max_root_drop_m;
-  if (reach && !reach->effector.leg && strike_target_ && have_pose_) {
-    const CJ shoulder = reach->effector.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
-    const double shoulder_undropped = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(shoulder))].y() + last_drop;
-    const double lowest = strike_target_->y() - aim_rise_m(rig, reach->effector.side, tun_.max_punch_aim_deg);
-    most_drop = std::clamp(shoulder_undropped - lowest, 0.0, most_drop);
+  {
+    FeetInput in;
+    in.dt_s = dt;
+    in.have_pose = have_pose_;
+    in.rig = &rig;
+    in.character = character_;
+    in.player = &player_;
+    in.motion = &cur;
+    in.pose = &pose_;
+    in.drawn_m = rig_positions_;
+    in.report = &report_;
+    in.switched = switch_offsets_due_;
+    in.stance_support = stance_step() ? stance_step()->support : -1;
+    in.before_contact = striking() && !strike_.contact_done;
+    in.effector = strike_.effector;
+    in.clip_contact_time_s = strike_.clip_contact_time_s;
+    in.kick_side = reach && strike_.effector.leg ? strike_.effector.side : -1;
+    in.kick_striking = striking();
+    in.reach_ramp = ramp;
+    if (reach && !reach->effector.leg && strike_target_) {
+      in.punch_side = reach->effector.side;
+      in.lowest_shoulder_y_m = strike_target_->y() - aim_rise_m(rig, reach->effector.side, tun_.max_punch_aim_deg);
+    }
+    // Steps also while recovering: a strike that ends in a long stance steps back under the
+    // body instead of squatting into the rest motion's narrower one.
+    // Not while d(t) still acts: the strike holds its stance until it has been taken back.
+    // Nor while a kick's support foot is set (its step and the kick it waits for): the other foot
+    // stands, and the set foot stays where the kick will turn on it.
+    const bool support_set = support_step() || (pending() && pending()->support_stepped) || (retaking() && retaking()->support_stepped);
+    // Nor while a stance step plays: the clip steps the feet.
+    // Nor while a strike is being planned (its plan in flight, or an order taken again after
+    // stepping in): it is planned around the feet as they stand. A step begun between a
+    // step-in's arrival and the plan left the back foot of kenji's lunge punch on the grid
+    // 13 cm ahead of where the lunge holds it: out of reach, it stepped back and forth in the air.
+    const bool planning = pending() || (retaking() && retaking()->stepped_first);
+    in.may_step = !striking() && ramp_ <= 0 && !support_set && !stance_step() && !planning;
+    in.spot_velocity_mps = spot_velocity_;
+    feet_.update(in);
   }
-  locks_.min_root_drop_m = std::clamp(last_drop + v_lo * dt, 0.0, tun_.max_root_drop_m);
-  locks_.max_root_drop_m = std::clamp(std::min(last_drop + v_hi * dt, most_drop), locks_.min_root_drop_m, tun_.max_root_drop_m);
   // A blow's reel laid on the pose (hit(): none in orders mode, nor before a blow).
   reel_.advance(dt);
   const MkmFrame* reeled = reel_.lay(pose_);
@@ -1169,7 +1172,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.rig = &rig;
   job.pose = reeled ? reeled : &pose_;
   job.reach = reach;
-  job.feet = have_pose_ ? &locks_ : nullptr;
+  job.feet = have_pose_ ? &feet_.locks() : nullptr;
   job.local_rotations = std::span(local_).first(n);
   job.global_rotations = std::span(global_).first(n);
   job.global_positions = std::span(rig_positions_).first(n);
@@ -1196,7 +1199,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.Run();
   if (job.reach && !job.reach->effector.leg) trunk_floor_side_ = job.reach->effector.side;  // the fallback's arm
   player_.note_drawn_arms(rig, rig_positions_);  // each drawn elbow's distance from its arm's line
-  drop_rate_mps_ = have_pose_ && dt > 0 ? (report_.root_drop_m - last_drop) / dt : 0.0;
+  feet_.drew(have_pose_, dt, report_.root_drop_m);
   have_pose_ = true;
   last_dt_ = dt > 0 ? dt : last_dt_;
 

@@ -24,6 +24,7 @@
 #include "kumite/content/adaptation.hpp"
 #include "kumite/content/block_retrieval.hpp"
 #include "kumite/content/database.hpp"
+#include "kumite/content/feet.hpp"
 #include "kumite/content/fighter.hpp"
 #include "kumite/content/foot_planting.hpp"
 #include "kumite/content/guard.hpp"
@@ -277,8 +278,8 @@ class Behaviour {
   /// Feet held still this update [side] (not lifted by the motion, not stepping).
   std::array<bool, 2> feet_locked() const;
   /// Foot planting as of the last update (for tools/tests).
-  const FootPlanter& foot_planter() const { return feet_; }
-  const FootLocks& foot_locks() const { return locks_; }
+  const FootPlanter& foot_planter() const { return feet_.planter(); }
+  const FootLocks& foot_locks() const { return feet_.locks(); }
   /// d(t)'s weight at the last update: 0 none, 1 the full correction (contact).
   double reach_ramp() const { return ramp_; }
   /// The source motion's contacts at the last update [side] (the motion being blended to).
@@ -429,7 +430,6 @@ class Behaviour {
   void end_stance_step(Timestamp now);
   /// The rest segment (rest_segment_ or its mirror) whose stance fits the feet drawn now best.
   int rest_for_stance() const;
-  void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
   /// d(t) at contact from the pose at segment time `at_time_s`; `plan_lean`: also the punch's
   /// trunk lean (not at the contact frame itself: the lean eased in since the start stays).
   void compute_reach_error(double at_time_s, bool plan_lean = true);
@@ -437,11 +437,6 @@ class Behaviour {
   /// clip keeps them planted from its time on (a foot not held now is left out), else where the
   /// clip puts them down on the way; the others at weight 0. Pelvis drop 0..max_root_drop_m.
   FootLocks feet_through_contact(const Source& s, double contact_time_s) const;
-  /// The segment frame (of the motion now playing) whose ankle a foot the motion puts down at
-  /// its frame `land` is held at: `land`, or, while a strike is on its way to contact and the
-  /// clip keeps that foot (not the kicking one) down from `land` through contact, the
-  /// contact frame.
-  int strike_hold_frame(int side, int land) const;
   /// m, room: how low a punch's shoulder may drop for held feet (the target within the arm's
   /// reach at max_punch_aim_deg from it; -inf for kicks).
   double lowest_shoulder_y_m() const;
@@ -459,7 +454,6 @@ class Behaviour {
   /// else -1. With `redirect`: a stepping foot the clip stands on too far away to carry the clip
   /// to may be aligned on with its step sent on to the clip (StrikeFit::redirect_support, _to_m).
   int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect = nullptr) const;
-  double swing_left_s(int side) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   /// A blow's abort (behaviour_hit.cpp): a strike of its own aborted if one is due and can leave now.
   void abort_strike_for_blow(Timestamp now);
@@ -564,31 +558,10 @@ class Behaviour {
   MkmFrame pose_, pose_before_;  ///< blended, placed pose this and the previous update
   bool have_pose_ = false;
   double last_dt_ = 1.0 / 60;
-  double drop_rate_mps_ = 0;  ///< m/s: how fast the pelvis drop changed at the last update
 
-  // Feet.
-  FootPlanter feet_;
-  FootLocks locks_;
-  /// Per foot, the landing of the swing under way and the source ankle's horizontal way left to
-  /// it: walked once when a swing (or the motion that plays it) begins, then reduced by each
-  /// update's own step, so a swing costs one pass over its frames rather than one per update.
-  struct SwingPath {
-    int segment = -1;        ///< -1: none
-    int character = -1;
-    /// The segment frame of the landing (its time clamped to the clip: a foot that stays up to
-    /// the clip's end lands on its last frame, whatever the rate the rest after it is played at).
-    int land_frame = 0;
-    /// The segment frame whose ankle it is held at once down (strike_hold_frame: land_frame, or
-    /// a strike's contact frame).
-    int hold_frame = 0;
-    GroundFrame placement;
-    Eigen::Vector2d anchor_xz_m{0, 0};
-    Source::Travel travel;
-    Eigen::Vector3d landing_m{0, 0, 0};  ///< m, room: the ankle at the landing
-    Eigen::Vector3d last_m{0, 0, 0};     ///< m, room: the source ankle at the last update
-    double way_left_m = 0;               ///< m, horizontal path from last_m to the landing
-  };
-  std::array<SwingPath, 2> swing_paths_{};
+  /// The feet: where each is held, the held feet handed to the decode and the pelvis drop's
+  /// bounds (feet.hpp, feet.cpp).
+  Feet feet_;
 
   // Switch easing: per joint of the current rig, an offset fading to zero.
   std::vector<Eigen::Vector3d> switch_offset_;
