@@ -62,11 +62,20 @@ constexpr double kWholeStep_m = 0.9;
 constexpr double kStanceStepFeetWait_s = 0.5;
 }  // namespace
 
+namespace {
+std::size_t most_joints_of(const std::vector<Rig>& characters) {
+  std::size_t most = 0;
+  for (const Rig& r : characters) most = std::max(most, static_cast<std::size_t>(r.joint_count()));
+  return most;
+}
+}  // namespace
+
 // ---- Behaviour --------------------------------------------------------------------------
 
 Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config)
     : db_(std::move(db)), block_planner_(std::make_shared<StrikePlanner>(db_, config.retrieval)),
-      characters_(std::move(characters)), config_(config), tun_(config.behaviour), player_(db_, 1.0), feet_(db_, config.behaviour) {
+      characters_(std::move(characters)), config_(config), tun_(config.behaviour), player_(db_, 1.0), feet_(db_, config.behaviour),
+      switch_(most_joints_of(characters_), config.behaviour.blend_time_s) {
   validate(config.behaviour, config.retrieval);
   if (characters_.empty()) throw Error("fighter", "config", "no characters to show");
   if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
@@ -90,7 +99,6 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   global_.resize(max_joints);
   rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
-  switch_offset_.assign(max_joints, Vector3d::Zero());
   // Orders swap between these two each update; an order taken again after stepping in is
   // queued from inside update(): room kept in both, so that allocates nothing.
   orders_.reserve(16);
@@ -251,7 +259,7 @@ void Behaviour::select_character(int index, Timestamp now) {
   // the pelvis drop carried over was let go, and stepped with the other foot in the air (the
   // knee 5 cm, the elbow 9 cm in a frame, in the bout with stance steps on).
   feet_.keep_held_only();
-  switch_offsets_due_ = true;  // the easing's offsets: after this update's solve
+  switch_.begin();  // the easing's offsets: after this update's decode
   if (striking()) compute_reach_error(strike_.contact_time_s);
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
        FighterEvent::Reason::none);
@@ -1000,15 +1008,11 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   time_ = now;
   ++updates_;
   dt = std::max(0.0, dt);
-  const int old_character = character_;
-  std::vector<Vector3d> old_display;  // only on a switch (rare)
-  const std::size_t old_n = static_cast<std::size_t>(characters_[static_cast<std::size_t>(character_)].joint_count());
-
-  // A switch needs the old drawn pose; copy it before handle_orders changes character.
+  // A switch needs the old drawn pose; kept before handle_orders changes character.
   const bool switch_pending = std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) {
     return q.order.kind == OrderKind::select_character;
   });
-  if (switch_pending && have_pose_) old_display.assign(positions_.begin(), positions_.begin() + static_cast<std::ptrdiff_t>(old_n));
+  if (switch_pending && have_pose_) switch_.keep_drawn(characters_[static_cast<std::size_t>(character_)], positions_);
 
   handle_orders(now, head);
   if (const AwaitingPlan* w = as<AwaitingPlan>()) {
@@ -1067,7 +1071,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // Advance the clocks by the whole frame: the contact frame is the first frame at or past the
   // planned contact time, a real frame of motion (no sub-frame hold, no copy of the last).
   player_.advance(dt);
-  if (!switch_offsets_due_) switch_elapsed_s_ += dt;
+  switch_.advance(dt);
   // A blow (hit()): a strike of its own before its contact leaves for rest (behaviour_hit.cpp).
   if (abort_until_ >= 0) abort_strike_for_blow(now);
   const bool contact_now = striking() && !strike_.contact_done && player_.current().time_s >= strike_.contact_time_s;
@@ -1137,7 +1141,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     in.pose = &pose_;
     in.drawn_m = rig_positions_;
     in.report = &report_;
-    in.switched = switch_offsets_due_;
+    in.switched = switch_.due();
     in.stance_support = stance_step() ? stance_step()->support : -1;
     in.before_contact = striking() && !strike_.contact_done;
     in.effector = strike_.effector;
@@ -1207,36 +1211,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     if (strike_.block) judge_block_in_place(now);
     else judge_contact(now, head);
   }
-
-
-
-
-  // Character switch easing: offsets from the old drawn pose, fading over blend_time.
-  if (switch_offsets_due_) {
-    switch_offsets_due_ = false;
-    switch_elapsed_s_ = 0;
-    const Rig& old_rig = characters_[static_cast<std::size_t>(old_character)];
-    CanonicalPose old_c, new_c;
-    if (!old_display.empty()) {
-      canonical_positions(old_rig.skeleton, old_display, old_c);
-    } else {
-      canonical_positions(rig.skeleton, rig_positions_, old_c);
-    }
-    canonical_positions(rig.skeleton, rig_positions_, new_c);
-    for (std::size_t i = 0; i < n; ++i) {
-      // The nearest canonical joint at or above i carries its offset.
-      int j = static_cast<int>(i);
-      int cj = -1;
-      while (j >= 0 && cj < 0) {
-        for (std::size_t c = 0; c < kCanonicalJointCount; ++c)
-          if (rig.skeleton.canonical[c] == j && old_c[c].allFinite()) { cj = static_cast<int>(c); break; }
-        if (cj < 0) j = rig.skeleton.parents[static_cast<std::size_t>(j)];
-      }
-      switch_offset_[i] = cj >= 0 ? Vector3d(old_c[static_cast<std::size_t>(cj)] - new_c[static_cast<std::size_t>(cj)]) : Vector3d::Zero();
-    }
-  }
-  const double fade = switch_elapsed_s_ < tun_.blend_time_s ? 1 - smoothstep(switch_elapsed_s_ / tun_.blend_time_s) : 0.0;
-  for (std::size_t i = 0; i < n; ++i) positions_[i] = rig_positions_[i] + switch_offset_[i] * fade;
+  // A character switch's easing: the drawn joints from the old drawn pose, the offsets fading.
+  switch_.ease(rig, rig_positions_, positions_);
 }
 
 FighterFrame Behaviour::frame() const {

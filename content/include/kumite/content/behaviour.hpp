@@ -31,6 +31,7 @@
 #include "kumite/content/hit_reel.hpp"
 #include "kumite/content/motion_player.hpp"
 #include "kumite/content/retrieval.hpp"
+#include "kumite/content/switch_easing.hpp"
 #include "kumite/content/worker_channel.hpp"
 
 namespace kumite::content {
@@ -563,10 +564,8 @@ class Behaviour {
   /// bounds (feet.hpp, feet.cpp).
   Feet feet_;
 
-  // Switch easing: per joint of the current rig, an offset fading to zero.
-  std::vector<Eigen::Vector3d> switch_offset_;
-  double switch_elapsed_s_ = 1e9;  ///< s since the offsets were taken (long ago: no easing)
-  bool switch_offsets_due_ = false; ///< a switch this update: take the offsets after the solve
+  /// A character switch's easing of the drawn joints (switch_easing.hpp).
+  SwitchEasing switch_;
 
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> rig_positions_, positions_;
