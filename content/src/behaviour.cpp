@@ -14,6 +14,7 @@
 #include "kumite/common/error.hpp"
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
+#include "kumite/content/contact.hpp"
 
 namespace kumite::content {
 
@@ -972,35 +973,22 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   set_locomotion(following ? Locomotion{Walking{}} : Locomotion{AtSpot{}});
 }
 
-namespace {
-double distance_to_segment(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
-  const Vector3d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double u = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (p - (a + u * ab)).norm();
-}
-}  // namespace
-
 void Behaviour::judge_contact(Timestamp now, const Vector3d& head) {
-  // Judged against the visitor as tracked now, not the target frozen at the order: a visitor
-  // who ducked or stepped away since is not hit.
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  const Vector3d hit_point = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()))];
+  ContactInput in;
+  in.hit_point_m = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()))];
+  in.target_m = strike_.target_room_m;
+  in.hit_radius_m = config_.hit_radius_m;
+  in.visitor = VisitorShape::of(config_, head);
+  const ContactJudgement j = judge_strike_contact(in);
   strike_.contact_done = true;
   strike_.contact_update = updates_;
-  strike_.contact_distance_m = (hit_point - strike_.target_room_m).norm();
+  strike_.contact_distance_m = j.target_distance_m;
   strike_.contact_reached = report_.reached && !strike_.out_of_reach;
-  strike_.target_reached = strike_.contact_distance_m <= config_.hit_radius_m;
-  const Vector3d top = head - Vector3d::UnitY() * config_.visitor_neck_m;
-  const Vector3d bottom(head.x(), std::min(top.y(), config_.visitor_capsule_bottom_m), head.z());
-  const double gap = std::min((hit_point - head).norm() - config_.visitor_head_radius_m,
-                              distance_to_segment(hit_point, top, bottom) - config_.visitor_body_radius_m);
-  strike_.body_distance_m = gap;
-  strike_.hit = gap <= 0;
-  const auto kind = strike_.hit              ? FighterEvent::Kind::hit
-                    : strike_.target_reached ? FighterEvent::Kind::dodged
-                                             : FighterEvent::Kind::miss;
-  FighterEvent& e = emit(kind, now, strike_.order, FighterEvent::Reason::none, strike_.hit ? 0.0 : gap);
+  strike_.target_reached = j.target_reached;
+  strike_.body_distance_m = j.body_distance_m;
+  strike_.hit = j.hit;
+  FighterEvent& e = emit(j.kind(), now, strike_.order, FighterEvent::Reason::none, j.event_distance_m());
   describe_contact(strike_, e);
 }
 
