@@ -361,7 +361,7 @@ const Vector3d* Behaviour::step_target() const {
 
 std::array<bool, 2> Behaviour::feet_locked() const { return {feet_.held(kLeft), feet_.held(kRight)}; }
 
-Behaviour::HeldFeet Behaviour::held_feet() const {
+HeldFeet Behaviour::held_feet() const {
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   HeldFeet f;
   for (int side = 0; side < 2; ++side) {
@@ -389,8 +389,16 @@ Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fi
   s.placement.origin_xz = g_char.origin_xz;
   s.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   s.anchor_xz_m = g_clip.origin_xz;
+  StrikePlacement in;
+  in.db = db_.get();
+  in.player = &player_;
+  in.rig = &characters_[static_cast<std::size_t>(character_)];
+  in.tunables = &tun_;
+  in.target_m = strike_target_ ? &*strike_target_ : nullptr;
+  in.feet = &feet;
+  in.scratch = &scratch_pose_;
   StrikeFit redirect;
-  const int landing_support = align_to_support_foot(s, plan.contact_frame * seg.frame_time_s, feet, &redirect);
+  const int landing_support = align_to_support_foot(in, s, plan.contact_frame * seg.frame_time_s, &redirect);
   // A foot in a procedural step that the strike stands on (put down where it is, or its step
   // sent to where the clip has it) holds the lunge back as a held one does (place_strike_travel):
   // not counted, the lunge was scaled as if that foot would follow and left it out of the leg's
@@ -402,7 +410,8 @@ Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fi
     travel_feet.held[static_cast<std::size_t>(redirect.redirect_support)] = true;
     travel_feet.ankle_m[static_cast<std::size_t>(redirect.redirect_support)] = redirect.redirect_to_m;
   }
-  fit = place_strike_travel(s, plan.contact_frame * seg.frame_time_s, travel_feet);
+  in.feet = &travel_feet;
+  fit = place_strike_travel(in, s, plan.contact_frame * seg.frame_time_s);
   fit.landing_support = landing_support;
   fit.redirect_support = redirect.redirect_support;
   fit.redirect_to_m = redirect.redirect_to_m;

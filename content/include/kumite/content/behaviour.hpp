@@ -31,6 +31,7 @@
 #include "kumite/content/hit_reel.hpp"
 #include "kumite/content/motion_player.hpp"
 #include "kumite/content/retrieval.hpp"
+#include "kumite/content/strike_placement.hpp"
 #include "kumite/content/switch_easing.hpp"
 #include "kumite/content/worker_channel.hpp"
 
@@ -354,31 +355,9 @@ class Behaviour {
   /// A strike order that waits (queued) rather than being taken at this update.
   bool deferred(const QueuedOrder& queued) const;
   void take_order(const QueuedOrder& queued, Timestamp now, const Eigen::Vector3d& head);
-  /// How a strike placed by place_strike_travel lands on its target.
-  struct StrikeFit {
-    double shortfall_m = 0;  ///< m the fighter would have to step in for the limb to reach the target as extended as captured
-    double too_near_m = 0;   ///< m the limb's root is nearer the target than the clip has it from its own hit point
-    double extension = 1;    ///< limb root to target over the limb's length at contact (1: straight)
-    /// The foot the strike is aligned on while it is in a procedural step (the clip stands on
-    /// it from its start, or puts it down on the way and keeps it down to contact:
-    /// align_to_support_foot), -1 for none: the step ends where the foot is
-    /// when the strike starts (FootPlanter::land), and it stands there.
-    int landing_support = -1;
-    /// The foot the strike is aligned on while it is in a procedural step too far from where the
-    /// clip has it to carry the clip there (max_support_shift_m): its step goes on to where the
-    /// clip, carried as far as it goes, stands on it (FootPlanter::redirect), -1 for none.
-    int redirect_support = -1;
-    Eigen::Vector3d redirect_to_m{0, 0, 0};  ///< m, room: where that step then ends
-  };
   void start_strike(const PendingStrike& pending, const StrikePlan& plan, const PlaybackSource& source, const StrikeFit& fit, Timestamp now, double dt);
-  /// The feet a strike is placed on: which are held, and where their ankles stand (m, room).
-  struct HeldFeet {
-    std::array<bool, 2> held{};
-    std::array<bool, 2> stepping{};  ///< in a procedural step (not held): it may be cut short
-    std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    std::array<Eigen::Vector3d, 2> step_end_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< m, room: where it puts it down
-  };
-  HeldFeet held_feet() const;  ///< as drawn now
+  /// The feet a strike is placed on, as drawn now (strike_placement.hpp).
+  HeldFeet held_feet() const;
   /// The target (frozen at the order) of the step in progress before a strike: a step in or
   /// back, into the fighting stance, or a kick's support step; nullptr when none is.
   const Eigen::Vector3d* step_target() const;
@@ -407,14 +386,8 @@ class Behaviour {
   bool begin_support_step(const PendingStrike& pending, const StrikePlan& plan, const Source& source, Timestamp now);
   void update_support_step(double dt);
   void apply_strike_rate(double dt);
-  /// Places a strike's travel (motion_playback.cpp); returns how the limb then lands.
-  StrikeFit place_strike_travel(Source& s, double contact_time_s, const HeldFeet& feet) const;
-  /// The floor travel (m, room) of a strike source's root from its time to contact_time_s, as
-  /// placed with its travel as it is (a lunge's: the clip travels at least
-  /// min_scaled_travel_m); `contact_pose`: the pose at contact.
-  Eigen::Vector2d strike_travel(const Source& s, double contact_time_s, MkmFrame& contact_pose) const;
   /// The strike's source as start_strike() plays it: placed on the character, aligned to the
-  /// support foot, its travel fitted to strike_target_; `fit`: place_strike_travel's.
+  /// support foot, its travel fitted to strike_target_ (strike_placement.hpp); `fit`: how it lands.
   Source strike_source(const StrikePlan& plan, StrikeFit& fit) const;
   /// The same from another pose and feet (a stance the fighter would take first).
   Source strike_source(const StrikePlan& plan, StrikeFit& fit, const MkmFrame& from, const HeldFeet& feet) const;
@@ -451,10 +424,6 @@ class Behaviour {
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
-  /// Returns the foot aligned that is in a procedural step now (to be put down where it is),
-  /// else -1. With `redirect`: a stepping foot the clip stands on too far away to carry the clip
-  /// to may be aligned on with its step sent on to the clip (StrikeFit::redirect_support, _to_m).
-  int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect = nullptr) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   /// A blow's abort (behaviour_hit.cpp): a strike of its own aborted if one is due and can leave now.
   void abort_strike_for_blow(Timestamp now);
