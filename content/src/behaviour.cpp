@@ -1001,6 +1001,47 @@ void Behaviour::judge_contact(Timestamp now, const Vector3d& head) {
   describe_contact(strike_, e);
 }
 
+FeetInput Behaviour::feet_input(double dt, const ReachGoal* reach, double ramp, const MkmFrame& cur) const {
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  FeetInput in;
+  in.dt_s = dt;
+  in.have_pose = have_pose_;
+  in.rig = &rig;
+  in.character = character_;
+  in.player = &player_;
+  in.motion = &cur;
+  in.pose = &pose_;
+  in.drawn_m = rig_positions_;
+  in.report = &report_;
+  in.switched = switch_.due();
+  in.stance_support = stance_step() ? stance_step()->support : -1;
+  in.before_contact = striking() && !strike_.contact_done;
+  in.effector = strike_.effector;
+  in.clip_contact_time_s = strike_.clip_contact_time_s;
+  in.kick_side = reach && strike_.effector.leg ? strike_.effector.side : -1;
+  in.kick_striking = striking();
+  in.reach_ramp = ramp;
+  if (reach && !reach->effector.leg && strike_target_) {
+    in.punch_side = reach->effector.side;
+    in.lowest_shoulder_y_m = strike_target_->y() - aim_rise_m(rig, reach->effector.side, tun_.max_punch_aim_deg);
+  }
+  // Steps also while recovering: a strike that ends in a long stance steps back under the
+  // body instead of squatting into the rest motion's narrower one.
+  // Not while d(t) still acts: the strike holds its stance until it has been taken back.
+  // Nor while a kick's support foot is set (its step and the kick it waits for): the other foot
+  // stands, and the set foot stays where the kick will turn on it.
+  const bool support_set = support_step() || (pending() && pending()->support_stepped) || (retaking() && retaking()->support_stepped);
+  // Nor while a stance step plays: the clip steps the feet.
+  // Nor while a strike is being planned (its plan in flight, or an order taken again after
+  // stepping in): it is planned around the feet as they stand. A step begun between a
+  // step-in's arrival and the plan left the back foot of kenji's lunge punch on the grid
+  // 13 cm ahead of where the lunge holds it: out of reach, it stepped back and forth in the air.
+  const bool planning = pending() || (retaking() && retaking()->stepped_first);
+  in.may_step = !striking() && ramp_ <= 0 && !support_set && !stance_step() && !planning;
+  in.spot_velocity_mps = spot_velocity_;
+  return in;
+}
+
 void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   time_ = now;
   ++updates_;
@@ -1127,45 +1168,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   motion_planted_ = cur.planted;
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   const auto n = static_cast<std::size_t>(rig.joint_count());
-  {
-    FeetInput in;
-    in.dt_s = dt;
-    in.have_pose = have_pose_;
-    in.rig = &rig;
-    in.character = character_;
-    in.player = &player_;
-    in.motion = &cur;
-    in.pose = &pose_;
-    in.drawn_m = rig_positions_;
-    in.report = &report_;
-    in.switched = switch_.due();
-    in.stance_support = stance_step() ? stance_step()->support : -1;
-    in.before_contact = striking() && !strike_.contact_done;
-    in.effector = strike_.effector;
-    in.clip_contact_time_s = strike_.clip_contact_time_s;
-    in.kick_side = reach && strike_.effector.leg ? strike_.effector.side : -1;
-    in.kick_striking = striking();
-    in.reach_ramp = ramp;
-    if (reach && !reach->effector.leg && strike_target_) {
-      in.punch_side = reach->effector.side;
-      in.lowest_shoulder_y_m = strike_target_->y() - aim_rise_m(rig, reach->effector.side, tun_.max_punch_aim_deg);
-    }
-    // Steps also while recovering: a strike that ends in a long stance steps back under the
-    // body instead of squatting into the rest motion's narrower one.
-    // Not while d(t) still acts: the strike holds its stance until it has been taken back.
-    // Nor while a kick's support foot is set (its step and the kick it waits for): the other foot
-    // stands, and the set foot stays where the kick will turn on it.
-    const bool support_set = support_step() || (pending() && pending()->support_stepped) || (retaking() && retaking()->support_stepped);
-    // Nor while a stance step plays: the clip steps the feet.
-    // Nor while a strike is being planned (its plan in flight, or an order taken again after
-    // stepping in): it is planned around the feet as they stand. A step begun between a
-    // step-in's arrival and the plan left the back foot of kenji's lunge punch on the grid
-    // 13 cm ahead of where the lunge holds it: out of reach, it stepped back and forth in the air.
-    const bool planning = pending() || (retaking() && retaking()->stepped_first);
-    in.may_step = !striking() && ramp_ <= 0 && !support_set && !stance_step() && !planning;
-    in.spot_velocity_mps = spot_velocity_;
-    feet_.update(in);
-  }
+  feet_.update(feet_input(dt, reach, ramp, cur));
   // A blow's reel laid on the pose (hit(): none in orders mode, nor before a blow).
   reel_.advance(dt);
   const MkmFrame* reeled = reel_.lay(pose_);

@@ -424,6 +424,9 @@ class Behaviour {
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
+  /// The feet's inputs for this update: the motion alone (`cur`), d(t) (`reach`, at weight
+  /// `ramp`), the strike under way and whether a foot may step.
+  FeetInput feet_input(double dt, const ReachGoal* reach, double ramp, const MkmFrame& cur) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   /// A blow's abort (behaviour_hit.cpp): a strike of its own aborted if one is due and can leave now.
   void abort_strike_for_blow(Timestamp now);
