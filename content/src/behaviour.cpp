@@ -1,7 +1,7 @@
 // Behaviour's decisions: orders, the state machine (resting, following, striking,
 // recovering), starting a strike and its reach offset d(t), following the visitor, judging
 // contact, and update() composing them. Playing sources: motion_playback.cpp; what the
-// motion says of the feet: behaviour_feet.cpp; holding them: foot_planting.cpp.
+// motion says of the feet and the pelvis drop: feet.cpp (Feet); holding them: foot_planting.cpp.
 #include "kumite/content/behaviour.hpp"
 
 #include <algorithm>
@@ -14,6 +14,7 @@
 #include "kumite/common/error.hpp"
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
+#include "kumite/content/contact.hpp"
 
 namespace kumite::content {
 
@@ -62,11 +63,20 @@ constexpr double kWholeStep_m = 0.9;
 constexpr double kStanceStepFeetWait_s = 0.5;
 }  // namespace
 
+namespace {
+std::size_t most_joints_of(const std::vector<Rig>& characters) {
+  std::size_t most = 0;
+  for (const Rig& r : characters) most = std::max(most, static_cast<std::size_t>(r.joint_count()));
+  return most;
+}
+}  // namespace
+
 // ---- Behaviour --------------------------------------------------------------------------
 
 Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> characters, const FighterConfig& config)
     : db_(std::move(db)), block_planner_(std::make_shared<StrikePlanner>(db_, config.retrieval)),
-      characters_(std::move(characters)), config_(config), tun_(config.behaviour), player_(db_, 1.0), feet_(config.behaviour.feet) {
+      characters_(std::move(characters)), config_(config), tun_(config.behaviour), player_(db_, 1.0), feet_(db_, config.behaviour),
+      switch_(most_joints_of(characters_), config.behaviour.blend_time_s) {
   validate(config.behaviour, config.retrieval);
   if (characters_.empty()) throw Error("fighter", "config", "no characters to show");
   if (db_->segments.empty()) throw Error("fighter", "database", "the motion database has no segments");
@@ -90,7 +100,6 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   global_.resize(max_joints);
   rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
-  switch_offset_.assign(max_joints, Vector3d::Zero());
   // Orders swap between these two each update; an order taken again after stepping in is
   // queued from inside update(): room kept in both, so that allocates nothing.
   orders_.reserve(16);
@@ -251,7 +260,7 @@ void Behaviour::select_character(int index, Timestamp now) {
   // the pelvis drop carried over was let go, and stepped with the other foot in the air (the
   // knee 5 cm, the elbow 9 cm in a frame, in the bout with stance steps on).
   feet_.keep_held_only();
-  switch_offsets_due_ = true;  // the easing's offsets: after this update's solve
+  switch_.begin();  // the easing's offsets: after this update's decode
   if (striking()) compute_reach_error(strike_.contact_time_s);
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
        FighterEvent::Reason::none);
@@ -350,7 +359,9 @@ const Vector3d* Behaviour::step_target() const {
   return nullptr;
 }
 
-Behaviour::HeldFeet Behaviour::held_feet() const {
+std::array<bool, 2> Behaviour::feet_locked() const { return {feet_.held(kLeft), feet_.held(kRight)}; }
+
+HeldFeet Behaviour::held_feet() const {
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   HeldFeet f;
   for (int side = 0; side < 2; ++side) {
@@ -378,8 +389,16 @@ Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fi
   s.placement.origin_xz = g_char.origin_xz;
   s.placement.yaw_rad = wrap(g_char.yaw_rad - g_clip.yaw_rad);
   s.anchor_xz_m = g_clip.origin_xz;
+  StrikePlacement in;
+  in.db = db_.get();
+  in.player = &player_;
+  in.rig = &characters_[static_cast<std::size_t>(character_)];
+  in.tunables = &tun_;
+  in.target_m = strike_target_ ? &*strike_target_ : nullptr;
+  in.feet = &feet;
+  in.scratch = &scratch_pose_;
   StrikeFit redirect;
-  const int landing_support = align_to_support_foot(s, plan.contact_frame * seg.frame_time_s, feet, &redirect);
+  const int landing_support = align_to_support_foot(in, s, plan.contact_frame * seg.frame_time_s, &redirect);
   // A foot in a procedural step that the strike stands on (put down where it is, or its step
   // sent to where the clip has it) holds the lunge back as a held one does (place_strike_travel):
   // not counted, the lunge was scaled as if that foot would follow and left it out of the leg's
@@ -391,7 +410,8 @@ Behaviour::Source Behaviour::strike_source(const StrikePlan& plan, StrikeFit& fi
     travel_feet.held[static_cast<std::size_t>(redirect.redirect_support)] = true;
     travel_feet.ankle_m[static_cast<std::size_t>(redirect.redirect_support)] = redirect.redirect_to_m;
   }
-  fit = place_strike_travel(s, plan.contact_frame * seg.frame_time_s, travel_feet);
+  in.feet = &travel_feet;
+  fit = place_strike_travel(in, s, plan.contact_frame * seg.frame_time_s);
   fit.landing_support = landing_support;
   fit.redirect_support = redirect.redirect_support;
   fit.redirect_to_m = redirect.redirect_to_m;
@@ -696,7 +716,7 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
 }
 
 FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s) const {
-  FootLocks f = locks_;  // as the last update held them
+  FootLocks f = feet_.locks();  // as the last update held them
   f.min_root_drop_m = 0;
   f.max_root_drop_m = tun_.max_root_drop_m;
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(s.segment)];
@@ -732,7 +752,7 @@ FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s
       continue;
     }
     // Put down on the way: the planter holds it where the clip has it at contact
-    // (strike_hold_frame: down from there through contact).
+    // (Feet's hold_frame: down from there through contact).
     MkmFrame g;
     player_.sample_frame(s, contact, g);
     f.weight[us] = 1;
@@ -962,51 +982,75 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   set_locomotion(following ? Locomotion{Walking{}} : Locomotion{AtSpot{}});
 }
 
-namespace {
-double distance_to_segment(const Vector3d& p, const Vector3d& a, const Vector3d& b) {
-  const Vector3d ab = b - a;
-  const double len2 = ab.squaredNorm();
-  const double u = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-  return (p - (a + u * ab)).norm();
-}
-}  // namespace
-
 void Behaviour::judge_contact(Timestamp now, const Vector3d& head) {
-  // Judged against the visitor as tracked now, not the target frozen at the order: a visitor
-  // who ducked or stepped away since is not hit.
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
-  const Vector3d hit_point = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()))];
+  ContactInput in;
+  in.hit_point_m = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(strike_.effector.joint()))];
+  in.target_m = strike_.target_room_m;
+  in.hit_radius_m = config_.hit_radius_m;
+  in.visitor = VisitorShape::of(config_, head);
+  const ContactJudgement j = judge_strike_contact(in);
   strike_.contact_done = true;
   strike_.contact_update = updates_;
-  strike_.contact_distance_m = (hit_point - strike_.target_room_m).norm();
+  strike_.contact_distance_m = j.target_distance_m;
   strike_.contact_reached = report_.reached && !strike_.out_of_reach;
-  strike_.target_reached = strike_.contact_distance_m <= config_.hit_radius_m;
-  const Vector3d top = head - Vector3d::UnitY() * config_.visitor_neck_m;
-  const Vector3d bottom(head.x(), std::min(top.y(), config_.visitor_capsule_bottom_m), head.z());
-  const double gap = std::min((hit_point - head).norm() - config_.visitor_head_radius_m,
-                              distance_to_segment(hit_point, top, bottom) - config_.visitor_body_radius_m);
-  strike_.body_distance_m = gap;
-  strike_.hit = gap <= 0;
-  const auto kind = strike_.hit              ? FighterEvent::Kind::hit
-                    : strike_.target_reached ? FighterEvent::Kind::dodged
-                                             : FighterEvent::Kind::miss;
-  FighterEvent& e = emit(kind, now, strike_.order, FighterEvent::Reason::none, strike_.hit ? 0.0 : gap);
+  strike_.target_reached = j.target_reached;
+  strike_.body_distance_m = j.body_distance_m;
+  strike_.hit = j.hit;
+  FighterEvent& e = emit(j.kind(), now, strike_.order, FighterEvent::Reason::none, j.event_distance_m());
   describe_contact(strike_, e);
+}
+
+FeetInput Behaviour::feet_input(double dt, const ReachGoal* reach, double ramp, const MkmFrame& cur) const {
+  const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+  FeetInput in;
+  in.dt_s = dt;
+  in.have_pose = have_pose_;
+  in.rig = &rig;
+  in.character = character_;
+  in.player = &player_;
+  in.motion = &cur;
+  in.pose = &pose_;
+  in.drawn_m = rig_positions_;
+  in.report = &report_;
+  in.switched = switch_.due();
+  in.stance_support = stance_step() ? stance_step()->support : -1;
+  in.before_contact = striking() && !strike_.contact_done;
+  in.effector = strike_.effector;
+  in.clip_contact_time_s = strike_.clip_contact_time_s;
+  in.kick_side = reach && strike_.effector.leg ? strike_.effector.side : -1;
+  in.kick_striking = striking();
+  in.reach_ramp = ramp;
+  if (reach && !reach->effector.leg && strike_target_) {
+    in.punch_side = reach->effector.side;
+    in.lowest_shoulder_y_m = strike_target_->y() - aim_rise_m(rig, reach->effector.side, tun_.max_punch_aim_deg);
+  }
+  // Steps also while recovering: a strike that ends in a long stance steps back under the
+  // body instead of squatting into the rest motion's narrower one.
+  // Not while d(t) still acts: the strike holds its stance until it has been taken back.
+  // Nor while a kick's support foot is set (its step and the kick it waits for): the other foot
+  // stands, and the set foot stays where the kick will turn on it.
+  const bool support_set = support_step() || (pending() && pending()->support_stepped) || (retaking() && retaking()->support_stepped);
+  // Nor while a stance step plays: the clip steps the feet.
+  // Nor while a strike is being planned (its plan in flight, or an order taken again after
+  // stepping in): it is planned around the feet as they stand. A step begun between a
+  // step-in's arrival and the plan left the back foot of kenji's lunge punch on the grid
+  // 13 cm ahead of where the lunge holds it: out of reach, it stepped back and forth in the air.
+  const bool planning = pending() || (retaking() && retaking()->stepped_first);
+  in.may_step = !striking() && ramp_ <= 0 && !support_set && !stance_step() && !planning;
+  in.spot_velocity_mps = spot_velocity_;
+  return in;
 }
 
 void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   time_ = now;
   ++updates_;
   dt = std::max(0.0, dt);
-  const int old_character = character_;
-  std::vector<Vector3d> old_display;  // only on a switch (rare)
-  const std::size_t old_n = static_cast<std::size_t>(characters_[static_cast<std::size_t>(character_)].joint_count());
-
-  // A switch needs the old drawn pose; copy it before handle_orders changes character.
+  // A switch needs the old drawn pose; kept before handle_orders changes character.
   const bool switch_pending = std::any_of(orders_.begin(), orders_.end(), [](const QueuedOrder& q) {
     return q.order.kind == OrderKind::select_character;
   });
-  if (switch_pending && have_pose_) old_display.assign(positions_.begin(), positions_.begin() + static_cast<std::ptrdiff_t>(old_n));
+  if (switch_pending && have_pose_) switch_.keep_drawn(characters_[static_cast<std::size_t>(character_)], positions_);
 
   handle_orders(now, head);
   if (const AwaitingPlan* w = as<AwaitingPlan>()) {
@@ -1065,7 +1109,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   // Advance the clocks by the whole frame: the contact frame is the first frame at or past the
   // planned contact time, a real frame of motion (no sub-frame hold, no copy of the last).
   player_.advance(dt);
-  if (!switch_offsets_due_) switch_elapsed_s_ += dt;
+  switch_.advance(dt);
   // A blow (hit()): a strike of its own before its contact leaves for rest (behaviour_hit.cpp).
   if (abort_until_ >= 0) abort_strike_for_blow(now);
   const bool contact_now = striking() && !strike_.contact_done && player_.current().time_s >= strike_.contact_time_s;
@@ -1122,46 +1166,9 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   }
   ramp_ = ramp;
   motion_planted_ = cur.planted;
-  update_feet(dt, reach, cur);
-  if (reach && strike_.effector.leg && !feet_.held(strike_.effector.side)) {
-    // The kicking foot leaves its hold on the same ramp as d(t): fully free at contact, so the
-    // goal there is exactly the motion's own foot turned by d(t) (what compute_reach_error
-    // assumed), and back under the hold as d(t) is released. Once put down it is held.
-    locks_.weight[static_cast<std::size_t>(strike_.effector.side)] *= std::clamp(1 - ramp, 0.0, 1.0);
-  }
-
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   const auto n = static_cast<std::size_t>(rig.joint_count());
-  // The pelvis drop for held feet changes at a bounded rate and a bounded acceleration: a foot
-  // lifted or put down never moves the whole body in one frame, and a foot held for a single
-  // update (landing, lifted again) does not flick the pelvis down and up (the knees popped).
-  const double last_drop = have_pose_ ? report_.root_drop_m : 0.0;
-  const double v = have_pose_ ? drop_rate_mps_ : 0.0;
-  // The rate changes by max_drop_accel_mps2 * dt, but the step (rate * dt) by no more than
-  // kMostDropStepGain_m an update: at 30 Hz (30 fps clips played at their rate) 60 m/s^2 let a
-  // foot's hold lift the whole body 5.9 cm in one update after 0.4 cm in the one before (the
-  // motion-quality check's one-frame jump); 120 and 60 Hz stay under the bound (0.4 and 1.7 cm;
-  // foot_planting.cpp's kMostStepGain_m, the same 3 cm). A tighter bound (1 cm) also kept a
-  // nearly straight leg's knee, which moves 2-3x what the pelvis does, from jumping at 30 and
-  // 60 Hz, but at 60 Hz the shipped sweep's pelvis then lagged its feet: both feet off in 8899
-  // frames instead of 6757, 3 snaps instead of 0.
-  constexpr double kMostDropStepGain_m = 0.03;
-  const double dv = dt > 0 ? std::min(tun_.max_drop_accel_mps2 * dt, kMostDropStepGain_m / dt) : 0.0;
-  const double v_lo = std::max(-tun_.max_drop_rate_mps, v - dv);
-  const double v_hi = std::min(tun_.max_drop_rate_mps, v + dv);
-  // A punch's pelvis goes no lower than keeps its target within the arm's reach at
-  // max_punch_aim_deg from the shoulder: a lunge's back foot held out of the legs' reach sank
-  // the pelvis 0.29 m and a head-height punch went up with the elbow above the head. The foot
-  // steps instead (a foot the leg cannot reach steps at once: FootPlanter).
-  double most_drop = tun_.max_root_drop_m;
-  if (reach && !reach->effector.leg && strike_target_ && have_pose_) {
-    const CJ shoulder = reach->effector.side == kLeft ? CJ::l_shoulder : CJ::r_shoulder;
-    const double shoulder_undropped = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(shoulder))].y() + last_drop;
-    const double lowest = strike_target_->y() - aim_rise_m(rig, reach->effector.side, tun_.max_punch_aim_deg);
-    most_drop = std::clamp(shoulder_undropped - lowest, 0.0, most_drop);
-  }
-  locks_.min_root_drop_m = std::clamp(last_drop + v_lo * dt, 0.0, tun_.max_root_drop_m);
-  locks_.max_root_drop_m = std::clamp(std::min(last_drop + v_hi * dt, most_drop), locks_.min_root_drop_m, tun_.max_root_drop_m);
+  feet_.update(feet_input(dt, reach, ramp, cur));
   // A blow's reel laid on the pose (hit(): none in orders mode, nor before a blow).
   reel_.advance(dt);
   const MkmFrame* reeled = reel_.lay(pose_);
@@ -1169,7 +1176,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.rig = &rig;
   job.pose = reeled ? reeled : &pose_;
   job.reach = reach;
-  job.feet = have_pose_ ? &locks_ : nullptr;
+  job.feet = have_pose_ ? &feet_.locks() : nullptr;
   job.local_rotations = std::span(local_).first(n);
   job.global_rotations = std::span(global_).first(n);
   job.global_positions = std::span(rig_positions_).first(n);
@@ -1196,7 +1203,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.Run();
   if (job.reach && !job.reach->effector.leg) trunk_floor_side_ = job.reach->effector.side;  // the fallback's arm
   player_.note_drawn_arms(rig, rig_positions_);  // each drawn elbow's distance from its arm's line
-  drop_rate_mps_ = have_pose_ && dt > 0 ? (report_.root_drop_m - last_drop) / dt : 0.0;
+  feet_.drew(have_pose_, dt, report_.root_drop_m);
   have_pose_ = true;
   last_dt_ = dt > 0 ? dt : last_dt_;
 
@@ -1204,36 +1211,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
     if (strike_.block) judge_block_in_place(now);
     else judge_contact(now, head);
   }
-
-
-
-
-  // Character switch easing: offsets from the old drawn pose, fading over blend_time.
-  if (switch_offsets_due_) {
-    switch_offsets_due_ = false;
-    switch_elapsed_s_ = 0;
-    const Rig& old_rig = characters_[static_cast<std::size_t>(old_character)];
-    CanonicalPose old_c, new_c;
-    if (!old_display.empty()) {
-      canonical_positions(old_rig.skeleton, old_display, old_c);
-    } else {
-      canonical_positions(rig.skeleton, rig_positions_, old_c);
-    }
-    canonical_positions(rig.skeleton, rig_positions_, new_c);
-    for (std::size_t i = 0; i < n; ++i) {
-      // The nearest canonical joint at or above i carries its offset.
-      int j = static_cast<int>(i);
-      int cj = -1;
-      while (j >= 0 && cj < 0) {
-        for (std::size_t c = 0; c < kCanonicalJointCount; ++c)
-          if (rig.skeleton.canonical[c] == j && old_c[c].allFinite()) { cj = static_cast<int>(c); break; }
-        if (cj < 0) j = rig.skeleton.parents[static_cast<std::size_t>(j)];
-      }
-      switch_offset_[i] = cj >= 0 ? Vector3d(old_c[static_cast<std::size_t>(cj)] - new_c[static_cast<std::size_t>(cj)]) : Vector3d::Zero();
-    }
-  }
-  const double fade = switch_elapsed_s_ < tun_.blend_time_s ? 1 - smoothstep(switch_elapsed_s_ / tun_.blend_time_s) : 0.0;
-  for (std::size_t i = 0; i < n; ++i) positions_[i] = rig_positions_[i] + switch_offset_[i] * fade;
+  // A character switch's easing: the drawn joints from the old drawn pose, the offsets fading.
+  switch_.ease(rig, rig_positions_, positions_);
 }
 
 FighterFrame Behaviour::frame() const {

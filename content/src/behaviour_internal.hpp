@@ -1,9 +1,12 @@
 #pragma once
 // Behaviour's own helpers, shared by its files (content/src, not installed):
 //   behaviour.cpp        decisions: orders, the state machine, strikes, following, contact
-//   motion_playback.cpp  the MotionPlayer (sampling, placement, a strike's scaled travel) and
-//                        a strike's placement on its support foot
-//   behaviour_feet.cpp   what the motion says of each foot, for the FootPlanter
+//   motion_playback.cpp  the MotionPlayer (sampling, placement, a strike's scaled travel)
+//   strike_placement.cpp a strike's clip on its support foot, its travel fitted (free functions)
+//   contact.cpp          a strike's contact judged against the visitor as tracked
+//   switch_easing.cpp    a character switch's eased pose
+//   feet.cpp             the Feet (feet.hpp): what the motion says of each foot, the
+//                        FootPlanter, the held feet and the pelvis drop's bounds
 //   behaviour_steps.cpp  following with stance steps cut from the mocap
 //   behaviour_block.cpp, behaviour_guard.cpp (Guard), behaviour_hit.cpp (HitReel): spar mode
 #include <limits>

@@ -133,11 +133,24 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
 
 namespace {
 
-/// Plans strikes on its own thread. A request submitted at update N is handed back at update
-/// N + delay exactly: poll() returns nothing before, and at N + delay waits for the plan if the
-/// worker is not done yet (retrieval takes ~20 µs; a frame is ~16 ms). One request at a time:
-/// Behaviour waits for a plan before it asks for the next. A strike's rate job has a slot of
-/// its own (one at a time as well: Behaviour polls it before the strike can end).
+/// One job kind's one-slot mailbox on the worker: the job handed over and its result (guarded
+/// by the worker's mutex), and the job awaited and the update its result is due on (the update
+/// thread's own).
+template <class Job, class Result>
+struct WorkerSlot {
+  std::optional<Job> job;        // guarded by RetrievalWorker::mutex_
+  std::optional<Result> result;  // guarded by RetrievalWorker::mutex_
+  std::optional<std::uint64_t> outstanding;
+  std::uint64_t due = 0;
+};
+
+/// Plans strikes and finds their playback rates on its own thread, one WorkerSlot per job
+/// kind, each handed to Behaviour as a WorkerChannel. A request submitted at update N is handed
+/// back at update N + delay exactly: its poll returns nothing before, and at N + delay waits
+/// for the plan if the worker is not done yet (retrieval takes ~20 us; a frame is ~16 ms). One
+/// request at a time: Behaviour waits for a plan before it asks for the next. A strike's rate
+/// job is handed back on the first poll after it (Behaviour polls on the update it is due,
+/// before the strike can end), one at a time as well.
 class RetrievalWorker {
  public:
   using PlanFn = std::function<StrikePlan(const StrikeRequest&)>;
@@ -154,52 +167,52 @@ class RetrievalWorker {
   }
   /// The update counter of the behaviour's thread (called before each update).
   void set_update(std::uint64_t update) { update_ = update; }
-  // Called from the update thread: a short critical section (copy a request).
-  void submit(const StrikeRequest& r) {
-    {
-      std::lock_guard lock(mutex_);
-      request_ = r;
-      result_.reset();
-    }
-    outstanding_ = r.id;
-    due_ = update_ + static_cast<std::uint64_t>(delay_);
-    ++stats_.requests;
-    cv_.notify_all();
+  /// The two channels (called from the update thread): a short critical section to copy a job
+  /// in, nothing allocated.
+  Behaviour::PlanChannel plan_channel() {
+    return {[this](const StrikeRequest& r) {
+              submit(plans_, r, r.id, delay_);
+              ++stats_.requests;
+            },
+            [this] { return poll(plans_); }};
   }
-  std::optional<StrikePlan> poll() {
-    if (!outstanding_ || update_ < due_) return std::nullopt;
-    std::unique_lock lock(mutex_);
-    const auto ready = [&] { return result_ && result_->id == *outstanding_; };
-    wait_counted(lock, ready);
-    auto r = std::move(result_);
-    result_.reset();
-    outstanding_.reset();
-    return r;
-  }
-  /// A strike's rate job (update thread): copied into its slot, nothing allocated.
-  void submit_rate(const StrikeRateJob& job) {
-    {
-      std::lock_guard lock(mutex_);
-      rate_job_ = job;
-      rate_result_.reset();
-    }
-    rate_outstanding_ = job.id;
-    ++stats_.rate_jobs;
-    cv_.notify_all();
-  }
-  /// Called by Behaviour on the update the job is due: its result, waiting if the worker is late.
-  std::optional<StrikeRateResult> poll_rate() {
-    if (!rate_outstanding_) return std::nullopt;
-    std::unique_lock lock(mutex_);
-    const auto ready = [&] { return rate_result_ && rate_result_->id == *rate_outstanding_; };
-    wait_counted(lock, ready);
-    const StrikeRateResult r = *rate_result_;  // ready(): it holds the job's result
-    rate_result_.reset();
-    rate_outstanding_.reset();
-    stats_.rate_solve_max_us = std::max(stats_.rate_solve_max_us, r.solve_us);
-    return r;
+  Behaviour::RateChannel rate_channel() {
+    return {[this](const StrikeRateJob& job) {
+              submit(rates_, job, job.id, 0);
+              ++stats_.rate_jobs;
+            },
+            [this] {
+              std::optional<StrikeRateResult> r = poll(rates_);
+              if (r) stats_.rate_solve_max_us = std::max(stats_.rate_solve_max_us, r->solve_us);
+              return r;
+            }};
   }
   const RetrievalTiming& stats() const { return stats_; }
+
+ private:
+  template <class Job, class Result>
+  void submit(WorkerSlot<Job, Result>& slot, const Job& job, std::uint64_t id, int delay_updates) {
+    {
+      std::lock_guard lock(mutex_);
+      slot.job = job;
+      slot.result.reset();
+    }
+    slot.outstanding = id;
+    slot.due = update_ + static_cast<std::uint64_t>(delay_updates);
+    cv_.notify_all();
+  }
+  /// The result of the job awaited, from the update it is due on, waiting if the worker is late.
+  template <class Job, class Result>
+  std::optional<Result> poll(WorkerSlot<Job, Result>& slot) {
+    if (!slot.outstanding || update_ < slot.due) return std::nullopt;
+    std::unique_lock lock(mutex_);
+    const auto ready = [&] { return slot.result && slot.result->id == *slot.outstanding; };
+    wait_counted(lock, ready);
+    std::optional<Result> r = std::move(slot.result);
+    slot.result.reset();
+    slot.outstanding.reset();
+    return r;
+  }
   /// Waits (lock held) until `ready`, counting a wait in stats_ when it was not ready at once.
   template <class Ready>
   void wait_counted(std::unique_lock<std::mutex>& lock, Ready ready) {
@@ -211,24 +224,23 @@ class RetrievalWorker {
     stats_.wait_total_ms += ms;
     stats_.wait_max_ms = std::max(stats_.wait_max_ms, ms);
   }
-
- private:
+  /// The worker thread: one job of each kind taken at a time, the rate job first.
   void run() {
     for (;;) {
       std::optional<StrikeRequest> r;
       std::optional<StrikeRateJob> job;
       {
         std::unique_lock lock(mutex_);
-        cv_.wait(lock, [&] { return stop_ || request_.has_value() || rate_job_.has_value(); });
+        cv_.wait(lock, [&] { return stop_ || plans_.job.has_value() || rates_.job.has_value(); });
         if (stop_) return;
-        std::swap(r, request_);
-        std::swap(job, rate_job_);
+        std::swap(r, plans_.job);
+        std::swap(job, rates_.job);
       }
       if (job) {
         StrikeRateResult res = rate_(*job);
         {
           std::lock_guard lock(mutex_);
-          rate_result_ = res;
+          rates_.result = res;
         }
         done_.notify_all();
       }
@@ -236,7 +248,7 @@ class RetrievalWorker {
         StrikePlan p = plan_(*r);
         {
           std::lock_guard lock(mutex_);
-          result_ = std::move(p);
+          plans_.result = std::move(p);
         }
         done_.notify_all();
       }
@@ -247,15 +259,11 @@ class RetrievalWorker {
   int delay_;
   std::mutex mutex_;
   std::condition_variable cv_, done_;
-  std::optional<StrikeRequest> request_;  // guarded by mutex_
-  std::optional<StrikePlan> result_;      // guarded by mutex_
-  std::optional<StrikeRateJob> rate_job_;        // guarded by mutex_
-  std::optional<StrikeRateResult> rate_result_;  // guarded by mutex_
-  bool stop_ = false;                     // guarded by mutex_
-  // The update thread's own.
-  std::uint64_t update_ = 0, due_ = 0;
-  std::optional<std::uint64_t> outstanding_, rate_outstanding_;
-  RetrievalTiming stats_;
+  WorkerSlot<StrikeRequest, StrikePlan> plans_;
+  WorkerSlot<StrikeRateJob, StrikeRateResult> rates_;
+  bool stop_ = false;  // guarded by mutex_
+  std::uint64_t update_ = 0;  // the update thread's own
+  RetrievalTiming stats_;     // the update thread's own
   std::thread thread_;  // last: starts after the members above exist
 };
 
@@ -277,10 +285,8 @@ class FighterImpl final : public Fighter {
       return hook ? hook(*solver, job) : solver->solve(job);
     };
     worker_ = std::make_unique<RetrievalWorker>(std::move(plan), std::move(rate), options.retrieval_delay_updates);
-    behaviour_.set_planner(Behaviour::PlanChannel{[this](const StrikeRequest& r) { worker_->submit(r); },
-                                                  [this] { return worker_->poll(); }});
-    behaviour_.set_rate_solver(Behaviour::RateChannel{[this](const StrikeRateJob& job) { worker_->submit_rate(job); },
-                                                      [this] { return worker_->poll_rate(); }});
+    behaviour_.set_planner(worker_->plan_channel());
+    behaviour_.set_rate_solver(worker_->rate_channel());
   }
   void order(const Order& order) override {
     if (order.kind == OrderKind::spar || order.kind == OrderKind::orders_only) {

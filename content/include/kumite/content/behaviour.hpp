@@ -24,12 +24,15 @@
 #include "kumite/content/adaptation.hpp"
 #include "kumite/content/block_retrieval.hpp"
 #include "kumite/content/database.hpp"
+#include "kumite/content/feet.hpp"
 #include "kumite/content/fighter.hpp"
 #include "kumite/content/foot_planting.hpp"
 #include "kumite/content/guard.hpp"
 #include "kumite/content/hit_reel.hpp"
 #include "kumite/content/motion_player.hpp"
 #include "kumite/content/retrieval.hpp"
+#include "kumite/content/strike_placement.hpp"
+#include "kumite/content/switch_easing.hpp"
 #include "kumite/content/worker_channel.hpp"
 
 namespace kumite::content {
@@ -288,8 +291,8 @@ class Behaviour {
   /// Feet held still this update [side] (not lifted by the motion, not stepping).
   std::array<bool, 2> feet_locked() const;
   /// Foot planting as of the last update (for tools/tests).
-  const FootPlanter& foot_planter() const { return feet_; }
-  const FootLocks& foot_locks() const { return locks_; }
+  const FootPlanter& foot_planter() const { return feet_.planter(); }
+  const FootLocks& foot_locks() const { return feet_.locks(); }
   /// d(t)'s weight at the last update: 0 none, 1 the full correction (contact).
   double reach_ramp() const { return ramp_; }
   /// The source motion's contacts at the last update [side] (the motion being blended to).
@@ -363,31 +366,9 @@ class Behaviour {
   /// A strike order that waits (queued) rather than being taken at this update.
   bool deferred(const QueuedOrder& queued) const;
   void take_order(const QueuedOrder& queued, Timestamp now, const Eigen::Vector3d& head);
-  /// How a strike placed by place_strike_travel lands on its target.
-  struct StrikeFit {
-    double shortfall_m = 0;  ///< m the fighter would have to step in for the limb to reach the target as extended as captured
-    double too_near_m = 0;   ///< m the limb's root is nearer the target than the clip has it from its own hit point
-    double extension = 1;    ///< limb root to target over the limb's length at contact (1: straight)
-    /// The foot the strike is aligned on while it is in a procedural step (the clip stands on
-    /// it from its start, or puts it down on the way and keeps it down to contact:
-    /// align_to_support_foot), -1 for none: the step ends where the foot is
-    /// when the strike starts (FootPlanter::land), and it stands there.
-    int landing_support = -1;
-    /// The foot the strike is aligned on while it is in a procedural step too far from where the
-    /// clip has it to carry the clip there (max_support_shift_m): its step goes on to where the
-    /// clip, carried as far as it goes, stands on it (FootPlanter::redirect), -1 for none.
-    int redirect_support = -1;
-    Eigen::Vector3d redirect_to_m{0, 0, 0};  ///< m, room: where that step then ends
-  };
   void start_strike(const PendingStrike& pending, const StrikePlan& plan, const PlaybackSource& source, const StrikeFit& fit, Timestamp now, double dt);
-  /// The feet a strike is placed on: which are held, and where their ankles stand (m, room).
-  struct HeldFeet {
-    std::array<bool, 2> held{};
-    std::array<bool, 2> stepping{};  ///< in a procedural step (not held): it may be cut short
-    std::array<Eigen::Vector3d, 2> ankle_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
-    std::array<Eigen::Vector3d, 2> step_end_m{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  ///< m, room: where it puts it down
-  };
-  HeldFeet held_feet() const;  ///< as drawn now
+  /// The feet a strike is placed on, as drawn now (strike_placement.hpp).
+  HeldFeet held_feet() const;
   /// The target (frozen at the order) of the step in progress before a strike: a step in or
   /// back, into the fighting stance, or a kick's support step; nullptr when none is.
   const Eigen::Vector3d* step_target() const;
@@ -416,14 +397,8 @@ class Behaviour {
   bool begin_support_step(const PendingStrike& pending, const StrikePlan& plan, const Source& source, Timestamp now);
   void update_support_step(double dt);
   void apply_strike_rate(double dt);
-  /// Places a strike's travel (motion_playback.cpp); returns how the limb then lands.
-  StrikeFit place_strike_travel(Source& s, double contact_time_s, const HeldFeet& feet) const;
-  /// The floor travel (m, room) of a strike source's root from its time to contact_time_s, as
-  /// placed with its travel as it is (a lunge's: the clip travels at least
-  /// min_scaled_travel_m); `contact_pose`: the pose at contact.
-  Eigen::Vector2d strike_travel(const Source& s, double contact_time_s, MkmFrame& contact_pose) const;
   /// The strike's source as start_strike() plays it: placed on the character, aligned to the
-  /// support foot, its travel fitted to strike_target_; `fit`: place_strike_travel's.
+  /// support foot, its travel fitted to strike_target_ (strike_placement.hpp); `fit`: how it lands.
   Source strike_source(const StrikePlan& plan, StrikeFit& fit) const;
   /// The same from another pose and feet (a stance the fighter would take first).
   Source strike_source(const StrikePlan& plan, StrikeFit& fit, const MkmFrame& from, const HeldFeet& feet) const;
@@ -440,7 +415,6 @@ class Behaviour {
   void end_stance_step(Timestamp now);
   /// The rest segment (rest_segment_ or its mirror) whose stance fits the feet drawn now best.
   int rest_for_stance() const;
-  void update_feet(double dt, const ReachGoal* reach, const MkmFrame& cur);
   /// d(t) at contact from the pose at segment time `at_time_s`; `plan_lean`: also the punch's
   /// trunk lean (not at the contact frame itself: the lean eased in since the start stays).
   void compute_reach_error(double at_time_s, bool plan_lean = true);
@@ -448,11 +422,6 @@ class Behaviour {
   /// clip keeps them planted from its time on (a foot not held now is left out), else where the
   /// clip puts them down on the way; the others at weight 0. Pelvis drop 0..max_root_drop_m.
   FootLocks feet_through_contact(const Source& s, double contact_time_s) const;
-  /// The segment frame (of the motion now playing) whose ankle a foot the motion puts down at
-  /// its frame `land` is held at: `land`, or, while a strike is on its way to contact and the
-  /// clip keeps that foot (not the kicking one) down from `land` through contact, the
-  /// contact frame.
-  int strike_hold_frame(int side, int land) const;
   /// m, room: how low a punch's shoulder may drop for held feet (the target within the arm's
   /// reach at max_punch_aim_deg from it; -inf for kicks).
   double lowest_shoulder_y_m() const;
@@ -466,11 +435,9 @@ class Behaviour {
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
-  /// Returns the foot aligned that is in a procedural step now (to be put down where it is),
-  /// else -1. With `redirect`: a stepping foot the clip stands on too far away to carry the clip
-  /// to may be aligned on with its step sent on to the clip (StrikeFit::redirect_support, _to_m).
-  int align_to_support_foot(Source& s, double contact_time_s, const HeldFeet& feet, StrikeFit* redirect = nullptr) const;
-  double swing_left_s(int side) const;
+  /// The feet's inputs for this update: the motion alone (`cur`), d(t) (`reach`, at weight
+  /// `ramp`), the strike under way and whether a foot may step.
+  FeetInput feet_input(double dt, const ReachGoal* reach, double ramp, const MkmFrame& cur) const;
   void judge_contact(Timestamp now, const Eigen::Vector3d& head);
   /// A blow's abort (behaviour_hit.cpp): a strike of its own aborted if one is due and can leave now.
   void abort_strike_for_blow(Timestamp now);
@@ -575,36 +542,13 @@ class Behaviour {
   MkmFrame pose_, pose_before_;  ///< blended, placed pose this and the previous update
   bool have_pose_ = false;
   double last_dt_ = 1.0 / 60;
-  double drop_rate_mps_ = 0;  ///< m/s: how fast the pelvis drop changed at the last update
 
-  // Feet.
-  FootPlanter feet_;
-  FootLocks locks_;
-  /// Per foot, the landing of the swing under way and the source ankle's horizontal way left to
-  /// it: walked once when a swing (or the motion that plays it) begins, then reduced by each
-  /// update's own step, so a swing costs one pass over its frames rather than one per update.
-  struct SwingPath {
-    int segment = -1;        ///< -1: none
-    int character = -1;
-    /// The segment frame of the landing (its time clamped to the clip: a foot that stays up to
-    /// the clip's end lands on its last frame, whatever the rate the rest after it is played at).
-    int land_frame = 0;
-    /// The segment frame whose ankle it is held at once down (strike_hold_frame: land_frame, or
-    /// a strike's contact frame).
-    int hold_frame = 0;
-    GroundFrame placement;
-    Eigen::Vector2d anchor_xz_m{0, 0};
-    Source::Travel travel;
-    Eigen::Vector3d landing_m{0, 0, 0};  ///< m, room: the ankle at the landing
-    Eigen::Vector3d last_m{0, 0, 0};     ///< m, room: the source ankle at the last update
-    double way_left_m = 0;               ///< m, horizontal path from last_m to the landing
-  };
-  std::array<SwingPath, 2> swing_paths_{};
+  /// The feet: where each is held, the held feet handed to the decode and the pelvis drop's
+  /// bounds (feet.hpp, feet.cpp).
+  Feet feet_;
 
-  // Switch easing: per joint of the current rig, an offset fading to zero.
-  std::vector<Eigen::Vector3d> switch_offset_;
-  double switch_elapsed_s_ = 1e9;  ///< s since the offsets were taken (long ago: no easing)
-  bool switch_offsets_due_ = false; ///< a switch this update: take the offsets after the solve
+  /// A character switch's easing of the drawn joints (switch_easing.hpp).
+  SwitchEasing switch_;
 
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> rig_positions_, positions_;
