@@ -91,10 +91,12 @@ Vector3d elbow_of(const Vector3d& wrist, const Vector3d& pole, double upper_m, d
   return axis * b.along_m + pole * b.off_m;
 }
 
-/// A parry's arm (from the shoulder) at the share x of its move: the wrist and the wanted
-/// elbow each along a straight line, the arm drawn through them (Guard::lay).
+/// A parry's arm (from the shoulder) at the share x of a way from (w0, e0) to (w1, e1): the
+/// wrist and the wanted elbow each along a straight line, the arm drawn through them. Guard::lay
+/// draws every phase of a parry with it, and parry_move_s times a move by it.
 struct ArmAt {
   Vector3d wrist, elbow;  ///< m from the shoulder; `elbow` where the two-bone IK draws it
+  Vector3d pole;          ///< unit: the arm's pole (toward the wanted elbow, across the wrist's line)
   Vector3d hand;          ///< m from the shoulder: kHand_m on along the forearm
   Vector3d thumb;         ///< m from the shoulder: kThumb_m from the wrist toward the elbow's pole
 };
@@ -104,7 +106,7 @@ ArmAt parry_arm_at(double x, const Vector3d& w0, const Vector3d& e0, const Vecto
   const Vector3d pole = unit_across(ep, wp, pole0);
   const Vector3d el = elbow_of(wp, pole, upper_m, fore_m);
   const Vector3d fore = wp - el;
-  return {wp, el, fore.norm() > 1e-9 ? Vector3d(wp + fore.normalized() * kHand_m) : wp, wp + pole * kThumb_m};
+  return {wp, el, pole, fore.norm() > 1e-9 ? Vector3d(wp + fore.normalized() * kHand_m) : wp, wp + pole * kThumb_m};
 }
 
 /// s: the shortest minimum-jerk move from (w0, e0) to (w1, e1) in which neither the wrist,
@@ -295,29 +297,28 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
     }
     if (pr.on && drawn_before) {
       // The wrist and the elbow (from the shoulder) each moved along a straight line, the arm
-      // drawn through them (its direction to the wrist, its pole toward the elbow).
+      // drawn through them (its direction to the wrist, its pole toward the elbow): parry_arm_at.
       const double arm = m.arm_length(side), up = m.upper_arm_m[s], fore = m.forearm_m[s];
       const Vector3d sh = drawn[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder))];
       Vector3d w1 = pr.wrist_target() - sh;
       if (w1.norm() > kParryReach * arm) w1 *= kParryReach * arm / w1.norm();
       const Vector3d e1 = pr.elbow_target() - sh;
-      Vector3d wp, ep;
+      // The way of this phase: from the arm as drawn when the parry began to its place; held
+      // there; from there back to the guard (or the motion's arm).
+      Vector3d wa = w1, ea = e1, wb = w1, eb = e1;
+      double x = 1;
       if (pr.t_s < pr.move_s) {
-        const double x = min_jerk(pr.t_s / pr.move_s);
-        const Vector3d w0 = pr.from_arm_n * arm;
-        const Vector3d e0 = elbow_of(w0, pr.from_pole, up, fore);
-        wp = (1 - x) * w0 + x * w1;
-        ep = (1 - x) * e0 + x * e1;
-      } else if (pr.t_s < pr.hold_end_s) {
-        wp = w1;
-        ep = e1;
-      } else {
-        const double x = min_jerk((pr.t_s - pr.hold_end_s) / pr.back_s);
-        wp = (1 - x) * w1 + x * (a * arm);
-        ep = (1 - x) * e1 + x * elbow_of(a * arm, p, up, fore);
+        wa = pr.from_arm_n * arm;
+        ea = elbow_of(wa, pr.from_pole, up, fore);
+        x = min_jerk(pr.t_s / pr.move_s);
+      } else if (pr.t_s >= pr.hold_end_s) {
+        wb = a * arm;
+        eb = elbow_of(wb, p, up, fore);
+        x = min_jerk((pr.t_s - pr.hold_end_s) / pr.back_s);
       }
-      a = wp / arm;
-      p = unit_across(ep, wp, p);
+      const ArmAt at = parry_arm_at(x, wa, ea, wb, eb, p, up, fore);
+      a = at.wrist / arm;
+      p = at.pole;
       if (!pr.said && pr.t_s >= pr.in_place_s()) {
         pr.said = true;
         FighterEvent& e = events.emplace_back();  // as Behaviour::emit makes it
