@@ -342,7 +342,7 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   if (!t) return;
   t->only({"mode", "preset", "seed", "fighting_distance_m", "engage_tolerance_m", "attack_rate_per_s", "counter_probability",
            "reaction_time_s", "counter_deadline_s", "kick_share", "abort_probability", "block", "block_max_rate", "threat_min_speed_mps",
-           "threat_min_closing_mps", "threat_horizon_s", "threat_aim_radius_m", "threat_velocity_window_s", "threat_min_extension", "hit_min_speed_mps",
+           "threat_min_closing_mps", "threat_horizon_s", "threat_aim_radius_m", "threat_velocity_window_s", "threat_min_extension", "threat_two_hand_mirror", "hit_min_speed_mps",
            "hit_full_speed_mps", "hit_head_max_deg", "hit_trunk_max_deg", "hit_shoulder_max_deg", "hit_stiffness_rad_s",
            "hit_damping_ratio", "hit_step_back_m", "hit_step_back_share"});
   // A preset first, then each key written beside it.
@@ -373,6 +373,7 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   t->read("threat_aim_radius_m", p.threat.aim_radius_m, {0.05, 1, "m"});
   t->read("threat_velocity_window_s", p.threat.velocity_window_s, {0.005, 0.5, "s"});
   t->read("threat_min_extension", p.threat.min_extension, {0, 1, ""});
+  t->read("threat_two_hand_mirror", p.threat.two_hand_mirror, {0, 1, ""});
   t->read("hit_min_speed_mps", p.hit_min_speed_mps, {0.1, 20, "m/s"});
   t->read("hit_full_speed_mps", p.hit_full_speed_mps, {0.2, 50, "m/s"});
   t->read("hit_head_max_deg", p.hit_head_max_deg, {0, 45, "deg"});

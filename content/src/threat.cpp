@@ -22,6 +22,7 @@ std::string validate(const ThreatTunables& t) {
   if (bad(t.velocity_window_s, 0.005, 0.5))
     return fmt::format("threat_velocity_window_s: {} is not in [0.005, 0.5] s", t.velocity_window_s);
   if (bad(t.min_extension, 0, 1)) return fmt::format("threat_min_extension: {} is not in [0, 1]", t.min_extension);
+  if (bad(t.two_hand_mirror, 0, 1)) return fmt::format("threat_two_hand_mirror: {} is not in [0, 1]", t.two_hand_mirror);
   return {};
 }
 
@@ -155,10 +156,30 @@ bool ThreatWatch::extends(recognition::Role role, const Vector3d& rel) const {
   return rel.dot(out) / (r * speed) >= tun_.min_extension;
 }
 
+bool ThreatWatch::mirrored_hands(const Vector3d& top, const Vector3d& bottom, const Vector3d& head_v) const {
+  if (tun_.two_hand_mirror <= 0) return false;
+  const History& l = hist_[static_cast<std::size_t>(recognition::Role::left_hand)];
+  const History& r = hist_[static_cast<std::size_t>(recognition::Role::right_hand)];
+  if (l.count < 1 || r.count < 1) return false;
+  const std::optional<Vector3d> vl = velocity(recognition::Role::left_hand), vr = velocity(recognition::Role::right_hand);
+  if (!vl || !vr) return false;
+  // The plane between the hands facing the fighter: vertical, through the hands' middle and the
+  // middle of the fighter's head-pelvis line; a hand's velocity mirrored in it.
+  Vector3d toward = (top + bottom) / 2 - (l.newest().p + r.newest().p) / 2;
+  toward.y() = 0;
+  if (toward.norm() < 1e-6) return false;
+  const Vector3d n = Vector3d::UnitY().cross(toward).normalized();
+  const Vector3d a = *vl - head_v, b = *vr - head_v;
+  const Vector3d a_mirrored = a - 2 * a.dot(n) * n;
+  const double faster = std::max(a.norm(), b.norm());
+  return faster >= tun_.min_speed_mps && (b - a_mirrored).norm() <= tun_.two_hand_mirror * faster;
+}
+
 std::optional<Threat> ThreatWatch::soonest(const Vector3d& top, const Vector3d& bottom, Timestamp now,
                                            std::optional<recognition::Role> only) const {
   if (!top.allFinite() || !bottom.allFinite() || !std::isfinite(now)) return std::nullopt;
   const std::optional<Vector3d> head_v = velocity(recognition::Role::head);
+  const bool two_handed = mirrored_hands(top, bottom, head_v.value_or(Vector3d::Zero()));
   std::optional<Threat> best;
   for (int r = 1; r < recognition::kRoleCount; ++r) {
     const auto role = static_cast<recognition::Role>(r);
@@ -171,7 +192,9 @@ std::optional<Threat> ThreatWatch::soonest(const Vector3d& top, const Vector3d& 
     const std::optional<Vector3d> v = velocity(role);
     if (v) {
       const Vector3d rel = *v - head_v.value_or(Vector3d::Zero());
-      if (rel.norm() >= tun_.min_speed_mps && extends(role, rel)) t = path_threat(s.p + *v * ahead, *v, top, bottom);
+      const bool hand = role == recognition::Role::left_hand || role == recognition::Role::right_hand;
+      if (rel.norm() >= tun_.min_speed_mps && extends(role, rel) && !(hand && two_handed))
+        t = path_threat(s.p + *v * ahead, *v, top, bottom);
     }
     if (!t && recognised_[static_cast<std::size_t>(r)]) {
       // Recognised: the path toward the predicted impact point, at the limb's speed or at

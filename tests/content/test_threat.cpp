@@ -206,6 +206,76 @@ TEST(Threat, TunablesOutOfRangeOrNanAreNamed) {
 
 namespace {
 
+/// Feeds 6 measurements at 120 Hz of a still head at (0, 1.65, -0.9) and two hands moving
+/// straight from `left` / `right` at `left_v` / `right_v` (either hand left out when its start
+/// is NaN); returns the soonest threat at the last measurement.
+std::optional<Threat> run_hands(ThreatWatch& w, const Vector3d& left, const Vector3d& left_v, const Vector3d& right,
+                                const Vector3d& right_v) {
+  const double dt = 1.0 / 120;
+  double t = 0;
+  for (int k = 0; k < 6; ++k) {
+    t = k * dt;
+    std::vector<VisitorBody> bodies;
+    VisitorBody head;
+    head.role = Role::head;
+    head.position_m = Vector3d(0, 1.65, -0.9);
+    head.tracked = true;
+    head.t = t;
+    bodies.push_back(head);
+    const auto hand = [&](Role role, const Vector3d& p, const Vector3d& v) {
+      if (!p.allFinite()) return;
+      VisitorBody b;
+      b.role = role;
+      b.position_m = p + v * t;
+      b.tracked = true;
+      b.t = t;
+      bodies.push_back(b);
+    };
+    hand(Role::left_hand, left, left_v);
+    hand(Role::right_hand, right, right_v);
+    w.observe(bodies, {});
+  }
+  return w.soonest(kTop, kBottom, t);
+}
+
+}  // namespace
+
+// threat_two_hand_mirror (on by default): both hands swung forward together as mirror images
+// (HDM05's rotateArmsBothBackward clips, a two-handed throw: phantom blocks before it) are no
+// threat, where either hand alone, with the same path, is. A punch with the other hand held in
+// its guard, or pulled back to the hip (karate's hikite), is still one. SYNTHETIC straight
+// paths; the mirror plane is x = 0 (the visitor and the fighter both on it).
+TEST(Threat, TwoHandsSwungForwardAsMirrorImagesAreNoThreatWhereEitherAloneIs) {
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const Vector3d none(nan, nan, nan), still(0, 0, 0);
+  const Vector3d left(-0.2, 1.2, -1.0), right(0.2, 1.2, -1.0);
+  const Vector3d left_v(1.0, 0.5, -4.0), right_v(-1.0, 0.5, -4.0);  // mirrored in x = 0; each toward the fighter
+  ThreatWatch alone_l, alone_r, both, both_off_w(ThreatTunables{.two_hand_mirror = 0});
+  EXPECT_TRUE(run_hands(alone_l, left, left_v, none, still).has_value()) << "the left hand alone heads for the fighter";
+  EXPECT_TRUE(run_hands(alone_r, none, still, right, right_v).has_value()) << "and the right hand alone";
+  EXPECT_FALSE(run_hands(both, left, left_v, right, right_v).has_value()) << "together, mirrored: a two-handed swing";
+  EXPECT_TRUE(run_hands(both_off_w, left, left_v, right, right_v).has_value()) << "0: off";
+  // Mirrored only roughly (HDM05's clips: within 0.2-0.4 of the faster's speed): still no threat.
+  ThreatWatch rough;
+  EXPECT_FALSE(run_hands(rough, left, Vector3d(1.5, 0.2, -3.5), right, right_v).has_value());
+  // A punch: the other hand still in its guard, or pulled back to the hip as fast.
+  ThreatWatch guard, hikite;
+  const auto g = run_hands(guard, Vector3d(-0.15, 1.45, -1.0), still, right, right_v);
+  ASSERT_TRUE(g.has_value());
+  EXPECT_EQ(g->limb, Role::right_hand);
+  const auto h = run_hands(hikite, left, Vector3d(0.5, -0.5, 4.0), right, right_v);
+  ASSERT_TRUE(h.has_value());
+  EXPECT_EQ(h->limb, Role::right_hand);
+  // Checked finite and in range.
+  for (double bad : {nan, -0.1, 1.5}) {
+    ThreatTunables t;
+    t.two_hand_mirror = bad;
+    EXPECT_NE(validate(t).find("threat_two_hand_mirror"), std::string::npos) << bad;
+  }
+}
+
+namespace {
+
 /// A fighter at its home facing a SYNTHETIC visitor 0.75 m in front of it (its head at rest),
 /// who after 3 s throws a straight right at the fighter's head at 6 m/s, measured at 120 Hz; the
 /// fighter at 60 Hz. Returns the events and the fighter's actions per update.

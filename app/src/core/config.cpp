@@ -949,6 +949,7 @@ std::string to_toml(const InstallationConfig& c) {
                                           {"threat_aim_radius_m", p.threat.aim_radius_m},
                                           {"threat_velocity_window_s", p.threat.velocity_window_s},
                                           {"threat_min_extension", p.threat.min_extension},
+                                          {"threat_two_hand_mirror", p.threat.two_hand_mirror},
                                           {"hit_min_speed_mps", p.hit_min_speed_mps},
                                           {"hit_full_speed_mps", p.hit_full_speed_mps},
                                           {"hit_head_max_deg", p.hit_head_max_deg},

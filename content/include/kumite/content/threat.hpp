@@ -41,6 +41,12 @@ struct ThreatTunables {
   /// keeps its distance -- and so does a bent arm's rising or hooking fist (the kata's), which
   /// is why it is off by default. 0: any direction. Feet are not held to it.
   double min_extension = 0.0;
+  /// Both hands fast (relative to the head) and the one's velocity the other's mirror image in
+  /// the vertical plane between them and the fighter, to within this share of the faster's
+  /// speed: a two-handed motion (arm circles, a throw, a push), and neither hand threatens
+  /// unless recognition says it strikes. A punch moves one hand (the other keeps its guard or
+  /// pulls back). 0: off (a two-handed strike is then met too).
+  double two_hand_mirror = 0.5;
   bool operator==(const ThreatTunables&) const = default;
 };
 /// "" when finite and in range, else "key: message".
@@ -90,6 +96,9 @@ class ThreatWatch {
   /// A fist moving away from the head by min_extension of its relative velocity `rel` (feet,
   /// and a fist with no head measured, always).
   bool extends(recognition::Role role, const Eigen::Vector3d& rel) const;
+  /// Both hands moving as mirror images of each other (two_hand_mirror: relative to the head
+  /// velocity head_v, in the vertical plane between them and the fighter): no punch.
+  bool mirrored_hands(const Eigen::Vector3d& top, const Eigen::Vector3d& bottom, const Eigen::Vector3d& head_v) const;
   /// The mean of the limb's measurements over the velocity window (the fitted line's point at
   /// their mean time), if it has one.
   std::optional<Eigen::Vector3d> window_mean(recognition::Role role) const;
