@@ -16,7 +16,8 @@ labelled punches. Per labelled punch:
 Negative recordings (no strike): the frames the fighter reports blocking (its trace's `action`, its
 own word) give the phantom defences per minute; phantom_blocks_after_onset leaves out those that
 start within 0.2 s of the recording's first moving frame (the SYNTHETIC lead-in holds the first
-pose still, and a clip that begins mid-motion jumps from it to full speed in one frame).
+pose still, and a clip that begins mid-motion jumps from it to full speed in one frame unless
+`kumite-recognise defend --ease-in S` eases it in: the trace's ease_in_s).
 
   scripts/judge-blocks.py DIR [--json OUT]
 """
@@ -132,13 +133,14 @@ def main():
         return 2
     folder = args[0]
     out_json = args[args.index("--json") + 1] if "--json" in args else None
-    punches, negatives_s, phantom, phantom_after_onset = [], 0.0, 0, 0
+    punches, negatives_s, phantom, phantom_after_onset, ease_in = [], 0.0, 0, 0, []
     per_negative = []
     for name in sorted(os.listdir(folder)):
         if not name.endswith(".trace.json"):
             continue
         with open(os.path.join(folder, name)) as f:
             trace = json.load(f)
+        ease_in.append(trace.get("ease_in_s", 0.0))
         if trace["negative"]:
             frames = trace["frames"]
             lead = int(round(trace["lead_in_s"] / trace["dt_s"]))
@@ -168,7 +170,9 @@ def main():
         "phantom_note": "block starts the fighter reports (its trace's action) on strike-free recordings",
         "phantom_blocks_after_onset": phantom_after_onset,
         "phantom_after_onset_note": f"those starting {ONSET_S} s or more after the recording's first moving frame: "
-                                    "a clip that begins mid-motion jumps from the still lead-in pose to full speed",
+                                    "a clip that begins mid-motion jumps from the still lead-in pose to full speed "
+                                    "(unless eased in: ease_in_s)",
+        "ease_in_s": sorted({t for t in ease_in}),
     }
     for p in punches:
         print(f"{p['recording']:34s} {p['punch']:34s} reach={'y' if p['in_reach'] else 'n'}{'' if p['in_reach'] == p['in_reach_with_shoulders'] else '(shoulder)'} "

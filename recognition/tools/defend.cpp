@@ -53,6 +53,20 @@ std::vector<Recording> load_negatives(const fs::path& mocap) {
 
 }  // namespace
 
+double eased_time(double clip_s, double ease_s) {
+  if (!(ease_s > 0)) return clip_s;
+  // Clip time at wall time u: ease_s * (x^3 - x^4 / 2), x = u / ease_s, for u < ease_s (its speed
+  // 3x^2 - 2x^3, a smoothstep from 0 to 1); u - ease_s / 2 after. Inverted by bisection.
+  if (clip_s >= ease_s / 2) return clip_s + ease_s / 2;
+  if (!(clip_s > 0)) return 0;
+  double lo = 0, hi = 1;
+  for (int i = 0; i < 60; ++i) {
+    const double x = (lo + hi) / 2;
+    (ease_s * (x * x * x - x * x * x * x / 2) < clip_s ? lo : hi) = x;
+  }
+  return ease_s * (lo + hi) / 2;
+}
+
 nlohmann::json run_defence(const DefenceArgs& a) {
   std::vector<Recording> recs;
   for (Recording& r : load_external(a.mocap))
@@ -79,8 +93,10 @@ nlohmann::json run_defence(const DefenceArgs& a) {
                "attacks, no counters"},
       {"visitor", fmt::format("each recording turned to face the fighter (-Z), head placed at ({}, {}) m on average, "
                               "preceded by {} s standing still in its first pose (SYNTHETIC padding) so the fighter "
-                              "takes its distance; bodies as a {} Hz tracker gives them (resampled)",
-                              a.place_x, a.place_z, a.lead_in_s, a.tracker_hz)},
+                              "takes its distance, then eased into motion over {} s (SYNTHETIC: the clip's first "
+                              "half of that played with its speed rising from 0 by a smoothstep; 0 = none, the clip "
+                              "starts at full speed); bodies as a {} Hz tracker gives them (resampled)",
+                              a.place_x, a.place_z, a.lead_in_s, a.ease_in_s, a.tracker_hz)},
       {"db", a.db.string()},
       {"character", a.character.string()},
       {"recordings", nlohmann::json::array()}};
@@ -114,9 +130,16 @@ nlohmann::json run_defence(const DefenceArgs& a) {
       }
     }
     place_visitor(samples, std::array<double, 2>{a.place_x, a.place_z}, 0);
+    const double t0 = samples.empty() ? 0 : samples.front().t;
+    // Ease-in: the clip's first ease_in_s / 2 of motion played over ease_in_s, its speed rising
+    // from 0 to 1 as a smoothstep (SYNTHETIC: a clip that begins mid-motion would otherwise jump
+    // from the still lead-in to full speed in one frame, which no visitor does); re-sampled.
+    if (a.ease_in_s > 0 && !samples.empty()) {
+      for (PoseSample& s : samples) s.t = t0 + eased_time(s.t - t0, a.ease_in_s);
+      samples = resample(samples, a.tracker_hz);
+    }
     // Lead-in: the first frame set held for lead_in_s (times shifted).
     std::vector<PoseSample> v;
-    const double t0 = samples.empty() ? 0 : samples.front().t;
     const int lead_sets = static_cast<int>(std::lround(a.lead_in_s * a.tracker_hz));
     for (int k = 0; k < lead_sets; ++k)
       for (const PoseSample& s : samples) {
@@ -188,13 +211,16 @@ nlohmann::json run_defence(const DefenceArgs& a) {
     nlohmann::json strikes = nlohmann::json::array();
     const double lead = lead_sets / a.tracker_hz;
     for (const Strike& s : rec.strikes) {
-      const auto upd = [&](int f) { return static_cast<int>(std::lround((f / rec.fps + lead) / dt)); };
+      const auto upd = [&](int f) {
+        const double tc = f / rec.fps;
+        return static_cast<int>(std::lround(((a.ease_in_s > 0 ? eased_time(tc, a.ease_in_s) : tc) + lead) / dt));
+      };
       strikes.push_back({{"name", s.name}, {"limb", to_string(s.limb)}, {"first", upd(s.first)}, {"hit", upd(s.hit)},
                          {"last", upd(s.last)}});
       ++punches;
     }
     nlohmann::json trace = {{"recording", rec.name}, {"source", rec.source}, {"negative", rec.negative},
-                            {"dt_s", dt}, {"lead_in_s", lead}, {"limb_order", {"left_hand", "right_hand", "left_foot", "right_foot"}},
+                            {"dt_s", dt}, {"lead_in_s", lead}, {"ease_in_s", a.ease_in_s}, {"limb_order", {"left_hand", "right_hand", "left_foot", "right_foot"}},
                             {"fighter_bvh", stem + ".fighter.bvh"}, {"strikes", strikes}, {"frames", frames}};
     write_file_atomically(a.out / (stem + ".trace.json"), trace.dump() + "\n");
     const auto status = fighter->planner_status();

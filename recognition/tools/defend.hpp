@@ -19,10 +19,14 @@ struct DefenceArgs {
   double tracker_hz = 120;
   double place_x = 0, place_z = -0.9;  ///< m: where the visitor's head stands on average
   double lead_in_s = 3;
+  double ease_in_s = 0;  ///< s over which the visitor's motion starts from the lead-in's stillness (0: at once)
   std::uint64_t seed = 1;
   content::ThreatTunables threat;   ///< what counts as a fist coming (the planner's threat_* keys)
   double fighting_distance_m = content::PlannerTunables{}.fighting_distance_m;  ///< m, the planner's fighting_distance_m
 };
+/// Wall time (s from the motion's start) at which an eased-in clip shows its clip time clip_s:
+/// its first ease_s / 2 played over ease_s with the speed rising as a smoothstep, then at speed.
+double eased_time(double clip_s, double ease_s);
 /// Runs every recording; writes the files; returns the summary.
 nlohmann::json run_defence(const DefenceArgs& a);
 

@@ -151,10 +151,16 @@ int main(int argc, char** argv) {
   df->add_option("--threat-window", da.threat.velocity_window_s, "s: threat_velocity_window_s")->capture_default_str();
   df->add_option("--threat-extension", da.threat.min_extension, "share: threat_min_extension")->check(CLI::Range(0.0, 1.0))
       ->capture_default_str();
+  df->add_option("--threat-two-hand-mirror", da.threat.two_hand_mirror, "share: threat_two_hand_mirror (0: off)")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
   df->add_option("--fighting-distance", da.fighting_distance_m, "m: fighting_distance_m")->check(CLI::Range(0.3, 3.0))
       ->capture_default_str();
   df->add_option("--place-z", da.place_z, "m: the visitor's head's mean z")->capture_default_str();
   df->add_option("--lead-in", da.lead_in_s, "s the visitor stands still first")->check(CLI::Range(0.0, 30.0))->capture_default_str();
+  df->add_option("--ease-in", da.ease_in_s, "s over which the visitor's motion starts from stillness (SYNTHETIC; 0: at full speed at once)")
+      ->check(CLI::Range(0.0, 2.0))
+      ->capture_default_str();
 
   CLI11_PARSE(app, argc, argv);
   try {
