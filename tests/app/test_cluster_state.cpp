@@ -2,20 +2,27 @@
 // text the node shows or logs, its events' texts among them) travels with the frame and reads
 // back as it was; the frame's and skeleton's records are those of states.bin, byte for byte; a
 // console record cut or malformed anywhere is a console problem (the frame still reads), never
-// a crash; two consoles, or a cut frame, are a frame that does not read.
+// a crash; two consoles, or a cut frame, are a frame that does not read; a render node draws a
+// frame whose console does not read, says why on its console and counts it.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <limits>
+#include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <zlib.h>
 
+#include "kumite/app/cluster_source.hpp"
+#include "kumite/app/config.hpp"
 #include "kumite/app/frame_states.hpp"
 #include "kumite/common/checksum.hpp"
 
@@ -252,4 +259,105 @@ TEST(ClusterState, ACutOrMalformedConsoleIsAProblemSaidNeverACrashAndTheFrameSti
   ASSERT_TRUE(d.decode(state, got, &con)) << d.problem();
   EXPECT_TRUE(d.has_console());
   expect_same(con, full_console());
+}
+
+namespace {
+
+void replace_all(std::string& s, const std::string& from, const std::string& to) {
+  for (std::size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
+}
+
+}  // namespace
+
+TEST(ClusterState, ANodeDrawsAFrameWhoseConsoleDoesNotReadSaysWhyAndCountsIt) {
+  namespace fs = std::filesystem;
+  const fs::path src = KUMITE_SOURCE_DIR;
+  if (!fs::exists(src / "build/demo/fighter.kdb")) GTEST_SKIP() << "no demo data (scripts/make-demo-data.sh)";
+  const fs::path dir = fs::temp_directory_path() / ("kumite_cluster_state_node_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  std::ifstream in(src / "config/demo-cluster.toml");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  std::string text = ss.str();
+  replace_all(text, "\"../", "\"" + src.string() + "/");
+  replace_all(text, "\"rig/", "\"" + src.string() + "/config/rig/");
+  replace_all(text, "\"tracking.toml\"", "\"" + src.string() + "/config/tracking.toml\"");
+  replace_all(text, "\"orders-demo.csv\"", "\"" + src.string() + "/config/orders-demo.csv\"");
+  replace_all(text, "ipc:///tmp/kumite-demo-", "ipc://" + dir.string() + "/");
+  std::ofstream(dir / "room.toml") << text;
+  const InstallationConfig cfg = load_installation_config(dir / "room.toml");
+  ASSERT_TRUE(cfg.cluster);
+  // The master publishes the state of the moment every 20 ms from a thread of its own (a
+  // node's SUB may join after a first STATE: none is lost for good); a run stuck for 20 s ends.
+  const FrameData f = frame_with_events();
+  FrameData f2 = f;
+  f2.frame = 42;
+  const ConsoleState c = full_console();
+  std::string good;
+  encode_frame_state(f2, c, good);
+  std::string first;
+  encode_frame_state(f, c, first);
+  const auto raws = raws_of(first);
+  ASSERT_EQ(raws.size(), 2u);
+  const std::string bad = record_of(raws[0].substr(0, 40)) + record_of(raws[1]);  // its console cut
+  std::atomic<int> which{1}, stop{0};
+  std::thread publisher([&] {
+    kumite::cluster::Master master({*cfg.cluster, cfg.file_hash, 0.02});
+    const auto t0 = std::chrono::steady_clock::now();
+    for (std::uint64_t n = 1; which.load() != 0; ++n) {
+      const std::string& s = which.load() == 1 ? bad : good;
+      master.publish(n, 0.02 * static_cast<double>(n), std::as_bytes(std::span(s.data(), s.size())));
+      master.release();
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (std::chrono::steady_clock::now() - t0 > std::chrono::seconds(20)) stop = 1;
+    }
+  });
+  struct Joined {  // the publisher stopped and joined however the test ends
+    std::atomic<int>& which;
+    std::thread& t;
+    ~Joined() {
+      which = 0;
+      t.join();
+    }
+  } joined{which, publisher};
+  ClusterRunOptions options;
+  options.stop = &stop;
+  ClusterNodeSource node(cfg, "floor", options);
+
+  // A frame whose console record is cut: drawn; its console says why; counted.
+  const FrameData* got = node.next();
+  ASSERT_NE(got, nullptr);
+  EXPECT_EQ(got->frame, f.frame);
+  EXPECT_EQ(got->events, f.events);
+  ConsoleState con = node.console(*got);
+  ASSERT_FALSE(con.problems.empty());
+  EXPECT_NE(con.problems[0].find("the master's console does not read: its console record does not read whole"),
+            std::string::npos)
+      << con.problems[0];
+  EXPECT_TRUE(con.frame_events.empty());
+  EXPECT_GE(node.bad_console(), 1u);
+  EXPECT_EQ(node.undecodable(), 0u);
+  node.drawn();
+
+  // Whole again: the master's console, the node's own problems after the master's.
+  which = 2;
+  do {
+    got = node.next();
+    if (got) node.drawn();
+  } while (got && got->frame != 42u);
+  ASSERT_NE(got, nullptr);
+  const auto bad_ones = node.bad_console();
+  con = node.console(*got);
+  EXPECT_EQ(con.frame_events, c.frame_events);
+  EXPECT_EQ(con.tracking, c.tracking);
+  EXPECT_EQ(con.last_outcome, c.last_outcome);
+  ASSERT_GE(con.problems.size(), c.problems.size());
+  EXPECT_TRUE(std::equal(c.problems.begin(), c.problems.end(), con.problems.begin()));
+  for (std::size_t k = c.problems.size(); k < con.problems.size(); ++k)
+    EXPECT_TRUE(con.problems[k] == "not in the swap barrier" || con.problems[k] == "waiting for master") << con.problems[k];
+  got = node.next();
+  ASSERT_NE(got, nullptr);
+  EXPECT_EQ(node.bad_console(), bad_ones);
+  fs::remove_all(dir);
 }
