@@ -1,7 +1,8 @@
 // The render cluster through the kumite binary: a master (the demo, simulated time) and two
 // headless render nodes (`--node`) on one machine over ipc://; the nodes draw the frames the
-// master stepped, as a single process stepping the same demo makes them; a node with another
-// installation file is refused in one line; a node whose master is gone says so on its walls.
+// master stepped, as a single process stepping the same demo makes them, their events' texts
+// and console lines the master's; a node with another installation file is refused in one
+// line; a node whose master is gone says so on its walls.
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/wait.h>
@@ -139,6 +140,7 @@ TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
   const auto master = frames_of(dir / "master/frames.jsonl");
   ASSERT_EQ(master.size(), 90u);
   for (const auto& [f, j] : master) EXPECT_EQ(j["fighter"], ref.at(f)["fighter"]) << "master frame " << f;
+  int texts = 0;  // events the nodes logged with the master's text
   for (const std::string name : {"walls", "floor"}) {
     const auto got = frames_of(dir / name / "frames.jsonl");
     EXPECT_GE(got.size(), 30u) << name << " drew too few of the master's frames";
@@ -151,6 +153,22 @@ TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
       // Its walls only, each drawn from the views one process computes for that frame.
       ASSERT_EQ(j["walls"].size(), name == "walls" ? 3u : 1u);
       for (const auto& [wall, views] : j["walls"].items()) EXPECT_EQ(views, r["walls"][wall]) << name << " " << f << " " << wall;
+      // The master's events with their texts, and the master's console: its lines, its
+      // problems, then the node's own ("waiting for master", "not in the swap barrier").
+      const auto& m = master.at(f);
+      EXPECT_EQ(j["events"], m["events"]) << name << " frame " << f;
+      for (const auto& e : j["events"]) texts += e.contains("text") ? 1 : 0;
+      auto console = j["console"], master_console = m["console"];
+      const auto problems = console["problems"], master_problems = master_console["problems"];
+      ASSERT_GE(problems.size(), master_problems.size()) << name << " frame " << f << ": " << problems.dump();
+      for (std::size_t k = 0; k < problems.size(); ++k)
+        if (k < master_problems.size())
+          EXPECT_EQ(problems[k], master_problems[k]) << name << " frame " << f;
+        else
+          EXPECT_TRUE(problems[k] == "waiting for master" || problems[k] == "not in the swap barrier") << problems[k];
+      console.erase("problems");
+      master_console.erase("problems");
+      EXPECT_EQ(console, master_console) << name << " frame " << f;
     }
     // Its timing log: every frame's STATE received, READY sent, GO received, in that order.
     std::ifstream csv(dir / (name + ".csv"));
@@ -173,6 +191,7 @@ TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
     }
     EXPECT_GE(released, 20) << name;
   }
+  EXPECT_GT(texts, 0) << "the frames the nodes drew had no event with a text: nothing compared";
 }
 
 TEST(ClusterRun, ANodeWithAnotherInstallationFileIsRefusedInOneLine) {

@@ -76,6 +76,8 @@ TEST(ClusterProtocol, AMessageReadsBackAndEveryDefectIsNamed) {
   std::string v = m;
   v[4] = 9;  // protocol version 9
   EXPECT_EQ(kc::decode_message(v, 0xABCDEF, h, payload), kc::Defect::wrong_version);
+  v[4] = 1;  // version 1: STATEs without the master's console
+  EXPECT_EQ(kc::decode_message(v, 0xABCDEF, h, payload), kc::Defect::wrong_version);
   std::string g = m;
   g[0] = 'X';
   EXPECT_EQ(kc::decode_message(g, 0xABCDEF, h, payload), kc::Defect::bad_magic);
@@ -295,7 +297,7 @@ TEST(ClusterBarrier, DamagedMessagesAreCountedAndNeverStallTheFrames) {
   const std::uint64_t v = 7;
   kc::encode_message({kc::MessageType::state, hash, 7, 0.5, 0}, std::as_bytes(std::span(&v, 1)), good);
   other_version = good;
-  other_version[4] = 2;
+  other_version[4] = static_cast<char>(kc::kProtocolVersion + 1);
   kc::encode_message({kc::MessageType::state, hash ^ 1, 7, 0.5, 0}, std::as_bytes(std::span(&v, 1)), other_file);
   cut = good.substr(0, good.size() - 3);
   big = std::string(kc::kHeaderBytes + kc::kMaxPayloadBytes + 10, '\0');

@@ -117,7 +117,8 @@ ClusterMasterSource::ClusterMasterSource(Installation& inst, LivePacing pacing, 
 const FrameData* ClusterMasterSource::next() {
   const FrameData* f = live_.next();
   if (!f) return nullptr;
-  encode_frame_state(*f, true, bytes_);  // the whole frame, its skeleton included: no deltas
+  // The whole frame, its skeleton and the console's texts included: no deltas.
+  encode_frame_state(*f, live_.console(*f), bytes_);
   frame_ = f->frame;
   master_->publish(f->frame, f->now, std::as_bytes(std::span(bytes_.data(), bytes_.size())));
   published_ = now();
@@ -186,11 +187,20 @@ const FrameData* ClusterNodeSource::next() {
       continue;
     }
     notice_shown_ = false;
-    if (!decoder_.decode(node_->state(), frame_)) {
+    if (!decoder_.decode(node_->state(), frame_, &console_)) {
       if (undecodable_++ == 0)
         spdlog::warn("cluster node {}: frame {}: its state does not read ({}): skipped (counted)", name_,
                      node_->state_header().frame, decoder_.problem());
       continue;
+    }
+    have_console_ = decoder_.has_console();
+    console_problem_.clear();
+    if (!have_console_) {
+      console_problem_ = decoder_.console_problem().empty() ? "the master sent no console with its frame"
+                                                            : "the master's console does not read: " + decoder_.console_problem();
+      if (bad_console_++ == 0)
+        spdlog::warn("cluster node {}: frame {}: {}: its frame drawn, its console made from the frame alone (counted)",
+                     name_, node_->state_header().frame, console_problem_);
     }
     subset_.apply_in_place(frame_);
     have_frame_ = true;
@@ -206,6 +216,8 @@ void ClusterNodeSource::empty_room() {
   // No frame of a master's yet: the room as it stands, seen from the default head.
   const InstallationConfig& c = subset_.config();
   frame_ = FrameData{};
+  have_console_ = false;
+  console_problem_.clear();
   frame_.head.position = {c.viewer.default_head_m[0], c.viewer.default_head_m[1], c.viewer.default_head_m[2]};
   const auto& off = c.viewer.eye_offset_m;
   frame_.eyes = eyes_from_head(frame_.head, c.viewer.interpupillary_distance_m, {off[0], off[1], off[2]});
@@ -213,6 +225,13 @@ void ClusterNodeSource::empty_room() {
 }
 
 ConsoleState ClusterNodeSource::console(const FrameData& f) const {
+  // The master's console for this frame (its texts, its problems), the node's problems added.
+  // (`f` is the frame handed out last: the one the console came with.)
+  if (have_console_ && &f == &frame_) {
+    ConsoleState c = console_;
+    node_problems(c);
+    return c;
+  }
   ConsoleState c;
   c.fighter_state = f.fighter.present ? std::string(content::to_string(f.fighter.state)) : "none";
   c.character = f.fighter.character;
@@ -222,9 +241,14 @@ ConsoleState ClusterNodeSource::console(const FrameData& f) const {
   c.head_live = f.head_live;
   c.pose_age_ms = f.pose_age_ms;
   c.latch_ms = f.latch_ms;
+  if (!console_problem_.empty() && &f == &frame_) c.problems.push_back(console_problem_);
+  node_problems(c);
+  return c;
+}
+
+void ClusterNodeSource::node_problems(ConsoleState& c) const {
   if (node_->waiting_for_master()) c.problems.push_back("waiting for master");
   if (!node_->in_barrier()) c.problems.push_back("not in the swap barrier");
-  return c;
 }
 
 void ClusterNodeSource::drawn() {
@@ -235,9 +259,9 @@ void ClusterNodeSource::drawn() {
 
 ClusterNodeSource::~ClusterNodeSource() {
   const auto& s = node_->stats();
-  spdlog::info("cluster node {}: {} states ({} skipped for newer, {} undecodable), {} released by GO, {} GO timeouts, "
-               "{} times out of the barrier, {} bad messages",
-               name_, s.states, s.skipped, undecodable_, s.gos, s.go_timeouts, s.lefts, s.defects.total());
+  spdlog::info("cluster node {}: {} states ({} skipped for newer, {} undecodable, {} without a console that reads), {} "
+               "released by GO, {} GO timeouts, {} times out of the barrier, {} bad messages",
+               name_, s.states, s.skipped, undecodable_, bad_console_, s.gos, s.go_timeouts, s.lefts, s.defects.total());
   if (std::FILE* f = open_log(options_.timing_log)) {
     std::fprintf(f, "frame,master_time_s,state_rx_s,ready_tx_s,go_rx_s,bytes\n");
     for (const auto& t : node_->timings())

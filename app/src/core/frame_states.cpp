@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <type_traits>
 
 #include <fmt/format.h>
@@ -19,7 +20,9 @@ namespace {
 constexpr std::uint32_t kMagic = 0x3154534B;  // "KST1"
 constexpr std::uint32_t kMaxPayload = 64u << 20;
 constexpr std::uint32_t kMaxCount = walk::Reader::kMaxCount;
-enum : std::uint8_t { kSkeleton = 1, kFrame = 2 };
+enum : std::uint8_t { kSkeleton = 1, kFrame = 2, kConsole = 3 };
+/// A console record's bounds: lines in a list, bytes in a line (far above any real console).
+constexpr std::uint32_t kMaxConsoleLines = 1024, kMaxConsoleText = 64u << 10;
 
 // ---- writing -------------------------------------------------------------------------------
 
@@ -38,7 +41,46 @@ struct Out {
     u32(t.size());
     s.append(t);
   }
+  template <class C>
+  void lines(const C& c) {
+    u32(c.size());
+    for (const auto& t : c) str(t);
+  }
 };
+
+/// The console record's contents (frame_states.hpp), in that order.
+void write_console(Out& o, const ConsoleState& c) {
+  o.u8(kConsole);
+  o.put(c.fps);
+  o.put(c.frame_cpu_ms);
+  o.str(c.tracking);
+  o.str(c.tracking_source);
+  o.str(c.recognition);
+  o.u32(c.cameras.size());
+  for (const auto& cam : c.cameras) {
+    o.str(cam.name);
+    o.u8(static_cast<std::uint8_t>(cam.state));
+    o.str(cam.status);
+    o.put(static_cast<std::int32_t>(cam.blobs));
+    o.put(cam.since_last_ms);
+  }
+  o.put(static_cast<std::int32_t>(c.markers_seen));
+  o.u8(c.head_live ? 1 : 0);
+  o.put(c.pose_age_ms);
+  o.put(c.tracking_latency_ms);
+  o.put(c.latch_ms);
+  o.put(c.draw_budget_ms);
+  o.u8(c.late_latch ? 1 : 0);
+  o.str(c.fighter_state);
+  o.put(static_cast<std::int32_t>(c.character));
+  o.str(c.character_name);
+  o.u8(c.paused ? 1 : 0);
+  o.str(c.last_order);
+  o.str(c.last_outcome);
+  o.lines(c.problems);
+  o.lines(c.recent);
+  o.lines(c.frame_events);
+}
 
 /// A record appended to `out`: header, then the payload: u32 bytes of what `body` writes, and
 /// that, zlib-compressed (level 1: a frame's ~10 kB become ~4 kB, in ~0.1 ms of the writer's
@@ -86,14 +128,87 @@ struct In : walk::Reader {
     p.remove_prefix(n);
     return t;
   }
+  /// A number that must be finite (and at least `least`).
+  double f64(double least = -1e300) {
+    const auto v = get<double>();
+    if (!std::isfinite(v) || v < least) ok = false;
+    return ok ? v : 0.0;
+  }
+  /// An i32 in [least, most].
+  int i32(int least, int most) {
+    const auto v = get<std::int32_t>();
+    if (v < least || v > most) ok = false;
+    return ok ? v : 0;
+  }
+  /// A console line: no longer than kMaxConsoleText.
+  std::string line() {
+    const auto n = get<std::uint32_t>();
+    if (n > kMaxConsoleText || n > p.size()) ok = false;
+    if (!ok) return {};
+    std::string t(p.substr(0, n));
+    p.remove_prefix(n);
+    return t;
+  }
+  /// A list of console lines (each at least its 4-byte length).
+  template <class C>
+  void lines(C& out) {
+    out.clear();
+    const auto n = count(4);
+    if (n > kMaxConsoleLines) ok = false;
+    for (std::uint32_t k = 0; k < n && ok; ++k) out.push_back(line());
+  }
 };
+
+/// A console record's contents after its kind byte into `c`; "" or what is wrong, in words.
+std::string read_console(In& in, ConsoleState& c) {
+  c = ConsoleState{};
+  c.fps = in.f64(0);
+  c.frame_cpu_ms = in.f64(0);
+  c.tracking = in.line();
+  c.tracking_source = in.line();
+  c.recognition = in.line();
+  const auto cameras = in.count(4 + 1 + 4 + 4 + 8);
+  if (cameras > kMaxConsoleLines) in.ok = false;
+  for (std::uint32_t k = 0; k < cameras && in.ok; ++k) {
+    ConsoleCamera cam;
+    cam.name = in.line();
+    const auto state = in.u8();
+    if (state > static_cast<std::uint8_t>(CameraState::blind)) in.ok = false;
+    cam.state = static_cast<CameraState>(in.ok ? state : 0);
+    cam.status = in.line();
+    cam.blobs = in.i32(0, std::numeric_limits<std::int32_t>::max());
+    cam.since_last_ms = in.f64(-1);
+    c.cameras.push_back(std::move(cam));
+  }
+  c.markers_seen = in.i32(0, std::numeric_limits<std::int32_t>::max());
+  c.head_live = in.u8() != 0;
+  c.pose_age_ms = in.f64();
+  c.tracking_latency_ms = in.f64();
+  c.latch_ms = in.f64();
+  c.draw_budget_ms = in.f64();
+  c.late_latch = in.u8() != 0;
+  c.fighter_state = in.line();
+  c.character = in.i32(-1, static_cast<int>(kMaxCount));
+  c.character_name = in.line();
+  c.paused = in.u8() != 0;
+  c.last_order = in.line();
+  c.last_outcome = in.line();
+  in.lines(c.problems);
+  in.lines(c.recent);
+  in.lines(c.frame_events);
+  if (!in.ok || !in.p.empty())
+    return "its console record does not read whole (cut, a count or a line too long, or a number not finite or out of range)";
+  return "";
+}
 
 
 /// One record's payload (its 16-byte header read: `sum` is the header's checksum): checked,
 /// unpacked into `raw`, and read: a skeleton into `skeletons`, or a frame into `f` (then
 /// `is_frame`). Returns "" or what is wrong, in words.
 std::string read_record(std::string_view payload, std::uint64_t sum, int version, std::string& raw,
-                        std::map<int, std::shared_ptr<const FighterSkeleton>>& skeletons, FrameData& f, bool& is_frame) {
+                        std::map<int, std::shared_ptr<const FighterSkeleton>>& skeletons, FrameData& f, bool& is_frame,
+                        ConsoleState* console = nullptr, std::string* console_problem = nullptr,
+                        bool* is_console = nullptr) {
   is_frame = false;
   if (fnv1a64(payload) != sum) return "checksum does not match (damaged)";
   std::uint32_t raw_bytes = 0;
@@ -126,6 +241,13 @@ std::string read_record(std::string_view payload, std::uint64_t sum, int version
       skeletons[s->character] = s;
     return "";
   }
+  if (kind == kConsole && console) {
+    // A render node's STATE: the master's console. What does not read is the console's
+    // problem (the frame is still drawn), never the frame's.
+    *console_problem = read_console(in, *console);
+    *is_console = true;
+    return "";
+  }
   if (kind != kFrame) return fmt::format("unknown record kind {}", kind);
   FrameData& r = f;
   walk::Reader& fields = in;
@@ -148,6 +270,15 @@ std::string read_record(std::string_view payload, std::uint64_t sum, int version
 }  // namespace
 
 void encode_frame_state(const FrameData& f, bool with_skeleton, std::string& out, int version) {
+  encode_frame_state(f, with_skeleton, nullptr, out, version);
+}
+
+void encode_frame_state(const FrameData& f, const ConsoleState& console, std::string& out) {
+  encode_frame_state(f, true, &console, out, kFrameVersion);
+}
+
+void encode_frame_state(const FrameData& f, bool with_skeleton, const ConsoleState* console, std::string& out,
+                        int version) {
   out.clear();
   thread_local std::string raw;  // the writer's scratch: its room kept
   const FighterPose& p = f.fighter;
@@ -161,6 +292,7 @@ void encode_frame_state(const FrameData& f, bool with_skeleton, std::string& out
         o.put(static_cast<std::int32_t>(j < p.skeleton->parents.size() ? p.skeleton->parents[j] : -1));
       }
     });
+  if (console) record(out, raw, [&](Out& o) { write_console(o, *console); });
   record(out, raw, [&](Out& o) {
     o.u8(kFrame);
     walk::StringSink sink{o.s};
@@ -224,9 +356,12 @@ bool FrameStatesReader::next(FrameData& f) {
   }
 }
 
-bool FrameStateDecoder::decode(std::string_view bytes, FrameData& out) {
+bool FrameStateDecoder::decode(std::string_view bytes, FrameData& out, ConsoleState* console) {
   problem_.clear();
-  bool got = false;
+  console_problem_.clear();
+  has_console_ = false;
+  bool got = false, got_console = false;
+  ConsoleState* const console_out = console ? console : &scratch_;  // read (and checked) either way
   while (!bytes.empty()) {
     if (bytes.size() < 16) return fail("a record cut short");
     std::uint32_t magic = 0, n = 0;
@@ -236,16 +371,24 @@ bool FrameStateDecoder::decode(std::string_view bytes, FrameData& out) {
     std::memcpy(&sum, bytes.data() + 8, 8);
     if (magic != kMagic) return fail("not a frame state record");
     if (n > kMaxPayload || n > bytes.size() - 16) return fail(fmt::format("a record of {} bytes in {}: cut short", n, bytes.size() - 16));
-    bool is_frame = false;
-    if (auto why = read_record(bytes.substr(16, n), sum, kFrameVersion, raw_, skeletons_, out, is_frame); !why.empty())
-      return fail(why);
+    bool is_frame = false, is_console = false;
+    if (auto why = read_record(bytes.substr(16, n), sum, kFrameVersion, raw_, skeletons_, out, is_frame,
+                               got_console ? nullptr : console_out, &console_problem_, &is_console);
+        !why.empty())
+      return fail(got_console && why == fmt::format("unknown record kind {}", kConsole) ? "a second console record" : why);
     bytes.remove_prefix(16 + n);
+    got_console = got_console || is_console;
     if (is_frame) {
       if (!bytes.empty()) return fail("bytes after the frame record");
       got = true;
     }
   }
-  return got ? true : fail("no frame record");
+  if (!got) return fail("no frame record");
+  if (got_console && console_problem_.empty() && console_out->frame_events.size() != out.events.size())
+    console_problem_ = fmt::format("its console has {} event texts for the frame's {} events",
+                                   console_out->frame_events.size(), out.events.size());
+  has_console_ = got_console && console_problem_.empty();
+  return true;
 }
 
 bool FrameStateDecoder::fail(std::string what) {

@@ -1,9 +1,12 @@
-// libFuzzer target: a session's states.bin (FrameStatesReader). The input is a sequence of
+// libFuzzer target: a session's states.bin (FrameStatesReader) and a render node's STATE
+// (FrameStateDecoder, the master's console record among them). The input is a sequence of
 // records' contents, each `u32 bytes` then the bytes (what a frame or skeleton record holds
 // before it is packed); the fuzzer packs each into a whole record (zlib, length, FNV-1a 64)
 // behind the file's first line, so that the mutations reach the decoding of the contents
 // rather than stop at a checksum. Any input reads to its end or stops at a record with
-// problem() set, naming the file: never a crash, a hang or an exception.
+// problem() set, naming the file; the same records as a STATE decode or say why in words, and
+// a console that does not read is said by console_problem(): never a crash, a hang or an
+// exception.
 #include <unistd.h>
 #include <zlib.h>
 
@@ -55,6 +58,18 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     out += payload;
   }
   if (!in.empty()) out.append(in);  // a cut record at the end
+  {
+    static kumite::app::FrameStateDecoder decoder;  // its skeletons kept from input to input, as a node's
+    kumite::app::FrameData f;
+    kumite::app::ConsoleState console;
+    const std::string_view records = std::string_view(out).substr(kumite::app::kFrameStatesHeader.size());
+    if (decoder.decode(records, f, &console)) {
+      if (decoder.has_console() && console.frame_events.size() != f.events.size()) std::abort();
+      if (decoder.has_console() && !decoder.console_problem().empty()) std::abort();
+    } else if (decoder.problem().empty()) {
+      std::abort();
+    }
+  }
   std::ofstream(file, std::ios::binary | std::ios::trunc) << out;
   try {
     kumite::app::FrameStatesReader reader(file);

@@ -116,19 +116,26 @@ class ClusterNodeSource final : public FrameSource {
   const cluster::Node& node() const { return *node_; }
   /// Frames whose state could not be read (damaged records): counted, skipped.
   std::uint64_t undecodable() const { return undecodable_; }
+  /// Frames drawn whose master's console did not come or did not read (a cut or malformed
+  /// text): their console made from the frame alone, with a problem saying so; counted.
+  std::uint64_t bad_console() const { return bad_console_; }
 
  private:
   void empty_room();  ///< frame_: the room without a fighter, from the default head
+  void node_problems(ConsoleState& c) const;  ///< "waiting for master", "not in the swap barrier"
   std::string name_;
   WallSubset subset_;
   ClusterRunOptions options_;
   std::unique_ptr<cluster::Node> node_;
   FrameStateDecoder decoder_;
   FrameData frame_;
+  ConsoleState console_;        ///< the master's console for frame_ (when have_console_)
+  bool have_console_ = false;
+  std::string console_problem_;  ///< why frame_ came without a console that reads ("" if it did)
   bool have_frame_ = false;
   bool repeated_ = false;  ///< the frame handed out is the last one again (no READY for it)
   bool notice_shown_ = false;  ///< this wait for the master has been shown on the walls
-  std::uint64_t undecodable_ = 0;
+  std::uint64_t undecodable_ = 0, bad_console_ = 0;
 };
 
 }  // namespace kumite::app

@@ -33,7 +33,8 @@
 
 namespace kumite::cluster {
 
-inline constexpr std::uint16_t kProtocolVersion = 1;
+/// 2: the app's STATE carries the master's console (its texts) beside the frame.
+inline constexpr std::uint16_t kProtocolVersion = 2;
 inline constexpr std::size_t kHeaderBytes = 40;
 /// The most a payload may hold; larger messages are counted as oversized and dropped.
 inline constexpr std::size_t kMaxPayloadBytes = 1u << 20;
