@@ -93,8 +93,12 @@ void record(const fs::path& config_path, const fs::path& orders, const fs::path&
     if (i == 145) inst.order(*kumite::parse_order("kick_left", t0 + i / 60.0));  // the punch (stepped in for) is over by then (frame 135)
     if (i == 155) inst.order(*kumite::parse_order("character 2", t0 + i / 60.0));
     inst.step(t0 + i / 60.0 + (i % 3) * 1e-4);  // uneven frame times, as a real loop has
-    // (a long recording made faster than real time: its writer is let catch up now and then)
-    if (pace_every > 0 && i % pace_every == pace_every - 1) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    // (a long recording made faster than real time: its writer is let catch up now and then --
+    // until it has every frame pushed so far, not for a fixed time: on a loaded machine 100 ms
+    // was not enough and the queue dropped frames; at most 10 s)
+    if (pace_every > 0 && i % pace_every == pace_every - 1)
+      for (int w = 0; w < 2000 && rec.frames_written() + rec.dropped() < static_cast<std::uint64_t>(i + 1); ++w)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   inst.record_to(nullptr);
   rec.close();
