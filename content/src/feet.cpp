@@ -20,6 +20,12 @@ using CJ = CanonicalJoint;
 using Eigen::Vector2d;
 using Eigen::Vector3d;
 
+namespace {
+/// The share of the source's path left when a stance step's stepping foot is over its landing
+/// (FootSample::landing_lead).
+constexpr double kStanceStepLandingLead = 0.05;
+}  // namespace
+
 Feet::Feet(std::shared_ptr<const Database> db, const BehaviourTunables& tunables)
     : db_(std::move(db)), blend_time_s_(tunables.blend_time_s), max_root_drop_m_(tunables.max_root_drop_m),
       max_drop_rate_mps_(tunables.max_drop_rate_mps), max_drop_accel_mps2_(tunables.max_drop_accel_mps2),
@@ -111,6 +117,8 @@ void Feet::plant(const FeetInput& in) {
       f.planted = true;
       f.pivot = true;
     }
+    // ...and its stepping foot is over its landing before the source's glides in (landing_lead).
+    if (in.stance_support >= 0 && in.stance_support != s) f.landing_lead = kStanceStepLandingLead;
     f.swing_left_s = swing_left_s(in, s);
     // Where the motion alone would put the ankle now (last hip + this frame's leg vector). On
     // a character switch's update the hip drawn last is the old body's: the new leg hung from

@@ -35,6 +35,8 @@ constexpr double kTakenInTheAir_m = 0.01;
 /// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
 /// a step's length) while it is no farther out from the hip than this beyond the motion's foot.
 constexpr double kUnderHipSlack_m = 0.05;
+/// The least a step for an over-stretched leg must ease its stretch (share of the leg's length).
+constexpr double kLeastStretchEased = 0.005;
 /// rad/s: the most a pivoting held foot turns (FootSample::pivot).
 constexpr double kPivotRate_rad_s = 4.0;
 /// s: a foot taken from free (at the start, after a character switch) softens its leg's full
@@ -57,6 +59,21 @@ double lowest_reached_y(const Vector3d& hip, const Vector3d& at, double reach, d
 constexpr double kStepTravelFrom = 0.15;
 constexpr double kStepTravelSpan = 0.7;
 double step_travel_share(double t) { return smoothstep((t - kStepTravelFrom) / kStepTravelSpan); }
+/// The share of its way a foot heading for its landing has covered when the source has covered
+/// `s` of its path, done `lead` early (FootSample::landing_lead): at a steady 1 / (1 - 2 lead)
+/// times the source's share (1.11 at lead 0.05) up to 3 leads before the end, then slowing
+/// evenly to no speed with `lead` of the source's path left. (Catching up over a shorter
+/// stretch near the end instead, at up to 1.6x the source's speed where the source still moves
+/// fast, put the stance steps' stepping foot's peak at 1.10-1.32x the source's.)
+double landing_share(double s, double lead) {
+  const double b = 1 - lead, a = std::max(0.0, 1 - 3 * lead);
+  const double k = 2 / (a + b);  // k a + k (b - a) / 2 = 1
+  s = std::clamp(s, 0.0, 1.0);
+  if (s <= a) return k * s;
+  if (s >= b) return 1;
+  const double u = s - a;
+  return k * a + k * u - 0.5 * k * u * u / (b - a);
+}
 /// The share of a procedural step's travel beyond which it is not redirected (FootPlanter::redirect):
 /// re-based from nearly its end, the way left would be crossed in the last frames.
 constexpr double kMostRedirectedShare = 0.8;
@@ -218,11 +235,16 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // Over-stretched beyond max_leg_stretch, or beyond the motion's own leg if the motion
         // holds it straighter (max_stretch: a front stance's straight back leg is the stance,
         // not a reason to step the foot in place again and again).
+        // (A step for the stretch alone is taken only where it straightens the leg less: to a
+        // target as far from the hip, the leg at the motion's own stretch, it stepped 1 mm
+        // again and again, the drawn hip held lower than the motion's by the held feet.)
+        const bool eases_stretch = (target - in.hip_m).norm() / std::max(1e-6, in.leg_length_m) < stretch - kLeastStretchEased;
         f.wants_step = out_of_place || stretch > max_stretch || !in.reached;
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the
         // other stands on the floor (both off it is a hop).
-        if ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || stretch > max_stretch)) || must_step[s]) {
+        if ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || (stretch > max_stretch && eases_stretch))) ||
+            must_step[s]) {
           f.phase = Phase::stepping;
           f.step_t = 0;
           f.step_time_s = tun_.step_time_s;
@@ -331,7 +353,15 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
             f.swing_source_way_m = path;
             f.follow_y = f.lock.y();
           }
-          Vector3d move = to * std::min(1.0, step_h / path);
+          // The share of what is left that it covers now: the source's share (its path's), or
+          // ahead of it where the way is to be done early (landing_lead: landing_share).
+          double share = std::min(1.0, step_h / path);
+          if (in.landing_lead > 0 && f.swing_source_way_m > 1e-6) {
+            const double before = landing_share(1 - path / f.swing_source_way_m, in.landing_lead);
+            const double now = landing_share(1 - in.source_path_left_m / f.swing_source_way_m, in.landing_lead);
+            share = before < 1 ? std::clamp((now - before) / (1 - before), 0.0, 1.0) : 1.0;
+          }
+          Vector3d move = to * share;
           const double cap = tun_.max_swing_speed_ratio * step_h;
           if (move.norm() > cap) move *= cap / move.norm();
           // ...gathering speed no faster than the source's foot does, or kSwingAccel_mps2: a

@@ -3,6 +3,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -549,4 +550,86 @@ TEST(FootPlanter, ASwingHeadingForItsLandingGetsThereWhenTheSourcesPathIsShort) 
   const double short_m = Eigen::Vector2d(f.landing_ankle_m.x() - locks.ankle_m[0].x(), f.landing_ankle_m.z() - locks.ankle_m[0].z()).norm();
   std::printf("when the source puts it down: %.4f m from its landing\n", short_m);
   EXPECT_LT(short_m, 0.01);
+}
+
+TEST(FootPlanter, AnOverStretchedLegStepsOnlyWhereTheStepEasesIt) {
+  // After a stance step the back leg of the rest stance was held 0.3 % past its stretch, the
+  // drawn hip lower than the motion's (the held feet drop the pelvis): its step to where the
+  // motion has the foot left the leg as straight, and it stepped 1 mm again and again (the
+  // walk-away test, 2 of its 6 procedural steps). A step that eases the stretch is still taken.
+  // SYNTHETIC samples.
+  for (const bool eases : {false, true}) {
+    FootPlanter planter;
+    FootLocks locks;
+    std::array<FootSample, 2> s = standing();
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    ASSERT_EQ(planter.phase(1), Phase::held);
+    FootSample& f = s[1];
+    f.hip_m = Vector3d(-0.1, 0.9, 0.15);  // the leg held at (0.15^2 + 0.82^2)^0.5 / 0.85 = 0.981
+    // The motion's foot: 2 cm up where it is held (its leg 0.958), or 10 cm nearer the hip (0.966).
+    f.free_ankle_m = eases ? Vector3d(-0.1, 0.08, 0.1) : Vector3d(-0.1, 0.10, 0.0);
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    EXPECT_EQ(planter.phase(1), eases ? Phase::stepping : Phase::held) << (eases ? "eases" : "as straight");
+  }
+}
+
+namespace {
+/// A stance step's stepping foot on SYNTHETIC samples: lifted where it stands, the source's
+/// foot travelling 1 m to its landing over 40 updates, still moving when it gets there (135_03's karate steps glide in along the floor). With `lead` (landing_lead)
+/// its way left over the source's last 5 %, and the most it still moves along the floor then;
+/// its fastest along the floor beside the source's.
+struct GlideIn {
+  double way_left_m = -1, moved_after_m = 0, fastest_xz_mps = 0, source_fastest_mps = 0;
+};
+GlideIn glide_in(double lead) {
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s = standing();
+  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  const Vector3d start = locks.ankle_m[0];
+  FootSample& f = s[0];
+  f.planted = false;
+  f.has_landing = true;
+  f.landing_lead = lead;
+  f.landing_ankle_m = start + Vector3d(0, 0, 1.0);
+  constexpr int kUpdates = 40;
+  // From standing, fastest 5/8 of the way through, still at 60 % of that speed at the end.
+  const auto share = [](int k) { return (1 - std::cos(0.8 * std::numbers::pi * k / kUpdates)) / (1 - std::cos(0.8 * std::numbers::pi)); };
+  GlideIn g;
+  Vector3d last = start;
+  for (int k = 0; k < kUpdates; ++k) {
+    const Vector3d step(0, 0, share(k + 1) - share(k));
+    f.source_step_before_m = f.source_step_m;
+    f.source_step_m = step;
+    f.source_path_left_m = 1.0 - share(k + 1);
+    f.free_ankle_m += step;
+    f.swing_left_s = (kUpdates - k) * kDt;
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    const Vector3d d = locks.ankle_m[0] - last;
+    last = locks.ankle_m[0];
+    g.fastest_xz_mps = std::max(g.fastest_xz_mps, std::hypot(d.x(), d.z()) / kDt);
+    g.source_fastest_mps = std::max(g.source_fastest_mps, step.norm() / kDt);
+    if (f.source_path_left_m <= 0.05) {
+      if (g.way_left_m < 0) g.way_left_m = std::hypot(f.landing_ankle_m.x() - last.x(), f.landing_ankle_m.z() - last.z());
+      else g.moved_after_m += std::hypot(d.x(), d.z());
+    }
+  }
+  return g;
+}
+}  // namespace
+
+TEST(FootPlanter, AStanceStepsSteppingFootIsOverItsLandingBeforeItsSourceGlidesIn) {
+  // Followed to the end of the source's path, the foot came down over the last centimetres of
+  // its way and slid onto its landing (the spar demo with stance steps on: 0.54 m/s along the
+  // floor at 0.7 s, judge-bvh.py). With landing_lead 0.05 it is over its landing when the
+  // source still has 5 % of its path to go and moves no more, at most 1.11x the source's pace.
+  const GlideIn with = glide_in(0.05), without = glide_in(0);
+  std::printf("lead 0.05: %.4f m left, %.4f m moved after, fastest %.3f m/s (source %.3f); lead 0: %.4f m left, %.4f m moved after\n",
+              with.way_left_m, with.moved_after_m, with.fastest_xz_mps, with.source_fastest_mps, without.way_left_m,
+              without.moved_after_m);
+  EXPECT_LT(with.way_left_m, 0.002);
+  EXPECT_LT(with.moved_after_m, 0.001);
+  EXPECT_LE(with.fastest_xz_mps, 1.12 * with.source_fastest_mps);
+  EXPECT_GT(without.moved_after_m, 0.02) << "the glide the lead takes out";
 }

@@ -65,6 +65,11 @@ struct FootSample {
   /// its ball): its heading follows motion_heading_xz at most at kPivotRate_rad_s, in place,
   /// instead of lagging until the foot has to step to turn.
   bool pivot = false;
+  /// A lifted foot heading for its landing covers its way along the floor by the time the
+  /// source has this share of its own path left (0: with the source, to the end), then only
+  /// comes down: a stance step's stepping foot, whose source glides in along the floor (135_03's
+  /// karate steps), came down over the last centimetres of its way and slid onto its landing.
+  double landing_lead = 0;
 };
 
 /// A held leg may stretch this much (share of its length) beyond the motion's own: a
