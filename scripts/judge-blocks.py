@@ -17,7 +17,11 @@ Negative recordings (no strike): the frames the fighter reports blocking (its tr
 own word) give the phantom defences per minute; phantom_blocks_after_onset leaves out those that
 start within 0.2 s of the recording's first moving frame (the SYNTHETIC lead-in holds the first
 pose still, and a clip that begins mid-motion jumps from it to full speed in one frame unless
-`kumite-recognise defend --ease-in S` eases it in: the trace's ease_in_s).
+`kumite-recognise defend --ease-in S` eases it in: the trace's ease_in_s). Independent of the
+fighter's word, phantom_arm_moves counts on the same recordings the moments a drawn wrist starts
+moving faster than 2 m/s relative to the drawn neck (forward kinematics of the BVH: the defence
+runs without attacks or counters, so a fast arm is a parry; its parries move the wrist at 2.9-3.5
+m/s there, the guard and the rest motion under 1.4 m/s).
 
   scripts/judge-blocks.py DIR [--json OUT]
 """
@@ -38,6 +42,7 @@ HEAD_R = 0.12      # m
 TORSO_R = 0.15     # m
 ONSET_S = 0.2      # s after the lead-in (phantom_blocks_after_onset)
 SHOULDER_R = 0.07  # m, the line between the shoulder joints (in_reach_with_shoulders only)
+ARM_MOVE_MPS = 2.0  # m/s, a drawn wrist relative to the drawn neck (phantom_arm_moves)
 
 NAMES = {
     "head": ("head", "Head"),
@@ -126,6 +131,20 @@ def judge_recording(folder, trace):
     return out
 
 
+def wrist_steps(body, first):
+    """(frame, metres) from `first` on: the larger of the two drawn wrists' moves relative to the
+    drawn neck since the frame before."""
+    out = []
+    for k in range(max(first, 1), len(body)):
+        step = 0.0
+        for side in ("l", "r"):
+            now = [body[k][side + "_wrist"][i] - body[k]["neck"][i] for i in range(3)]
+            before = [body[k - 1][side + "_wrist"][i] - body[k - 1]["neck"][i] for i in range(3)]
+            step = max(step, math.dist(now, before))
+        out.append((k, step))
+    return out
+
+
 def main():
     args = sys.argv[1:]
     if not args or args[0].startswith("-"):
@@ -133,7 +152,7 @@ def main():
         return 2
     folder = args[0]
     out_json = args[args.index("--json") + 1] if "--json" in args else None
-    punches, negatives_s, phantom, phantom_after_onset, ease_in = [], 0.0, 0, 0, []
+    punches, negatives_s, phantom, phantom_after_onset, ease_in, arm_moves = [], 0.0, 0, 0, [], 0
     per_negative = []
     for name in sorted(os.listdir(folder)):
         if not name.endswith(".trace.json"):
@@ -151,8 +170,17 @@ def main():
             phantom += len(starts)
             onset = lead + int(round(ONSET_S / trace["dt_s"]))
             phantom_after_onset += sum(1 for k in starts if k >= onset)
+            body = drawn_joints(os.path.join(folder, trace["fighter_bvh"]))
+            moves, fast_before = [], False
+            for k, step in wrist_steps(body, lead):
+                fast = step / trace["dt_s"] > ARM_MOVE_MPS
+                if fast and not fast_before:
+                    moves.append(k)
+                fast_before = fast
+            arm_moves += len(moves)
             per_negative.append({"recording": trace["recording"], "seconds": round(secs, 2), "blocks": len(starts),
-                                 "block_starts_s": [round((k - lead) * trace["dt_s"], 3) for k in starts]})
+                                 "block_starts_s": [round((k - lead) * trace["dt_s"], 3) for k in starts],
+                                 "arm_move_starts_s": [round((k - lead) * trace["dt_s"], 3) for k in moves]})
             continue
         for p in judge_recording(folder, trace):
             p["recording"] = trace["recording"]
@@ -168,6 +196,10 @@ def main():
         "phantom_blocks": phantom,
         "phantom_per_minute": round(phantom / (negatives_s / 60), 2) if negatives_s else None,
         "phantom_note": "block starts the fighter reports (its trace's action) on strike-free recordings",
+        "phantom_arm_moves": arm_moves,
+        "phantom_arm_moves_per_minute": round(arm_moves / (negatives_s / 60), 2) if negatives_s else None,
+        "phantom_arm_moves_note": f"from the drawn joints alone: a wrist starting to move over {ARM_MOVE_MPS} m/s "
+                                  "relative to the neck on a strike-free recording",
         "phantom_blocks_after_onset": phantom_after_onset,
         "phantom_after_onset_note": f"those starting {ONSET_S} s or more after the recording's first moving frame: "
                                     "a clip that begins mid-motion jumps from the still lead-in pose to full speed "
