@@ -1,6 +1,7 @@
 #include "kumite/content/threat.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 
@@ -35,6 +36,21 @@ double segment_distance(const Vector3d& p, const Vector3d& a, const Vector3d& b,
   const Vector3d q = a + s * ab;
   if (nearest) *nearest = q;
   return (p - q).norm();
+}
+
+/// Both hands moving as mirror images of each other: their velocities relative to the head
+/// (`left_v`, `right_v`), one mirrored in the vertical plane through the hands' middle and
+/// `body_mid` (the fighter's), differ by at most `share` of the faster's speed, which is at
+/// least `min_speed_mps` (ThreatTunables::two_hand_mirror).
+bool mirrored_hands(const Vector3d& left_p, const Vector3d& right_p, const Vector3d& left_v, const Vector3d& right_v,
+                    const Vector3d& body_mid, double share, double min_speed_mps) {
+  Vector3d toward = body_mid - (left_p + right_p) / 2;
+  toward.y() = 0;
+  if (toward.norm() < 1e-6) return false;
+  const Vector3d n = Vector3d::UnitY().cross(toward).normalized();
+  const Vector3d left_mirrored = left_v - 2 * left_v.dot(n) * n;
+  const double faster = std::max(left_v.norm(), right_v.norm());
+  return faster >= min_speed_mps && (right_v - left_mirrored).norm() <= share * faster;
 }
 
 }  // namespace
@@ -156,30 +172,18 @@ bool ThreatWatch::extends(recognition::Role role, const Vector3d& rel) const {
   return rel.dot(out) / (r * speed) >= tun_.min_extension;
 }
 
-bool ThreatWatch::mirrored_hands(const Vector3d& top, const Vector3d& bottom, const Vector3d& head_v) const {
-  if (tun_.two_hand_mirror <= 0) return false;
-  const History& l = hist_[static_cast<std::size_t>(recognition::Role::left_hand)];
-  const History& r = hist_[static_cast<std::size_t>(recognition::Role::right_hand)];
-  if (l.count < 1 || r.count < 1) return false;
-  const std::optional<Vector3d> vl = velocity(recognition::Role::left_hand), vr = velocity(recognition::Role::right_hand);
-  if (!vl || !vr) return false;
-  // The plane between the hands facing the fighter: vertical, through the hands' middle and the
-  // middle of the fighter's head-pelvis line; a hand's velocity mirrored in it.
-  Vector3d toward = (top + bottom) / 2 - (l.newest().p + r.newest().p) / 2;
-  toward.y() = 0;
-  if (toward.norm() < 1e-6) return false;
-  const Vector3d n = Vector3d::UnitY().cross(toward).normalized();
-  const Vector3d a = *vl - head_v, b = *vr - head_v;
-  const Vector3d a_mirrored = a - 2 * a.dot(n) * n;
-  const double faster = std::max(a.norm(), b.norm());
-  return faster >= tun_.min_speed_mps && (b - a_mirrored).norm() <= tun_.two_hand_mirror * faster;
-}
-
 std::optional<Threat> ThreatWatch::soonest(const Vector3d& top, const Vector3d& bottom, Timestamp now,
                                            std::optional<recognition::Role> only) const {
   if (!top.allFinite() || !bottom.allFinite() || !std::isfinite(now)) return std::nullopt;
-  const std::optional<Vector3d> head_v = velocity(recognition::Role::head);
-  const bool two_handed = mirrored_hands(top, bottom, head_v.value_or(Vector3d::Zero()));
+  const Vector3d head_v = velocity(recognition::Role::head).value_or(Vector3d::Zero());
+  std::array<std::optional<Vector3d>, recognition::kRoleCount> vel{};
+  for (int r = 1; r < recognition::kRoleCount; ++r) vel[static_cast<std::size_t>(r)] = velocity(static_cast<recognition::Role>(r));
+  const auto left = static_cast<std::size_t>(recognition::Role::left_hand);
+  const auto right = static_cast<std::size_t>(recognition::Role::right_hand);
+  // Both hands swung as mirror images (a velocity fitted means two measurements or more).
+  const bool two_handed = tun_.two_hand_mirror > 0 && vel[left] && vel[right] &&
+                          mirrored_hands(hist_[left].newest().p, hist_[right].newest().p, *vel[left] - head_v,
+                                         *vel[right] - head_v, (top + bottom) / 2, tun_.two_hand_mirror, tun_.min_speed_mps);
   std::optional<Threat> best;
   for (int r = 1; r < recognition::kRoleCount; ++r) {
     const auto role = static_cast<recognition::Role>(r);
@@ -189,9 +193,9 @@ std::optional<Threat> ThreatWatch::soonest(const Vector3d& top, const Vector3d& 
     const Sample& s = h.newest();
     const double ahead = std::clamp(now - s.t, 0.0, 0.1);  // a measurement from the future is taken as now
     std::optional<Threat> t;
-    const std::optional<Vector3d> v = velocity(role);
+    const std::optional<Vector3d>& v = vel[static_cast<std::size_t>(r)];
     if (v) {
-      const Vector3d rel = *v - head_v.value_or(Vector3d::Zero());
+      const Vector3d rel = *v - head_v;
       const bool hand = role == recognition::Role::left_hand || role == recognition::Role::right_hand;
       if (rel.norm() >= tun_.min_speed_mps && extends(role, rel) && !(hand && two_handed))
         t = path_threat(s.p + *v * ahead, *v, top, bottom);

@@ -96,9 +96,6 @@ class ThreatWatch {
   /// A fist moving away from the head by min_extension of its relative velocity `rel` (feet,
   /// and a fist with no head measured, always).
   bool extends(recognition::Role role, const Eigen::Vector3d& rel) const;
-  /// Both hands moving as mirror images of each other (two_hand_mirror: relative to the head
-  /// velocity head_v, in the vertical plane between them and the fighter): no punch.
-  bool mirrored_hands(const Eigen::Vector3d& top, const Eigen::Vector3d& bottom, const Eigen::Vector3d& head_v) const;
   /// The mean of the limb's measurements over the velocity window (the fitted line's point at
   /// their mean time), if it has one.
   std::optional<Eigen::Vector3d> window_mean(recognition::Role role) const;
