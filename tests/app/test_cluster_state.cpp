@@ -19,14 +19,15 @@
 #include <thread>
 #include <vector>
 
-#include <zlib.h>
 
 #include "kumite/app/cluster_source.hpp"
 #include "kumite/app/config.hpp"
 #include "kumite/app/frame_states.hpp"
-#include "kumite/common/checksum.hpp"
+#include "../app_core/frame_records.hpp"
 
 using namespace kumite::app;
+using kumite::app::test::pack_record;
+using kumite::app::test::unpack_records;
 
 namespace {
 
@@ -74,45 +75,6 @@ ConsoleState full_console() {
   c.recent = {"   0.40 s  order_accepted punch_right", "   0.50 s  hit punch_right: 0.04 m"};
   c.frame_events = {"the visitor is 0.00 m from wall left (limit 0.40 m)", "", "a warning's text, \xff not UTF-8"};
   return c;
-}
-
-/// A record around `raw` (what a record holds before it is packed), as frame_states.cpp writes it.
-std::string record_of(std::string_view raw) {
-  uLongf packed = compressBound(static_cast<uLong>(raw.size()));
-  std::string z(packed, '\0');
-  EXPECT_EQ(compress2(reinterpret_cast<Bytef*>(z.data()), &packed, reinterpret_cast<const Bytef*>(raw.data()),
-                      static_cast<uLong>(raw.size()), 1),
-            Z_OK);
-  z.resize(packed);
-  std::string payload(4, '\0');
-  const auto n = static_cast<std::uint32_t>(raw.size());
-  std::memcpy(payload.data(), &n, 4);
-  payload += z;
-  std::string out(16, '\0');
-  const std::uint32_t magic = 0x3154534B, bytes = static_cast<std::uint32_t>(payload.size());
-  const std::uint64_t sum = kumite::fnv1a64(payload);
-  std::memcpy(out.data(), &magic, 4);
-  std::memcpy(out.data() + 4, &bytes, 4);
-  std::memcpy(out.data() + 8, &sum, 8);
-  return out + payload;
-}
-
-/// The records of a stream of them, unpacked (each: its kind byte, then its contents).
-std::vector<std::string> raws_of(std::string_view s) {
-  std::vector<std::string> out;
-  while (s.size() >= 20) {
-    std::uint32_t bytes = 0, raw = 0;
-    std::memcpy(&bytes, s.data() + 4, 4);
-    std::memcpy(&raw, s.data() + 16, 4);
-    std::string p(raw, '\0');
-    uLongf n = raw;
-    EXPECT_EQ(uncompress(reinterpret_cast<Bytef*>(p.data()), &n, reinterpret_cast<const Bytef*>(s.data() + 20), bytes - 4),
-              Z_OK);
-    out.push_back(std::move(p));
-    s.remove_prefix(16 + bytes);
-  }
-  EXPECT_TRUE(s.empty());
-  return out;
 }
 
 void expect_same(const ConsoleState& a, const ConsoleState& b) {
@@ -170,7 +132,7 @@ TEST(ClusterState, TheMastersConsoleTravelsWithTheFrameAndReadsBackWhole) {
   // The frame's record is states.bin's, byte for byte: the console is a record of its own.
   std::string recorded;
   encode_frame_state(f, true, recorded);
-  const auto a = raws_of(state), b = raws_of(recorded);
+  const auto a = unpack_records(state), b = unpack_records(recorded);
   ASSERT_EQ(a.size(), 2u);
   ASSERT_EQ(b.size(), 1u);
   EXPECT_EQ(a[0][0], 3);  // the console
@@ -194,15 +156,15 @@ TEST(ClusterState, ACutOrMalformedConsoleIsAProblemSaidNeverACrashAndTheFrameSti
   const FrameData f = frame_with_events();
   std::string state;
   encode_frame_state(f, full_console(), state);
-  const auto raws = raws_of(state);
+  const auto raws = unpack_records(state);
   ASSERT_EQ(raws.size(), 2u);
   const std::string& console_raw = raws[0];
-  const std::string frame_record = record_of(raws[1]);
+  const std::string frame_record = pack_record(raws[1]);
   FrameStateDecoder d;
   FrameData got;
   ConsoleState con;
   const auto expect_console_problem = [&](const std::string& raw, const std::string& what) {
-    ASSERT_TRUE(d.decode(record_of(raw) + frame_record, got, &con)) << what << ": " << d.problem();
+    ASSERT_TRUE(d.decode(pack_record(raw) + frame_record, got, &con)) << what << ": " << d.problem();
     EXPECT_FALSE(d.has_console()) << what;
     EXPECT_FALSE(d.console_problem().empty()) << what;
     EXPECT_EQ(first_difference(f, got), std::nullopt) << what;
@@ -249,7 +211,7 @@ TEST(ClusterState, ACutOrMalformedConsoleIsAProblemSaidNeverACrashAndTheFrameSti
     EXPECT_NE(d.console_problem().find("2 event texts for the frame's 3 events"), std::string::npos) << d.console_problem();
   }
   // Two console records: the state does not read.
-  EXPECT_FALSE(d.decode(record_of(console_raw) + record_of(console_raw) + frame_record, got, &con));
+  EXPECT_FALSE(d.decode(pack_record(console_raw) + pack_record(console_raw) + frame_record, got, &con));
   EXPECT_EQ(d.problem(), "a second console record");
   // The whole state cut anywhere: false or whole, never a crash; then a good one reads again.
   for (std::size_t n = 0; n < state.size(); ++n) {
@@ -298,9 +260,9 @@ TEST(ClusterState, ANodeDrawsAFrameWhoseConsoleDoesNotReadSaysWhyAndCountsIt) {
   encode_frame_state(f2, c, good);
   std::string first;
   encode_frame_state(f, c, first);
-  const auto raws = raws_of(first);
+  const auto raws = unpack_records(first);
   ASSERT_EQ(raws.size(), 2u);
-  const std::string bad = record_of(raws[0].substr(0, 40)) + record_of(raws[1]);  // its console cut
+  const std::string bad = pack_record(raws[0].substr(0, 40)) + pack_record(raws[1]);  // its console cut
   std::atomic<int> which{1}, stop{0};
   std::thread publisher([&] {
     kumite::cluster::Master master({*cfg.cluster, cfg.file_hash, 0.02});

@@ -11,14 +11,15 @@
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
-#include <zlib.h>
 
 #include "kumite/app/frame_log.hpp"
 #include "kumite/app/frame_states.hpp"
 #include "kumite/app/session.hpp"
 #include "kumite/common/checksum.hpp"
+#include "frame_records.hpp"
 
 using namespace kumite::app;
+using kumite::app::test::unpack_records;
 namespace fs = std::filesystem;
 
 namespace {
@@ -28,24 +29,6 @@ const fs::path kSession = fs::path(KUMITE_SOURCE_DIR) / "tests/app/data/session-
 std::string read(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-/// The unpacked payloads of a frame states stream's records.
-std::vector<std::string> payloads(std::string_view s) {
-  std::vector<std::string> out;
-  while (s.size() >= 20) {
-    std::uint32_t bytes = 0, raw = 0;
-    std::memcpy(&bytes, s.data() + 4, 4);
-    std::memcpy(&raw, s.data() + 16, 4);
-    std::string p(raw, '\0');
-    uLongf n = raw;
-    EXPECT_EQ(uncompress(reinterpret_cast<Bytef*>(p.data()), &n, reinterpret_cast<const Bytef*>(s.data() + 20), bytes - 4),
-              Z_OK);
-    out.push_back(std::move(p));
-    s.remove_prefix(16 + bytes);
-  }
-  EXPECT_TRUE(s.empty());
-  return out;
 }
 
 ConsoleState console_of(const FrameData& f) {
@@ -171,7 +154,7 @@ TEST(FrameBytes, TheRepositorysSessionEncodesHashesAndLogsAsRecorded) {
   const std::string header2 = "kumite-frame-states 2\n";
   const std::string file = read(kSession / "states.bin");
   ASSERT_EQ(file.substr(0, header2.size()), header2);
-  const auto recorded = payloads(std::string_view(file).substr(header2.size()));
+  const auto recorded = unpack_records(std::string_view(file).substr(header2.size()));
   std::ifstream lines(kSession / "session.jsonl");
   std::string line;
   ASSERT_TRUE(std::getline(lines, line));  // the start line
@@ -201,7 +184,7 @@ TEST(FrameBytes, TheRepositorysSessionEncodesHashesAndLogsAsRecorded) {
   EXPECT_TRUE(reader.problem().empty()) << reader.problem();
   EXPECT_EQ(frames, 200u);
   EXPECT_GT(events, 0u);
-  const auto again = payloads(all);
+  const auto again = unpack_records(all);
   ASSERT_EQ(again.size(), recorded.size());
   for (std::size_t k = 0; k < again.size(); ++k) ASSERT_EQ(again[k], recorded[k]) << "record " << k;
   EXPECT_EQ(all, file.substr(header2.size())) << "the records whole, zlib's packing included";
@@ -214,16 +197,16 @@ TEST(FrameBytes, AFrameWithEveryFieldSetEncodesHashesAndLogsToItsPinnedBytes) {
   // Version 2, as pinned before version 3 (the fighter's events' limb, side, margin_s,
   // speed_mps, recognised) was added; then versions 3 and 4, whose frame records differ.
   encode_frame_state(f, true, encoded, 2);
-  auto p = payloads(encoded);
+  auto p = unpack_records(encoded);
   ASSERT_EQ(p.size(), 2u);
   EXPECT_EQ(fmt::format("{:016x} {:016x}", kumite::fnv1a64(p[0]), kumite::fnv1a64(p[1])), "c0a03435b616d82b ec335f8e054c99c3");
   encode_frame_state(f, true, encoded, 3);
-  p = payloads(encoded);
+  p = unpack_records(encoded);
   ASSERT_EQ(p.size(), 2u);
   EXPECT_EQ(fmt::format("{:016x} {:016x}", kumite::fnv1a64(p[0]), kumite::fnv1a64(p[1])), "c0a03435b616d82b e0e4d918c844c35a");
   // Version 4 adds the spar bout (FrameData::spar).
   encode_frame_state(f, true, encoded);
-  p = payloads(encoded);
+  p = unpack_records(encoded);
   ASSERT_EQ(p.size(), 2u);
   const std::string states = fmt::format("{:016x} {:016x}", kumite::fnv1a64(p[0]), kumite::fnv1a64(p[1]));
   const std::string hashes = hashes_text(state_hashes_v3(f));
