@@ -281,7 +281,7 @@ void Console::frame(const Installation& inst, const FrameData& f, Installation* 
   ImGui::Text("state %s   character %d %s", c.fighter_state.c_str(), c.character + 1, c.character_name.c_str());
   ImGui::Text("last order %s", c.last_order.empty() ? "-" : c.last_order.c_str());
   ImGui::Text("outcome    %s", c.last_outcome.empty() ? "-" : c.last_outcome.c_str());
-  if (orders) ImGui::TextWrapped("planner    %s", inst.planner_line().c_str());
+  if (!c.planner.empty()) ImGui::TextWrapped("planner    %s", c.planner.c_str());
   if (const SessionRecorder* r = inst.recorder())
     ImGui::TextColored(r->budget_reached() || r->dropped() > 0 ? kRed : kGreen, "%s", r->status_line().c_str());
   ImGui::EndChild();

@@ -1,7 +1,7 @@
-// The render cluster through the kumite binary: a master (the demo, simulated time) and two
-// headless render nodes (`--node`) on one machine over ipc://; the nodes draw the frames the
-// master stepped, as a single process stepping the same demo makes them, their events' texts
-// and console lines the master's; a node with another installation file is refused in one
+// The render cluster through the kumite binary: a master (the demo, sparring, simulated time)
+// and two headless render nodes (`--node`) on one machine over ipc://; the nodes draw the
+// frames the master stepped, as a single process stepping the same demo makes them, their
+// events' texts and console lines (the planner's line among them) the master's; a node with another installation file is refused in one
 // line; a node whose master is gone says so on its walls.
 #include <fcntl.h>
 #include <signal.h>
@@ -106,7 +106,11 @@ bool demo_data() { return fs::exists(kSource / "build/demo/fighter.kdb"); }
 TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
   if (!demo_data()) GTEST_SKIP() << "no demo data (scripts/make-demo-data.sh)";
   const fs::path dir = fresh_dir("nodes");
-  const fs::path cfg = write_config(dir, "room.toml", true);
+  // The fighter spars (config/demo-spar.toml's planner, with the demo's orders script), at a
+  // fighting distance the demo's visitor is at from the start: the console's planner line holds
+  // its state, its next decision with cause and due time, and the score.
+  const std::string spar = "\n[fighter.planner]\nmode = \"spar\"\npreset = \"defensive_skilled\"\nseed = 1\nfighting_distance_m = 2.5\n";
+  const fs::path cfg = write_config(dir, "room.toml", true, spar);
   const std::vector<std::string> small{"--headless", "--resolution", "32x18", "--save-every", "0", "-v", "1"};
   std::vector<pid_t> nodes;
   for (const std::string name : {"walls", "floor"}) {
@@ -131,7 +135,7 @@ TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
   EXPECT_NE(read(dir / "walls.log").find("waiting for master"), std::string::npos) << read(dir / "walls.log");
 
   // The same demo in one process: the reference frames.
-  const fs::path one = write_config(dir, "one.toml", false);
+  const fs::path one = write_config(dir, "one.toml", false, spar);
   std::vector<std::string> rargs{"--config", one.string(), "--simulated-time", "--frames", "90", "--out", (dir / "one").string()};
   rargs.insert(rargs.end(), small.begin(), small.end());
   ASSERT_EQ(wait_exit(spawn(rargs, dir / "one.log")), 0) << read(dir / "one.log");
@@ -140,6 +144,7 @@ TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
   const auto master = frames_of(dir / "master/frames.jsonl");
   ASSERT_EQ(master.size(), 90u);
   for (const auto& [f, j] : master) EXPECT_EQ(j["fighter"], ref.at(f)["fighter"]) << "master frame " << f;
+  int decisions = 0;  // frames whose planner line (as a node logged it) names the next decision
   int texts = 0;  // events the nodes logged with the master's text
   for (const std::string name : {"walls", "floor"}) {
     const auto got = frames_of(dir / name / "frames.jsonl");
@@ -169,6 +174,12 @@ TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
       console.erase("problems");
       master_console.erase("problems");
       EXPECT_EQ(console, master_console) << name << " frame " << f;
+      // The planner's line among them: the master's, not made on the node (which has no fighter).
+      ASSERT_TRUE(master_console.contains("planner")) << "master frame " << f << ": " << master_console.dump();
+      const auto line = master_console["planner"].get<std::string>();
+      EXPECT_EQ(line.rfind("spar  ", 0), 0u) << line;
+      EXPECT_EQ(console.value("planner", ""), line) << name << " frame " << f;
+      decisions += line.find("  next ") != std::string::npos ? 1 : 0;
     }
     // Its timing log: every frame's STATE received, READY sent, GO received, in that order.
     std::ifstream csv(dir / (name + ".csv"));
@@ -192,6 +203,7 @@ TEST(ClusterRun, NodesDrawTheMastersFramesAsOneProcessMakesThem) {
     EXPECT_GE(released, 20) << name;
   }
   EXPECT_GT(texts, 0) << "the frames the nodes drew had no event with a text: nothing compared";
+  EXPECT_GT(decisions, 0) << "no planner line the nodes logged named a next decision: little compared";
 }
 
 TEST(ClusterRun, ANodeWithAnotherInstallationFileIsRefusedInOneLine) {

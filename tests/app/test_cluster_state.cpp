@@ -71,6 +71,8 @@ ConsoleState full_console() {
   c.paused = true;
   c.last_order = "punch_right";
   c.last_outcome = "hit (0.04 m)";
+  c.planner = "spar  guarding  next punch_left (timer) in 1.2 s  attacks 3  counters 2  score: visitor hits 1 dodges 0, "
+              "fighter hits 2 blocks 1 (met 1)";
   c.problems = {"camera cam1: blind", "visitor: 0.25 m from wall left"};
   c.recent = {"   0.40 s  order_accepted punch_right", "   0.50 s  hit punch_right: 0.04 m"};
   c.frame_events = {"the visitor is 0.00 m from wall left (limit 0.40 m)", "", "a warning's text, \xff not UTF-8"};
@@ -104,6 +106,7 @@ void expect_same(const ConsoleState& a, const ConsoleState& b) {
   EXPECT_EQ(a.paused, b.paused);
   EXPECT_EQ(a.last_order, b.last_order);
   EXPECT_EQ(a.last_outcome, b.last_outcome);
+  EXPECT_EQ(a.planner, b.planner);
   EXPECT_EQ(a.problems, b.problems);
   EXPECT_EQ(a.recent, b.recent);
   EXPECT_EQ(a.frame_events, b.frame_events);
@@ -199,6 +202,31 @@ TEST(ClusterState, ACutOrMalformedConsoleIsAProblemSaidNeverACrashAndTheFrameSti
     std::string r = console_raw;
     r[state_at] = 9;
     expect_console_problem(r, "a camera state out of range");
+  }
+  {
+    // The planner's line (after last_outcome): its length past the record, past the bound.
+    const std::string& line = full_console().planner;
+    const std::size_t text = console_raw.find(line);
+    ASSERT_NE(text, std::string::npos);
+    ASSERT_EQ(console_raw.find(line, text + 1), std::string::npos);
+    std::uint32_t n = 0;
+    std::memcpy(&n, console_raw.data() + text - 4, 4);
+    ASSERT_EQ(n, line.size());
+    expect_console_problem(at(text - 4, &huge, 4), "planner's length past the record");
+    expect_console_problem(at(text - 4, &long_line, 4), "planner's length past the bound");
+    // A planner line as long as the bound reads; one byte longer is a problem, in words.
+    ConsoleState c = full_console();
+    c.planner.assign(64u << 10, 'p');
+    std::string s;
+    encode_frame_state(f, c, s);
+    ASSERT_TRUE(d.decode(s, got, &con)) << d.problem();
+    EXPECT_TRUE(d.has_console()) << d.console_problem();
+    EXPECT_EQ(con.planner, c.planner);
+    c.planner += 'p';
+    encode_frame_state(f, c, s);
+    ASSERT_TRUE(d.decode(s, got, &con)) << d.problem();
+    EXPECT_FALSE(d.has_console());
+    EXPECT_NE(d.console_problem().find("its console record does not read whole"), std::string::npos) << d.console_problem();
   }
   // Event texts that are not one per event.
   {
@@ -314,6 +342,7 @@ TEST(ClusterState, ANodeDrawsAFrameWhoseConsoleDoesNotReadSaysWhyAndCountsIt) {
   EXPECT_EQ(con.frame_events, c.frame_events);
   EXPECT_EQ(con.tracking, c.tracking);
   EXPECT_EQ(con.last_outcome, c.last_outcome);
+  EXPECT_EQ(con.planner, c.planner);
   ASSERT_GE(con.problems.size(), c.problems.size());
   EXPECT_TRUE(std::equal(c.problems.begin(), c.problems.end(), con.problems.begin()));
   for (std::size_t k = c.problems.size(); k < con.problems.size(); ++k)

@@ -78,6 +78,8 @@ TEST(ClusterProtocol, AMessageReadsBackAndEveryDefectIsNamed) {
   EXPECT_EQ(kc::decode_message(v, 0xABCDEF, h, payload), kc::Defect::wrong_version);
   v[4] = 1;  // version 1: STATEs without the master's console
   EXPECT_EQ(kc::decode_message(v, 0xABCDEF, h, payload), kc::Defect::wrong_version);
+  v[4] = 2;  // version 2: a console without the planner's line
+  EXPECT_EQ(kc::decode_message(v, 0xABCDEF, h, payload), kc::Defect::wrong_version);
   std::string g = m;
   g[0] = 'X';
   EXPECT_EQ(kc::decode_message(g, 0xABCDEF, h, payload), kc::Defect::bad_magic);

@@ -42,6 +42,7 @@ std::string frame_json(const FrameData& f, const ConsoleState& c,
                   {"frame_cpu_ms", c.frame_cpu_ms},
                   {"late_latch", c.late_latch},
                   {"draw_budget_ms", c.draw_budget_ms >= 0 ? json(c.draw_budget_ms) : json(nullptr)}};
+  if (!c.planner.empty()) j["console"]["planner"] = c.planner;  // absent without a fighter
   // Text from files (a problem quoting a damaged file's bytes) may not be UTF-8: such bytes
   // are written as U+FFFD rather than ending the run (nlohmann throws on them by default).
   return j.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);

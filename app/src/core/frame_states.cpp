@@ -77,6 +77,7 @@ void write_console(Out& o, const ConsoleState& c) {
   o.u8(c.paused ? 1 : 0);
   o.str(c.last_order);
   o.str(c.last_outcome);
+  o.str(c.planner);
   o.lines(c.problems);
   o.lines(c.recent);
   o.lines(c.frame_events);
@@ -193,6 +194,7 @@ std::string read_console(In& in, ConsoleState& c) {
   c.paused = in.u8() != 0;
   c.last_order = in.line();
   c.last_outcome = in.line();
+  c.planner = in.line();
   in.lines(c.problems);
   in.lines(c.recent);
   in.lines(c.frame_events);

@@ -717,6 +717,7 @@ ConsoleState Installation::console(const FrameData& shown) const {
                                                               : fmt::format("{} ({:.2f} m)", to_string(last->type),
                                                                             last->distance_m);
   }
+  if (fighter_) c.planner = planner_line();
   for (const auto& e : recent_) c.recent.push_back(event_line(e));
   for (const auto& e : shown.events) c.frame_events.push_back(event_text(e));
 

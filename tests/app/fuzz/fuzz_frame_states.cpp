@@ -66,6 +66,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (decoder.decode(records, f, &console)) {
       if (decoder.has_console() && console.frame_events.size() != f.events.size()) std::abort();
       if (decoder.has_console() && !decoder.console_problem().empty()) std::abort();
+      if (decoder.has_console() && console.planner.size() > (64u << 10)) std::abort();  // a string's bound
     } else if (decoder.problem().empty()) {
       std::abort();
     }

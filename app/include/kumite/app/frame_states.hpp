@@ -17,9 +17,11 @@
 //     tracking_source, recognition; u32 cameras, each: string name, u8 state, string status,
 //     i32 blobs, f64 since_last_ms; i32 markers_seen, u8 head_live, f64 pose_age_ms,
 //     tracking_latency_ms, latch_ms, draw_budget_ms, u8 late_latch, string fighter_state,
-//     i32 character, string character_name, u8 paused, strings last_order, last_outcome; then
-//     three lists of strings (u32 count, each): problems, recent, frame_events (one per frame
-//     event, in order). At most 1024 lines a list, 64 KiB a line.
+//     i32 character, string character_name, u8 paused, strings last_order, last_outcome,
+//     planner (the spar planner's line, "" without a fighter); then three lists of strings
+//     (u32 count, each): problems, recent, frame_events (one per frame event, in order). At
+//     most 1024 lines a list, 64 KiB a string. (The cluster's protocol version 3: 2 had no
+//     planner string.)
 // Every f64 and f32 must be finite; counts no larger than the record's bytes can hold.
 // Little-endian, numbers exactly as computed. One record is written whole with one write(2):
 // a recorder killed mid-write leaves whole records and at most one cut one, which the reader

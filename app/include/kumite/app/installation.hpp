@@ -209,6 +209,9 @@ struct ConsoleState {
   bool paused = false;
   std::string last_order;          ///< e.g. "punch_right"
   std::string last_outcome;        ///< "accepted", "hit (0.04 m)", "miss (0.31 m)", "ignored: ..."
+  /// The sparring planner's line (Installation::planner_line(): mode, state, next decision
+  /// with its cause and due time, score); "" without a fighter (no planner).
+  std::string planner;
   std::vector<std::string> problems;  ///< what is wrong now (one line each)
   std::deque<std::string> recent;     ///< recent events, newest last
   std::vector<std::string> frame_events;  ///< the frame's own events' texts (event_text), in order
@@ -413,7 +416,8 @@ class Installation {
   /// body of TrackingSnapshot::bodies the source has, in role order, as measured (tracked =
   /// status not lost; t = its measurement's time). Empty without a fighter.
   std::span<const content::VisitorBody> visitor_bodies() const { return visitor_bodies_; }
-  /// Its line for the console: "spar  guarding  next punch_left (timer) in 1.2 s  attacks 3  counters 2".
+  /// Its line for the console: "spar  guarding  next punch_left (timer) in 1.2 s  attacks 3  counters 2"
+  /// ("no fighter" without one; ConsoleState::planner is "" then).
   std::string planner_line() const;
   std::span<const WallFrame> walls() const { return walls_; }
   int character_count() const;

@@ -33,8 +33,9 @@
 
 namespace kumite::cluster {
 
-/// 2: the app's STATE carries the master's console (its texts) beside the frame.
-inline constexpr std::uint16_t kProtocolVersion = 2;
+/// 3: the app's STATE carries the master's console (its texts, the spar planner's line among
+/// them) beside the frame (2: a console without the planner's line; 1: none).
+inline constexpr std::uint16_t kProtocolVersion = 3;
 inline constexpr std::size_t kHeaderBytes = 40;
 /// The most a payload may hold; larger messages are counted as oversized and dropped.
 inline constexpr std::size_t kMaxPayloadBytes = 1u << 20;
