@@ -1,5 +1,6 @@
-// App figures: CPU per frame excluding GPU draw (4 walls in stereo), and headless render
-// time per 1920x1080 wall image on llvmpipe.
+// App figures: CPU per frame excluding GPU draw (4 walls in stereo), headless render time per
+// 1920x1080 wall image on llvmpipe, and a cluster STATE's encoding and decoding with and
+// without the master's console.
 //   build/bin/kumite_app_bench --benchmark_format=json
 #include <benchmark/benchmark.h>
 
@@ -13,6 +14,7 @@
 
 #include "kumite/app/bodies.hpp"
 #include "kumite/app/config.hpp"
+#include "kumite/app/frame_states.hpp"
 #include "kumite/app/headless.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/renderer.hpp"
@@ -302,6 +304,87 @@ void BM_DemoFrameLooks(benchmark::State& state) {
   state.counters["hall_cpu_factor_capsules"] = median(looks[2].cpu_ms) / median(looks[0].cpu_ms);
 }
 BENCHMARK(BM_DemoFrameLooks)->Unit(benchmark::kMillisecond)->Iterations(21);
+
+/// The demo stepped 2 s with a fixed head, the fighter sparring (config/demo-spar.toml's
+/// planner, at a fighting distance the fixed head is at: its line names the next decision) and
+/// a right punch ordered: a cluster master's frame and its console for that frame.
+struct DemoState {
+  InstallationConfig cfg;
+  std::unique_ptr<Installation> inst;
+  const FrameData* frame = nullptr;
+  DemoState() {
+    cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
+    cfg.fighter.database = KUMITE_BINARY_DIR + "/demo/fighter.kdb";
+    cfg.tracking.source = TrackingSource::none;
+    cfg.orders_script.reset();
+    cfg.fighter.planner.mode = kumite::content::PlannerMode::spar;
+    cfg.fighter.planner.fighting_distance_m = 2.5;
+    inst = std::make_unique<Installation>(cfg, make_fixed_head_input("bench"), InstallationOptions{});
+    double t = 1000;
+    inst->start(t);
+    for (int i = 0; i < 120; ++i) {
+      if (i == 5) inst->order({t, kumite::OrderKind::punch_right, -1});
+      frame = &inst->step(t += 1.0 / 60);
+    }
+  }
+};
+
+/// A cluster master's STATE for the demo frame (encode_frame_state: the skeleton's record, the
+/// console's, the frame's, each zlib-packed and checksummed), per frame: arg 0 without the
+/// console record; arg 1 with it (the console made once); arg 2 the master's path, the console
+/// made for the frame (Installation::console()) and encoded. `bytes`: the STATE's payload.
+void BM_ClusterStateEncodeDemo(benchmark::State& state) {
+  const DemoState demo;
+  const FrameData& f = *demo.frame;
+  const ConsoleState console = demo.inst->console(f);
+  if (console.planner.empty() || !f.fighter.present) {
+    state.SkipWithError("the demo frame has no fighter or no planner line (no demo data?)");
+    return;
+  }
+  std::string out;
+  for (auto _ : state) {
+    if (state.range(0) == 0) {
+      encode_frame_state(f, true, nullptr, out, kFrameVersion);
+    } else if (state.range(0) == 1) {
+      encode_frame_state(f, console, out);
+    } else {
+      encode_frame_state(f, demo.inst->console(f), out);
+    }
+    benchmark::DoNotOptimize(out.data());
+  }
+  state.counters["bytes"] = static_cast<double>(out.size());
+  state.counters["events"] = static_cast<double>(f.events.size());
+  state.counters["recent"] = static_cast<double>(console.recent.size());
+}
+BENCHMARK(BM_ClusterStateEncodeDemo)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kMicrosecond);
+
+/// A render node's side: the same STATE decoded (FrameStateDecoder, the skeleton kept from the
+/// first), arg 0 without the console record, arg 1 with it (read and checked into a console).
+void BM_ClusterStateDecodeDemo(benchmark::State& state) {
+  const DemoState demo;
+  const FrameData& f = *demo.frame;
+  const ConsoleState console = demo.inst->console(f);
+  std::string bytes;
+  if (state.range(0) == 0)
+    encode_frame_state(f, true, nullptr, bytes, kFrameVersion);
+  else
+    encode_frame_state(f, console, bytes);
+  FrameStateDecoder decoder;
+  FrameData got;
+  ConsoleState got_console;
+  if (!decoder.decode(bytes, got, &got_console) || decoder.has_console() != (state.range(0) == 1) ||
+      (state.range(0) == 1 && got_console.planner != console.planner)) {
+    state.SkipWithError(("the demo's STATE does not read back: " + decoder.problem() + decoder.console_problem()).c_str());
+    return;
+  }
+  for (auto _ : state) {
+    const bool ok = decoder.decode(bytes, got, state.range(0) == 1 ? &got_console : nullptr);
+    benchmark::DoNotOptimize(ok);
+    benchmark::DoNotOptimize(got.fighter.joints.data());
+  }
+  state.counters["bytes"] = static_cast<double>(bytes.size());
+}
+BENCHMARK(BM_ClusterStateDecodeDemo)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 
