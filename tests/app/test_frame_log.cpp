@@ -1,6 +1,7 @@
 // Issue 15: frames.jsonl of a run of any length stays within its budget: two halves,
 // frames.jsonl (the newest frames) and frames.1.jsonl (the ones before), complete lines only,
-// no frame lost at a rotation between them.
+// no frame lost at a rotation between them. A line's console holds the planner's line when
+// there is a planner, and no such key when there is none.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -9,6 +10,7 @@
 #include <vector>
 
 #include <fmt/format.h>
+#include <nlohmann/json.hpp>
 #include <unistd.h>
 
 #include "kumite/app/config.hpp"
@@ -75,4 +77,17 @@ window = "main"
   } catch (const kumite::Error& e) {
     EXPECT_EQ(std::string(e.what()), "room.toml:11: log.frames_budget_mb: must be in [1, 10000000] MB, found 0");
   }
+}
+
+TEST(FrameLog, TheConsolesPlannerLineIsLoggedWhenThereIsOne) {
+  FrameData f;
+  ConsoleState c;
+  c.planner = "spar  guarding  next kick_left (timer) in 1.6 s  attacks 1  counters 0  score: visitor hits 0 dodges 1, "
+              "fighter hits 0 blocks 2 (met 0)";
+  auto j = nlohmann::json::parse(frame_json(f, c, {}, false));
+  ASSERT_TRUE(j["console"].contains("planner")) << j["console"].dump();
+  EXPECT_EQ(j["console"]["planner"], c.planner);
+  c.planner.clear();  // no fighter: no planner
+  j = nlohmann::json::parse(frame_json(f, c, {}, false));
+  EXPECT_FALSE(j["console"].contains("planner")) << j["console"].dump();
 }

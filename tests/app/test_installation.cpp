@@ -222,6 +222,7 @@ TEST(Installation, TrackingLostMidRunKeepsTheLastGoodEyes) {
   }
   // The fighter's database is missing: said, and the walls still have views.
   EXPECT_TRUE(has_problem(inst.console(), "no fighter"));
+  EXPECT_EQ(inst.console().planner, "") << "no fighter, no planner line";
   EXPECT_TRUE(has_problem(inst.console(), "/nonexistent/fighter.kdb"));
 }
 

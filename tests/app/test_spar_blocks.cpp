@@ -46,7 +46,8 @@ SparRun spar_with_blocks(bool block) {
       if (e.type == EventType::block) ++r.blocks;
     }
   }
-  r.planner_line = inst.planner_line();
+  r.planner_line = inst.console().planner;  // the console's (and a render node's) line
+  EXPECT_EQ(r.planner_line, inst.planner_line());
   return r;
 }
 
