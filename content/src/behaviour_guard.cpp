@@ -82,6 +82,12 @@ Vector3d unit_across(const Vector3d& pole, const Vector3d& axis, const Vector3d&
   const Vector3d p = pole - pole.dot(a) * a;
   return p.norm() > 1e-6 ? Vector3d(p.normalized()) : fallback;
 }
+/// The unit direction of `from` turned the share x of the way to `to`'s (slerp; x = 0: from's).
+Vector3d turned_toward(const Vector3d& from, const Vector3d& to, double x) {
+  if (from.norm() < 1e-9 || to.norm() < 1e-9) return from.norm() < 1e-9 ? Vector3d(to.normalized()) : Vector3d(from.normalized());
+  const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(from.normalized(), to.normalized());
+  return Eigen::Quaterniond::Identity().slerp(x, q) * from.normalized();
+}
 /// The elbow, from the shoulder, of an arm whose wrist lies at `wrist` from the shoulder, bent
 /// toward `pole` (unit, across): where the decode's two-bone IK puts it.
 Vector3d elbow_of(const Vector3d& wrist, const Vector3d& pole, double upper_m, double fore_m) {
@@ -292,8 +298,18 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
     if (w > 0 && drawn_before) {
       const Vector3d ag = pose.chest * mirrored(kGuardWrist, side);
       const Vector3d pg = unit_across(pose.chest * mirrored(kGuardElbow, side), ag, p);
-      a = (1 - w) * a + w * ag;
-      p = unit_across((1 - w) * p + w * pg, a, p);
+      // The motion's arm and the guard's, each as a wrist and an elbow from the shoulder,
+      // turned into each other about the shoulder (slerped directions, lerped distances): a
+      // straight blend of the arm vectors and poles swung the drawn elbow round the short
+      // shoulder -> wrist line as a strike began from the guard (18.8 m/s for 0.15 s in the
+      // spar bout with stance steps, the wrist at 6 m/s); this way it turns with the wrist.
+      const double arm = m.arm_length(side), up = m.upper_arm_m[s], fore = m.forearm_m[s];
+      const Vector3d wa = a * arm, wb = ag * arm;
+      const Vector3d ea = elbow_of(wa, p, up, fore), eb = elbow_of(wb, pg, up, fore);
+      const Vector3d wp = turned_toward(wa, wb, w) * ((1 - w) * wa.norm() + w * wb.norm());
+      const Vector3d ep = turned_toward(ea, eb, w) * ((1 - w) * ea.norm() + w * eb.norm());
+      a = wp / arm;
+      p = unit_across(ep, wp, p);
     }
     if (pr.on && drawn_before) {
       // The wrist and the elbow (from the shoulder) each moved along a straight line, the arm
