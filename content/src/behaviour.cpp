@@ -942,7 +942,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
       if ((forward || back) && feet_down && begin_stance_step(goal)) return;
 
       // Until then it waits for a forward step (a visitor a little farther, or still walking).
-      wait = !following && ((along > 0 && !forward && !recentre_goal_) ||  // (walking home goes all the way)
+      // (Sparring, follow_close_, a spot short of a stance step is walked to, not waited out.)
+      wait = !following && ((along > 0 && !forward && !recentre_goal_ && !follow_close_) ||  // (walking home goes all the way)
                             ((forward || back) && !feet_down && stance_wait_s_ < kStanceStepFeetWait_s));
     }
   }

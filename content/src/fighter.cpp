@@ -312,7 +312,7 @@ class FighterImpl final : public Fighter {
     if (const std::optional<Order> o = spar_.step(p)) behaviour_.order(*o);
     if (spar_.take_abort()) behaviour_.abort_strike(in.now);
     // Sparring, it keeps the fighting distance (the visitor's fist reaches it).
-    behaviour_.follow_at(t.mode == PlannerMode::spar ? t.fighting_distance_m : strike_distance_m_);
+    behaviour_.follow_at(t.mode == PlannerMode::spar ? t.fighting_distance_m : strike_distance_m_, t.mode == PlannerMode::spar);
     // Sparring with blocks on, it keeps its guard up (behaviour_guard.cpp).
     behaviour_.set_guard(t.mode == PlannerMode::spar && t.block);
     if (t.mode == PlannerMode::spar) defend(in, f);

@@ -766,3 +766,54 @@ TEST(Blocks, AStrikeOrderedFromTheGuardSwingsNoDrawnElbowRoundItsWrist) {
   // (The straight blend: 7.6 m/s, the elbow twice its wrist's speed; this way 5.0.)
   EXPECT_LT(worst_elbow, 6.0) << "the visitor's fastest fist; the worst ratio: " << worst;
 }
+
+// Sparring with stance steps on (stance_step_min_m 0.5): the fighter's stance step in ends
+// 0.86 m from the visitor's head; the visitor steps back 0.2 m, leaving it off its spot by less
+// than a stance step and more than follow_tolerance_m. It walks after them (procedural steps)
+// and stands engaged, at its fighting distance; it waited there before, 1.06 m from the head,
+// beyond fighting distance + engage tolerance, the planner "approaching" for good (the spar
+// demo with stance steps: 10 s at 0.9 m; no block in SparBlocks' 12 s). SYNTHETIC: kenji,
+// defence alone, a still head.
+TEST(Blocks, SparringWithStanceStepsTheFighterKeepsItsFightingDistance) {
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  FighterConfig cfg;
+  cfg.database = db;
+  cfg.characters = {std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh"};
+  cfg.character_names = {"kenji"};
+  cfg.planner = defence_alone();
+  cfg.behaviour.stance_step_min_m = 0.5;
+  const std::unique_ptr<Fighter> f = Fighter::create(cfg);
+  const Rig rig = load_character_rig(cfg.characters[0].string());
+  FighterOutput out;
+  const auto pelvis = static_cast<std::size_t>(rig.skeleton.index(CanonicalJoint::pelvis));
+  auto apart = [&](const Vector3d& head) {
+    const Vector3d p = out.frame.joints[pelvis];
+    return std::hypot(p.x() - head.x(), p.z() - head.z());
+  };
+  Vector3d head(0, 1.65, -1.6);
+  double before = 0;
+  for (int k = 0; k < 60 * 14; ++k) {
+    FighterInput in;
+    in.now = k / 60.0;
+    in.dt_s = k ? 1 / 60.0 : 0;
+    if (k == 60 * 8) {
+      before = apart(head);
+      head.z() += 0.2;  // a step back, away from the fighter (it stands toward -z)
+    }
+    in.head_m = head;
+    std::vector<VisitorBody> bodies(1);
+    bodies[0].role = Role::head;
+    bodies[0].position_m = head;
+    bodies[0].tracked = true;
+    bodies[0].t = in.now;
+    in.bodies = bodies;
+    f->step(in, out);
+  }
+  const PlannerTunables& t = cfg.planner;
+  std::printf("pelvis to head: %.3f m before the step back, %.3f m 6 s after (fighting distance %.2f)\n", before, apart(head),
+              t.fighting_distance_m);
+  EXPECT_LE(before, t.fighting_distance_m + t.engage_tolerance_m);
+  EXPECT_LE(apart(head), t.fighting_distance_m + t.engage_tolerance_m) << "it waits out of reach";
+  EXPECT_NE(f->planner_status().state, PlannerState::approaching);
+}

@@ -252,7 +252,13 @@ class Behaviour {
   bool paused() const { return paused_; }
   /// m: the horizontal distance it keeps from the visitor's head while following (from the next
   /// update; the config's strike_distance_m until set: the sparring planner's fighting distance).
-  void follow_at(double distance_m) { follow_distance_m_ = distance_m; }
+  /// `close`: a spot off by less than a stance step (stance_step_min_m) is walked to with
+  /// procedural steps rather than waited out (sparring: its fighting distance is kept, not
+  /// stance_step_min_m beyond it, where the planner no longer counts it engaged).
+  void follow_at(double distance_m, bool close = false) {
+    follow_distance_m_ = distance_m;
+    follow_close_ = close;
+  }
   void update(Timestamp now, double dt, const Eigen::Vector3d& head);
 
   FighterFrame frame() const;
@@ -458,6 +464,7 @@ class Behaviour {
   bool paused_ = false;
   bool keep_away_ = false;
   double follow_distance_m_ = 0;  ///< m, follow_at() (set from the config at construction)
+  bool follow_close_ = false;     ///< follow_at()'s `close`
   int rest_segment_ = 0;
   /// The sources playing (the current one and the one it cross-fades from), the cross-fade
   /// and the arms' drawn poles (motion_player.hpp, motion_playback.cpp).
