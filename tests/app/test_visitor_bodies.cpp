@@ -260,8 +260,12 @@ TEST(VisitorBodies, AGloveLostMidRunReadsAsNotTrackedWithItsLastPose) {
     EXPECT_NEAR(got[2].position_m.x(), 0.2 + 0.29, 1e-9) << "the last pose measured (row 29)";
     EXPECT_NEAR(got[2].t, t29, 1e-5);
     const double age = t0 + i / 60.0 - got[2].t;
-    if (age > lost_after + 1e-6) EXPECT_FALSE(got[2].tracked) << "no row for " << age << " s";
-    if (age <= lost_after - 1e-6) EXPECT_TRUE(got[2].tracked) << "coasting for " << age << " s";
+    if (age > lost_after + 1e-6) {
+      EXPECT_FALSE(got[2].tracked) << "no row for " << age << " s";
+    }
+    if (age <= lost_after - 1e-6) {
+      EXPECT_TRUE(got[2].tracked) << "coasting for " << age << " s";
+    }
   }
 }
 
