@@ -108,7 +108,14 @@ struct ArmAt {
 };
 ArmAt parry_arm_at(double x, const Vector3d& w0, const Vector3d& e0, const Vector3d& w1, const Vector3d& e1, const Vector3d& pole0,
                    double upper_m, double fore_m) {
-  const Vector3d wp = (1 - x) * w0 + x * w1, ep = (1 - x) * e0 + x * e1;
+  Vector3d wp = (1 - x) * w0 + x * w1;
+  const Vector3d ep = (1 - x) * e0 + x * e1;
+  // No nearer the shoulder than kParryFold of the arm on the way either: a way between two
+  // places on either side of the shoulder (a parry's place and the guard) passed 0.13 m from it,
+  // the arm folded shut, its elbow on the shoulder -> wrist line, where the elbow's pole (and the
+  // drawn elbow, 7 cm in a frame) flips.
+  const double fold = kParryFold * (upper_m + fore_m), r = wp.norm();
+  if (r < fold && r > 1e-9) wp *= fold / r;
   const Vector3d pole = unit_across(ep, wp, pole0);
   const Vector3d el = elbow_of(wp, pole, upper_m, fore_m);
   const Vector3d fore = wp - el;
