@@ -52,6 +52,10 @@ constexpr double kExtensionPlanMargin = 0.02;
 /// rad: a stance step is taken only while the fighter faces the visitor within this (else it
 /// turns first, following with procedural steps meanwhile).
 constexpr double kStanceStepOffAxis_rad = 0.35;
+/// m: how far the drawn head stands ahead of the root toward the visitor in the guard stance
+/// (the spar demo's median at the visitor's strikes, steps off): sparring, the fighting distance
+/// is kept from the head less this.
+constexpr double kSparHeadLead_m = 0.08;
 /// s: the spot's speed (the visitor walking) is smoothed over about this.
 constexpr double kGoalSpeedSmoothing_s = 0.15;
 /// m/s: below this the visitor has stopped walking toward or away (a forward stance step may go).
@@ -892,6 +896,16 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   const double dist = to_head.norm();
   Vector2d goal = spot_xz_m_;
   if (dist > 1e-6) goal = head_xz - to_head / dist * follow_distance_m_;
+  // Sparring (follow_close_), the distance is the drawn head's, not the root's: a stance that
+  // carries the head back (the rest after a stance step keeps the step's turned hips: the head
+  // 4 cm behind the root, against 8 cm ahead in the guard stance) stood the head out of the
+  // visitor's reach. The spot moves by how far the head stands off its usual lead.
+  if (follow_close_ && have_pose_ && dist > 1e-6) {
+    const Rig& rig = characters_[static_cast<std::size_t>(character_)];
+    const Vector3d drawn_head = rig_positions_[static_cast<std::size_t>(rig.skeleton.index(CJ::head))];
+    const double ahead = (Vector2d(drawn_head.x(), drawn_head.z()) - spot_xz_m_).dot(to_head / dist);
+    goal = head_xz - to_head / dist * (follow_distance_m_ + ahead - kSparHeadLead_m);
+  }
   if (recentre_goal_) goal = *recentre_goal_;
   if (reel_.step_back()) goal = *reel_.step_back();  // stepping back from a large blow
   if (const Approach* a = approach()) {

@@ -787,8 +787,9 @@ TEST(Blocks, SparringWithStanceStepsTheFighterKeepsItsFightingDistance) {
   const Rig rig = load_character_rig(cfg.characters[0].string());
   FighterOutput out;
   const auto pelvis = static_cast<std::size_t>(rig.skeleton.index(CanonicalJoint::pelvis));
-  auto apart = [&](const Vector3d& head) {
-    const Vector3d p = out.frame.joints[pelvis];
+  const auto drawn_head = static_cast<std::size_t>(rig.skeleton.index(CanonicalJoint::head));
+  auto apart = [&](const Vector3d& head, std::size_t joint = 0) {
+    const Vector3d p = out.frame.joints[joint ? joint : pelvis];
     return std::hypot(p.x() - head.x(), p.z() - head.z());
   };
   Vector3d head(0, 1.65, -1.6);
@@ -811,8 +812,8 @@ TEST(Blocks, SparringWithStanceStepsTheFighterKeepsItsFightingDistance) {
     f->step(in, out);
   }
   const PlannerTunables& t = cfg.planner;
-  std::printf("pelvis to head: %.3f m before the step back, %.3f m 6 s after (fighting distance %.2f)\n", before, apart(head),
-              t.fighting_distance_m);
+  std::printf("pelvis to head: %.3f m before the step back, %.3f m 6 s after (fighting distance %.2f); drawn head to head %.3f m\n",
+              before, apart(head), t.fighting_distance_m, apart(head, drawn_head));
   EXPECT_LE(before, t.fighting_distance_m + t.engage_tolerance_m);
   EXPECT_LE(apart(head), t.fighting_distance_m + t.engage_tolerance_m) << "it waits out of reach";
   EXPECT_NE(f->planner_status().state, PlannerState::approaching);
