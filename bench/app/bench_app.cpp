@@ -5,6 +5,8 @@
 #include <benchmark/benchmark.h>
 
 #include <ctime>
+#include <functional>
+#include <memory>
 
 #include <Eigen/Core>
 #ifndef GL_GLEXT_PROTOTYPES
@@ -161,16 +163,20 @@ struct DemoFighter {
   InstallationConfig cfg;
   std::unique_ptr<Installation> inst;
   const FrameData* frame = nullptr;
-  DemoFighter() {
+  /// The demo with a fixed head and no orders script, `adjust`ed, stepped `frames` updates at
+  /// 60 Hz with a right punch ordered at the 5th.
+  explicit DemoFighter(const std::function<void(InstallationConfig&)>& adjust = [](InstallationConfig& c) {
+    c.fighter.initial_character = 0;
+  }, int frames = 60) {
     cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
     cfg.fighter.database = KUMITE_BINARY_DIR + "/demo/fighter.kdb";
     cfg.tracking.source = TrackingSource::none;
     cfg.orders_script.reset();
-    cfg.fighter.initial_character = 0;
+    adjust(cfg);
     inst = std::make_unique<Installation>(cfg, make_fixed_head_input("bench"), InstallationOptions{});
     double t = 1000;
     inst->start(t);
-    for (int i = 0; i < 60; ++i) {
+    for (int i = 0; i < frames; ++i) {
       if (i == 5) inst->order({t, kumite::OrderKind::punch_right, -1});
       frame = &inst->step(t += 1.0 / 60);
     }
@@ -308,33 +314,21 @@ BENCHMARK(BM_DemoFrameLooks)->Unit(benchmark::kMillisecond)->Iterations(21);
 /// The demo stepped 2 s with a fixed head, the fighter sparring (config/demo-spar.toml's
 /// planner, at a fighting distance the fixed head is at: its line names the next decision) and
 /// a right punch ordered: a cluster master's frame and its console for that frame.
-struct DemoState {
-  InstallationConfig cfg;
-  std::unique_ptr<Installation> inst;
-  const FrameData* frame = nullptr;
-  DemoState() {
-    cfg = load_installation_config(KUMITE_SOURCE_DIR + "/config/demo.toml");
-    cfg.fighter.database = KUMITE_BINARY_DIR + "/demo/fighter.kdb";
-    cfg.tracking.source = TrackingSource::none;
-    cfg.orders_script.reset();
-    cfg.fighter.planner.mode = kumite::content::PlannerMode::spar;
-    cfg.fighter.planner.fighting_distance_m = 2.5;
-    inst = std::make_unique<Installation>(cfg, make_fixed_head_input("bench"), InstallationOptions{});
-    double t = 1000;
-    inst->start(t);
-    for (int i = 0; i < 120; ++i) {
-      if (i == 5) inst->order({t, kumite::OrderKind::punch_right, -1});
-      frame = &inst->step(t += 1.0 / 60);
-    }
-  }
-};
+DemoFighter demo_state() {
+  return DemoFighter(
+      [](InstallationConfig& c) {
+        c.fighter.planner.mode = kumite::content::PlannerMode::spar;
+        c.fighter.planner.fighting_distance_m = 2.5;
+      },
+      120);
+}
 
 /// A cluster master's STATE for the demo frame (encode_frame_state: the skeleton's record, the
 /// console's, the frame's, each zlib-packed and checksummed), per frame: arg 0 without the
 /// console record; arg 1 with it (the console made once); arg 2 the master's path, the console
 /// made for the frame (Installation::console()) and encoded. `bytes`: the STATE's payload.
 void BM_ClusterStateEncodeDemo(benchmark::State& state) {
-  const DemoState demo;
+  const DemoFighter demo = demo_state();
   const FrameData& f = *demo.frame;
   const ConsoleState console = demo.inst->console(f);
   if (console.planner.empty() || !f.fighter.present) {
@@ -361,7 +355,7 @@ BENCHMARK(BM_ClusterStateEncodeDemo)->Arg(0)->Arg(1)->Arg(2)->Unit(benchmark::kM
 /// A render node's side: the same STATE decoded (FrameStateDecoder, the skeleton kept from the
 /// first), arg 0 without the console record, arg 1 with it (read and checked into a console).
 void BM_ClusterStateDecodeDemo(benchmark::State& state) {
-  const DemoState demo;
+  const DemoFighter demo = demo_state();
   const FrameData& f = *demo.frame;
   const ConsoleState console = demo.inst->console(f);
   std::string bytes;
