@@ -299,12 +299,13 @@ struct DrawnFighter {
   }
 };
 
-DrawnFighter kenji(const PlannerTunables& planner) {
+DrawnFighter kenji(const PlannerTunables& planner, const BehaviourTunables& behaviour = {}) {
   FighterConfig cfg;
   cfg.database = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
   cfg.characters = {std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh"};
   cfg.character_names = {"kenji"};
   cfg.planner = planner;
+  cfg.behaviour = behaviour;
   return {Fighter::create(cfg), load_character_rig(cfg.characters[0].string())};
 }
 
@@ -411,6 +412,22 @@ PlannerTunables defence_alone() {
   p.counter_probability = 0;
   p.block = true;
   return p;
+}
+
+/// Update `k` at 60 Hz with the visitor's head at `head`, tracked, and no other body (`bodies`
+/// holds it for the input's span).
+FighterInput head_only_input(int k, const Vector3d& head, std::vector<VisitorBody>& bodies) {
+  FighterInput in;
+  in.now = k / 60.0;
+  in.dt_s = k ? 1 / 60.0 : 0;
+  in.head_m = head;
+  bodies.assign(1, VisitorBody{});
+  bodies[0].role = Role::head;
+  bodies[0].position_m = head;
+  bodies[0].tracked = true;
+  bodies[0].t = in.now;
+  in.bodies = bodies;
+  return in;
 }
 
 bool has(const std::vector<FighterEvent>& ev, EventKind k) {
@@ -729,17 +746,9 @@ TEST(Blocks, AStrikeOrderedFromTheGuardSwingsNoDrawnElbowRoundItsWrist) {
       std::vector<Vector3d> elbow, wrist, shoulder;
       const bool left = kind == OrderKind::punch_left;
       constexpr int kOrderAt = 180;
+      std::vector<VisitorBody> bodies;
       for (int k = 0; k < kOrderAt + 30; ++k) {
-        FighterInput in;
-        in.now = k / 60.0;
-        in.dt_s = k ? 1 / 60.0 : 0;
-        in.head_m = head;
-        std::vector<VisitorBody> bodies(1);
-        bodies[0].role = Role::head;
-        bodies[0].position_m = head;
-        bodies[0].tracked = true;
-        bodies[0].t = in.now;
-        in.bodies = bodies;
+        FighterInput in = head_only_input(k, head, bodies);
         const Order o{in.now, kind, -1};
         if (k == kOrderAt) in.orders = std::span<const Order>(&o, 1);
         d.fighter->step(in, out);
@@ -777,14 +786,12 @@ TEST(Blocks, AStrikeOrderedFromTheGuardSwingsNoDrawnElbowRoundItsWrist) {
 TEST(Blocks, SparringWithStanceStepsTheFighterKeepsItsFightingDistance) {
   const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
   if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
-  FighterConfig cfg;
-  cfg.database = db;
-  cfg.characters = {std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh"};
-  cfg.character_names = {"kenji"};
-  cfg.planner = defence_alone();
-  cfg.behaviour.stance_step_min_m = 0.5;
-  const std::unique_ptr<Fighter> f = Fighter::create(cfg);
-  const Rig rig = load_character_rig(cfg.characters[0].string());
+  BehaviourTunables steps;
+  steps.stance_step_min_m = 0.5;
+  const PlannerTunables t = defence_alone();
+  const DrawnFighter d = kenji(t, steps);
+  Fighter* f = d.fighter.get();
+  const Rig& rig = d.rig;
   FighterOutput out;
   const auto pelvis = static_cast<std::size_t>(rig.skeleton.index(CanonicalJoint::pelvis));
   const auto drawn_head = static_cast<std::size_t>(rig.skeleton.index(CanonicalJoint::head));
@@ -794,24 +801,14 @@ TEST(Blocks, SparringWithStanceStepsTheFighterKeepsItsFightingDistance) {
   };
   Vector3d head(0, 1.65, -1.6);
   double before = 0;
+  std::vector<VisitorBody> bodies;
   for (int k = 0; k < 60 * 14; ++k) {
-    FighterInput in;
-    in.now = k / 60.0;
-    in.dt_s = k ? 1 / 60.0 : 0;
     if (k == 60 * 8) {
       before = apart(head);
       head.z() += 0.2;  // a step back, away from the fighter (it stands toward -z)
     }
-    in.head_m = head;
-    std::vector<VisitorBody> bodies(1);
-    bodies[0].role = Role::head;
-    bodies[0].position_m = head;
-    bodies[0].tracked = true;
-    bodies[0].t = in.now;
-    in.bodies = bodies;
-    f->step(in, out);
+    f->step(head_only_input(k, head, bodies), out);
   }
-  const PlannerTunables& t = cfg.planner;
   std::printf("pelvis to head: %.3f m before the step back, %.3f m 6 s after (fighting distance %.2f); drawn head to head %.3f m\n",
               before, apart(head), t.fighting_distance_m, apart(head, drawn_head));
   EXPECT_LE(before, t.fighting_distance_m + t.engage_tolerance_m);
