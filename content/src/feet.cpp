@@ -24,6 +24,20 @@ namespace {
 /// The share of the source's path left when a stance step's stepping foot is over its landing
 /// (FootSample::landing_lead).
 constexpr double kStanceStepLandingLead = 0.05;
+
+/// The source's ankle on its way from now (`now_y_m`, m) to its landing at segment frame `land`
+/// stays within `height_m` above the lower of its heights now and there: a glide along the
+/// floor, not a step.
+bool stays_low(const MotionPlayer& player, const MotionSegment& seg, const PlaybackSource& src, int land, const Rig& rig,
+               int side, const Vector3d& hip_local, double now_y_m, double height_m) {
+  const Eigen::Quaterniond turn = src.placement.rotation();
+  const int first = static_cast<int>(std::floor(src.time_s / seg.frame_time_s)) + 1;
+  const double land_y = player.frame_ankle(src, turn, land, rig, side, hip_local).y();
+  const double floor_y = std::min(now_y_m, land_y);
+  for (int k = first; k < land; ++k)
+    if (player.frame_ankle(src, turn, k, rig, side, hip_local).y() > floor_y + height_m) return false;
+  return true;
+}
 }  // namespace
 
 Feet::Feet(std::shared_ptr<const Database> db, const BehaviourTunables& tunables)
@@ -175,6 +189,17 @@ void Feet::plant(const FeetInput& in) {
       f.has_landing = true;
       f.landing_ankle_m = sp.landing_m;
       f.source_path_left_m = sp.way_left_m;
+      // A held foot the source "lifts" only to glide a few centimetres along the floor is not
+      // stepped: the mocap's own foot sliding (135_06's lunges, whose back foot glides at 1-2
+      // m/s over their first frames) read as off the floor by its contacts. A strike retrieved
+      // from such a frame (135_06_punch_right_2 from frame 8, after a stance step) dragged the
+      // planted foot 3.4 cm along the floor in two frames (1.0 m/s) before putting it down.
+      const double glide_way_m = sp.way_left_m + Vector2d(f.source_step_m.x(), f.source_step_m.z()).norm();
+      if (planter_.held(s) && in.kick_side != s && glide_way_m < planter_.tunables().min_swing_path_m &&
+          stays_low(player, seg, src, land, rig, s, hip_local, now_m.y(), planter_.tunables().landing_height_m)) {
+        f.planted = true;
+        f.has_landing = false;
+      }
     }
     f.drawn_ankle_m = in.drawn_m[ankle];
     const Vector3d drawn_dir = drawn_foot_dir(pose, rig.morphology, s);  // the foot as adaptation aims it

@@ -332,11 +332,13 @@ TEST(VisitorBodies, ARecordedSessionGivesTheBodiesBackBitForBit) {
   }
 }
 
-// The session in the repository was recorded at version 4, before the bodies: it still replays
-// (RecordedSession.TheRepositorysSessionReplaysBitForBit: identical, no note), and the fighter is
-// given the head alone, as predicted to the display, as when it was recorded.
+// tests/app/data/session-v4 was recorded at version 4, before the bodies (the repository's
+// test session until the glide fix of 6 Dec 2026 changed the fighter from its frame 65): it
+// still replays, and the fighter is given the head alone, as predicted to the display, as when
+// it was recorded. Its fighter now differs from the recording, so the replay shows the
+// recorded frames and goes on past the difference (show_recorded): every frame's input checked.
 TEST(VisitorBodies, ASessionOfTheVersionBeforeGivesTheFighterTheHeadAlone) {
-  const fs::path session = kSource / "tests/app/data/session-demo";
+  const fs::path session = kSource / "tests/app/data/session-v4";
   const auto manifest = nlohmann::json::parse(std::ifstream(session / "manifest.json"));
   ASSERT_EQ(manifest.at("version"), 4);
   const fs::path data = fs::path(KUMITE_BINARY_DIR) / "demo";
@@ -344,6 +346,7 @@ TEST(VisitorBodies, ASessionOfTheVersionBeforeGivesTheFighterTheHeadAlone) {
   const Installation* replaying = nullptr;
   ReplayOptions ro;
   ro.data_dir = data;
+  ro.show_recorded = true;
   ro.on_start = [&](const Installation& i) { replaying = &i; };
   std::size_t with_head = 0;
   ro.on_frame = [&](const FrameData& f) {

@@ -84,8 +84,10 @@ TEST(RecordedSession, TheRepositorysSessionReplaysBitForBit) {
 }
 
 TEST(RecordedSession, AChangedStepIsCaughtAtItsFrameAndField) {
-  // The same session with the fighter told to strike from 0.6 m instead of 0.9 m (its
+  // The same session with the fighter told to strike from 1.6 m instead of 0.9 m (its
   // snapshot changed, its checksum kept in step): the replay must differ, in the fighter.
+  // (0.6 m changed nothing in the session recorded at the glide fix: its fighter strikes or
+  // recovers through all 200 frames and never rests at its strike distance there.)
   Tmp tmp;
   build_database(tmp.path);
   fs::copy(kSession, tmp.path / "s", fs::copy_options::recursive);
@@ -93,7 +95,7 @@ TEST(RecordedSession, AChangedStepIsCaughtAtItsFrameAndField) {
   std::string text = read(snap);
   const auto at = text.find("strike_distance_m = ");
   ASSERT_NE(at, std::string::npos);
-  text.replace(at, text.find('\n', at) - at, "strike_distance_m = 0.6");
+  text.replace(at, text.find('\n', at) - at, "strike_distance_m = 2.4");
   std::ofstream(snap, std::ios::trunc | std::ios::binary) << text;
   auto m = nlohmann::json::parse(read(tmp.path / "s/manifest.json"));
   for (auto& f : m["files"])

@@ -1022,3 +1022,20 @@ TEST(MotionQualityShipped, AFootTheSourceSlidesIsLiftedNoHigherThanTheSourceLift
   EXPECT_LE(rise, 0.057);                              // was 6.2 cm
   EXPECT_LE(judged.q.both_feet_off_excess_s, 0.2);     // was 0.27 s
 }
+
+TEST(MotionQualityShipped, AHeldFootTheSourceOnlyGlidesIsNotDraggedAlongTheFloor) {
+  // Viktor's right kick from the grid (135_04_kick_right_2) starts where the source's support
+  // (left) foot glides a few centimetres along the floor, fast enough that its contacts say
+  // lifted: the held foot followed the source's glide as a swing and slid at 0.79 m/s where the
+  // source has it down (judged by the source's contacts). A held foot the source moves less
+  // than min_swing_path_m, staying low, is kept where it stands (feet.cpp): 0.017 m/s.
+  const auto& set = kumite::content::testing::shipped_database();
+  const StrikeRecording rec = record_shipped("viktor", OrderKind::kick_right, Vector3d(0.15276, 1.26918, 0.99244));
+  ASSERT_GE(rec.contact_frame, 0);
+  const Judged judged(*set.db, rec, OrderKind::kick_right, "viktor");
+  const FootFigure& slide = judged.q.output.slide_source_contacts[kLeft];
+  std::printf("%s%s: support (left) foot slide where the source stands %.3f m/s at frame %d\n", rec.source_clip.c_str(),
+              rec.mirrored ? " mirrored" : "", slide.max_mps, slide.frame);
+  EXPECT_EQ(rec.source_clip, "135_04");
+  EXPECT_LE(slide.max_mps, 0.3);  // was 0.79
+}
