@@ -88,10 +88,16 @@ bool HitReel::take(const HitOrder& h, const Rig& rig, std::span<const Vector3d> 
     if (a.norm() < 1e-6 * std::max(1.0, v.norm())) a = Vector3d::UnitY().cross(Vector3d(v.x(), 0, v.z()));
     return a.norm() > 1e-9 ? Vector3d(a.normalized()) : Vector3d::Zero();
   };
-  const double w = h.stiffness_rad_s, z = std::min(1.0, h.damping_ratio);
+  const double w = h.stiffness_rad_s, z = h.driven ? 1.0 : std::min(1.0, h.damping_ratio);
   const double peak = unit_peak(w, z);
-  // A chain's rate for `angle` at its peak, added to what it has, and no more than its full reel.
+  if (h.driven) springs_.target = {Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero()};
+  // A chain's rate for `angle` at its peak, added to what it has, and no more than its full
+  // reel; a driven lean's angle instead (the spring from where it is toward it).
   const auto push = [&](Chain c, const Vector3d& dir, double angle, double most) {
+    if (h.driven) {
+      springs_.target[c] = dir * std::min(angle, std::abs(most));
+      return;
+    }
     Vector3d& r = springs_.rate[c];
     r += dir * (angle / peak);
     const double cap = std::abs(most) / peak;
@@ -118,6 +124,8 @@ bool HitReel::take(const HitOrder& h, const Rig& rig, std::span<const Vector3d> 
   springs_.stiffness_rad_s = w;
   springs_.damping_ratio = z;
   springs_.since_s = 0;
+  springs_.hold_s = h.driven && std::isfinite(h.hold_s) ? std::max(0.0, h.hold_s) : 0.0;
+  if (!h.driven) springs_.target = {Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero()};
   return true;
 }
 
@@ -137,11 +145,16 @@ ReelState HitReel::state() const {
 
 void HitReel::advance(double dt) {
   if (!springs_.active) return;
+  // A driven lean held its time is let back: its spring then returns to none from where it is.
+  if (springs_.since_s >= springs_.hold_s) springs_.target = {Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero()};
   springs_.since_s += dt;
-  bool rest = springs_.since_s >= kReelMin_s;
+  bool rest = springs_.since_s >= std::max(kReelMin_s, springs_.hold_s);
   for (std::size_t c = 0; c < springs_.theta.size(); ++c) {
-    spring_step(springs_.theta[c], springs_.rate[c], springs_.stiffness_rad_s, springs_.damping_ratio, dt);
-    rest = rest && springs_.theta[c].norm() < kReelRestRad && springs_.rate[c].norm() < kReelRestRadPerS;
+    // Stepped about its equilibrium (the driven angle, or none): linear, so exactly.
+    Vector3d x = springs_.theta[c] - springs_.target[c];
+    spring_step(x, springs_.rate[c], springs_.stiffness_rad_s, springs_.damping_ratio, dt);
+    springs_.theta[c] = x + springs_.target[c];
+    rest = rest && springs_.target[c].isZero() && springs_.theta[c].norm() < kReelRestRad && springs_.rate[c].norm() < kReelRestRadPerS;
   }
   if (rest) springs_ = Springs{};
 }

@@ -28,6 +28,12 @@ struct HitOrder {
   double stiffness_rad_s = 10;             ///< rad/s, the spring's undamped angular frequency
   double damping_ratio = 0.8;              ///< 0.4..1
   double step_back_m = 0;                  ///< m stepped back (0: none)
+  /// A lean the fighter makes itself (a slip), not a blow: each chain is driven from where it
+  /// is toward its angle at share 1 (critically damped at stiffness_rad_s), held there for
+  /// hold_s, then let back. It starts from rest, where a blow's push starts at its full speed
+  /// (a slip pushed so jumped a parrying hand 6 cm in one frame: the spar demo, seeds 3 and 5).
+  bool driven = false;
+  double hold_s = 0;                       ///< s: a driven lean is held this long from its start
 };
 
 /// The reel under way: the head, trunk and shoulders' rotation vectors (rad, room frame: axis
@@ -67,8 +73,11 @@ class HitReel {
     bool active = false;
     std::array<Eigen::Vector3d, 4> theta{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
     std::array<Eigen::Vector3d, 4> rate{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    /// A driven lean's angles (rad, room; zero: none, or let back) and how long they are held.
+    std::array<Eigen::Vector3d, 4> target{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    double hold_s = 0;
     double stiffness_rad_s = 10, damping_ratio = 0.8;
-    double since_s = 0;  ///< s since the last blow
+    double since_s = 0;  ///< s since the last blow (or driven lean)
   } springs_;  ///< per chain (trunk, head, left shoulder, right shoulder) a rotation vector (rad, room) and its rate
   MkmFrame reeled_;  ///< the pose with the reel laid on (lay())
   std::optional<Eigen::Vector2d> step_back_;
