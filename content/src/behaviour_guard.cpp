@@ -64,8 +64,9 @@ constexpr double kThumb_m = 0.1;
 constexpr double kSlipTrunk_rad = 0.25;
 constexpr double kSlipBack = 0.5;
 /// rad/s: a slip's lean is driven critically damped at this (from rest: 0.8 of its way by
-/// 0.1 s; at most 0.25 x 30 / e = 2.8 rad/s, a head 0.6 m up ~1.7 m/s), held, then let back. 40 moved a parrying hand's end 2.0 m/s faster in one frame, 25
-/// left the head 1.5 cm nearer a kick's line.
+/// 0.1 s; at most 0.25 x 30 / e = 2.8 rad/s, a head 0.6 m up ~1.7 m/s), held, then let back.
+/// 40 moved a parrying hand's end 2.0 m/s faster in one frame, 25 left the head 1.5 cm nearer
+/// a kick's line.
 constexpr double kSlipStiffness_rad_s = 30;
 /// s: intercepts are tried this far apart along the fist's path.
 constexpr double kParryStep_s = 1.0 / 240;

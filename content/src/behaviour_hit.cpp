@@ -90,7 +90,7 @@ bool HitReel::take(const HitOrder& h, const Rig& rig, std::span<const Vector3d> 
   };
   const double w = h.stiffness_rad_s, z = h.driven ? 1.0 : std::min(1.0, h.damping_ratio);
   const double peak = unit_peak(w, z);
-  if (h.driven) springs_.target = {Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero()};
+  springs_.target.fill(Vector3d::Zero());  // a driven lean's angles are set below; a blow's push has none
   // A chain's rate for `angle` at its peak, added to what it has, and no more than its full
   // reel; a driven lean's angle instead (the spring from where it is toward it).
   const auto push = [&](Chain c, const Vector3d& dir, double angle, double most) {
@@ -125,7 +125,6 @@ bool HitReel::take(const HitOrder& h, const Rig& rig, std::span<const Vector3d> 
   springs_.damping_ratio = z;
   springs_.since_s = 0;
   springs_.hold_s = h.driven && std::isfinite(h.hold_s) ? std::max(0.0, h.hold_s) : 0.0;
-  if (!h.driven) springs_.target = {Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero()};
   return true;
 }
 
@@ -146,7 +145,7 @@ ReelState HitReel::state() const {
 void HitReel::advance(double dt) {
   if (!springs_.active) return;
   // A driven lean held its time is let back: its spring then returns to none from where it is.
-  if (springs_.since_s >= springs_.hold_s) springs_.target = {Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero(), Vector3d::Zero()};
+  if (springs_.since_s >= springs_.hold_s) springs_.target.fill(Vector3d::Zero());
   springs_.since_s += dt;
   bool rest = springs_.since_s >= std::max(kReelMin_s, springs_.hold_s);
   for (std::size_t c = 0; c < springs_.theta.size(); ++c) {

@@ -95,7 +95,7 @@ TEST(RecordedSession, AChangedStepIsCaughtAtItsFrameAndField) {
   std::string text = read(snap);
   const auto at = text.find("strike_distance_m = ");
   ASSERT_NE(at, std::string::npos);
-  text.replace(at, text.find('\n', at) - at, "strike_distance_m = 2.4");
+  text.replace(at, text.find('\n', at) - at, "strike_distance_m = 1.6");
   std::ofstream(snap, std::ios::trunc | std::ios::binary) << text;
   auto m = nlohmann::json::parse(read(tmp.path / "s/manifest.json"));
   for (auto& f : m["files"])

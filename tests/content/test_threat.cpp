@@ -734,7 +734,7 @@ TEST(Blocks, AStrikeNoForearmIsFreeToMeetIsSlippedTheDrawnHeadLeavesItsPath) {
 // A slip is a lean the fighter makes, started from rest: a push at full speed (a blow's reel,
 // which it was) took the head from still to 2 m/s in one frame and jumped a parrying hand 6 cm
 // (the spar demo with planner seeds 3 and 5: judge-bvh's snaps). SYNTHETIC: the kick above, no
-// forearm free for it; judged on every drawn joint over the slip's first 0.3 s: the largest
+// forearm free for it; judged on every drawn joint over the slip's first 5 updates: the largest
 // change of its velocity from one frame to the next.
 TEST(Blocks, ASlipLeansFromRestNoDrawnJointLurches) {
   const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
