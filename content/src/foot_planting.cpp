@@ -142,6 +142,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.swing_from = f.lock;
     f.source_rise_m = 0;
     f.kicking = in.effector;
+    f.kick_updates = 0;
+    f.gather_rise = false;
   };
   // A held foot the leg no longer reaches must step now; the other foot's step that is only
   // due (behind its spot, a leg stretched past the motion's) waits for it to land: both
@@ -294,6 +296,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         const double left = std::max(in.swing_left_s, tun_.min_swing_s);
         f.source_rise_m += in.source_step_m.y();
         if (in.effector) {
+          // (Its source caught rising faster than a foot from rest can: the rise below gathers.)
+          if (f.kick_updates == 0) f.gather_rise = in.source_step_m.y() > step_gain(kSwingAccel_mps2, dt);
           // The kicking foot goes where the composed motion and d(t) send it; only the gap it
           // had when it left its hold is carried and shed.
           const double norm = f.offset.norm();
@@ -324,17 +328,30 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
             if (from_floor) {
               double y = std::max(next.y(), f.swing_from.y() + std::max(f.source_rise_m, gone));
               // ...gathering that rise at a foot's pace (kSwingAccel_mps2 on its last move) where
-              // the kick took the foot off the floor, mid-step: from a clip frame where the
-              // source's ankle already rises 5 cm per update, it lifted such a foot 5.4 cm in one
-              // update while the composed ankle rose 0.4 cm (viktor's HDM_dg_017 kick, the knee
-              // 7 cm). A foot lifted off the floor keeps the rule whole (kept low, it slid).
-              if (y > next.y() && f.swing_from.y() > in.standing_ankle_y_m + kTakenInTheAir_m)
+              // the kick took the foot off the floor mid-step, or where its clip starts with the
+              // source's ankle already rising faster than a foot from rest can: from a clip frame
+              // where it rises 5 cm per update, the rule lifted a still foot 5.4 cm in one update
+              // while the composed ankle rose 0.4 cm (viktor's HDM_dg_017 kick taking a foot
+              // mid-step, the knee 7 cm; the spar demo's kick at frame 606 with stance steps on,
+              // taking a standing foot, 5.2 cm, the knee 5.1). A foot whose source lifts it from
+              // rest keeps the rule whole, however fast that rise then gathers (held back, it
+              // stayed flat on the floor while it travelled: the grid's kicks slid).
+              if (y > next.y() && (f.gather_rise || f.swing_from.y() > in.standing_ankle_y_m + kTakenInTheAir_m)) {
+                const double wanted = y;
                 y = std::min(y, std::max(next.y(), f.lock.y() + std::max(0.0, f.last_move.y()) + step_gain(kSwingAccel_mps2, dt)));
+                // ...and travelling along the floor no more than in that share.
+                if (y < wanted && wanted > f.lock.y()) {
+                  const double share = std::clamp((y - f.lock.y()) / (wanted - f.lock.y()), 0.0, 1.0);
+                  next.x() = f.lock.x() + share * (next.x() - f.lock.x());
+                  next.z() = f.lock.z() + share * (next.z() - f.lock.z());
+                }
+              }
               next.y() = y;
             }
           }
           f.lock = next;
           f.offset = f.lock - in.free_ankle_m;
+          ++f.kick_updates;
           break;
         }
         const double step_h = Eigen::Vector2d(in.source_step_m.x(), in.source_step_m.z()).norm();

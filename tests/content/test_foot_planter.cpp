@@ -405,6 +405,54 @@ TEST(FootPlanter, AKickThatTakesAFootMidStepWhileItsSourceRisesFastGathersTheRis
   EXPECT_LE(worst_gain, 100 * kDt * kDt + 1e-9);
 }
 
+TEST(FootPlanter, AKickRetrievedWhereItsSourceRisesFastLiftsAStandingFootAtAFootsPace) {
+  // A kick retrieved from a clip frame where the source's ankle already rises 5.2 cm per update
+  // (the spar demo with stance steps on, planner seed 1, frame 606: the kick took a foot
+  // standing on the floor): "at least as high as the source has risen since it was lifted"
+  // put the foot 5.2 cm up in its first update, the knee 5.1 cm (a drawn snap). A standing
+  // foot whose source is caught rising faster than a foot from rest can now gathers the rise
+  // (kSwingAccel_mps2), as a foot taken mid-step does. One whose source starts from rest keeps
+  // the rule whole, even where the source's rise then gathers faster than that (a foot held
+  // back there stays flat on the floor while it travels: the grid's kicks slid). SYNTHETIC
+  // samples: the composed ankle rises 0.4 cm per update, the source's as listed.
+  const std::array<double, 6> fast = {0.052, 0.052, 0.052, 0.052, 0.052, 0.052};
+  const std::array<double, 6> from_rest = {0.0, 0.01, 0.045, 0.05, 0.05, 0.05};
+  for (const auto* source : {&fast, &from_rest}) {
+    FootPlanter planter;
+    FootLocks locks;
+    std::array<FootSample, 2> s = standing();
+    for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    ASSERT_EQ(planter.phase(0), Phase::held);
+    FootSample& f = s[0];
+    f.planted = false;  // the kick takes it: this update lifts it, the next ones move it
+    f.effector = true;
+    f.swing_left_s = 0.4;
+    double last_y = locks.ankle_m[0].y(), last_rise = 0, worst_gain = 0, source_up = 0;
+    std::array<double, 6> up{};
+    for (std::size_t k = 0; k < source->size(); ++k) {
+      f.source_step_before_m = f.source_step_m;
+      f.source_step_m = Vector3d(0, (*source)[k], 0.005);
+      f.free_ankle_m += Vector3d(0, 0.004, 0.005);
+      f.drawn_ankle_m = locks.ankle_m[0];
+      planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+      if (k > 0) source_up += (*source)[k];  // the source's rise since the foot was lifted
+      const double rise = locks.ankle_m[0].y() - last_y;
+      worst_gain = std::max(worst_gain, rise - std::max(0.0, last_rise));
+      last_rise = rise;
+      last_y = locks.ankle_m[0].y();
+      up[k] = last_y - 0.08;
+      if (source == &from_rest && source_up < 0.04)  // in the floor band: the rule whole
+        EXPECT_GE(up[k], source_up - 1e-9) << "update " << k << ": held back below its source's rise";
+    }
+    std::printf("%s: up %.4f %.4f %.4f %.4f m, largest gain %.4f m per update\n", source == &fast ? "fast" : "from rest",
+                up[1], up[2], up[3], up[4], worst_gain);
+    if (source == &fast) {
+      EXPECT_LE(worst_gain, 100 * kDt * kDt + 1e-9) << "it jumped toward its source's rise";
+      EXPECT_GT(up[3], 0.04) << "still on the floor three updates on";
+    }
+  }
+}
+
 TEST(FootPlanter, ANewBodysFirstUpdatePutsItsFeetOnItsOwnFloor) {
   // A character switch mid-kick (bruno -> mei, 15.25 s): mei's feet were held where bruno's
   // stood, 1.6 cm below mei's own floor, and rose onto it at a landing's pace over the frames
