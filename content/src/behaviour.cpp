@@ -178,6 +178,11 @@ void Behaviour::set_locomotion(Locomotion loco) {
       action_);
 }
 
+double Behaviour::stance_step_min_m() const {
+  if (stance_step_min_m_ < 0) return tun_.stance_step_min_m;
+  return stance_step_min_m_ > 0 ? std::max(stance_step_min_m_, tun_.follow_tolerance_m) : 0.0;
+}
+
 const Behaviour::StanceStep* Behaviour::stance_step() const {
   const Locomotion* l = locomotion();
   const StanceStepping* s = l ? std::get_if<StanceStepping>(l) : nullptr;
@@ -935,7 +940,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   // Forward or back: a stance step from the mocap where one fits (begin_stance_step); until
   // the visitor stands stance_step_min_m farther than the strike distance, the fighter waits.
   bool wait = false;
-  if (tun_.stance_step_min_m > 0 && !walk_segments_.empty() && !approach() && !strike_pending() && !paused_ &&
+  const double stance_step_min_m = this->stance_step_min_m();
+  if (stance_step_min_m > 0 && !walk_segments_.empty() && !approach() && !strike_pending() && !paused_ &&
       !reel_.step_back() && dist > 0.05) {
     const Vector2d fwd(std::sin(facing_rad_), std::cos(facing_rad_));
     const double along = off.dot(fwd);
@@ -946,7 +952,7 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
       // begun mid-walk and a wait after), or once the spot is a whole step ahead; back at once
       // (a visitor closing in).
       const bool settled = std::abs(goal_velocity_.dot(fwd)) < kSettledGoalSpeed_mps;
-      const bool forward = along >= tun_.stance_step_min_m && (settled || along >= kWholeStep_m * stride_scale());
+      const bool forward = along >= stance_step_min_m && (settled || along >= kWholeStep_m * stride_scale());
       const bool back = along < 0 && off.norm() > tun_.follow_tolerance_m;
       // A step starts from both feet on the floor: one still stepping (or landing) is waited
       // for, a little (kStanceStepFeetWait_s), rather than following with procedural steps.

@@ -96,7 +96,7 @@ bool Behaviour::rest_with(int segment) {
 }
 
 bool Behaviour::begin_stance_step(const Vector2d& goal) {
-  if (walk_segments_.empty() || tun_.stance_step_min_m <= 0 || !have_pose_) return false;
+  if (walk_segments_.empty() || stance_step_min_m() <= 0 || !have_pose_) return false;
   if (!feet_.held(kLeft) || !feet_.held(kRight)) return false;
   const Rig& rig = characters_[static_cast<std::size_t>(character_)];
   std::array<Vector3d, 2> held;

@@ -311,8 +311,10 @@ class FighterImpl final : public Fighter {
     p.fighter_attacking = behaviour_.attacking();
     if (const std::optional<Order> o = spar_.step(p)) behaviour_.order(*o);
     if (spar_.take_abort()) behaviour_.abort_strike(in.now);
-    // Sparring, it keeps the fighting distance (the visitor's fist reaches it).
-    behaviour_.follow_at(t.mode == PlannerMode::spar ? t.fighting_distance_m : strike_distance_m_, t.mode == PlannerMode::spar);
+    // Sparring, it keeps the fighting distance (the visitor's fist reaches it), with stance
+    // steps from the mocap (the planner's stance_step_min_m; orders mode: the behaviour's own).
+    if (t.mode == PlannerMode::spar) behaviour_.follow_at(t.fighting_distance_m, true, t.stance_step_min_m);
+    else behaviour_.follow_at(strike_distance_m_);
     // Sparring with blocks on, it keeps its guard up (behaviour_guard.cpp).
     behaviour_.set_guard(t.mode == PlannerMode::spar && t.block);
     if (t.mode == PlannerMode::spar) defend(in, f);

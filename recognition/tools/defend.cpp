@@ -85,6 +85,7 @@ nlohmann::json run_defence(const DefenceArgs& a) {
   cfg.planner.block = true;
   cfg.planner.threat = a.threat;
   cfg.planner.fighting_distance_m = a.fighting_distance_m;
+  cfg.planner.stance_step_min_m = a.stance_step_min_m;
   const content::Rig rig = content::load_character_rig(a.character.string());
 
   nlohmann::json report = {

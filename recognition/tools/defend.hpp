@@ -23,6 +23,7 @@ struct DefenceArgs {
   std::uint64_t seed = 1;
   content::ThreatTunables threat;   ///< what counts as a fist coming (the planner's threat_* keys)
   double fighting_distance_m = content::PlannerTunables{}.fighting_distance_m;  ///< m, the planner's fighting_distance_m
+  double stance_step_min_m = content::PlannerTunables{}.stance_step_min_m;      ///< m, the planner's stance_step_min_m (0: off)
 };
 /// Wall time (s from the motion's start) at which an eased-in clip shows its clip time clip_s:
 /// its first ease_s / 2 played over ease_s with the speed rising as a smoothstep, then at speed.

@@ -156,6 +156,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   df->add_option("--fighting-distance", da.fighting_distance_m, "m: fighting_distance_m")->check(CLI::Range(0.3, 3.0))
       ->capture_default_str();
+  df->add_option("--stance-steps", da.stance_step_min_m, "m: stance_step_min_m, sparring's stance steps from the mocap (0: off)")
+      ->check(CLI::Range(0.0, 2.0))
+      ->capture_default_str();
   df->add_option("--place-z", da.place_z, "m: the visitor's head's mean z")->capture_default_str();
   df->add_option("--lead-in", da.lead_in_s, "s the visitor stands still first")->check(CLI::Range(0.0, 30.0))->capture_default_str();
   df->add_option("--ease-in", da.ease_in_s, "s over which the visitor's motion starts from stillness (SYNTHETIC; 0: at full speed at once)")

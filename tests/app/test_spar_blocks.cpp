@@ -76,7 +76,7 @@ TEST(SparBlocks, TheSparDemoWithBlocksOnBlocksTheMocapVisitorsStrikesAndSaysTheS
   EXPECT_NE(off.planner_line.find("(off)"), std::string::npos) << off.planner_line;
 }
 
-// The spar demo with stance steps on (`[fighter.behaviour] stance_step_min_m = 0.5`), 60 s of
+// The spar demo with stance steps on (`[fighter.planner] stance_step_min_m = 0.5`), 60 s of
 // the kata visitor, blocks, counters and hit reactions, judged on the drawn joints as
 // scripts/judge-bvh.py judges a bout: no one-frame step of a joint over 5 cm that is 3x both its
 // neighbours' (a snap). A guard over the whole bout, not a reproduction: the headless run's bout
@@ -86,7 +86,7 @@ TEST(SparBlocks, TheSparDemoWithBlocksOnBlocksTheMocapVisitorsStrikesAndSaysTheS
 // approaching, 412 since the fighting distance is kept from the drawn head).
 TEST(SparBlocks, TheSparDemoWithStanceStepsDrawsNoSnapInAMinute) {
   if (!fs::exists(fs::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb")) GTEST_SKIP() << "no demo data (scripts/setup.sh makes it)";
-  const auto run = spar_demo([](InstallationConfig& cfg) { cfg.fighter.behaviour.stance_step_min_m = 0.5; });
+  const auto run = spar_demo([](InstallationConfig& cfg) { cfg.fighter.planner.stance_step_min_m = 0.5; });
   Installation& inst = *run;
   std::vector<std::vector<glm::dvec3>> joints;
   int approaching = 0;

@@ -226,6 +226,16 @@ TEST(Planner, ReadFromTheInstallationFileWithAPresetAndKeysBesideIt) {
   EXPECT_NE(error("[fighter.planner]\nattack_rate_per_s = nan\n").find("attack_rate_per_s"), std::string::npos);
   EXPECT_NE(error("[fighter.planner]\nattack_rate = 1\n").find("attack_rate"), std::string::npos);
   EXPECT_NE(error("[fighter.planner]\nseed = -1\n").find("seed"), std::string::npos);
+  // The sparring fighter's stance steps: off unless said, checked like the rest.
+  EXPECT_EQ(p.stance_step_min_m, 0.0);
+  parse_planner_tunables("[fighter.planner]\nstance_step_min_m = 0.5\n", "room.toml", p, seed);
+  EXPECT_EQ(p.stance_step_min_m, 0.5);
+  EXPECT_NE(error("[fighter.planner]\nstance_step_min_m = nan\n").find("room.toml:2: fighter.planner.stance_step_min_m"), std::string::npos)
+      << error("[fighter.planner]\nstance_step_min_m = nan\n");
+  EXPECT_NE(error("[fighter.planner]\nstance_step_min_m = 3\n").find("stance_step_min_m"), std::string::npos);
+  PlannerTunables bad;
+  bad.stance_step_min_m = -0.1;
+  EXPECT_NE(validate(bad).find("stance_step_min_m"), std::string::npos);
 }
 
 TEST(Planner, TheSparAndOrdersOrdersSwitchTheModeAndTheFighterStrikesOnItsOwnOnlyWhileSparring) {

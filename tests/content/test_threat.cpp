@@ -825,7 +825,7 @@ TEST(Blocks, AStrikeOrderedFromTheGuardSwingsNoDrawnElbowRoundItsWrist) {
   EXPECT_LT(worst_elbow, 6.0) << "the visitor's fastest fist; the worst ratio: " << worst;
 }
 
-// Sparring with stance steps on (stance_step_min_m 0.5): the fighter's stance step in ends
+// Sparring with stance steps on (the planner's stance_step_min_m 0.5): the fighter's stance step in ends
 // 0.86 m from the visitor's head; the visitor steps back 0.2 m, leaving it off its spot by less
 // than a stance step and more than follow_tolerance_m. It walks after them (procedural steps)
 // and stands engaged, at its fighting distance; it waited there before, 1.06 m from the head,
@@ -835,10 +835,9 @@ TEST(Blocks, AStrikeOrderedFromTheGuardSwingsNoDrawnElbowRoundItsWrist) {
 TEST(Blocks, SparringWithStanceStepsTheFighterKeepsItsFightingDistance) {
   const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
   if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
-  BehaviourTunables steps;
-  steps.stance_step_min_m = 0.5;
-  const PlannerTunables t = defence_alone();
-  const DrawnFighter d = kenji(t, steps);
+  PlannerTunables t = defence_alone();
+  t.stance_step_min_m = 0.5;
+  const DrawnFighter d = kenji(t);
   Fighter* f = d.fighter.get();
   const Rig& rig = d.rig;
   FighterOutput out;
@@ -863,4 +862,48 @@ TEST(Blocks, SparringWithStanceStepsTheFighterKeepsItsFightingDistance) {
   EXPECT_LE(before, t.fighting_distance_m + t.engage_tolerance_m);
   EXPECT_LE(apart(head), t.fighting_distance_m + t.engage_tolerance_m) << "it waits out of reach";
   EXPECT_NE(f->planner_status().state, PlannerState::approaching);
+}
+
+// Sparring keeps its fighting distance with stance steps from the mocap where the planner's
+// stance_step_min_m says so (0.5 m; 0, off, by default), whatever the orders mode's
+// [fighter.behaviour] key says, and that key still governs orders mode. A still visitor standing 1 m farther than the fighter keeps them
+// from the start: the frames in which a stance step carries the fighter, counted. (A visitor
+// walking away is followed at once with procedural steps while sparring: a spot short of a
+// stance step is walked to, Behaviour::follow_at's `close`.) SYNTHETIC: kenji, defence alone.
+TEST(Blocks, SparringTheFighterFollowsWithStanceStepsWhereThePlannerSaysSo) {
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  const auto stance_frames = [](PlannerTunables t, BehaviourTunables b) {
+    const DrawnFighter d = kenji(t, b);
+    FighterOutput out;
+    std::vector<VisitorBody> bodies;
+    int n = 0;
+    const Vector3d head(0, 1.65, -0.6);  // 1 m farther than the spar tests' visitor, from the start
+    for (int k = 0; k < 60 * 8; ++k) {
+      d.fighter->step(head_only_input(k, head, bodies), out);
+      n += out.frame.locomotion == FighterLocomotion::stance_step;
+    }
+    return n;
+  };
+  const PlannerTunables spar = defence_alone();
+  ASSERT_EQ(spar.stance_step_min_m, 0.0) << "off by default";
+  BehaviourTunables orders_steps;
+  orders_steps.stance_step_min_m = 0.5;
+  PlannerTunables steps = spar;
+  steps.stance_step_min_m = 0.5;
+  const int planner_on = stance_frames(steps, {});
+  const int behaviour_on = stance_frames(spar, orders_steps);  // the orders mode's key: not sparring's
+  PlannerTunables orders = spar;
+  orders.mode = PlannerMode::orders;
+  const int orders_default = stance_frames(orders, {});
+  const int orders_on = stance_frames(orders, orders_steps);
+  const int orders_planner_on = stance_frames([&] { PlannerTunables o = orders; o.stance_step_min_m = 0.5; return o; }(), {});
+  std::printf("frames carried by a stance step: spar, the planner's 0.5: %d; spar, the behaviour's 0.5: %d; orders: %d; "
+              "orders, the behaviour's 0.5: %d; orders, the planner's 0.5: %d\n",
+              planner_on, behaviour_on, orders_default, orders_on, orders_planner_on);
+  EXPECT_GT(planner_on, 20);
+  EXPECT_EQ(behaviour_on, 0);
+  EXPECT_EQ(orders_default, 0);
+  EXPECT_GT(orders_on, 20);
+  EXPECT_EQ(orders_planner_on, 0);
 }

@@ -255,10 +255,16 @@ class Behaviour {
   /// `close`: a spot off by less than a stance step (stance_step_min_m) is walked to with
   /// procedural steps rather than waited out (sparring: its fighting distance is kept, not
   /// stance_step_min_m beyond it, where the planner no longer counts it engaged).
-  void follow_at(double distance_m, bool close = false) {
+  /// `stance_step_min_m` (m): stance steps from the mocap once the spot is this far ahead (the
+  /// tunable's meaning; 0 off, any other value at least follow_tolerance_m); negative: the
+  /// tunable's own value (BehaviourTunables::stance_step_min_m). Sparring passes the planner's.
+  void follow_at(double distance_m, bool close = false, double stance_step_min_m = -1) {
     follow_distance_m_ = distance_m;
     follow_close_ = close;
+    stance_step_min_m_ = stance_step_min_m;
   }
+  /// m: the stance steps' forward threshold in effect (0: procedural steps only).
+  double stance_step_min_m() const;
   void update(Timestamp now, double dt, const Eigen::Vector3d& head);
 
   FighterFrame frame() const;
@@ -465,6 +471,7 @@ class Behaviour {
   bool keep_away_ = false;
   double follow_distance_m_ = 0;  ///< m, follow_at() (set from the config at construction)
   bool follow_close_ = false;     ///< follow_at()'s `close`
+  double stance_step_min_m_ = -1;  ///< m, follow_at()'s `stance_step_min_m` (negative: the tunable's)
   int rest_segment_ = 0;
   /// The sources playing (the current one and the one it cross-fades from), the cross-fade
   /// and the arms' drawn poles (motion_player.hpp, motion_playback.cpp).
