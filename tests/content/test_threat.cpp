@@ -907,3 +907,61 @@ TEST(Blocks, SparringTheFighterFollowsWithStanceStepsWhereThePlannerSaysSo) {
   EXPECT_GT(orders_on, 20);
   EXPECT_EQ(orders_planner_on, 0);
 }
+
+// A visitor who walks into the sparring fighter and stands inside it (the bad input):
+// at 1.2 m/s, head, gloves and shoes tracked, from 0.9 m in front of it to where it stands,
+// then still for 5 s. The fighter backs off to its fighting distance, the walk's gloves (1.2 m/s,
+// below hit_min_speed_mps, aimed nowhere) are neither a blow nor a threat, and no drawn joint
+// jumps, whatever the fighter does meanwhile (it attacks and counters as the defaults say).
+// SYNTHETIC: kenji, the default spar planner with blocks on.
+TEST(Blocks, AVisitorWhoWalksIntoTheFighterIsBackedOffFromWithoutABlowABlockOrAJump) {
+  const std::filesystem::path db = std::filesystem::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!std::filesystem::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  PlannerTunables t;
+  t.mode = PlannerMode::spar;
+  t.block = true;
+  const DrawnFighter d = kenji(t);
+  PunchRun r;
+  r.names = d.rig.skeleton.names;
+  FighterOutput out;
+  std::vector<VisitorBody> bodies(5);
+  const Role roles[5] = {Role::head, Role::left_hand, Role::right_hand, Role::left_foot, Role::right_foot};
+  const Vector3d offsets[5] = {{0, 0, 0}, {-0.2, -0.75, 0}, {0.2, -0.75, 0}, {-0.12, -1.57, 0}, {0.12, -1.57, 0}};
+  Vector3d head(0, 1.65, -1.6);
+  double fighter_z = 0, apart_inside = 0;
+  std::vector<double> apart_resting;  // over the last 5 s, while it rests (its own strikes lunge in)
+  for (int k = 0; k < 60 * 12; ++k) {
+    if (k == 60 * 3) fighter_z = d.joint(out, CanonicalJoint::pelvis).z();  // where it stands, facing the visitor
+    // From 3 s, toward where the fighter stood until the head is right over it; then still.
+    if (k >= 60 * 3 && head.z() > fighter_z) head.z() = std::max(fighter_z, head.z() - 1.2 / 60);
+    FighterInput in;
+    in.now = k / 60.0;
+    in.dt_s = k ? 1 / 60.0 : 0;
+    in.head_m = head;
+    for (int b = 0; b < 5; ++b) {
+      bodies[static_cast<std::size_t>(b)].role = roles[b];
+      bodies[static_cast<std::size_t>(b)].position_m = head + offsets[b];
+      bodies[static_cast<std::size_t>(b)].tracked = true;
+      bodies[static_cast<std::size_t>(b)].t = in.now;
+    }
+    in.bodies = bodies;
+    d.fighter->step(in, out);
+    record(r, d, out, bodies[2].position_m);
+    const Vector3d pelvis = d.joint(out, CanonicalJoint::pelvis);
+    const double apart = std::hypot(pelvis.x() - head.x(), pelvis.z() - head.z());
+    if (k >= 60 * 3 && head.z() <= fighter_z + 1e-9 && apart_inside == 0) apart_inside = std::max(1e-9, apart);
+    if (k >= 60 * 7 && out.frame.state == FighterState::resting) apart_resting.push_back(apart);
+  }
+  ASSERT_GT(apart_inside, 0) << "the visitor never got there";
+  ASSERT_GT(apart_resting.size(), 60u) << "it never rested in the last 5 s";
+  std::sort(apart_resting.begin(), apart_resting.end());
+  const double apart_end = apart_resting[apart_resting.size() / 2];
+  std::printf("the visitor's head over where the fighter stood (z %.2f): fighter %.3f m away then; resting over the last 5 s, "
+              "median %.3f m (fighting distance %.2f, kept from the drawn head); visitor hits %d, blocks %d\n",
+              fighter_z, apart_inside, apart_end, t.fighting_distance_m, d.fighter->planner_status().score.visitor_hits,
+              d.fighter->planner_status().score.blocks);
+  EXPECT_FALSE(has(r.events, EventKind::visitor_hit)) << "a walk's glove scored a blow";
+  EXPECT_FALSE(has(r.events, EventKind::block)) << "a walk's glove was blocked";
+  EXPECT_GT(apart_end, t.fighting_distance_m - 0.15) << "it stays inside the visitor";
+  expect_no_whip(r, 2, 12.0, false, " (a visitor walking into the fighter)");
+}
