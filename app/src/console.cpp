@@ -222,7 +222,7 @@ void Console::frame(const Installation& inst, const FrameData& f, Installation* 
   order_button(inst, orders, c.paused ? "Resume" : "Pause", c.paused ? OrderKind::resume : OrderKind::pause);
   ImGui::SameLine();
   order_button(inst, orders, "Recentre", OrderKind::recentre);
-  ImGui::SameLine();
+  // (a row of its own: two 170-px buttons fill the column; a third beside them was cut off)
   {
     const auto st = inst.planner_status();
     const bool sparring = st && st->tunables.mode == content::PlannerMode::spar;
