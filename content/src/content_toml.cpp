@@ -333,7 +333,8 @@ void parse_fighter_tunables(std::string_view text, std::string_view file, Behavi
 
 // ---- [fighter.planner] ---------------------------------------------------------------------
 
-void parse_planner_tunables(std::string_view text, std::string_view file, PlannerTunables& p, std::uint64_t& seed) {
+void parse_planner_tunables(std::string_view text, std::string_view file, PlannerTunables& p, std::uint64_t& seed,
+                            double follow_tolerance_m) {
   const toml::table doc = parse_toml(text, file, "config");
   const TomlTable root(doc, "config", file);
   const auto fighter = root.opt_table("fighter");
@@ -360,6 +361,9 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   t->read("fighting_distance_m", p.fighting_distance_m, {0.3, 3, "m"});
   t->read("engage_tolerance_m", p.engage_tolerance_m, {0, 2, "m"});
   t->read("stance_step_min_m", p.stance_step_min_m, {0, 2, "m"});
+  if (p.stance_step_min_m > 0 && p.stance_step_min_m < follow_tolerance_m)
+    t->fail("range", "stance_step_min_m",
+            fmt::format("must be 0 (no stance steps) or at least [fighter.behaviour] follow_tolerance_m ({} m)", follow_tolerance_m));
   t->read("attack_rate_per_s", p.attack_rate_per_s, {0, 10, "1/s"});
   t->read("counter_probability", p.counter_probability, {0, 1, ""});
   t->read("reaction_time_s", p.reaction_time_s, {0, 5, "s"});

@@ -441,8 +441,9 @@ TEST(FootPlanter, AKickRetrievedWhereItsSourceRisesFastLiftsAStandingFootAtAFoot
       last_rise = rise;
       last_y = locks.ankle_m[0].y();
       up[k] = last_y - 0.08;
-      if (source == &from_rest && source_up < 0.04)  // in the floor band: the rule whole
+      if (source == &from_rest && source_up < 0.04) {  // in the floor band: the rule whole
         EXPECT_GE(up[k], source_up - 1e-9) << "update " << k << ": held back below its source's rise";
+      }
     }
     std::printf("%s: up %.4f %.4f %.4f %.4f m, largest gain %.4f m per update\n", source == &fast ? "fast" : "from rest",
                 up[1], up[2], up[3], up[4], worst_gain);

@@ -233,6 +233,11 @@ TEST(Planner, ReadFromTheInstallationFileWithAPresetAndKeysBesideIt) {
   EXPECT_NE(error("[fighter.planner]\nstance_step_min_m = nan\n").find("room.toml:2: fighter.planner.stance_step_min_m"), std::string::npos)
       << error("[fighter.planner]\nstance_step_min_m = nan\n");
   EXPECT_NE(error("[fighter.planner]\nstance_step_min_m = 3\n").find("stance_step_min_m"), std::string::npos);
+  // Over 0 and below [fighter.behaviour] follow_tolerance_m (0.25 m by default): refused as the
+  // behaviour's own key is, not quietly raised.
+  EXPECT_NE(error("[fighter.planner]\nstance_step_min_m = 0.1\n").find("room.toml:2: fighter.planner.stance_step_min_m"), std::string::npos)
+      << error("[fighter.planner]\nstance_step_min_m = 0.1\n");
+  EXPECT_NE(error("[fighter.planner]\nstance_step_min_m = 0.1\n").find("follow_tolerance_m (0.25 m)"), std::string::npos);
   PlannerTunables bad;
   bad.stance_step_min_m = -0.1;
   EXPECT_NE(validate(bad).find("stance_step_min_m"), std::string::npos);

@@ -830,7 +830,8 @@ InstallationConfig parse_config(std::string_view text, const std::filesystem::pa
   cfg.cluster = cluster::parse_cluster_config(text, file_name.string());
   cfg.file_hash = cluster::config_hash(text);
   content::parse_fighter_tunables(text, file_name.string(), cfg.fighter.behaviour, cfg.fighter.retrieval);
-  content::parse_planner_tunables(text, file_name.string(), cfg.fighter.planner, cfg.fighter.planner_seed);
+  content::parse_planner_tunables(text, file_name.string(), cfg.fighter.planner, cfg.fighter.planner_seed,
+                                  cfg.fighter.behaviour.follow_tolerance_m);
   validate(cfg);
   return cfg;
 }

@@ -165,7 +165,10 @@ void read_fighter_tunables(const std::filesystem::path& file, BehaviourTunables&
 struct PlannerTunables;  // planner.hpp
 /// [fighter.planner] of an installation file's text: `preset` (its values first), `mode`, `seed`
 /// and each tunable (planner.hpp), ranges checked; file:line: key: message errors. Absent: unchanged.
-void parse_planner_tunables(std::string_view text, std::string_view file, PlannerTunables& p, std::uint64_t& seed);
+/// `follow_tolerance_m`: [fighter.behaviour]'s, read first (a stance_step_min_m over 0 and
+/// below it is an error, as the behaviour's own key is).
+void parse_planner_tunables(std::string_view text, std::string_view file, PlannerTunables& p, std::uint64_t& seed,
+                            double follow_tolerance_m = BehaviourTunables{}.follow_tolerance_m);
 
 /// The first key out of its range or contradicting another: its key under [fighter]
 /// ("behaviour.feet.swing_lift_m"), code ("range", "not_finite") and message.
