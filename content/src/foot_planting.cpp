@@ -142,8 +142,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.swing_from = f.lock;
     f.source_rise_m = 0;
     f.kicking = in.effector;
-    f.kick_updates = 0;
-    f.gather_rise = false;
+    f.gather_rise.reset();
   };
   // A held foot the leg no longer reaches must step now; the other foot's step that is only
   // due (behind its spot, a leg stretched past the motion's) waits for it to land: both
@@ -297,7 +296,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         f.source_rise_m += in.source_step_m.y();
         if (in.effector) {
           // (Its source caught rising faster than a foot from rest can: the rise below gathers.)
-          if (f.kick_updates == 0) f.gather_rise = in.source_step_m.y() > step_gain(kSwingAccel_mps2, dt);
+          if (!f.gather_rise) f.gather_rise = in.source_step_m.y() > step_gain(kSwingAccel_mps2, dt);
           // The kicking foot goes where the composed motion and d(t) send it; only the gap it
           // had when it left its hold is carried and shed.
           const double norm = f.offset.norm();
@@ -336,7 +335,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
               // taking a standing foot, 5.2 cm, the knee 5.1). A foot whose source lifts it from
               // rest keeps the rule whole, however fast that rise then gathers (held back, it
               // stayed flat on the floor while it travelled: the grid's kicks slid).
-              if (y > next.y() && (f.gather_rise || f.swing_from.y() > in.standing_ankle_y_m + kTakenInTheAir_m)) {
+              if (y > next.y() && (*f.gather_rise || f.swing_from.y() > in.standing_ankle_y_m + kTakenInTheAir_m)) {
                 const double wanted = y;
                 y = std::min(y, std::max(next.y(), f.lock.y() + std::max(0.0, f.last_move.y()) + step_gain(kSwingAccel_mps2, dt)));
                 // ...and travelling along the floor no more than in that share.
@@ -351,7 +350,6 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
           }
           f.lock = next;
           f.offset = f.lock - in.free_ankle_m;
-          ++f.kick_updates;
           break;
         }
         const double step_h = Eigen::Vector2d(in.source_step_m.x(), in.source_step_m.z()).norm();

@@ -11,6 +11,7 @@
 #include <array>
 #include <cstdint>
 #include <limits>
+#include <optional>
 
 #include <Eigen/Core>
 
@@ -165,8 +166,9 @@ class FootPlanter {
     bool kicking = false;             ///< swinging: lifted as a kick's effector (FootSample::effector)
     bool new_body = false;            ///< a character switch this update (keep_held_only)
     double source_rise_m = 0;         ///< m: swinging: how far the source has raised this ankle since then
-    int kick_updates = 0;             ///< swinging as a kick's effector: updates moved so far
-    bool gather_rise = false;         ///< ...its source rose faster than a foot from rest can at its first update: its rise gathers
+    /// swinging as a kick's effector: whether its source rose faster than a foot from rest can at
+    /// its first update (its rise then gathers); unset before that update
+    std::optional<bool> gather_rise;
     double follow_y = 0;              ///< m: swinging toward a landing: the ankle's height as the source moves it (the lift is a floor above it, not added to it)
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
     bool wants_step = false;          ///< held: lagging or over-stretched at the last update
