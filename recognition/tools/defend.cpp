@@ -68,6 +68,9 @@ double eased_time(double clip_s, double ease_s) {
 }
 
 nlohmann::json run_defence(const DefenceArgs& a) {
+  for (const auto& lim : {a.area_x_m, a.area_z_m})
+    if (!(std::isfinite(lim[0]) && std::isfinite(lim[1]) && lim[0] < lim[1]))
+      throw Error("defend", "area", "defend: --area-x / --area-z: each two finite numbers, the first below the second (m)");
   std::vector<Recording> recs;
   for (Recording& r : load_external(a.mocap))
     if (!r.strikes.empty() || r.negative) recs.push_back(std::move(r));
@@ -86,6 +89,10 @@ nlohmann::json run_defence(const DefenceArgs& a) {
   cfg.planner.threat = a.threat;
   cfg.planner.fighting_distance_m = a.fighting_distance_m;
   cfg.planner.stance_step_min_m = a.stance_step_min_m;
+  cfg.min_x_m = a.area_x_m[0];
+  cfg.max_x_m = a.area_x_m[1];
+  cfg.min_z_m = a.area_z_m[0];
+  cfg.max_z_m = a.area_z_m[1];
   const content::Rig rig = content::load_character_rig(a.character.string());
 
   nlohmann::json report = {
@@ -98,6 +105,7 @@ nlohmann::json run_defence(const DefenceArgs& a) {
                               "half of that played with its speed rising from 0 by a smoothstep; 0 = none, the clip "
                               "starts at full speed); bodies as a {} Hz tracker gives them (resampled)",
                               a.place_x, a.place_z, a.lead_in_s, a.ease_in_s, a.tracker_hz)},
+      {"fighter_area_m", {{"x", {a.area_x_m[0], a.area_x_m[1]}}, {"z", {a.area_z_m[0], a.area_z_m[1]}}}},
       {"db", a.db.string()},
       {"character", a.character.string()},
       {"recordings", nlohmann::json::array()}};

@@ -160,6 +160,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0.0, 2.0))
       ->capture_default_str();
   df->add_option("--place-z", da.place_z, "m: the visitor's head's mean z")->capture_default_str();
+  df->add_option("--area-x", da.area_x_m, "m: where the fighter may stand, room x (min max; as config/demo-spar.toml's [fighter] x_limits_m)")
+      ->capture_default_str();
+  df->add_option("--area-z", da.area_z_m, "m: where the fighter may stand, room z (min max; as config/demo-spar.toml's [fighter] z_limits_m)")
+      ->capture_default_str();
   df->add_option("--lead-in", da.lead_in_s, "s the visitor stands still first")->check(CLI::Range(0.0, 30.0))->capture_default_str();
   df->add_option("--ease-in", da.ease_in_s, "s over which the visitor's motion starts from stillness (SYNTHETIC; 0: at full speed at once)")
       ->check(CLI::Range(0.0, 2.0))
