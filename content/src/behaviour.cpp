@@ -65,6 +65,12 @@ constexpr double kSettledGoalSpeed_mps = 0.25;
 constexpr double kWholeStep_m = 0.9;
 /// s: a stance step due waits at most this for both feet to be down (then procedural steps).
 constexpr double kStanceStepFeetWait_s = 0.5;
+/// s: a visitor who comes closer is stepped back from with a stance step only once the spot to
+/// keep has lain behind the fighter this long; before, procedural steps follow. A lunge punch
+/// carries the visitor's head 0.3-0.5 m in and back within about this: a stance step back
+/// (0.6-1 m, and no block while it plays) answered every lunge of the boxer and let the fists
+/// after it through.
+constexpr double kBackStepAfter_s = 0.5;
 }  // namespace
 
 namespace {
@@ -941,6 +947,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   // the visitor stands stance_step_min_m farther than the strike distance, the fighter waits.
   bool wait = false;
   const double stance_step_min_m = this->stance_step_min_m();
+  const double closer_s = closer_s_;
+  closer_s_ = 0;
   if (stance_step_min_m > 0 && !walk_segments_.empty() && !approach() && !strike_pending() && !paused_ &&
       !reel_.step_back() && dist > 0.05) {
     const Vector2d fwd(std::sin(facing_rad_), std::cos(facing_rad_));
@@ -949,11 +957,14 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
     const double off_axis = std::abs(wrap(std::atan2(to_head.x(), to_head.y()) - facing_rad_));
     if (sideways <= tun_.follow_tolerance_m && off_axis <= kStanceStepOffAxis_rad) {
       // Forward once the visitor stops walking away (one step for the whole way, not one
-      // begun mid-walk and a wait after), or once the spot is a whole step ahead; back at once
-      // (a visitor closing in).
+      // begun mid-walk and a wait after), or once the spot is a whole step ahead; back once the
+      // visitor has come closer and stayed.
       const bool settled = std::abs(goal_velocity_.dot(fwd)) < kSettledGoalSpeed_mps;
       const bool forward = along >= stance_step_min_m && (settled || along >= kWholeStep_m * stride_scale());
-      const bool back = along < 0 && off.norm() > tun_.follow_tolerance_m;
+      // Back once the visitor has stayed closer a while (kBackStepAfter_s), not from a lunge.
+      const bool closer = along < 0 && off.norm() > tun_.follow_tolerance_m;
+      if (closer) closer_s_ = closer_s + dt;
+      const bool back = closer && closer_s_ >= kBackStepAfter_s;
       // A step starts from both feet on the floor: one still stepping (or landing) is waited
       // for, a little (kStanceStepFeetWait_s), rather than following with procedural steps.
       // (and from a blend done: one begun mid-blend would drop the motion blended from)
@@ -965,6 +976,12 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
       // (Sparring, follow_close_, a spot short of a stance step is walked to, not waited out.)
       wait = !following && ((along > 0 && !forward && !recentre_goal_ && !follow_close_) ||  // (walking home goes all the way)
                             ((forward || back) && !feet_down && stance_wait_s_ < kStanceStepFeetWait_s));
+      // A visitor who stayed closer: the procedural steps following meanwhile stop (their feet
+      // land) and the stance step back goes from there.
+      if (back && !feet_down && stance_wait_s_ < kStanceStepFeetWait_s) {
+        following = false;
+        wait = true;
+      }
     }
   }
   // A fighter outside its area (a lunge or a kick carries the body on past where it stood)

@@ -462,8 +462,10 @@ TEST(BehaviourShipped, AStrikeAtATargetTooNearStepsBackFirstAndLandsWithItsArmEx
 // karate step from a `walk` segment of motions.toml (not with procedural steps), its stepping
 // foot in the air as the clip has it, the foot it stands on held without sliding, never both
 // feet off the floor, and the fighter ends resting within follow_tolerance_m of its spot at
-// the strike distance. A visitor who comes 0.4 m closer makes it step back. Off (the default,
-// 0): the same walk is followed with procedural steps only.
+// the strike distance. A visitor who walks
+// 0.4 m closer is followed back with procedural steps (as a lunge that returns is); one who
+// comes 0.8 m closer at once and stays makes it step back with a stance step. Off (the
+// default, 0): the same walks are followed with procedural steps only.
 TEST(BehaviourShipped, FollowsAVisitorWalkingAwayWithAStanceStepFromTheMocap) {
   const auto& set = kumite::content::testing::shipped_database();
   const auto rigs = kumite::content::testing::shipped_characters();
@@ -481,10 +483,10 @@ TEST(BehaviourShipped, FollowsAVisitorWalkingAwayWithAStanceStepFromTheMocap) {
     std::vector<int> walk_segments;
     int both_off = 0, procedural_starts = 0;
     double worst_slide = 0;
-    const auto run = [&](double seconds, double walk_to_z) {
+    const auto run = [&](double seconds, double walk_to_z, double walk_s) {
       const double z0 = head.z();
       for (int i = 0; i < static_cast<int>(seconds / dt); ++i) {
-        head.z() = z0 + (walk_to_z - z0) * std::min(1.0, i * dt / 1.0);  // a 1 s walk, then standing
+        head.z() = z0 + (walk_to_z - z0) * std::min(1.0, i * dt / walk_s);  // a walk, then standing
         const auto held_before = b.feet_locked();
         const auto phase_before = std::array{b.foot_planter().phase(0), b.foot_planter().phase(1)};
         std::array<Vector3d, 2> before;
@@ -503,24 +505,32 @@ TEST(BehaviourShipped, FollowsAVisitorWalkingAwayWithAStanceStepFromTheMocap) {
         }
       }
     };
-    run(4.0, head.z() + 0.8);  // walks 0.8 m away (+Z) in 1 s, then stands
+    run(4.0, head.z() + 0.8, 1.0);  // walks 0.8 m away (+Z) in 1 s, then stands
     const Vector3d after_forward = b.frame().root;
     const std::size_t forward_steps = walk_segments.size();
-    run(4.0, head.z() - 0.4);  // comes 0.4 m closer
+    const int procedural_forward = procedural_starts;
+    run(4.0, head.z() - 0.4, 1.0);  // walks 0.4 m closer
     const Vector3d after_back = b.frame().root;
+    const std::size_t steps_after_walk_in = walk_segments.size();
+    const int procedural_walk_in = procedural_starts - procedural_forward;
+    run(4.0, head.z() - 0.8, 0.3);  // comes 0.8 m closer in 0.3 s and stays
+    const Vector3d after_rush = b.frame().root;
     EXPECT_EQ(b.state(), FighterState::resting) << "stance_step_min_m " << min_m;
     EXPECT_GT(after_forward.z() - start.z(), 0.55) << "stance_step_min_m " << min_m;
     EXPECT_LT(after_back.z() - after_forward.z(), -0.2) << "stance_step_min_m " << min_m;
+    EXPECT_LT(after_rush.z() - after_back.z(), -0.4) << "stance_step_min_m " << min_m;
     EXPECT_LT(worst_slide, 0.002) << "held feet do not slide (m per update), stance_step_min_m " << min_m;
     const Vector3d root = b.frame().root;
     EXPECT_NEAR(std::hypot(head.x() - root.x(), head.z() - root.z()), cfg.strike_distance_m, 0.5) << min_m;
     if (min_m > 0) {
       ASSERT_EQ(forward_steps, 1u) << "one stance step for the walk away";
-      ASSERT_EQ(walk_segments.size(), 2u) << "and one back";
+      EXPECT_EQ(steps_after_walk_in, 1u) << "none for a visitor walking 0.4 m closer";
+      ASSERT_EQ(walk_segments.size(), 2u) << "and one back from the rush";
       for (const int s : walk_segments) EXPECT_EQ(set.db->segments[static_cast<std::size_t>(s)].kind, SegmentKind::walk);
       EXPECT_EQ(b.stance_steps_begun(), 2);
       EXPECT_EQ(both_off, 0) << "never both feet off the floor";
-      EXPECT_LE(procedural_starts, 4) << "a few procedural steps at most (settling into the rest stance)";
+      EXPECT_LE(procedural_forward, 4) << "a few procedural steps at most (settling into the rest stance)";
+      EXPECT_GT(procedural_walk_in, 0) << "the visitor walking closer is followed with procedural steps";
     } else {
       EXPECT_TRUE(walk_segments.empty());
       EXPECT_EQ(b.stance_steps_begun(), 0);

@@ -489,6 +489,7 @@ class Behaviour {
   std::vector<int> walk_segments_;
   std::optional<Eigen::Vector2d> last_goal_;   ///< m, room: the spot to keep at the last follow update
   double stance_wait_s_ = 0;                   ///< s a stance step due has waited for both feet down
+  double closer_s_ = 0;                        ///< s the spot to keep has lain behind the fighter (a back step due)
   int last_goal_update_ = -1;                  ///< the update it was taken (following resumed: speed anew)
   Eigen::Vector2d goal_velocity_{0, 0};        ///< m/s: how fast it moves (smoothed)
   int stance_steps_ = 0;  ///< stance steps begun so far

@@ -98,8 +98,9 @@ struct BehaviourTunables {
   /// step ends in); a spot off mostly sideways, or one a step cannot reach, is followed with
   /// procedural steps. Forward the fighter lets the visitor stand up to stance_step_min_m
   /// farther than strike_distance_m before it steps (a real step is longer than
-  /// follow_tolerance_m); a visitor closer than follow_tolerance_m makes it step back at once
-  /// (a whole step, farther than needed where the distance is short). 0: procedural only.
+  /// follow_tolerance_m); a visitor who stays closer than follow_tolerance_m for 0.5 s makes
+  /// it step back (a whole step, farther than needed where the distance is short; procedural
+  /// steps follow meanwhile, so a lunge that returns is not stepped back from). 0: procedural only.
   double stance_step_min_m = 0;
   double min_stance_step_scale = 0.85;
   double max_stance_step_scale = 1.1;
