@@ -36,6 +36,13 @@ std::array<FootSample, 2> standing() {
   return s;
 }
 
+/// Both feet standing (standing()) and held: 30 updates with the feet planted.
+void both_feet_held(FootPlanter& planter, std::array<FootSample, 2>& s, FootLocks& locks) {
+  s = standing();
+  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  ASSERT_EQ(planter.phase(0), Phase::held);
+}
+
 /// Eight updates into a procedural step of the left foot toward `to` (both feet held at first,
 /// standing()): the foot is in the air there; its ankle then is written to `mid_step`.
 void left_foot_mid_step(FootPlanter& planter, std::array<FootSample, 2>& s, FootLocks& locks, const Vector3d& to,
@@ -230,9 +237,8 @@ TEST(FootPlanter, AStillFootLiftedWhereItsSourceIsAlreadyFastGathersSpeedAndStil
   // SYNTHETIC samples: the source's foot at a constant 5 m/s toward a landing 0.9 m ahead.
   FootPlanter planter;
   FootLocks locks;
-  std::array<FootSample, 2> s = standing();
-  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
-  ASSERT_EQ(planter.phase(0), Phase::held);
+  std::array<FootSample, 2> s;
+  ASSERT_NO_FATAL_FAILURE(both_feet_held(planter, s, locks));
   const Vector3d start = locks.ankle_m[0];
   FootSample& f = s[0];
   f.planted = false;
@@ -274,9 +280,8 @@ TEST(FootPlanter, AStillFootLiftedWhereItsSourceRisesFastGathersSpeedInTheAirToo
   // 1.2 m/s up toward a landing 0.9 m ahead.
   FootPlanter planter;
   FootLocks locks;
-  std::array<FootSample, 2> s = standing();
-  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
-  ASSERT_EQ(planter.phase(0), Phase::held);
+  std::array<FootSample, 2> s;
+  ASSERT_NO_FATAL_FAILURE(both_feet_held(planter, s, locks));
   FootSample& f = s[0];
   f.planted = false;
   f.has_landing = true;
@@ -341,9 +346,8 @@ TEST(FootPlanter, AKickThatTakesAFootAlreadyInTheAirStartsItsSwingWhereTheFootIs
   // (the knee 17 cm). The kick's swing now starts where the foot is. SYNTHETIC samples.
   FootPlanter planter;
   FootLocks locks;
-  std::array<FootSample, 2> s = standing();
-  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
-  ASSERT_EQ(planter.phase(0), Phase::held);
+  std::array<FootSample, 2> s;
+  ASSERT_NO_FATAL_FAILURE(both_feet_held(planter, s, locks));
   FootSample& f = s[0];
   f.planted = false;  // the step lifts it: low along the floor, 3 m/s
   f.swing_left_s = 0.3;
@@ -420,9 +424,8 @@ TEST(FootPlanter, AKickRetrievedWhereItsSourceRisesFastLiftsAStandingFootAtAFoot
   for (const auto* source : {&fast, &from_rest}) {
     FootPlanter planter;
     FootLocks locks;
-    std::array<FootSample, 2> s = standing();
-    for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
-    ASSERT_EQ(planter.phase(0), Phase::held);
+    std::array<FootSample, 2> s;
+    ASSERT_NO_FATAL_FAILURE(both_feet_held(planter, s, locks));
     FootSample& f = s[0];
     f.planted = false;  // the kick takes it: this update lifts it, the next ones move it
     f.effector = true;
@@ -576,9 +579,8 @@ TEST(FootPlanter, ASwingHeadingForItsLandingGetsThereWhenTheSourcesPathIsShort) 
   // the source's path. SYNTHETIC samples.
   FootPlanter planter;
   FootLocks locks;
-  std::array<FootSample, 2> s = standing();
-  for (int k = 0; k < 30; ++k) planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
-  ASSERT_EQ(planter.phase(0), Phase::held);
+  std::array<FootSample, 2> s;
+  ASSERT_NO_FATAL_FAILURE(both_feet_held(planter, s, locks));
   const Vector3d start = locks.ankle_m[0];
   FootSample& f = s[0];
   f.planted = false;
