@@ -119,6 +119,18 @@ Vector3d kept_pole(const Vector3d& motion_limb, const Vector3d& axis, const Vect
   return q.norm() > 1e-9 ? Vector3d(q.normalized()) : plain;
 }
 
+/// `want` (unit, across `axis`) turned back toward `previous` (the last drawn knee's direction
+/// from the hip, projected across `axis`) so that it is at most `max_rad` about the axis from it.
+Vector3d swivel_limited(const Vector3d& previous, const Vector3d& axis, const Vector3d& want, double max_rad) {
+  Vector3d p = previous - previous.dot(axis) * axis;
+  const double n = p.norm();
+  if (!(n > 1e-6) || !(max_rad > 0)) return want;
+  p /= n;
+  const double angle = std::atan2(p.cross(want).dot(axis), p.dot(want));
+  if (std::abs(angle) <= max_rad) return want;
+  return Eigen::AngleAxisd(std::copysign(max_rad, angle), axis) * p;
+}
+
 // One decode pass over the skeleton, parents first.
 void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
   const Rig& rig = *job.rig;
@@ -219,7 +231,18 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
           softness = std::max(softness, kKickSoftness * (m.thigh_m[s] + m.shin_m[s]));
         }
         const Vector3d axis = (goal - pos).normalized();
-        const Vector3d pole = kept_pole(turn * f.leg_n[s], axis, turn * f.leg_pole[s]);
+        Vector3d pole = kept_pole(turn * f.leg_n[s], axis, turn * f.leg_pole[s]);
+        if (job.max_knee_swivel_rad > 0 && !job.previous_positions.empty()) {
+          const auto& prev = job.previous_positions;
+          const Vector3d& hip = prev[static_cast<std::size_t>(sk.index(s == kLeft ? CJ::l_hip : CJ::r_hip))];
+          const Vector3d& knee = prev[static_cast<std::size_t>(sk.index(s == kLeft ? CJ::l_knee : CJ::r_knee))];
+          const Vector3d& ankle = prev[static_cast<std::size_t>(sk.index(s == kLeft ? CJ::l_ankle : CJ::r_ankle))];
+          const Vector3d leg = ankle - hip;
+          if (leg.allFinite() && (knee - hip).allFinite() && leg.norm() > 1e-6) {
+            const Vector3d u = leg.normalized();
+            pole = swivel_limited((knee - hip) - (knee - hip).dot(u) * u, axis, pole, job.max_knee_swivel_rad);
+          }
+        }
         const TwoBoneResult r = solve_two_bone_soft(pos, goal, m.thigh_m[s], m.shin_m[s], pole, softness);
         ankle_goal[s] = r.end;
         out.leg_reached[s] = r.reached;
@@ -315,7 +338,9 @@ Rig make_rig(const Skeleton& skeleton, std::span<const Quaterniond> rest_local, 
 bool AdaptJob::Validate() const {
   if (!rig || !pose) return false;
   const auto n = static_cast<std::size_t>(rig->joint_count());
-  return local_rotations.size() >= n && global_positions.size() >= n && global_rotations.size() >= n;
+  return local_rotations.size() >= n && global_positions.size() >= n && global_rotations.size() >= n &&
+         (previous_positions.empty() || previous_positions.size() >= n) && std::isfinite(max_knee_swivel_rad) &&
+         max_knee_swivel_rad >= 0;
 }
 
 bool AdaptJob::Run() const {

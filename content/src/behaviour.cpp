@@ -63,6 +63,11 @@ constexpr double kSettledGoalSpeed_mps = 0.25;
 /// m (at the database actor's size): a spot this far ahead is stepped to while the visitor
 /// still walks away (the stance steps travel 0.77-1.05 m in the mocap).
 constexpr double kWholeStep_m = 0.9;
+/// rad/s: the most a drawn knee turns about its leg's hip->ankle axis (AdaptJob::
+/// max_knee_swivel_rad). A knee the motion swings round faster (its direction passing through
+/// the leg's axis where a held foot keeps the ankle far from the motion's) goes round the side
+/// over frames instead of flipping in one.
+constexpr double kKneeSwivel_rad_s = 12;
 /// s: a stance step due waits at most this for both feet to be down (then procedural steps).
 constexpr double kStanceStepFeetWait_s = 0.5;
 /// s: a visitor who comes closer is stepped back from with a stance step only once the spot to
@@ -109,6 +114,7 @@ Behaviour::Behaviour(std::shared_ptr<const Database> db, std::vector<Rig> charac
   local_.resize(max_joints);
   global_.resize(max_joints);
   rig_positions_.resize(max_joints);
+  previous_rig_positions_.resize(max_joints);
   positions_.resize(max_joints);
   // Orders swap between these two each update; an order taken again after stepping in is
   // queued from inside update(): room kept in both, so that allocates nothing.
@@ -1238,7 +1244,15 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.min_trunk_fallback = have_pose_ && job.reach && trunk_floor_side_ >= 0 ? &trunk_floor_ : nullptr;
   job.min_trunk_fallback_side = trunk_floor_side_;
   job.report = &report_;
+  // Each knee turns about its leg at most kKneeSwivel_rad_s from where the last update drew it
+  // (the same character's).
+  if (have_pose_ && dt > 0 && previous_rig_character_ == character_) {
+    std::copy_n(rig_positions_.begin(), n, previous_rig_positions_.begin());
+    job.previous_positions = std::span<const Vector3d>(previous_rig_positions_).first(n);
+    job.max_knee_swivel_rad = kKneeSwivel_rad_s * dt;
+  }
   job.Run();
+  previous_rig_character_ = character_;
   if (job.reach && !job.reach->effector.leg) trunk_floor_side_ = job.reach->effector.side;  // the fallback's arm
   player_.note_drawn_arms(rig, rig_positions_);  // each drawn elbow's distance from its arm's line
   feet_.drew(have_pose_, dt, report_.root_drop_m);

@@ -227,6 +227,63 @@ TEST(Adapt, FootLocksHoldTheAnkleAndValidateRejectsShortBuffers) {
   EXPECT_FALSE(job.Run());
 }
 
+// A knee whose motion swings it through its leg's axis (a kick aborted as its foot rose: the
+// held foot keeps the ankle up in front while the motion's leg swings down and back, its knee
+// direction passing through the hip->ankle line) turned to the other side of the leg in one
+// frame: 0.6 m in the spar demo with stance steps on. With the last frame's positions and
+// max_knee_swivel_rad the knee goes round the side over frames; the ankle stays on its lock.
+// SYNTHETIC: the standing pose's right leg turned rigidly about the body's left-right axis,
+// 120 deg over 60 frames, the right ankle held 0.6 m in front of the hip and 0.1 m above it.
+TEST(Adapt, AKneeSwungThroughItsLegsAxisGoesRoundTheSideWithASwivelLimit) {
+  const Skeleton s = synthetic::make_skeleton({});
+  const Rig rig = make_rig(s, {}, "c");
+  const MkmFrame standing = punch_pose(s, rig, 0);
+  Buffers first(rig);
+  ASSERT_TRUE(first.job(rig, standing).Run());
+  const Vector3d hip = first.at_joint(rig, CJ::r_hip);
+  FootLocks locks;
+  locks.weight = {0, 1};
+  locks.ankle_m = {first.at_joint(rig, CJ::l_ankle), hip + Vector3d(0, 0.1, 0.6)};
+  const double dt = 1.0 / 60;
+  double worst_knee_step[2] = {0, 0}, worst_ankle_off = 0;
+  for (const int limited : {0, 1}) {
+    Buffers b(rig);
+    std::vector<Vector3d> previous;
+    for (int k = 0; k <= 60; ++k) {
+      const double a = (-90.0 + 2.0 * k) * std::numbers::pi / 180;  // about +X: -90 deg: the leg forward, its knee up
+      const Eigen::AngleAxisd turn(a, Vector3d::UnitX());
+      MkmFrame f = standing;
+      f.leg_n[kRight] = turn * Vector3d(0, -1, 0) * standing.leg_n[kRight].norm();
+      f.leg_pole[kRight] = turn * Vector3d(0, 0, 1);
+      AdaptJob job = b.job(rig, f);
+      job.feet = &locks;
+      if (limited && !previous.empty()) {
+        job.previous_positions = previous;
+        job.max_knee_swivel_rad = 12 * dt;
+      }
+      ASSERT_TRUE(job.Run());
+      const Vector3d knee = b.at_joint(rig, CJ::r_knee);
+      if (!previous.empty())
+        worst_knee_step[limited] = std::max(worst_knee_step[limited], (knee - previous[static_cast<std::size_t>(rig.skeleton.index(CJ::r_knee))]).norm());
+      if (limited) worst_ankle_off = std::max(worst_ankle_off, (b.at_joint(rig, CJ::r_ankle) - locks.ankle_m[1]).norm());
+      previous = b.pos;
+    }
+  }
+  EXPECT_GT(worst_knee_step[0], 0.2) << "the case this test is about: without the limit the knee flips";
+  EXPECT_LT(worst_knee_step[1], 0.1) << "with it, the knee goes round over frames";
+  EXPECT_LT(worst_ankle_off, 1e-6) << "the ankle stays on its lock";
+  // A previous_positions shorter than the rig is refused.
+  Buffers b(rig);
+  AdaptJob job = b.job(rig, standing);
+  std::vector<Vector3d> few(3);
+  job.previous_positions = few;
+  job.max_knee_swivel_rad = 0.2;
+  EXPECT_FALSE(job.Validate());
+  job.previous_positions = {};
+  job.max_knee_swivel_rad = std::nan("");
+  EXPECT_FALSE(job.Validate());
+}
+
 TEST(Mkm, MirrorSwapsSidesAndBlendEndsAtItsInputs) {
   const Skeleton s = synthetic::make_skeleton({});
   const Clip clip = synthetic::make_punch_clip(s, 40);

@@ -160,6 +160,14 @@ struct AdaptJob {
   /// reach (a kick started while a punch's fallback still goes out) it is applied too, its
   /// clavicle turn on this arm's side (-1: applied only with an arm's reach, on that arm).
   int min_trunk_fallback_side = -1;
+  /// Optional: the last drawn frame's global positions of this rig (m, room frame, joint_count;
+  /// empty: none). A caller drawing frames in sequence passes them with max_knee_swivel_rad:
+  /// each knee then turns about its leg's hip->ankle axis by at most that much from where it
+  /// was drawn. Where a held foot keeps the ankle far from the motion's (a kick aborted as its
+  /// foot rose), the motion's knee direction can pass through the leg's axis, and the knee
+  /// flipped to the other side in one frame (0.6 m: the spar demo with stance steps on).
+  std::span<const Eigen::Vector3d> previous_positions;
+  double max_knee_swivel_rad = 0;  ///< rad, per frame; 0: no limit
   std::span<Eigen::Quaterniond> local_rotations;   ///< out, joint_count
   std::span<Eigen::Vector3d> global_positions;     ///< out, m, room frame, joint_count
   std::span<Eigen::Quaterniond> global_rotations;  ///< out, joint_count

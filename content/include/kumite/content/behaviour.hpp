@@ -567,6 +567,10 @@ class Behaviour {
 
   std::vector<Eigen::Quaterniond> local_, global_;
   std::vector<Eigen::Vector3d> rig_positions_, positions_;
+  /// The last update's rig_positions_ (AdaptJob::previous_positions: each knee turns at most
+  /// kKneeSwivel_rad_s about its leg from there), and whose character they were (-1: none yet).
+  std::vector<Eigen::Vector3d> previous_rig_positions_;
+  int previous_rig_character_ = -1;
   // The strike's playback rate (StrikeRateJob): who solves it, and the job out.
   RateChannel rate_channel_;
   std::shared_ptr<StrikeRateSolver> sync_rate_solver_;
