@@ -360,8 +360,10 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   if (const auto s = t->opt_integer("seed", 0)) seed = static_cast<std::uint64_t>(*s);
   t->read("fighting_distance_m", p.fighting_distance_m, {0.3, 3, "m"});
   t->read("engage_tolerance_m", p.engage_tolerance_m, {0, 2, "m"});
-  t->read("stance_step_min_m", p.stance_step_min_m, {0, 2, "m"});
-  if (p.stance_step_min_m > 0 && p.stance_step_min_m < follow_tolerance_m)
+  // (checked against follow_tolerance_m where written: the default, 0.5, is raised to a larger
+  // follow_tolerance_m by the behaviour, Behaviour::stance_step_min_m)
+  if (t->read("stance_step_min_m", p.stance_step_min_m, {0, 2, "m"}) && p.stance_step_min_m > 0 &&
+      p.stance_step_min_m < follow_tolerance_m)
     t->fail("range", "stance_step_min_m",
             fmt::format("must be 0 (no stance steps) or at least [fighter.behaviour] follow_tolerance_m ({} m)", follow_tolerance_m));
   t->read("attack_rate_per_s", p.attack_rate_per_s, {0, 10, "1/s"});

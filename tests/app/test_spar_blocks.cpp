@@ -76,7 +76,7 @@ TEST(SparBlocks, TheSparDemoWithBlocksOnBlocksTheMocapVisitorsStrikesAndSaysTheS
   EXPECT_NE(off.planner_line.find("(off)"), std::string::npos) << off.planner_line;
 }
 
-// The spar demo with stance steps on (`[fighter.planner] stance_step_min_m = 0.5`), 60 s of
+// The spar demo with stance steps on (`[fighter.planner] stance_step_min_m = 0.5`, the default), 60 s of
 // the kata visitor, blocks, counters and hit reactions, judged on the drawn joints as
 // scripts/judge-bvh.py judges a bout: no one-frame step of a joint over 5 cm that is 3x both its
 // neighbours' (a snap). A guard over the whole bout, not a reproduction: the headless run's bout

@@ -219,6 +219,16 @@ TEST(Planner, ReadFromTheInstallationFileWithAPresetAndKeysBesideIt) {
     }
     return "";
   };
+  const auto error_with_tolerance = [](const std::string& text, double follow_tolerance_m) -> std::string {
+    PlannerTunables q;
+    std::uint64_t s = 1;
+    try {
+      parse_planner_tunables(text, "room.toml", q, s, follow_tolerance_m);
+    } catch (const std::exception& e) {
+      return e.what();
+    }
+    return "";
+  };
   EXPECT_NE(error("[fighter.planner]\nmode = \"fight\"\n").find("room.toml:2"), std::string::npos);
   EXPECT_NE(error("[fighter.planner]\nmode = \"fight\"\n").find("mode"), std::string::npos);
   EXPECT_NE(error("[fighter.planner]\npreset = \"timid\"\n").find("preset"), std::string::npos);
@@ -226,10 +236,14 @@ TEST(Planner, ReadFromTheInstallationFileWithAPresetAndKeysBesideIt) {
   EXPECT_NE(error("[fighter.planner]\nattack_rate_per_s = nan\n").find("attack_rate_per_s"), std::string::npos);
   EXPECT_NE(error("[fighter.planner]\nattack_rate = 1\n").find("attack_rate"), std::string::npos);
   EXPECT_NE(error("[fighter.planner]\nseed = -1\n").find("seed"), std::string::npos);
-  // The sparring fighter's stance steps: off unless said, checked like the rest.
-  EXPECT_EQ(p.stance_step_min_m, 0.0);
-  parse_planner_tunables("[fighter.planner]\nstance_step_min_m = 0.5\n", "room.toml", p, seed);
+  // The sparring fighter's stance steps: on (0.5 m) unless said, checked like the rest.
   EXPECT_EQ(p.stance_step_min_m, 0.5);
+  parse_planner_tunables("[fighter.planner]\nstance_step_min_m = 0\n", "room.toml", p, seed);
+  EXPECT_EQ(p.stance_step_min_m, 0.0);
+  // Not written, the default is not held against a larger follow_tolerance_m (the behaviour
+  // raises it to that); written, it is.
+  EXPECT_EQ(error_with_tolerance("[fighter.planner]\nmode = \"spar\"\n", 0.6), "");
+  EXPECT_NE(error_with_tolerance("[fighter.planner]\nstance_step_min_m = 0.5\n", 0.6).find("follow_tolerance_m (0.6 m)"), std::string::npos);
   EXPECT_NE(error("[fighter.planner]\nstance_step_min_m = nan\n").find("room.toml:2: fighter.planner.stance_step_min_m"), std::string::npos)
       << error("[fighter.planner]\nstance_step_min_m = nan\n");
   EXPECT_NE(error("[fighter.planner]\nstance_step_min_m = 3\n").find("stance_step_min_m"), std::string::npos);

@@ -865,7 +865,7 @@ TEST(Blocks, SparringWithStanceStepsTheFighterKeepsItsFightingDistance) {
 }
 
 // Sparring keeps its fighting distance with stance steps from the mocap where the planner's
-// stance_step_min_m says so (0.5 m; 0, off, by default), whatever the orders mode's
+// stance_step_min_m says so (0.5 m by default; 0, off), whatever the orders mode's
 // [fighter.behaviour] key says, and that key still governs orders mode. A still visitor standing 1 m farther than the fighter keeps them
 // from the start: the frames in which a stance step carries the fighter, counted. (A visitor
 // walking away is followed at once with procedural steps while sparring: a spot short of a
@@ -885,12 +885,12 @@ TEST(Blocks, SparringTheFighterFollowsWithStanceStepsWhereThePlannerSaysSo) {
     }
     return n;
   };
-  const PlannerTunables spar = defence_alone();
-  ASSERT_EQ(spar.stance_step_min_m, 0.0) << "off by default";
+  const PlannerTunables steps = defence_alone();
+  ASSERT_EQ(steps.stance_step_min_m, 0.5) << "on by default";
   BehaviourTunables orders_steps;
   orders_steps.stance_step_min_m = 0.5;
-  PlannerTunables steps = spar;
-  steps.stance_step_min_m = 0.5;
+  PlannerTunables spar = steps;
+  spar.stance_step_min_m = 0;
   const int planner_on = stance_frames(steps, {});
   const int behaviour_on = stance_frames(spar, orders_steps);  // the orders mode's key: not sparring's
   PlannerTunables orders = spar;

@@ -51,12 +51,11 @@ struct PlannerTunables {
   double fighting_distance_m = 0.65;          ///< m, fighter root -> visitor head, horizontal: engaged within it
   double engage_tolerance_m = 0.25;           ///< m: engaged while no farther than fighting distance + this
   /// m: sparring, the fighting distance is kept with stance steps from the mocap: forward once the
-  /// spot to keep is this far ahead (a spot nearer is walked to with procedural steps), back at
-  /// once; 0.5 is the measured value. 0 (the default): procedural steps only. On, the defence
-  /// of content/README.md blocks 5 of 12 punches instead of 10 (the fighter steps back a whole
-  /// stance step from a punching visitor's lunge, and stands in a long stance). Orders mode has
-  /// its own key, [fighter.behaviour] stance_step_min_m.
-  double stance_step_min_m = 0;
+  /// spot to keep is this far ahead (a spot nearer is walked to with procedural steps), back once
+  /// the visitor has stayed closer than [fighter.behaviour] follow_tolerance_m for 0.5 s. 0:
+  /// procedural steps only (the defence of content/README.md then blocks 10 of 12 punches
+  /// instead of 12). Orders mode has its own key, [fighter.behaviour] stance_step_min_m (0 there).
+  double stance_step_min_m = 0.5;
   /// 1/s: the rate of its own attacks (0: none). An exponential timer that runs while the
   /// fighter is engaged and could strike (idle), so this is attacks per second of that time.
   double attack_rate_per_s = 0.5;
