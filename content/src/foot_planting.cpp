@@ -16,8 +16,14 @@ double smoothstep(double x) {
 /// A lifted foot sheds at most this share of the motion's own foot travel per update (on top
 /// of that travel): its speed stays within (1 + this) x the source's.
 constexpr double kShedPerTravel = 0.5;
-/// m/s^2: how fast a foot returning through the air to the motion's changes its velocity.
-constexpr double kReturnAccel_mps2 = 40;
+/// m/s^2: how fast a foot returning through the air to the motion's changes its velocity (a
+/// kick's retraction: the swing's kSwingAccel_mps2; at 40, a kick aborted as its foot rose at
+/// 4.8 m/s went on up 0.27 m).
+constexpr double kReturnAccel_mps2 = 100;
+/// m/s^2: the braking a returning foot's speed allows as it nears the floor's landing band:
+/// half kReturnAccel_mps2, so that the updates' steps keep within it (at kReturnAccel_mps2 the
+/// profile, read at the start of each update, handed a 4 m/s foot to a landing at 0.6 m/s).
+constexpr double kReturnBrake_mps2 = 50;
 /// m/s^2: the most a swinging foot's speed along the floor grows (FootPlanter's way to its landing).
 constexpr double kSwingAccel_mps2 = 100;
 /// m: the most a foot's step may grow from one update to the next, whatever the update rate. The
@@ -263,16 +269,30 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         }
         if (in.planted && !in.effector && !near_floor(f.lock)) {
           // The motion has the foot down but it is still well up (a kick handing over to the
-          // rest motion): it goes back to where the motion has it at a foot's pace, turning
-          // and speeding up from the way it was going at a foot's acceleration (not at once:
-          // the knee follows the ankle's turn several times over).
+          // rest motion, or aborted as it rose): it goes back to where the motion has it at
+          // up to return_speed_mps, braking and turning from the way it was going at
+          // kReturnAccel_mps2 (not at once: the knee follows the ankle's turn several times
+          // over), and slowing as it nears the floor (kReturnBrake_mps2) so that it reaches the
+          // landing band at about landing_speed_mps, the pace it comes down at from there.
           const Vector3d to = in.free_ankle_m - f.lock;
-          const double d = to.norm(), step = tun_.return_speed_mps * dt;
-          const Vector3d want = d > step ? Vector3d(to * (step / d)) : to;
+          const double above_band = std::max(0.0, f.lock.y() - (floor_y + tun_.landing_window_m));
+          const double down_speed = std::min(tun_.return_speed_mps, std::sqrt(tun_.landing_speed_mps * tun_.landing_speed_mps +
+                                                                               2 * kReturnBrake_mps2 * above_band));
+          // ...and along the floor slowing to a stop over the way left (a foot handed to the
+          // landing still moving along the floor at 0.8 m/s was stopped in one frame: the
+          // landing comes straight down).
+          const Eigen::Vector2d along(to.x(), to.z());
+          const double way = along.norm();
+          const double along_step = std::min(way, std::min(tun_.return_speed_mps, std::sqrt(2 * kReturnBrake_mps2 * way)) * dt);
+          const double up_step = std::min(std::abs(to.y()), down_speed * dt);
+          Vector3d want(way > 1e-9 ? along.x() * along_step / way : 0.0, to.y() < 0 ? -up_step : up_step,
+                        way > 1e-9 ? along.y() * along_step / way : 0.0);
+          if (want.norm() > tun_.return_speed_mps * dt) want *= tun_.return_speed_mps * dt / want.norm();
           Vector3d change = want - f.last_move;
           const double most = step_gain(kReturnAccel_mps2, dt);
           if (change.norm() > most) change *= most / change.norm();
           f.lock += f.last_move + change;
+          f.lock.y() = std::max(f.lock.y(), floor_y);
           f.offset = f.lock - in.free_ankle_m;
           break;
         }
@@ -348,6 +368,10 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
               next.y() = y;
             }
           }
+          // Never under the floor: the composed motion's ankle may pass below it as a kick
+          // comes down (a pelvis adapted lower than the clip's; HDM_bk_kickLFront1Reps_009's
+          // retraction, 6.7 cm under, the foot drawn 3 cm into the floor at 3.5 m/s).
+          next.y() = std::max(next.y(), floor_y);
           f.lock = next;
           f.offset = f.lock - in.free_ankle_m;
           break;

@@ -684,3 +684,105 @@ TEST(FootPlanter, AStanceStepsSteppingFootIsOverItsLandingBeforeItsSourceGlidesI
   EXPECT_LE(with.fastest_xz_mps, 1.12 * with.source_fastest_mps);
   EXPECT_GT(without.moved_after_m, 0.02) << "the glide the lead takes out";
 }
+
+namespace {
+
+/// The left foot kicked up from standing (standing(), held; `mid_step`: taken in the air by
+/// the kick, eight updates into a procedural step) at `rise_m` per update for `updates`
+/// updates, the composed ankle with it (the kick's source): the foot in the air, swinging.
+void left_foot_kicked_up(FootPlanter& planter, std::array<FootSample, 2>& s, FootLocks& locks, double rise_m, int updates,
+                         bool mid_step = false) {
+  ASSERT_NO_FATAL_FAILURE(both_feet_held(planter, s, locks));
+  FootSample& f = s[0];
+  if (mid_step) {
+    Vector3d in_the_air;
+    ASSERT_NO_FATAL_FAILURE(left_foot_mid_step(planter, s, locks, Vector3d(0.1, 0.08, 0.3), in_the_air));
+    f.free_ankle_m = in_the_air;
+  }
+  f.planted = false;
+  f.effector = true;
+  f.swing_left_s = 0.5;
+  for (int k = 0; k < updates; ++k) {
+    f.source_step_before_m = f.source_step_m;
+    f.source_step_m = Vector3d(0, rise_m, 0.2 * rise_m);
+    f.free_ankle_m += f.source_step_m;
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  }
+  ASSERT_EQ(planter.phase(0), Phase::swinging);
+}
+
+}  // namespace
+
+TEST(FootPlanter, AKickAbortedHighComesBackDownWithinHalfASecond) {
+  // A kick aborted as its foot rose (the spar demo, planner seed 1, 38.5 s: the visitor's kick
+  // began, the fighter's own front kick was cut at 1.05 m, its foot rising 4.8 m/s): the rest
+  // motion has the foot down at once, and the foot returned at 2 m/s turning at 40 m/s^2 - on
+  // up 0.29 m more, then 0.9 s floating down in a straight line. It now brakes and returns at
+  // a kick's retraction pace: down within half a second, never a jump. SYNTHETIC samples.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s;
+  ASSERT_NO_FATAL_FAILURE(left_foot_kicked_up(planter, s, locks, 0.08, 12));
+  const Vector3d kicked_from = locks.ankle_m[0];  // the kick's last update (its step: the foot's speed)
+  {
+    FootSample& f = s[0];
+    f.source_step_m = Vector3d(0, 0.08, 0.016);
+    f.free_ankle_m += f.source_step_m;
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  }
+  const double aborted_y = locks.ankle_m[0].y();
+  ASSERT_GT(aborted_y, 0.08 + 0.9) << "the kick's foot should be high when it is aborted";
+  FootSample& f = s[0];
+  f.planted = true;  // the rest motion: the foot down where it stood
+  f.effector = false;
+  f.swing_left_s = 0;
+  f.source_step_before_m = f.source_step_m = Vector3d::Zero();
+  f.free_ankle_m = standing()[0].free_ankle_m;
+  double highest = aborted_y, worst_gain = 0;
+  Vector3d last = locks.ankle_m[0], last_step = last - kicked_from;
+  int down_after = -1;
+  for (int k = 0; k < 120 && down_after < 0; ++k) {
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    const Vector3d step = locks.ankle_m[0] - last;
+    worst_gain = std::max(worst_gain, (step - last_step).norm());
+    last_step = step;
+    last = locks.ankle_m[0];
+    highest = std::max(highest, locks.ankle_m[0].y());
+    EXPECT_GE(locks.ankle_m[0].y(), 0.08 - 1e-9) << "under the floor at update " << k;
+    if (planter.phase(0) == Phase::held) down_after = k + 1;
+  }
+  std::printf("aborted at %.3f m: on up %.3f m, held again after %d updates (%.3f s), largest change of step %.4f m\n",
+              aborted_y, highest - aborted_y, down_after, down_after * kDt, worst_gain);
+  ASSERT_GT(down_after, 0) << "the foot never came down";
+  EXPECT_LE(down_after * kDt, 0.5);
+  EXPECT_LE(highest - aborted_y, 0.15);
+  EXPECT_LE(worst_gain, 0.03 + 1e-9) << "a step grows by at most 3 cm an update (kMostStepGain_m)";
+}
+
+TEST(FootPlanter, AKickingFootIsNeverTakenUnderTheFloor) {
+  // A kick's retraction whose composed ankle passes under the floor (a pelvis adapted lower than
+  // the clip's: HDM_bk_kickLFront1Reps_009 in the spar demo, planner seed 5, 6.7 cm under) took
+  // the kicking foot 3 cm into the floor at 3.5 m/s (a kick that took its foot mid-step: the
+  // floor band that keeps a foot lifted from the floor rising does not hold it). It stays on
+  // the floor. SYNTHETIC samples.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s;
+  ASSERT_NO_FATAL_FAILURE(left_foot_kicked_up(planter, s, locks, 0.03, 10, true));
+  FootSample& f = s[0];
+  double lowest = 1e9;
+  for (int k = 0; k < 20; ++k) {  // down 4 cm an update to 10 cm under the standing ankle's height
+    f.source_step_before_m = f.source_step_m;
+    f.source_step_m = Vector3d(0, -0.04, -0.01);
+    f.free_ankle_m += f.source_step_m;
+    f.free_ankle_m.y() = std::max(f.free_ankle_m.y(), 0.08 - 0.10);
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+    lowest = std::min(lowest, locks.ankle_m[0].y());
+  }
+  std::printf("the kicking foot's lowest: %.4f m (the floor's ankle height 0.08)\n", lowest);
+  EXPECT_GE(lowest, 0.08 - 1e-9);
+}

@@ -33,7 +33,7 @@ struct FootPlantingTunables {
                                    ///< comes straight down where it is (higher: it follows the motion)
   double landing_speed_mps = 0.6;  ///< m/s: the least speed at which such a foot comes down
   double max_landing_speed_mps = 2.0;  ///< m/s: the most
-  double return_speed_mps = 2.0;   ///< m/s: a foot the motion has down but that is higher than
+  double return_speed_mps = 4.0;   ///< m/s: a foot the motion has down but that is higher than
                                    ///< landing_window_m goes back to the motion's foot this fast
   double min_swing_path_m = 0.05;  ///< m: a lifted foot heads for the motion's landing when the
                                    ///< source still travels its ankle this far (else it follows the source)
