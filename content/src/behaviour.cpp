@@ -282,7 +282,10 @@ void Behaviour::select_character(int index, Timestamp now) {
   // knee 5 cm, the elbow 9 cm in a frame, in the bout with stance steps on).
   feet_.keep_held_only();
   switch_.begin();  // the easing's offsets: after this update's decode
-  if (striking()) compute_reach_error(strike_.contact_time_s);
+  if (striking()) {
+    strike_.switched_body = true;
+    compute_reach_error(strike_.contact_time_s);
+  }
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
        FighterEvent::Reason::none);
 }
@@ -690,6 +693,10 @@ void Behaviour::apply_strike_rate(double dt) {
     strike_.turn = r->turn;
     strike_.stretch = r->stretch;
     strike_.lean = r->lean;
+    // (The solver's d(t) is found at contact alone, as compute_reach_error's; after a switch the
+    // way there is held to the lockout too: taken as found, a rate solved after the switch put
+    // the stretch back from 1.01 to 1.30 in one update, the knee 9 cm.)
+    if (strike_.switched_body) cap_kick_stretch_over_way(strike_.contact_time_s);
   } else {
     compute_reach_error(strike_.contact_time_s);
   }
@@ -730,10 +737,38 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   strike_.turn = r.turn;
   strike_.stretch = r.stretch;
   strike_.out_of_reach = r.capped;
+  if (strike_.switched_body) cap_kick_stretch_over_way(at_time_s);
   if (plan_lean) strike_.lean = r.lean;
   contact_shoulder_m_ = r.shoulder_m;
   contact_head_m_ = r.head_m;
   contact_elbow_m_ = r.elbow_m;
+}
+
+void Behaviour::cap_kick_stretch_over_way(double until_s) {
+  // A kick planned on one body and switched to a shorter one mid-way: stretched so that the
+  // leg locks out at contact, it went past full length on the way wherever the source's leg
+  // is straighter there than at contact (135_07_kick_right_1 switched from kenji to mei 0.25 s
+  // after the order: the stretch 1.30, the knee 11.6 cm in a frame).
+  if (!strike_.effector.leg || !striking()) return;
+  const Source& cur_src = player_.current();
+  if (cur_src.segment != strike_.plan.segment || !(cur_src.rate > 0)) return;
+  const auto side = static_cast<std::size_t>(strike_.effector.side);
+  const double step = cur_src.rate / 120;  // segment seconds: finer than any update
+  double most = 0;
+  MkmFrame b, pose;
+  for (double t = cur_src.time_s; t <= std::max(until_s, cur_src.time_s) + 1e-9; t += step) {
+    const double ahead_wall = (t - cur_src.time_s) / cur_src.rate;
+    Source cur = cur_src, prev = player_.previous();
+    cur.time_s = t;
+    prev.time_s += ahead_wall * prev.rate;
+    player_.compose(cur, prev, player_.blend_elapsed_s() + ahead_wall, tun_.blend_time_s, b, pose);
+    most = std::max(most, pose.leg_n[side].norm());
+  }
+  if (most > 1e-6) strike_.max_stretch = std::min(strike_.max_stretch, std::max(1.0, kKickLockOutShare / most));
+  if (strike_.stretch > strike_.max_stretch) {
+    strike_.stretch = strike_.max_stretch;
+    strike_.out_of_reach = true;
+  }
 }
 
 FootLocks Behaviour::feet_through_contact(const Source& s, double contact_time_s) const {

@@ -326,6 +326,11 @@ class Behaviour {
     Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  ///< full d(t): limb turn at contact
     double stretch = 1;                ///< full d(t): limb length factor at contact
     bool out_of_reach = false;         ///< a kick's target beyond the leg's reach: d(t) stops short (kKickLockOutShare)
+    /// A character switch since the strike began: a kick's d(t) then stretches the leg no further
+    /// than kKickLockOutShare anywhere on its way to contact (cap_kick_stretch_over_way), and
+    /// `stretch` stays at most `max_stretch` (lowered only, so a d(t) found anew never jumps back).
+    bool switched_body = false;
+    double max_stretch = std::numeric_limits<double>::infinity();
     TrunkLean lean;                    ///< full d(t): a punch's trunk lean at contact
     double rate = 1;                   ///< segment seconds played per second (StrikeRateSolver)
     int start_update = -1;             ///< update counter at the strike's start
@@ -430,6 +435,10 @@ class Behaviour {
   /// d(t) at contact from the pose at segment time `at_time_s`; `plan_lean`: also the punch's
   /// trunk lean (not at the contact frame itself: the lean eased in since the start stays).
   void compute_reach_error(double at_time_s, bool plan_lean = true);
+  /// A kick switched to another body: its stretch lowered so that the leg, stretched by d(t),
+  /// reaches at most kKickLockOutShare of its length at any point from now to `until_s`
+  /// (segment time; the source's leg may be straighter on the way than at contact).
+  void cap_kick_stretch_over_way(double until_s);
   /// The feet the strike source `s` has planted at `contact_time_s`: where held now if the
   /// clip keeps them planted from its time on (a foot not held now is left out), else where the
   /// clip puts them down on the way; the others at weight 0. Pelvis drop 0..max_root_drop_m.
