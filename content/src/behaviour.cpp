@@ -84,6 +84,18 @@ std::size_t most_joints_of(const std::vector<Rig>& characters) {
   for (const Rig& r : characters) most = std::max(most, static_cast<std::size_t>(r.joint_count()));
   return most;
 }
+
+/// The pose `player` will compose at segment time `at_time_s` of its current source (the same
+/// sources, the blend `blend_time_s` s long as far on as the update that plays that time):
+/// `cur_pose` the current source's alone, `pose` the blend.
+void compose_ahead(const MotionPlayer& player, double at_time_s, double blend_time_s, MkmFrame& cur_pose, MkmFrame& pose) {
+  const double ahead = at_time_s - player.current().time_s;  // segment seconds
+  const double ahead_wall = ahead / player.current().rate;   // s
+  PlaybackSource cur = player.current(), prev = player.previous();
+  cur.time_s += ahead;
+  prev.time_s += ahead_wall * prev.rate;
+  player.compose(cur, prev, player.blend_elapsed_s() + ahead_wall, blend_time_s, cur_pose, pose);
+}
 }  // namespace
 
 // ---- Behaviour --------------------------------------------------------------------------
@@ -722,13 +734,8 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   // that gap.
   const Source* strike_src = player_.current().segment == strike_.plan.segment && striking() ? &player_.current() : nullptr;
   if (!strike_src) return;
-  const double ahead = at_time_s - player_.current().time_s;  // segment seconds
-  const double ahead_wall = ahead / player_.current().rate;   // s
-  Source cur = player_.current(), prev = player_.previous();
-  cur.time_s += ahead;
-  prev.time_s += ahead_wall * prev.rate;
   MkmFrame b, pose;
-  player_.compose(cur, prev, player_.blend_elapsed_s() + ahead_wall, tun_.blend_time_s, b, pose);
+  compose_ahead(player_, at_time_s, tun_.blend_time_s, b, pose);
   // scratch_pose_ keeps its room: a strike's start allocates nothing.
   const ReachCorrection r = reach_correction(characters_[static_cast<std::size_t>(character_)], strike_.effector,
                                              strike_.target_room_m, pose, scratch_pose_, plan_lean, &strike_.plan_feet,
@@ -757,11 +764,7 @@ void Behaviour::cap_kick_stretch_over_way(double until_s) {
   double most = 0;
   MkmFrame b, pose;
   for (double t = cur_src.time_s; t <= std::max(until_s, cur_src.time_s) + 1e-9; t += step) {
-    const double ahead_wall = (t - cur_src.time_s) / cur_src.rate;
-    Source cur = cur_src, prev = player_.previous();
-    cur.time_s = t;
-    prev.time_s += ahead_wall * prev.rate;
-    player_.compose(cur, prev, player_.blend_elapsed_s() + ahead_wall, tun_.blend_time_s, b, pose);
+    compose_ahead(player_, t, tun_.blend_time_s, b, pose);
     most = std::max(most, pose.leg_n[side].norm());
   }
   if (most > 1e-6) strike_.max_stretch = std::min(strike_.max_stretch, std::max(1.0, kKickLockOutShare / most));

@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <string>
 #include <thread>
@@ -119,6 +120,21 @@ int count_snaps(const std::vector<std::vector<Vector3d>>& track, const std::stri
     }
   }
   return snaps;
+}
+
+/// A fighter in the open room (open_room_at_origin) as `character` of `rigs`, having stood one
+/// second at 60 Hz (its first update, then 60) facing the visitor's head at `head`: feet held.
+/// `t` (s) is set to the time reached.
+std::unique_ptr<Behaviour> standing_in_open_room(std::shared_ptr<const Database> db, const std::vector<Rig>& rigs,
+                                                 std::size_t character, const Vector3d& head, double& t) {
+  FighterConfig cfg = open_room_at_origin();
+  cfg.initial_character = static_cast<int>(character);
+  auto b = std::make_unique<Behaviour>(std::move(db), rigs, cfg);
+  const double dt = 1.0 / 60;
+  t = 0;
+  b->update(t, 0, head);
+  for (int i = 0; i < 60; ++i) b->update(t += dt, dt, head);
+  return b;
 }
 }  // namespace
 
@@ -557,13 +573,10 @@ TEST(BehaviourShipped, ASwitchBetweenAnyTwoCharactersAtRestKeepsAFootOnTheFloor)
       for (std::size_t c = 0; c < rigs.size(); ++c) {
         if (a == c) continue;
         const std::string pair = rigs[a].name + " -> " + rigs[c].name;
-        FighterConfig cfg = open_room_at_origin();
-        cfg.initial_character = static_cast<int>(a);
-        Behaviour b(set.db, rigs, cfg);
         double t = 0;
         const Vector3d head(0, 1.6, 1.2);
-        b.update(t, 0, head);
-        for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);
+        const auto fighter = standing_in_open_room(set.db, rigs, a, head, t);
+        Behaviour& b = *fighter;
         // The drawn canonical joints from the frame before the switch on.
         std::vector<std::vector<Vector3d>> track{drawn_canonical(b)};
         b.order(Order{t, OrderKind::select_character, static_cast<std::int32_t>(c)});
@@ -605,13 +618,10 @@ TEST(BehaviourShipped, AKickOrderedAsATallerCharacterIsSwitchedInStartsWithoutAJ
       for (const OrderKind kind : {OrderKind::kick_left, OrderKind::kick_right}) {
         ++cases;
         const std::string what = fmt::format("{} -> {}, {}", rigs[a].name, rigs[c].name, kind == OrderKind::kick_left ? "left kick" : "right kick");
-        FighterConfig cfg = open_room_at_origin();
-        cfg.initial_character = static_cast<int>(a);
-        Behaviour b(set.db, rigs, cfg);
         double t = 0;
         const Vector3d head(0, 1.6, 1.0);
-        b.update(t, 0, head);
-        for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);
+        const auto fighter = standing_in_open_room(set.db, rigs, a, head, t);
+        Behaviour& b = *fighter;
         std::vector<std::vector<Vector3d>> track{drawn_canonical(b)};
         b.order(Order{t, OrderKind::select_character, static_cast<std::int32_t>(c)});
         b.order_strike(Order{t, kind}, Vector3d(0, 1.1, 0.8));
@@ -656,13 +666,10 @@ TEST(BehaviourShipped, AKickSwitchedToAShorterBodyOnItsWayDrawsNoSnap) {
           const std::string what = fmt::format("{} -> {} {} updates in, {}", rigs[a].name, rigs[c].name, after,
                                                kind == OrderKind::kick_left ? "left kick" : "right kick");
           ++cases;
-          FighterConfig cfg = open_room_at_origin();
-          cfg.initial_character = static_cast<int>(a);
-          Behaviour b(set.db, rigs, cfg);
           double t = 0;
           const Vector3d head(0, 1.6, 1.0);
-          b.update(t, 0, head);
-          for (int i = 0; i < 60; ++i) b.update(t += dt, dt, head);
+          const auto fighter = standing_in_open_room(set.db, rigs, a, head, t);
+          Behaviour& b = *fighter;
           // At the taller body's reach: beyond the shorter one's.
           const double reach = 0.97 * rigs[a].morphology.leg_length_m;
           b.order_strike(Order{t, kind}, b.ground().to_world(Vector3d(0, 1.0, reach)));
