@@ -387,6 +387,7 @@ bool AdaptJob::Run() const {
         td.pin = reach ? std::clamp(reach->pin, 0.0, 1.0) : 0.0;
         td.goal = out.effector_goal;
       }
+      if (td.fixed_goal && reach->pin_drop_max_m < drop) td.goal.y() -= drop - std::max(0.0, reach->pin_drop_max_m);
       out = PassOut{};
       decode_pass(*this, td, out);
     }

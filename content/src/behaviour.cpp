@@ -705,6 +705,8 @@ void Behaviour::apply_strike_rate(double dt) {
     strike_.turn = r->turn;
     strike_.stretch = r->stretch;
     strike_.lean = r->lean;
+    strike_.plan_drop_m = r->root_drop_m;
+    strike_.plan_elbow_under_head_m = r->elbow_under_head_m;
     // (The solver's d(t) is found at contact alone, as compute_reach_error's; after a switch the
     // way there is held to the lockout too: taken as found, a rate solved after the switch put
     // the stretch back from 1.01 to 1.30 in one update, the knee 9 cm.)
@@ -720,8 +722,21 @@ double Behaviour::ramp_out(double t) const {
   return reach_ramp_out(strike_.contact_time_s + strike_.hold_s, strike_.release_end_s, t);
 }
 
+double Behaviour::pin_drop_max_m() const {
+  if (strike_.effector.leg || strike_.block || !std::isfinite(strike_.plan_drop_m) || !std::isfinite(strike_.plan_elbow_under_head_m))
+    return std::numeric_limits<double>::infinity();
+  return strike_.plan_drop_m + std::max(0.0, strike_.plan_elbow_under_head_m - kElbowBelowHead_m);
+}
+
 ReachGoal Behaviour::reach_goal(double ramp) const {
-  return reach_goal_at(strike_.effector, strike_.turn, strike_.stretch, ramp, strike_.lean);
+  ReachGoal g = reach_goal_at(strike_.effector, strike_.turn, strike_.stretch, ramp, strike_.lean);
+  // A punch's fist goes down with a pelvis dropped deeper than its plan had it (a back foot
+  // held where it landed, a wider stance than planned) by more than the room its elbow had
+  // under the head: kept at the target, kenji's arm rose 6.7 cm steeper and his elbow came over
+  // his head at contact (the sweep's folded strike; the elbow rises about as far as the body
+  // drops against a fist held still).
+  g.pin_drop_max_m = pin_drop_max_m();
+  return g;
 }
 
 double Behaviour::release_end_s(double contact_time_s) const {
@@ -749,6 +764,10 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   contact_shoulder_m_ = r.shoulder_m;
   contact_head_m_ = r.head_m;
   contact_elbow_m_ = r.elbow_m;
+  if (plan_lean) {
+    strike_.plan_drop_m = r.root_drop_m;
+    strike_.plan_elbow_under_head_m = r.head_m.y() - r.elbow_m.y();
+  }
 }
 
 void Behaviour::cap_kick_stretch_over_way(double until_s) {
@@ -939,6 +958,7 @@ ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vect
       r.shoulder_m = pos[static_cast<std::size_t>(rig.skeleton.index(root))];
       r.head_m = pos[static_cast<std::size_t>(rig.skeleton.index(CJ::head))];
       r.elbow_m = pos[static_cast<std::size_t>(rig.skeleton.index(eff.side == kLeft ? CJ::l_elbow : CJ::r_elbow))];
+      r.root_drop_m = report.root_drop_m;
     }
   }
   return r;
@@ -1298,6 +1318,8 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   last_dt_ = dt > 0 ? dt : last_dt_;
 
   if (contact_now) {
+    // (The fist went down with a pelvis dropped deeper than planned: the aim is that much lower.)
+    strike_.aim_lowered_m += std::max(0.0, report_.root_drop_m - pin_drop_max_m());
     if (strike_.block) judge_block_in_place(now);
     else judge_contact(now, head);
   }

@@ -176,6 +176,8 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     result.turn = r.turn;
     result.stretch = r.stretch;
     result.lean = r.lean;
+    result.root_drop_m = r.root_drop_m;
+    result.elbow_under_head_m = r.head_m.y() - r.elbow_m.y();
   }
   return done(rate);
 }

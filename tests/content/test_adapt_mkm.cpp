@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -856,4 +857,48 @@ TEST(Adapt, AKickingLegStraightensSoftlyAndReachesExactlyBelowItsLockOut) {
   }
   std::printf("kicking knee: worst step %.1f x the goal's\n", worst);
   EXPECT_LT(worst, 8.0);
+}
+
+// A punch's goal pinned at contact (pin 1) stays put when held feet lower the pelvis; with
+// pin_drop_max_m it is kept against that much of the drop only and goes down with the body by
+// the rest (a plan checked the arm at its planned drop: held against a deeper one, the arm rose
+// steeper than planned, kenji's elbow over his head in the 120-order sweep). With nothing kept
+// the arm points from the lowered shoulder exactly as it did from the standing one.
+// SYNTHETIC: the punch line's pose, both ankles held 0.1 m under where the pose puts them.
+TEST(Adapt, APinnedGoalGoesDownWithTheBodyBeyondItsPinDropMax) {
+  PunchLine p;
+  const ReachGoal plain = p.goal_at(0.8);
+  AdaptJob base = p.b.job(p.rig, p.f);
+  base.reach = &plain;
+  ASSERT_TRUE(base.Run());
+  const Vector3d target = p.b.at_joint(p.rig, CJ::r_wrist);
+  const Vector3d arm0 = target - p.b.at_joint(p.rig, CJ::r_shoulder);
+  FootLocks locks;
+  locks.weight = {1, 1};
+  locks.supporting = {true, true};
+  locks.ankle_m = {p.b.at_joint(p.rig, CJ::l_ankle) - Vector3d(0, 0.1, 0), p.b.at_joint(p.rig, CJ::r_ankle) - Vector3d(0, 0.1, 0)};
+  locks.max_root_drop_m = 0.2;
+  const auto run = [&](double pin, double pin_drop_max_m, double& drop) {
+    ReachGoal g = plain;
+    g.pin = pin;
+    g.pin_drop_max_m = pin_drop_max_m;
+    AdaptReport rep;
+    AdaptJob job = p.b.job(p.rig, p.f);
+    job.reach = &g;
+    job.feet = &locks;
+    job.report = &rep;
+    EXPECT_TRUE(job.Run());
+    drop = rep.root_drop_m;
+    return p.b.at_joint(p.rig, CJ::r_wrist);
+  };
+  double drop = 0;
+  EXPECT_LT((run(1, std::numeric_limits<double>::infinity(), drop) - target).norm(), 1e-6);  // kept
+  EXPECT_NEAR(drop, 0.1, 0.01);
+  const Vector3d kept_4cm = run(1, 0.04, drop);
+  EXPECT_LT((kept_4cm - (target - Vector3d(0, drop - 0.04, 0))).norm(), 1e-6);
+  const Vector3d half = run(0.5, 0.04, drop);
+  EXPECT_LT((half - (target - Vector3d(0, 0.5 * (drop - 0.04) + 0.5 * drop, 0))).norm(), 1e-6);
+  const Vector3d none = run(1, 0, drop);
+  EXPECT_LT((none - p.b.at_joint(p.rig, CJ::r_shoulder) - arm0).norm(), 1e-6);
+  EXPECT_GT(drop, 0.05);
 }

@@ -9,6 +9,7 @@
 // Style (ozz-animation): a Rig is immutable runtime data built once per character; AdaptJob
 // is a small struct over caller-owned spans with Validate()/Run(); Run() never allocates.
 #include <array>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -84,6 +85,10 @@ struct ReachGoal {
   /// effector keeps its goal; 0: it moves down with the body like every other joint. The
   /// fighter sets d(t)'s ramp here, so the effector rejoins the body as d(t) is released.
   double pin = 1;
+  /// m: the most of the pelvis drop the goal is kept against; beyond it the goal goes down with
+  /// the body (by `pin` of the excess). A punch's plan checked its arm at the drop it planned
+  /// (its elbow under the head): held against a deeper drop, the arm rose steeper than planned.
+  double pin_drop_max_m = std::numeric_limits<double>::infinity();
   /// A punch's planned trunk lean at this frame (the lean its contact needs, eased in and out
   /// with d(t) by the caller): applied before the arm is solved, so the body leans into the
   /// punch over its whole way instead of the trunk fallback snapping in at full stretch.

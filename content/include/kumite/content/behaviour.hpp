@@ -128,6 +128,8 @@ struct StrikeRateResult {
   Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
   double stretch = 1;
   TrunkLean lean;        ///< a punch's trunk lean at contact (reach_correction)
+  double root_drop_m = std::numeric_limits<double>::quiet_NaN();  ///< m, a punch's planned pelvis drop at contact
+  double elbow_under_head_m = std::numeric_limits<double>::quiet_NaN();  ///< m, its elbow under its head joint there
   double solve_us = 0;   ///< µs the solve took (on whatever thread ran it)
 };
 
@@ -347,6 +349,11 @@ class Behaviour {
     /// m the punch aims below the target frozen at the order (0: at it): a straight arm to it
     /// would lift the elbow above the fighter's own head at contact (keep_elbow_below_head).
     double aim_lowered_m = 0;
+    /// m the pelvis drops for held feet at contact in the punch's plan, and its elbow under its
+    /// head joint there (NaN: none planned). A deeper drop on the way than the elbow's room
+    /// under the head allows takes the fist down with the body (ReachGoal::pin_drop_max_m).
+    double plan_drop_m = std::numeric_limits<double>::quiet_NaN();
+    double plan_elbow_under_head_m = std::numeric_limits<double>::quiet_NaN();
     int contact_update = -1;       ///< update counter at contact
     /// The feet the plan holds at contact (feet_through_contact; weight 0: not held): the
     /// punch's planned lean is found with the pelvis lowered for them, as the frames draw it.
@@ -450,6 +457,9 @@ class Behaviour {
   /// hold the elbow above the fighter's own head at contact aims lower (the visitor's neck or
   /// chest): on the pose compute_reach_error() last planned (contact_shoulder_m_, contact_head_m_).
   void keep_elbow_below_head();
+  /// m: the most pelvis drop a punch's fist is held at its target against (its plan's drop and
+  /// its elbow's room under the head; infinite for kicks, blocks and unplanned punches).
+  double pin_drop_max_m() const;
   /// The straight arm's part of it: the highest aim at the target's horizontal distance.
   void aim_straight_arm_below_head();
   double ramp_in(double t) const;   ///< d(t)'s weight at segment time t before contact
