@@ -38,6 +38,9 @@ constexpr double kMostStepGain_m = 0.03;
 double step_gain(double accel_mps2, double dt) { return std::min(accel_mps2 * dt * dt, kMostStepGain_m); }
 /// m: a kicking foot taken this far above its standing height (mid-step) is in the air already.
 constexpr double kTakenInTheAir_m = 0.01;
+/// s: a held foot the motion lifts while the other foot is still in the air where the motion
+/// has it down waits this long at most for it to come down.
+constexpr double kMostLiftWait_s = 0.1;
 /// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
 /// a step's length) while it is no farther out from the hip than this beyond the motion's foot.
 constexpr double kUnderHipSlack_m = 0.05;
@@ -200,7 +203,19 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         }
         break;
       case Phase::held: {
-        if (!in.planted || in.effector) {
+        // The motion lifts the foot while the other is still in the air where the motion has it
+        // down (its procedural step or its landing not done: a strike begun as the fighter
+        // stepped in lifts the back foot for its lunge): it stays on the floor until the other
+        // is down, kMostLiftWait_s at most. Lifted at once, both feet were off the floor where
+        // the mocap stands on one (mei stepping in at 18.55 s of the 120-order sweep's bout 7,
+        // 26 frames).
+        const FootSample& other_in = samples[static_cast<std::size_t>(1 - s)];
+        const bool other_up = other_in.planted && !other_in.effector &&
+                              (other.phase == Phase::stepping || other.phase == Phase::landing);
+        const bool lifted = !in.planted || in.effector;
+        const bool waits = lifted && !in.effector && other_up && f.lift_wait_s < kMostLiftWait_s;
+        f.lift_wait_s = waits ? f.lift_wait_s + dt : 0.0;
+        if (lifted && !waits) {
           // The motion lifts the foot: carry the gap to the motion's foot through the swing.
           start_swing(f, in);
           break;
@@ -250,8 +265,8 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // A foot the leg cannot reach any more steps at once, whatever the fighter is doing:
         // held there it would be dragged along the floor. Otherwise a foot steps only while the
         // other stands on the floor (both off it is a hop).
-        if ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || (stretch > max_stretch && eases_stretch))) ||
-            must_step[s]) {
+        if (!waits && ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || (stretch > max_stretch && eases_stretch))) ||
+                       must_step[s])) {
           f.phase = Phase::stepping;
           f.step_t = 0;
           f.step_time_s = tun_.step_time_s;

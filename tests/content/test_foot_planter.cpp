@@ -786,3 +786,87 @@ TEST(FootPlanter, AKickingFootIsNeverTakenUnderTheFloor) {
   std::printf("the kicking foot's lowest: %.4f m (the floor's ankle height 0.08)\n", lowest);
   EXPECT_GE(lowest, 0.08 - 1e-9);
 }
+
+// A strike begun while the fighter steps in: its clip lifts the back foot for the lunge while
+// the procedural step of the other foot is still in the air where the clip has that foot down.
+// Lifted at once, both feet were off the floor where the mocap stands on one (mei stepping in
+// at 18.55 s of the 120-order sweep's bout 7: 26 frames). The lifted foot stays on the floor
+// until the other is down, kMostLiftWait_s (0.1 s) at most; then it swings to its landing with
+// the way it lost, off the floor while it travels. SYNTHETIC: standing(), the left foot
+// stepping 0.3 m ahead; from the step's fourth update the right foot's motion lunges 0.4 m
+// forward in 0.3 s (constant speed, a 6 cm sine arc) to its landing.
+TEST(FootPlanter, AFootTheMotionLiftsWhileTheOtherStepsWaitsForItToComeDown) {
+  struct Walk {
+    int both_up = 0, held_after_lift = 0, slid = 0;
+    double fastest_mps = 0;
+    Vector3d end{0, 0, 0};
+  };
+  const auto run = [](double step_time_s, bool left_steps = true) {
+    kumite::content::FootPlantingTunables tun;
+    tun.step_time_s = step_time_s;
+    FootPlanter planter(tun);
+    FootLocks locks;
+    std::array<FootSample, 2> s;
+    both_feet_held(planter, s, locks);
+    if (left_steps) EXPECT_TRUE(planter.step_to(0, Vector3d(0.1, 0.08, 0.3)));
+    const Vector3d from = s[1].free_ankle_m, landing = from + Vector3d(0, 0, 0.4);
+    constexpr int kLift = 3, kLunge = 18;  // updates: the lunge's start, its length
+    Walk w;
+    Vector3d last = locks.ankle_m[1];
+    for (int k = 0; k < 45; ++k) {
+      const int u = k - kLift + 1;  // the lunge's update (1..kLunge), <= 0 before it
+      if (u >= 1) {
+        const double p = std::min(1.0, static_cast<double>(u) / kLunge);
+        const Vector3d next = from + (landing - from) * p + Vector3d(0, 0.06 * std::sin(std::numbers::pi * p), 0);
+        s[1].source_step_before_m = s[1].source_step_m;
+        s[1].source_step_m = next - s[1].free_ankle_m;
+        s[1].free_ankle_m = next;
+        s[1].planted = p >= 1;
+        s[1].has_landing = p < 1;
+        s[1].landing_ankle_m = landing;
+        s[1].source_path_left_m = (landing - next).norm();
+        s[1].swing_left_s = (kLunge - std::min(u, kLunge)) * kDt;
+      }
+      s[0].drawn_ankle_m = locks.ankle_m[0];
+      s[1].drawn_ankle_m = locks.ankle_m[1];
+      planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+      const bool right_up = planter.phase(1) != Phase::held;
+      w.both_up += planter.phase(0) == Phase::stepping && right_up;
+      w.held_after_lift += u >= 1 && !s[1].planted && planter.phase(1) == Phase::held;
+      const Vector3d d = locks.ankle_m[1] - last;
+      w.fastest_mps = std::max(w.fastest_mps, d.norm() / kDt);
+      // Along the floor faster than 0.5 m/s with the ankle within 5 mm of it: a slide.
+      w.slid += std::hypot(d.x(), d.z()) / kDt > 0.5 && locks.ankle_m[1].y() < 0.08 + 0.005;
+      last = locks.ankle_m[1];
+    }
+    w.end = locks.ankle_m[1];
+    return w;
+  };
+  // Without the left foot's step the right one goes at once (it lands 3.5 cm short: a foot
+  // from rest gathers speed at kSwingAccel_mps2, and moves at most 1.5 x its source's pace).
+  Walk w = run(0.15, false);
+  std::printf("no step: right held %d updates after its lift, fastest %.2f m/s, %.3f m from its landing\n", w.held_after_lift,
+              w.fastest_mps, (w.end - Vector3d(-0.1, 0.08, 0.4)).norm());
+  EXPECT_EQ(w.held_after_lift, 0);
+  EXPECT_LT((w.end - Vector3d(-0.1, 0.08, 0.4)).norm(), 0.04);
+  // A step of 0.15 s lands within the wait: the right foot leaves the floor only then, and
+  // lands 2 cm shorter than without the wait.
+  w = run(0.15);
+  std::printf("step 0.15 s: both up %d updates, right held %d updates after its lift, slid %d, fastest %.2f m/s, %.3f m from its landing\n",
+              w.both_up, w.held_after_lift, w.slid, w.fastest_mps, (w.end - Vector3d(-0.1, 0.08, 0.4)).norm());
+  EXPECT_EQ(w.both_up, 0);
+  EXPECT_GE(w.held_after_lift, 5);
+  EXPECT_EQ(w.slid, 0);
+  EXPECT_LT(w.fastest_mps, 3.0);
+  EXPECT_LT((w.end - Vector3d(-0.1, 0.08, 0.4)).norm(), 0.07);
+  // A long step (0.5 s): the right foot waits 0.1 s at most, then goes (both up after that),
+  // off the floor, not in a rush, and lands short by the way the wait and its catching up cost.
+  w = run(0.5);
+  std::printf("step 0.5 s: both up %d updates, right held %d updates after its lift, slid %d, fastest %.2f m/s, %.3f m from its landing\n",
+              w.both_up, w.held_after_lift, w.slid, w.fastest_mps, (w.end - Vector3d(-0.1, 0.08, 0.4)).norm());
+  EXPECT_LE(w.held_after_lift, 7);  // 0.1 s at 60 Hz and the update it is let go on
+  EXPECT_GT(w.both_up, 0);
+  EXPECT_EQ(w.slid, 0);
+  EXPECT_LT(w.fastest_mps, 3.0);
+  EXPECT_LT((w.end - Vector3d(-0.1, 0.08, 0.4)).norm(), 0.13);
+}

@@ -174,6 +174,7 @@ class FootPlanter {
     bool wants_step = false;          ///< held: lagging or over-stretched at the last update
     Eigen::Vector3d last_move{0, 0, 0};  ///< m: how far the lock moved at the last update
     double softness = 0;              ///< 0..1: FootLocks::softness, eased in when taken from free
+    double lift_wait_s = 0;           ///< s: held: how long the motion has lifted it while it waits for the other foot
   };
   FootPlantingTunables tun_;
   std::array<Foot, 2> feet_{};
