@@ -220,6 +220,7 @@ void Feet::plant(const FeetInput& in) {
       const double own_floor = rest_toe.allFinite() ? std::min(rest_ankle.y(), rest_toe.y()) : rest_ankle.y();
       constexpr double kMostShortLeg_m = 0.05;  // m: a foot standing higher at rest is a rig's, not a leg's
       f.standing_ankle_y_m = rest_ankle.y() - std::min(own_floor, rest_floor_y(rig) + kMostShortLeg_m);
+      if (rest_toe.allFinite()) f.standing_toe_y_m = rest_toe.y() - std::min(own_floor, rest_floor_y(rig) + kMostShortLeg_m);
       f.short_leg_m = rest_ankle.y() - rest_floor_y(rig) - f.standing_ankle_y_m;
     }
     f.reached = in.report->foot_reached[us];

@@ -41,6 +41,10 @@ constexpr double kTakenInTheAir_m = 0.01;
 /// s: a held foot the motion lifts while the other foot is still in the air where the motion
 /// has it down waits this long at most for it to come down.
 constexpr double kMostLiftWait_s = 0.1;
+/// m: a held ankle this far above where it stands when down begins to keep its toes on the
+/// floor (FootLocks::toe_floor_y_m), fully kOnToesSpan_m higher.
+constexpr double kOnToesFrom_m = 0.005, kOnToesSpan_m = 0.02;
+constexpr double kOnToesEase_s = 0.15;  ///< s: ...coming in and going out over this at the quickest
 /// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
 /// a step's length) while it is no farther out from the hip than this beyond the motion's foot.
 constexpr double kUnderHipSlack_m = 0.05;
@@ -517,6 +521,17 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     out.softness[static_cast<std::size_t>(s)] = f.softness;
     out.supporting[static_cast<std::size_t>(s)] = f.phase == Phase::held || f.phase == Phase::landing;
     out.ankle_m[static_cast<std::size_t>(s)] = f.lock;
+    // A held ankle above where it stands when down (the leg does not reach the floor flat: it
+    // waits on its toes) keeps its toes on the floor, coming in over kOnToesSpan_m of height.
+    out.toe_floor_y_m[static_cast<std::size_t>(s)] = std::isfinite(in.standing_toe_y_m) ? in.standing_toe_y_m : 0.0;
+    // (Eased over kOnToesEase_s: the floor under a raised heel moves with the source's heel, and
+    // the toes went 6 cm in a frame as the weight followed it at once.)
+    const double on_toes = f.phase == Phase::held && std::isfinite(in.standing_toe_y_m)
+                               ? std::clamp((f.lock.y() - (in.standing_ankle_y_m + in.source_lift_m) - kOnToesFrom_m) / kOnToesSpan_m, 0.0, 1.0)
+                               : 0.0;
+    const double ease = dt > 0 ? dt / kOnToesEase_s : 1.0;
+    f.on_toes = std::clamp(on_toes, f.on_toes - ease, f.on_toes + ease);
+    out.toe_floor_weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : f.on_toes;
     // The heading is kept whole while held; lifted, the foot turns to the motion's heading
     // over heading_release_s (a procedural step: over the step), never in one frame.
     if (f.phase == Phase::held) {

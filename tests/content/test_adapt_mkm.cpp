@@ -902,3 +902,42 @@ TEST(Adapt, APinnedGoalGoesDownWithTheBodyBeyondItsPinDropMax) {
   EXPECT_LT((none - p.b.at_joint(p.rig, CJ::r_shoulder) - arm0).norm(), 1e-6);
   EXPECT_GT(drop, 0.05);
 }
+
+// A held ankle the leg holds above the floor (it does not reach down to it flat) stands on its
+// toes: with toe_floor_y_m the toe joint goes no higher than that, the foot pitched down about
+// the ankle with its heading kept; by toe_floor_weight in between; a toe already below it is
+// left alone (mei's support foot held 6.4 cm up after a kick floated flat over the floor for
+// 0.45 s in the 120-order sweep). SYNTHETIC: the standing pose, the left ankle held 6 cm up.
+TEST(Adapt, AFootHeldAboveTheFloorKeepsItsToesOnTheFloor) {
+  const Skeleton s = synthetic::make_skeleton({});
+  const Rig rig = make_rig(s, {}, "c");
+  Buffers b(rig);
+  const MkmFrame f = punch_pose(s, rig, 0);
+  ASSERT_TRUE(b.job(rig, f).Run());
+  const Vector3d ankle0 = b.at_joint(rig, CJ::l_ankle), toe0 = b.at_joint(rig, CJ::l_toe);
+  FootLocks locks;
+  locks.weight = {1, 0};
+  locks.ankle_m = {ankle0 + Vector3d(0, 0.06, 0), b.at_joint(rig, CJ::r_ankle)};
+  const auto run = [&](double floor_y, double w) {
+    locks.toe_floor_y_m = {floor_y, 0};
+    locks.toe_floor_weight = {w, 0};
+    AdaptJob job = b.job(rig, f);
+    job.feet = &locks;
+    EXPECT_TRUE(job.Run());
+    return std::pair(b.at_joint(rig, CJ::l_ankle), b.at_joint(rig, CJ::l_toe));
+  };
+  const auto [ankle_off, toe_off] = run(toe0.y(), 0.0);
+  EXPECT_NEAR(ankle_off.y(), ankle0.y() + 0.06, 1e-6);
+  EXPECT_NEAR(toe_off.y() - toe0.y(), 0.06, 0.005) << "without it the flat foot floats with its ankle";
+  const auto [ankle_on, toe_on] = run(toe0.y(), 1.0);
+  EXPECT_NEAR(toe_on.y(), toe0.y(), 1e-6);
+  EXPECT_LT((ankle_on - ankle_off).norm(), 1e-9) << "the ankle stays where it is held";
+  const Eigen::Vector2d h_off(toe_off.x() - ankle_off.x(), toe_off.z() - ankle_off.z());
+  const Eigen::Vector2d h_on(toe_on.x() - ankle_on.x(), toe_on.z() - ankle_on.z());
+  EXPECT_GT(h_off.normalized().dot(h_on.normalized()), 1 - 1e-9) << "the heading is kept";
+  const auto [ankle_half, toe_half] = run(toe0.y(), 0.5);
+  EXPECT_GT(toe_half.y(), toe_on.y() + 0.01);
+  EXPECT_LT(toe_half.y(), toe_off.y() - 0.01);
+  const auto [ankle_low, toe_low] = run(toe_off.y() + 0.01, 1.0);
+  EXPECT_LT((toe_low - toe_off).norm(), 1e-9) << "a toe under its floor is left alone";
+}

@@ -870,3 +870,49 @@ TEST(FootPlanter, AFootTheMotionLiftsWhileTheOtherStepsWaitsForItToComeDown) {
   EXPECT_LT(w.fastest_mps, 3.0);
   EXPECT_LT((w.end - Vector3d(-0.1, 0.08, 0.4)).norm(), 0.13);
 }
+
+// A held foot whose heel the motion raised and lowers again while the leg does not reach down
+// to the floor flat (the pelvis up: a kick's support leg) waits on its toes: its lock stays up
+// and FootLocks::toe_floor_weight asks for the toes on the floor, coming in no faster than over
+// kOnToesEase_s (0.15 s), and going out as slowly once the foot is let down or lifted.
+// SYNTHETIC: standing(), the left heel raised 6 cm by the motion, the left hip then raised so
+// that the leg (0.85 m) reaches no lower than 5 cm over its floor, the heel lowered.
+TEST(FootPlanter, AHeldFootWaitingAboveTheFloorStandsOnItsToes) {
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s;
+  both_feet_held(planter, s, locks);
+  for (auto& f : s) f.standing_toe_y_m = 0.01;
+  for (int k = 0; k < 30; ++k) {
+    s[0].source_lift_m = 0.06;
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+  }
+  EXPECT_NEAR(locks.ankle_m[0].y(), 0.14, 1e-9) << "the heel is up with the motion's";
+  EXPECT_EQ(locks.toe_floor_weight[0], 0.0) << "a raised heel is the motion's: its toes are down already";
+  EXPECT_EQ(locks.toe_floor_y_m[0], 0.01);
+  s[0].hip_m.y() = 0.13 + 0.85 * planter.tunables().max_leg_stretch;  // the leg reaches 5 cm over the floor at most
+  double most_step = 0, last = locks.toe_floor_weight[0];
+  int k = 0;
+  for (; k < 60; ++k) {
+    s[0].source_lift_m = 0;
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    ASSERT_EQ(planter.phase(0), Phase::held);
+    most_step = std::max(most_step, std::abs(locks.toe_floor_weight[0] - last));
+    last = locks.toe_floor_weight[0];
+  }
+  EXPECT_GT(locks.ankle_m[0].y(), 0.08 + 0.04) << "it waits up, on its toes";
+  EXPECT_EQ(locks.toe_floor_weight[0], 1.0);
+  EXPECT_LE(most_step, kDt / 0.15 + 1e-12);
+  EXPECT_EQ(locks.toe_floor_weight[1], 0.0) << "the other foot stands flat";
+  // The hip comes down: the foot settles onto the floor and its toes are let go as slowly.
+  s[0].hip_m.y() = 0.9;
+  most_step = 0;
+  for (k = 0; k < 60; ++k) {
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    most_step = std::max(most_step, std::abs(locks.toe_floor_weight[0] - last));
+    last = locks.toe_floor_weight[0];
+  }
+  EXPECT_NEAR(locks.ankle_m[0].y(), 0.08, 1e-9);
+  EXPECT_EQ(locks.toe_floor_weight[0], 0.0);
+  EXPECT_LE(most_step, kDt / 0.15 + 1e-12);
+}

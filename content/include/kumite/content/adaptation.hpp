@@ -118,6 +118,12 @@ struct FootLocks {
   /// centimetres as its soft zone comes in).
   std::array<double, 2> softness{1, 1};
   std::array<Eigen::Vector2d, 2> heading_xz{Eigen::Vector2d(0, 1), Eigen::Vector2d(0, 1)};
+  /// [side] m, room: a held foot's toe joint goes no higher than this, by `toe_floor_weight`
+  /// (0..1, times `weight`): the foot pitches down about its ankle to put it there. An ankle
+  /// held above the floor (a leg that does not reach down to it flat) stands on its toes; the
+  /// motion's flat foot held at that height floated 6 cm over the floor.
+  std::array<double, 2> toe_floor_y_m{0, 0};
+  std::array<double, 2> toe_floor_weight{0, 0};
 };
 
 /// What one Run() did (optional output).

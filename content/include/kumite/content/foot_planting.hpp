@@ -51,6 +51,9 @@ struct FootSample {
   Eigen::Vector3d hip_m{0, 0, 0};          ///< m, room: the hip drawn at the last update
   double leg_length_m = 1;         ///< m, thigh + shin
   double standing_ankle_y_m = 0.08;  ///< m, the ankle's height above the floor when standing
+  /// m, the toe joint's height above the floor when the foot stands flat (+inf: unknown). A held
+  /// foot's toes go no higher (FootLocks::toe_floor_y_m).
+  double standing_toe_y_m = std::numeric_limits<double>::infinity();
   /// m: how much higher than standing_ankle_y_m this ankle may be held where the leg does not
   /// reach the floor (straight at max_leg_stretch or the motion's own stretch): a leg shorter
   /// than the other (every character's left, by 1.5-1.9 cm, as the CMU 135 actor's) stands
@@ -175,6 +178,7 @@ class FootPlanter {
     Eigen::Vector3d last_move{0, 0, 0};  ///< m: how far the lock moved at the last update
     double softness = 0;              ///< 0..1: FootLocks::softness, eased in when taken from free
     double lift_wait_s = 0;           ///< s: held: how long the motion has lifted it while it waits for the other foot
+    double on_toes = 0;               ///< 0..1: FootLocks::toe_floor_weight, eased toward how far up the held ankle waits
   };
   FootPlantingTunables tun_;
   std::array<Foot, 2> feet_{};
