@@ -297,6 +297,9 @@ void Behaviour::select_character(int index, Timestamp now) {
   if (striking()) {
     strike_.switched_body = true;
     compute_reach_error(strike_.contact_time_s);
+    // A punch keeps the new body's elbow under its head too (aiko's head-height punch switched
+    // to mei 0.23 s before contact reached full stretch with mei's elbow over her head).
+    if (!strike_.effector.leg && !strike_.block) keep_elbow_below_head();
   }
   emit(FighterEvent::Kind::character_changed, now, Order{now, OrderKind::select_character, index},
        FighterEvent::Reason::none);

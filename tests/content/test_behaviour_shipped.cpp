@@ -7,6 +7,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -690,6 +691,65 @@ TEST(BehaviourShipped, AKickSwitchedToAShorterBodyOnItsWayDrawsNoSnap) {
   std::printf("kicks switched to a shorter body on their way: %d cases (%d before contact), %d snaps (%s)\n", cases,
               switched_before_contact, snaps, first_snap.c_str());
   EXPECT_GT(switched_before_contact, cases / 2);
+  EXPECT_EQ(snaps, 0) << first_snap;
+}
+
+// A head-height punch switched to a shorter body on its way keeps the new body's elbow under
+// its head at contact (the 120-order sweep with stance steps on: aiko's punch switched to mei
+// 0.23 s before contact reached full stretch with mei's elbow over her head, in six bouts). The
+// aim comes down for the new body as it would have been planned for it (keep_elbow_below_head).
+TEST(BehaviourShipped, APunchSwitchedToAShorterBodyOnItsWayKeepsTheElbowUnderTheHead) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  const double dt = 1.0 / 60;
+  int snaps = 0, cases = 0, switched_before_contact = 0, over = 0;
+  double worst = std::numeric_limits<double>::infinity();
+  std::string first_snap, first_over;
+  for (std::size_t a = 0; a < rigs.size(); ++a) {
+    for (std::size_t c = 0; c < rigs.size(); ++c) {
+      if (rigs[c].morphology.height_m > rigs[a].morphology.height_m - 0.05) continue;
+      for (const OrderKind kind : {OrderKind::punch_left, OrderKind::punch_right}) {
+        for (const int after : {6, 12, 18}) {
+          const bool left = kind == OrderKind::punch_left;
+          const std::string what = fmt::format("{} -> {} {} updates in, {}", rigs[a].name, rigs[c].name, after,
+                                               left ? "left punch" : "right punch");
+          ++cases;
+          double t = 0;
+          const Vector3d head(0, 1.6, 1.0);
+          const auto fighter = standing_in_open_room(set.db, rigs, a, head, t);
+          Behaviour& b = *fighter;
+          // At the taller body's head height, 0.9 of its arm in front of its shoulder line.
+          const double h = rigs[a].morphology.height_m;
+          b.order_strike(Order{t, kind}, b.ground().to_world(Vector3d(0, 0.93 * h, 0.9 * rigs[a].morphology.arm_length(kRight) + 0.15)));
+          std::vector<std::vector<Vector3d>> track{drawn_canonical(b)};
+          bool judged = false;
+          for (int i = 0; i < 90; ++i) {
+            if (i == after) {
+              if (!b.strike().contact_done) ++switched_before_contact;
+              b.order(Order{t, OrderKind::select_character, static_cast<std::int32_t>(c)});
+            }
+            const bool before = b.strike().contact_done;
+            b.update(t += dt, dt, head);
+            track.push_back(drawn_canonical(b));
+            if (!before && b.strike().contact_done && !judged && i >= after) {
+              judged = true;
+              const auto& j = track.back();
+              const double elbow = j[static_cast<std::size_t>(left ? CJ::l_elbow : CJ::r_elbow)].y();
+              const double under = j[static_cast<std::size_t>(CJ::head)].y() - elbow;
+              worst = std::min(worst, under);
+              if (under < 0 && ++over == 1) first_over = fmt::format("{}: elbow {:.3f} m over the head", what, -under);
+            }
+          }
+          snaps += count_snaps(track, what, first_snap);
+        }
+      }
+    }
+  }
+  std::printf("head-height punches switched to a shorter body on their way: %d cases (%d before contact), elbow over the "
+              "head at contact %d (least room under it %.3f m), %d snaps (%s)\n",
+              cases, switched_before_contact, over, worst, snaps, first_snap.c_str());
+  EXPECT_GT(switched_before_contact, cases / 2);
+  EXPECT_EQ(over, 0) << first_over;
   EXPECT_EQ(snaps, 0) << first_snap;
 }
 
