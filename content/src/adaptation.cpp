@@ -274,6 +274,20 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
             dir = ((1 - w) * dir.normalized() + w * down).normalized();
           }
         }
+        if (job.feet && job.feet->weight[s] > 0 && job.feet->toe_lowest_weight[s] > 0 && std::isfinite(job.feet->toe_lowest_y_m[s])) {
+          // Toes no lower than their lowest: pitched up about the ankle, the heading kept.
+          const auto& rest = job.rig->rest_pose;
+          const double foot = (rest[static_cast<std::size_t>(s == kLeft ? CJ::l_toe : CJ::r_toe)] -
+                               rest[static_cast<std::size_t>(s == kLeft ? CJ::l_ankle : CJ::r_ankle)]).norm();
+          const Eigen::Vector2d h(dir.x(), dir.z());
+          if (foot > 1e-6 && h.norm() > 1e-6 && pos.y() + dir.normalized().y() * foot < job.feet->toe_lowest_y_m[s]) {
+            const double y = std::clamp((job.feet->toe_lowest_y_m[s] - pos.y()) / foot, -1.0, 1.0);
+            const Eigen::Vector2d hn = h.normalized() * std::sqrt(1 - y * y);
+            const Vector3d up(hn.x(), y, hn.y());
+            const double w = std::clamp(job.feet->weight[s], 0.0, 1.0) * std::clamp(job.feet->toe_lowest_weight[s], 0.0, 1.0);
+            dir = ((1 - w) * dir.normalized() + w * up).normalized();
+          }
+        }
         rot = aim(dir);
         break;
       }

@@ -45,6 +45,9 @@ constexpr double kMostLiftWait_s = 0.1;
 /// floor (FootLocks::toe_floor_y_m), fully kOnToesSpan_m higher.
 constexpr double kOnToesFrom_m = 0.005, kOnToesSpan_m = 0.02;
 constexpr double kOnToesEase_s = 0.15;  ///< s: ...coming in and going out over this at the quickest
+/// m: a foot on the floor or landing keeps its toe joint no lower than this under where it
+/// stands flat (FootLocks::toe_lowest_y_m).
+constexpr double kToesUnderFloor_m = 0.01;
 /// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
 /// a step's length) while it is no farther out from the hip than this beyond the motion's foot.
 constexpr double kUnderHipSlack_m = 0.05;
@@ -532,6 +535,12 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     const double ease = dt > 0 ? dt / kOnToesEase_s : 1.0;
     f.on_toes = std::clamp(on_toes, f.on_toes - ease, f.on_toes + ease);
     out.toe_floor_weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : f.on_toes;
+    // Held or coming down, its toes go no lower than kToesUnderFloor_m under where they stand
+    // (eased in and out as the weight above).
+    const double keep_up = (f.phase == Phase::held || f.phase == Phase::landing) && std::isfinite(in.standing_toe_y_m) ? 1.0 : 0.0;
+    f.toes_kept_up = std::clamp(keep_up, f.toes_kept_up - ease, f.toes_kept_up + ease);
+    out.toe_lowest_y_m[static_cast<std::size_t>(s)] = std::isfinite(in.standing_toe_y_m) ? in.standing_toe_y_m - kToesUnderFloor_m : 0.0;
+    out.toe_lowest_weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : f.toes_kept_up;
     // The heading is kept whole while held; lifted, the foot turns to the motion's heading
     // over heading_release_s (a procedural step: over the step), never in one frame.
     if (f.phase == Phase::held) {

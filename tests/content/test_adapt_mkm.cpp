@@ -940,4 +940,16 @@ TEST(Adapt, AFootHeldAboveTheFloorKeepsItsToesOnTheFloor) {
   EXPECT_LT(toe_half.y(), toe_off.y() - 0.01);
   const auto [ankle_low, toe_low] = run(toe_off.y() + 0.01, 1.0);
   EXPECT_LT((toe_low - toe_off).norm(), 1e-9) << "a toe under its floor is left alone";
+  // toe_lowest_y_m: no lower than that, pitched up (a toe 2 cm under it comes up to it).
+  locks.toe_floor_weight = {0, 0};
+  locks.toe_lowest_y_m = {toe_off.y() + 0.02, 0};
+  locks.toe_lowest_weight = {1, 0};
+  AdaptJob job = b.job(rig, f);
+  job.feet = &locks;
+  ASSERT_TRUE(job.Run());
+  EXPECT_NEAR(b.at_joint(rig, CJ::l_toe).y(), toe_off.y() + 0.02, 1e-6);
+  EXPECT_LT((b.at_joint(rig, CJ::l_ankle) - ankle_off).norm(), 1e-9);
+  locks.toe_lowest_y_m = {toe_off.y() - 0.01, 0};
+  ASSERT_TRUE(job.Run());
+  EXPECT_LT((b.at_joint(rig, CJ::l_toe) - toe_off).norm(), 1e-9) << "a toe above its lowest is left alone";
 }

@@ -20,7 +20,8 @@ using Phase = FootPlanter::Phase;
 
 constexpr double kDt = 1.0 / 60;
 
-/// Both feet standing where the motion has them: ankles 8 cm up, 0.2 m apart, hips above.
+/// Both feet standing where the motion has them: ankles 8 cm up (toe joints 1 cm), 0.2 m apart,
+/// hips above.
 std::array<FootSample, 2> standing() {
   std::array<FootSample, 2> s;
   for (int side = 0; side < 2; ++side) {
@@ -32,6 +33,7 @@ std::array<FootSample, 2> standing() {
     f.hip_m = Vector3d(x, 0.9, 0);
     f.leg_length_m = 0.85;
     f.standing_ankle_y_m = 0.08;
+    f.standing_toe_y_m = 0.01;
   }
   return s;
 }
@@ -798,7 +800,7 @@ TEST(FootPlanter, AKickingFootIsNeverTakenUnderTheFloor) {
 TEST(FootPlanter, AFootTheMotionLiftsWhileTheOtherStepsWaitsForItToComeDown) {
   struct Walk {
     int both_up = 0, held_after_lift = 0, slid = 0;
-    double fastest_mps = 0;
+    double fastest_mps = 0, least_toes_kept = 1;
     Vector3d end{0, 0, 0};
   };
   const auto run = [](double step_time_s, bool left_steps = true) {
@@ -832,6 +834,8 @@ TEST(FootPlanter, AFootTheMotionLiftsWhileTheOtherStepsWaitsForItToComeDown) {
       planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
       const bool right_up = planter.phase(1) != Phase::held;
       w.both_up += planter.phase(0) == Phase::stepping && right_up;
+      // Held while it waits, its toes are kept out of the floor (the motion rolls it onto them).
+      if (u >= 1 && !s[1].planted && planter.phase(1) == Phase::held) w.least_toes_kept = std::min(w.least_toes_kept, locks.toe_lowest_weight[1]);
       w.held_after_lift += u >= 1 && !s[1].planted && planter.phase(1) == Phase::held;
       const Vector3d d = locks.ankle_m[1] - last;
       w.fastest_mps = std::max(w.fastest_mps, d.norm() / kDt);
@@ -856,6 +860,7 @@ TEST(FootPlanter, AFootTheMotionLiftsWhileTheOtherStepsWaitsForItToComeDown) {
               w.both_up, w.held_after_lift, w.slid, w.fastest_mps, (w.end - Vector3d(-0.1, 0.08, 0.4)).norm());
   EXPECT_EQ(w.both_up, 0);
   EXPECT_GE(w.held_after_lift, 5);
+  EXPECT_EQ(w.least_toes_kept, 1.0);
   EXPECT_EQ(w.slid, 0);
   EXPECT_LT(w.fastest_mps, 3.0);
   EXPECT_LT((w.end - Vector3d(-0.1, 0.08, 0.4)).norm(), 0.07);
@@ -882,7 +887,6 @@ TEST(FootPlanter, AHeldFootWaitingAboveTheFloorStandsOnItsToes) {
   FootLocks locks;
   std::array<FootSample, 2> s;
   both_feet_held(planter, s, locks);
-  for (auto& f : s) f.standing_toe_y_m = 0.01;
   for (int k = 0; k < 30; ++k) {
     s[0].source_lift_m = 0.06;
     planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);

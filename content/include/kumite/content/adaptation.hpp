@@ -124,6 +124,12 @@ struct FootLocks {
   /// motion's flat foot held at that height floated 6 cm over the floor.
   std::array<double, 2> toe_floor_y_m{0, 0};
   std::array<double, 2> toe_floor_weight{0, 0};
+  /// [side] m, room: ...and no lower than this, by `toe_lowest_weight` (the foot pitched up
+  /// about its ankle): a foot on the floor or coming down onto it does not put its toes through
+  /// it (a held foot whose motion rolls it onto its toes to lift it, held on while the other
+  /// foot lands, pushed them 1.8 cm under).
+  std::array<double, 2> toe_lowest_y_m{0, 0};
+  std::array<double, 2> toe_lowest_weight{0, 0};
 };
 
 /// What one Run() did (optional output).

@@ -179,6 +179,7 @@ class FootPlanter {
     double softness = 0;              ///< 0..1: FootLocks::softness, eased in when taken from free
     double lift_wait_s = 0;           ///< s: held: how long the motion has lifted it while it waits for the other foot
     double on_toes = 0;               ///< 0..1: FootLocks::toe_floor_weight, eased toward how far up the held ankle waits
+    double toes_kept_up = 0;          ///< 0..1: FootLocks::toe_lowest_weight, eased (1 held or landing)
   };
   FootPlantingTunables tun_;
   std::array<Foot, 2> feet_{};
