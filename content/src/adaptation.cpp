@@ -79,6 +79,20 @@ float bone_radius(Role role, double length_m, double height_m) {
   }
 }
 
+/// A foot's direction `dir` pitched about its ankle at `ankle` (its heading kept) so that the toe
+/// joint `foot_m` along it is at height `y_m`, blended in by `w` (0..1): only where the toe lies
+/// above it (`no_higher`) or below it (else); `dir` as it is otherwise.
+Vector3d toe_kept(const Vector3d& dir, const Vector3d& ankle, double foot_m, double y_m, double w, bool no_higher) {
+  const Vector3d d = dir.normalized();
+  const Eigen::Vector2d h(d.x(), d.z());
+  if (!(w > 0) || !std::isfinite(y_m) || !(foot_m > 1e-6) || h.norm() < 1e-6) return dir;
+  const double toe = ankle.y() + d.y() * foot_m;
+  if (no_higher ? toe <= y_m : toe >= y_m) return dir;
+  const double y = std::clamp((y_m - ankle.y()) / foot_m, -1.0, 1.0);
+  const Eigen::Vector2d hn = h.normalized() * std::sqrt(1 - y * y);
+  return ((1 - w) * d + w * Vector3d(hn.x(), y, hn.y())).normalized();
+}
+
 // Trunk deltas from the CCD fallback (identity when unused): spine, chest, clavicle.
 struct TrunkDeltas {
   Quaterniond spine = Quaterniond::Identity();
@@ -260,33 +274,14 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
             dir = Eigen::AngleAxisd(turn, Vector3d::UnitY()) * dir;
           }
         }
-        if (job.feet && job.feet->weight[s] > 0 && job.feet->toe_floor_weight[s] > 0 && std::isfinite(job.feet->toe_floor_y_m[s])) {
-          // Toes no higher than their floor: pitched down about the ankle, the heading kept.
+        if (job.feet && job.feet->weight[s] > 0) {
+          // Toes no higher than their floor (on its toes) and no lower than their lowest.
           const auto& rest = job.rig->rest_pose;
           const double foot = (rest[static_cast<std::size_t>(s == kLeft ? CJ::l_toe : CJ::r_toe)] -
                                rest[static_cast<std::size_t>(s == kLeft ? CJ::l_ankle : CJ::r_ankle)]).norm();
-          const Eigen::Vector2d h(dir.x(), dir.z());
-          if (foot > 1e-6 && h.norm() > 1e-6 && pos.y() + dir.y() * foot > job.feet->toe_floor_y_m[s]) {
-            const double y = std::clamp((job.feet->toe_floor_y_m[s] - pos.y()) / foot, -1.0, 1.0);
-            const Eigen::Vector2d hn = h.normalized() * std::sqrt(1 - y * y);
-            const Vector3d down(hn.x(), y, hn.y());
-            const double w = std::clamp(job.feet->weight[s], 0.0, 1.0) * std::clamp(job.feet->toe_floor_weight[s], 0.0, 1.0);
-            dir = ((1 - w) * dir.normalized() + w * down).normalized();
-          }
-        }
-        if (job.feet && job.feet->weight[s] > 0 && job.feet->toe_lowest_weight[s] > 0 && std::isfinite(job.feet->toe_lowest_y_m[s])) {
-          // Toes no lower than their lowest: pitched up about the ankle, the heading kept.
-          const auto& rest = job.rig->rest_pose;
-          const double foot = (rest[static_cast<std::size_t>(s == kLeft ? CJ::l_toe : CJ::r_toe)] -
-                               rest[static_cast<std::size_t>(s == kLeft ? CJ::l_ankle : CJ::r_ankle)]).norm();
-          const Eigen::Vector2d h(dir.x(), dir.z());
-          if (foot > 1e-6 && h.norm() > 1e-6 && pos.y() + dir.normalized().y() * foot < job.feet->toe_lowest_y_m[s]) {
-            const double y = std::clamp((job.feet->toe_lowest_y_m[s] - pos.y()) / foot, -1.0, 1.0);
-            const Eigen::Vector2d hn = h.normalized() * std::sqrt(1 - y * y);
-            const Vector3d up(hn.x(), y, hn.y());
-            const double w = std::clamp(job.feet->weight[s], 0.0, 1.0) * std::clamp(job.feet->toe_lowest_weight[s], 0.0, 1.0);
-            dir = ((1 - w) * dir.normalized() + w * up).normalized();
-          }
+          const double w = std::clamp(job.feet->weight[s], 0.0, 1.0);
+          dir = toe_kept(dir, pos, foot, job.feet->toe_floor_y_m[s], w * std::clamp(job.feet->toe_floor_weight[s], 0.0, 1.0), true);
+          dir = toe_kept(dir, pos, foot, job.feet->toe_lowest_y_m[s], w * std::clamp(job.feet->toe_lowest_weight[s], 0.0, 1.0), false);
         }
         rot = aim(dir);
         break;
