@@ -168,6 +168,7 @@ std::optional<Order> SparPlanner::step(const PlannerInput& in) {
         out = Order{in.now, counter_->kind, -1};
         ++counts_.counters;
         counts_.reaction_sum_s += in.now - counter_strike_t_;
+        counts_.reaction_drawn_sum_s += counter_->due - counter_strike_t_;
         counter_.reset();
       }
     }

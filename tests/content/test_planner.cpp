@@ -131,6 +131,12 @@ TEST(Planner, CountersAVisitorStrikeWithTheArmOnItsOpenSideAfterTheReactionDelay
   EXPECT_NEAR(sum / delays.size(), 0.1, 0.01);
   EXPECT_EQ(left, 200);
   EXPECT_EQ(right, 200);
+  // The counts kumite-motion spar reports: the delays ordered, and of them the drawn ones (the
+  // fighter always idle here, each order comes on the first update at or after its draw).
+  EXPECT_EQ(p.counts().counters, 400);
+  EXPECT_NEAR(p.counts().reaction_sum_s, sum, 1e-9);
+  EXPECT_LE(p.counts().reaction_drawn_sum_s, p.counts().reaction_sum_s);
+  EXPECT_GE(p.counts().reaction_drawn_sum_s, p.counts().reaction_sum_s - 400 * dt);
 }
 
 TEST(Planner, CountersWithTheConfiguredProbability) {
