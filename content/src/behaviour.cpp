@@ -769,7 +769,7 @@ void Behaviour::compute_reach_error(double at_time_s, bool plan_lean) {
   contact_elbow_m_ = r.elbow_m;
   if (plan_lean) {
     strike_.plan_drop_m = r.root_drop_m;
-    strike_.plan_elbow_under_head_m = r.head_m.y() - r.elbow_m.y();
+    strike_.plan_elbow_under_head_m = r.elbow_under_head_m;
   }
 }
 
@@ -962,6 +962,7 @@ ReachCorrection reach_correction(const Rig& rig, const Effector& eff, const Vect
       r.head_m = pos[static_cast<std::size_t>(rig.skeleton.index(CJ::head))];
       r.elbow_m = pos[static_cast<std::size_t>(rig.skeleton.index(eff.side == kLeft ? CJ::l_elbow : CJ::r_elbow))];
       r.root_drop_m = report.root_drop_m;
+      r.elbow_under_head_m = r.head_m.y() - r.elbow_m.y();
     }
   }
   return r;

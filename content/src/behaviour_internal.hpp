@@ -185,6 +185,7 @@ struct ReachCorrection {
   Eigen::Vector3d head_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
   Eigen::Vector3d elbow_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());  ///< the striking elbow, likewise
   double root_drop_m = std::numeric_limits<double>::quiet_NaN();  ///< m the pelvis drops for the held feet there
+  double elbow_under_head_m = std::numeric_limits<double>::quiet_NaN();  ///< m, head joint - striking elbow, heights there
 };
 /// `feet` (optional): the feet held through to contact; the planned lean is found with the
 /// pelvis lowered for them (no lower than puts the striking shoulder at `lowest_shoulder_y_m`),

@@ -177,7 +177,7 @@ StrikeRateResult StrikeRateSolver::solve(const StrikeRateJob& job) {
     result.stretch = r.stretch;
     result.lean = r.lean;
     result.root_drop_m = r.root_drop_m;
-    result.elbow_under_head_m = r.head_m.y() - r.elbow_m.y();
+    result.elbow_under_head_m = r.elbow_under_head_m;
   }
   return done(rate);
 }
