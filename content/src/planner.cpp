@@ -157,10 +157,14 @@ std::optional<Order> SparPlanner::step(const PlannerInput& in) {
       counter_strike_t_ = s.t;
     }
   }
+  // A decision due at a time is taken at the update nearest it (half this update's period
+  // early at most), not at the first one after it: taken at the first after, each counter came
+  // half a 60 Hz frame late on average, 8 ms of a 0.1 s mean reaction (kumite-motion spar).
+  const double half_period_s = 0.5 * dt;
   std::optional<Order> out;
   if (counter_) {
     state_ = PlannerState::countering;
-    if (in.now >= counter_->due) {
+    if (in.now + half_period_s >= counter_->due) {
       if (in.now > counter_->due + tun_.counter_deadline_s) {
         ++counts_.counters_dropped;
         counter_.reset();
@@ -189,7 +193,7 @@ std::optional<Order> SparPlanner::step(const PlannerInput& in) {
   if (!in.fighter_idle || in.supervisor_strike) return std::nullopt;
   counts_.timer_running_s += dt;
   attack_left_s_ -= dt;
-  if (attack_left_s_ > 0) return std::nullopt;
+  if (attack_left_s_ > half_period_s) return std::nullopt;
   ++counts_.attacks;
   out = Order{in.now, attack_->kind, -1};
   attack_.reset();

@@ -1264,8 +1264,8 @@ int run_spar(const SparArgs& a) {
           {"reaction_time_s_ordered", ratio(c.reaction_sum_s, c.counters)},
           {"reaction_time_s_drawn", ratio(c.reaction_drawn_sum_s, c.counters)},
           {"reaction_time_s_spread", c.counters > 0 ? preset->reaction_time_s / std::sqrt(static_cast<double>(c.counters)) : 0.0},
-          {"reaction_note", "mean delay visitor strike -> counter order over the counters ordered: ordered, including waiting for "
-                            "the fighter to be idle; drawn, the planner's exponential draws alone; spread, the standard error of "
+          {"reaction_note", "mean delay visitor strike -> counter order over the counters ordered: ordered, as given (at the update "
+                            "nearest the due time, after waiting for the fighter to be idle); drawn, the planner's exponential draws alone; spread, the standard error of "
                             "such a mean of that many draws (reaction_time_s / sqrt(counters))"}}},
         {"counts",
          {{"attacks", c.attacks}, {"visitor_strikes_engaged", c.visitor_strikes}, {"counters_drawn", c.counters_drawn},

@@ -133,7 +133,7 @@ struct PlannerCounts {
   int counters_dropped = 0;   ///< counters past counter_deadline_s
   int counters_superseded = 0;  ///< counters still due when a newer strike was drawn to be countered
   double reaction_sum_s = 0;  ///< s, summed delay visitor strike -> counter order
-  double reaction_drawn_sum_s = 0;  ///< s, ...of which drawn (the rest waited for the fighter to be idle)
+  double reaction_drawn_sum_s = 0;  ///< s, ...of which drawn (the rest: the update nearest the due time, and waiting for the fighter to be idle)
   double engaged_s = 0;       ///< s spent engaged (guarding or countering)
   double timer_running_s = 0; ///< s the attack timer ran (engaged, the fighter idle, no counter due)
   int abort_draws = 0;        ///< visitor strike begins seen while its own strike was under way
