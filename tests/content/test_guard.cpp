@@ -1,0 +1,104 @@
+// The Guard alone (guard.hpp): parries laid on a still motion's arms, judged on the arm as the
+// decode's two-bone IK draws it, worked out here from each laid arm direction and pole by the
+// law of cosines (not by the code under test). SYNTHETIC fists: straight paths at the body.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "kumite/content/behaviour.hpp"
+#include "kumite/content/guard.hpp"
+
+using namespace kumite::content;
+using Eigen::Vector3d;
+using CJ = CanonicalJoint;
+
+namespace {
+
+/// The elbow (m, from the shoulder) of an arm whose wrist is `arm_n` x its length from the
+/// shoulder, bent toward `pole` (made across the shoulder -> wrist line here).
+Vector3d elbow_from(const Vector3d& arm_n, const Vector3d& pole, double upper, double fore) {
+  const Vector3d w = arm_n * (upper + fore);
+  const double d = std::clamp(w.norm(), std::abs(upper - fore) + 1e-6, upper + fore);
+  const Vector3d axis = w.normalized();
+  const Vector3d across = (pole - pole.dot(axis) * axis).normalized();
+  const double along = (upper * upper - fore * fore + d * d) / (2 * d);
+  return axis * along + across * std::sqrt(std::max(0.0, upper * upper - along * along));
+}
+
+}  // namespace
+
+TEST(Guard, AParryDownPastTheShoulderTurnsItsElbowTheShortWay) {
+  // The fighter faces +z (chest frame: x left, y up, z forward), shoulders 1.45 m up, arms
+  // hanging in the motion; the guard comes up over 1 s, then a fist comes from 0.9 m ahead
+  // at a point of the body low and out to a side, slow or fast. Where the parry's wrist goes
+  // down past the shoulder -> wrist line, its elbow's pole taken from the straight line
+  // between the two elbows swung round the long way (the spar demo, seed 1: a right parry of
+  // a slow low punch, the drawn elbow 29 cm in one frame). No drawn elbow or wrist step over
+  // 6.5 m/s at 60 Hz (13.5 before).
+  const Rig rig = load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
+  const Morphology& m = rig.morphology;
+  const auto at = [&](CJ j) { return static_cast<std::size_t>(rig.skeleton.index(j)); };
+  const double dt = 1.0 / 60;
+  int parries = 0, cases = 0;
+  double fastest = 0;
+  std::string where;
+  for (const double x : {-0.3, -0.2, -0.1, 0.1, 0.2, 0.3})
+    for (const double y : {0.85, 1.0, 1.15})
+      for (const double speed : {1.5, 3.0, 6.0}) {
+        ++cases;
+        Guard g;
+        g.want(true);
+        std::vector<Vector3d> drawn(static_cast<std::size_t>(rig.joint_count()), Vector3d::Zero());
+        const std::array<Vector3d, 2> shoulder{Vector3d(0.18, 1.45, 0), Vector3d(-0.18, 1.45, 0)};
+        std::array<Vector3d, 2> elbow_before{}, wrist_before{};
+        std::vector<FighterEvent> events;
+        const Vector3d aim(x, y, 0.08), from(x * 0.3, 1.4, 0.9);
+        const Vector3d v = (aim - from).normalized() * speed;
+        bool sent = false;
+        for (int k = 0; k < 150; ++k) {
+          const double now = k * dt;
+          MkmFrame pose;
+          pose.chest = Eigen::Quaterniond::Identity();
+          for (int s = 0; s < 2; ++s) {
+            pose.arm_n[static_cast<std::size_t>(s)] = Vector3d(0, -0.97, 0.05);
+            pose.arm_pole[static_cast<std::size_t>(s)] = Vector3d(0, 0, -1);
+          }
+          if (k == 60 && !sent) {
+            BlockOrder b;
+            b.limb = x > 0 ? kumite::recognition::Role::right_hand : kumite::recognition::Role::left_hand;
+            b.fist_m = from;
+            b.velocity_mps = v;
+            b.arrival_s = (aim - from).norm() / speed;
+            parries += g.parry(b, now, rig, drawn, pose.chest);
+            sent = true;
+          }
+          g.lay(k ? dt : 0.0, now, true, k > 0, rig, drawn, pose, events);
+          for (int s = 0; s < 2; ++s) {
+            const auto us = static_cast<std::size_t>(s);
+            const double up = m.upper_arm_m[us], fore = m.forearm_m[us];
+            const Vector3d e = shoulder[us] + elbow_from(pose.arm_n[us], pose.arm_pole[us], up, fore);
+            const Vector3d w = shoulder[us] + pose.arm_n[us] * (up + fore);
+            if (k > 60) {
+              const double step = std::max((e - elbow_before[us]).norm(), (w - wrist_before[us]).norm()) / dt;
+              if (step > fastest) {
+                fastest = step;
+                where = "aim (" + std::to_string(x) + ", " + std::to_string(y) + ") at " + std::to_string(speed) +
+                        " m/s, side " + std::to_string(s) + ", update " + std::to_string(k);
+              }
+            }
+            elbow_before[us] = e;
+            wrist_before[us] = w;
+            drawn[at(s == kLeft ? CJ::l_shoulder : CJ::r_shoulder)] = shoulder[us];
+            drawn[at(s == kLeft ? CJ::l_elbow : CJ::r_elbow)] = e;
+            drawn[at(s == kLeft ? CJ::l_wrist : CJ::r_wrist)] = w;
+          }
+        }
+      }
+  std::printf("%d parries for %d fists; fastest drawn elbow or wrist %.2f m/s (%s)\n", parries, cases, fastest, where.c_str());
+  EXPECT_GT(parries, cases / 2);
+  EXPECT_LT(fastest, 6.5) << where;  // a parry is timed for 6 m/s at its peak, on 16 samples of its way
+}
