@@ -920,3 +920,40 @@ TEST(FootPlanter, AHeldFootWaitingAboveTheFloorStandsOnItsToes) {
   EXPECT_EQ(locks.toe_floor_weight[0], 0.0);
   EXPECT_LE(most_step, kDt / 0.15 + 1e-12);
 }
+
+TEST(FootPlanter, AKickingFootComingBackDownFarFromWhereItLeftStaysDown) {
+  // A kick's retraction brought the kicking foot down to the floor 0.4 m from where it left it,
+  // still the kick's effector: the rule that lifts a kicking foot off the floor before it
+  // travels ("at least as far up as it has gone along the floor") took it 41 cm up in one
+  // update (the spar demo, planner seed 2, at 21.88 s: the knee 35 cm in a frame). It comes
+  // down with its source. SYNTHETIC samples: the left foot lifted slowly from standing, carried
+  // 0.6 m forward in the air, then brought straight down to the floor and kept there.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s;
+  ASSERT_NO_FATAL_FAILURE(both_feet_held(planter, s, locks));
+  FootSample& f = s[0];
+  f.planted = false;
+  f.effector = true;
+  f.swing_left_s = 0.5;
+  const auto move = [&](const Vector3d& step) {
+    f.source_step_before_m = f.source_step_m;
+    f.source_step_m = step;
+    f.free_ankle_m += step;
+    f.drawn_ankle_m = locks.ankle_m[0];
+    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+  };
+  for (int k = 0; k < 10; ++k) move(Vector3d(0, 0.012, 0.02));  // up 12 cm, 20 cm on
+  for (int k = 0; k < 10; ++k) move(Vector3d(0, 0, 0.04));      // 40 cm on in the air
+  ASSERT_GT(locks.ankle_m[0].y(), 0.08 + 0.08) << "the kicking foot is in the air";
+  double most_rise = 0;
+  for (int k = 0; k < 14; ++k) {
+    const double before = locks.ankle_m[0].y();
+    move(Vector3d(0, -std::min(0.02, f.free_ankle_m.y() - 0.08), 0));  // down to the floor, then still
+    most_rise = std::max(most_rise, locks.ankle_m[0].y() - before);
+  }
+  std::printf("coming down: most rise in an update %.4f m; the ankle at the end %.4f m (standing 0.08)\n", most_rise,
+              locks.ankle_m[0].y());
+  EXPECT_LT(most_rise, 0.005);
+  EXPECT_LT(locks.ankle_m[0].y(), 0.08 + 0.02);
+}

@@ -172,6 +172,7 @@ class FootPlanter {
     /// swinging as a kick's effector: whether its source rose faster than a foot from rest can at
     /// its first update (its rise then gathers); unset before that update
     std::optional<bool> gather_rise;
+    bool kick_airborne = false;       ///< swinging as a kick's effector: it has been off the floor it left since it was lifted
     double follow_y = 0;              ///< m: swinging toward a landing: the ankle's height as the source moves it (the lift is a floor above it, not added to it)
     Eigen::Vector3d step_from{0, 0, 0}, step_to{0, 0, 0};
     bool wants_step = false;          ///< held: lagging or over-stretched at the last update
