@@ -1256,11 +1256,17 @@ int run_spar(const SparArgs& a) {
                         {"reaction_time_s", preset->reaction_time_s}}},
         {"measured",
          {{"attack_rate_per_s", ratio(c.attacks, c.timer_running_s)},
-          {"attack_rate_note", "its own attacks per second of the time its timer ran (engaged, the fighter idle)"},
+          {"attack_rate_spread_per_s",
+           c.timer_running_s > 0 ? std::sqrt(preset->attack_rate_per_s * c.timer_running_s) / c.timer_running_s : 0.0},
+          {"attack_rate_note", "its own attacks per second of the time its timer ran (engaged, the fighter idle); spread, the "
+                               "standard error of such a rate over that time (a Poisson count: sqrt(rate x time) / time)"},
           {"counter_probability_drawn", ratio(c.counters_drawn, c.visitor_strikes)},
           {"counter_probability_ordered", ratio(c.counters, c.visitor_strikes)},
+          {"counter_probability_spread",
+           c.visitor_strikes > 0 ? std::sqrt(preset->counter_probability * (1 - preset->counter_probability) / c.visitor_strikes) : 0.0},
           {"counter_note", "drawn: visitor strikes drawn to be countered; ordered: counters the fighter was idle to give within "
-                           "counter_deadline_s"},
+                           "counter_deadline_s (a counter still due when a newer strike is drawn answers that one instead); "
+                           "spread, the standard error of a share of that many draws (sqrt(p (1 - p) / strikes))"},
           {"reaction_time_s_ordered", ratio(c.reaction_sum_s, c.counters)},
           {"reaction_time_s_drawn", ratio(c.reaction_drawn_sum_s, c.counters)},
           {"reaction_time_s_spread", c.counters > 0 ? preset->reaction_time_s / std::sqrt(static_cast<double>(c.counters)) : 0.0},
