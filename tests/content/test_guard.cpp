@@ -100,5 +100,5 @@ TEST(Guard, AParryDownPastTheShoulderTurnsItsElbowTheShortWay) {
       }
   std::printf("%d parries for %d fists; fastest drawn elbow or wrist %.2f m/s (%s)\n", parries, cases, fastest, where.c_str());
   EXPECT_GT(parries, cases / 2);
-  EXPECT_LT(fastest, 6.5) << where;  // a parry is timed for 6 m/s at its peak, on 16 samples of its way
+  EXPECT_LT(fastest, 6.5) << where;  // a parry is timed for 6 m/s at its peak, on 24 samples of its way
 }
