@@ -109,8 +109,8 @@ Vector3d elbow_of(const Vector3d& wrist, const Vector3d& pole, double upper_m, d
 
 /// A parry's arm (from the shoulder) at the share x of a way from (w0, e0) to (w1, e1): the
 /// wrist along a straight line, the elbow's pole turned from e0's to e1's, the arm drawn
-/// through them. Guard::lay
-/// draws every phase of a parry with it, and parry_move_s times a move by it.
+/// through them. Guard::lay draws every phase of a parry with it, and parry_move_s times a
+/// move by it.
 struct ArmAt {
   Vector3d wrist, elbow;  ///< m from the shoulder; `elbow` where the two-bone IK draws it
   Vector3d pole;          ///< unit: the arm's pole (toward the wanted elbow, across the wrist's line)
