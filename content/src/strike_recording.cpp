@@ -121,10 +121,25 @@ StrikeRecording record_strike(std::shared_ptr<const Database> db, const Rig& cha
   };
   timed_update();  // sends the request
   plan_request();
+  // Recorded until the fighter rests with no foot in a procedural step (at most kStepTail_s
+  // more): stopped at rest alone, a step still under way had no frame after its last one and
+  // read as a one-frame jump in the judged BVH (5 of the studio grid's strikes).
+  constexpr double kStepTail_s = 1.0;
+  const auto foot_moving = [&] {
+    for (int side = 0; side < 2; ++side) {
+      const FootPlanter::Phase ph = b.foot_planter().phase(side);
+      if (ph == FootPlanter::Phase::stepping || ph == FootPlanter::Phase::swinging || ph == FootPlanter::Phase::landing) return true;
+    }
+    return false;
+  };
+  double resting_s = 0;
   for (int i = 0; i < 100000; ++i) {
     timed_update();
     plan_request();
-    if (b.strike().contact_done && b.state() == FighterState::resting) break;
+    if (b.strike().contact_done && b.state() == FighterState::resting) {
+      if (!foot_moving() || resting_s >= kStepTail_s) break;
+      resting_s += dt;
+    }
     if (!b.strike().active && !b.strike().contact_done && !b.strike_pending() && i > 2) break;  // nothing to strike with
   }
   rec.motion.frame_time_s = dt;
