@@ -67,7 +67,7 @@ TargetRig skeleton_rig(const content::Skeleton& target, const content::Skeleton&
 
 struct RetargetOptions {
   bool proportions = true;  ///< stretch mapped bones to the character's lengths
-  double fist_deg = 55;     ///< curl per finger joint (thumb: half)
+  double fist_deg = 80;     ///< curl per finger joint (thumb: half)
   /// The torso (spine, chest, neck, head, clavicles) keeps the model's own shape (the
   /// hip-height scale), turned as the character's: only the limbs are put on the character's
   /// joints. Skeletons disagree where those joints sit (the CMU lowerneck 20 cm under the
