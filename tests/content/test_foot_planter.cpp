@@ -689,6 +689,17 @@ TEST(FootPlanter, AStanceStepsSteppingFootIsOverItsLandingBeforeItsSourceGlidesI
 
 namespace {
 
+/// One update of the left foot as a kick's effector: its source (and the composed ankle with
+/// it) moved by `step`, the drawn ankle where the last update held it.
+void left_kick_update(FootPlanter& planter, std::array<FootSample, 2>& s, FootLocks& locks, const Vector3d& step) {
+  FootSample& f = s[0];
+  f.source_step_before_m = f.source_step_m;
+  f.source_step_m = step;
+  f.free_ankle_m += step;
+  f.drawn_ankle_m = locks.ankle_m[0];
+  planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
+}
+
 /// The left foot kicked up from standing (standing(), held; `mid_step`: taken in the air by
 /// the kick, eight updates into a procedural step) at `rise_m` per update for `updates`
 /// updates, the composed ankle with it (the kick's source): the foot in the air, swinging.
@@ -704,13 +715,7 @@ void left_foot_kicked_up(FootPlanter& planter, std::array<FootSample, 2>& s, Foo
   f.planted = false;
   f.effector = true;
   f.swing_left_s = 0.5;
-  for (int k = 0; k < updates; ++k) {
-    f.source_step_before_m = f.source_step_m;
-    f.source_step_m = Vector3d(0, rise_m, 0.2 * rise_m);
-    f.free_ankle_m += f.source_step_m;
-    f.drawn_ankle_m = locks.ankle_m[0];
-    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
-  }
+  for (int k = 0; k < updates; ++k) left_kick_update(planter, s, locks, Vector3d(0, rise_m, 0.2 * rise_m));
   ASSERT_EQ(planter.phase(0), Phase::swinging);
 }
 
@@ -810,7 +815,9 @@ TEST(FootPlanter, AFootTheMotionLiftsWhileTheOtherStepsWaitsForItToComeDown) {
     FootLocks locks;
     std::array<FootSample, 2> s;
     both_feet_held(planter, s, locks);
-    if (left_steps) EXPECT_TRUE(planter.step_to(0, Vector3d(0.1, 0.08, 0.3)));
+    if (left_steps) {
+      EXPECT_TRUE(planter.step_to(0, Vector3d(0.1, 0.08, 0.3)));
+    }
     const Vector3d from = s[1].free_ankle_m, landing = from + Vector3d(0, 0, 0.4);
     constexpr int kLift = 3, kLunge = 18;  // updates: the lunge's start, its length
     Walk w;
@@ -936,20 +943,13 @@ TEST(FootPlanter, AKickingFootComingBackDownFarFromWhereItLeftStaysDown) {
   f.planted = false;
   f.effector = true;
   f.swing_left_s = 0.5;
-  const auto move = [&](const Vector3d& step) {
-    f.source_step_before_m = f.source_step_m;
-    f.source_step_m = step;
-    f.free_ankle_m += step;
-    f.drawn_ankle_m = locks.ankle_m[0];
-    planter.update(kDt, s, false, Eigen::Vector2d::Zero(), locks);
-  };
-  for (int k = 0; k < 10; ++k) move(Vector3d(0, 0.012, 0.02));  // up 12 cm, 20 cm on
-  for (int k = 0; k < 10; ++k) move(Vector3d(0, 0, 0.04));      // 40 cm on in the air
+  for (int k = 0; k < 10; ++k) left_kick_update(planter, s, locks, Vector3d(0, 0.012, 0.02));  // up 12 cm, 20 cm on
+  for (int k = 0; k < 10; ++k) left_kick_update(planter, s, locks, Vector3d(0, 0, 0.04));      // 40 cm on in the air
   ASSERT_GT(locks.ankle_m[0].y(), 0.08 + 0.08) << "the kicking foot is in the air";
   double most_rise = 0;
   for (int k = 0; k < 14; ++k) {
     const double before = locks.ankle_m[0].y();
-    move(Vector3d(0, -std::min(0.02, f.free_ankle_m.y() - 0.08), 0));  // down to the floor, then still
+    left_kick_update(planter, s, locks, Vector3d(0, -std::min(0.02, f.free_ankle_m.y() - 0.08), 0));  // down to the floor, then still
     most_rise = std::max(most_rise, locks.ankle_m[0].y() - before);
   }
   std::printf("coming down: most rise in an update %.4f m; the ankle at the end %.4f m (standing 0.08)\n", most_rise,
