@@ -3,7 +3,8 @@
 
 Pure Python (no numpy): its own BVH parser and forward kinematics, then on the drawn joints:
   - snaps: a joint faster than 20 m/s, or a one-frame step > 5 cm and > 3x both neighbouring steps
-  - flat feet: ankle and toe both within 1.5 cm of their own lowest level in the file
+  - flat feet: ankle and toe both within 1.5 cm of their own floor level: the lowest each
+    holds for 0.1 s in the file (a dip of a few frames, a blow's or a toe's, moves it not)
   - support-foot slide: horizontal speed over ~33 ms while the foot stands flat (max per file)
   - peak foot speed (any phase) and p99 joint speed
 Foot joints are found by name (CMU: lfoot/ltoes, MotionBuilder: LeftFoot/LeftToeBase, ...).
@@ -215,8 +216,8 @@ def judge(path, first=0, last=None, bones=None):
         a, t = find(names, ank_names), find(names, toe_names)
         if a < 0 or t < 0:
             continue
-        amin = min(fr[a][1] for fr in P)
-        tmin = min(fr[t][1] for fr in P)
+        amin = floor_level([fr[a][1] for fr in P], dt)
+        tmin = floor_level([fr[t][1] for fr in P], dt)
         flat = [fr[a][1] < amin + 0.015 and fr[t][1] < tmin + 0.015 for fr in P]
         slide, peak = 0.0, 0.0
         for i in range(n - w):
@@ -228,6 +229,15 @@ def judge(path, first=0, last=None, bones=None):
         out[f"{side}_support_slide_mps"] = round(slide, 3)
         out[f"{side}_peak_foot_speed_mps"] = round(peak, 2)
     return out
+
+
+def floor_level(heights, dt):
+    """The lowest height a joint holds for 0.1 s in the file (the k-th lowest of its frames,
+    k = 0.1 s of frames): a joint's plain lowest moved with any single frame below the floor
+    (a toe pushed under it once), and the flat-foot count of a whole file with it."""
+    k = max(1, round(0.1 / dt))
+    lows = sorted(heights)
+    return lows[min(k, len(lows)) - 1]
 
 
 def main():
