@@ -3,8 +3,9 @@
 
 Pure Python (no numpy): its own BVH parser and forward kinematics, then on the drawn joints:
   - snaps: a joint faster than 20 m/s, or a one-frame step > 5 cm and > 3x both neighbouring steps
-  - flat feet: ankle and toe both within 1.5 cm of their own floor level: the lowest each
-    holds for 0.1 s in the file (a dip of a few frames, a blow's or a toe's, moves it not)
+  - flat feet: ankle and toe both within 1.5 cm of the floor's level for ankles / toes: the
+    lowest those of both feet hold for 0.1 s in the file (a dip of a few frames, a blow's or a
+    toe's, moves it not; a foot that never stands in the file does not make its own floor)
   - support-foot slide: horizontal speed over ~33 ms while the foot stands flat (max per file)
   - peak foot speed (any phase) and p99 joint speed
 Foot joints are found by name (CMU: lfoot/ltoes, MotionBuilder: LeftFoot/LeftToeBase, ...).
@@ -212,12 +213,15 @@ def judge(path, first=0, last=None, bones=None):
     if on_bones:
         out["p99_joint_speed_on_bones_mps"] = round(pct(on_bones, 99), 3)
     w = max(1, round(0.033 / dt))
+    # The floor: the lowest level the ankles (and the toes) of both feet hold for 0.1 s.
+    feet = [(find(names, a), find(names, t)) for a, t in FOOT_NAMES.values()]
+    feet = [(a, t) for a, t in feet if a >= 0 and t >= 0]
+    amin = floor_level([fr[a][1] for a, _ in feet for fr in P], dt)
+    tmin = floor_level([fr[t][1] for _, t in feet for fr in P], dt)
     for side, (ank_names, toe_names) in FOOT_NAMES.items():
         a, t = find(names, ank_names), find(names, toe_names)
         if a < 0 or t < 0:
             continue
-        amin = floor_level([fr[a][1] for fr in P], dt)
-        tmin = floor_level([fr[t][1] for fr in P], dt)
         flat = [fr[a][1] < amin + 0.015 and fr[t][1] < tmin + 0.015 for fr in P]
         slide, peak = 0.0, 0.0
         for i in range(n - w):
@@ -232,9 +236,10 @@ def judge(path, first=0, last=None, bones=None):
 
 
 def floor_level(heights, dt):
-    """The lowest height a joint holds for 0.1 s in the file (the k-th lowest of its frames,
-    k = 0.1 s of frames): a joint's plain lowest moved with any single frame below the floor
-    (a toe pushed under it once), and the flat-foot count of a whole file with it."""
+    """The lowest height held for 0.1 s among `heights` (one joint kind of both feet over the
+    file: the k-th lowest, k = 0.1 s of frames). A foot's own plain lowest moved with any single
+    frame below the floor (a toe pushed under it once), and the file's flat-foot count with it;
+    and a foot that never stood (a kick's, in a strike's window) had its lowest in the air."""
     k = max(1, round(0.1 / dt))
     lows = sorted(heights)
     return lows[min(k, len(lows)) - 1]
