@@ -23,6 +23,9 @@ namespace {
 constexpr double kHoldPast_s = 0.12;
 /// s: the forearm is planned in place this long before the fist (one display frame at 60 Hz).
 constexpr double kInPlaceMargin_s = 1.0 / 60;
+/// m/s: a re-aim (reaim_block) moves the wrist's target at most this fast at its peak (a
+/// minimum-jerk shift peaks at 1.875 x its mean speed), as a parry's move from the guard.
+constexpr double kMostReaimSpeed_mps = 6.0;
 }  // namespace
 
 bool Behaviour::can_block() const {
@@ -125,6 +128,71 @@ bool Behaviour::block(const BlockOrder& b, Timestamp now) {
     strike_.turn = Eigen::Quaterniond::Identity();
     strike_.stretch = 1;
   }
+  return true;
+}
+
+bool Behaviour::reaim_block(const BlockOrder& b, Timestamp now) {
+  // The dual-buffer boxer's action switching for a block clip: the clip plays on (no restart,
+  // no new clip), only d(t)'s aim moves, from the correction it has now to the one that puts
+  // the forearm's middle on the limb's path as it is now, over the time left to the intercept.
+  if (!striking() || !strike_.block || strike_.contact_done || strike_.aborted || b.limb != strike_.block_limb) return false;
+  if (!b.fist_m.allFinite() || !b.velocity_mps.allFinite() || !std::isfinite(b.arrival_s)) return false;
+  const Source& cur = player_.current();
+  if (cur.segment != strike_.plan.segment || !(cur.rate > 0)) return false;
+  const double t = cur.time_s;
+  const double dt = last_dt_ > 0 ? last_dt_ : 1.0 / 60;
+  const double left_s = strike_.contact_time_s - t;  // segment seconds to the intercept
+  if (left_s < 2 * dt * cur.rate) return false;      // in place within two frames: too late to turn
+  const double in_place_wall_s = left_s / cur.rate;
+  // Where the fist will be as the forearm comes into place (or where it reaches the body, if
+  // sooner: a late block is aimed there).
+  const double aim_s = std::clamp(in_place_wall_s + kInPlaceMargin_s, 0.0, std::max(0.0, b.arrival_s));
+  const Vector3d intercept = b.fist_m + b.velocity_mps * aim_s;
+
+  // The correction drawn now (mid-way through an earlier re-aim: where that one has got to).
+  Eigen::Quaterniond from_turn = strike_.turn;
+  double from_stretch = strike_.stretch;
+  if (strike_.reaim_from_s >= 0 && t < strike_.reaim_to_s) {
+    const double u = min_jerk((t - strike_.reaim_from_s) / std::max(1e-6, strike_.reaim_to_s - strike_.reaim_from_s));
+    from_turn = strike_.reaim_turn_from.slerp(u, strike_.turn);
+    from_stretch = strike_.reaim_stretch_from + u * (strike_.stretch - strike_.reaim_stretch_from);
+  }
+  // (kept to put back where the new aim cannot be taken)
+  const Vector3d old_target = strike_.target_room_m, old_error = strike_.error_m;
+  const Eigen::Quaterniond old_turn = strike_.turn;
+  const double old_stretch = strike_.stretch;
+  const bool old_out_of_reach = strike_.out_of_reach;
+  const Vector3d old_shoulder = contact_shoulder_m_, old_head = contact_head_m_, old_elbow = contact_elbow_m_;
+  // As block() aims it: the wrist where it puts the forearm's middle on the intercept.
+  strike_.target_room_m = intercept;
+  compute_reach_error(strike_.contact_time_s, false);
+  const Vector3d wrist = at(scratch_pose_, strike_.effector.joint());
+  const Vector3d elbow = at(scratch_pose_, strike_.effector.side == kLeft ? CJ::l_elbow : CJ::r_elbow);
+  strike_.target_room_m = intercept + (1 - kForearmContactFraction) * (wrist - elbow);
+  compute_reach_error(strike_.contact_time_s, false);
+  const double shift_m = (strike_.target_room_m - old_target).norm();
+  if (!strike_.target_room_m.allFinite() || !strike_.error_m.allFinite() || 1.875 * shift_m / in_place_wall_s > kMostReaimSpeed_mps) {
+    strike_.target_room_m = old_target;
+    strike_.error_m = old_error;
+    strike_.turn = old_turn;
+    strike_.stretch = old_stretch;
+    strike_.out_of_reach = old_out_of_reach;
+    contact_shoulder_m_ = old_shoulder;
+    contact_head_m_ = old_head;
+    contact_elbow_m_ = old_elbow;
+    return false;
+  }
+  strike_.reaim_turn_from = from_turn;
+  strike_.reaim_stretch_from = from_stretch;
+  strike_.reaim_from_s = t;
+  strike_.reaim_to_s = strike_.contact_time_s;
+  strike_.intercept_m = intercept;
+  strike_.fist_arrival_t = now + aim_s;
+  strike_.fist_speed_mps = b.velocity_mps.norm();
+  strike_.block_recognised = strike_.block_recognised || b.recognised;
+  const double hold_wall_s = std::max(0.0, aim_s - in_place_wall_s) + kHoldPast_s;
+  strike_.hold_s = std::min(hold_wall_s * cur.rate, std::max(0.0, strike_.end_time_s - strike_.contact_time_s));
+  strike_.release_end_s = release_end_s(strike_.contact_time_s);
   return true;
 }
 

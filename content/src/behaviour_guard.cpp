@@ -71,11 +71,6 @@ constexpr double kSlipStiffness_rad_s = 30;
 /// s: intercepts are tried this far apart along the fist's path.
 constexpr double kParryStep_s = 1.0 / 240;
 
-double min_jerk(double x) {
-  x = std::clamp(x, 0.0, 1.0);
-  return x * x * x * (10 - 15 * x + 6 * x * x);
-}
-
 Vector3d mirrored(const Vector3d& v, int side) { return side == kLeft ? v : Vector3d(-v.x(), v.y(), v.z()); }
 
 /// `pole` made unit and across `axis` (the elbow's direction off the shoulder -> wrist line);

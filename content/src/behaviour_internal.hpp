@@ -43,6 +43,11 @@ inline double smoothstep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);
 }
+/// The minimum-jerk profile (0 -> 1, zero speed and acceleration at both ends) at x in [0, 1].
+inline double min_jerk(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * x * (10 - 15 * x + 6 * x * x);
+}
 inline double wrap(double a) { return std::remainder(a, 2 * std::numbers::pi); }
 /// Segment time t as the frame before it and the share of the way to the next (clamped to the clip).
 struct FramePair {

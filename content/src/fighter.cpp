@@ -395,14 +395,15 @@ class FighterImpl final : public Fighter {
       b.max_rate = t.block_max_rate;
       return b;
     };
-    // A switch of a recognised strike already answered by a parry re-aims that parry (the
-    // dual-buffer boxer's action switching): the same arm, from where it is, to the path the
-    // limb takes now.
+    // A switch of a recognised strike already answered by a parry or a block clip re-aims it
+    // (the dual-buffer boxer's action switching): the same arm, from where it is, to the path
+    // the limb takes now.
     for (const VisitorStrikeSeen& s : in.strikes) {
       const auto l = static_cast<std::size_t>(s.limb);
       if (s.type != recognition::EventType::switch_ || l >= answered_until_.size() || !(in.now < answered_until_[l])) continue;
       const std::optional<Threat> th = threats_.soonest(*head, *pelvis, in.now, s.limb);
-      if (th && behaviour_.reaim_parry(order_of(*th), in.now)) answered_until_[l] = in.now + th->arrival_s + kStrikeOver_s;
+      if (th && (behaviour_.reaim_parry(order_of(*th), in.now) || behaviour_.reaim_block(order_of(*th), in.now)))
+        answered_until_[l] = in.now + th->arrival_s + kStrikeOver_s;
     }
     const std::optional<Threat> th = threats_.soonest(*head, *pelvis, in.now);
     if (!th) return;

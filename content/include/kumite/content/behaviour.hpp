@@ -218,6 +218,12 @@ class Behaviour {
   /// way continuing without a restart (Guard::reaim). False: no parry of that limb is moving
   /// or held, or no place on the new path is within its arm's reach.
   bool reaim_parry(const BlockOrder& order, Timestamp now);
+  /// The block clip under way against `order.limb`, not yet in place, re-aimed at `order`'s
+  /// path (a `switch` of the recognised strike, while the guard is down): d(t) moves from
+  /// its old correction to the one for the new crossing by a minimum-jerk shift that ends as
+  /// the clip reaches its intercept, so the arm goes on from where it is, no restart. False: no
+  /// such block, it is in place already, or the shift would move the wrist faster than 6 m/s.
+  bool reaim_block(const BlockOrder& order, Timestamp now);
   /// A slip: where no forearm can be sent across the fist's path (both busy, or none reaches
   /// it), the trunk leans the head off the path (sideways, away from it, and back), a damped
   /// spring laid on the motion as a blow's reel is (HitReel), peaking about 0.1 s later; no
@@ -369,6 +375,12 @@ class Behaviour {
     Timestamp in_place_t = -1;      ///< s: when the forearm was in place (-1: not yet)
     double fist_speed_mps = 0;
     Eigen::Vector3d intercept_m{0, 0, 0};  ///< m, room: the forearm's middle is brought here
+    /// A block re-aimed on its way (reaim_block): d(t)'s turn and stretch go from these to
+    /// `turn` / `stretch` by a minimum-jerk shift over segment times [reaim_from_s, reaim_to_s]
+    /// (reaim_from_s < 0: never re-aimed).
+    Eigen::Quaterniond reaim_turn_from = Eigen::Quaterniond::Identity();
+    double reaim_stretch_from = 1;
+    double reaim_from_s = -1, reaim_to_s = -1;
     // Aborted by a blow before its contact: d(t) goes from its weight then to none over
     // release_time_s (segment s from abort_s to release_end_s) while the clip blends into rest.
     bool aborted = false;
@@ -464,7 +476,7 @@ class Behaviour {
   void aim_straight_arm_below_head();
   double ramp_in(double t) const;   ///< d(t)'s weight at segment time t before contact
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
-  ReachGoal reach_goal(double ramp) const;  ///< d(t) at that weight
+  ReachGoal reach_goal(double ramp, double t) const;  ///< d(t) at that weight, segment time t (a block's re-aim)
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
   /// The feet's inputs for this update: the motion alone (`cur`), d(t) (`reach`, at weight
   /// `ramp`), the strike under way and whether a foot may step.
