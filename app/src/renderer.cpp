@@ -65,11 +65,14 @@ layout(location = 0) in vec3 a_position;
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in uvec4 a_joints;
 layout(location = 3) in vec4 a_weights;
+layout(location = 4) in vec2 a_uv;
 layout(std140) uniform Palette { mat4 u_joints[128]; };
 uniform mat4 u_view_projection;
 out vec3 v_world;
 out vec3 v_normal;
+out vec2 v_uv;
 void main() {
+  v_uv = a_uv;
   mat4 m = a_weights.x * u_joints[a_joints.x] + a_weights.y * u_joints[a_joints.y] +
            a_weights.z * u_joints[a_joints.z] + a_weights.w * u_joints[a_joints.w];
   vec4 w = m * vec4(a_position, 1.0);
@@ -79,16 +82,22 @@ void main() {
 }
 )";
 
+// The material's base colour factor times its base-colour texture where it has one (sampled as
+// stored: the renderer's colours are display values, the factors' included).
 constexpr const char* kSkinnedFragment = R"(
 in vec3 v_world;
 in vec3 v_normal;
+in vec2 v_uv;
 uniform vec3 u_colour;
+uniform bool u_textured;
+uniform sampler2D u_base;
 out vec4 o_colour;
 void main() {
   vec3 n = normalize(v_normal);
   // Triangles seen from behind (an open mesh's inside) lit as their front.
   if (!gl_FrontFacing) n = -n;
-  o_colour = vec4(shade(u_colour, n), 1.0);
+  vec3 base = u_textured ? u_colour * texture(u_base, v_uv).rgb : u_colour;
+  o_colour = vec4(shade(base, n), 1.0);
 }
 )";
 
@@ -288,16 +297,19 @@ struct SkinnedBuffers {
   GLuint vao = 0, vbo = 0, ebo = 0;
   GLsizei vertices = 0;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> primitives;  ///< first index, count
+  std::vector<GLuint> textures;           ///< one per model texture (RGBA8, mipmapped, repeating)
+  std::vector<GLuint> primitive_texture;  ///< per primitive: its material's base-colour texture (0: none)
 };
 
-/// Per vertex: position, normal, four joints (u16), four weights: 48 bytes.
+/// Per vertex: position, normal, four joints (u16), four weights, texture coordinates: 56 bytes.
 struct SkinnedVertex {
   float position[3];
   float normal[3];
   std::uint16_t joints[4];
   float weights[4];
+  float uv[2];
 };
-static_assert(sizeof(SkinnedVertex) == 48);
+static_assert(sizeof(SkinnedVertex) == 56);
 
 /// The hall's geometry: position (m, room frame) and lit colour per vertex.
 struct HallVertex {
@@ -534,6 +546,7 @@ struct Blob {
 struct Renderer::Impl {
   GLuint lit = 0, lines = 0, skinned = 0, skinned_feedback = 0, hall = 0, shadow = 0;
   GLint lit_vp = -1, lines_vp = -1, lit_mask = -1, skinned_vp = -1, skinned_colour = -1, skinned_mask = -1,
+        skinned_textured = -1, skinned_base = -1,
         hall_vp = -1, shadow_vp = -1, shadow_centre = -1, shadow_radius = -1, shadow_strength = -1;
   MeshBuffers sphere, cylinder;
   std::vector<float> sphere_instances, cylinder_instances;  ///< kept: a warm frame allocates nothing
@@ -576,6 +589,8 @@ Renderer::Renderer(std::span<const WallFrame> walls) : impl_(std::make_unique<Im
   m.skinned_vp = glGetUniformLocation(m.skinned, "u_view_projection");
   m.skinned_colour = glGetUniformLocation(m.skinned, "u_colour");
   m.skinned_mask = glGetUniformLocation(m.skinned, "u_mask");
+  m.skinned_textured = glGetUniformLocation(m.skinned, "u_textured");
+  m.skinned_base = glGetUniformLocation(m.skinned, "u_base");
   m.skinned_feedback = program(kSkinnedVertex, kSkinnedFragment, true, {"v_world", "v_normal"});
   for (GLuint p : {m.skinned, m.skinned_feedback})
     glUniformBlockBinding(p, glGetUniformBlockIndex(p, "Palette"), 0);
@@ -639,6 +654,7 @@ Renderer::~Renderer() {
     glDeleteVertexArrays(1, &b->vao);
   }
   for (auto& b : m.models) {
+    if (!b.textures.empty()) glDeleteTextures(static_cast<GLsizei>(b.textures.size()), b.textures.data());
     glDeleteBuffers(1, &b.vbo);
     glDeleteBuffers(1, &b.ebo);
     glDeleteVertexArrays(1, &b.vao);
@@ -674,6 +690,8 @@ int Renderer::upload_model(const body::SkinnedModel& model) {
       o.joints[k] = model.joints[i][static_cast<std::size_t>(k)];
       o.weights[k] = model.weights[i][static_cast<std::size_t>(k)];
     }
+    o.uv[0] = i < model.uvs.size() ? model.uvs[i].x() : 0.0f;
+    o.uv[1] = i < model.uvs.size() ? model.uvs[i].y() : 0.0f;
   }
   SkinnedBuffers b;
   glGenVertexArrays(1, &b.vao);
@@ -690,10 +708,35 @@ int Renderer::upload_model(const body::SkinnedModel& model) {
   glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(offsetof(SkinnedVertex, normal)));
   glVertexAttribIPointer(2, 4, GL_UNSIGNED_SHORT, stride, reinterpret_cast<const void*>(offsetof(SkinnedVertex, joints)));
   glVertexAttribPointer(3, 4, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(offsetof(SkinnedVertex, weights)));
-  for (GLuint a = 0; a < 4; ++a) glEnableVertexAttribArray(a);
+  glVertexAttribPointer(4, 2, GL_FLOAT, GL_FALSE, stride, reinterpret_cast<const void*>(offsetof(SkinnedVertex, uv)));
+  for (GLuint a = 0; a < 5; ++a) glEnableVertexAttribArray(a);
   glBindVertexArray(0);
   b.vertices = static_cast<GLsizei>(v.size());
-  for (const auto& p : model.primitives) b.primitives.emplace_back(p.first_index, p.index_count);
+  // The base-colour textures, row 0 first as in the image (glTF's v = 0 is the image's top
+  // row, and GL's t = 0 the first row given: no flip). glTF's default sampler: repeat, linear.
+  b.textures.resize(model.textures.size());
+  if (!b.textures.empty()) glGenTextures(static_cast<GLsizei>(b.textures.size()), b.textures.data());
+  for (std::size_t t = 0; t < model.textures.size(); ++t) {
+    const body::Texture& tex = model.textures[t];
+    glBindTexture(GL_TEXTURE_2D, b.textures[t]);
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex.width, tex.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, tex.rgba.data());
+    glGenerateMipmap(GL_TEXTURE_2D);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+  }
+  glBindTexture(GL_TEXTURE_2D, 0);
+  for (const auto& p : model.primitives) {
+    b.primitives.emplace_back(p.first_index, p.index_count);
+    GLuint texture = 0;
+    if (p.material >= 0 && static_cast<std::size_t>(p.material) < model.materials.size()) {
+      const int t = model.materials[static_cast<std::size_t>(p.material)].base_color_texture;
+      if (t >= 0 && static_cast<std::size_t>(t) < b.textures.size()) texture = b.textures[static_cast<std::size_t>(t)];
+    }
+    b.primitive_texture.push_back(texture);
+  }
   m.models.push_back(std::move(b));
   return static_cast<int>(m.models.size()) - 1;
 }
@@ -870,12 +913,18 @@ void Renderer::draw(const EyeView& view, std::span<const DrawItem> items) {
     glUniform1i(m.skinned_mask, o.mask ? 1 : 0);
     glBindBufferBase(GL_UNIFORM_BUFFER, 0, m.palette_ubo);
     glBindVertexArray(b.vao);
+    glUniform1i(m.skinned_base, 0);
+    glActiveTexture(GL_TEXTURE0);
     for (std::size_t p = 0; p < b.primitives.size(); ++p) {
       const auto& c = m.body->colours[p];
       glUniform3f(m.skinned_colour, c[0], c[1], c[2]);
+      const GLuint texture = b.primitive_texture[p];
+      glUniform1i(m.skinned_textured, texture != 0 ? 1 : 0);
+      glBindTexture(GL_TEXTURE_2D, texture);
       glDrawElements(GL_TRIANGLES, static_cast<GLsizei>(b.primitives[p].second), GL_UNSIGNED_INT,
                      reinterpret_cast<const void*>(static_cast<std::size_t>(b.primitives[p].first) * sizeof(std::uint32_t)));
     }
+    glBindTexture(GL_TEXTURE_2D, 0);
   }
   glUseProgram(m.lit);
   glUniformMatrix4fv(m.lit_vp, 1, GL_FALSE, glm::value_ptr(vp));

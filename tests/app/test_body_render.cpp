@@ -8,13 +8,17 @@
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <optional>
 #include <random>
 #include <string>
 
 #include <glm/gtc/matrix_transform.hpp>
+#include <nlohmann/json.hpp>
+#include <zlib.h>
 
 #include "kumite/app/bodies.hpp"
 #include "kumite/app/config.hpp"
@@ -515,4 +519,204 @@ TEST(BodyRender, TheHallsCopiedFloorEqualsTheFloorDrawn) {
   std::size_t lit = 0;
   for (std::size_t i = 0; i < floor.size(); i += 4) lit += floor[i] + floor[i + 1] + floor[i + 2] > 30;
   EXPECT_GT(lit, static_cast<std::size_t>(w * h / 2));
+}
+
+namespace {
+
+/// A PNG of RGBA8 pixels (row 0 first), written by hand with zlib: the test's own encoder.
+std::vector<std::uint8_t> png_bytes(int width, int height, const std::vector<std::uint8_t>& rgba) {
+  std::vector<std::uint8_t> raw;
+  for (int y = 0; y < height; ++y) {
+    raw.push_back(0);  // filter: none
+    raw.insert(raw.end(), rgba.begin() + y * width * 4, rgba.begin() + (y + 1) * width * 4);
+  }
+  uLongf packed_size = compressBound(static_cast<uLong>(raw.size()));
+  std::vector<std::uint8_t> packed(packed_size);
+  compress2(packed.data(), &packed_size, raw.data(), static_cast<uLong>(raw.size()), 9);
+  packed.resize(packed_size);
+  std::vector<std::uint8_t> out{0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const auto u32 = [&](std::vector<std::uint8_t>& v, std::uint32_t x) {
+    for (int s = 24; s >= 0; s -= 8) v.push_back(static_cast<std::uint8_t>(x >> s));
+  };
+  const auto chunk = [&](const char* type, const std::vector<std::uint8_t>& data) {
+    u32(out, static_cast<std::uint32_t>(data.size()));
+    std::vector<std::uint8_t> body(type, type + 4);
+    body.insert(body.end(), data.begin(), data.end());
+    out.insert(out.end(), body.begin(), body.end());
+    u32(out, static_cast<std::uint32_t>(crc32(0, body.data(), static_cast<uInt>(body.size()))));
+  };
+  std::vector<std::uint8_t> ihdr;
+  u32(ihdr, static_cast<std::uint32_t>(width));
+  u32(ihdr, static_cast<std::uint32_t>(height));
+  ihdr.insert(ihdr.end(), {8, 6, 0, 0, 0});  // 8 bits, RGBA, deflate, no filter set, no interlace
+  chunk("IHDR", ihdr);
+  chunk("IDAT", packed);
+  chunk("IEND", {});
+  return out;
+}
+
+/// `glb` with a base-colour texture on every material (factor white): a 1 x 2 image, its top
+/// row green, its bottom row magenta, and texture coordinates that put every vertex above the
+/// body's middle height (halfway from a foot joint to the head joint, in the mesh's own space)
+/// on the top row's centre, every other on the bottom row's. SYNTHETIC: the body's upper half must come out green, its lower half magenta.
+void write_textured_glb(const fs::path& from, const fs::path& to) {
+  std::ifstream in(from, std::ios::binary);
+  std::vector<std::uint8_t> file((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto u32_at = [&](std::size_t o) { std::uint32_t v; std::memcpy(&v, file.data() + o, 4); return v; };
+  const std::uint32_t json_len = u32_at(12);
+  nlohmann::json j = nlohmann::json::parse(file.begin() + 20, file.begin() + 20 + json_len);
+  const std::size_t bin_at = 20 + json_len;
+  const std::uint32_t bin_len = u32_at(bin_at);
+  std::vector<std::uint8_t> bin(file.begin() + static_cast<std::ptrdiff_t>(bin_at + 8),
+                                file.begin() + static_cast<std::ptrdiff_t>(bin_at + 8 + bin_len));
+  const auto append = [&](const std::vector<std::uint8_t>& bytes) {
+    while (bin.size() % 4) bin.push_back(0);
+    const std::size_t at = bin.size();
+    bin.insert(bin.end(), bytes.begin(), bytes.end());
+    j["bufferViews"].push_back({{"buffer", 0}, {"byteOffset", at}, {"byteLength", bytes.size()}});
+    return static_cast<int>(j["bufferViews"].size()) - 1;
+  };
+  // Up in the mesh's own space (its bind space need not be y-up): from the bind position of
+  // a foot joint to that of the head joint (each the inverse of its inverse bind matrix's
+  // rigid part), the middle halfway between them.
+  const auto& skin = j["skins"][0];
+  const auto& ibm_a = j["accessors"][skin["inverseBindMatrices"].get<int>()];
+  const auto& ibm_v = j["bufferViews"][ibm_a["bufferView"].get<int>()];
+  const std::size_t ibm_at = ibm_v.value("byteOffset", 0) + ibm_a.value("byteOffset", 0);
+  const auto bind_position = [&](const std::string& part) {
+    for (std::size_t k = 0; k < skin["joints"].size(); ++k) {
+      const std::string name = j["nodes"][skin["joints"][k].get<int>()].value("name", "");
+      if (name.find(part) == std::string::npos) continue;
+      float m[16];
+      std::memcpy(m, bin.data() + ibm_at + k * 64, 64);
+      const Eigen::Matrix4f ibm = Eigen::Map<const Eigen::Matrix4f>(m);  // column-major, as glTF
+      return Eigen::Vector3f(ibm.inverse().block<3, 1>(0, 3));
+    }
+    ADD_FAILURE() << "no joint named *" << part << "* in " << from;
+    return Eigen::Vector3f(0, 0, 0);
+  };
+  const Eigen::Vector3f head = bind_position("Head"), foot = bind_position("Foot");
+  const Eigen::Vector3f up = (head - foot).normalized(), middle = 0.5f * (head + foot);
+  for (auto& mesh : j["meshes"])
+    for (auto& p : mesh["primitives"]) {
+      const auto& a = j["accessors"][p["attributes"]["POSITION"].get<int>()];
+      const auto& view = j["bufferViews"][a["bufferView"].get<int>()];
+      const std::size_t base = view.value("byteOffset", 0) + a.value("byteOffset", 0);
+      const std::size_t stride = view.value("byteStride", 12);
+      const std::size_t n = a["count"].get<std::size_t>();
+      std::vector<std::uint8_t> uv(n * 8);
+      for (std::size_t i = 0; i < n; ++i) {
+        float xyz[3];
+        std::memcpy(xyz, bin.data() + base + i * stride, 12);
+        const float u = 0.5f, v = (Eigen::Vector3f(xyz[0], xyz[1], xyz[2]) - middle).dot(up) > 0 ? 0.25f : 0.75f;
+        std::memcpy(uv.data() + i * 8, &u, 4);
+        std::memcpy(uv.data() + i * 8 + 4, &v, 4);
+      }
+      const int bv = append(uv);
+      j["accessors"].push_back({{"bufferView", bv}, {"componentType", 5126}, {"count", n}, {"type", "VEC2"}});
+      p["attributes"]["TEXCOORD_0"] = static_cast<int>(j["accessors"].size()) - 1;
+    }
+  const std::vector<std::uint8_t> image = png_bytes(1, 2, {0, 255, 0, 255, 255, 0, 255, 255});
+  j["images"] = nlohmann::json::array({{{"bufferView", append(image)}, {"mimeType", "image/png"}}});
+  j["textures"] = nlohmann::json::array({{{"source", 0}}});
+  for (auto& m : j["materials"]) {
+    m["pbrMetallicRoughness"]["baseColorTexture"] = {{"index", 0}};
+    m["pbrMetallicRoughness"]["baseColorFactor"] = {1.0, 1.0, 1.0, 1.0};
+  }
+  while (bin.size() % 4) bin.push_back(0);
+  j["buffers"][0]["byteLength"] = bin.size();
+  std::string text = j.dump();
+  while (text.size() % 4) text.push_back(' ');
+  std::vector<std::uint8_t> out;
+  const auto put32 = [&](std::uint32_t v) { for (int s = 0; s < 32; s += 8) out.push_back(static_cast<std::uint8_t>(v >> s)); };
+  put32(0x46546C67);
+  put32(2);
+  put32(static_cast<std::uint32_t>(12 + 8 + text.size() + 8 + bin.size()));
+  put32(static_cast<std::uint32_t>(text.size()));
+  put32(0x4E4F534A);
+  out.insert(out.end(), text.begin(), text.end());
+  put32(static_cast<std::uint32_t>(bin.size()));
+  put32(0x004E4942);
+  out.insert(out.end(), bin.begin(), bin.end());
+  std::ofstream(to, std::ios::binary).write(reinterpret_cast<const char*>(out.data()), static_cast<std::streamsize>(out.size()));
+}
+
+}  // namespace
+
+TEST(BodyRender, ABaseColourTextureIsDrawnWhereItsCoordinatesPutIt) {
+  std::string why;
+  const auto context = context_or_reason(why);
+  if (!context) GTEST_SKIP() << why;
+  const fs::path db = fs::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
+  if (!fs::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
+  const fs::path dir = fs::temp_directory_path() / ("kumite_texture_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  write_textured_glb(asset("male_casual.glb"), dir / "textured.glb");
+  std::ofstream(dir / "bodies.toml") << "version = 1\n"
+                                        "[[body]]\ncharacter = \"kenji\"\nmodel = \"textured.glb\"\noutfit = [1, 1, 1]\noutfit_materials = []\n";
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = db;
+  cfg.tracking.source = TrackingSource::none;
+  cfg.orders_script.reset();
+  cfg.render.bodies = dir / "bodies.toml";
+  const int kenji = 0;  // the demo's first character
+  ASSERT_EQ(cfg.characters[static_cast<std::size_t>(kenji)].name, "Kenji");
+  cfg.fighter.initial_character = kenji;
+  Installation inst(cfg, make_fixed_head_input("test"), {});
+  Renderer renderer(inst.walls());
+  renderer.configure(cfg);
+  ASSERT_NE(renderer.bodies(), nullptr);
+  ASSERT_GE(renderer.bodies()->characters()[static_cast<std::size_t>(kenji)].model, 0)
+      << (renderer.bodies()->warnings().empty() ? std::string() : renderer.bodies()->warnings().front());
+  const auto& model = renderer.bodies()->models()[static_cast<std::size_t>(renderer.bodies()->characters()[kenji].model)];
+  ASSERT_EQ(model.textures.size(), 1u);
+  const double t0 = 1000;
+  inst.start(t0);
+  const FrameData* f = nullptr;
+  for (int i = 0; i < 30; ++i) f = &inst.step(t0 + i / 60.0);
+  renderer.begin_frame(f->fighter);
+  ASSERT_NE(renderer.body_frame(), nullptr);
+  const int w = 240, h = 360;
+  OffscreenTarget target(w, h);
+  const EyeView view = camera(glm::dvec3(f->fighter.root.x, 0.95, f->fighter.root.z), {0, 0, 1}, 4.5);
+  std::vector<std::uint8_t> mask, rgba;
+  target.bind();
+  renderer.set_options({.hall = false, .debug_marks = false, .mask = true});
+  renderer.clear(0, 0, w, h);
+  renderer.draw(view, f->items);
+  target.read(mask);
+  renderer.set_options({.hall = false, .debug_marks = false, .mask = false});
+  renderer.clear(0, 0, w, h);
+  renderer.draw(view, f->items);
+  target.read(rgba);
+  if (const auto d = dump_dir()) write_png(*d / "textured_kenji.png", w, h, rgba);
+  // The body's rows in the mask; its upper and lower thirds' mean colour in the image.
+  int top = h, bottom = -1;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (mask[static_cast<std::size_t>((y * w + x) * 4)] > 128) {
+        top = std::min(top, y);
+        bottom = std::max(bottom, y);
+      }
+  ASSERT_GT(bottom - top, 100) << "no body in the image";
+  const auto mean = [&](int y0, int y1) {
+    std::array<double, 3> s{};
+    int n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < w; ++x) {
+        const auto p = static_cast<std::size_t>((y * w + x) * 4);
+        if (mask[p] <= 128) continue;
+        for (int c = 0; c < 3; ++c) s[static_cast<std::size_t>(c)] += rgba[p + static_cast<std::size_t>(c)];
+        ++n;
+      }
+    for (auto& c : s) c /= std::max(1, n);
+    return s;
+  };
+  const int third = (bottom - top) / 3;
+  const auto upper = mean(top, top + third), lower = mean(bottom - third, bottom + 1);
+  std::printf("upper third RGB %.0f %.0f %.0f, lower third %.0f %.0f %.0f (body rows %d-%d)\n", upper[0], upper[1], upper[2],
+              lower[0], lower[1], lower[2], top, bottom);
+  EXPECT_GT(upper[1], 2 * std::max(upper[0], upper[2])) << "the upper body is not the texture's green";
+  EXPECT_GT(std::min(lower[0], lower[2]), 2 * lower[1]) << "the lower body is not the texture's magenta";
+  fs::remove_all(dir);
 }
