@@ -192,14 +192,23 @@ NodeTrs node_trs(const tinygltf::Node& n, const std::string& file, int index) {
   return out;
 }
 
-void to_rgba8(const tinygltf::Image& img, Texture& out, const std::string& file) {
+/// An image as a message names it: its name, else its file (a uri that is not inline data),
+/// else "#index".
+std::string image_label(const tinygltf::Image& img, int index) {
+  if (!img.name.empty()) return img.name;
+  if (!img.uri.empty() && img.uri.rfind("data:", 0) != 0) return img.uri;
+  return "#" + std::to_string(index);
+}
+
+void to_rgba8(const tinygltf::Image& img, int index, Texture& out, const std::string& file) {
   const int comp = img.component, bits = img.bits;
+  // (an external image file that is missing or unreadable is left empty by the library)
   if (img.width <= 0 || img.height <= 0 || comp < 1 || comp > 4 || (bits != 8 && bits != 16))
-    fail(file, "image", "image '" + img.name + "' could not be decoded");
+    fail(file, "image", "image '" + image_label(img, index) + "' could not be read or decoded");
   const std::size_t px = static_cast<std::size_t>(img.width) * static_cast<std::size_t>(img.height);
   const std::size_t bpc = static_cast<std::size_t>(bits / 8);
   if (img.image.size() < px * static_cast<std::size_t>(comp) * bpc)
-    fail(file, "image", "image '" + img.name + "' is shorter than its size");
+    fail(file, "image", "image '" + image_label(img, index) + "' is shorter than its size");
   out.width = img.width;
   out.height = img.height;
   out.rgba.assign(px * 4, 255);
@@ -382,7 +391,7 @@ SkinnedModel load_model(const std::filesystem::path& path) {
       if (texture_of_image[static_cast<std::size_t>(src)] == -1) {
         Texture tex;
         tex.name = m.images[static_cast<std::size_t>(src)].name.empty() ? m.images[static_cast<std::size_t>(src)].uri : m.images[static_cast<std::size_t>(src)].name;
-        to_rgba8(m.images[static_cast<std::size_t>(src)], tex, file);
+        to_rgba8(m.images[static_cast<std::size_t>(src)], src, tex, file);
         texture_of_image[static_cast<std::size_t>(src)] = static_cast<int>(out.textures.size());
         out.textures.push_back(std::move(tex));
       }

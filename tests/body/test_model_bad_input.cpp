@@ -2,6 +2,7 @@
 // drawn right refused in one line naming the file.
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -161,4 +162,18 @@ TEST(ModelBadInput, NonFinitePositionsNoSkinAndBadIndicesAreRefused) {
     EXPECT_NE(refusal(p).find(p.string() + ": "), std::string::npos) << refusal(p);
     fs::remove(p);
   }
+}
+
+TEST(ModelBadInput, AMissingTextureIsRefusedNamingTheFileAndTheImage) {
+  // A base-colour texture whose image file is not there: one line naming the model and the
+  // image (the app then draws the capsule figure: BodyRender.ABodyThatCannotBeWorn...).
+  const std::string extra = R"("materials":[{"name":"skin","pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+  "textures":[{"source":0}],"images":[{"uri":"missing_texture.png"}],)";
+  const fs::path p = write("missing_texture.gltf", triangle_gltf({{{65535, 0}, {65535, 0}, {65535, 0}}}, extra));
+  const std::string why = refusal(p);
+  std::printf("%s\n", why.c_str());
+  EXPECT_NE(why.find(p.string()), std::string::npos) << why;
+  EXPECT_NE(why.find("missing_texture.png"), std::string::npos) << why;
+  EXPECT_EQ(why.find('\n'), std::string::npos) << why;
+  fs::remove(p);
 }
