@@ -731,15 +731,20 @@ double Behaviour::pin_drop_max_m() const {
   return strike_.plan_drop_m + std::max(0.0, strike_.plan_elbow_under_head_m - kElbowBelowHead_m);
 }
 
+void Behaviour::correction_at(double t, Eigen::Quaterniond& turn, double& stretch) const {
+  turn = strike_.turn;
+  stretch = strike_.stretch;
+  if (strike_.reaim_from_s < 0 || t >= strike_.reaim_to_s) return;
+  // A block re-aimed on its way: from the old correction to the new one (reaim_block).
+  const double u = min_jerk((t - strike_.reaim_from_s) / std::max(1e-6, strike_.reaim_to_s - strike_.reaim_from_s));
+  turn = strike_.reaim_turn_from.slerp(u, strike_.turn);
+  stretch = strike_.reaim_stretch_from + u * (strike_.stretch - strike_.reaim_stretch_from);
+}
+
 ReachGoal Behaviour::reach_goal(double ramp, double t) const {
-  Eigen::Quaterniond turn = strike_.turn;
-  double stretch = strike_.stretch;
-  if (strike_.reaim_from_s >= 0 && t < strike_.reaim_to_s) {
-    // A block re-aimed on its way: from the old correction to the new one (reaim_block).
-    const double u = min_jerk((t - strike_.reaim_from_s) / std::max(1e-6, strike_.reaim_to_s - strike_.reaim_from_s));
-    turn = strike_.reaim_turn_from.slerp(u, strike_.turn);
-    stretch = strike_.reaim_stretch_from + u * (strike_.stretch - strike_.reaim_stretch_from);
-  }
+  Eigen::Quaterniond turn;
+  double stretch = 1;
+  correction_at(t, turn, stretch);
   ReachGoal g = reach_goal_at(strike_.effector, turn, stretch, ramp, strike_.lean);
   // A punch's fist goes down with a pelvis dropped deeper than its plan had it (a back foot
   // held where it landed, a wider stance than planned) by more than the room its elbow had

@@ -150,13 +150,9 @@ bool Behaviour::reaim_block(const BlockOrder& b, Timestamp now) {
   const Vector3d intercept = b.fist_m + b.velocity_mps * aim_s;
 
   // The correction drawn now (mid-way through an earlier re-aim: where that one has got to).
-  Eigen::Quaterniond from_turn = strike_.turn;
-  double from_stretch = strike_.stretch;
-  if (strike_.reaim_from_s >= 0 && t < strike_.reaim_to_s) {
-    const double u = min_jerk((t - strike_.reaim_from_s) / std::max(1e-6, strike_.reaim_to_s - strike_.reaim_from_s));
-    from_turn = strike_.reaim_turn_from.slerp(u, strike_.turn);
-    from_stretch = strike_.reaim_stretch_from + u * (strike_.stretch - strike_.reaim_stretch_from);
-  }
+  Eigen::Quaterniond from_turn;
+  double from_stretch = 1;
+  correction_at(t, from_turn, from_stretch);
   // (kept to put back where the new aim cannot be taken)
   const Vector3d old_target = strike_.target_room_m, old_error = strike_.error_m;
   const Eigen::Quaterniond old_turn = strike_.turn;

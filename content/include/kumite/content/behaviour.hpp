@@ -477,6 +477,9 @@ class Behaviour {
   double ramp_in(double t) const;   ///< d(t)'s weight at segment time t before contact
   double ramp_out(double t) const;  ///< ... and after it, until release_end_s
   ReachGoal reach_goal(double ramp, double t) const;  ///< d(t) at that weight, segment time t (a block's re-aim)
+  /// d(t)'s full turn and stretch at segment time t: strike_'s, or on the way to them from a
+  /// block's re-aim (reaim_block).
+  void correction_at(double t, Eigen::Quaterniond& turn, double& stretch) const;
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
   /// The feet's inputs for this update: the motion alone (`cur`), d(t) (`reach`, at weight
   /// `ramp`), the strike under way and whether a foot may step.
