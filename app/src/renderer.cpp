@@ -297,7 +297,7 @@ struct SkinnedBuffers {
   GLuint vao = 0, vbo = 0, ebo = 0;
   GLsizei vertices = 0;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> primitives;  ///< first index, count
-  std::vector<GLuint> textures;           ///< one per model texture (RGBA8, mipmapped, repeating)
+  std::vector<GLuint> textures;           ///< one per model texture (RGBA8, mipmapped, its sampler)
   std::vector<GLuint> primitive_texture;  ///< per primitive: its material's base-colour texture (0: none)
 };
 
@@ -713,7 +713,7 @@ int Renderer::upload_model(const body::SkinnedModel& model) {
   glBindVertexArray(0);
   b.vertices = static_cast<GLsizei>(v.size());
   // The base-colour textures, row 0 first as in the image (glTF's v = 0 is the image's top
-  // row, and GL's t = 0 the first row given: no flip). glTF's default sampler: repeat, linear.
+  // row, and GL's t = 0 the first row given: no flip).
   b.textures.resize(model.textures.size());
   if (!b.textures.empty()) glGenTextures(static_cast<GLsizei>(b.textures.size()), b.textures.data());
   for (std::size_t t = 0; t < model.textures.size(); ++t) {
@@ -722,10 +722,11 @@ int Renderer::upload_model(const body::SkinnedModel& model) {
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, tex.width, tex.height, 0, GL_RGBA, GL_UNSIGNED_BYTE, tex.rgba.data());
     glGenerateMipmap(GL_TEXTURE_2D);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+    // The file's sampler (glTF's values are GL's enums; the loader allowed only glTF's).
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, tex.min_filter);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, tex.mag_filter);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, tex.wrap_s);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, tex.wrap_t);
   }
   glBindTexture(GL_TEXTURE_2D, 0);
   for (const auto& p : model.primitives) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <initializer_list>
 #include <numeric>
 #include <string>
 
@@ -200,6 +201,21 @@ std::string image_label(const tinygltf::Image& img, int index) {
   return "#" + std::to_string(index);
 }
 
+/// A sampler's wrap modes and filters onto `out` (left at glTF's defaults where unset, -1);
+/// a value glTF does not allow is refused naming the sampler.
+void read_sampler(const tinygltf::Sampler& s, int index, Texture& out, const std::string& file) {
+  const auto check = [&](int v, std::initializer_list<int> allowed, const char* what, int& to) {
+    if (v < 0) return;
+    if (std::find(allowed.begin(), allowed.end(), v) == allowed.end())
+      fail(file, "sampler", "sampler " + std::to_string(index) + ": " + what + " " + std::to_string(v) + " is not one glTF allows");
+    to = v;
+  };
+  check(s.wrapS, {33071, 33648, 10497}, "wrapS", out.wrap_s);
+  check(s.wrapT, {33071, 33648, 10497}, "wrapT", out.wrap_t);
+  check(s.magFilter, {9728, 9729}, "magFilter", out.mag_filter);
+  check(s.minFilter, {9728, 9729, 9984, 9985, 9986, 9987}, "minFilter", out.min_filter);
+}
+
 void to_rgba8(const tinygltf::Image& img, int index, Texture& out, const std::string& file) {
   const int comp = img.component, bits = img.bits;
   // (an external image file that is missing or unreadable is left empty by the library)
@@ -371,8 +387,8 @@ SkinnedModel load_model(const std::filesystem::path& path) {
     s.inverse_bind.push_back(ib);
   }
 
-  // Materials and their base-colour textures.
-  std::vector<int> texture_of_image(m.images.size(), -1);
+  // Materials and their base-colour textures (one per glTF texture: an image and a sampler).
+  std::vector<int> texture_of(m.textures.size(), -1);
   for (const auto& mat : m.materials) {
     Material mm;
     mm.name = mat.name;
@@ -388,14 +404,19 @@ SkinnedModel load_model(const std::filesystem::path& path) {
       const int src = m.textures[static_cast<std::size_t>(ti)].source;
       if (src < 0 || static_cast<std::size_t>(src) >= m.images.size())
         fail(file, "index", "material '" + mat.name + "': its texture has no image");
-      if (texture_of_image[static_cast<std::size_t>(src)] == -1) {
+      if (texture_of[static_cast<std::size_t>(ti)] == -1) {
         Texture tex;
-        tex.name = m.images[static_cast<std::size_t>(src)].name.empty() ? m.images[static_cast<std::size_t>(src)].uri : m.images[static_cast<std::size_t>(src)].name;
+        tex.name = image_label(m.images[static_cast<std::size_t>(src)], src);
         to_rgba8(m.images[static_cast<std::size_t>(src)], src, tex, file);
-        texture_of_image[static_cast<std::size_t>(src)] = static_cast<int>(out.textures.size());
+        const int si = m.textures[static_cast<std::size_t>(ti)].sampler;
+        if (si >= 0) {
+          if (static_cast<std::size_t>(si) >= m.samplers.size()) fail(file, "index", "texture " + std::to_string(ti) + ": sampler " + std::to_string(si) + " does not exist");
+          read_sampler(m.samplers[static_cast<std::size_t>(si)], si, tex, file);
+        }
+        texture_of[static_cast<std::size_t>(ti)] = static_cast<int>(out.textures.size());
         out.textures.push_back(std::move(tex));
       }
-      mm.base_color_texture = texture_of_image[static_cast<std::size_t>(src)];
+      mm.base_color_texture = texture_of[static_cast<std::size_t>(ti)];
     }
     out.materials.push_back(std::move(mm));
   }

@@ -177,3 +177,50 @@ TEST(ModelBadInput, AMissingTextureIsRefusedNamingTheFileAndTheImage) {
   EXPECT_EQ(why.find('\n'), std::string::npos) << why;
   fs::remove(p);
 }
+
+namespace {
+/// A 1 x 1 RGBA PNG (a standard test image; its chunks' CRCs checked when this was written).
+const char* kPixelPng = "iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNk+M9QDwADhgGAWjR9awAAAABJRU5ErkJggg==";
+std::string textured(const std::string& sampler) {
+  return R"("materials":[{"name":"skin","pbrMetallicRoughness":{"baseColorTexture":{"index":0}}}],
+  "textures":[{"source":0)" + std::string(sampler.empty() ? "" : R"(,"sampler":0)") + R"(}],
+  "images":[{"uri":"data:image/png;base64,)" + kPixelPng + R"("}],)" +
+         (sampler.empty() ? std::string() : R"("samplers":[)" + sampler + "],");
+}
+}  // namespace
+
+TEST(ModelBadInput, ATexturesSamplerIsReadAndOneGltfDoesNotAllowIsRefused) {
+  // No sampler: glTF's defaults (repeat, linear, trilinear).
+  {
+    const fs::path p = write("default_sampler.gltf", triangle_gltf({{{65535, 0}, {65535, 0}, {65535, 0}}}, textured("")));
+    const SkinnedModel m = load_model(p);
+    ASSERT_EQ(m.textures.size(), 1u);
+    EXPECT_EQ(m.textures[0].width, 1);
+    EXPECT_EQ(m.textures[0].wrap_s, 10497);
+    EXPECT_EQ(m.textures[0].mag_filter, 9729);
+    EXPECT_EQ(m.textures[0].min_filter, 9987);
+    fs::remove(p);
+  }
+  // The file's own: clamped and mirrored, nearest.
+  {
+    const fs::path p = write("own_sampler.gltf", triangle_gltf({{{65535, 0}, {65535, 0}, {65535, 0}}},
+                                                               textured(R"({"magFilter":9728,"minFilter":9984,"wrapS":33071,"wrapT":33648})")));
+    const SkinnedModel m = load_model(p);
+    ASSERT_EQ(m.textures.size(), 1u);
+    EXPECT_EQ(m.textures[0].wrap_s, 33071);
+    EXPECT_EQ(m.textures[0].wrap_t, 33648);
+    EXPECT_EQ(m.textures[0].mag_filter, 9728);
+    EXPECT_EQ(m.textures[0].min_filter, 9984);
+    fs::remove(p);
+  }
+  // A value glTF does not allow (a mipmap filter for magnification): one line naming the file.
+  {
+    const fs::path p = write("bad_sampler.gltf", triangle_gltf({{{65535, 0}, {65535, 0}, {65535, 0}}}, textured(R"({"magFilter":9987})")));
+    const std::string why = refusal(p);
+    std::printf("%s\n", why.c_str());
+    EXPECT_NE(why.find(p.string()), std::string::npos) << why;
+    EXPECT_NE(why.find("magFilter 9987"), std::string::npos) << why;
+    EXPECT_EQ(why.find('\n'), std::string::npos) << why;
+    fs::remove(p);
+  }
+}

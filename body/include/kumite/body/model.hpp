@@ -46,6 +46,11 @@ struct Texture {
   std::string name;
   int width = 0, height = 0;
   std::vector<std::uint8_t> rgba;  ///< width * height * 4, row 0 first as in the image
+  /// The texture's glTF sampler, as its GL enum values (glTF's defaults where the file gives
+  /// none: repeat, linear, trilinear).
+  int wrap_s = 10497, wrap_t = 10497;  ///< REPEAT 10497, CLAMP_TO_EDGE 33071, MIRRORED_REPEAT 33648
+  int mag_filter = 9729;               ///< NEAREST 9728, LINEAR 9729
+  int min_filter = 9987;               ///< those, or NEAREST/LINEAR_MIPMAP_NEAREST/LINEAR 9984-9987
 };
 
 struct Material {
