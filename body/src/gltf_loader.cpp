@@ -572,6 +572,13 @@ SkinnedModel load_model(const std::filesystem::path& path) {
   rest_palette(out, palette);
   for (std::size_t j = 0; j < jn; ++j)
     if (!palette[j].allFinite()) fail(file, "not_finite", "joint '" + s.names[j] + "': its rest transform is not finite");
+  // ...and so must its vertices skinned there: finite numbers whose products overflow (a
+  // float near 3e38 in a translation or a position) drew an exploded mesh (fuzz_gltf).
+  std::vector<Eigen::Vector3f> rest(out.vertex_count()), rest_normals(out.vertex_count());
+  skin_cpu(out, palette, rest, rest_normals);
+  for (std::size_t v = 0; v < rest.size(); ++v)
+    if (!rest[v].allFinite())
+      fail(file, "not_finite", "vertex " + std::to_string(v) + ": skinned at the rest pose it is not finite (numbers too large to draw)");
   return out;
 }
 

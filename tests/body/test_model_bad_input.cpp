@@ -224,3 +224,26 @@ TEST(ModelBadInput, ATexturesSamplerIsReadAndOneGltfDoesNotAllowIsRefused) {
     fs::remove(p);
   }
 }
+
+TEST(ModelBadInput, TheGltfFuzzersSeedsAreModelsItCanDraw) {
+  // tests/body/fuzz/corpus_fuzz_gltf: a textured two-joint triangle as .gltf (inline data) and
+  // as .glb (buffer and PNG in the binary chunk): the fuzzer starts from files that load.
+  for (const char* name : {"triangle_textured.gltf", "triangle_textured.glb"}) {
+    const SkinnedModel m = load_model(fs::path(KUMITE_SOURCE_DIR) / "tests/body/fuzz/corpus_fuzz_gltf" / name);
+    EXPECT_EQ(m.vertex_count(), 3u) << name;
+    EXPECT_EQ(m.skeleton.joint_count(), 2) << name;
+    ASSERT_EQ(m.textures.size(), 1u) << name;
+    EXPECT_EQ(m.textures[0].wrap_t, 33071) << name;
+    EXPECT_FLOAT_EQ(m.uvs[1].x(), 1.0f) << name;
+  }
+}
+
+TEST(ModelBadInput, AModelWhoseRestPoseSkinsToInfinityIsRefused) {
+  // fuzz_gltf's first finding: the textured triangle with a few bytes changed into a float near
+  // 3e38; every number finite, the rest palette finite, the vertices skinned there not.
+  const fs::path p = fs::path(KUMITE_SOURCE_DIR) / "tests/body/fuzz/corpus_fuzz_gltf/regression-rest-skinning-overflow.glb";
+  const std::string why = refusal(p);
+  std::printf("%s\n", why.c_str());
+  EXPECT_NE(why.find(p.string()), std::string::npos) << why;
+  EXPECT_NE(why.find("not finite"), std::string::npos) << why;
+}
