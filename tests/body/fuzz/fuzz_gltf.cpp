@@ -19,8 +19,15 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   // load_model reads a path (.glb by its magic, else .gltf): the input as this process's file.
   const bool glb = size >= 4 && data[0] == 'g' && data[1] == 'l' && data[2] == 'T' && data[3] == 'F';
-  static const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("kumite_fuzz_gltf_" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  static const std::filesystem::path dir = [] {
+    const auto d = std::filesystem::temp_directory_path() / ("kumite_fuzz_gltf_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(d);
+    std::atexit([] {
+      std::error_code ec;
+      std::filesystem::remove_all(std::filesystem::temp_directory_path() / ("kumite_fuzz_gltf_" + std::to_string(::getpid())), ec);
+    });
+    return d;
+  }();
   const std::filesystem::path file = dir / (glb ? "model.glb" : "model.gltf");
   std::ofstream(file, std::ios::binary | std::ios::trunc).write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
   kumite::body::SkinnedModel m;
