@@ -1006,6 +1006,9 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
   }
   BoutResult result;
   nlohmann::json jr = nlohmann::json::array();
+  /// Contact frames a run's foot needs for its slide percentiles to count in the bout's worst
+  /// (a third of a second at 60 Hz).
+  constexpr int kMinPercentileFrames = 20;
   std::vector<double> slide_max, slide_p95, slide_p50, step_max;
   int snaps = 0, knee_flips = 0, elbow_flips = 0, folded = 0, strikes = 0, hits = 0, dodged = 0, misses = 0;
   int both_off_frames = 0;  // frames with both feet off the floor (the drawn joints, each run's own floor)
@@ -1066,8 +1069,12 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
     elbow_flips += f.elbow_flips();
     for (int s = 0; s < 2; ++s) {
       slide_max.push_back(f.slide[static_cast<std::size_t>(s)].max_mps);
-      slide_p95.push_back(f.slide[static_cast<std::size_t>(s)].p95_mps);
-      slide_p50.push_back(f.slide[static_cast<std::size_t>(s)].p50_mps);
+      // A run's p50 / p95 only over enough contact frames to be one (kMinPercentileFrames): a
+      // run with one contact frame gave its speed as the bout's "worst p95".
+      if (f.slide[static_cast<std::size_t>(s)].frames >= kMinPercentileFrames) {
+        slide_p95.push_back(f.slide[static_cast<std::size_t>(s)].p95_mps);
+        slide_p50.push_back(f.slide[static_cast<std::size_t>(s)].p50_mps);
+      }
       step_max.push_back(f.stepping[static_cast<std::size_t>(s)].max_mps);
     }
     nlohmann::json j{{"character", rigs[static_cast<std::size_t>(run.character)].name}, {"first_frame", run.first_frame},
@@ -1110,7 +1117,8 @@ BoutResult run_bout_scenario(const std::shared_ptr<const Database>& db, std::vec
         {"drawn_joint_speed_max_joint", canon.names[static_cast<std::size_t>(std::max(0, drawn_speed.max_joint))]},
         {"drawn_joint_speed_max_frame", drawn_speed.max_frame},
         {"support_slide_max_mps", mx(slide_max)}, {"support_slide_p95_mps_worst_run", mx(slide_p95)},
-        {"support_slide_p50_mps_worst_run", mx(slide_p50)}, {"stepping_peak_max_mps", mx(step_max)},
+        {"support_slide_p50_mps_worst_run", mx(slide_p50)},
+        {"support_slide_percentiles_min_frames", kMinPercentileFrames}, {"stepping_peak_max_mps", mx(step_max)},
         {"knee_flips", knee_flips}, {"elbow_flips", elbow_flips}, {"folded_at_contact", folded},
         {"both_feet_off_frames", both_off_frames}, {"both_feet_off_frames_by_state", both_off_by_state},
         {"both_feet_off_frames_source_down", both_off_beyond_source},
