@@ -26,6 +26,14 @@ constexpr double kInPlaceMargin_s = 1.0 / 60;
 /// m/s: a re-aim (reaim_block) moves the wrist's target at most this fast at its peak (a
 /// minimum-jerk shift peaks at 1.875 x its mean speed), as a parry's move from the guard.
 constexpr double kMostReaimSpeed_mps = 6.0;
+
+/// Segment s a block holds its forearm across the path after it is in place: until the fist,
+/// aimed at `aim_s` from now, has passed (kHoldPast_s), the forearm in place `in_place_wall_s`
+/// from now, the clip played at `rate`; never past the clip's end.
+double block_hold_s(double aim_s, double in_place_wall_s, double rate, double contact_s, double end_s) {
+  const double hold_wall_s = std::max(0.0, aim_s - in_place_wall_s) + kHoldPast_s;
+  return std::min(hold_wall_s * rate, std::max(0.0, end_s - contact_s));
+}
 }  // namespace
 
 bool Behaviour::can_block() const {
@@ -104,23 +112,13 @@ bool Behaviour::block(const BlockOrder& b, Timestamp now) {
   strike_.end_time_s = (seg.frame_count() - 1) * seg.frame_time_s;
   // Held across the path until the fist has passed (segment seconds), within the clip.
   const double in_place_wall_s = (strike_.contact_time_s - player_.current().time_s) / rate;
-  const double hold_wall_s = std::max(0.0, strike_.fist_arrival_t - now - in_place_wall_s) + kHoldPast_s;
-  strike_.hold_s = std::min(hold_wall_s * rate, std::max(0.0, strike_.end_time_s - strike_.contact_time_s));
+  strike_.hold_s = block_hold_s(strike_.fist_arrival_t - now, in_place_wall_s, rate, strike_.contact_time_s, strike_.end_time_s);
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   strike_.start_update = updates_;
   strike_.rate = rate;
   enter(Striking{});
   strike_.plan_feet = feet_through_contact(player_.current(), strike_.contact_time_s);
-  // d(t) brings the wrist where it puts the forearm's middle on the intercept: the wrist
-  // target is the intercept plus the half forearm (elbow -> wrist) as the clip holds it there.
-  strike_.target_room_m = intercept;
-  compute_reach_error(strike_.contact_time_s, false);
-  // (the pose at the intercept, decoded without d(t), is in scratch_pose_)
-  const Vector3d wrist = at(scratch_pose_, strike_.effector.joint());
-  const Vector3d elbow = at(scratch_pose_, strike_.effector.side == kLeft ? CJ::l_elbow : CJ::r_elbow);
-  const Vector3d half = (1 - kForearmContactFraction) * (wrist - elbow);
-  strike_.target_room_m = intercept + half;
-  compute_reach_error(strike_.contact_time_s, false);
+  aim_block_at(intercept);
   if (!strike_.target_room_m.allFinite() || !strike_.error_m.allFinite()) {
     // (never seen: a pose that cannot be decoded) no d(t): the block plays as captured
     strike_.target_room_m = intercept;
@@ -129,6 +127,18 @@ bool Behaviour::block(const BlockOrder& b, Timestamp now) {
     strike_.stretch = 1;
   }
   return true;
+}
+
+void Behaviour::aim_block_at(const Vector3d& intercept) {
+  // d(t) brings the wrist where it puts the forearm's middle on the intercept: the wrist
+  // target is the intercept plus the half forearm (elbow -> wrist) as the clip holds it there.
+  strike_.target_room_m = intercept;
+  compute_reach_error(strike_.contact_time_s, false);
+  // (the pose at the intercept, decoded without d(t), is in scratch_pose_)
+  const Vector3d wrist = at(scratch_pose_, strike_.effector.joint());
+  const Vector3d elbow = at(scratch_pose_, strike_.effector.side == kLeft ? CJ::l_elbow : CJ::r_elbow);
+  strike_.target_room_m = intercept + (1 - kForearmContactFraction) * (wrist - elbow);
+  compute_reach_error(strike_.contact_time_s, false);
 }
 
 bool Behaviour::reaim_block(const BlockOrder& b, Timestamp now) {
@@ -159,13 +169,7 @@ bool Behaviour::reaim_block(const BlockOrder& b, Timestamp now) {
   const double old_stretch = strike_.stretch;
   const bool old_out_of_reach = strike_.out_of_reach;
   const Vector3d old_shoulder = contact_shoulder_m_, old_head = contact_head_m_, old_elbow = contact_elbow_m_;
-  // As block() aims it: the wrist where it puts the forearm's middle on the intercept.
-  strike_.target_room_m = intercept;
-  compute_reach_error(strike_.contact_time_s, false);
-  const Vector3d wrist = at(scratch_pose_, strike_.effector.joint());
-  const Vector3d elbow = at(scratch_pose_, strike_.effector.side == kLeft ? CJ::l_elbow : CJ::r_elbow);
-  strike_.target_room_m = intercept + (1 - kForearmContactFraction) * (wrist - elbow);
-  compute_reach_error(strike_.contact_time_s, false);
+  aim_block_at(intercept);
   const double shift_m = (strike_.target_room_m - old_target).norm();
   if (!strike_.target_room_m.allFinite() || !strike_.error_m.allFinite() || 1.875 * shift_m / in_place_wall_s > kMostReaimSpeed_mps) {
     strike_.target_room_m = old_target;
@@ -186,8 +190,7 @@ bool Behaviour::reaim_block(const BlockOrder& b, Timestamp now) {
   strike_.fist_arrival_t = now + aim_s;
   strike_.fist_speed_mps = b.velocity_mps.norm();
   strike_.block_recognised = strike_.block_recognised || b.recognised;
-  const double hold_wall_s = std::max(0.0, aim_s - in_place_wall_s) + kHoldPast_s;
-  strike_.hold_s = std::min(hold_wall_s * cur.rate, std::max(0.0, strike_.end_time_s - strike_.contact_time_s));
+  strike_.hold_s = block_hold_s(aim_s, in_place_wall_s, cur.rate, strike_.contact_time_s, strike_.end_time_s);
   strike_.release_end_s = release_end_s(strike_.contact_time_s);
   return true;
 }

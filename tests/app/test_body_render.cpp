@@ -49,6 +49,16 @@ std::unique_ptr<HeadlessContext> context_or_reason(std::string& reason) {
 
 fs::path asset(const std::string& name) { return kSource / "body" / "assets" / name; }
 
+/// The shipped demo's installation on the demo database `db`, with no tracker and no orders
+/// script: a fighter the test drives itself.
+InstallationConfig demo_config_on(const fs::path& db) {
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = db;
+  cfg.tracking.source = TrackingSource::none;
+  cfg.orders_script.reset();
+  return cfg;
+}
+
 const WallFrame kFront = wall_frame({-1.5, 0, -1.5}, {1.5, 0, -1.5}, {-1.5, 2.4, -1.5});
 
 std::optional<fs::path> dump_dir() {
@@ -153,11 +163,8 @@ TEST(BodyRender, EveryJointOfTheDrawnSkeletonLiesInsideTheBodysSilhouetteFrontAn
   if (!context) GTEST_SKIP() << why;
   const fs::path db = fs::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
   if (!fs::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
-  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  auto cfg = demo_config_on(db);
   ASSERT_EQ(cfg.render.fighter, FighterLook::skinned) << "the shipped demo draws bodies";
-  cfg.fighter.database = db;
-  cfg.tracking.source = TrackingSource::none;
-  cfg.orders_script.reset();
   const auto dump = dump_dir();
   const int w = 360, h = 360;
   OffscreenTarget target(w, h);
@@ -397,10 +404,7 @@ TEST(BodyRender, ABodyThatCannotBeWornIsOneWarningNamingTheFileAndCapsules) {
 TEST(BodyRender, ACharacterSwitchEasesTheBodyWithTheDrawnJoints) {
   const fs::path db = fs::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb";
   if (!fs::exists(db)) GTEST_SKIP() << "no demo database (scripts/setup.sh makes it)";
-  auto cfg = load_installation_config(kSource / "config/demo.toml");
-  cfg.fighter.database = db;
-  cfg.tracking.source = TrackingSource::none;
-  cfg.orders_script.reset();
+  auto cfg = demo_config_on(db);
   cfg.fighter.initial_character = 0;
   Installation inst(cfg, make_fixed_head_input("test"), {});
   FighterBodies bodies(cfg);
@@ -654,10 +658,7 @@ TEST(BodyRender, ABaseColourTextureIsDrawnWhereItsCoordinatesPutIt) {
   write_textured_glb(asset("male_casual.glb"), dir / "textured.glb");
   std::ofstream(dir / "bodies.toml") << "version = 1\n"
                                         "[[body]]\ncharacter = \"kenji\"\nmodel = \"textured.glb\"\noutfit = [1, 1, 1]\noutfit_materials = []\n";
-  auto cfg = load_installation_config(kSource / "config/demo.toml");
-  cfg.fighter.database = db;
-  cfg.tracking.source = TrackingSource::none;
-  cfg.orders_script.reset();
+  auto cfg = demo_config_on(db);
   cfg.render.bodies = dir / "bodies.toml";
   const int kenji = 0;  // the demo's first character
   ASSERT_EQ(cfg.characters[static_cast<std::size_t>(kenji)].name, "Kenji");

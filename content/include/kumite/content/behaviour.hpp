@@ -480,6 +480,9 @@ class Behaviour {
   /// d(t)'s full turn and stretch at segment time t: strike_'s, or on the way to them from a
   /// block's re-aim (reaim_block).
   void correction_at(double t, Eigen::Quaterniond& turn, double& stretch) const;
+  /// A block's d(t) aimed so that the forearm's middle lies on `intercept` (m, room) at the
+  /// clip's intercept (block, reaim_block): target_room_m and compute_reach_error's fields.
+  void aim_block_at(const Eigen::Vector3d& intercept);
   double release_end_s(double contact_time_s) const;  ///< segment time d(t) is back to 0
   /// The feet's inputs for this update: the motion alone (`cur`), d(t) (`reach`, at weight
   /// `ramp`), the strike under way and whether a foot may step.
