@@ -1,8 +1,10 @@
 #include "kumite/content/adaptation.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <numbers>
+#include <string>
 
 #include "kumite/common/error.hpp"
 #include "kumite/content/ik.hpp"
@@ -214,7 +216,28 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
         rot = aim(r.middle - pos);
         break;
       }
-      case Role::elbow: rot = aim(wrist_goal[s] - pos); break;
+      case Role::elbow: {
+        rot = aim(wrist_goal[s] - pos);
+        const double w = s >= 0 ? std::clamp(job.fist_neutral[static_cast<std::size_t>(s)], 0.0, 1.0) : 0.0;
+        const Vector3d& thumb_local = rig.thumb_local[static_cast<std::size_t>(std::max(s, 0))];
+        const int sh = s >= 0 ? sk.index(s == kLeft ? CJ::l_shoulder : CJ::r_shoulder) : -1;
+        if (w > 0 && sh >= 0 && sh < i && thumb_local.squaredNorm() > 0) {
+          // The thumb toward the shoulder's side of the forearm (the palm toward the body's
+          // middle): a fist's neutral turn on a bent arm.
+          const Vector3d fore = wrist_goal[s] - pos;
+          const Vector3d to_shoulder = job.global_positions[static_cast<std::size_t>(sh)] - pos;
+          if (fore.norm() > 1e-6) {
+            const Vector3d a = fore.normalized();
+            const Vector3d want = to_shoulder - to_shoulder.dot(a) * a;
+            const Vector3d now = rot * thumb_local;
+            if (want.norm() > 1e-3 * to_shoulder.norm()) {
+              const double angle = std::atan2(a.dot(now.cross(want)), now.dot(want));
+              rot = Quaterniond(Eigen::AngleAxisd(w * angle, a)) * rot;
+            }
+          }
+        }
+        break;
+      }
       case Role::hip: {
         // d(t) moves the motion's foot; a hold then pulls the result onto the held ankle (a
         // kicking foot put down while d(t) is still being released stays where it is held).
@@ -340,6 +363,34 @@ Rig make_rig(const Skeleton& skeleton, std::span<const Quaterniond> rest_local, 
   }
   const auto pelvis = static_cast<std::size_t>(skeleton.index(CJ::pelvis));
   const auto chest = static_cast<std::size_t>(skeleton.index(CJ::chest));
+  // Each forearm's thumb side at rest: a "thumb" joint below the wrist toward its child (CMU's
+  // lthumb toward its end, forward in its T-pose: palms down), else the chest's forward.
+  for (int s = 0; s < 2; ++s) {
+    const int el = skeleton.index(s == kLeft ? CJ::l_elbow : CJ::r_elbow);
+    const int wr = skeleton.index(s == kLeft ? CJ::l_wrist : CJ::r_wrist);
+    if (el < 0 || wr < 0) continue;
+    const Vector3d fore = gp[static_cast<std::size_t>(wr)] - gp[static_cast<std::size_t>(el)];
+    if (fore.norm() < 1e-6) continue;
+    Vector3d thumb = chest_frame(rig.rest_pose) * Vector3d::UnitZ();
+    for (int j = wr + 1; j < n; ++j) {
+      std::string lower = skeleton.names[static_cast<std::size_t>(j)];
+      std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      bool below = false;
+      for (int a = skeleton.parents[static_cast<std::size_t>(j)]; a >= 0 && !below; a = skeleton.parents[static_cast<std::size_t>(a)]) below = a == wr;
+      if (!below || lower.find("thumb") == std::string::npos) continue;
+      for (int c = j + 1; c < n; ++c) {
+        if (skeleton.parents[static_cast<std::size_t>(c)] != j) continue;
+        const Vector3d d = gp[static_cast<std::size_t>(c)] - gp[static_cast<std::size_t>(j)];
+        if (d.norm() > 1e-6) thumb = d;
+        break;
+      }
+      break;
+    }
+    const Vector3d f = fore.normalized();
+    const Vector3d across = thumb - thumb.dot(f) * f;
+    if (across.norm() > 1e-3 * thumb.norm())
+      rig.thumb_local[static_cast<std::size_t>(s)] = gr[static_cast<std::size_t>(el)].conjugate() * across.normalized();
+  }
   rig.pelvis_frame_local = gr[pelvis].conjugate() * pelvis_frame(rig.rest_pose);
   rig.chest_frame_local = gr[chest].conjugate() * chest_frame(rig.rest_pose);
   // The root keeps its rest rotation when it is not the pelvis (e.g. a floor "Root" joint).
@@ -363,7 +414,7 @@ bool AdaptJob::Validate() const {
   const auto n = static_cast<std::size_t>(rig->joint_count());
   return local_rotations.size() >= n && global_positions.size() >= n && global_rotations.size() >= n &&
          (previous_positions.empty() || previous_positions.size() >= n) && std::isfinite(max_knee_swivel_rad) &&
-         max_knee_swivel_rad >= 0;
+         max_knee_swivel_rad >= 0 && fist_neutral[0] >= 0 && fist_neutral[0] <= 1 && fist_neutral[1] >= 0 && fist_neutral[1] <= 1;
 }
 
 bool AdaptJob::Run() const {

@@ -35,6 +35,10 @@ struct Rig {
   std::vector<Role> role;            ///< what the solver does at each joint
   std::vector<std::int8_t> side;     ///< kLeft / kRight for limb roles, -1 otherwise
   std::vector<Eigen::Vector3d> aim_local;  ///< unit, toward the role's child joint, joint frame at rest
+  /// unit [side]: the thumb's side of the forearm, across it, in the elbow joint's frame at rest
+  /// (from a joint named "thumb" below the wrist, else the rest pose's forward); zero where
+  /// neither gives a direction. AdaptJob::fist_neutral turns the forearm by it.
+  std::array<Eigen::Vector3d, 2> thumb_local{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   Eigen::Quaterniond pelvis_frame_local = Eigen::Quaterniond::Identity();  ///< geometric frame in pelvis joint frame
   Eigen::Quaterniond chest_frame_local = Eigen::Quaterniond::Identity();   ///< geometric frame in chest joint frame
   Eigen::Vector3d root_to_pelvis_local{0, 0, 0};  ///< m, pelvis from the root joint, root frame at rest
@@ -185,6 +189,12 @@ struct AdaptJob {
   /// flipped to the other side in one frame (0.6 m: the spar demo with stance steps on).
   std::span<const Eigen::Vector3d> previous_positions;
   double max_knee_swivel_rad = 0;  ///< rad, per frame; 0: no limit
+  /// 0..1 [side]: how far each forearm turns about its own length from the twist its aim gives
+  /// (the shortest swing from the rest, carried down the arm: MKM has arm directions and
+  /// elbow poles, no hand) toward a fist held up: the thumb toward the shoulder's side of the
+  /// forearm, the palm toward the body's middle. The guard passes its weight: swung alone, its
+  /// upright forearms turned their palms to the visitor, fingers curled toward them.
+  std::array<double, 2> fist_neutral{0, 0};
   std::span<Eigen::Quaterniond> local_rotations;   ///< out, joint_count
   std::span<Eigen::Vector3d> global_positions;     ///< out, m, room frame, joint_count
   std::span<Eigen::Quaterniond> global_rotations;  ///< out, joint_count
