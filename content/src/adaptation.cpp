@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <limits>
 #include <cmath>
 #include <numbers>
 #include <string>
@@ -108,6 +109,7 @@ struct TrunkDeltas {
 };
 
 struct PassOut {
+  std::array<double, 2> heading_delta_rad{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
   std::array<bool, 2> arm_reached{true, true};
   std::array<bool, 2> leg_reached{true, true};
   Vector3d effector_goal{0, 0, 0};
@@ -293,7 +295,11 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
           const Eigen::Vector2d& h = job.feet->heading_xz[s];
           const double from = std::atan2(dir.x(), dir.z()), to = std::atan2(h.x(), h.y());
           if (std::hypot(dir.x(), dir.z()) > 1e-6 && h.squaredNorm() > 1e-12) {
-            double turn = std::remainder(to - from, 2 * std::numbers::pi) * std::clamp(job.feet->heading_weight[s], 0.0, 1.0);
+            double delta = std::remainder(to - from, 2 * std::numbers::pi);
+            const double prev = job.previous_heading_delta_rad[static_cast<std::size_t>(s)];
+            if (std::isfinite(prev)) delta += 2 * std::numbers::pi * std::round((prev - delta) / (2 * std::numbers::pi));
+            out.heading_delta_rad[static_cast<std::size_t>(s)] = delta;
+            const double turn = delta * std::clamp(job.feet->heading_weight[s], 0.0, 1.0);
             dir = Eigen::AngleAxisd(turn, Vector3d::UnitY()) * dir;
           }
         }
@@ -414,7 +420,7 @@ bool AdaptJob::Validate() const {
   const auto n = static_cast<std::size_t>(rig->joint_count());
   return local_rotations.size() >= n && global_positions.size() >= n && global_rotations.size() >= n &&
          (previous_positions.empty() || previous_positions.size() >= n) && std::isfinite(max_knee_swivel_rad) &&
-         max_knee_swivel_rad >= 0 && fist_neutral[0] >= 0 && fist_neutral[0] <= 1 && fist_neutral[1] >= 0 && fist_neutral[1] <= 1;
+         max_knee_swivel_rad >= 0 && !std::isinf(previous_heading_delta_rad[0]) && !std::isinf(previous_heading_delta_rad[1]) && fist_neutral[0] >= 0 && fist_neutral[0] <= 1 && fist_neutral[1] >= 0 && fist_neutral[1] <= 1;
 }
 
 bool AdaptJob::Run() const {
@@ -560,6 +566,7 @@ bool AdaptJob::Run() const {
     report->trunk.clavicle = td.clavicle_side >= 0 ? td.clavicle : Quaterniond::Identity();
     report->foot_reached = out.leg_reached;
     report->root_drop_m = td.root_drop_m;
+    report->heading_delta_rad = out.heading_delta_rad;
     if (reach) {
       report->effector_goal = out.effector_goal;
       report->effector_reached = joint_pos(*this, reach->effector.joint());

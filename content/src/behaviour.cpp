@@ -1320,6 +1320,7 @@ void Behaviour::update(Timestamp now, double dt, const Vector3d& head) {
   job.min_trunk_fallback_side = trunk_floor_side_;
   job.report = &report_;
   job.fist_neutral = {guard_.weight(), guard_.weight()};  // the guard's fists (AdaptJob::fist_neutral)
+  if (have_pose_) job.previous_heading_delta_rad = report_.heading_delta_rad;  // (report_: the last frame's)
   // Each knee turns about its leg at most kKneeSwivel_rad_s from where the last update drew it
   // (the same character's).
   if (have_pose_ && dt > 0 && previous_rig_character_ == character_) {

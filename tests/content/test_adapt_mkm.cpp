@@ -8,7 +8,10 @@
 #include <numbers>
 #include <random>
 
+#include <filesystem>
+
 #include "kumite/content/adaptation.hpp"
+#include "kumite/content/behaviour.hpp"
 #include "kumite/content/ik.hpp"
 #include "kumite/content/mkm.hpp"
 #include "fighter_fixtures.hpp"
@@ -952,4 +955,57 @@ TEST(Adapt, AFootHeldAboveTheFloorKeepsItsToesOnTheFloor) {
   locks.toe_lowest_y_m = {toe_off.y() - 0.01, 0};
   ASSERT_TRUE(job.Run());
   EXPECT_LT((b.at_joint(rig, CJ::l_toe) - toe_off).norm(), 1e-9) << "a toe above its lowest is left alone";
+}
+
+TEST(Adapt, AHeldFootsHeadingTurnsContinuouslyAsTheMotionsFootPassesItsOpposite) {
+  // kenji at rest, the right foot held where it stands with its heading toward +z at half
+  // weight (a hold easing out as the foot lifts), while the motion's foot turns 3 deg a frame
+  // from 150 to 210 deg: through the opposite of the held heading. Judged on the drawn joints
+  // (the ankle -> toe direction about +y). Handed the last frame's heading difference back
+  // (AdaptJob::previous_heading_delta_rad), the toe turns by half the motion's 3 deg a frame;
+  // without it, the share turned changes sign where the difference passes +-180 deg and the toe
+  // swung round (a kick lifting its foot in the 120-order sweep: the toe 26 cm in one frame).
+  const Rig rig = load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
+  MkmFrame f;
+  encode_mkm(rig.rest_pose, rig.morphology, rig.rest_pose[static_cast<std::size_t>(CJ::r_toe)].y(), nullptr, f);
+  Buffers b(rig);
+  {
+    AdaptJob plain = b.job(rig, f);
+    ASSERT_TRUE(plain.Run());
+  }
+  FootLocks locks;
+  locks.weight = {0, 1};
+  locks.ankle_m = {Vector3d::Zero(), b.at_joint(rig, CJ::r_ankle)};
+  locks.heading_weight = {0, 0.5};
+  locks.heading_xz = {Eigen::Vector2d(0, 1), Eigen::Vector2d(0, 1)};
+  const double pitch = f.foot_dir[kRight].y();
+  const auto toe_heading_deg = [&] {
+    const Vector3d d = b.at_joint(rig, CJ::r_toe) - b.at_joint(rig, CJ::r_ankle);
+    return std::atan2(d.x(), d.z()) * 180 / std::numbers::pi;
+  };
+  const auto run = [&](bool hand_back) {
+    double most = 0, before = 0;
+    AdaptReport report;
+    for (int k = 0; k <= 20; ++k) {
+      const double a = (150.0 + 3 * k) * std::numbers::pi / 180;
+      const double flat = std::sqrt(std::max(0.0, 1 - pitch * pitch));
+      f.foot_dir[kRight] = Vector3d(flat * std::sin(a), pitch, flat * std::cos(a));
+      AdaptJob job = b.job(rig, f);
+      job.feet = &locks;
+      job.report = &report;
+      if (hand_back && k > 0) job.previous_heading_delta_rad = report.heading_delta_rad;
+      EXPECT_TRUE(job.Run());
+      const double h = toe_heading_deg();
+      if (k > 0) most = std::max(most, std::abs(std::remainder(h - before, 360.0)));
+      before = h;
+    }
+    return most;
+  };
+  const double chained = run(true), alone = run(false);
+  std::printf("the drawn toe's heading, most in one frame: %.1f deg handed back, %.1f deg without\n", chained, alone);
+  EXPECT_LT(chained, 2.0);   // half of 3 deg a frame
+  EXPECT_GT(alone, 150.0);   // the flip this guards against
+  AdaptJob bad = b.job(rig, f);
+  bad.previous_heading_delta_rad = {std::numeric_limits<double>::infinity(), 0};
+  EXPECT_FALSE(bad.Validate());
 }

@@ -148,6 +148,10 @@ struct AdaptReport {
   TrunkLean trunk_fallback;                   ///< the fallback's own rotations (on top of the lean)
   std::array<bool, 2> foot_reached{true, true};  ///< locked ankle within the leg's reach
   double root_drop_m = 0;                     ///< m the pelvis was lowered for held feet
+  /// rad [side]: a held foot's heading (FootLocks::heading_xz) less the motion's, about +Y, as
+  /// the decode took it (heading_weight of it turned the foot); NaN where no heading was held.
+  /// A caller drawing frames in sequence hands it back (AdaptJob::previous_heading_delta_rad).
+  std::array<double, 2> heading_delta_rad{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
 };
 
 /// Tunables of the trunk fallback (rad). Larger limits reach further but look contorted.
@@ -195,6 +199,12 @@ struct AdaptJob {
   /// forearm, the palm toward the body's middle. The guard passes its weight: swung alone, its
   /// upright forearms turned their palms to the visitor, fingers curled toward them.
   std::array<double, 2> fist_neutral{0, 0};
+  /// rad [side], optional (NaN: none): the last frame's AdaptReport::heading_delta_rad. The
+  /// heading difference is then taken on the turn nearest it, not always within +-pi: where the
+  /// motion's foot turned through the opposite of its held heading while the hold eased out
+  /// (a kick lifting the foot), the share turned changed sign and the toe swung round 26 cm in
+  /// one frame.
+  std::array<double, 2> previous_heading_delta_rad{std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::quiet_NaN()};
   std::span<Eigen::Quaterniond> local_rotations;   ///< out, joint_count
   std::span<Eigen::Vector3d> global_positions;     ///< out, m, room frame, joint_count
   std::span<Eigen::Quaterniond> global_rotations;  ///< out, joint_count
