@@ -102,6 +102,7 @@ class Feet {
   FootLocks locks_;
   double last_drop_m_ = 0;    ///< m: the pelvis drop drawn at the last update (as bound_drop read it)
   double drop_rate_mps_ = 0;  ///< m/s: how fast the pelvis drop changed at the last update
+  bool switched_ = false;     ///< this update is a character switch's (bound_drop)
   /// Per foot, the landing of the swing under way and the source ankle's horizontal way left to
   /// it: walked once when a swing (or the motion that plays it) begins, then reduced by each
   /// update's own step, so a swing costs one pass over its frames rather than one per update.
