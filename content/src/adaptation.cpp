@@ -1,7 +1,6 @@
 #include "kumite/content/adaptation.hpp"
 
 #include <algorithm>
-#include <cctype>
 #include <limits>
 #include <cmath>
 #include <numbers>
@@ -9,6 +8,7 @@
 
 #include "kumite/common/error.hpp"
 #include "kumite/content/ik.hpp"
+#include "text.hpp"
 
 namespace kumite::content {
 
@@ -379,11 +379,10 @@ Rig make_rig(const Skeleton& skeleton, std::span<const Quaterniond> rest_local, 
     if (fore.norm() < 1e-6) continue;
     Vector3d thumb = chest_frame(rig.rest_pose) * Vector3d::UnitZ();
     for (int j = wr + 1; j < n; ++j) {
-      std::string lower = skeleton.names[static_cast<std::size_t>(j)];
-      std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (detail::lower(skeleton.names[static_cast<std::size_t>(j)]).find("thumb") == std::string::npos) continue;
       bool below = false;
       for (int a = skeleton.parents[static_cast<std::size_t>(j)]; a >= 0 && !below; a = skeleton.parents[static_cast<std::size_t>(a)]) below = a == wr;
-      if (!below || lower.find("thumb") == std::string::npos) continue;
+      if (!below) continue;
       for (int c = j + 1; c < n; ++c) {
         if (skeleton.parents[static_cast<std::size_t>(c)] != j) continue;
         const Vector3d d = gp[static_cast<std::size_t>(c)] - gp[static_cast<std::size_t>(j)];

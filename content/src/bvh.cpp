@@ -12,6 +12,7 @@
 #include "kumite/common/atomic_file.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/content/canonical.hpp"
+#include "text.hpp"
 
 namespace kumite::content {
 
@@ -23,11 +24,7 @@ constexpr double kMaxAbsValue = 1e7;  // file units or degrees; mocap values are
 
 bool is_space(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n' || c == '\f' || c == '\v'; }
 
-std::string lower(std::string_view s) {
-  std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return out;
-}
+using detail::lower;
 
 /// Whitespace-separated tokens; '{' and '}' are tokens of their own. Tracks the line.
 class Lexer {

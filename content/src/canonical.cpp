@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "kumite/common/error.hpp"
+#include "text.hpp"
 
 namespace kumite::content {
 
@@ -23,11 +24,7 @@ Dialect make_dialect(std::string name, std::string description,
   return d;
 }
 
-std::string lower(std::string_view s) {
-  std::string out(s);
-  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return out;
-}
+using detail::lower;
 
 /// The name without a namespace prefix ("mixamorig:LeftArm" -> "LeftArm").
 std::string_view base_name(std::string_view name) {
