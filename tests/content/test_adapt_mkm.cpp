@@ -1009,3 +1009,71 @@ TEST(Adapt, AHeldFootsHeadingTurnsContinuouslyAsTheMotionsFootPassesItsOpposite)
   bad.previous_heading_delta_rad = {std::numeric_limits<double>::infinity(), 0};
   EXPECT_FALSE(bad.Validate());
 }
+
+TEST(Adapt, AGuardsFistTurnsItsThumbTowardTheShouldersSideOfTheForearm) {
+  // kenji standing at rest, both arms laid as the guard holds them (the wrist up in front of
+  // the face, the elbow down and out), drawn by AdaptJob with fist_neutral 0, 0.5 and 1. Judged
+  // on the drawn joints: the thumb's direction (lthumb -> its end, across the forearm) against
+  // the shoulder's side of the forearm (shoulder - elbow, across elbow -> wrist), both worked
+  // out here from the drawn positions. Swung alone the guard's upright forearm turned the palm
+  // to the visitor and the curled fingers at them (the spar demo's frame 95, looked at).
+  const Rig rig = load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
+  const auto n = static_cast<std::size_t>(rig.joint_count());
+  MkmFrame f;
+  encode_mkm(rig.rest_pose, rig.morphology, rig.rest_pose[static_cast<std::size_t>(CJ::l_toe)].y(), nullptr, f);
+  for (int s = 0; s < 2; ++s) {
+    const auto us = static_cast<std::size_t>(s);
+    const double x = s == kLeft ? -0.22 : 0.22;  // toward the middle (the chest's x is the body's left)
+    f.arm_n[us] = f.chest * Vector3d(x, 0.30, 0.32);
+    const Vector3d axis = f.arm_n[us].normalized();
+    const Vector3d down_out = f.chest * Vector3d(s == kLeft ? 0.4 : -0.4, -1, 0);
+    f.arm_pole[us] = (down_out - down_out.dot(axis) * axis).normalized();
+  }
+  Buffers b(rig);
+  const auto draw = [&](double w) {
+    AdaptJob job = b.job(rig, f);
+    job.fist_neutral = {w, w};
+    EXPECT_TRUE(job.Run());
+    return b.pos;
+  };
+  const auto named = [&](const char* name) {
+    const int j = rig.skeleton.find(name);
+    EXPECT_GE(j, 0) << name;
+    return static_cast<std::size_t>(std::max(j, 0));
+  };
+  // rad, signed about the forearm: from the shoulder's side of the forearm to the thumb.
+  const auto thumb_angle = [&](const std::vector<Vector3d>& p, int s) {
+    const auto at = [&](CJ j) { return p[static_cast<std::size_t>(rig.skeleton.index(j))]; };
+    const Vector3d sh = at(s == kLeft ? CJ::l_shoulder : CJ::r_shoulder), el = at(s == kLeft ? CJ::l_elbow : CJ::r_elbow),
+                   wr = at(s == kLeft ? CJ::l_wrist : CJ::r_wrist);
+    const Vector3d a = (wr - el).normalized();
+    Vector3d want = sh - el, thumb = p[named(s == kLeft ? "lthumb_end" : "rthumb_end")] - p[named(s == kLeft ? "lthumb" : "rthumb")];
+    want -= want.dot(a) * a;
+    thumb -= thumb.dot(a) * a;
+    return std::atan2(a.dot(want.cross(thumb)), want.dot(thumb));
+  };
+  const std::vector<Vector3d> swung = draw(0), half = draw(0.5), turned = draw(1);
+  for (int s = 0; s < 2; ++s) {
+    const double a0 = thumb_angle(swung, s), ah = thumb_angle(half, s), a1 = thumb_angle(turned, s);
+    std::printf("side %d: thumb from the shoulder's side of the forearm: swung %.1f deg, half %.1f, turned %.1f\n", s,
+                a0 * 180 / M_PI, ah * 180 / M_PI, a1 * 180 / M_PI);
+    EXPECT_GT(std::abs(a0), 45 * M_PI / 180) << "the guard's pose no longer shows the swung twist: the test proves nothing";
+    EXPECT_LT(std::abs(a1), 2 * M_PI / 180);
+    EXPECT_NEAR(ah, a0 / 2, 2 * M_PI / 180);
+  }
+  // The turn is about the forearm: every joint but those below the elbows stays where it was.
+  for (std::size_t j = 0; j < n; ++j) {
+    bool below_elbow = false;
+    for (int a = rig.skeleton.parents[j]; a >= 0 && !below_elbow; a = rig.skeleton.parents[static_cast<std::size_t>(a)])
+      below_elbow = a == rig.skeleton.index(CJ::l_elbow) || a == rig.skeleton.index(CJ::r_elbow);
+    const bool wrist = static_cast<int>(j) == rig.skeleton.index(CJ::l_wrist) || static_cast<int>(j) == rig.skeleton.index(CJ::r_wrist);
+    if (!below_elbow || wrist) {
+      EXPECT_LT((turned[j] - swung[j]).norm(), 1e-9) << rig.skeleton.names[j];
+    }
+  }
+  AdaptJob bad = b.job(rig, f);
+  bad.fist_neutral = {1.5, 0};
+  EXPECT_FALSE(bad.Validate());
+  bad.fist_neutral = {std::nan(""), 0};
+  EXPECT_FALSE(bad.Validate());
+}
