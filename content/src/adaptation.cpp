@@ -66,6 +66,10 @@ constexpr double kLegSoftness = 0.015;
 /// drawn at most 0.37 of that short (under 2 mm on the longest arm); the trunk lean keeps
 /// goals below the soft zone wherever its limits allow.
 constexpr double kArmSoftness = 0.008;
+/// A striking arm's wrist goal comes no nearer its shoulder than this share of the arm's length
+/// (unless the motion's own wrist is nearer): min_strike_extension's default, the least a punch
+/// is planned to land at.
+constexpr double kStrikeWristFloorShare = 0.35;
 constexpr double kKickSoftness = 0.008;  // the kicking leg's, as the arm's (m per m of leg)
 
 /// m, a 1.75 m person's head drawn as a capsule (scaled with height like the bones).
@@ -196,8 +200,17 @@ void decode_pass(const AdaptJob& job, const TrunkDeltas& td, PassOut& out) {
         Vector3d goal = pos + turn * f.arm_n[s] * m.arm_length(s);
         if (striking) {
           turn = job.reach->turn;
+          const double own_m = (goal - pos).norm();
           goal = pos + job.reach->stretch * (turn * (goal - pos)) + job.reach->offset_m;
           if (td.fixed_goal) goal = td.pin * td.goal + (1 - td.pin) * goal;
+          // A punch shortened onto a near target (stretch < 1) keeps its wrist at least
+          // kStrikeWristFloorShare of the arm from the shoulder, or the motion's own distance
+          // where that is nearer: shrunk about the shoulder, a lunge's chambered fist passed
+          // by it, the arm folded flat and the elbow swung round it (14.7 m/s in the spar).
+          const double floor_m = std::min(own_m, kStrikeWristFloorShare * m.arm_length(s));
+          const Vector3d from_shoulder = goal - pos;
+          const double d = from_shoulder.norm();
+          if (d < floor_m && d > 1e-9) goal = pos + from_shoulder * (floor_m / d);
           out.effector_goal = goal;
         }
         const Vector3d axis = (goal - pos).normalized();
