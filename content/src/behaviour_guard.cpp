@@ -46,8 +46,9 @@ constexpr double kParryMin_s = 0.05;
 constexpr double kParryMargin_s = 1.0 / 60;
 /// s it stays across the path after the fist's predicted arrival at it.
 constexpr double kParryHoldPast_s = 0.15;
-/// s back to the guard.
+/// s back to the guard: at least, and at most however its way is.
 constexpr double kParryBack_s = 0.3;
+constexpr double kParryBackMost_s = 0.8;
 /// The wrist stays within this share of the arm's length from the shoulder (a straight arm
 /// parries nothing and its elbow flips) and beyond kParryFold of it (an arm folded onto its
 /// shoulder swings its elbow round on a small move of the wrist, and shields nothing).
@@ -246,6 +247,7 @@ bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
   g.move_s = best.move_s;
   g.hold_end_s = std::max(best.move_s, best.t_s) + kParryHoldPast_s;
   g.back_s = kParryBack_s;
+  g.back_timed = false;
   g.from_arm_n = last_arm_n_[static_cast<std::size_t>(best.side)];
   g.from_pole = last_arm_pole_[static_cast<std::size_t>(best.side)];
   g.wrist_m = best.wrist;
@@ -255,6 +257,7 @@ bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
   g.reaim_t_s = -1;
   g.reaim_s = 0;
   g.meet_t = now + best.t_s;
+  g.carried = false;
   g.limb = b.limb;
   g.recognised = b.recognised;
   g.fist_speed_mps = speed;
@@ -282,10 +285,13 @@ bool Guard::reaim(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
   Parry& g = parry_[static_cast<std::size_t>(side)];
   // The targets shift from where they are now (mid-shift if re-aimed before) to the new
   // place; the shift starts at rest, so the drawn arm keeps its place and speed.
-  const Vector3d wrist_now = g.wrist_target(), elbow_now = g.elbow_target();
   const Morphology& m = rig.morphology;
   const auto s = static_cast<std::size_t>(side);
   const Vector3d sh = drawn[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder))];
+  const Vector3d wrist_now = g.carried ? Vector3d(sh + g.wrist_carried_m) : g.wrist_target();
+  const Vector3d elbow_now = g.carried ? Vector3d(sh + g.elbow_carried_m) : g.elbow_target();
+  g.carried = false;
+  g.back_timed = false;
   g.wrist_from_m = wrist_now;
   g.elbow_from_m = elbow_now;
   g.wrist_m = p.wrist;
@@ -338,7 +344,20 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
       const Vector3d sh = drawn[static_cast<std::size_t>(rig.skeleton.index(side == kLeft ? CJ::l_shoulder : CJ::r_shoulder))];
       Vector3d w1 = pr.wrist_target() - sh;
       if (w1.norm() > kParryReach * arm) w1 *= kParryReach * arm / w1.norm();
-      const Vector3d e1 = pr.elbow_target() - sh;
+      Vector3d e1 = pr.elbow_target() - sh;
+      // Once the fist is due, the place goes with the body: held in the room, a place the
+      // shoulder walked onto (the fighter following through its hold) had the wrist pushed out
+      // of the fold the other way from one frame to the next, 16 cm (the elbow 41 m/s: spar
+      // demo seed 8 at 15.95 s).
+      if (now >= pr.meet_t) {
+        if (!pr.carried) {
+          pr.carried = true;
+          pr.wrist_carried_m = w1;
+          pr.elbow_carried_m = e1;
+        }
+        w1 = pr.wrist_carried_m;
+        e1 = pr.elbow_carried_m;
+      }
       // The way of this phase: from the arm as drawn when the parry began to its place; held
       // there; from there back to the guard (or the motion's arm).
       Vector3d wa = w1, ea = e1, wb = w1, eb = e1;
@@ -350,6 +369,14 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
       } else if (pr.t_s >= pr.hold_end_s) {
         wb = a * arm;
         eb = elbow_of(wb, p, up, fore);
+        // Timed along its way as it starts, as a move to a place is (parry_move_s), at least
+        // kParryBack_s: a way back from a place beside the shoulder to the guard swept round
+        // it at the fold's radius in 0.3 s, the wrist 13 cm and the elbow 26 cm in a frame
+        // (spar demo seed 8, stance steps off, at 16.07 s).
+        if (!pr.back_timed) {
+          pr.back_timed = true;
+          pr.back_s = std::clamp(parry_move_s(wa, ea, wb, eb, p, up, fore), kParryBack_s, kParryBackMost_s);
+        }
         x = min_jerk((pr.t_s - pr.hold_end_s) / pr.back_s);
       }
       const ArmAt at = parry_arm_at(x, wa, ea, wb, eb, p, up, fore);

@@ -70,7 +70,8 @@ class Guard {
     double t_s = 0;           ///< s since it began
     double move_s = 0;        ///< s the wrist takes to its place
     double hold_end_s = 0;    ///< s (since it began) it starts back to the guard
-    double back_s = 0.3;      ///< s back to the guard
+    double back_s = 0.3;      ///< s back to the guard (timed along its way as it starts)
+    bool back_timed = false;  ///< back_s taken for the way back (Guard::lay, at hold_end_s)
     Eigen::Vector3d from_arm_n{0, 0, 0}, from_pole{0, 0, 0};  ///< the arm as drawn when it began
     Eigen::Vector3d wrist_m{0, 0, 0};   ///< m, room: the wrist in place
     Eigen::Vector3d elbow_m{0, 0, 0};   ///< m, room: where the elbow is wanted in place
@@ -81,6 +82,10 @@ class Guard {
     double reaim_t_s = -1, reaim_s = 0;
     bool said = false;        ///< its block event emitted
     Timestamp meet_t = 0;     ///< s: when the fist is due at the forearm
+    /// From when the fist is due, the place is held with the body, not the room: these (m, from
+    /// the shoulder) are the wrist's and elbow's targets as they stood then (carried: taken).
+    bool carried = false;
+    Eigen::Vector3d wrist_carried_m{0, 0, 0}, elbow_carried_m{0, 0, 0};
     recognition::Role limb = recognition::Role::right_hand;
     bool recognised = false;
     double fist_speed_mps = 0;
