@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <initializer_list>
 #include <string>
 #include <vector>
 
@@ -29,105 +30,35 @@ Vector3d elbow_from(const Vector3d& arm_n, const Vector3d& pole, double upper, d
   return axis * along + across * std::sqrt(std::max(0.0, upper * upper - along * along));
 }
 
-}  // namespace
+/// What a scene of parries drew: how many fists got a parry, and the fastest drawn elbow or
+/// wrist step, judged on the arm from its shoulder (m/s at 60 Hz) and where.
+struct ParryScene {
+  int parries = 0, cases = 0;
+  double fastest = 0;
+  std::string where;
+};
 
-TEST(Guard, AParryDownPastTheShoulderTurnsItsElbowTheShortWay) {
-  // The fighter faces +z (chest frame: x left, y up, z forward), shoulders 1.45 m up, arms
-  // hanging in the motion; the guard comes up over 1 s, then a fist comes from 0.9 m ahead
-  // at a point of the body low and out to a side, slow or fast. Where the parry's wrist goes
-  // down past the shoulder -> wrist line, its elbow's pole taken from the straight line
-  // between the two elbows swung round the long way (the spar demo, seed 1: a right parry of
-  // a slow low punch, the drawn elbow 29 cm in one frame). No drawn elbow or wrist step over
-  // 6.5 m/s at 60 Hz (13.5 before).
+/// The fighter faces +z (chest frame: x left, y up, z forward), shoulders 1.45 m up, arms
+/// hanging in the motion; the guard comes up over 1 s, then a fist comes from 0.9 m ahead at
+/// (x, y, aim_z) for each x, y and speed. From when the fist is due at the forearm, the body
+/// walks forward at walk_mps.
+ParryScene run_parries(std::initializer_list<double> xs, std::initializer_list<double> ys, std::initializer_list<double> speeds,
+                       double aim_z, double walk_mps) {
   const Rig rig = load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
   const Morphology& m = rig.morphology;
   const auto at = [&](CJ j) { return static_cast<std::size_t>(rig.skeleton.index(j)); };
   const double dt = 1.0 / 60;
-  int parries = 0, cases = 0;
-  double fastest = 0;
-  std::string where;
-  for (const double x : {-0.3, -0.2, -0.1, 0.1, 0.2, 0.3})
-    for (const double y : {0.85, 1.0, 1.15})
-      for (const double speed : {1.5, 3.0, 6.0}) {
-        ++cases;
-        Guard g;
-        g.want(true);
-        std::vector<Vector3d> drawn(static_cast<std::size_t>(rig.joint_count()), Vector3d::Zero());
-        const std::array<Vector3d, 2> shoulder{Vector3d(0.18, 1.45, 0), Vector3d(-0.18, 1.45, 0)};
-        std::array<Vector3d, 2> elbow_before{}, wrist_before{};
-        std::vector<FighterEvent> events;
-        const Vector3d aim(x, y, 0.08), from(x * 0.3, 1.4, 0.9);
-        const Vector3d v = (aim - from).normalized() * speed;
-        bool sent = false;
-        for (int k = 0; k < 150; ++k) {
-          const double now = k * dt;
-          MkmFrame pose;
-          pose.chest = Eigen::Quaterniond::Identity();
-          for (int s = 0; s < 2; ++s) {
-            pose.arm_n[static_cast<std::size_t>(s)] = Vector3d(0, -0.97, 0.05);
-            pose.arm_pole[static_cast<std::size_t>(s)] = Vector3d(0, 0, -1);
-          }
-          if (k == 60 && !sent) {
-            BlockOrder b;
-            b.limb = x > 0 ? kumite::recognition::Role::right_hand : kumite::recognition::Role::left_hand;
-            b.fist_m = from;
-            b.velocity_mps = v;
-            b.arrival_s = (aim - from).norm() / speed;
-            parries += g.parry(b, now, rig, drawn, pose.chest);
-            sent = true;
-          }
-          g.lay(k ? dt : 0.0, now, true, k > 0, rig, drawn, pose, events);
-          for (int s = 0; s < 2; ++s) {
-            const auto us = static_cast<std::size_t>(s);
-            const double up = m.upper_arm_m[us], fore = m.forearm_m[us];
-            const Vector3d e = shoulder[us] + elbow_from(pose.arm_n[us], pose.arm_pole[us], up, fore);
-            const Vector3d w = shoulder[us] + pose.arm_n[us] * (up + fore);
-            if (k > 60) {
-              const double step = std::max((e - elbow_before[us]).norm(), (w - wrist_before[us]).norm()) / dt;
-              if (step > fastest) {
-                fastest = step;
-                where = "aim (" + std::to_string(x) + ", " + std::to_string(y) + ") at " + std::to_string(speed) +
-                        " m/s, side " + std::to_string(s) + ", update " + std::to_string(k);
-              }
-            }
-            elbow_before[us] = e;
-            wrist_before[us] = w;
-            drawn[at(s == kLeft ? CJ::l_shoulder : CJ::r_shoulder)] = shoulder[us];
-            drawn[at(s == kLeft ? CJ::l_elbow : CJ::r_elbow)] = e;
-            drawn[at(s == kLeft ? CJ::l_wrist : CJ::r_wrist)] = w;
-          }
-        }
-      }
-  std::printf("%d parries for %d fists; fastest drawn elbow or wrist %.2f m/s (%s)\n", parries, cases, fastest, where.c_str());
-  EXPECT_GT(parries, cases / 2);
-  EXPECT_LT(fastest, 6.5) << where;  // a parry is timed for 6 m/s at its peak, on 24 samples of its way
-}
-
-TEST(Guard, AParryTheBodyWalksOntoGoesWithTheBodyOnceTheFistIsDue) {
-  // As above, but the body walks forward at 1 m/s from when the fist is due at the forearm (a
-  // fighter following the visitor through its block's hold): its shoulders reach and pass
-  // the place the forearm was put in the room. Held in the room past the fist's arrival, the
-  // place came inside the fold around the shoulder and was pushed out of it the other way
-  // from one frame to the next (spar demo seed 8: the wrist 16 cm in a frame, the elbow
-  // 41 m/s). Judged on the arm from its shoulder: no drawn elbow or wrist step over 6.5 m/s
-  // and the walk's 1 m/s.
-  const Rig rig = load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
-  const Morphology& m = rig.morphology;
-  const auto at = [&](CJ j) { return static_cast<std::size_t>(rig.skeleton.index(j)); };
-  const double dt = 1.0 / 60, walk_mps = 1.0;
-  int parries = 0, cases = 0;
-  double fastest = 0;
-  std::string where;
-  for (const double x : {-0.2, -0.1, 0.1, 0.2})
-    for (const double y : {1.15, 1.3, 1.45})
-      for (const double speed : {3.0, 6.0}) {
-        ++cases;
+  ParryScene out;
+  for (const double x : xs)
+    for (const double y : ys)
+      for (const double speed : speeds) {
+        ++out.cases;
         Guard g;
         g.want(true);
         std::vector<Vector3d> drawn(static_cast<std::size_t>(rig.joint_count()), Vector3d::Zero());
         std::array<Vector3d, 2> elbow_before{}, wrist_before{};
         std::vector<FighterEvent> events;
-        const Vector3d aim(x, y, 0.12), from(x * 0.3, 1.4, 0.9);
+        const Vector3d aim(x, y, aim_z), from(x * 0.3, 1.4, 0.9);
         const Vector3d v = (aim - from).normalized() * speed;
         const double due_s = 60 * dt + (aim - from).norm() / speed;
         for (int k = 0; k < 150; ++k) {
@@ -146,7 +77,7 @@ TEST(Guard, AParryTheBodyWalksOntoGoesWithTheBodyOnceTheFistIsDue) {
             b.fist_m = from;
             b.velocity_mps = v;
             b.arrival_s = (aim - from).norm() / speed;
-            parries += g.parry(b, now, rig, drawn, pose.chest);
+            out.parries += g.parry(b, now, rig, drawn, pose.chest);
           }
           for (int s = 0; s < 2; ++s) drawn[at(s == kLeft ? CJ::l_shoulder : CJ::r_shoulder)] = shoulder[static_cast<std::size_t>(s)];
           g.lay(k ? dt : 0.0, now, true, k > 0, rig, drawn, pose, events);
@@ -157,10 +88,10 @@ TEST(Guard, AParryTheBodyWalksOntoGoesWithTheBodyOnceTheFistIsDue) {
             const Vector3d w = pose.arm_n[us] * (up + fore);
             if (k > 60) {
               const double step = std::max((e - elbow_before[us]).norm(), (w - wrist_before[us]).norm()) / dt;
-              if (step > fastest) {
-                fastest = step;
-                where = "aim (" + std::to_string(x) + ", " + std::to_string(y) + ") at " + std::to_string(speed) +
-                        " m/s, side " + std::to_string(s) + ", update " + std::to_string(k);
+              if (step > out.fastest) {
+                out.fastest = step;
+                out.where = "aim (" + std::to_string(x) + ", " + std::to_string(y) + ") at " + std::to_string(speed) +
+                            " m/s, side " + std::to_string(s) + ", update " + std::to_string(k);
               }
             }
             elbow_before[us] = e;
@@ -170,8 +101,36 @@ TEST(Guard, AParryTheBodyWalksOntoGoesWithTheBodyOnceTheFistIsDue) {
           }
         }
       }
+  return out;
+}
+
+}  // namespace
+
+TEST(Guard, AParryDownPastTheShoulderTurnsItsElbowTheShortWay) {
+  // A fist at a point of the body low and out to a side, slow or fast (run_parries, the body
+  // still). Where the parry's wrist goes
+  // down past the shoulder -> wrist line, its elbow's pole taken from the straight line
+  // between the two elbows swung round the long way (the spar demo, seed 1: a right parry of
+  // a slow low punch, the drawn elbow 29 cm in one frame). No drawn elbow or wrist step over
+  // 6.5 m/s at 60 Hz (13.5 before).
+  const ParryScene r = run_parries({-0.3, -0.2, -0.1, 0.1, 0.2, 0.3}, {0.85, 1.0, 1.15}, {1.5, 3.0, 6.0}, 0.08, 0.0);
+  std::printf("%d parries for %d fists; fastest drawn elbow or wrist %.2f m/s (%s)\n", r.parries, r.cases, r.fastest, r.where.c_str());
+  EXPECT_GT(r.parries, r.cases / 2);
+  EXPECT_LT(r.fastest, 6.5) << r.where;  // a parry is timed for 6 m/s at its peak, on 24 samples of its way
+}
+
+TEST(Guard, AParryTheBodyWalksOntoGoesWithTheBodyOnceTheFistIsDue) {
+  // As above, but the body walks forward at 1 m/s from when the fist is due at the forearm (a
+  // fighter following the visitor through its block's hold): its shoulders reach and pass
+  // the place the forearm was put in the room. Held in the room past the fist's arrival, the
+  // place came inside the fold around the shoulder and was pushed out of it the other way
+  // from one frame to the next (spar demo seed 8: the wrist 16 cm in a frame, the elbow
+  // 41 m/s). Judged on the arm from its shoulder: no drawn elbow or wrist step over 6.5 m/s
+  // and the walk's 1 m/s.
+  const double walk_mps = 1.0;
+  const ParryScene r = run_parries({-0.2, -0.1, 0.1, 0.2}, {1.15, 1.3, 1.45}, {3.0, 6.0}, 0.12, walk_mps);
   std::printf("%d parries for %d fists, the body walking on at 1 m/s; fastest elbow or wrist from its shoulder %.2f m/s (%s)\n",
-              parries, cases, fastest, where.c_str());
-  EXPECT_GT(parries, cases / 2);
-  EXPECT_LT(fastest, 6.5 + walk_mps) << where;  // (the walk adds to a move toward a place in the room)
+              r.parries, r.cases, r.fastest, r.where.c_str());
+  EXPECT_GT(r.parries, r.cases / 2);
+  EXPECT_LT(r.fastest, 6.5 + walk_mps) << r.where;  // (the walk adds to a move toward a place in the room)
 }
