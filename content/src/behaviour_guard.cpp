@@ -11,6 +11,7 @@
 // act on top as on any pose; the legs and trunk are the motion's own.
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "kumite/content/guard.hpp"
 
@@ -115,7 +116,7 @@ struct ArmAt {
   Vector3d thumb;         ///< m from the shoulder: kThumb_m from the wrist toward the elbow's pole
 };
 ArmAt parry_arm_at(double x, const Vector3d& w0, const Vector3d& e0, const Vector3d& w1, const Vector3d& e1, const Vector3d& pole0,
-                   double upper_m, double fore_m) {
+                   double upper_m, double fore_m, const double* turn_near = nullptr, double* turn_out = nullptr) {
   Vector3d wp = (1 - x) * w0 + x * w1;
   // No nearer the shoulder than kParryFold of the arm on the way either: a way between two
   // places on either side of the shoulder (a parry's place and the guard) passed 0.13 m from it,
@@ -130,8 +131,28 @@ ArmAt parry_arm_at(double x, const Vector3d& w0, const Vector3d& e0, const Vecto
   // guard, its elbow 29 cm in a frame: spar demo seed 1 at 27.73 s); turned without the
   // carrying, a pole across a wrist ahead lay along the wrist as it came down, and the drawn
   // elbow went 20 cm in a frame there.
+  // The turn is taken nearest the last frame's (turn_near: its angle about the wrist's
+  // direction), not the short way afresh: on a way back from a place behind and beside the
+  // shoulder to a guard coming back up ahead of it, the wrist's direction came near the
+  // opposite of the place's, the start's pole carried onto it turned up to 2 rad a frame, the
+  // turn between the two passed pi and the short way changed side from one frame to the next:
+  // the drawn elbow 11 cm in a frame, the hand 14 (spar demo seed 6, stance steps on, at 16.18 s).
   const Vector3d p0 = unit_across(e0, w0, pole0), p1 = unit_across(e1, w1, p0);
-  const Vector3d pole = unit_across(turned_toward(carried(p0, w0, wp), carried(p1, w1, wp), x), wp, pole0);
+  const Vector3d c0 = carried(p0, w0, wp), c1 = carried(p1, w1, wp);
+  Vector3d pole = turned_toward(c0, c1, x);
+  if (wp.norm() > 1e-9) {
+    const Vector3d axis = wp.normalized();
+    double turn = std::atan2(c0.cross(c1).dot(axis), c0.dot(c1));  // rad about the wrist's direction, (-pi, pi]
+    if (turn_near != nullptr) {
+      const double k = std::round((*turn_near - turn) / (2 * std::numbers::pi));
+      if (k != 0) {
+        turn += 2 * std::numbers::pi * k;
+        pole = Eigen::AngleAxisd(x * turn, axis) * c0;
+      }
+    }
+    if (turn_out != nullptr) *turn_out = turn;
+  }
+  pole = unit_across(pole, wp, pole0);
   const Vector3d el = elbow_of(wp, pole, upper_m, fore_m);
   const Vector3d fore = wp - el;
   return {wp, el, pole, fore.norm() > 1e-9 ? Vector3d(wp + fore.normalized() * kHand_m) : wp, wp + pole * kThumb_m};
@@ -253,6 +274,7 @@ bool Guard::parry(const BlockOrder& b, Timestamp now, const Rig& rig, std::span<
   g.hold_end_s = std::max(best.move_s, best.t_s) + kParryHoldPast_s;
   g.back_s = kParryBack_s;
   g.back_timed = false;
+  g.turn_phase = -1;
   g.from_arm_n = last_arm_n_[static_cast<std::size_t>(best.side)];
   g.from_pole = last_arm_pole_[static_cast<std::size_t>(best.side)];
   g.wrist_m = best.wrist;
@@ -384,7 +406,11 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
         }
         x = min_jerk((pr.t_s - pr.hold_end_s) / pr.back_s);
       }
-      const ArmAt at = parry_arm_at(x, wa, ea, wb, eb, p, up, fore);
+      const int phase = pr.t_s < pr.move_s ? 0 : (pr.t_s >= pr.hold_end_s ? 2 : 1);
+      double turn = 0;
+      const ArmAt at = parry_arm_at(x, wa, ea, wb, eb, p, up, fore, pr.turn_phase == phase ? &pr.pole_turn_rad : nullptr, &turn);
+      pr.turn_phase = phase;
+      pr.pole_turn_rad = turn;
       a = at.wrist / arm;
       p = at.pole;
       if (!pr.said && pr.t_s >= pr.in_place_s()) {
