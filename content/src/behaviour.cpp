@@ -577,11 +577,27 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
   // from where the foot is held, the foot steps there first, at a procedural step's pace, while
   // the kicking foot stands. Otherwise the leg would lose the held foot as the kick rises and
   // the foot would be stepped with the kicking foot in the air (a hop), or carried faster than
-  // the clip's own foot.
+  // the clip's own foot. A punch likewise on the foot its clip stands on (punch_support_step_m):
+  // in the 120-order sweep, lunges started while their back foot was still in a procedural step
+  // had both feet off the floor where the mocap stands on one.
   const MotionSegment& seg = db_->segments[static_cast<std::size_t>(plan.segment)];
   const auto eff = seg.effector();
-  if (!eff || !eff->leg || tun_.kick_support_step_m <= 0) return false;
-  const int side = 1 - eff->side;
+  if (!eff) return false;
+  const double threshold = eff->leg ? tun_.kick_support_step_m : tun_.punch_support_step_m;
+  if (threshold <= 0) return false;
+  int side = 1 - eff->side;
+  if (!eff->leg) {
+    // A punch's support foot: the one its clip keeps down longest from its start (a lunge's
+    // back foot), down at the start itself.
+    const int first = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
+    const int last = std::clamp(plan.contact_frame, first, seg.frame_count() - 1);
+    std::array<int, 2> down{0, 0};
+    for (int f = 0; f < 2; ++f)
+      for (int k = first; k <= last && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(f)] >= 0.5; ++k) ++down[static_cast<std::size_t>(f)];
+    if (down[0] == 0 && down[1] == 0) return false;
+    side = down[0] >= down[1] ? 0 : 1;
+  }
+  const int other = 1 - side;  // (a kick's kicking foot)
   // (A kick planned with a foot still stepping starts from where that step lands. After a
   // step-in that arrived, none is: no step begins while a strike is planned (update_feet);
   // one that gave up waiting, kStepInWait_s, may still leave one stepping.)
@@ -591,7 +607,7 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
   // support foot's step went on to its old target 0.39 m from where the clip has it, out of the
   // leg's reach (bruno's HDM_bk_010 kick at 15.0 s of the scripted bout: both feet off 14 frames).
   const bool stepping = feet_.step_end(side) != nullptr;
-  if ((!feet_.held(side) && !stepping) || !feet_.held(eff->side)) return false;
+  if ((!feet_.held(side) && !stepping) || !feet_.held(other)) return false;
   int k = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
   const int last = std::clamp(plan.contact_frame, k, seg.frame_count() - 1);
   while (k < last && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] < 0.5) ++k;
@@ -609,13 +625,14 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
   if (stepping) {
     if (!feet_.redirect(side, goal, kRedirectPeakSpeed_mps)) return false;
   } else {
-    if (Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm() <= tun_.kick_support_step_m) return false;
+    if (Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm() <= threshold) return false;
     if (!feet_.step_to(side, goal)) return false;
   }
   enter(SupportStepping{SupportStep{pending.order, pending.target_room_m, pending.stepped_first, side, 0}, as<AwaitingPlan>()->loco});
   FighterEvent& e = emit(FighterEvent::Kind::support_step, now, pending.order, FighterEvent::Reason::none,
                          Vector2d(goal.x() - held.x(), goal.z() - held.z()).norm());
   e.target = pending.target_room_m;
+  e.side = side;
   return true;
 }
 

@@ -95,9 +95,10 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
                          "with its limb extended",
                          e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
     case K::support_step:
-      return fmt::format("the {} foot steps {:.0f} cm first, to where the kick stands on it; the target at ({:.2f}, {:.2f}, {:.2f}) m",
-                         e.order.kind == OrderKind::kick_left ? "right" : "left", e.distance_m * 100, e.target.x(),
-                         e.target.y(), e.target.z());
+      return fmt::format("the {} foot steps {:.0f} cm first, to where the {} stands on it; the target at ({:.2f}, {:.2f}, {:.2f}) m",
+                         e.side == 1 ? "right" : "left", e.distance_m * 100,
+                         e.order.kind == OrderKind::kick_left || e.order.kind == OrderKind::kick_right ? "kick" : "punch",
+                         e.target.x(), e.target.y(), e.target.z());
     case K::block: {
       const char* arm = e.side == 0 ? "left" : "right";
       const std::string clip = e.segment < 0 ? std::string("a parry from the guard")

@@ -74,6 +74,10 @@ double lowest_reached_y(const Vector3d& hip, const Vector3d& at, double reach, d
 /// the share of its way covered at step time t (0..1).
 constexpr double kStepTravelFrom = 0.15;
 constexpr double kStepTravelSpan = 0.7;
+/// A procedural step counts as bearing weight for the pelvis drop (FootLocks::supporting) over
+/// this first share of its time.
+constexpr double kSupportingStepShare = 0.3;
+
 double step_travel_share(double t) { return smoothstep((t - kStepTravelFrom) / kStepTravelSpan); }
 /// The share of its way a foot heading for its landing has covered when the source has covered
 /// `s` of its path, done `lead` early (FootSample::landing_lead): at a steady 1 / (1 - 2 lead)
@@ -526,7 +530,12 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     f.softness = f.phase == Phase::free ? 0.0 : std::min(1.0, f.softness + (dt > 0 ? dt / kTakeHold_s : 1.0));
     out.weight[static_cast<std::size_t>(s)] = f.phase == Phase::free ? 0.0 : 1.0;
     out.softness[static_cast<std::size_t>(s)] = f.softness;
-    out.supporting[static_cast<std::size_t>(s)] = f.phase == Phase::held || f.phase == Phase::landing;
+    // (A step's first kSupportingStepShare too: lifted from a leg the pelvis drop stretched it
+    // onto, the foot let the pelvis rise 6 cm in four updates away from its step's way, which
+    // the leg then could not follow, and the knee jumped 11 cm as the way came back in reach.
+    // Counted over the whole step, a far step's way crouched the pelvis 30 cm.)
+    out.supporting[static_cast<std::size_t>(s)] = f.phase == Phase::held || f.phase == Phase::landing ||
+                                                  (f.phase == Phase::stepping && f.step_t < kSupportingStepShare);
     out.ankle_m[static_cast<std::size_t>(s)] = f.lock;
     // A held ankle above where it stands when down (the leg does not reach the floor flat: it
     // waits on its toes) keeps its toes on the floor, coming in over kOnToesSpan_m of height.

@@ -53,6 +53,7 @@ const std::vector<TunableKey>& fighter_tunable_keys() {
       b("min_stance_step_scale", "", 0.3, 1, &B::min_stance_step_scale),
       b("max_stance_step_scale", "", 1, 3, &B::max_stance_step_scale),
       b("kick_support_step_m", "m", 0, 1, &B::kick_support_step_m),
+      b("punch_support_step_m", "m", 0, 1, &B::punch_support_step_m),
       b("min_scaled_travel_m", "m", 0, 2, &B::min_scaled_travel_m),
       b("max_strike_rise_m", "m", 0, 0.5, &B::max_strike_rise_m),
       b("max_punch_elevation_deg", "deg", 0, 89, &B::max_punch_elevation_deg),

@@ -428,8 +428,9 @@ class Behaviour {
   /// The step a strike placed with `fit` wants first (m, signed as begin_step_in's; 0: none).
   double step_wanted(const StrikeFit& fit) const;
   void update_step_in(double dt);
-  /// A kick's support foot stepped to where the clip puts it down, if it stands more than
-  /// kick_support_step_m from there (true: the strike waits for the step).
+  /// A strike's support foot (a kick's standing foot, a punch's longest down) stepped to where
+  /// the clip puts it down, if it stands more than kick_support_step_m (punch_support_step_m)
+  /// from there or is still in a step (true: the strike waits for the step).
   bool begin_support_step(const PendingStrike& pending, const StrikePlan& plan, const Source& source, Timestamp now);
   void update_support_step(double dt);
   void apply_strike_rate(double dt);

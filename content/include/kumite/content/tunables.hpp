@@ -109,6 +109,13 @@ struct BehaviourTunables {
   /// foot stands), then starts: the kick then turns on a foot the leg reaches, instead of the
   /// support foot being dragged or hopped under the rising body (0: never).
   double kick_support_step_m = 0.25;
+  /// m: the same for a punch, on the foot its clip keeps down longest from its start: a held
+  /// foot more than this from where the clip has it steps there first; a foot still in a
+  /// procedural step is sent on to there and the punch waits for it to land (a lunge taken
+  /// from a step lifted its front foot while the back foot was still in the air: both feet off
+  /// where the mocap stands on one). 0: never (the punch starts at once, its stepping foot
+  /// landing where it is or carried on under it).
+  double punch_support_step_m = 0.4;
   double max_strike_rise_m = 0.12;    ///< m: the most the pelvis is raised toward standing for a
                                       ///< target above the clip's own hit
   double max_punch_elevation_deg = 20;  ///< a punch aims at most this steeply upward before the
