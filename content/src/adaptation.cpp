@@ -69,7 +69,7 @@ constexpr double kArmSoftness = 0.008;
 /// A striking arm's wrist goal comes no nearer its shoulder than this share of the arm's length
 /// (unless the motion's own wrist is nearer): min_strike_extension's default, the least a punch
 /// is planned to land at.
-constexpr double kStrikeWristFloorShare = 0.35;
+constexpr double kStrikeWristFloorShare = 0.5;
 constexpr double kKickSoftness = 0.008;  // the kicking leg's, as the arm's (m per m of leg)
 
 /// m, a 1.75 m person's head drawn as a capsule (scaled with height like the bones).
