@@ -1081,8 +1081,9 @@ TEST(Adapt, AGuardsFistTurnsItsThumbTowardTheShouldersSideOfTheForearm) {
 TEST(Adapt, AStretchedPunchKeepsItsWristOffItsShoulder) {
   // A punch shortened onto a near target (stretch < 1) is shrunk about the shoulder: a
   // chambered fist came within 12 cm of the shoulder, the arm folded flat and its elbow swung
-  // round (14.7 m/s in the spar demo). The wrist goal keeps at least 0.35 of the arm from the
-  // shoulder (or the motion's own distance, where nearer), and is the stretched one above it.
+  // round (14.7 m/s in the spar demo; at 0.35 of the arm 16.6 m/s, swept round at that
+  // radius). The wrist goal keeps at least half the arm from the shoulder (or the motion's own
+  // distance, where nearer), and is the stretched one above it.
   // SYNTHETIC punch (its chamber, frame 2, and half way out, frame 10), stretch 1 -> 0.1.
   PunchLine line;
   const double arm = line.arm;
@@ -1101,7 +1102,7 @@ TEST(Adapt, AStretchedPunchKeepsItsWristOffItsShoulder) {
       ASSERT_TRUE(job.Run());
       const Vector3d shoulder = line.b.at_joint(line.rig, CJ::r_shoulder);
       const double d = (rep.effector_goal - shoulder).norm();
-      const double floor = std::min(own, 0.35 * arm);
+      const double floor = std::min(own, 0.5 * arm);
       EXPECT_GT(d, floor - 1e-9) << "frame " << frame << " stretch " << stretch;
       if (rep.trunk_used) continue;  // (the trunk would move the shoulder)
       if (stretch * own > floor + 1e-6) {
