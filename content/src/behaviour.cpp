@@ -602,8 +602,8 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
   // step-in that arrived, none is: no step begins while a strike is planned (update_feet);
   // one that gave up waiting, kStepInWait_s, may still leave one stepping.)
   // A support foot in a procedural step of its own (it lagged, and stepped the update the plan
-  // came back) has that step sent on to where the kick stands on it, and the kick waits for it
-  // to land: started, the kick lifted its foot with the support foot still in the air, and the
+  // came back) has that step sent on to where the strike stands on it, and the strike waits for
+  // it to land: started, the kick lifted its foot with the support foot still in the air, and the
   // support foot's step went on to its old target 0.39 m from where the clip has it, out of the
   // leg's reach (bruno's HDM_bk_010 kick at 15.0 s of the scripted bout: both feet off 14 frames).
   const bool stepping = feet_.step_end(side) != nullptr;

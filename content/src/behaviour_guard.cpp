@@ -143,7 +143,7 @@ ArmAt parry_arm_at(double x, const Vector3d& w0, const Vector3d& e0, const Vecto
   if (wp.norm() > 1e-9) {
     const Vector3d axis = wp.normalized();
     double turn = std::atan2(c0.cross(c1).dot(axis), c0.dot(c1));  // rad about the wrist's direction, (-pi, pi]
-    if (turn_near != nullptr) {
+    if (turn_near != nullptr && std::isfinite(*turn_near) && std::isfinite(turn)) {
       const double k = std::round((*turn_near - turn) / (2 * std::numbers::pi));
       if (k != 0) {
         turn += 2 * std::numbers::pi * k;
@@ -165,10 +165,13 @@ ArmAt parry_arm_at(double x, const Vector3d& w0, const Vector3d& e0, const Vecto
 double parry_move_s(const Vector3d& w0, const Vector3d& e0, const Vector3d& w1, const Vector3d& e1, const Vector3d& pole0,
                     double upper_m, double fore_m) {
   double most = 0;  // m per unit of the move's share of time: the fastest part of the way
-  ArmAt prev = parry_arm_at(0, w0, e0, w1, e1, pole0, upper_m, fore_m);
+  // (Each sample's pole turn taken nearest the last sample's, as Guard::lay draws it.)
+  double turn = 0;
+  ArmAt prev = parry_arm_at(0, w0, e0, w1, e1, pole0, upper_m, fore_m, nullptr, &turn);
   for (int k = 1; k <= kParryPathSamples; ++k) {
     const double ds = 1.0 / kParryPathSamples;
-    const ArmAt now = parry_arm_at(min_jerk(k * ds), w0, e0, w1, e1, pole0, upper_m, fore_m);
+    const double near = turn;
+    const ArmAt now = parry_arm_at(min_jerk(k * ds), w0, e0, w1, e1, pole0, upper_m, fore_m, &near, &turn);
     most = std::max({most, (now.wrist - prev.wrist).norm() / ds, (now.elbow - prev.elbow).norm() / ds,
                      (now.hand - prev.hand).norm() / ds, (now.thumb - prev.thumb).norm() / ds});
     prev = now;

@@ -96,7 +96,8 @@ std::string describe(const FighterEvent& e, const std::function<std::string(int)
                          e.distance_m * 100, e.target.x(), e.target.y(), e.target.z());
     case K::support_step:
       return fmt::format("the {} foot steps {:.0f} cm first, to where the {} stands on it; the target at ({:.2f}, {:.2f}, {:.2f}) m",
-                         e.side == 1 ? "right" : "left", e.distance_m * 100,
+                         e.side == 1 ? "right" : e.side == 0 ? "left" : e.order.kind == OrderKind::kick_left ? "right" : "left",
+                         e.distance_m * 100,
                          e.order.kind == OrderKind::kick_left || e.order.kind == OrderKind::kick_right ? "kick" : "punch",
                          e.target.x(), e.target.y(), e.target.z());
     case K::block: {

@@ -406,7 +406,7 @@ class Behaviour {
   /// The feet a strike is placed on, as drawn now (strike_placement.hpp).
   HeldFeet held_feet() const;
   /// The target (frozen at the order) of the step in progress before a strike: a step in or
-  /// back, into the fighting stance, or a kick's support step; nullptr when none is.
+  /// back, into the fighting stance, or a strike's support step; nullptr when none is.
   const Eigen::Vector3d* step_target() const;
   /// A step before the strike: `step_m` > 0 in toward the target, < 0 back from it. False
   /// (strike from here) where the fighter's area leaves less than step_in_min_m to step.
@@ -538,7 +538,7 @@ class Behaviour {
     Order order{};
     std::optional<Eigen::Vector3d> target_room_m;
     bool stepped_first = false;  ///< taken again after a step in or back (or into the fighting stance) for it (never steps twice)
-    bool support_stepped = false;  ///< taken again after a kick's support step (never twice)
+    bool support_stepped = false;  ///< taken again after a strike's support step (never twice)
     /// Taken again after stepping in: the plan it stepped in for, played instead of the new
     /// plan where the new one falls shorter (another window, whose lunge the feet hold back).
     std::optional<StrikePlan> plan{};
@@ -579,8 +579,8 @@ class Behaviour {
     /// (begin_restance: done once both feet stand in it).
     enum class Kind { step_in, step_back, restance } kind = Kind::step_in;
   };
-  /// A kick whose clip puts its support foot down out of where that foot stands: the foot
-  /// steps there first (FootPlanter::step_to), then the order is taken again
+  /// A strike whose clip puts its support foot down out of where that foot stands (or with
+  /// that foot still in a step): the foot steps there first (FootPlanter::step_to), then the order is taken again
   /// (update_support_step); no foot steps on its own meanwhile.
   struct SupportStep {
     Order order{};

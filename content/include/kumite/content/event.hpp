@@ -28,7 +28,7 @@ enum class EventKind : std::uint8_t {
   visitor_clear,      ///< back in the room's safe area (tracked, clear of every wall)
   visitor_strike,     ///< the recogniser's event about a strike of the visitor's
   stepping_in,        ///< an accepted strike's target is beyond its reach: the fighter steps in `distance_m` first
-  support_step,       ///< a kick's support foot steps `distance_m` first, to where the kick's clip stands on it
+  support_step,       ///< a strike's support foot steps `distance_m` first, to where the strike's clip stands on it
   stepping_back,      ///< an accepted strike's target is too near for its limb to land extended: a step back first
   block,              ///< the fighter blocks a visitor's strike (seen coming or recognised): its forearm in place `margin_s` before the fist (late: < 0)
   blocked,            ///< the visitor's fist or foot met the fighter's blocking forearm

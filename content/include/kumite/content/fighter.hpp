@@ -61,7 +61,7 @@ enum class FighterAction {
   stepping_in,    ///< stepping toward the strike's target first (it falls short from here)
   stepping_back,  ///< stepping away from it first (the limb would land folded)
   restance,       ///< taking the fighting stance on the way (after a stance step's long stance)
-  support_step,   ///< a kick's support foot stepping to where the kick stands on it
+  support_step,   ///< a strike's support foot stepping to where the strike stands on it
   retaking,       ///< the order is taken again at the next update, from where the step ended
   striking,       ///< the strike's clip plays, adapted to its target
   recovering,     ///< blending into rest while the reach offset goes back to zero
@@ -111,7 +111,7 @@ struct FighterEvent {
   /// block, blocked, visitor_hit: the visitor's limb whose strike it is (blocked, visitor_hit:
   /// the limb that met the forearm / the body).
   recognition::Role limb = recognition::Role::right_hand;
-  int side = -1;              ///< block, blocked: the forearm (0 left, 1 right; -1 none)
+  int side = -1;              ///< block, blocked: the forearm; support_step: the foot (0 left, 1 right; -1 none)
   /// block: s from the forearm in place to the fist's predicted arrival (< 0: `late`, in place
   /// after it); blocked, visitor_hit: s since the block was in place (0 without a block).
   double margin_s = 0;

@@ -86,9 +86,10 @@ class Guard {
     /// the shoulder) are the wrist's and elbow's targets as they stood then (carried: taken).
     bool carried = false;
     Eigen::Vector3d wrist_carried_m{0, 0, 0}, elbow_carried_m{0, 0, 0};
-    /// rad: the elbow's pole's turn about the wrist's direction over this phase's way (0 to its
-    /// place, 1 held, 2 back) as drawn at the last update; the next takes the turn nearest it.
+    /// The phase the last update drew (0 to its place, 1 held, 2 back; -1: none yet).
     int turn_phase = -1;
+    /// rad: the elbow's pole's turn about the wrist's direction over that phase's way as drawn
+    /// at the last update; the next update in the same phase takes the turn nearest it.
     double pole_turn_rad = 0;
     recognition::Role limb = recognition::Role::right_hand;
     bool recognised = false;
