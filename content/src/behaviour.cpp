@@ -595,7 +595,10 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
     for (int f = 0; f < 2; ++f)
       for (int k = first; k <= last && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(f)] >= 0.5; ++k) ++down[static_cast<std::size_t>(f)];
     if (down[0] == 0 && down[1] == 0) return false;
-    side = down[0] >= down[1] ? 0 : 1;
+    // Both down to contact (no lunge): no foot lifts with the other in the air, so the punch
+    // starts at once (a foot still stepping lands where start_strike puts it).
+    if (down[0] == down[1]) return false;
+    side = down[0] > down[1] ? 0 : 1;
   }
   const int other = 1 - side;  // (a kick's kicking foot)
   // (A kick planned with a foot still stepping starts from where that step lands. After a
