@@ -104,6 +104,7 @@ bool FootPlanter::step_to(int side, const Vector3d& to) {
   if (f.phase != Phase::held || feet_[static_cast<std::size_t>(1 - side)].phase != Phase::held) return false;
   f.phase = Phase::stepping;
   f.step_t = 0;
+  f.step_from_hold = true;
   f.step_time_s = tun_.step_time_s;
   f.step_from = f.lock;
   f.step_to = to;
@@ -129,6 +130,7 @@ bool FootPlanter::redirect(int side, const Vector3d& to, double peak_speed_mps) 
     // Its travel all but done: a new step from where the foot is (its lift carried in its from).
     f.step_from = f.lock;
     f.step_t = 0;
+    f.step_from_hold = false;  // (in the air: not counted for the pelvis drop, FootLocks::supporting)
     f.step_time_s = std::max(tun_.step_time_s, needed_s / kStepTravelSpan);
   }
   f.step_to = to;
@@ -281,6 +283,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
                        must_step[s])) {
           f.phase = Phase::stepping;
           f.step_t = 0;
+          f.step_from_hold = true;
           f.step_time_s = tun_.step_time_s;
           f.step_from = f.lock;
           f.step_to = target;
@@ -535,7 +538,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
     // the leg then could not follow, and the knee jumped 11 cm as the way came back in reach.
     // Counted over the whole step, a far step's way crouched the pelvis 30 cm.)
     out.supporting[static_cast<std::size_t>(s)] = f.phase == Phase::held || f.phase == Phase::landing ||
-                                                  (f.phase == Phase::stepping && f.step_t < kSupportingStepShare);
+                                                  (f.phase == Phase::stepping && f.step_from_hold && f.step_t < kSupportingStepShare);
     out.ankle_m[static_cast<std::size_t>(s)] = f.lock;
     // A held ankle above where it stands when down (the leg does not reach the floor flat: it
     // waits on its toes) keeps its toes on the floor, coming in over kOnToesSpan_m of height.

@@ -161,6 +161,7 @@ class FootPlanter {
     double heading_hold = 0;          ///< 0..1: how far that heading is still kept (eased out when lifted)
     Eigen::Vector3d offset{0, 0, 0};  ///< m: swinging: lock - free ankle, shed over the swing
     double step_t = 0;                ///< stepping: 0..1
+    bool step_from_hold = true;       ///< stepping: this step began from a held foot (not taken again in the air)
     double step_time_s = 0.30;        ///< s: stepping: this step's time (step_time_s, or longer where redirected)
     double swing_way_m = -1;          ///< swinging toward a landing: its way along the floor (m), -1 unknown
     double swing_progress = 0;        ///< swinging: share of that way covered, 0..1 (never decreases)
