@@ -591,9 +591,7 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
     // back foot), down at the start itself.
     const int first = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
     const int last = std::clamp(plan.contact_frame, first, seg.frame_count() - 1);
-    std::array<int, 2> down{0, 0};
-    for (int f = 0; f < 2; ++f)
-      for (int k = first; k <= last && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(f)] >= 0.5; ++k) ++down[static_cast<std::size_t>(f)];
+    const std::array<int, 2> down{planted_run(seg, kLeft, first, last), planted_run(seg, kRight, first, last)};
     if (down[0] == 0 && down[1] == 0) return false;
     // Both down to contact (no lunge): no foot lifts with the other in the air, so the punch
     // starts at once (a foot still stepping lands where start_strike puts it).
@@ -613,8 +611,8 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
   if ((!feet_.held(side) && !stepping) || !feet_.held(other)) return false;
   int k = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
   const int last = std::clamp(plan.contact_frame, k, seg.frame_count() - 1);
-  while (k < last && seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] < 0.5) ++k;
-  if (seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] < 0.5) return false;
+  while (k < last && !clip_planted(seg, k, side)) ++k;
+  if (!clip_planted(seg, k, side)) return false;
   Source at_down = source;
   at_down.time_s = k * seg.frame_time_s;
   MkmFrame placed;

@@ -392,11 +392,14 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
       // there; from there back to the guard (or the motion's arm).
       Vector3d wa = w1, ea = e1, wb = w1, eb = e1;
       double x = 1;
+      int phase = 1;  // 0 to its place, 1 held, 2 back
       if (pr.t_s < pr.move_s) {
+        phase = 0;
         wa = pr.from_arm_n * arm;
         ea = elbow_of(wa, pr.from_pole, up, fore);
         x = min_jerk(pr.t_s / pr.move_s);
       } else if (pr.t_s >= pr.hold_end_s) {
+        phase = 2;
         wb = a * arm;
         eb = elbow_of(wb, p, up, fore);
         // Timed along its way as it starts, as a move to a place is (parry_move_s), at least
@@ -409,7 +412,6 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
         }
         x = min_jerk((pr.t_s - pr.hold_end_s) / pr.back_s);
       }
-      const int phase = pr.t_s < pr.move_s ? 0 : (pr.t_s >= pr.hold_end_s ? 2 : 1);
       double turn = 0;
       const ArmAt at = parry_arm_at(x, wa, ea, wb, eb, p, up, fore, pr.turn_phase == phase ? &pr.pole_turn_rad : nullptr, &turn);
       pr.turn_phase = phase;

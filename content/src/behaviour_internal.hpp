@@ -63,6 +63,13 @@ inline FramePair frame_pair(const MotionSegment& seg, double t) {
 inline bool clip_planted(const MotionSegment& seg, int k, int side) {
   return seg.frames[static_cast<std::size_t>(k)].planted[static_cast<std::size_t>(side)] >= 0.5;
 }
+/// How many frames from `first` through `last` the clip keeps `side`'s foot down without a break
+/// (0 where it is up at `first`).
+inline int planted_run(const MotionSegment& seg, int side, int first, int last) {
+  int run = 0;
+  for (int k = first; k <= last && clip_planted(seg, k, side); ++k) ++run;
+  return run;
+}
 /// The first frame, not before `first`, of the clip's run of contact frames of `side` that ends
 /// at `frame` (`frame` itself where the foot is not down there).
 inline int planted_since(const MotionSegment& seg, int side, int first, int frame) {

@@ -40,11 +40,7 @@ int align_to_support_foot(const StrikePlacement& in, PlaybackSource& s, double c
   const int n = seg.frame_count();
   const int first = std::clamp(static_cast<int>(std::lround(s.time_s / seg.frame_time_s)), 0, n - 1);
   const int contact = std::clamp(static_cast<int>(std::lround(contact_time_s / seg.frame_time_s)), first, n - 1);
-  const auto run_from_start = [&](int side) {
-    int run = 0;
-    for (int k = first; k < n && clip_planted(seg, k, side); ++k) ++run;
-    return run;
-  };
+  const auto run_from_start = [&](int side) { return planted_run(seg, side, first, n - 1); };
   const Rig& rig = *in.rig;
   // How far (m, x/z) the clip must move for `side`'s ankle at clip frame `frame` to stand where
   // that foot is drawn now.
