@@ -27,6 +27,16 @@ using Eigen::Vector2d;
 /// moves the foot at (FootPlanter::redirect; a 0.3 m procedural step of step_time_s peaks near 2.1 m/s).
 inline constexpr double kRedirectPeakSpeed_mps = 2.5;
 
+/// s: an update at least this long is coarse (under 45 a second: a 30 fps clip played at its
+/// rate by the strike grid, or a frame loop fallen to 30 Hz). There a limit per second lets a
+/// whole-body move start or stop within one frame (60 m/s^2 is 2 m/s in one 33 ms update), so
+/// the following spot (update_follow) and the pelvis drop (Feet::bound_drop) also bound how much
+/// their step changes from one update to the next. At 60 Hz and above they are left as they
+/// were: the same bounds there lagged the pelvis behind its feet in the 120-order sweep (both
+/// feet off where the mocap stands 1054 -> 2702 frames, 6 snaps, with the drop's; the fighter
+/// late to its spot, hits 535 -> 425 and 8 snaps, with the spot's).
+inline constexpr double kCoarseUpdate_s = 1.0 / 45;
+
 /// A strike's (or block's) contact event: its target, the clip's segment, start and contact
 /// frames, how far the end was from its target and whether the limb reached (judge_contact,
 /// judge_block_in_place).

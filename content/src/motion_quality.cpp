@@ -91,9 +91,12 @@ std::vector<Snap> find_snaps(const JointTrack& track, FrameRange range, const Sn
   range = clamp_range(track, range);
   std::vector<Snap> out;
   const int n = track.joint_count();
-  // step(f) = p(f) - p(f-1), defined for f in [first+1, last].
+  // step(f) = p(f) - p(f-1): judged for f in [first+1, last]; its neighbours are the track's
+  // own steps, inside the range or not (a step at the range's end is judged against the step
+  // after it, where the track has one: missing, it counted as no neighbour, and a knee speeding
+  // up over the last compared frame read as a one-frame jump the whole BVH does not have).
   auto step = [&](int f, int j) -> Vector3d {
-    if (f <= range.first || f > range.last) return Vector3d::Constant(kNaN);
+    if (f < 1 || f >= track.frame_count) return Vector3d::Constant(kNaN);
     return track.at(f, j) - track.at(f - 1, j);
   };
   auto len = [](const Vector3d& v) { return v.allFinite() ? v.norm() : kNaN; };

@@ -116,6 +116,32 @@ TEST(MotionQuality, SyntheticSmoothFastMotionIsNoSnapButSpikesAndTooFastStepsAre
   EXPECT_TRUE(find_snaps(s.track(), {0, 39}).empty());
 }
 
+// A step at the end of the judged range is judged against the track's next step, inside the
+// range or not: a wrist speeding up over the last judged frame (1.5, 6, then 6 cm a frame) is no
+// jump; the same 6 cm followed by a stop is one. (The next step read as missing counted a
+// speeding-up knee at the last compared frame of two studio strikes whose whole BVH has none.)
+TEST(MotionQuality, SyntheticAStepAtTheRangesEndIsJudgedAgainstTheStepAfterIt) {
+  const auto move = [](const std::vector<double>& steps) {
+    Sequence m(40);
+    double x = 0;
+    for (int f = 20; f < 40; ++f) {
+      const auto i = static_cast<std::size_t>(f - 20);
+      if (i < steps.size()) x += steps[i];
+      m.at(f, CJ::l_wrist).x() += x;
+    }
+    return m;
+  };
+  // Steps at frames 20, 21, 22, ...: 1.5 cm, then 6 cm at f21 (the range's last), then 6 cm on.
+  const Sequence faster = move({0.015, 0.06, 0.06, 0.06, 0.06});
+  EXPECT_TRUE(find_snaps(faster.track(), {0, 21}).empty());
+  EXPECT_TRUE(find_snaps(faster.track(), {0, 39}).empty());
+  const Sequence stop = move({0.015, 0.06});
+  const auto snaps = find_snaps(stop.track(), {0, 21});
+  ASSERT_EQ(snaps.size(), 1u);
+  EXPECT_EQ(snaps[0].frame, 21);
+  EXPECT_EQ(snaps[0].rule, 'b');
+}
+
 TEST(MotionQuality, SyntheticFlatFootSlidingAt1MpsGives1MpsStillFootZero) {
   Sequence s(120);
   for (int f = 0; f < 120; ++f) s.move_foot(f, 0, Vector3d(0, 0, 1.0 * f * kDt));  // left foot flat, 1 m/s forward
