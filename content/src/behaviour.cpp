@@ -1032,6 +1032,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
   if (keep_away_ && dist > 1e-6) goal = head_xz - to_head / dist * (config_.strike_distance_m + tun_.keep_away_extra_m);
   goal = clamp_to_area(config_, goal);
   if (paused_) goal = spot_xz_m_;
+  // (the spot's velocity of the last update: zero unless it was following)
+  const Vector2d last_spot_velocity = spot_velocity_;
   spot_velocity_.setZero();
   // How fast the spot to keep moves (the visitor walking), over ~kGoalSpeedSmoothing_s.
   if (last_goal_ && last_goal_update_ == updates_ - 1 && dt > 0) {
@@ -1114,8 +1116,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
         const double a = kFollowAccel_mps2;
         const double stop = -a * dt + std::sqrt(a * dt * a * dt + 2 * a * r);
         const Vector2d want = off / r * std::min(speed, stop);
-        const Vector2d change = want - follow_velocity_;
-        v = change.norm() <= a * dt ? want : Vector2d(follow_velocity_ + change / change.norm() * (a * dt));
+        const Vector2d change = want - last_spot_velocity;
+        v = change.norm() <= a * dt ? want : Vector2d(last_spot_velocity + change / change.norm() * (a * dt));
         if (v.norm() * dt > r) v *= r / (v.norm() * dt);
         spot_xz_m_ += v * dt;
       } else {
@@ -1123,14 +1125,12 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
       }
       spot_velocity_ = v;
     }
-    follow_velocity_ = v;
     if ((goal - spot_xz_m_).norm() < tun_.arrive_tolerance_m && (!coarse || v.norm() <= kFollowArriveSpeed_mps)) {
       following = false;
       recentre_goal_.reset();
       reel_.end_step_back();
     }
   }
-  if (!following) follow_velocity_.setZero();
   // Face the visitor; while stepping in or back before a strike, or setting a kick's support
   // foot, its target (frozen at the order): the strike is planned again facing it once the
   // feet stand, and a visitor moving meanwhile does not turn the feet into more steps the

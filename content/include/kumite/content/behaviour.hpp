@@ -520,7 +520,6 @@ class Behaviour {
   double rest_yaw_rad_ = 0;
   Eigen::Vector2d spot_xz_m_{0, 0};  ///< m, where the rest motion is anchored (room)
   Eigen::Vector2d spot_velocity_{0, 0};  ///< m/s of the rest spot while following
-  Eigen::Vector2d follow_velocity_{0, 0};  ///< m/s the spot moved last update while following (0 otherwise)
   std::optional<Eigen::Vector2d> recentre_goal_;
   /// rest_segment_'s mirrored copy (the other foot leading; -1: none in the database), and the
   /// `walk` segments stance steps are cut from.
