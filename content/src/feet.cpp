@@ -276,8 +276,12 @@ void Feet::bound_drop(const FeetInput& in) {
   constexpr double kCoarseDropStepGain_m = 0.005;
   double dv = dt > 0 ? std::min(max_drop_accel_mps2_ * dt, kMostDropStepGain_m / dt) : 0.0;
   if (dt >= kCoarseUpdate_s) dv = std::min(dv, std::abs(v) + kCoarseDropStepGain_m / dt);
-  const double v_lo = std::max(-max_drop_rate_mps_, v - dv);
+  double v_lo = std::max(-max_drop_rate_mps_, v - dv);
   const double v_hi = std::min(max_drop_rate_mps_, v + dv);
+  // ...and, coarsely updated, the pelvis rising out of its drop slows down as it nears none: it
+  // rises by at most half the drop left and 5 mm an update, where it went on speeding up and
+  // stopped dead at zero (6 cm in one update, then none: a knee 11 cm in that frame).
+  if (dt >= kCoarseUpdate_s) v_lo = std::max(v_lo, -(0.5 * last_drop + kCoarseDropStepGain_m) / dt);
   // A punch's pelvis goes no lower than keeps its target within the arm's reach at
   // max_punch_aim_deg from the shoulder: a lunge's back foot held out of the legs' reach sank
   // the pelvis 0.29 m and a head-height punch went up with the elbow above the head. The foot
