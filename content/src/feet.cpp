@@ -270,18 +270,22 @@ void Feet::bound_drop(const FeetInput& in) {
   // 60 Hz, but at 60 Hz the shipped sweep's pelvis then lagged its feet: both feet off in 8899
   // frames instead of 6757, 3 snaps instead of 0.
   constexpr double kMostDropStepGain_m = 0.03;
-  // Updated coarsely (kCoarseUpdate_s), the step also grows by no more than itself and 5 mm an
-  // update: at 30 Hz a foot lifted from a leg the drop stretched let the pelvis up 2 cm in one
-  // update after none, the nearly straight knee 5 cm (the studio grid's 30 fps strikes).
-  constexpr double kCoarseDropStepGain_m = 0.005;
   double dv = dt > 0 ? std::min(max_drop_accel_mps2_ * dt, kMostDropStepGain_m / dt) : 0.0;
-  if (dt >= kCoarseUpdate_s) dv = std::min(dv, std::abs(v) + kCoarseDropStepGain_m / dt);
   double v_lo = std::max(-max_drop_rate_mps_, v - dv);
   const double v_hi = std::min(max_drop_rate_mps_, v + dv);
-  // ...and, coarsely updated, the pelvis rising out of its drop slows down as it nears none: it
-  // rises by at most half the drop left and 5 mm an update, where it went on speeding up and
-  // stopped dead at zero (6 cm in one update, then none: a knee 11 cm in that frame).
-  if (dt >= kCoarseUpdate_s) v_lo = std::max(v_lo, -(0.5 * last_drop + kCoarseDropStepGain_m) / dt);
+  if (dt >= kCoarseUpdate_s) {
+    // Updated coarsely (kCoarseUpdate_s), the pelvis rising out of its drop starts and stops
+    // gently: its step up grows by no more than the last update's step and 5 mm (a foot lifted
+    // from a leg the drop stretched let the pelvis up 2 cm in one update after none, the nearly
+    // straight knee 5 cm: the studio grid's 30 fps strikes), and it slows as it nears no drop,
+    // rising by at most half the drop left and 5 mm an update (it went on speeding up and
+    // stopped dead at zero: 6 cm in one update, then none, a knee 11 cm in that frame). Going
+    // down is bounded as at any rate: bounded the same way, the spar demo run at 30 Hz left a
+    // foot 70 cm behind the fighter stepping in, then swept it 39 cm in a frame (a knee 13 m/s).
+    constexpr double kCoarseDropStepGain_m = 0.005;
+    v_lo = std::max(v_lo, v - (std::abs(v) + kCoarseDropStepGain_m / dt));
+    v_lo = std::max(v_lo, -(0.5 * last_drop + kCoarseDropStepGain_m) / dt);
+  }
   // A punch's pelvis goes no lower than keeps its target within the arm's reach at
   // max_punch_aim_deg from the shoulder: a lunge's back foot held out of the legs' reach sank
   // the pelvis 0.29 m and a head-height punch went up with the elbow above the head. The foot
