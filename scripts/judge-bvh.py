@@ -8,6 +8,8 @@ Pure Python (no numpy): its own BVH parser and forward kinematics, then on the d
     toe's, moves it not; a foot that never stands in the file does not make its own floor)
   - support-foot slide: horizontal speed over ~33 ms while the foot stands flat (max per file)
   - peak foot speed (any phase) and p99 joint speed
+  - folded limbs: frames where an ankle or wrist is nearer its hip or shoulder than 0.1 of the
+    limb's two bones (the least share of each limb, and where)
 Foot joints are found by name (CMU: lfoot/ltoes, MotionBuilder: LeftFoot/LeftToeBase, ...).
 
   scripts/judge-bvh.py a.bvh [b.bvh ...] [--frames A:B] [--json]
@@ -110,6 +112,11 @@ def fk(names, parents, offsets, channels, frame):
     return pos
 
 
+WRIST_NAMES = {
+    "left": ("lwrist", "LeftHand", "LeftWrist", "l_wrist"),
+    "right": ("rwrist", "RightHand", "RightWrist", "r_wrist"),
+}
+FOLDED_SHARE = 0.1
 FOOT_NAMES = {
     "left": (("lfoot", "LeftFoot", "LeftAnkle", "l_ankle"), ("ltoes", "LeftToeBase", "LeftToes", "LeftToe", "l_toe")),
     "right": (("rfoot", "RightFoot", "RightAnkle", "r_ankle"), ("rtoes", "RightToeBase", "RightToes", "RightToe", "r_toe")),
@@ -212,6 +219,24 @@ def judge(path, first=0, last=None, bones=None):
         out["leg_m"] = round(leg, 4)
     if on_bones:
         out["p99_joint_speed_on_bones_mps"] = round(pct(on_bones, 99), 3)
+    # Folded limbs: a limb's end (ankle, wrist) nearer its root (hip, shoulder) than
+    # FOLDED_SHARE of the limb's two bones, a fold no body makes (the tightest in the mocap here:
+    # the assimp boxer's knee, 0.14 of its leg; CMU 135's kicks 0.25; HDM05 picking up 0.27).
+    folded = {}
+    for side, names_ in WRIST_NAMES.items():
+        for limb, end in (("leg", find(names, FOOT_NAMES[side][0])), ("arm", find(names, names_))):
+            if end < 0 or parents[end] < 0 or parents[parents[end]] < 0:
+                continue
+            mid, root = parents[end], parents[parents[end]]
+            length = dist(P[0][mid], P[0][root]) + dist(P[0][end], P[0][mid])
+            if length <= 1e-6:
+                continue
+            shares = [dist(fr[end], fr[root]) / length for fr in P]
+            k = min(range(n), key=lambda i: shares[i])
+            folded[f"{side}_{limb}"] = {"min_share": round(shares[k], 3), "frame": k,
+                                        "folded_frames": sum(1 for x in shares if x < FOLDED_SHARE)}
+    out["folded_frames"] = sum(v["folded_frames"] for v in folded.values())
+    out["folded"] = folded
     w = max(1, round(0.033 / dt))
     # The floor: the lowest level the ankles (and the toes) of both feet hold for 0.1 s.
     feet = [(find(names, a), find(names, t)) for a, t in FOOT_NAMES.values()]
@@ -262,7 +287,8 @@ def main():
         else:
             print(f"{p}: {r['frames']} frames, snaps {r['snaps']} {r['snap_list'][:3]}, p99 speed {r['p99_joint_speed_mps']} m/s, "
                   f"max {r['max_joint_speed_mps']} ({r['fastest']}), support slide L {r.get('left_support_slide_mps')} "
-                  f"R {r.get('right_support_slide_mps')} m/s, foot peak L {r.get('left_peak_foot_speed_mps')} R {r.get('right_peak_foot_speed_mps')}")
+                  f"R {r.get('right_support_slide_mps')} m/s, foot peak L {r.get('left_peak_foot_speed_mps')} R {r.get('right_peak_foot_speed_mps')}, "
+                  f"folded frames {r['folded_frames']}")
 
 
 if __name__ == "__main__":

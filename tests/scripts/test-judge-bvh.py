@@ -6,6 +6,9 @@ flat on the floor, once with every frame level and once with the whole body dipp
 frame (the toe under the floor, as a blow or a late landing can put it). The foot stands flat on
 every frame in both, so the judge must count ~120 flat frames and a support slide of 0.5 m/s in
 both; taking the file's plain lowest as the floor, the dipped file had 1 flat frame and no slide.
+A third file folds the knee from straight to 175 degrees over the 120 frames (thigh and shin
+0.45 m each): the ankle comes nearer the hip than 0.1 of the leg (0.09 m) past 168.5 degrees,
+on the last 5 frames (the least share sin(2.5 deg) = 0.044 on the last); the level file folds none.
 Usage: test-judge-bvh.py JUDGE (the path of scripts/judge-bvh.py)
 """
 import importlib.util
@@ -70,6 +73,16 @@ def write_bvh(path, dip_frame):
         out.writelines(lines)
 
 
+def write_folding_bvh(path):
+    lines = [HEADER, f"Frames: {FRAMES}\n", f"Frame Time: {1.0 / FPS:.6f}\n"]
+    for f in range(FRAMES):
+        values = ["0", "0.95", "0"] + ["0"] * 18
+        values[13] = f"{175.0 * f / (FRAMES - 1):.6f}"  # ltibia's Xrotation: the knee bends
+        lines.append(" ".join(values) + "\n")
+    with open(path, "w") as out:
+        out.writelines(lines)
+
+
 def main():
     spec = importlib.util.spec_from_file_location("judge_bvh", sys.argv[1])
     judge = importlib.util.module_from_spec(spec)
@@ -86,6 +99,16 @@ def main():
                 bad.append(f"{name}: {flat} flat frames, the foot stands flat on all {FRAMES}")
             if abs(slide - SLIDE_MPS) > 0.05:
                 bad.append(f"{name}: support slide {slide} m/s, the foot slides at {SLIDE_MPS}")
+            if r["folded_frames"] != 0:
+                bad.append(f"{name}: {r['folded_frames']} folded frames, the leg stands straight")
+        path = os.path.join(d, "folding.bvh")
+        write_folding_bvh(path)
+        r = judge.judge(path, 0, None)
+        leg = r["folded"]["left_leg"]
+        print(f"folding: folded_frames {r['folded_frames']}, left leg least share {leg['min_share']} at frame {leg['frame']}")
+        if r["folded_frames"] != 5 or leg["frame"] != FRAMES - 1 or abs(leg["min_share"] - 0.044) > 0.002:
+            bad.append(f"folding: {r['folded_frames']} folded frames, least share {leg['min_share']} at {leg['frame']}"
+                       f" (5, 0.044 at {FRAMES - 1} by construction)")
     for b in bad:
         print("FAIL:", b)
     return 1 if bad else 0
