@@ -270,7 +270,7 @@ void Feet::bound_drop(const FeetInput& in) {
   // 60 Hz, but at 60 Hz the shipped sweep's pelvis then lagged its feet: both feet off in 8899
   // frames instead of 6757, 3 snaps instead of 0.
   constexpr double kMostDropStepGain_m = 0.03;
-  double dv = dt > 0 ? std::min(max_drop_accel_mps2_ * dt, kMostDropStepGain_m / dt) : 0.0;
+  const double dv = dt > 0 ? std::min(max_drop_accel_mps2_ * dt, kMostDropStepGain_m / dt) : 0.0;
   double v_lo = std::max(-max_drop_rate_mps_, v - dv);
   const double v_hi = std::min(max_drop_rate_mps_, v + dv);
   if (dt >= kCoarseUpdate_s) {
