@@ -589,12 +589,13 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
   if (!eff) return false;
   const double threshold = eff->leg ? tun_.kick_support_step_m : tun_.punch_support_step_m;
   if (threshold <= 0) return false;
+  // The clip's frames from the strike's start to its contact.
+  const int first = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
+  const int last = std::clamp(plan.contact_frame, first, seg.frame_count() - 1);
   int side = 1 - eff->side;
   if (!eff->leg) {
     // A punch's support foot: the one its clip keeps down longest from its start (a lunge's
     // back foot), down at the start itself.
-    const int first = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
-    const int last = std::clamp(plan.contact_frame, first, seg.frame_count() - 1);
     const std::array<int, 2> down{planted_run(seg, kLeft, first, last), planted_run(seg, kRight, first, last)};
     if (down[0] == 0 && down[1] == 0) return false;
     // Both down to contact (no lunge): no foot lifts with the other in the air, so the punch
@@ -613,8 +614,7 @@ bool Behaviour::begin_support_step(const PendingStrike& pending, const StrikePla
   // leg's reach (bruno's HDM_bk_010 kick at 15.0 s of the scripted bout: both feet off 14 frames).
   const bool stepping = feet_.step_end(side) != nullptr;
   if ((!feet_.held(side) && !stepping) || !feet_.held(other)) return false;
-  int k = std::clamp(plan.start_frame, 0, seg.frame_count() - 1);
-  const int last = std::clamp(plan.contact_frame, k, seg.frame_count() - 1);
+  int k = first;
   while (k < last && !clip_planted(seg, k, side)) ++k;
   if (!clip_planted(seg, k, side)) return false;
   Source at_down = source;
@@ -1105,8 +1105,6 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
     const bool coarse = dt >= kCoarseUpdate_s;
     Vector2d v = Vector2d::Zero();
     if (r > 1e-9 && dt > 0) {
-      const double step = std::min(r, speed * dt);
-      v = off / r * step / dt;
       if (coarse) {
         // Updated coarsely, the spot speeds up and slows down by kFollowAccel_mps2 rather than
         // taking the whole speed from standing and stopping dead (a 10 cm step-in at 30 Hz
@@ -1121,6 +1119,8 @@ void Behaviour::update_follow(double dt, const Vector3d& head) {
         if (v.norm() * dt > r) v *= r / (v.norm() * dt);
         spot_xz_m_ += v * dt;
       } else {
+        const double step = std::min(r, speed * dt);
+        v = off / r * step / dt;
         spot_xz_m_ += off / r * step;
       }
       spot_velocity_ = v;

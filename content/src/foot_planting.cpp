@@ -97,17 +97,21 @@ double landing_share(double s, double lead) {
 /// The share of a procedural step's travel beyond which it is not redirected (FootPlanter::redirect):
 /// re-based from nearly its end, the way left would be crossed in the last frames.
 constexpr double kMostRedirectedShare = 0.8;
+/// A held foot (FootPlanter's Foot) lifted into a procedural step of `time_s` to `to`.
+constexpr auto begin_step = [](auto& f, const Vector3d& to, double time_s) {
+  f.phase = FootPlanter::Phase::stepping;
+  f.step_t = 0;
+  f.step_from_hold = true;
+  f.step_time_s = time_s;
+  f.step_from = f.lock;
+  f.step_to = to;
+};
 }  // namespace
 
 bool FootPlanter::step_to(int side, const Vector3d& to) {
   Foot& f = feet_[static_cast<std::size_t>(side)];
   if (f.phase != Phase::held || feet_[static_cast<std::size_t>(1 - side)].phase != Phase::held) return false;
-  f.phase = Phase::stepping;
-  f.step_t = 0;
-  f.step_from_hold = true;
-  f.step_time_s = tun_.step_time_s;
-  f.step_from = f.lock;
-  f.step_to = to;
+  begin_step(f, to, tun_.step_time_s);
   return true;
 }
 
@@ -281,12 +285,7 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // other stands on the floor (both off it is a hop).
         if (!waits && ((other.phase == Phase::held && !must_step[1 - s] && may_step && (lagging || (stretch > max_stretch && eases_stretch))) ||
                        must_step[s])) {
-          f.phase = Phase::stepping;
-          f.step_t = 0;
-          f.step_from_hold = true;
-          f.step_time_s = tun_.step_time_s;
-          f.step_from = f.lock;
-          f.step_to = target;
+          begin_step(f, target, tun_.step_time_s);
         }
         break;
       }
