@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <span>
 #include <utility>
 
 #include "behaviour_internal.hpp"
@@ -24,6 +25,28 @@ namespace {
 /// The share of the source's path left when a stance step's stepping foot is over its landing
 /// (FootSample::landing_lead).
 constexpr double kStanceStepLandingLead = 0.05;
+/// s: a held foot the motion lifts for less than this (it plants it again sooner) stays held.
+constexpr double kShortestLift_s = 0.1;
+
+/// m: how far the pelvis must be lowered for the supporting feet `locks` holds to be within
+/// their legs' reach (AdaptJob's drop, there computed from this update's decode), estimated
+/// from the last drawn hips raised by the drop they were drawn with (`last_drop_m`).
+double drop_needed(const Rig& rig, std::span<const Vector3d> drawn_m, const FootLocks& locks, double last_drop_m) {
+  double need = 0;
+  for (int s = 0; s < 2; ++s) {
+    const auto us = static_cast<std::size_t>(s);
+    const double w = std::clamp(locks.weight[us], 0.0, 1.0);
+    if (w <= 0 || !locks.supporting[us]) continue;
+    const auto hip = static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_hip : CJ::r_hip));
+    if (hip >= drawn_m.size()) continue;
+    const Vector3d d = locks.ankle_m[us] - (drawn_m[hip] + Vector3d::UnitY() * last_drop_m);
+    const double l = rig.morphology.limb_leg_length(s);
+    if (d.squaredNorm() <= l * l) continue;
+    const double h2 = d.x() * d.x() + d.z() * d.z();
+    need = std::max(need, w * (-d.y() - std::sqrt(std::max(0.0, l * l - h2))));
+  }
+  return need;
+}
 
 /// The source's ankle on its way from now (`now_y_m`, m) to its landing at segment frame `land`
 /// stays within `height_m` above the lower of its heights now and there: a glide along the
@@ -200,6 +223,15 @@ void Feet::plant(const FeetInput& in) {
         f.planted = true;
         f.has_landing = false;
       }
+      // Nor one the source lifts for less than kShortestLift_s: no foot is lifted and put down
+      // again that quickly, so it is a strike begun as the source's foot comes down from a step
+      // of its own. Lifted, bruno's held foot went 2.9 cm (2.3 up) in its one 30 Hz update of
+      // swing and was put down in the next, the nearly straight knee 5.5 cm in that frame (the
+      // studio grid's left punches from Boxing_Toes_30fps frame 184).
+      if (planter_.held(s) && in.kick_side != s && f.swing_left_s < kShortestLift_s) {
+        f.planted = true;
+        f.has_landing = false;
+      }
     }
     f.drawn_ankle_m = in.drawn_m[ankle];
     const Vector3d drawn_dir = drawn_foot_dir(pose, rig.morphology, s);  // the foot as adaptation aims it
@@ -272,19 +304,27 @@ void Feet::bound_drop(const FeetInput& in) {
   constexpr double kMostDropStepGain_m = 0.03;
   const double dv = dt > 0 ? std::min(max_drop_accel_mps2_ * dt, kMostDropStepGain_m / dt) : 0.0;
   double v_lo = std::max(-max_drop_rate_mps_, v - dv);
-  const double v_hi = std::min(max_drop_rate_mps_, v + dv);
+  double v_hi = std::min(max_drop_rate_mps_, v + dv);
   if (dt >= kCoarseUpdate_s) {
     // Updated coarsely (kCoarseUpdate_s), the pelvis rising out of its drop starts and stops
     // gently: its step up grows by no more than the last update's step and 5 mm (a foot lifted
     // from a leg the drop stretched let the pelvis up 2 cm in one update after none, the nearly
-    // straight knee 5 cm: the studio grid's 30 fps strikes), and it slows as it nears no drop,
-    // rising by at most half the drop left and 5 mm an update (it went on speeding up and
-    // stopped dead at zero: 6 cm in one update, then none, a knee 11 cm in that frame). Going
-    // down is bounded as at any rate: bounded the same way, the spar demo run at 30 Hz left a
-    // foot 70 cm behind the fighter stepping in, then swept it 39 cm in a frame (a knee 13 m/s).
+    // straight knee 5 cm: the studio grid's 30 fps strikes), and it slows as it nears the drop
+    // its held feet still need (drop_needed; none where the legs reach them), rising by at most
+    // half the way left and 5 mm an update. It went on speeding up and stopped dead: at no
+    // drop, 6 cm in one update, then none, a knee 11 cm in that frame; at the drop a held
+    // foot needs, 1.6 then 3.7 cm, then 0.7, the held leg's knee 8.3 cm as it straightened
+    // (aiko's steps before two punches of the studio grid).
     constexpr double kCoarseDropStepGain_m = 0.005;
     v_lo = std::max(v_lo, v - (std::abs(v) + kCoarseDropStepGain_m / dt));
-    v_lo = std::max(v_lo, -(0.5 * last_drop + kCoarseDropStepGain_m) / dt);
+    const double need = in.have_pose ? drop_needed(*in.rig, in.drawn_m, locks_, last_drop) : 0.0;
+    v_lo = std::max(v_lo, -(0.5 * std::max(0.0, last_drop - need) + kCoarseDropStepGain_m) / dt);
+    // Going down, its step grows by no more than the last update's step and 1.5 cm: from none to
+    // 2.6 cm in one update (a step landing out of the leg's reach) moved the other, nearly
+    // straight, leg's knee 6 cm. Bounded as rising is (5 mm), the spar demo run at 30 Hz left a
+    // foot 70 cm behind the fighter stepping in, then swept it 39 cm in a frame (a knee 13 m/s).
+    constexpr double kCoarseDropFallGain_m = 0.015;
+    v_hi = std::min(v_hi, v + std::abs(v) + kCoarseDropFallGain_m / dt);
   }
   // A punch's pelvis goes no lower than keeps its target within the arm's reach at
   // max_punch_aim_deg from the shoulder: a lunge's back foot held out of the legs' reach sank
