@@ -23,7 +23,8 @@ import subprocess
 import sys
 
 SUMMED = ["strikes", "hits", "dodged", "misses", "folded_at_contact", "elbow_flips", "knee_flips",
-          "both_feet_off_frames", "both_feet_off_frames_source_down", "drawn_snaps_whole_bout"]
+          "both_feet_off_frames", "both_feet_off_frames_source_down", "drawn_snaps_whole_bout",
+          "snaps_in_bvh_runs"]
 
 
 def run_one(args, i, order):

@@ -36,6 +36,10 @@ struct ParryScene {
   int parries = 0, cases = 0;
   double fastest = 0;
   std::string where;
+  /// Drawn elbow or wrist steps (from the shoulder) over 5 cm and over 3x both the step before
+  /// and the step after: the motion-quality check's one-frame jump.
+  int jumps = 0;
+  std::string jump_where;
 };
 
 /// The fighter faces +z (chest frame: x left, y up, z forward), shoulders 1.45 m up, arms
@@ -43,11 +47,10 @@ struct ParryScene {
 /// (x, y, aim_z) for each x, y and speed. From when the fist is due at the forearm, the body
 /// walks forward at walk_mps, and for dip_s the guard is not allowed (a strike of its own starting).
 ParryScene run_parries(std::initializer_list<double> xs, std::initializer_list<double> ys, std::initializer_list<double> speeds,
-                       double aim_z, double walk_mps, double dip_s = 0) {
+                       double aim_z, double walk_mps, double dip_s = 0, double dt = 1.0 / 60) {
   const Rig rig = load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
   const Morphology& m = rig.morphology;
   const auto at = [&](CJ j) { return static_cast<std::size_t>(rig.skeleton.index(j)); };
-  const double dt = 1.0 / 60;
   ParryScene out;
   for (const double x : xs)
     for (const double y : ys)
@@ -57,6 +60,7 @@ ParryScene run_parries(std::initializer_list<double> xs, std::initializer_list<d
         g.want(true);
         std::vector<Vector3d> drawn(static_cast<std::size_t>(rig.joint_count()), Vector3d::Zero());
         std::array<Vector3d, 2> elbow_before{}, wrist_before{};
+        std::array<std::vector<double>, 4> steps;  // [side * 2 + (0 elbow, 1 wrist)], from the parry on
         std::vector<FighterEvent> events;
         const Vector3d aim(x, y, aim_z), from(x * 0.3, 1.4, 0.9);
         const Vector3d v = (aim - from).normalized() * speed;
@@ -86,6 +90,10 @@ ParryScene run_parries(std::initializer_list<double> xs, std::initializer_list<d
             const double up = m.upper_arm_m[us], fore = m.forearm_m[us];
             const Vector3d e = elbow_from(pose.arm_n[us], pose.arm_pole[us], up, fore);  // from the shoulder
             const Vector3d w = pose.arm_n[us] * (up + fore);
+            if (k >= 59) {  // from the update before the parry's
+              steps[us * 2].push_back((e - elbow_before[us]).norm());
+              steps[us * 2 + 1].push_back((w - wrist_before[us]).norm());
+            }
             if (k > 60) {
               const double step = std::max((e - elbow_before[us]).norm(), (w - wrist_before[us]).norm()) / dt;
               if (step > out.fastest) {
@@ -100,6 +108,14 @@ ParryScene run_parries(std::initializer_list<double> xs, std::initializer_list<d
             drawn[at(s == kLeft ? CJ::l_wrist : CJ::r_wrist)] = shoulder[us] + w;
           }
         }
+        for (std::size_t j = 0; j < steps.size(); ++j)
+          for (std::size_t i = 1; i + 1 < steps[j].size(); ++i)
+            if (steps[j][i] > 0.05 && steps[j][i] > 3 * steps[j][i - 1] && steps[j][i] > 3 * steps[j][i + 1]) {
+              ++out.jumps;
+              out.jump_where = "aim (" + std::to_string(x) + ", " + std::to_string(y) + ") at " + std::to_string(speed) +
+                               " m/s, side " + std::to_string(j / 2) + (j % 2 ? " wrist " : " elbow ") +
+                               std::to_string(steps[j][i]) + " m at update " + std::to_string(59 + i);
+            }
       }
   return out;
 }
@@ -149,4 +165,18 @@ TEST(Guard, AWayBackToAGuardComingBackUpTurnsItsElbowOneWay) {
               r.parries, r.cases, r.fastest, r.where.c_str());
   EXPECT_GT(r.parries, r.cases / 2);
   EXPECT_LT(r.fastest, 12.0) << r.where;
+}
+
+TEST(Guard, AtThirtyUpdatesASecondAParryTakesFourUpdatesAndJumpsNowhere) {
+  // A frame loop fallen to 30 Hz (or a 30 fps database played at its rate): a parry against a
+  // fast fist close by is timed at its shortest (0.05 s), and in 30 Hz updates the minimum-jerk
+  // move put 79 % of its way into its first frame and the rest into the next (the spar demo on a
+  // 30 Hz loop: the elbow 7.8 cm between steps of 1.9 and 3.9, every seed at 5.47 s). Where
+  // updates are coarse it takes at least four of them. Judged on the arm from its shoulder: no
+  // drawn elbow or wrist step over 5 cm and 3x both neighbours.
+  const ParryScene r = run_parries({-0.12, -0.06, 0.06, 0.12}, {1.3, 1.4, 1.5}, {4.0, 6.0}, 0.2, 0.0, 0.0, 1.0 / 30);
+  std::printf("%d parries for %d fists at 30 Hz; %d one-frame jumps (%s); fastest elbow or wrist %.2f m/s\n", r.parries, r.cases,
+              r.jumps, r.jump_where.c_str(), r.fastest);
+  EXPECT_GT(r.parries, r.cases / 2);
+  EXPECT_EQ(r.jumps, 0) << r.jump_where;
 }
