@@ -351,13 +351,23 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
     Parry& pr = parry_[s];
     if (!wanted_ && up_ <= 0) pr.on = false;
     if (pr.on) pr.t_s += dt;
-    // Updated coarsely (kCoarseUpdate_s), a parry's move takes at least kParryMinUpdates
-    // updates, timed from its first (its hold after it): in 0.067 s at 30 Hz, a move from a
-    // parry put half its way into one frame, the elbow 7.8 cm between 1.9 and 3.9 (the spar
-    // demo on a 30 Hz loop, every seed at 5.47 s). At 60 Hz and faster kParryMin_s is longer.
-    if (pr.on && pr.turn_phase == -1 && dt >= kCoarseUpdate_s && pr.move_s < kParryMinUpdates * dt) {
-      pr.move_s = kParryMinUpdates * dt;
-      pr.hold_end_s = std::max(pr.hold_end_s, pr.move_s + kParryHoldPast_s);
+    // Updated coarsely (kCoarseUpdate_s), a parry's move, and a re-aim's shift, take at least
+    // kParryMinUpdates updates, timed from their first (the hold lengthened to follow): at 30 Hz
+    // a move timed at its shortest (kParryMin_s) put 79 % of its way into one frame (the spar
+    // demo on a 30 Hz loop, every seed at 5.47 s: the elbow 7.8 cm between 1.9 and 3.9). Only
+    // where updates are coarse: at 60 Hz four updates (67 ms) are longer than kParryMin_s, and
+    // the shipped frames keep their parries' timing. (pick_parry still plans with the unfloored
+    // move, so at 30 Hz a parry it finds in time may be late.)
+    if (pr.on && dt >= kCoarseUpdate_s) {
+      const double least = kParryMinUpdates * dt;
+      if (pr.turn_phase == -1 && pr.move_s < least) {  // the parry's first update (parry() set -1)
+        pr.move_s = least;
+        pr.hold_end_s = std::max(pr.hold_end_s, pr.move_s + kParryHoldPast_s);
+      }
+      if (pr.reaim_t_s >= 0 && pr.t_s - pr.reaim_t_s < 1.5 * dt && pr.reaim_s < least) {  // a re-aim's first update
+        pr.reaim_s = least;
+        pr.hold_end_s = std::max(pr.hold_end_s, pr.in_place_s() + kParryHoldPast_s);
+      }
     }
     if (pr.on && pr.t_s >= pr.hold_end_s + pr.back_s) pr.on = false;
     Vector3d a = pose.arm_n[s], p = pose.arm_pole[s];

@@ -25,7 +25,7 @@ namespace {
 /// The share of the source's path left when a stance step's stepping foot is over its landing
 /// (FootSample::landing_lead).
 constexpr double kStanceStepLandingLead = 0.05;
-/// s: a held foot the motion lifts for less than this (it plants it again sooner) stays held.
+/// s: a held foot the motion would lift for less than this (it puts it down again sooner) stays held.
 constexpr double kShortestLift_s = 0.1;
 
 /// m: how far the pelvis must be lowered for the supporting feet `locks` holds to be within
@@ -223,10 +223,11 @@ void Feet::plant(const FeetInput& in) {
         f.planted = true;
         f.has_landing = false;
       }
-      // Nor one the source lifts for less than kShortestLift_s: no foot is lifted and put down
-      // again that quickly, so it is a strike begun as the source's foot comes down from a step
-      // of its own. Lifted, bruno's held foot went 2.9 cm (2.3 up) in its one 30 Hz update of
-      // swing and was put down in the next, the nearly straight knee 5.5 cm in that frame (the
+      // Nor one the source puts down again within kShortestLift_s (the time left of its lift,
+      // however long the source's lift was: a strike begun as the source's foot comes down from a
+      // step of its own, or a foot that waited for the other to land): a swing that short is a
+      // lift and a stop. Lifted, bruno's held foot went 2.9 cm (2.3 up) in its one 30 Hz update
+      // of swing and was put down in the next, the nearly straight knee 5.5 cm in that frame (the
       // studio grid's left punches from Boxing_Toes_30fps frame 184).
       if (planter_.held(s) && in.kick_side != s && f.swing_left_s < kShortestLift_s) {
         f.planted = true;
