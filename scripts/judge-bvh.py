@@ -10,6 +10,9 @@ Pure Python (no numpy): its own BVH parser and forward kinematics, then on the d
   - peak foot speed (any phase) and p99 joint speed
   - folded limbs: frames where an ankle or wrist is nearer its hip or shoulder than 0.1 of the
     limb's two bones (the least share of each limb, and where)
+  - limb swings: frames where a knee or elbow standing at least 0.15 of its limb off the line
+    from hip to ankle (shoulder to wrist) turns about that line faster than 2000 deg/s (the
+    fastest of each limb, and where)
 Foot joints are found by name (CMU: lfoot/ltoes, MotionBuilder: LeftFoot/LeftToeBase, ...).
 
   scripts/judge-bvh.py a.bvh [b.bvh ...] [--frames A:B] [--json]
@@ -113,13 +116,19 @@ def fk(names, parents, offsets, channels, frame):
 
 
 WRIST_NAMES = {
-    "left": ("lwrist", "LeftHand", "LeftWrist", "l_wrist"),
-    "right": ("rwrist", "RightHand", "RightWrist", "r_wrist"),
+    "left": ("lwrist", "LeftHand", "LeftWrist", "l_wrist", "left_wrist"),
+    "right": ("rwrist", "RightHand", "RightWrist", "r_wrist", "right_wrist"),
 }
 FOLDED_SHARE = 0.1
+# A knee or elbow turning about its limb's line (hip to ankle, shoulder to wrist) faster than
+# SWING_DEG_S while at least SWING_OFF_SHARE of the limb off it: the mocap here turns them at
+# most 1157 deg/s (a knee, HDM05 tr's front kick) and 1374 deg/s (an elbow, CMU 135_06), measured
+# so at 100-120 fps (a limb nearly straight turns fast about its line and moves little: not counted).
+SWING_DEG_S = 2000.0
+SWING_OFF_SHARE = 0.15
 FOOT_NAMES = {
-    "left": (("lfoot", "LeftFoot", "LeftAnkle", "l_ankle"), ("ltoes", "LeftToeBase", "LeftToes", "LeftToe", "l_toe")),
-    "right": (("rfoot", "RightFoot", "RightAnkle", "r_ankle"), ("rtoes", "RightToeBase", "RightToes", "RightToe", "r_toe")),
+    "left": (("lfoot", "LeftFoot", "LeftAnkle", "l_ankle", "left_ankle"), ("ltoes", "LeftToeBase", "LeftToes", "LeftToe", "l_toe")),
+    "right": (("rfoot", "RightFoot", "RightAnkle", "r_ankle", "right_ankle"), ("rtoes", "RightToeBase", "RightToes", "RightToe", "r_toe")),
 }
 
 
@@ -222,7 +231,7 @@ def judge(path, first=0, last=None, bones=None):
     # Folded limbs: a limb's end (ankle, wrist) nearer its root (hip, shoulder) than
     # FOLDED_SHARE of the limb's two bones, a fold no body makes (the tightest in the mocap here:
     # the assimp boxer's knee, 0.14 of its leg; CMU 135's kicks 0.25; HDM05 picking up 0.27).
-    folded = {}
+    folded, swing = {}, {}
     for side, names_ in WRIST_NAMES.items():
         for limb, end in (("leg", find(names, FOOT_NAMES[side][0])), ("arm", find(names, names_))):
             if end < 0 or parents[end] < 0 or parents[parents[end]] < 0:
@@ -235,12 +244,40 @@ def judge(path, first=0, last=None, bones=None):
             k = min(range(n), key=lambda i: shares[i])
             folded[f"{side}_{limb}"] = {"min_share": round(shares[k], 3), "frame": k,
                                         "folded_frames": sum(1 for x in shares if x < FOLDED_SHARE)}
+            # The middle joint's offset from the limb's line, frame to frame: how fast it turns.
+            offs = []
+            for fr in P:
+                axis = [fr[end][c] - fr[root][c] for c in range(3)]
+                a = math.sqrt(sum(c * c for c in axis))
+                v = [fr[mid][c] - fr[root][c] for c in range(3)]
+                if a <= 1e-9:
+                    offs.append(None)
+                    continue
+                t = sum(v[c] * axis[c] for c in range(3)) / (a * a)
+                o = [v[c] - t * axis[c] for c in range(3)]
+                offs.append(o if math.sqrt(sum(c * c for c in o)) >= SWING_OFF_SHARE * length else None)
+            fastest, at, over = 0.0, -1, 0
+            for i in range(1, n):
+                o0, o1 = offs[i - 1], offs[i]
+                if o0 is None or o1 is None:
+                    continue
+                c = sum(o0[j] * o1[j] for j in range(3)) / math.sqrt(sum(x * x for x in o0) * sum(x * x for x in o1))
+                speed = math.degrees(math.acos(max(-1.0, min(1.0, c)))) / dt
+                over += speed > SWING_DEG_S
+                if speed > fastest:
+                    fastest, at = speed, i
+            swing[f"{side}_{limb}"] = {"max_deg_s": round(fastest), "frame": at, "frames_over": over}
     out["folded_frames"] = sum(v["folded_frames"] for v in folded.values())
     out["folded"] = folded
+    out["swing_frames"] = sum(v["frames_over"] for v in swing.values())
+    out["swing"] = swing
     w = max(1, round(0.033 / dt))
     # The floor: the lowest level the ankles (and the toes) of both feet hold for 0.1 s.
     feet = [(find(names, a), find(names, t)) for a, t in FOOT_NAMES.values()]
     feet = [(a, t) for a, t in feet if a >= 0 and t >= 0]
+    if not feet:  # no ankle and toe by any name it knows: no floor, no feet judged (said in the output)
+        out["feet"] = "none found by name"
+        return out
     amin = floor_level([fr[a][1] for a, _ in feet for fr in P], dt)
     tmin = floor_level([fr[t][1] for _, t in feet for fr in P], dt)
     for side, (ank_names, toe_names) in FOOT_NAMES.items():
@@ -288,7 +325,7 @@ def main():
             print(f"{p}: {r['frames']} frames, snaps {r['snaps']} {r['snap_list'][:3]}, p99 speed {r['p99_joint_speed_mps']} m/s, "
                   f"max {r['max_joint_speed_mps']} ({r['fastest']}), support slide L {r.get('left_support_slide_mps')} "
                   f"R {r.get('right_support_slide_mps')} m/s, foot peak L {r.get('left_peak_foot_speed_mps')} R {r.get('right_peak_foot_speed_mps')}, "
-                  f"folded frames {r['folded_frames']}")
+                  f"folded frames {r['folded_frames']}, limb swings over {SWING_DEG_S:.0f} deg/s {r['swing_frames']}")
 
 
 if __name__ == "__main__":
