@@ -44,8 +44,10 @@ constexpr double kParryPeak_mps = 6.0;
 /// s: the shortest parry move; from an arm still in a parry, four display frames at 60 Hz.
 constexpr double kParryMin_s = 0.05;
 constexpr double kParryFromParry_s = 4.0 / 60;
-/// Updates a parry's move takes at the least where updates are coarse (Guard::lay).
+/// Updates a parry's move takes at the least where an update is kParryFloorFrom_s or longer
+/// (Guard::lay): under 55 a second, so 60 Hz keeps kParryMin_s (three updates).
 constexpr double kParryMinUpdates = 4;
+constexpr double kParryFloorFrom_s = 1.0 / 55;
 /// s: the forearm is planned in place at least this before the fist (one display frame at 60 Hz).
 constexpr double kParryMargin_s = 1.0 / 60;
 /// s it stays across the path after the fist's predicted arrival at it.
@@ -351,14 +353,16 @@ void Guard::lay(double dt, Timestamp now, bool allowed, bool drawn_before, const
     Parry& pr = parry_[s];
     if (!wanted_ && up_ <= 0) pr.on = false;
     if (pr.on) pr.t_s += dt;
-    // Updated coarsely (kCoarseUpdate_s), a parry's move, and a re-aim's shift, take at least
-    // kParryMinUpdates updates, timed from their first (the hold lengthened to follow): at 30 Hz
-    // a move timed at its shortest (kParryMin_s) put 79 % of its way into one frame (the spar
-    // demo on a 30 Hz loop, every seed at 5.47 s: the elbow 7.8 cm between 1.9 and 3.9). Only
-    // where updates are coarse: at 60 Hz four updates (67 ms) are longer than kParryMin_s, and
-    // the shipped frames keep their parries' timing. (pick_parry still plans with the unfloored
-    // move, so at 30 Hz a parry it finds in time may be late.)
-    if (pr.on && dt >= kCoarseUpdate_s) {
+    // Updated under 55 times a second (kParryFloorFrom_s), a parry's move, and a re-aim's shift,
+    // take at least kParryMinUpdates updates, timed from their first (the hold lengthened to
+    // follow): at 30 Hz a move timed at its shortest (kParryMin_s) put 79 % of its way into one
+    // frame (the spar demo on a 30 Hz loop, every seed at 5.47 s: the elbow 7.8 cm between 1.9
+    // and 3.9), at 50 Hz most of it (the hand 7.4 cm between 0.7 and 2.2; three updates there
+    // still left an elbow 7.0 cm between 2.3 and 2.1). Not at 60 Hz and faster: four updates
+    // (67 ms) are longer than kParryMin_s there, and the shipped frames keep their parries'
+    // timing. (pick_parry still plans with the unfloored move, so a parry it finds in time may
+    // be late where the floor acts.)
+    if (pr.on && dt >= kParryFloorFrom_s) {
       const double least = kParryMinUpdates * dt;
       if (pr.turn_phase == -1 && pr.move_s < least) {  // the parry's first update (parry() set -1)
         pr.move_s = least;
