@@ -7,6 +7,7 @@
 #include <string>
 
 #include "kumite/common/error.hpp"
+#include "held_feet_drop.hpp"
 #include "kumite/content/ik.hpp"
 #include "text.hpp"
 
@@ -456,23 +457,10 @@ bool AdaptJob::Run() const {
     decode_pass(*this, td, out);
   }
   if (feet) {
-    // Held feet the legs cannot reach: lower the pelvis just enough (a knee bend) rather
-    // than let the feet slide. Each foot asks for its drop times its hold weight, so the
-    // drop is continuous in the inputs (a foot being released lets the pelvis up smoothly).
-    double drop = 0;
-    for (int s = 0; s < 2; ++s) {
-      const double w = std::clamp(feet->weight[static_cast<std::size_t>(s)], 0.0, 1.0);
-      if (w <= 0 || !feet->supporting[static_cast<std::size_t>(s)]) continue;
-      const Vector3d hip = joint_pos(*this, s == kLeft ? CJ::l_hip : CJ::r_hip);
-      const Vector3d d = feet->ankle_m[static_cast<std::size_t>(s)] - hip;
-      const double l = rig->morphology.limb_leg_length(s) * (1 - 1e-6);
-      const double h2 = d.x() * d.x() + d.z() * d.z();
-      if (d.squaredNorm() <= l * l) continue;
-      // A foot further out than the leg reaches asks for the whole hip height: the need grows
-      // continuously to it, and the cap keeps it a knee bend.
-      const double need = -d.y() - std::sqrt(std::max(0.0, l * l - h2));
-      drop = std::max(drop, w * need);
-    }
+    // Held feet the legs cannot reach: lower the pelvis just enough (held_feet_drop), kept a
+    // hair short of the straight leg.
+    double drop = held_feet_drop(*feet, rig->morphology, 1 - 1e-6,
+                                 [&](int s) { return joint_pos(*this, s == kLeft ? CJ::l_hip : CJ::r_hip); });
     drop = std::clamp(drop, std::max(0.0, feet->min_root_drop_m), std::max(feet->min_root_drop_m, feet->max_root_drop_m));
     if (drop > 0) {
       td.root_drop_m = drop;

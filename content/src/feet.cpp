@@ -6,10 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
-#include <span>
 #include <utility>
 
 #include "behaviour_internal.hpp"
+#include "held_feet_drop.hpp"
 #include "kumite/common/error.hpp"
 #include "kumite/content/bvh.hpp"
 #include "kumite/content/canonical.hpp"
@@ -27,26 +27,6 @@ namespace {
 constexpr double kStanceStepLandingLead = 0.05;
 /// s: a held foot the motion would lift for less than this (it puts it down again sooner) stays held.
 constexpr double kShortestLift_s = 0.1;
-
-/// m: how far the pelvis must be lowered for the supporting feet `locks` holds to be within
-/// their legs' reach (AdaptJob's drop, there computed from this update's decode), estimated
-/// from the last drawn hips raised by the drop they were drawn with (`last_drop_m`).
-double drop_needed(const Rig& rig, std::span<const Vector3d> drawn_m, const FootLocks& locks, double last_drop_m) {
-  double need = 0;
-  for (int s = 0; s < 2; ++s) {
-    const auto us = static_cast<std::size_t>(s);
-    const double w = std::clamp(locks.weight[us], 0.0, 1.0);
-    if (w <= 0 || !locks.supporting[us]) continue;
-    const auto hip = static_cast<std::size_t>(rig.skeleton.index(s == kLeft ? CJ::l_hip : CJ::r_hip));
-    if (hip >= drawn_m.size()) continue;
-    const Vector3d d = locks.ankle_m[us] - (drawn_m[hip] + Vector3d::UnitY() * last_drop_m);
-    const double l = rig.morphology.limb_leg_length(s);
-    if (d.squaredNorm() <= l * l) continue;
-    const double h2 = d.x() * d.x() + d.z() * d.z();
-    need = std::max(need, w * (-d.y() - std::sqrt(std::max(0.0, l * l - h2))));
-  }
-  return need;
-}
 
 /// The source's ankle on its way from now (`now_y_m`, m) to its landing at segment frame `land`
 /// stays within `height_m` above the lower of its heights now and there: a glide along the
@@ -311,14 +291,21 @@ void Feet::bound_drop(const FeetInput& in) {
     // gently: its step up grows by no more than the last update's step and 5 mm (a foot lifted
     // from a leg the drop stretched let the pelvis up 2 cm in one update after none, the nearly
     // straight knee 5 cm: the studio grid's 30 fps strikes), and it slows as it nears the drop
-    // its held feet still need (drop_needed; none where the legs reach them), rising by at most
+    // its held feet still need (held_feet_drop; none where the legs reach them), rising by at most
     // half the way left and 5 mm an update. It went on speeding up and stopped dead: at no
     // drop, 6 cm in one update, then none, a knee 11 cm in that frame; at the drop a held
     // foot needs, 1.6 then 3.7 cm, then 0.7, the held leg's knee 8.3 cm as it straightened
     // (aiko's steps before two punches of the studio grid).
     constexpr double kCoarseDropStepGain_m = 0.005;
     v_lo = std::max(v_lo, v - (std::abs(v) + kCoarseDropStepGain_m / dt));
-    const double need = in.have_pose ? drop_needed(*in.rig, in.drawn_m, locks_, last_drop) : 0.0;
+    // The drop the held feet need (what AdaptJob will ask for), from the last drawn hips raised
+    // by the drop they were drawn with.
+    double need = 0;
+    if (in.have_pose)
+      need = held_feet_drop(locks_, in.rig->morphology, 1.0, [&](int s) {
+        const auto hip = static_cast<std::size_t>(in.rig->skeleton.index(s == kLeft ? CJ::l_hip : CJ::r_hip));
+        return hip < in.drawn_m.size() ? Vector3d(in.drawn_m[hip] + Vector3d::UnitY() * last_drop) : locks_.ankle_m[static_cast<std::size_t>(s)];
+      });
     v_lo = std::max(v_lo, -(0.5 * std::max(0.0, last_drop - need) + kCoarseDropStepGain_m) / dt);
     // Going down, its step grows by no more than the last update's step and 1.5 cm: from none to
     // 2.6 cm in one update (a step landing out of the leg's reach) moved the other, nearly
