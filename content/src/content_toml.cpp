@@ -341,7 +341,7 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
   if (!fighter) return;
   const auto t = fighter->opt_table("planner");
   if (!t) return;
-  t->only({"mode", "preset", "seed", "fighting_distance_m", "engage_tolerance_m", "stance_step_min_m", "attack_rate_per_s", "counter_probability",
+  t->only({"mode", "preset", "seed", "fighting_distance_m", "engage_tolerance_m", "stance_step_min_m", "follow_arc_deg", "attack_rate_per_s", "counter_probability",
            "reaction_time_s", "counter_deadline_s", "kick_share", "abort_probability", "block", "block_max_rate", "threat_min_speed_mps",
            "threat_min_closing_mps", "threat_horizon_s", "threat_aim_radius_m", "threat_velocity_window_s", "threat_min_extension", "threat_two_hand_mirror", "hit_min_speed_mps",
            "hit_full_speed_mps", "hit_head_max_deg", "hit_trunk_max_deg", "hit_shoulder_max_deg", "hit_stiffness_rad_s",
@@ -366,6 +366,7 @@ void parse_planner_tunables(std::string_view text, std::string_view file, Planne
       p.stance_step_min_m < follow_tolerance_m)
     t->fail("range", "stance_step_min_m",
             fmt::format("must be 0 (no stance steps) or at least [fighter.behaviour] follow_tolerance_m ({} m)", follow_tolerance_m));
+  t->read("follow_arc_deg", p.follow_arc_deg, {10, 180, "deg"});
   t->read("attack_rate_per_s", p.attack_rate_per_s, {0, 10, "1/s"});
   t->read("counter_probability", p.counter_probability, {0, 1, ""});
   t->read("reaction_time_s", p.reaction_time_s, {0, 5, "s"});

@@ -315,7 +315,7 @@ class FighterImpl final : public Fighter {
     if (spar_.take_abort()) behaviour_.abort_strike(in.now);
     // Sparring, it keeps the fighting distance (the visitor's fist reaches it), with stance
     // steps from the mocap (the planner's stance_step_min_m; orders mode: the behaviour's own).
-    if (t.mode == PlannerMode::spar) behaviour_.follow_at(t.fighting_distance_m, true, t.stance_step_min_m);
+    if (t.mode == PlannerMode::spar) behaviour_.follow_at(t.fighting_distance_m, true, t.stance_step_min_m, t.follow_arc_deg);
     else behaviour_.follow_at(strike_distance_m_);
     // Sparring with blocks on, it keeps its guard up (behaviour_guard.cpp).
     behaviour_.set_guard(t.mode == PlannerMode::spar && t.block);

@@ -64,6 +64,7 @@ std::string validate(const PlannerTunables& t) {
   if (!in(t.fighting_distance_m, 0.3, 3)) return range("fighting_distance_m", t.fighting_distance_m, 0.3, 3, "m");
   if (!in(t.engage_tolerance_m, 0, 2)) return range("engage_tolerance_m", t.engage_tolerance_m, 0, 2, "m");
   if (!in(t.stance_step_min_m, 0, 2)) return range("stance_step_min_m", t.stance_step_min_m, 0, 2, "m");
+  if (!in(t.follow_arc_deg, 10, 180)) return range("follow_arc_deg", t.follow_arc_deg, 10, 180, "deg");
   if (!in(t.attack_rate_per_s, 0, 10)) return range("attack_rate_per_s", t.attack_rate_per_s, 0, 10, "1/s");
   if (!in(t.counter_probability, 0, 1)) return range("counter_probability", t.counter_probability, 0, 1, "");
   if (!in(t.abort_probability, 0, 1)) return range("abort_probability", t.abort_probability, 0, 1, "");

@@ -34,6 +34,7 @@ const std::vector<TunableKey>& fighter_tunable_keys() {
       b("arrive_tolerance_m", "m", 0.005, 1, &B::arrive_tolerance_m),
       b("walk_speed_mps", "m/s", 0.05, 3, &B::walk_speed_mps),
       b("turn_speed_rad_s", "rad/s", 0.1, 20, &B::turn_speed_rad_s),
+      b("follow_arc_deg", "deg", 10, 180, &B::follow_arc_deg),
       b("kick_target_drop_m", "m", 0, 1.5, &B::kick_target_drop_m),
       b("max_root_drop_m", "m", 0, 0.8, &B::max_root_drop_m),
       b("max_drop_rate_mps", "m/s", 0.1, 20, &B::max_drop_rate_mps),

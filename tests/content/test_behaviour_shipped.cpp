@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <thread>
@@ -840,4 +841,50 @@ TEST(BehaviourShipped, APunchAfterAStanceStepTakesTheRestStanceOnTheWayAndLands)
               misses.c_str());
   EXPECT_EQ(landed, tried) << misses;
   EXPECT_GT(restanced, tried / 4) << "the fighting stance taken on the way";
+}
+
+// A visitor walking forward past the fighter (1.6 m in 1 s, faster than it walks back; 25 cm
+// to the side of its spot: a lunge of the fighter's own into a visitor walking in does the
+// same, the spar demo at 10.3 s) and standing there: the fighter keeps its distance on its home's
+// side of the visitor (follow_arc_deg, 45), where the walls show it, walking round beside the
+// visitor, not through the head. Along the line to where it stood instead, it ended at the
+// visitor's back. Judged from the drawn pelvis and the head: its bearing from straight toward
+// home, and the nearest it came to the head.
+TEST(BehaviourShipped, AVisitorWalkingPastTheFighterFindsItBeforeThemAgain) {
+  const auto& set = kumite::content::testing::shipped_database();
+  const auto rigs = kumite::content::testing::shipped_characters();
+  for (const double arc : {45.0, 180.0}) {
+    FighterConfig cfg = open_room_at_origin();
+    cfg.behaviour.follow_arc_deg = arc;
+    Behaviour b(set.db, {rigs[1]}, cfg);
+    const double dt = 1.0 / 60;
+    double t = 0;
+    Vector3d head(0.25, 1.7, 2.0);  // 2 m before home (the origin): the fighter follows to ~1.1
+    b.update(t, 0, head);
+    for (int i = 0; i < 240; ++i) b.update(t += dt, dt, head);
+    const double spot_z = b.frame().root.z();
+    ASSERT_GT(spot_z, 0.8) << "followed the visitor in first";
+    double nearest = 1e9;
+    for (int i = 0; i < 600; ++i) {  // 1.6 m in 1 s, then 9 s standing (0.5 m on home's side of the spot it had)
+      head.z() = 2.0 - 1.6 * std::min(1.0, i * dt / 1.0);
+      b.update(t += dt, dt, head);
+      const Vector3d r = b.frame().root;
+      if (i * dt > 1.0) nearest = std::min(nearest, std::hypot(r.x() - head.x(), r.z() - head.z()));
+    }
+    const Vector3d r = b.frame().root;
+    // (home is the origin: the way home from the head is -head)
+    const double bearing_deg =
+        std::abs(std::remainder(std::atan2(r.x() - head.x(), r.z() - head.z()) - std::atan2(-head.x(), -head.z()), 2 * std::numbers::pi)) *
+        180 / std::numbers::pi;
+    std::printf("follow_arc_deg %.0f: the visitor at z %.2f, the fighter's pelvis at (%.2f, %.2f): %.0f deg from the way home, "
+                "%.2f m from the head; nearest after the walk %.2f m\n",
+                arc, head.z(), r.x(), r.z(), bearing_deg, std::hypot(r.x() - head.x(), r.z() - head.z()), nearest);
+    if (arc < 90) {
+      EXPECT_LT(bearing_deg, arc + 20) << "on its home's side of the visitor";
+      EXPECT_LT(r.z(), head.z()) << "before the visitor";
+      EXPECT_GT(nearest, 0.3) << "walked round the visitor, not through the head";
+    } else {
+      EXPECT_GT(bearing_deg, 90.0) << "along the line alone: at the visitor's back";
+    }
+  }
 }

@@ -263,6 +263,18 @@ TEST(Planner, ReadFromTheInstallationFileWithAPresetAndKeysBesideIt) {
   PlannerTunables bad;
   bad.stance_step_min_m = -0.1;
   EXPECT_NE(validate(bad).find("stance_step_min_m"), std::string::npos);
+  // The sparring fighter keeps to within 45 degrees of the way from the visitor to its home
+  // unless said; 10..180 degrees.
+  EXPECT_EQ(p.follow_arc_deg, 45.0);
+  parse_planner_tunables("[fighter.planner]\nfollow_arc_deg = 180\n", "room.toml", p, seed);
+  EXPECT_EQ(p.follow_arc_deg, 180.0);
+  EXPECT_NE(error("[fighter.planner]\nfollow_arc_deg = nan\n").find("room.toml:2: fighter.planner.follow_arc_deg"), std::string::npos)
+      << error("[fighter.planner]\nfollow_arc_deg = nan\n");
+  EXPECT_NE(error("[fighter.planner]\nfollow_arc_deg = 5\n").find("follow_arc_deg"), std::string::npos);
+  EXPECT_NE(error("[fighter.planner]\nfollow_arc_deg = 181\n").find("follow_arc_deg"), std::string::npos);
+  PlannerTunables wide;
+  wide.follow_arc_deg = 200;
+  EXPECT_NE(validate(wide).find("follow_arc_deg"), std::string::npos);
 }
 
 TEST(Planner, TheSparAndOrdersOrdersSwitchTheModeAndTheFighterStrikesOnItsOwnOnlyWhileSparring) {

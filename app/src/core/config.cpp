@@ -937,6 +937,7 @@ std::string to_toml(const InstallationConfig& c) {
                                           {"fighting_distance_m", p.fighting_distance_m},
                                           {"engage_tolerance_m", p.engage_tolerance_m},
                                           {"stance_step_min_m", p.stance_step_min_m},
+                                          {"follow_arc_deg", p.follow_arc_deg},
                                           {"attack_rate_per_s", p.attack_rate_per_s},
                                           {"counter_probability", p.counter_probability},
                                           {"reaction_time_s", p.reaction_time_s},

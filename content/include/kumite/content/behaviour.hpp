@@ -266,10 +266,13 @@ class Behaviour {
   /// `stance_step_min_m` (m): stance steps from the mocap once the spot is this far ahead (the
   /// tunable's meaning; 0 off, any other value at least follow_tolerance_m); negative: the
   /// tunable's own value (BehaviourTunables::stance_step_min_m). Sparring passes the planner's.
-  void follow_at(double distance_m, bool close = false, double stance_step_min_m = -1) {
+  /// `follow_arc_deg`: the spot kept lies within this angle either side of the way from the
+  /// visitor's head to home (BehaviourTunables::follow_arc_deg); negative: the tunable's.
+  void follow_at(double distance_m, bool close = false, double stance_step_min_m = -1, double follow_arc_deg = -1) {
     follow_distance_m_ = distance_m;
     follow_close_ = close;
     stance_step_min_m_ = stance_step_min_m;
+    follow_arc_deg_ = follow_arc_deg;
   }
   /// m: the stance steps' forward threshold in effect (0: procedural steps only).
   double stance_step_min_m() const;
@@ -510,6 +513,7 @@ class Behaviour {
   double follow_distance_m_ = 0;  ///< m, follow_at() (set from the config at construction)
   bool follow_close_ = false;     ///< follow_at()'s `close`
   double stance_step_min_m_ = -1;  ///< m, follow_at()'s `stance_step_min_m` (negative: the tunable's)
+  double follow_arc_deg_ = -1;     ///< deg, follow_at()'s `follow_arc_deg` (negative: the tunable's)
   int rest_segment_ = 0;
   /// The sources playing (the current one and the one it cross-fades from), the cross-fade
   /// and the arms' drawn poles (motion_player.hpp, motion_playback.cpp).

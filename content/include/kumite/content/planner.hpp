@@ -56,6 +56,11 @@ struct PlannerTunables {
   /// procedural steps only (the defence of content/README.md then blocks 10 of 12 punches
   /// instead of 12). Orders mode has its own key, [fighter.behaviour] stance_step_min_m (0 there).
   double stance_step_min_m = 0.5;
+  /// deg: sparring, the spot kept lies within this angle either side of the way from the
+  /// visitor's head to the fighter's home ([fighter.behaviour] follow_arc_deg, orders mode's:
+  /// 180 there): its lunges into a visitor walking in carried it past them, and it kept its
+  /// distance from there, at their back, where no wall shows it (180: anywhere round).
+  double follow_arc_deg = 45;
   /// 1/s: the rate of its own attacks (0: none). An exponential timer that runs while the
   /// fighter is engaged and could strike (idle), so this is attacks per second of that time.
   double attack_rate_per_s = 0.5;

@@ -58,6 +58,12 @@ struct BehaviourTunables {
   double arrive_tolerance_m = 0.05;   ///< m: stop following this close to the spot
   double walk_speed_mps = 0.7;        ///< m/s of the root while following
   double turn_speed_rad_s = 2.5;      ///< rad/s while turning to face the visitor
+  /// deg: the spot the fighter keeps (at its distance from the visitor's head) lies within this
+  /// angle either side of the way from the head to the fighter's home (the walls' side of the
+  /// room): a lunge that carries it past the visitor, or a visitor walking past it, is not
+  /// followed round to the visitor's back, where no wall shows it. 180: anywhere round. Orders
+  /// mode's; sparring has its own key, [fighter.planner] follow_arc_deg (45 there).
+  double follow_arc_deg = 180;
   double kick_target_drop_m = 0.45;   ///< m: kicks aim this far below the head (the torso)
   double max_root_drop_m = 0.30;      ///< m: the most the pelvis is lowered for held feet (a knee bend)
   double max_drop_rate_mps = 2.0;     ///< m/s: how fast that drop may change
