@@ -30,6 +30,32 @@ Vector3d elbow_from(const Vector3d& arm_n, const Vector3d& pole, double upper, d
   return axis * along + across * std::sqrt(std::max(0.0, upper * upper - along * along));
 }
 
+/// The character the scenes judge (its arms' lengths for the law of cosines).
+Rig kenji() {
+  return load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
+}
+
+/// The still motion the guard is laid on: chest facing +z, both arms hanging.
+MkmFrame arms_hanging() {
+  MkmFrame pose;
+  pose.chest = Eigen::Quaterniond::Identity();
+  for (int s = 0; s < 2; ++s) {
+    pose.arm_n[static_cast<std::size_t>(s)] = Vector3d(0, -0.97, 0.05);
+    pose.arm_pole[static_cast<std::size_t>(s)] = Vector3d(0, 0, -1);
+  }
+  return pose;
+}
+
+/// A fist from `from` straight at `aim` at `speed` (m/s), thrown by the hand on the side of x.
+BlockOrder fist_at(double x, const Vector3d& from, const Vector3d& aim, double speed) {
+  BlockOrder b;
+  b.limb = x > 0 ? kumite::recognition::Role::right_hand : kumite::recognition::Role::left_hand;
+  b.fist_m = from;
+  b.velocity_mps = (aim - from).normalized() * speed;
+  b.arrival_s = (aim - from).norm() / speed;
+  return b;
+}
+
 /// What a scene of parries drew: how many fists got a parry, and the fastest drawn elbow or
 /// wrist step, judged on the arm from its shoulder (m/s at 60 Hz) and where.
 struct ParryScene {
@@ -48,7 +74,7 @@ struct ParryScene {
 /// walks forward at walk_mps, and for dip_s the guard is not allowed (a strike of its own starting).
 ParryScene run_parries(std::initializer_list<double> xs, std::initializer_list<double> ys, std::initializer_list<double> speeds,
                        double aim_z, double walk_mps, double dip_s = 0, double dt = 1.0 / 60) {
-  const Rig rig = load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
+  const Rig rig = kenji();
   const Morphology& m = rig.morphology;
   const auto at = [&](CJ j) { return static_cast<std::size_t>(rig.skeleton.index(j)); };
   ParryScene out;
@@ -63,26 +89,13 @@ ParryScene run_parries(std::initializer_list<double> xs, std::initializer_list<d
         std::array<std::vector<double>, 4> steps;  // [side * 2 + (0 elbow, 1 wrist)], from the parry on
         std::vector<FighterEvent> events;
         const Vector3d aim(x, y, aim_z), from(x * 0.3, 1.4, 0.9);
-        const Vector3d v = (aim - from).normalized() * speed;
         const double due_s = 60 * dt + (aim - from).norm() / speed;
         for (int k = 0; k < 150; ++k) {
           const double now = k * dt;
           const double walked = walk_mps * std::max(0.0, now - due_s);
           const std::array<Vector3d, 2> shoulder{Vector3d(0.18, 1.45, walked), Vector3d(-0.18, 1.45, walked)};
-          MkmFrame pose;
-          pose.chest = Eigen::Quaterniond::Identity();
-          for (int s = 0; s < 2; ++s) {
-            pose.arm_n[static_cast<std::size_t>(s)] = Vector3d(0, -0.97, 0.05);
-            pose.arm_pole[static_cast<std::size_t>(s)] = Vector3d(0, 0, -1);
-          }
-          if (k == 60) {
-            BlockOrder b;
-            b.limb = x > 0 ? kumite::recognition::Role::right_hand : kumite::recognition::Role::left_hand;
-            b.fist_m = from;
-            b.velocity_mps = v;
-            b.arrival_s = (aim - from).norm() / speed;
-            out.parries += g.parry(b, now, rig, drawn, pose.chest);
-          }
+          MkmFrame pose = arms_hanging();
+          if (k == 60) out.parries += g.parry(fist_at(x, from, aim, speed), now, rig, drawn, pose.chest);
           for (int s = 0; s < 2; ++s) drawn[at(s == kLeft ? CJ::l_shoulder : CJ::r_shoulder)] = shoulder[static_cast<std::size_t>(s)];
           g.lay(k ? dt : 0.0, now, dip_s <= 0 || now < due_s || now >= due_s + dip_s, k > 0, rig, drawn, pose, events);
           for (int s = 0; s < 2; ++s) {
@@ -132,7 +145,7 @@ struct MetScene {
 MetScene fists_met(std::initializer_list<double> xs, std::initializer_list<double> ys, std::initializer_list<double> speeds,
                    double aim_z, double dt) {
   constexpr double kFist_m = 0.05;
-  const Rig rig = load_character_rig((std::filesystem::path(KUMITE_SOURCE_DIR) / "content" / "characters" / "kenji.bvh").string());
+  const Rig rig = kenji();
   const Morphology& m = rig.morphology;
   const auto at = [&](CJ j) { return static_cast<std::size_t>(rig.skeleton.index(j)); };
   const auto segment_distance = [](const Vector3d& p, const Vector3d& a, const Vector3d& b) {
@@ -154,24 +167,11 @@ MetScene fists_met(std::initializer_list<double> xs, std::initializer_list<doubl
         const double start = std::ceil(1.0 / dt) * dt;  // the guard up (0.4 s) well before
         const double arrive = start + (aim - from).norm() / speed;
         const std::array<Vector3d, 2> shoulder{Vector3d(0.18, 1.45, 0), Vector3d(-0.18, 1.45, 0)};
-        std::array<Vector3d, 2> elbow_before{}, wrist_before{};
         bool parried = false, met = false;
         for (int k = 0; k * dt < arrive + 0.1 && !met; ++k) {
           const double now = k * dt;
-          MkmFrame pose;
-          pose.chest = Eigen::Quaterniond::Identity();
-          for (int s = 0; s < 2; ++s) {
-            pose.arm_n[static_cast<std::size_t>(s)] = Vector3d(0, -0.97, 0.05);
-            pose.arm_pole[static_cast<std::size_t>(s)] = Vector3d(0, 0, -1);
-          }
-          if (std::abs(now - start) < 0.5 * dt) {
-            BlockOrder b;
-            b.limb = x > 0 ? kumite::recognition::Role::right_hand : kumite::recognition::Role::left_hand;
-            b.fist_m = from;
-            b.velocity_mps = v;
-            b.arrival_s = (aim - from).norm() / speed;
-            parried = g.parry(b, now, rig, drawn, pose.chest);
-          }
+          MkmFrame pose = arms_hanging();
+          if (std::abs(now - start) < 0.5 * dt) parried = g.parry(fist_at(x, from, aim, speed), now, rig, drawn, pose.chest);
           for (int s = 0; s < 2; ++s) drawn[at(s == kLeft ? CJ::l_shoulder : CJ::r_shoulder)] = shoulder[static_cast<std::size_t>(s)];
           g.lay(k ? dt : 0.0, now, true, k > 0, rig, drawn, pose, events);
           for (int s = 0; s < 2; ++s) {
