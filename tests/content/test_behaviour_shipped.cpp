@@ -848,8 +848,8 @@ TEST(BehaviourShipped, APunchAfterAStanceStepTakesTheRestStanceOnTheWayAndLands)
 // same, the spar demo at 10.3 s) and standing there: the fighter keeps its distance on its home's
 // side of the visitor (follow_arc_deg, 45), where the walls show it, walking round beside the
 // visitor, not through the head. Along the line to where it stood instead, it ended beside
-// and behind the visitor (98 degrees from the way home). Judged from the drawn pelvis and the head: its bearing from straight toward
-// home, and the nearest it came to the head.
+// and behind the visitor (98 degrees from the way home). Judged from the drawn pelvis and the
+// head: its bearing from straight toward home, and the nearest it came to the head.
 TEST(BehaviourShipped, AVisitorWalkingPastTheFighterFindsItBeforeThemAgain) {
   const auto& set = kumite::content::testing::shipped_database();
   const auto rigs = kumite::content::testing::shipped_characters();
