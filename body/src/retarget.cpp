@@ -376,13 +376,20 @@ RetargetSetup RetargetSetup::build(const content::Skeleton& source, const Eigen:
         s.foot_side[j] = side;
   }
   // The fist: fingers curl about the body's forward axis, toward the palm (down in a T-pose).
+  // The thumb (half as far a joint) swings in across the front of the curled fingers, about
+  // the body's up axis tipped half toward its forward one: turned about the forward axis as the
+  // fingers are, it stood out sideways from the fist (its tip 11-12 cm from the curled fingers'
+  // centre on the shipped bodies; 3-6 cm now, test Retarget.TheThumbLiesAcrossTheFist).
   s.curl.assign(nt, Eigen::Quaterniond::Identity());
   const Eigen::Vector3d forward = fs.col(2), left = fs.col(0);
+  const Eigen::Vector3d thumb_axis = (fs.col(1) + 0.5 * forward).normalized();
   for (std::size_t j = 0; j < nt; ++j) {
     if (!target.finger[j]) continue;
     const double side = (s.rest_positions[j] - sp).dot(left) >= 0 ? 1.0 : -1.0;
-    const double deg = options.fist_deg * (is_thumb(target.names[j]) ? 0.5 : 1.0);
-    s.curl[j] = Eigen::Quaterniond(Eigen::AngleAxisd(-side * deg * M_PI / 180, forward));
+    if (is_thumb(target.names[j]))
+      s.curl[j] = Eigen::Quaterniond(Eigen::AngleAxisd(side * 0.5 * options.fist_deg * M_PI / 180, thumb_axis));
+    else
+      s.curl[j] = Eigen::Quaterniond(Eigen::AngleAxisd(-side * options.fist_deg * M_PI / 180, forward));
   }
   s.target = std::move(target);
   return s;

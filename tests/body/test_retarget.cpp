@@ -177,3 +177,54 @@ TEST(Retarget, EveryMappedBoneOfTheBodiesPointsAlongTheDrawnSkeletonsBoneThrough
     }
   }
 }
+
+// The fist as the skin draws it: the thumb's last joint's skin (the vertices it moves most) lies
+// near the curled fingers' skin, not out to the side. Measured on the skinned vertices, not on
+// the curl's rotations: the thumb's tip from the centre of the four fingers' vertices.
+TEST(Retarget, TheThumbLiesAcrossTheFist) {
+  const content::Character c = character("kenji");
+  for (const char* body : {"male_casual.glb", "female_casual.glb", "male_base_mesh.glb"}) {
+    const SkinnedModel model = load_model(asset(body));
+    const RetargetSetup s =
+        RetargetSetup::build(c.rest.skeleton, c.rest.root_positions[0], model_rig(model, c.rest.skeleton, *detect_bone_map(model.skeleton.names)));
+    Buffers b(s);
+    const std::vector<Eigen::Quaterniond> rest(static_cast<std::size_t>(c.rest.skeleton.joint_count()), Eigen::Quaterniond::Identity());
+    ASSERT_TRUE(b.job(s, rest, c.rest.root_positions[0]).Run());
+    std::vector<Eigen::Vector3f> vp(model.vertex_count()), vn(model.vertex_count());
+    skin_cpu(model, b.palette, vp, vn);
+    const auto thumb = [&](int j) { return s.target.names[static_cast<std::size_t>(j)].find("humb") != std::string::npos; };
+    for (const content::CanonicalJoint wrist_joint : {content::CanonicalJoint::l_wrist, content::CanonicalJoint::r_wrist}) {
+      const int wrist = s.target.canonical[static_cast<std::size_t>(wrist_joint)];
+      ASSERT_GE(wrist, 0);
+      const auto in_hand = [&](int j) {
+        for (; j >= 0; j = s.target.parents[static_cast<std::size_t>(j)])
+          if (j == wrist) return true;
+        return false;
+      };
+      int tip = -1;  // the thumb's last joint (parents first: the last found)
+      for (int j = 0; j < s.target.joint_count(); ++j)
+        if (in_hand(j) && s.target.finger[static_cast<std::size_t>(j)] && thumb(j)) tip = j;
+      ASSERT_GE(tip, 0) << body;
+      Eigen::Vector3d fingers = Eigen::Vector3d::Zero(), thumb_tip = Eigen::Vector3d::Zero();
+      int nf = 0, nt = 0;
+      for (std::size_t v = 0; v < model.vertex_count(); ++v) {
+        const int j = model.joints[v][0];  // the largest influence (weights sorted largest first)
+        if (!in_hand(j)) continue;
+        if (s.target.finger[static_cast<std::size_t>(j)] && !thumb(j)) {
+          fingers += vp[v].cast<double>();
+          ++nf;
+        }
+        if (j == tip) {
+          thumb_tip += vp[v].cast<double>();
+          ++nt;
+        }
+      }
+      ASSERT_GT(nf, 0);
+      ASSERT_GT(nt, 0);
+      const double apart = (thumb_tip / nt - fingers / nf).norm();
+      std::printf("%s, %s hand: the thumb's tip %.1f cm from the curled fingers' centre\n", body,
+                  wrist_joint == content::CanonicalJoint::l_wrist ? "left" : "right", apart * 100);
+      EXPECT_LT(apart, 0.065) << body;
+    }
+  }
+}
