@@ -225,7 +225,7 @@ void Console::frame(const Installation& inst, const FrameData& f, Installation* 
   // (a row of its own: two 170-px buttons fill the column; a third beside them was cut off)
   {
     const auto st = inst.planner_status();
-    const bool sparring = st && st->tunables.mode == content::PlannerMode::spar;
+    const bool sparring = st && st->mode == content::PlannerMode::spar;
     order_button(inst, orders, sparring ? "Orders only" : "Spar", sparring ? OrderKind::orders_only : OrderKind::spar);
   }
   ImGui::Spacing();

@@ -317,8 +317,8 @@ BENCHMARK(BM_DemoFrameLooks)->Unit(benchmark::kMillisecond)->Iterations(21);
 DemoFighter demo_state() {
   return DemoFighter(
       [](InstallationConfig& c) {
-        c.fighter.planner.mode = kumite::content::PlannerMode::spar;
-        c.fighter.planner.fighting_distance_m = 2.5;
+        c.fighter.planner->mode = kumite::content::PlannerMode::spar;
+        c.fighter.planner->fighting_distance_m = 2.5;
       },
       120);
 }

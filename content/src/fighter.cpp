@@ -323,8 +323,10 @@ class FighterImpl final : public Fighter {
   }
   void set_planner(const PlannerTunables& tunables) override { spar_.set_tunables(tunables); }
   PlannerStatus planner_status() const override {
-    return PlannerStatus{spar_.tunables(), spar_.state(), spar_.next(), spar_.counts(), score_};
+    const PlannerTunables& t = spar_.tunables();
+    return PlannerStatus{t.mode, t.block, spar_.state(), spar_.next(), spar_.counts(), score_};
   }
+  PlannerTunables planner_tunables() const override { return spar_.tunables(); }
   void update(Timestamp now, double dt, const Eigen::Vector3d& head) override {
     worker_->set_update(++updates_);
     behaviour_.update(now, dt, head);

@@ -11,6 +11,7 @@
 #include "kumite/app/run.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/common/error.hpp"
+#include "kumite/content/tunables.hpp"
 
 using namespace kumite::app;
 
@@ -425,11 +426,11 @@ TEST(Config, FighterTunablesAreReadCheckedAndWrittenBack) {
       kBase + "[fighter]\nstrike_distance_m = 0.8\n[fighter.behaviour]\nwalk_speed_mps = 0.5\nblend_time_s = 0.3\n"
               "[fighter.behaviour.feet]\nswing_lift_m = 0.08\n[fighter.retrieval]\npose_weight = 2\n",
       "room.toml");
-  EXPECT_EQ(c.fighter.behaviour.walk_speed_mps, 0.5);
-  EXPECT_EQ(c.fighter.behaviour.blend_time_s, 0.3);
-  EXPECT_EQ(c.fighter.behaviour.feet.swing_lift_m, 0.08);
-  EXPECT_EQ(c.fighter.retrieval.pose_weight, 2.0);
-  EXPECT_EQ(c.fighter.behaviour.turn_speed_rad_s, kumite::content::BehaviourTunables{}.turn_speed_rad_s);
+  EXPECT_EQ(c.fighter.behaviour->walk_speed_mps, 0.5);
+  EXPECT_EQ(c.fighter.behaviour->blend_time_s, 0.3);
+  EXPECT_EQ(c.fighter.behaviour->feet.swing_lift_m, 0.08);
+  EXPECT_EQ(c.fighter.retrieval->pose_weight, 2.0);
+  EXPECT_EQ(c.fighter.behaviour->turn_speed_rad_s, kumite::content::BehaviourTunables{}.turn_speed_rad_s);
   const std::string text = to_toml(c);
   EXPECT_EQ(parse_installation_config(text, "again.toml"), c) << text;
   EXPECT_EQ(text.find("turn_speed_rad_s"), std::string::npos) << "defaults are not written";

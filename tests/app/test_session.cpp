@@ -31,6 +31,7 @@
 #include "kumite/content/annotation.hpp"
 #include "kumite/content/database.hpp"
 #include "kumite/tracking/recording.hpp"
+#include "kumite/content/planner.hpp"
 
 using namespace kumite::app;
 namespace fs = std::filesystem;

@@ -14,6 +14,7 @@
 #include "kumite/app/config.hpp"
 #include "kumite/app/installation.hpp"
 #include "kumite/app/tracking_input.hpp"
+#include "kumite/content/planner.hpp"
 
 using namespace kumite::app;
 namespace fs = std::filesystem;
@@ -43,9 +44,9 @@ SparRun spar_with_blocks(bool block) {
   SparRun r;
   const auto run = spar_demo([block](InstallationConfig& cfg) {
     cfg.recognition.model.clear();  // the defence reads the gloves, not a recognised class
-    cfg.fighter.planner.block = block;
-    cfg.fighter.planner.attack_rate_per_s = 0;  // defence alone
-    cfg.fighter.planner.counter_probability = 0;
+    cfg.fighter.planner->block = block;
+    cfg.fighter.planner->attack_rate_per_s = 0;  // defence alone
+    cfg.fighter.planner->counter_probability = 0;
   });
   Installation& inst = *run;
   for (int i = 0; i < 60 * 12; ++i) {
@@ -86,7 +87,7 @@ TEST(SparBlocks, TheSparDemoWithBlocksOnBlocksTheMocapVisitorsStrikesAndSaysTheS
 // approaching, 412 since the fighting distance is kept from the drawn head).
 TEST(SparBlocks, TheSparDemoWithStanceStepsDrawsNoSnapInAMinute) {
   if (!fs::exists(fs::path(KUMITE_BINARY_DIR) / "demo" / "fighter.kdb")) GTEST_SKIP() << "no demo data (scripts/setup.sh makes it)";
-  const auto run = spar_demo([](InstallationConfig& cfg) { cfg.fighter.planner.stance_step_min_m = 0.5; });
+  const auto run = spar_demo([](InstallationConfig& cfg) { cfg.fighter.planner->stance_step_min_m = 0.5; });
   Installation& inst = *run;
   std::vector<std::vector<glm::dvec3>> joints;
   int approaching = 0;

@@ -301,7 +301,7 @@ TEST(Planner, TheSparAndOrdersOrdersSwitchTheModeAndTheFighterStrikesOnItsOwnOnl
     if (k == 60 || k == 60 * 15) in.orders = std::span<const Order>(&o, 1);
     f->step(in, out);
     if (k == 61) {
-      EXPECT_EQ(f->planner_status().tunables.mode, PlannerMode::spar);
+      EXPECT_EQ(f->planner_status().mode, PlannerMode::spar);
     }
     for (const auto& e : out.events) {
       if (e.kind != FighterEvent::Kind::order_accepted || !effector_of_kind(e.order.kind)) continue;
@@ -309,7 +309,7 @@ TEST(Planner, TheSparAndOrdersOrdersSwitchTheModeAndTheFighterStrikesOnItsOwnOnl
       else if (k > 60 * 17) ++accepted_after;  // (one under way at the switch may still be taken)
     }
   }
-  EXPECT_EQ(f->planner_status().tunables.mode, PlannerMode::orders);
+  EXPECT_EQ(f->planner_status().mode, PlannerMode::orders);
   EXPECT_GE(accepted_sparring, 3) << "14 s of sparring at 1 attack/s of idle time";
   EXPECT_EQ(accepted_after, 0) << "orders only: it strikes only when ordered";
 }

@@ -14,6 +14,8 @@
 #include "kumite/common/error.hpp"
 #include "kumite/common/toml_reader.hpp"
 #include "kumite/common/wire.hpp"
+#include "kumite/content/planner.hpp"
+#include "kumite/content/tunables.hpp"
 
 namespace kumite::app {
 
@@ -829,9 +831,9 @@ InstallationConfig parse_config(std::string_view text, const std::filesystem::pa
   }
   cfg.cluster = cluster::parse_cluster_config(text, file_name.string());
   cfg.file_hash = cluster::config_hash(text);
-  content::parse_fighter_tunables(text, file_name.string(), cfg.fighter.behaviour, cfg.fighter.retrieval);
-  content::parse_planner_tunables(text, file_name.string(), cfg.fighter.planner, cfg.fighter.planner_seed,
-                                  cfg.fighter.behaviour.follow_tolerance_m);
+  content::parse_fighter_tunables(text, file_name.string(), *cfg.fighter.behaviour, *cfg.fighter.retrieval);
+  content::parse_planner_tunables(text, file_name.string(), *cfg.fighter.planner, cfg.fighter.planner_seed,
+                                  cfg.fighter.behaviour->follow_tolerance_m);
   validate(cfg);
   return cfg;
 }
@@ -922,7 +924,7 @@ std::string to_toml(const InstallationConfig& c) {
     const content::BehaviourTunables db;
     const content::RetrievalTunables dr;
     for (const content::TunableKey& k : content::fighter_tunable_keys()) {
-      const double v = content::tunable_value(k, f.behaviour, f.retrieval);
+      const double v = content::tunable_value(k, *f.behaviour, *f.retrieval);
       if (v == content::tunable_value(k, db, dr)) continue;
       (k.feet ? feet : k.retrieval ? retrieval : behaviour).insert(k.key, v);
     }
@@ -930,8 +932,8 @@ std::string to_toml(const InstallationConfig& c) {
     if (!behaviour.empty()) fighter.insert("behaviour", std::move(behaviour));
     if (!retrieval.empty()) fighter.insert("retrieval", std::move(retrieval));
   }
-  if (f.planner != content::PlannerTunables{} || f.planner_seed != 1) {  // every key (no preset: the values are written)
-    const auto& p = f.planner;
+  if (*f.planner != content::PlannerTunables{} || f.planner_seed != 1) {  // every key (no preset: the values are written)
+    const auto& p = *f.planner;
     fighter.insert("planner", toml::table{{"mode", std::string(content::to_string(p.mode))},
                                           {"seed", static_cast<std::int64_t>(f.planner_seed)},
                                           {"fighting_distance_m", p.fighting_distance_m},

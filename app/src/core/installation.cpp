@@ -67,9 +67,9 @@ content::FighterConfig fighter_config(const InstallationConfig& c, const std::ve
   f.max_x_m = c.fighter.x_limits_m[1];
   f.min_z_m = c.fighter.z_limits_m[0];
   f.max_z_m = c.fighter.z_limits_m[1];
-  f.behaviour = c.fighter.behaviour;
-  f.retrieval = c.fighter.retrieval;
-  f.planner = c.fighter.planner;
+  f.behaviour = *c.fighter.behaviour;
+  f.retrieval = *c.fighter.retrieval;
+  f.planner = *c.fighter.planner;
   return f;
 }
 
@@ -192,6 +192,11 @@ Installation::Installation(InstallationConfig config, std::unique_ptr<TrackingIn
 }
 
 Installation::~Installation() = default;
+
+std::optional<content::PlannerStatus> Installation::planner_status() const {
+  if (!fighter_) return std::nullopt;
+  return fighter_->planner_status();
+}
 
 int Installation::character_count() const { return static_cast<int>(config_.characters.size()); }
 
@@ -425,7 +430,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
   in.strikes = visitor_strikes_;
   const bool leaving_spar = std::any_of(fighter_orders_.begin(), fighter_orders_.end(),
                                         [](const Order& o) { return o.kind == OrderKind::orders_only; }) &&
-                            fighter_->planner_status().tunables.mode == content::PlannerMode::spar;
+                            fighter_->planner_status().mode == content::PlannerMode::spar;
   fighter_->step(in, fighter_out_);
   fighter_orders_.clear();
   if (leaving_spar) log_spar_summary(*this);  // the round ends
@@ -444,7 +449,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
 }
 
 void Installation::note_spar(const content::Fighter::PlannerStatus& st) {
-  if (st.tunables.mode != content::PlannerMode::spar) {
+  if (st.mode != content::PlannerMode::spar) {
     frame_.spar.reset();
     return;
   }
@@ -511,11 +516,11 @@ void log_spar_summary(const Installation& inst) {
   if (!st) return;
   const auto& sc = st->score;
   const auto& c = st->counts;
-  if (st->tunables.mode != content::PlannerMode::spar && c.engaged_s <= 0 && sc == content::Fighter::SparScore{}) return;
+  if (st->mode != content::PlannerMode::spar && c.engaged_s <= 0 && sc == content::Fighter::SparScore{}) return;
   spdlog::info("spar round: {:.0f} s engaged; the visitor hit {} time(s), dodged {}; the fighter hit {} time(s), attacked {}, "
                "countered {}; blocks {} ({} late, {} met the fist{}), threats unanswered {}",
                c.engaged_s, sc.visitor_hits, sc.visitor_dodges, sc.fighter_hits, c.attacks, c.counters, sc.blocks, sc.blocks_late,
-               sc.blocked, st->tunables.block ? "" : "; blocks off", sc.unanswered);
+               sc.blocked, st->block ? "" : "; blocks off", sc.unanswered);
 }
 
 content::RetrievalTiming Installation::retrieval_timing() const {
@@ -789,7 +794,7 @@ std::optional<Timestamp> Installation::quit_armed_until(Timestamp now) const {
 std::string Installation::planner_line() const {
   const auto st = planner_status();
   if (!st) return "no fighter";
-  if (st->tunables.mode == content::PlannerMode::orders) return "orders: only what the supervisor orders";
+  if (st->mode == content::PlannerMode::orders) return "orders: only what the supervisor orders";
   std::string line = fmt::format("spar  {}", content::to_string(st->state));
   if (st->next)
     line += fmt::format("  next {} ({}) in {:.1f} s", to_string(st->next->kind), content::to_string(st->next->cause),
@@ -798,7 +803,7 @@ std::string Installation::planner_line() const {
   // The score: the visitor's hits and dodges, the fighter's hits and blocks (blocked: fists met).
   const auto& sc = st->score;
   line += fmt::format("  score: visitor hits {} dodges {}, fighter hits {} blocks {}{}", sc.visitor_hits, sc.visitor_dodges,
-                      sc.fighter_hits, sc.blocks, st->tunables.block ? fmt::format(" (met {})", sc.blocked) : " (off)");
+                      sc.fighter_hits, sc.blocks, st->block ? fmt::format(" (met {})", sc.blocked) : " (off)");
   return line;
 }
 

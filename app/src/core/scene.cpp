@@ -6,7 +6,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 
-#include "kumite/content/fighter.hpp"
+#include "kumite/content/fighter_types.hpp"
 
 namespace kumite::app {
 

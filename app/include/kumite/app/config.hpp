@@ -18,11 +18,18 @@
 #include <vector>
 
 #include "kumite/cluster/cluster.hpp"
+#include "kumite/common/boxed.hpp"
 #include "kumite/common/wire.hpp"
-
-#include "kumite/content/planner.hpp"
-#include "kumite/content/tunables.hpp"
 #include "kumite/tracking/interop.hpp"
+
+namespace kumite::content {
+// The fighter's tunables, held boxed (common/boxed.hpp): a unit that reads or writes them
+// includes content/tunables.hpp (Behaviour, Retrieval) or content/planner.hpp (Planner); the
+// others do not recompile when a tunable is added.
+struct BehaviourTunables;
+struct RetrievalTunables;
+struct PlannerTunables;
+}  // namespace kumite::content
 
 namespace kumite::app {
 
@@ -129,12 +136,12 @@ struct FighterSection {
   std::array<double, 2> z_limits_m{-4.0, -1.7};  ///< m, where it may walk (room z)
   /// [fighter.behaviour] (with [fighter.behaviour.feet]) and [fighter.retrieval]: the
   /// fighter's tunables, every key with its unit and range (content/tunables.hpp,
-  /// `kumite-motion tunables` prints them with their defaults).
-  content::BehaviourTunables behaviour;
-  content::RetrievalTunables retrieval;
+  /// `kumite-motion tunables` prints them with their defaults). Boxed: `->` reads a key.
+  Boxed<content::BehaviourTunables> behaviour;
+  Boxed<content::RetrievalTunables> retrieval;
   /// [fighter.planner]: orders (the supervisor alone) or spar (content/planner.hpp), a preset
   /// and the planner's tunables, and the seed of its random draws (the same seed, the same bout).
-  content::PlannerTunables planner;
+  Boxed<content::PlannerTunables> planner;
   std::uint64_t planner_seed = 1;
   bool operator==(const FighterSection&) const = default;
 };

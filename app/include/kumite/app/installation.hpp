@@ -18,7 +18,7 @@
 #include "kumite/app/scene.hpp"
 #include "kumite/app/visitor_strikes.hpp"
 #include "kumite/common/wire.hpp"
-#include "kumite/content/fighter.hpp"
+#include "kumite/content/fighter_types.hpp"
 
 namespace kumite::app {
 
@@ -255,7 +255,7 @@ struct VisitorNearWall {
 };
 
 /// The bout in spar mode (FrameData::spar): the sparring planner's state and the score so far,
-/// counted from the fighter's events (content::Fighter::SparScore).
+/// counted from the fighter's events (content::SparScore).
 struct SparFrame {
   content::PlannerState state = content::PlannerState::off;
   int visitor_hits = 0;    ///< the visitor's fist or foot entered the fighter's body fast
@@ -408,10 +408,7 @@ class Installation {
   bool head_live() const { return frame_.head_live; }
   const InstallationConfig& config() const { return config_; }
   /// The sparring planner's mode, state, next decision and counts (nullopt without a fighter).
-  std::optional<content::Fighter::PlannerStatus> planner_status() const {
-    if (!fighter_) return std::nullopt;
-    return fighter_->planner_status();
-  }
+  std::optional<content::PlannerStatus> planner_status() const;
   /// The visitor's bodies the last frame gave the fighter (content::FighterInput::bodies): every
   /// body of TrackingSnapshot::bodies the source has, in role order, as measured (tracked =
   /// status not lost; t = its measurement's time). Empty without a fighter.
@@ -438,7 +435,7 @@ class Installation {
   void apply_orders(Timestamp now);
   void update_fighter(Timestamp now, double dt);
   /// frame_.spar from the planner's status after the fighter's update (none outside spar mode).
-  void note_spar(const content::Fighter::PlannerStatus& st);
+  void note_spar(const content::PlannerStatus& st);
   void update_safety(Timestamp now);
   void copy_pose(const content::FighterFrame& f, int character, FighterPose& pose);
   void note(const FrameEvent& e);

@@ -20,30 +20,17 @@
 
 #include "kumite/common/time.hpp"
 #include "kumite/common/wire.hpp"
+#include "kumite/content/fighter_types.hpp"  // VisitorStrikeSeen, PlannerMode, PlannerState, PlannerDecision, PlannerCounts
 #include "kumite/content/threat.hpp"
 #include "kumite/recognition/recognition.hpp"
 
 namespace kumite::content {
-
-/// A strike of the visitor's as the recogniser reported it in an update (recognition::Event).
-struct VisitorStrikeSeen {
-  Timestamp t = 0;  ///< s, the camera time of the sample that decided it
-  recognition::EventType type = recognition::EventType::begin;
-  recognition::Role limb = recognition::Role::right_hand;
-  recognition::Action action = recognition::Action::other;
-  double progress = 0;                       ///< 0..1, onset to full extension
-  double confidence = 0;                     ///< 0..1
-  Eigen::Vector3d impact_m{0, 0, 0};         ///< m, room: where the fist or foot will be at full extension
-};
-
 
 /// SplitMix64's output for state `x` (the state advanced by its constant, then mixed): the same
 /// on every machine. unit_interval: [0, 1) from the top 53 bits.
 std::uint64_t splitmix64(std::uint64_t x);
 double unit_interval(std::uint64_t bits);
 
-enum class PlannerMode { orders, spar };
-std::string_view to_string(PlannerMode m);
 
 /// [fighter.planner] (the installation file). Units on every name.
 struct PlannerTunables {
@@ -98,24 +85,7 @@ std::optional<PlannerTunables> planner_preset(std::string_view name);
 /// "" when every value is finite and in range, else "key: message" for the first that is not.
 std::string validate(const PlannerTunables& t);
 
-enum class PlannerState {
-  off,          ///< orders mode: the planner decides nothing
-  approaching,  ///< farther than the fighting distance: the fighter closes in
-  guarding,     ///< engaged, its attack timer running
-  countering,   ///< a counter is due (PlannerDecision::due)
-};
-std::string_view to_string(PlannerState s);
 
-/// Why the planner ordered a strike.
-enum class PlannerCause { timer, counter };
-std::string_view to_string(PlannerCause c);
-
-/// The planner's next decision: what, why and when (for the console and the log).
-struct PlannerDecision {
-  OrderKind kind = OrderKind::punch_right;
-  PlannerCause cause = PlannerCause::timer;
-  Timestamp due = 0;  ///< s
-};
 
 /// What the planner reads each update.
 struct PlannerInput {
@@ -129,21 +99,6 @@ struct PlannerInput {
   std::span<const VisitorStrikeSeen> strikes;   ///< the visitor's strikes recognised since the last update
 };
 
-/// Counts, for the statistics the planner is judged by (kumite-motion spar).
-struct PlannerCounts {
-  int attacks = 0;            ///< its own attacks ordered (timer)
-  int visitor_strikes = 0;    ///< visitor strike begins seen while engaged
-  int counters_drawn = 0;     ///< of those, drawn to be countered
-  int counters = 0;           ///< counters ordered
-  int counters_dropped = 0;   ///< counters past counter_deadline_s
-  int counters_superseded = 0;  ///< counters still due when a newer strike was drawn to be countered
-  double reaction_sum_s = 0;  ///< s, summed delay visitor strike -> counter order
-  double reaction_drawn_sum_s = 0;  ///< s, ...of which drawn (the rest: the update nearest the due time, and waiting for the fighter to be idle)
-  double engaged_s = 0;       ///< s spent engaged (guarding or countering)
-  double timer_running_s = 0; ///< s the attack timer ran (engaged, the fighter idle, no counter due)
-  int abort_draws = 0;        ///< visitor strike begins seen while its own strike was under way
-  int aborts = 0;             ///< of those, drawn to abort it (abort_probability)
-};
 
 class SparPlanner {
  public:
