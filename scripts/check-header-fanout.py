@@ -1,0 +1,89 @@
+#!/usr/bin/env python3
+"""Checks that the app's public headers do not include the fighter's tunables or behaviour.
+
+Adding a tunable (content/tunables.hpp, planner.hpp) or changing the fighter's behaviour
+(behaviour.hpp, fighter.hpp) should recompile the units that use them, not every unit of the app
+that includes its config or installation: app/config.hpp holds the tunables in Boxed<> and
+app/installation.hpp takes the fighter's types from content/fighter_types.hpp. Before that, a
+new tunable recompiled 91 of the build's 216 objects, twice in CI (release and sanitizers), and
+CI ran over its 30 minutes.
+
+  scripts/check-header-fanout.py BUILD_DIR SOURCE_DIR
+
+Preprocesses each header under app/include/kumite/app/ alone (the compiler's -M, with the flags
+compile_commands.json gives app/src/core/installation.cpp) and lists what it includes.
+Exit 0: none includes the headers below. Exit 1: one line per header that does, naming them.
+"""
+import json
+import os
+import shlex
+import subprocess
+import sys
+
+FORBIDDEN = [
+    "kumite/content/tunables.hpp",
+    "kumite/content/planner.hpp",
+    "kumite/content/fighter.hpp",
+    "kumite/content/behaviour.hpp",
+]
+REFERENCE = "app/src/core/installation.cpp"
+
+
+def flags_of(entry):
+    args = shlex.split(entry["command"]) if "command" in entry else list(entry["arguments"])
+    out, i = [], 0
+    compiler = None
+    while i < len(args):
+        a = args[i]
+        if compiler is None and not a.startswith("-") and "ccache" not in os.path.basename(a):
+            compiler = a
+        if a in ("-isystem", "-I", "-D", "-include"):
+            out += [a, args[i + 1]]
+            i += 2
+            continue
+        if a.startswith(("-I", "-D", "-std=", "-isystem")):
+            out.append(a)
+        i += 1
+    return compiler, out
+
+
+def main():
+    if len(sys.argv) != 3:
+        print(__doc__.strip().splitlines()[8].strip(), file=sys.stderr)
+        return 1
+    build, source = os.path.realpath(sys.argv[1]), os.path.realpath(sys.argv[2])
+    commands = os.path.join(build, "compile_commands.json")
+    try:
+        with open(commands) as f:
+            entries = json.load(f)
+    except (OSError, ValueError) as e:
+        print(f"{commands}: cannot read it: {e}", file=sys.stderr)
+        return 1
+    ref = [e for e in entries if os.path.realpath(e["file"]) == os.path.join(source, REFERENCE)]
+    if not ref:
+        print(f"{commands}: no compile command for {REFERENCE}", file=sys.stderr)
+        return 1
+    compiler, flags = flags_of(ref[0])
+    headers_dir = os.path.join(source, "app", "include", "kumite", "app")
+    headers = sorted(h for h in os.listdir(headers_dir) if h.endswith(".hpp"))
+    bad = 0
+    for h in headers:
+        r = subprocess.run([compiler, "-x", "c++", "-M", "-MG", *flags, "-"], input=f'#include "kumite/app/{h}"\n',
+                           capture_output=True, text=True, cwd=ref[0]["directory"])
+        if r.returncode != 0:
+            print(f"app/include/kumite/app/{h}: the preprocessor failed: {r.stderr.strip().splitlines()[:1]}")
+            bad += 1
+            continue
+        deps = r.stdout.replace("\\\n", " ").split()
+        found = [f for f in FORBIDDEN if any(d.endswith(f) for d in deps)]
+        if found:
+            print(f"app/include/kumite/app/{h}: includes {', '.join(found)} (include content/fighter_types.hpp; "
+                  "hold tunables in Boxed<>)")
+            bad += 1
+    if not bad:
+        print(f"{len(headers)} app headers: none includes {', '.join(os.path.basename(f) for f in FORBIDDEN)}")
+    return 1 if bad else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
