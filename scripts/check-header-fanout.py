@@ -10,8 +10,9 @@ CI ran over its 30 minutes.
 
   scripts/check-header-fanout.py BUILD_DIR SOURCE_DIR
 
-Preprocesses each header under app/include/kumite/app/ alone (the compiler's -M, with the flags
-compile_commands.json gives app/src/core/installation.cpp) and lists what it includes.
+Preprocesses each header under app/include/kumite/app/ and app/src/ alone (the compiler's -M,
+with the flags compile_commands.json gives app/src/core/installation.cpp; a header it cannot find
+fails the check rather than hiding what that header would include) and lists what it includes.
 Exit 0: none includes the headers below. Exit 1: one line per header that does, naming them.
 """
 import json
@@ -49,7 +50,7 @@ def flags_of(entry):
 
 def main():
     if len(sys.argv) != 3:
-        print(__doc__.strip().splitlines()[8].strip(), file=sys.stderr)
+        print("usage: scripts/check-header-fanout.py BUILD_DIR SOURCE_DIR", file=sys.stderr)
         return 1
     build, source = os.path.realpath(sys.argv[1]), os.path.realpath(sys.argv[2])
     commands = os.path.join(build, "compile_commands.json")
@@ -64,20 +65,26 @@ def main():
         print(f"{commands}: no compile command for {REFERENCE}", file=sys.stderr)
         return 1
     compiler, flags = flags_of(ref[0])
-    headers_dir = os.path.join(source, "app", "include", "kumite", "app")
-    headers = sorted(h for h in os.listdir(headers_dir) if h.endswith(".hpp"))
+    headers = []  # (as named in messages, absolute path)
+    for folder in (os.path.join("app", "include", "kumite", "app"), os.path.join("app", "src")):
+        for root, _, files in os.walk(os.path.join(source, folder)):
+            for f in sorted(files):
+                if f.endswith(".hpp"):
+                    path = os.path.join(root, f)
+                    headers.append((os.path.relpath(path, source), path))
+    headers.sort()
     bad = 0
-    for h in headers:
-        r = subprocess.run([compiler, "-x", "c++", "-M", "-MG", *flags, "-"], input=f'#include "kumite/app/{h}"\n',
+    for h, path in headers:
+        r = subprocess.run([compiler, "-x", "c++", "-M", *flags, "-"], input=f'#include "{path}"\n',
                            capture_output=True, text=True, cwd=ref[0]["directory"])
         if r.returncode != 0:
-            print(f"app/include/kumite/app/{h}: the preprocessor failed: {r.stderr.strip().splitlines()[:1]}")
+            print(f"{h}: the preprocessor failed: {r.stderr.strip().splitlines()[:1]}")
             bad += 1
             continue
         deps = r.stdout.replace("\\\n", " ").split()
         found = [f for f in FORBIDDEN if any(d.endswith(f) for d in deps)]
         if found:
-            print(f"app/include/kumite/app/{h}: includes {', '.join(found)} (include content/fighter_types.hpp; "
+            print(f"{h}: includes {', '.join(found)} (include content/fighter_types.hpp; "
                   "hold tunables in Boxed<>)")
             bad += 1
     if not bad:

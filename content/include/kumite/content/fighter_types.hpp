@@ -234,7 +234,7 @@ struct SparScore {
 /// tunables whole: Fighter::planner_tunables() (planner.hpp).
 struct PlannerStatus {
   PlannerMode mode = PlannerMode::orders;  ///< [fighter.planner] mode
-  bool block = true;                       ///< [fighter.planner] block: it blocks the visitor's strikes
+  bool block = false;                      ///< [fighter.planner] block: it blocks the visitor's strikes
   PlannerState state = PlannerState::off;
   std::optional<PlannerDecision> next;
   PlannerCounts counts;
