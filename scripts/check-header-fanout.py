@@ -15,11 +15,17 @@ with the flags compile_commands.json gives app/src/core/installation.cpp; a head
 fails the check rather than hiding what that header would include) and lists what it includes.
 Exit 0: none includes the headers below. Exit 1: one line per header that does, naming them.
 """
-import json
+import importlib.util
 import os
 import shlex
 import subprocess
 import sys
+
+# Reading the two arguments and compile_commands.json: as scripts/check-portable-build.py does.
+_spec = importlib.util.spec_from_file_location("check_portable_build",
+                                               os.path.join(os.path.dirname(os.path.abspath(__file__)), "check-portable-build.py"))
+portable = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(portable)
 
 FORBIDDEN = [
     "kumite/content/tunables.hpp",
@@ -49,17 +55,10 @@ def flags_of(entry):
 
 
 def main():
-    if len(sys.argv) != 3:
-        print("usage: scripts/check-header-fanout.py BUILD_DIR SOURCE_DIR", file=sys.stderr)
+    got = portable.build_and_commands(sys.argv, "usage: scripts/check-header-fanout.py BUILD_DIR SOURCE_DIR")
+    if got is None:
         return 1
-    build, source = os.path.realpath(sys.argv[1]), os.path.realpath(sys.argv[2])
-    commands = os.path.join(build, "compile_commands.json")
-    try:
-        with open(commands) as f:
-            entries = json.load(f)
-    except (OSError, ValueError) as e:
-        print(f"{commands}: cannot read it: {e}", file=sys.stderr)
-        return 1
+    _, source, commands, entries = got
     ref = [e for e in entries if os.path.realpath(e["file"]) == os.path.join(source, REFERENCE)]
     if not ref:
         print(f"{commands}: no compile command for {REFERENCE}", file=sys.stderr)

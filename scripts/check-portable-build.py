@@ -22,18 +22,29 @@ import sys
 ALLOWED = {"content/src/content_dir.cpp", "generated/build_paths.cpp"}
 
 
-def main():
-    if len(sys.argv) != 3:
-        print(__doc__.strip().splitlines()[3].strip(), file=sys.stderr)
-        return 1
-    build, source = os.path.realpath(sys.argv[1]), os.path.realpath(sys.argv[2])
+def build_and_commands(argv, usage):
+    """(BUILD_DIR, SOURCE_DIR, compile_commands.json's path, its entries) from `argv` (the script's
+    two arguments), or None after one line on stderr: the usage, or why the file cannot be read.
+    Shared with scripts/check-header-fanout.py."""
+    if len(argv) != 3:
+        print(usage, file=sys.stderr)
+        return None
+    build, source = os.path.realpath(argv[1]), os.path.realpath(argv[2])
     commands = os.path.join(build, "compile_commands.json")
     try:
         with open(commands) as f:
             entries = json.load(f)
     except (OSError, ValueError) as e:
         print(f"{commands}: cannot read it: {e}", file=sys.stderr)
+        return None
+    return build, source, commands, entries
+
+
+def main():
+    got = build_and_commands(sys.argv, "usage: scripts/check-portable-build.py BUILD_DIR SOURCE_DIR")
+    if got is None:
         return 1
+    build, source, commands, entries = got
     bad = []
     for e in entries:
         path = os.path.realpath(e["file"])
