@@ -448,7 +448,7 @@ void Installation::update_fighter(Timestamp now, double dt) {
   }
 }
 
-void Installation::note_spar(const content::Fighter::PlannerStatus& st) {
+void Installation::note_spar(const content::PlannerStatus& st) {
   if (st.mode != content::PlannerMode::spar) {
     frame_.spar.reset();
     return;
@@ -516,7 +516,7 @@ void log_spar_summary(const Installation& inst) {
   if (!st) return;
   const auto& sc = st->score;
   const auto& c = st->counts;
-  if (st->mode != content::PlannerMode::spar && c.engaged_s <= 0 && sc == content::Fighter::SparScore{}) return;
+  if (st->mode != content::PlannerMode::spar && c.engaged_s <= 0 && sc == content::SparScore{}) return;
   spdlog::info("spar round: {:.0f} s engaged; the visitor hit {} time(s), dodged {}; the fighter hit {} time(s), attacked {}, "
                "countered {}; blocks {} ({} late, {} met the fist{}), threats unanswered {}",
                c.engaged_s, sc.visitor_hits, sc.visitor_dodges, sc.fighter_hits, c.attacks, c.counters, sc.blocks, sc.blocks_late,
