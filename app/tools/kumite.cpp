@@ -119,9 +119,12 @@ int run_export(const Args& a) {
   const auto rep = kumite::app::export_log(config, eo);
   spdlog::info("export: frames {}..{} ({:.3f}..{:.3f} s, {} frames){}", rep.first_frame, rep.last_frame, rep.first_time_s,
                rep.last_time_s, rep.frames, rep.truncated_last_line ? "; the log's last line was cut short" : "");
-  if (eo.bvh)
-    spdlog::info("export: {} (character {} \"{}\", frame time {:.6f} s)", eo.bvh->string(), rep.character + 1,
-                 rep.character_name, rep.frame_time_s);
+  if (rep.runs.size() > 1)
+    spdlog::info("export: the interval holds {} character runs (a character switch): one BVH each", rep.runs.size());
+  for (const auto& run : rep.runs)
+    spdlog::info("export: {} (character {} \"{}\", frames {}..{}, {:.3f}..{:.3f} s, frame time {:.6f} s)", run.bvh.string(),
+                 run.character + 1, run.character_name, run.first_frame, run.last_frame, run.first_time_s, run.last_time_s,
+                 run.frame_time_s);
   if (eo.head_csv) spdlog::info("export: {} (head poses)", eo.head_csv->string());
   return 0;
 }

@@ -402,3 +402,81 @@ TEST(Demo, ExportFromTheLogReproducesTheLoggedJoints) {
   }
   fs::remove_all(out);
 }
+
+// An interval with a character switch: one BVH per character run beside --out (each on its
+// character's skeleton), none at --out itself. Read back with content::read_bvh, each run's
+// frames are its own in the log, and its forward kinematics gives the logged joints within 1 mm
+// wherever the switch's easing is over (the logged joints ease from the old body's for a while;
+// the rotations are the new character's from its first frame).
+TEST(Demo, ExportOfAnIntervalWithACharacterSwitchWritesOneBvhPerCharacter) {
+  auto cfg = load_installation_config(kSource / "config/demo.toml");
+  cfg.fighter.database = demo_database();
+  cfg.tracking.source = TrackingSource::none;
+  ASSERT_GE(cfg.characters.size(), 2u);
+  const fs::path out = fs::temp_directory_path() / ("kumite_app_test_export_switch_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const fs::path script = out / "orders.csv";
+  std::ofstream(script) << "time_s,order\n0.2,punch_right\n1.0,character 2\n";
+  InstallationOptions io;
+  io.orders_script = script;
+  Installation inst(cfg, make_fixed_head_input("test"), io);
+  HeadlessOptions ho;
+  ho.frames = 150;
+  ho.out = out;
+  ho.save_every = 0;
+  ho.resolution = std::array<int, 2>{64, 36};
+  ho.real_time = false;
+  ASSERT_EQ(run_headless(inst, ho), 0);
+
+  ExportOptions eo;
+  eo.log = out / "frames.jsonl";
+  eo.bvh = out / "fighter.bvh";
+  const ExportReport rep = export_log(cfg, eo);
+  ASSERT_EQ(rep.runs.size(), 2u);
+  EXPECT_FALSE(fs::exists(out / "fighter.bvh")) << "--out itself is not written when the interval has runs";
+  EXPECT_EQ(rep.runs[0].character, 0);
+  EXPECT_EQ(rep.runs[1].character, 1);
+  EXPECT_EQ(rep.runs[0].bvh, out / ("fighter.01-" + cfg.characters[0].name + ".bvh"));
+  EXPECT_EQ(rep.runs[1].bvh, out / ("fighter.02-" + cfg.characters[1].name + ".bvh"));
+  EXPECT_EQ(rep.runs[0].frames + rep.runs[1].frames, rep.frames);
+  EXPECT_EQ(rep.runs[0].last_frame + 1, rep.runs[1].first_frame);
+  EXPECT_EQ(rep.character, 0);
+
+  std::vector<nlohmann::json> frames;
+  std::ifstream in(out / "frames.jsonl");
+  for (std::string line; std::getline(in, line);) frames.push_back(nlohmann::json::parse(line));
+  for (std::size_t r = 0; r < rep.runs.size(); ++r) {
+    const ExportRun& run = rep.runs[r];
+    const kumite::content::Clip clip = kumite::content::read_bvh(run.bvh);
+    ASSERT_EQ(clip.frame_count, run.frames);
+    EXPECT_NEAR(clip.frame_time_s, 1.0 / 60, 1e-6);
+    const kumite::content::Clip own = kumite::content::read_bvh(cfg.resolve(cfg.characters[static_cast<std::size_t>(run.character)].bvh));
+    EXPECT_EQ(clip.skeleton.names, own.skeleton.names) << "run " << r << " is on its character's skeleton";
+    const auto n = static_cast<std::size_t>(clip.skeleton.joint_count());
+    std::vector<Eigen::Vector3d> pos(n);
+    std::vector<Eigen::Quaterniond> rot(n);
+    int matched = 0;
+    double worst_m = 0;
+    for (int k = 0; k < clip.frame_count; ++k) {
+      const auto& f = frames[static_cast<std::size_t>(run.first_frame + k)];
+      ASSERT_EQ(f["fighter"]["character"].get<int>(), run.character + 1);
+      kumite::content::forward_kinematics(clip, k, pos, rot);
+      double frame_worst = 0;
+      for (std::size_t j = 0; j < n; ++j) {
+        const auto& a = f["fighter"]["joints"][clip.skeleton.names[j]];
+        frame_worst = std::max(frame_worst, (pos[j] - Eigen::Vector3d(a[0].get<double>(), a[1].get<double>(), a[2].get<double>())).norm());
+      }
+      // (the second run's last 30 frames: 0.5 s after the switch's easing began)
+      if (r == 0 || k >= clip.frame_count - 30) {
+        worst_m = std::max(worst_m, frame_worst);
+        ++matched;
+      }
+    }
+    EXPECT_GE(matched, 30);
+    EXPECT_LT(worst_m, 1e-3) << "m, run " << r << ": BVH joints vs the logged joints";
+    std::cout << "export run " << r + 1 << " (" << run.character_name << "): " << clip.frame_count << " frames, worst joint "
+              << worst_m * 1e3 << " mm over " << matched << "\n";
+  }
+  fs::remove_all(out);
+}

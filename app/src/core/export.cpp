@@ -1,5 +1,6 @@
 #include "kumite/app/export.hpp"
 
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <vector>
@@ -20,6 +21,14 @@ using nlohmann::json;
 
 }  // namespace
 
+std::filesystem::path run_bvh_path(const std::filesystem::path& bvh, int index, const std::string& character_name) {
+  std::string name;
+  for (const char c : character_name) name += std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' ? c : '_';
+  auto out = bvh;
+  out.replace_filename(fmt::format("{}.{:02}-{}{}", bvh.stem().string(), index + 1, name, bvh.extension().string()));
+  return out;
+}
+
 ExportReport export_log(const InstallationConfig& config, const ExportOptions& opt) {
   if (!std::isfinite(opt.from_s) || !std::isfinite(opt.to_s) || opt.to_s < opt.from_s)
     throw Error("cli", "range", fmt::format("--from {} --to {}: expected finite times with from <= to", opt.from_s, opt.to_s));
@@ -28,7 +37,12 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
   JsonLineReader r{"export", "log", opt.log.string(), 0};
   ExportReport rep;
 
-  content::Clip clip;  // the fighter, once its character is known
+  // The fighter's runs: one per stretch of frames with one character (a switch starts the next).
+  struct Run {
+    content::Clip clip;
+    ExportRun info;
+  };
+  std::vector<Run> runs;
   std::string csv = "frame,time_s,x_m,y_m,z_m,qw,qx,qy,qz,live\n";
   std::vector<std::string> lines;
   for (std::string l; std::getline(in, l);) lines.push_back(std::move(l));
@@ -74,7 +88,7 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
     const json& f = r.at(j, "fighter", "fighter");
     if (!f.value("present", false)) r.fail("fighter.present", "no fighter in this frame: nothing to export");
     const int character = static_cast<int>(r.num(r.at(f, "character", "fighter.character"), "fighter.character")) - 1;
-    if (rep.character < 0) {
+    if (runs.empty() || character != runs.back().info.character) {
       if (character < 0 || character >= static_cast<int>(config.characters.size()))
         r.fail("fighter.character", fmt::format("character {} is not in {} ({} characters)", character + 1,
                                                 config.file.string(), config.characters.size()));
@@ -84,16 +98,21 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
         r.fail("fighter.character_name", fmt::format("\"{}\" but {} names character {} \"{}\": the log is from another "
                                                      "installation file", logged_name, config.file.string(), character + 1, ch.name));
       const content::Clip character_bvh = content::read_bvh(config.resolve(ch.bvh));
-      rep.character = character;
-      rep.character_name = ch.name;
-      clip.name = ch.name;
-      clip.skeleton = character_bvh.skeleton;
-      clip.unit_m = character_bvh.unit_m;
-      clip.frame_count = 0;
-    } else if (character != rep.character) {
-      r.fail("fighter.character", fmt::format("the character changes from {} to {} at frame {} ({:.3f} s): export an "
-                                              "interval with one character", rep.character + 1, character + 1, frame, t));
+      Run& run = runs.emplace_back();
+      run.info.character = character;
+      run.info.character_name = ch.name;
+      run.info.first_frame = frame;
+      run.info.first_time_s = t;
+      run.clip.name = ch.name;
+      run.clip.skeleton = character_bvh.skeleton;
+      run.clip.unit_m = character_bvh.unit_m;
+      run.clip.frame_count = 0;
     }
+    Run& run = runs.back();
+    content::Clip& clip = run.clip;
+    ++run.info.frames;
+    run.info.last_frame = frame;
+    run.info.last_time_s = t;
     const json& rot = r.at(f, "local_rotations", "fighter.local_rotations");
     const auto root = r.nums<3>(r.at(f, "root_joint", "fighter.root_joint"), "fighter.root_joint");
     clip.root_positions.emplace_back(root[0], root[1], root[2]);
@@ -110,10 +129,23 @@ ExportReport export_log(const InstallationConfig& config, const ExportOptions& o
   if (rep.frames == 0)
     throw Error("export", "empty", fmt::format("{}: no frame with time_s in [{}, {}] s", opt.log.string(), opt.from_s, opt.to_s));
   if (opt.bvh) {
-    clip.frame_time_s = rep.frames > 1 ? (rep.last_time_s - rep.first_time_s) / (rep.frames - 1) : 1.0 / 60;
-    if (!(clip.frame_time_s > 0)) clip.frame_time_s = 1.0 / 60;
-    rep.frame_time_s = clip.frame_time_s;
-    content::write_bvh(*opt.bvh, clip);
+    // Each run's frame time is the mean interval of its frames; a run of one frame takes the
+    // whole interval's.
+    const double whole_dt = rep.frames > 1 ? (rep.last_time_s - rep.first_time_s) / (rep.frames - 1) : 1.0 / 60;
+    for (std::size_t i = 0; i < runs.size(); ++i) {
+      Run& run = runs[i];
+      double dt = run.info.frames > 1 ? (run.info.last_time_s - run.info.first_time_s) / (run.info.frames - 1) : whole_dt;
+      if (!(dt > 0)) dt = 1.0 / 60;
+      run.clip.frame_time_s = dt;
+      run.info.frame_time_s = dt;
+      run.info.bvh = runs.size() == 1 ? *opt.bvh : run_bvh_path(*opt.bvh, static_cast<int>(i), run.info.character_name);
+    }
+    // Written once every frame has been read: a bad line later in the interval leaves no file.
+    for (const Run& run : runs) content::write_bvh(run.info.bvh, run.clip);
+    for (Run& run : runs) rep.runs.push_back(std::move(run.info));
+    rep.character = rep.runs.front().character;
+    rep.character_name = rep.runs.front().character_name;
+    rep.frame_time_s = rep.runs.front().frame_time_s;
   }
   if (opt.head_csv) write_file_atomically(*opt.head_csv, csv);
   return rep;
