@@ -89,6 +89,7 @@ nlohmann::json run_defence(const DefenceArgs& a) {
   cfg.planner.threat = a.threat;
   cfg.planner.fighting_distance_m = a.fighting_distance_m;
   cfg.planner.stance_step_min_m = a.stance_step_min_m;
+  cfg.planner.follow_arc_deg = a.follow_arc_deg;
   cfg.min_x_m = a.area_x_m[0];
   cfg.max_x_m = a.area_x_m[1];
   cfg.min_z_m = a.area_z_m[0];
@@ -106,6 +107,8 @@ nlohmann::json run_defence(const DefenceArgs& a) {
                               "starts at full speed); bodies as a {} Hz tracker gives them (resampled)",
                               a.place_x, a.place_z, a.lead_in_s, a.ease_in_s, a.tracker_hz)},
       {"fighter_area_m", {{"x", {a.area_x_m[0], a.area_x_m[1]}}, {"z", {a.area_z_m[0], a.area_z_m[1]}}}},
+      {"planner", {{"fighting_distance_m", a.fighting_distance_m}, {"stance_step_min_m", a.stance_step_min_m},
+                   {"follow_arc_deg", a.follow_arc_deg}}},
       {"db", a.db.string()},
       {"character", a.character.string()},
       {"recordings", nlohmann::json::array()}};

@@ -25,6 +25,7 @@ struct DefenceArgs {
   content::ThreatTunables threat;   ///< what counts as a fist coming (the planner's threat_* keys)
   double fighting_distance_m = content::PlannerTunables{}.fighting_distance_m;  ///< m, the planner's fighting_distance_m
   double stance_step_min_m = content::PlannerTunables{}.stance_step_min_m;      ///< m, the planner's stance_step_min_m (0: off)
+  double follow_arc_deg = content::PlannerTunables{}.follow_arc_deg;            ///< deg, the planner's follow_arc_deg
   /// m, room frame: where the fighter may stand, as the shipped installation's [fighter]
   /// x_limits_m / z_limits_m (config/demo-spar.toml: it may step into the room). Not
   /// FighterConfig's own defaults, whose front edge (z -1.7, behind the front wall) keeps the

@@ -159,6 +159,10 @@ int main(int argc, char** argv) {
   df->add_option("--stance-steps", da.stance_step_min_m, "m: stance_step_min_m, sparring's stance steps from the mocap (0: off)")
       ->check(CLI::Range(0.0, 2.0))
       ->capture_default_str();
+  df->add_option("--follow-arc", da.follow_arc_deg,
+                 "deg: follow_arc_deg, the spot kept lies this far either side of the way from the visitor to home (180: anywhere)")
+      ->check(CLI::Range(10.0, 180.0))
+      ->capture_default_str();
   df->add_option("--place-z", da.place_z, "m: the visitor's head's mean z")->capture_default_str();
   df->add_option("--area-x", da.area_x_m, "m: where the fighter may stand, room x (min max; as config/demo-spar.toml's [fighter] x_limits_m)")
       ->capture_default_str();
