@@ -26,8 +26,10 @@ namespace {
 /// 24 bouts he opens.
 constexpr double kLandingSupportSlack_m = 0.10;
 /// m: the farthest a procedural step is redirected to where a strike's clip stands on its foot
-/// (align_to_support_foot): a step's length.
-constexpr double kMostRedirect_m = 0.35;
+/// (align_to_support_foot): a long step's length (at 0.35 m, a lunge from the 120-order
+/// sweep's scripted bout at 19.3 s wanted its stepping back foot 0.37 m on: not redirected, the
+/// step went on to its old target, 67 cm from where the clip stands on it).
+constexpr double kMostRedirect_m = 0.45;
 }  // namespace
 
 int align_to_support_foot(const StrikePlacement& in, PlaybackSource& s, double contact_time_s, StrikeFit* redirect) {
@@ -100,7 +102,7 @@ int align_to_support_foot(const StrikePlacement& in, PlaybackSource& s, double c
       }
     }
   }
-  const bool redirected = redirect != nullptr && redirect->redirect_support >= 0;
+  bool redirected = redirect != nullptr && redirect->redirect_support >= 0;
   if (best < 0) best = best_held;  // its shift is found below, once it is the one kept
   // The foot it is aligned on, if held, may be one the clip lifts before contact (a held front
   // foot that the lunge steps): then a stepping foot that the clip stands on at contact is the
@@ -120,13 +122,33 @@ int align_to_support_foot(const StrikePlacement& in, PlaybackSource& s, double c
     // and the clip is carried so that it lands the foot there, if that is within
     // max_support_shift_m (session 34 also took a held foot, and any carry: a 85 cm carry held to
     // 30 cm landed the foot 55 cm off and the pelvis sank under a head-height punch).
-    for (int side = 0; side < 2 && landing_support < 0; ++side) {
-      if (!feet.stepping[static_cast<std::size_t>(side)] || !clip_planted(seg, contact, side)) continue;
+    for (int side = 0; side < 2 && landing_support < 0 && !redirected; ++side) {
+      const auto us = static_cast<std::size_t>(side);
+      if (!feet.stepping[us] || !clip_planted(seg, contact, side)) continue;
       const Vector2d want = wanted(side, planted_since(seg, side, first, contact));
       if (want.norm() <= limit + kLandingSupportSlack_m) {
         best = side;
         landing_support = side;
         shift = want;
+      } else if (redirect != nullptr) {
+        // Too far to carry the clip there: carried as far as it goes, and the step sent on to
+        // where the clip then has the foot, as above (a stepping foot the clip stands on from
+        // its start). Left to its old target, the foot landed there, out of the leg's reach
+        // from where the lunge stands on it, and stepped again while the front foot swung:
+        // both feet off 20 frames where the source stands (kenji's and mei's 135_06 right lunge
+        // from frames 0-4 at 19.3-19.5 s of the scripted bout: 562 frames in 46 of the 120 orders).
+        const Vector2d carry = want * (limit / want.norm());
+        Vector3d to = feet.ankle_m[us];
+        to.x() += carry.x() - want.x();
+        to.z() += carry.y() - want.y();
+        to.y() = feet.step_end_m[us].y();
+        if (Vector2d(to.x() - feet.ankle_m[us].x(), to.z() - feet.ankle_m[us].z()).norm() <= kMostRedirect_m) {
+          best = side;
+          shift = carry;
+          redirect->redirect_support = side;
+          redirect->redirect_to_m = to;
+          redirected = true;
+        }
       }
     }
     // None within reach of a carry: the held foot's alignment, as before.

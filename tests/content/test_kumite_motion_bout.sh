@@ -65,6 +65,16 @@ snapsk=$(sed -n 's/^ *"drawn_snaps_whole_bout": \([0-9]*\),*$/\1/p' k2.json | he
 [ "${snapsk:-x}" = 0 ] || fail "bout (kenji,bruno,aiko,mei,viktor, steps on): ${snapsk:-no} drawn snaps: $(sed -n '/"drawn_snap_list"/,/\]/p' k2.json | tr -d ' \n')"
 steps=$(sed -n 's/^ *"stance_steps": \([0-9]*\),*$/\1/p' on.json | head -n 1)
 [ "${steps:-0}" -gt 0 ] || fail "the bout with stance steps on took none"
+# Aiko, mei, bruno, viktor, kenji: kenji's right lunge punch at 19.3 s was ordered as his back
+# foot began a procedural step (following); the clip stands on that foot from its 8th frame, 67 cm
+# from where the step was going, and the step went on there, landed out of the leg's reach and
+# stepped again while the front foot swung: 20 frames with both feet off where the source stands
+# (one of 46 orders of 120 with it). The step is now sent on to where the lunge stands on it (7 Dec).
+"$tool" bout --db fighter.kdb --characters aiko,mei,bruno,viktor,kenji --out o13.bvh --report o13.json >/dev/null 2>err.txt \
+  || fail "bout (aiko,mei,bruno,viktor,kenji) exited $?: $(cat err.txt)"
+off13=$(sed -n 's/^ *"both_feet_off_frames_source_down": \([0-9]*\),*$/\1/p' o13.json | head -n 1)
+[ -n "$off13" ] || fail "o13.json has no both_feet_off_frames_source_down"
+[ "$off13" -le 8 ] || fail "bout (aiko,mei,bruno,viktor,kenji): both feet off where the source stands in $off13 frames (at most 8)"
 # Following a walking visitor for 56 s (the shipped behaviour: procedural steps): never both
 # feet off the floor (27 Nov: a hop of 13 frames at 3.42 s, a back foot that had to step again
 # in the update the front foot's step fell due). Judged on the drawn joints (each run's floor).
