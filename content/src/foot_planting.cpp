@@ -51,6 +51,13 @@ constexpr double kToesUnderFloor_m = 0.01;
 /// m: a held foot the leg falls short of is under the hip (the shortfall is the body's height, not
 /// a step's length) while it is no farther out from the hip than this beyond the motion's foot.
 constexpr double kUnderHipSlack_m = 0.05;
+/// m/s: a held foot's heel rises toward its floor (the heel lift the motion gives, a short
+/// leg's raise) no faster than the source's own ankle plus this. At landing_speed_mps (0.6, 1 cm
+/// a frame at 60 Hz) the lift read at a lunge's handover to rest (0.3 -> 1.3 cm in one update)
+/// raised the held ankle 1 cm in a frame while the hip came down 1.1 cm: the nearly straight
+/// knee bent 12 deg, 5.2 cm in the frame (the spar demo, planner seed 29 at 47.6 s). At 0.2 the
+/// sweep's heels lagged their source (2 snaps, a folded punch).
+constexpr double kHeldRise_mps = 0.3;
 /// The least a step for an over-stretched leg must ease its stretch (share of the leg's length).
 constexpr double kLeastStretchEased = 0.005;
 /// rad/s: the most a pivoting held foot turns (FootSample::pivot).
@@ -242,11 +249,12 @@ void FootPlanter::update(double dt, const std::array<FootSample, 2>& samples, bo
         // foot put down a little above the floor settles onto it.
         // It comes down only as far as the leg reaches with its knee still bent (a straight
         // knee moves centimetres per millimetre of ankle): else it waits on its toes.
-        // It rises and comes down no faster than the source's own ankle plus landing_speed_mps:
+        // It rises and comes down no faster than the source's own ankle plus kHeldRise_mps
+        // (rising) or landing_speed_mps (coming down):
         // a foot put down flat where the motion has the heel raised (a kick's support foot set
         // down on its toes) lifts its heel at a foot's pace, not up to the raised heel in two
         // frames, and a heel the blend into another motion lowers comes down as gently.
-        const double rise = std::min(tun_.max_landing_speed_mps * dt, std::max(0.0, in.source_step_m.y()) + tun_.landing_speed_mps * dt);
+        const double rise = std::min(tun_.max_landing_speed_mps * dt, std::max(0.0, in.source_step_m.y()) + kHeldRise_mps * dt);
         const double fall = std::min(tun_.max_landing_speed_mps * dt, std::max(0.0, -in.source_step_m.y()) + tun_.landing_speed_mps * dt);
         double new_y = f.lock.y() + std::clamp(floor_y - f.lock.y(), -fall, rise);
         if (f.new_body) new_y = std::max(new_y, floor_y);  // as a foot taken anew (above)

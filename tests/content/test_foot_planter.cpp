@@ -189,6 +189,27 @@ TEST(FootPlanter, AHoldTakenFromNothingSoftensItsLegOverAFewFrames) {
   EXPECT_LT(locks.softness[1], 0.25);
 }
 
+TEST(FootPlanter, AHeldHeelRisesTowardAHigherFloorAtAFewMillimetresAFrame) {
+  // A held foot's floor raised 1 cm at once (the heel lift read at a lunge's handover to rest,
+  // the source's ankle itself still): it rose 1 cm in one frame at landing_speed_mps while the
+  // hip came down, and the nearly straight knee moved 5.2 cm (the spar demo, planner seed 29 at
+  // 47.6 s). It rises at 0.3 m/s now (5 mm a frame at 60 Hz), all the way.
+  FootPlanter planter;
+  FootLocks locks;
+  std::array<FootSample, 2> s;
+  both_feet_held(planter, s, locks);
+  const double before = locks.ankle_m[0].y();
+  s[0].source_lift_m = 0.010;
+  double last = before;
+  for (int k = 0; k < 10; ++k) {
+    planter.update(kDt, s, true, Eigen::Vector2d::Zero(), locks);
+    ASSERT_EQ(planter.phase(0), Phase::held);
+    EXPECT_LE(locks.ankle_m[0].y() - last, 0.3 * kDt + 1e-9) << "update " << k;
+    last = locks.ankle_m[0].y();
+  }
+  EXPECT_NEAR(locks.ankle_m[0].y(), before + 0.010, 1e-9) << "up to the floor in the end";
+}
+
 TEST(FootPlanter, AFootTheSourceLiftsMidStrideLeavesTheFloorBeforeItTravelsAndRisesAtAFootsPace) {
   // A strike that starts mid-step (135_06's lunge: its stepping foot already 20 cm up and
   // travelling 3.6 m/s) lifts a foot that stands on the floor. Heading for the landing along a
