@@ -295,6 +295,27 @@ TEST(Demo, TheFighterIsPlainDataInTheFrameAndInTheLog) {
   fs::remove_all(out);
 }
 
+namespace {
+/// A fresh `out` folder, an orders script of `orders` (CSV rows after the header) and `frames`
+/// headless frames of `cfg` in simulated time, no PNGs, logged to out/frames.jsonl.
+void run_ordered_demo(const InstallationConfig& cfg, const fs::path& out, const std::string& orders, int frames) {
+  fs::remove_all(out);
+  fs::create_directories(out);
+  const fs::path script = out / "orders.csv";
+  std::ofstream(script) << "time_s,order\n" << orders;
+  InstallationOptions io;
+  io.orders_script = script;
+  Installation inst(cfg, make_fixed_head_input("test"), io);
+  HeadlessOptions ho;
+  ho.frames = frames;
+  ho.out = out;
+  ho.save_every = 0;
+  ho.resolution = std::array<int, 2>{64, 36};
+  ho.real_time = false;
+  ASSERT_EQ(run_headless(inst, ho), 0);
+}
+}  // namespace
+
 // Issue 13: a run judged from its log alone. A short headless run with a strike, exported
 // from frames.jsonl as BVH on the character's skeleton, re-read with content::read_bvh:
 // its forward kinematics gives the logged joints (the pose as drawn) within 1 mm.
@@ -303,20 +324,7 @@ TEST(Demo, ExportFromTheLogReproducesTheLoggedJoints) {
   cfg.fighter.database = demo_database();
   cfg.tracking.source = TrackingSource::none;
   const fs::path out = fs::temp_directory_path() / ("kumite_app_test_export_" + std::to_string(::getpid()));
-  fs::remove_all(out);
-  fs::create_directories(out);
-  const fs::path script = out / "orders.csv";
-  std::ofstream(script) << "time_s,order\n0.2,punch_right\n1.0,kick_left\n";
-  InstallationOptions io;
-  io.orders_script = script;
-  Installation inst(cfg, make_fixed_head_input("test"), io);
-  HeadlessOptions ho;
-  ho.frames = 120;
-  ho.out = out;
-  ho.save_every = 0;
-  ho.resolution = std::array<int, 2>{64, 36};
-  ho.real_time = false;
-  ASSERT_EQ(run_headless(inst, ho), 0);
+  ASSERT_NO_FATAL_FAILURE(run_ordered_demo(cfg, out, "0.2,punch_right\n1.0,kick_left\n", 120));
 
   ExportOptions eo;
   eo.log = out / "frames.jsonl";
@@ -414,20 +422,7 @@ TEST(Demo, ExportOfAnIntervalWithACharacterSwitchWritesOneBvhPerCharacter) {
   cfg.tracking.source = TrackingSource::none;
   ASSERT_GE(cfg.characters.size(), 2u);
   const fs::path out = fs::temp_directory_path() / ("kumite_app_test_export_switch_" + std::to_string(::getpid()));
-  fs::remove_all(out);
-  fs::create_directories(out);
-  const fs::path script = out / "orders.csv";
-  std::ofstream(script) << "time_s,order\n0.2,punch_right\n1.0,character 2\n";
-  InstallationOptions io;
-  io.orders_script = script;
-  Installation inst(cfg, make_fixed_head_input("test"), io);
-  HeadlessOptions ho;
-  ho.frames = 150;
-  ho.out = out;
-  ho.save_every = 0;
-  ho.resolution = std::array<int, 2>{64, 36};
-  ho.real_time = false;
-  ASSERT_EQ(run_headless(inst, ho), 0);
+  ASSERT_NO_FATAL_FAILURE(run_ordered_demo(cfg, out, "0.2,punch_right\n1.0,character 2\n", 150));
 
   ExportOptions eo;
   eo.log = out / "frames.jsonl";
