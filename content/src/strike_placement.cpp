@@ -60,6 +60,13 @@ int align_to_support_foot(const StrikePlacement& in, PlaybackSource& s, double c
     return Vector2d(held.x() - a.x(), held.z() - a.z());
   };
   const double limit = in.tunables->max_support_shift_m;
+  // The way along the floor from where the clip is placed to the target (none without a target,
+  // or with the target straight above).
+  Vector2d to_target = Vector2d::Zero();
+  if (in.target_m) {
+    to_target = Vector2d(in.target_m->x() - s.placement.origin_xz.x(), in.target_m->z() - s.placement.origin_xz.y());
+    to_target = to_target.norm() > 1e-6 ? Vector2d(to_target.normalized()) : Vector2d::Zero();
+  }
   int best = -1, landing_support = -1;
   Vector2d shift = Vector2d::Zero();
   // The foot the clip stands on from its start, among those held or in a procedural step. A
@@ -144,13 +151,7 @@ int align_to_support_foot(const StrikePlacement& in, PlaybackSource& s, double c
         // planner seeds 1-40 its torso came within 0.1 m of the visitor's body axis in 558
         // frames against 377). The way the step is then sent on is still kMostRedirectOnTheWay_m at most.
         Vector2d carry = want * (limit / want.norm());
-        if (in.target_m) {
-          Vector2d dir(in.target_m->x() - s.placement.origin_xz.x(), in.target_m->z() - s.placement.origin_xz.y());
-          if (dir.norm() > 1e-6) {
-            dir.normalize();
-            carry -= std::max(0.0, carry.dot(dir)) * dir;
-          }
-        }
+        carry -= std::max(0.0, carry.dot(to_target)) * to_target;
         Vector3d to = feet.ankle_m[us];
         to.x() += carry.x() - want.x();
         to.z() += carry.y() - want.y();
@@ -177,12 +178,7 @@ int align_to_support_foot(const StrikePlacement& in, PlaybackSource& s, double c
   MkmFrame contact_pose;
   const bool lunge = strike_travel(*in.player, s, contact_time_s, contact_pose).norm() >= in.tunables->min_scaled_travel_m;
   if (in.target_m && !lunge && landing_support < 0 && !redirected) {
-    Vector2d dir(in.target_m->x() - s.placement.origin_xz.x(), in.target_m->z() - s.placement.origin_xz.y());
-    if (dir.norm() > 1e-6) {
-      dir.normalize();
-      const double along = shift.dot(dir);
-      shift -= std::min(along, 0.0) * dir;
-    }
+    shift -= std::min(shift.dot(to_target), 0.0) * to_target;
   }
   if (shift.norm() > limit) shift *= limit / shift.norm();
   s.placement.origin_xz += shift;
